@@ -1,0 +1,24 @@
+"""The shipped maps: the `*.map` files in the repository's top-level `maps/` folder."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .gridmap import GridMap, MapError, load_map
+
+MAPS_DIR = Path(__file__).resolve().parent.parent / "maps"
+
+
+def shipped_map_names() -> list[str]:
+    return sorted(p.stem for p in MAPS_DIR.glob("*.map"))
+
+
+def load_shipped(name: str) -> GridMap:
+    """A shipped map by name, or a map file by path (anything ending in .map)."""
+    if name.endswith(".map"):
+        return load_map(name)
+    path = MAPS_DIR / f"{name}.map"
+    if not path.is_file():
+        names = ", ".join(shipped_map_names()) or "none"
+        raise MapError(f"unknown map {name!r} (shipped maps: {names})")
+    return load_map(path)

@@ -1,0 +1,149 @@
+"""The algorithmic expert: the policy the neural network imitates (SPEC section 5).
+
+It sees only what the network sees (the drone's 19 x 19 view, its zone sight and its
+last action) and follows the thesis's three rules for its human expert:
+explore as much as possible as early as possible, turn as little as possible, do not
+pass the same cell twice.
+
+How: a look-ahead over every sequence of LOOKAHEAD moves (4^5 = 1024 sequences). A
+sequence scores
+
+    sum_t gamma^(t-1) * new_cells_t / 9        newly photographed cells, discounted
+  - TURN_WEIGHT * sum_t gamma^(t-1) * turn_t   0.5 per 90 deg turn, 1 per reversal
+  - REVISIT_WEIGHT * (steps onto cells this drone already flew over)
+  - DISTANCE_WEIGHT * gamma^D * (flight distance from the sequence's end to the nearest
+                                 cell seen as unexplored, inside the view)
+
+and each action is worth the best sequence that starts with it. The trick that keeps it
+fast: with 5 moves and a 9 x 9 footprint everything stays inside the 19 x 19 view, and
+which view cells each sequence newly photographs at each step does not depend on the
+map. So that is precomputed once into a (1024, 361) matrix of discount weights, and
+scoring every sequence against the current view is one matrix-vector product.
+Sequences that hit an obstacle, another drone or the map edge are discarded.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Sequence
+
+import numpy as np
+
+from .world import ACTION_DELTAS, FOOTPRINT_RADIUS, HOVER, VIEW_RADIUS, CoverageWorld
+
+LOOKAHEAD = 5
+GAMMA = 0.9
+TURN_WEIGHT = 0.25
+REVISIT_WEIGHT = 0.15
+DISTANCE_WEIGHT = 0.08
+
+_VIEW = 2 * VIEW_RADIUS + 1
+
+
+@dataclass(frozen=True)
+class _SequenceTables:
+    first_action: np.ndarray  # (S,)
+    cells: np.ndarray  # (S, D) flat view index of the drone after each move
+    new_weights: np.ndarray  # (S, 361) discounted count of newly photographed cells, per view cell
+    turn_cost: np.ndarray  # (5, S) discounted turn cost, row = previous action + 1 (row 0: none)
+    self_revisits: np.ndarray  # (S,) moves onto a cell the sequence already stood on
+
+
+def _turn(a: int, b: int) -> float:
+    if a == HOVER or a == b:
+        return 0.0
+    return 1.0 if (a - b) % 4 == 2 else 0.5
+
+
+@lru_cache(maxsize=None)
+def sequence_tables(depth: int = LOOKAHEAD, gamma: float = GAMMA) -> _SequenceTables:
+    """Map-independent tables for every action sequence of length `depth`."""
+    if depth + FOOTPRINT_RADIUS > VIEW_RADIUS:
+        raise ValueError("the look-ahead must keep the footprint inside the view")
+    sequences = np.array(np.meshgrid(*[np.arange(4)] * depth, indexing="ij")).reshape(depth, -1).T
+    num = len(sequences)
+    offsets = np.cumsum(ACTION_DELTAS[sequences], axis=1) + VIEW_RADIUS  # (S, D, 2) in view coords
+    cells = offsets[..., 0] * _VIEW + offsets[..., 1]
+    new_weights = np.zeros((num, _VIEW * _VIEW), dtype=np.float32)
+    self_revisits = np.zeros(num, dtype=np.float32)
+    turn_cost = np.zeros((5, num), dtype=np.float32)
+    f = FOOTPRINT_RADIUS
+    for s in range(num):
+        covered = np.zeros((_VIEW, _VIEW), dtype=bool)
+        covered[VIEW_RADIUS - f: VIEW_RADIUS + f + 1, VIEW_RADIUS - f: VIEW_RADIUS + f + 1] = True
+        stood = {VIEW_RADIUS * _VIEW + VIEW_RADIUS}
+        for t in range(depth):
+            r, c = offsets[s, t]
+            footprint = np.zeros_like(covered)
+            footprint[r - f: r + f + 1, c - f: c + f + 1] = True
+            new_weights[s] += gamma ** t * (footprint & ~covered).ravel()
+            covered |= footprint
+            self_revisits[s] += cells[s, t] in stood
+            stood.add(int(cells[s, t]))
+        for prev in range(-1, 4):
+            chain = [prev, *sequences[s]]
+            turn_cost[prev + 1, s] = sum(gamma ** t * _turn(chain[t], chain[t + 1]) for t in range(depth))
+    return _SequenceTables(sequences[:, 0].copy(), cells, new_weights, turn_cost, self_revisits)
+
+
+def flight_distance_field(goals: np.ndarray, blocked: np.ndarray, limit: int) -> np.ndarray:
+    """Steps from every cell to the nearest `goals` cell through unblocked cells (capped at `limit`)."""
+    dist = np.full(goals.shape, float(limit), dtype=np.float32)
+    frontier = goals & ~blocked
+    reached = frontier.copy()
+    for step in range(limit):
+        if not frontier.any():
+            break
+        dist[frontier] = step
+        grown = np.zeros_like(frontier)
+        grown[1:, :] |= frontier[:-1, :]
+        grown[:-1, :] |= frontier[1:, :]
+        grown[:, 1:] |= frontier[:, :-1]
+        grown[:, :-1] |= frontier[:, 1:]
+        frontier = grown & ~blocked & ~reached
+        reached |= frontier
+    return dist
+
+
+class ExpertPolicy:
+    """Look-ahead expert. `action_scores` ranks the four actions for each asked drone."""
+
+    name = "expert"
+
+    def __init__(self, depth: int = LOOKAHEAD, gamma: float = GAMMA, turn_weight: float = TURN_WEIGHT,
+                 revisit_weight: float = REVISIT_WEIGHT, distance_weight: float = DISTANCE_WEIGHT) -> None:
+        self.tables = sequence_tables(depth, gamma)
+        self.terminal_discount = gamma ** depth
+        self.turn_weight = turn_weight
+        self.revisit_weight = revisit_weight
+        self.distance_weight = distance_weight
+
+    def action_scores(self, world: CoverageWorld, drones: Sequence[int]) -> np.ndarray:
+        """(len(drones), 4) scores, higher is better; -inf for a move that is blocked now."""
+        return np.stack([self._scores_one(world, k) for k in drones]) if drones else np.zeros((0, 4))
+
+    def _scores_one(self, world: CoverageWorld, k: int) -> np.ndarray:
+        tables = self.tables
+        unexplored = world.view_unexplored(k)
+        blocked = world.view_blocked(k)
+        visited = world.visits[k]
+        r, c = world.positions[k]
+        visited_view = np.zeros((_VIEW, _VIEW), dtype=np.float32)
+        r0, c0 = r - VIEW_RADIUS, c - VIEW_RADIUS
+        rows, cols = visited.shape
+        vr0, vc0 = max(r0, 0), max(c0, 0)
+        vr1, vc1 = min(r0 + _VIEW, rows), min(c0 + _VIEW, cols)
+        visited_view[vr0 - r0: vr1 - r0, vc0 - c0: vc1 - c0] = visited[vr0:vr1, vc0:vc1] > 0
+
+        gain = tables.new_weights @ unexplored.ravel().astype(np.float32) / 9.0
+        prev = int(world.last_actions[k, 0])
+        score = gain - self.turn_weight * tables.turn_cost[prev + 1]
+        score -= self.revisit_weight * (visited_view.ravel()[tables.cells].sum(axis=1) + tables.self_revisits)
+        distance = flight_distance_field(unexplored, blocked, limit=2 * _VIEW)
+        score -= self.distance_weight * self.terminal_discount * distance.ravel()[tables.cells[:, -1]]
+        valid = ~blocked.ravel()[tables.cells].any(axis=1)
+        score = np.where(valid, score, -np.inf)
+        best = np.full(4, -np.inf)
+        np.maximum.at(best, tables.first_action, score)
+        return best

@@ -1,0 +1,185 @@
+"""The occupancy-grid map and its plain-text file format.
+
+A `GridMap` is what every planning stage reads: which cells are obstacles, which are
+targets (streets to photograph), where the drones launch, and free-form metadata
+(title, cell size, later the georeference). It knows nothing about drones moving.
+
+File format (`*.map`, UTF-8 text, meant to be written by hand as easily as by code)::
+
+    # comment lines start with '#'
+    name: leonardo
+    title: Leonardo Drone Contest arena (thesis Case I), reconstructed
+    cell_m: 0.238
+    launch: 40,2  40,8  1,40          <- row,col of drone 1, 2, ... (0-based, row 0 on top)
+    grid:
+    ##########
+    #....o...#
+    ##########
+
+Header lines are `key: value`. `name`, `launch` and `grid:` are required; every other key
+is kept as a string in `GridMap.meta`. After `grid:` every line is one row of the grid,
+all rows the same length, one character per cell:
+
+    `#`  obstacle (building, water, no-fly) - never entered
+    `.`  target cell: free, to be photographed
+    `o`  free cell that is not a target (flown over, never needs a photo)
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+OBSTACLE_CHAR = "#"
+TARGET_CHAR = "."
+FREE_CHAR = "o"
+_KNOWN_CHARS = {OBSTACLE_CHAR, TARGET_CHAR, FREE_CHAR}
+
+
+class MapError(ValueError):
+    """A map file or map value is wrong; the message names the file and the problem."""
+
+
+Cell = tuple[int, int]
+
+
+@dataclass
+class GridMap:
+    """An occupancy grid: `obstacle` and `target` are boolean (rows, cols) arrays."""
+
+    name: str
+    obstacle: np.ndarray
+    target: np.ndarray
+    launch: list[Cell] = field(default_factory=list)
+    meta: dict[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.obstacle = np.asarray(self.obstacle, dtype=bool)
+        self.target = np.asarray(self.target, dtype=bool) & ~self.obstacle
+        if self.obstacle.ndim != 2 or self.obstacle.shape != self.target.shape:
+            raise MapError(f"map {self.name}: obstacle and target grids must be 2-D and the same shape")
+        self.launch = [(int(r), int(c)) for r, c in self.launch]
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.obstacle.shape  # type: ignore[return-value]
+
+    @property
+    def free(self) -> np.ndarray:
+        return ~self.obstacle
+
+    def inside(self, cell: Cell) -> bool:
+        r, c = cell
+        return 0 <= r < self.shape[0] and 0 <= c < self.shape[1]
+
+    def rows_text(self) -> list[str]:
+        """The grid as one string per row (`#`, `.`, `o`), as report.json stores it."""
+        chars = np.full(self.shape, FREE_CHAR, dtype="<U1")
+        chars[self.target] = TARGET_CHAR
+        chars[self.obstacle] = OBSTACLE_CHAR
+        return ["".join(row) for row in chars]
+
+    @classmethod
+    def from_rows(cls, name: str, rows: list[str], launch: list[Cell] | None = None,
+                  meta: dict[str, str] | None = None) -> "GridMap":
+        """Build a map from `#`/`.`/`o` strings (the inverse of `rows_text`)."""
+        if not rows:
+            raise MapError(f"map {name}: the grid is empty")
+        width = len(rows[0])
+        for i, row in enumerate(rows):
+            if len(row) != width:
+                raise MapError(f"map {name}: grid row {i} has {len(row)} cells, row 0 has {width}")
+            bad = set(row) - _KNOWN_CHARS
+            if bad:
+                raise MapError(f"map {name}: grid row {i} has unknown cell character {sorted(bad)[0]!r} "
+                               f"(use '#', '.' or 'o')")
+        chars = np.array([list(row) for row in rows])
+        return cls(name=name, obstacle=chars == OBSTACLE_CHAR, target=chars == TARGET_CHAR,
+                   launch=list(launch or []), meta=dict(meta or {}))
+
+
+def _parse_launch(text: str, where: str) -> list[Cell]:
+    cells: list[Cell] = []
+    for token in text.split():
+        try:
+            r, c = (int(v) for v in token.split(","))
+        except ValueError:
+            raise MapError(f"{where}: launch cell {token!r} is not 'row,col'") from None
+        cells.append((r, c))
+    return cells
+
+
+def parse_map(text: str, source: str = "<map>") -> GridMap:
+    """Parse the text of a `.map` file; `source` names it in error messages."""
+    header: dict[str, str] = {}
+    rows: list[str] | None = None
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        line = raw.rstrip("\r\n")
+        if rows is not None:
+            if line.strip():
+                rows.append(line.strip())
+            continue
+        stripped = line.strip()
+        if not stripped or stripped.startswith("#"):
+            continue
+        if stripped == "grid:":
+            rows = []
+            continue
+        key, sep, value = stripped.partition(":")
+        if not sep:
+            raise MapError(f"{source}:{lineno}: expected 'key: value' or 'grid:', got {stripped[:40]!r}")
+        header[key.strip()] = value.strip()
+    if rows is None:
+        raise MapError(f"{source}: no 'grid:' section")
+    name = header.pop("name", "") or Path(source).stem
+    launch = _parse_launch(header.pop("launch", ""), source)
+    try:
+        gmap = GridMap.from_rows(name, rows, launch, header)
+    except MapError as err:
+        raise MapError(f"{source}: {err}") from None
+    for k, cell in enumerate(gmap.launch, start=1):
+        if not gmap.inside(cell):
+            raise MapError(f"{source}: launch cell {k} {cell} is outside the {gmap.shape[0]}x{gmap.shape[1]} grid")
+        if gmap.obstacle[cell]:
+            raise MapError(f"{source}: launch cell {k} {cell} is inside an obstacle")
+    return gmap
+
+
+def load_map(path: str | os.PathLike[str]) -> GridMap:
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as err:
+        raise MapError(f"{path}: cannot read map file ({err.strerror})") from None
+    return parse_map(text, str(path))
+
+
+def format_map(gmap: GridMap) -> str:
+    lines = [f"name: {gmap.name}"]
+    lines += [f"{key}: {value}" for key, value in gmap.meta.items()]
+    lines.append("launch: " + "  ".join(f"{r},{c}" for r, c in gmap.launch))
+    lines.append("grid:")
+    lines += gmap.rows_text()
+    return "\n".join(lines) + "\n"
+
+
+def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
+    """Write via a temp file in the same folder and rename, so no half-written file is left."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            handle.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def save_map(gmap: GridMap, path: str | os.PathLike[str], comment: str = "") -> None:
+    head = "".join(f"# {line}\n" for line in comment.splitlines())
+    write_text_atomic(path, head + format_map(gmap))

@@ -1,0 +1,84 @@
+"""plan.png: zones, every drone's track in its own colour, and how coverage grew."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only, no screen needed
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.colors import ListedColormap  # noqa: E402
+
+from .pipeline import PlanResult  # noqa: E402
+
+TRACK_COLOURS = plt.get_cmap("tab10").colors
+
+
+def draw_plan(result: PlanResult, path: str | os.PathLike[str]) -> None:
+    gmap, run = result.gmap, result.run
+    rows, cols = gmap.shape
+    num = len(result.starts)
+    colours = [TRACK_COLOURS[k % len(TRACK_COLOURS)] for k in range(num)]
+    width = 13 if cols >= rows else 11
+    fig = plt.figure(figsize=(width, 6.5), constrained_layout=True)
+    grid = fig.add_gridspec(2, 2, width_ratios=[2.2, 1])
+    ax_map = fig.add_subplot(grid[:, 0])
+    ax_cov = fig.add_subplot(grid[0, 1])
+    ax_dec = fig.add_subplot(grid[1, 1])
+
+    # Background: obstacles dark, non-target free cells light grey, zones as pale tints.
+    background = np.ones((rows, cols, 3))
+    background[~gmap.target & gmap.free] = 0.88
+    for k in range(num):
+        tint = 0.72 + 0.28 * np.array(colours[k])
+        background[result.zones.zone == k] = tint
+    background[gmap.obstacle] = 0.18
+    if len(result.unreachable):
+        background[tuple(result.unreachable.T)] = (0.55, 0.55, 0.55)
+    ax_map.imshow(background, interpolation="nearest")
+    for k in range(num):
+        track = run.paths[k]
+        ax_map.plot(track[:, 1], track[:, 0], color=colours[k], lw=1.1, label=f"UAV {k + 1}")
+        ax_map.plot(*track[0][::-1], marker="^", ms=8, color=colours[k], mec="black")
+    status = "100 % covered" if run.success else f"FAILED: {run.failure}"
+    m = run.metrics
+    ax_map.set_title(f"{gmap.name}: {num} UAVs, policy {result.policy}, zones {result.zones.method} - {status}\n"
+                     f"MMN {m['MMN']:.1f}  TE {m['TE']:.1f} %  MNT {m['MNT']:.2f} %  makespan {m['makespan']}",
+                     fontsize=10)
+    ax_map.legend(loc="upper right", fontsize=7, framealpha=0.8)
+    ax_map.set_xticks([])
+    ax_map.set_yticks([])
+
+    explored = np.cumsum(run.new_cells.sum(axis=0)) + result.world.initial_new_cells.sum()
+    coverage = 100.0 * explored / max(result.world.num_targets, 1)
+    ax_cov.plot(np.arange(1, len(coverage) + 1), coverage, color="black")
+    ax_cov.axhspan(40, 70, color="tab:orange", alpha=0.15, label="steady state (40-70 %)")
+    ax_cov.set_ylabel("coverage %")
+    ax_cov.set_ylim(0, 101)
+    ax_cov.legend(fontsize=7, loc="lower right")
+    ax_cov.grid(alpha=0.3)
+
+    steps = np.arange(1, len(run.policy_decisions) + 1)
+    ax_dec.stackplot(steps, run.policy_decisions, run.pathfinder_decisions,
+                     labels=[f"policy ({result.policy})", "A* / Explorative A*"],
+                     colors=["tab:orange", "tab:blue"], step="pre")
+    ax_dec.set_xlabel("step")
+    ax_dec.set_ylabel("drones")
+    ax_dec.legend(fontsize=7, loc="lower left")
+    ax_dec.set_ylim(0, num)
+
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=110)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    finally:
+        plt.close(fig)

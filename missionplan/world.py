@@ -1,0 +1,221 @@
+"""The multi-drone coverage grid world: one environment with a reset / step interface.
+
+It owns the rules of SPEC section 2 and nothing else: cell states (unexplored target,
+explored, obstacle), the 9 x 9 camera footprint explored at every step, drones as moving
+obstacles, moves resolved so that no two drones share a cell or swap cells, hovering when
+a move is blocked, zone sight (a drone sees as unexplored only its own zone's cells until
+that zone is done), and the step cap. Who decides the actions (expert, network,
+path-finders) is someone else's job: the expert, the training code and the planner all
+drive this same class.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from .gridmap import Cell, GridMap, MapError
+
+# Actions in the order the network's outputs use: Up, Right, Down, Left.
+UP, RIGHT, DOWN, LEFT = 0, 1, 2, 3
+HOVER = -1
+ACTION_NAMES = ("up", "right", "down", "left")
+ACTION_DELTAS = np.array([[-1, 0], [0, 1], [1, 0], [0, -1]], dtype=np.int64)
+
+FOOTPRINT_RADIUS = 4  # 9 x 9 cells centred on the drone
+VIEW_RADIUS = 9  # 19 x 19 local view
+PAD = 32  # padding of the internal arrays, so any window up to this radius is one slice
+
+
+def reachable_targets(gmap: GridMap, starts: list[Cell]) -> np.ndarray:
+    """Target cells 4-connected through free cells to at least one start cell."""
+    labels, _ = ndimage.label(gmap.free)  # default structure is 4-connectivity
+    start_labels = {labels[cell] for cell in starts if labels[cell] > 0}
+    return gmap.target & np.isin(labels, list(start_labels))
+
+
+def check_starts(gmap: GridMap, starts: list[Cell]) -> None:
+    """Raise MapError with one clear line if the launch cells are unusable."""
+    if not starts:
+        raise MapError(f"map {gmap.name}: at least one drone is needed")
+    for k, cell in enumerate(starts, start=1):
+        if not gmap.inside(cell):
+            raise MapError(f"map {gmap.name}: launch cell of drone {k} {cell} is outside the "
+                           f"{gmap.shape[0]}x{gmap.shape[1]} grid")
+        if gmap.obstacle[cell]:
+            raise MapError(f"map {gmap.name}: launch cell of drone {k} {cell} is inside an obstacle")
+    if len(set(starts)) != len(starts):
+        raise MapError(f"map {gmap.name}: two drones share a launch cell")
+
+
+@dataclass
+class StepOutcome:
+    """What one step did: per drone, whether it moved and how many cells it newly explored."""
+
+    moved: np.ndarray  # (K,) bool
+    blocked: np.ndarray  # (K,) bool: asked to move but could not
+    new_cells: np.ndarray  # (K,) int
+    done: bool  # every reachable target explored
+    truncated: bool  # the step cap was reached first
+
+
+class CoverageWorld:
+    """K drones covering the reachable target cells of a grid map.
+
+    Call `reset()` once, then `step(actions)` with one action per drone
+    (UP, RIGHT, DOWN, LEFT or HOVER) until `done` or `truncated`.
+    """
+
+    def __init__(self, gmap: GridMap, starts: list[Cell], zone: np.ndarray | None = None,
+                 step_cap: int | None = None) -> None:
+        check_starts(gmap, starts)
+        self.gmap = gmap
+        self.starts = [tuple(s) for s in starts]
+        self.num_drones = len(starts)
+        self.reachable = reachable_targets(gmap, self.starts)
+        self.unreachable_cells = np.argwhere(gmap.target & ~self.reachable)
+        self.num_targets = int(self.reachable.sum())
+        if zone is None:
+            zone = np.where(self.reachable, 0, -1) if self.num_drones == 1 else None
+        if zone is None:
+            raise ValueError("a zone map is required for more than one drone")
+        self.zone_of = np.where(self.reachable, zone, -1).astype(np.int64)
+        free_cells = int(gmap.free.sum())
+        self.step_cap = step_cap if step_cap is not None else max(2000, 4 * free_cells)
+
+        rows, cols = gmap.shape
+        self._shape = (rows, cols)
+        # Padded copies: a window around any cell is a plain slice, outside counts as obstacle.
+        self._pad_obstacle = np.ones((rows + 2 * PAD, cols + 2 * PAD), dtype=bool)
+        self._pad_obstacle[PAD:-PAD, PAD:-PAD] = gmap.obstacle
+        self._pad_zone = np.full(self._pad_obstacle.shape, -1, dtype=np.int64)
+        self._pad_zone[PAD:-PAD, PAD:-PAD] = self.zone_of
+        self.reset()
+
+    # ------------------------------------------------------------------ state
+    def reset(self) -> None:
+        rows, cols = self._shape
+        self.t = 0
+        self.positions = np.array(self.starts, dtype=np.int64).reshape(-1, 2)
+        self._pad_unexplored = np.zeros((rows + 2 * PAD, cols + 2 * PAD), dtype=bool)
+        self._pad_unexplored[PAD:-PAD, PAD:-PAD] = self.reachable
+        self.remaining = self.num_targets
+        self.zone_remaining = np.bincount(self.zone_of[self.reachable], minlength=self.num_drones)[: self.num_drones]
+        self.zone_remaining = self.zone_remaining.astype(np.int64)
+        self.last_actions = np.full((self.num_drones, 2), HOVER, dtype=np.int64)  # [previous, one before]
+        self.visits = np.zeros((self.num_drones, rows, cols), dtype=np.uint16)
+        self.truncated = False
+        initial = np.zeros(self.num_drones, dtype=np.int64)
+        for k in range(self.num_drones):
+            self.visits[k][tuple(self.positions[k])] += 1
+            initial[k] = self._explore_footprint(k)
+        self.initial_new_cells = initial
+
+    @property
+    def unexplored(self) -> np.ndarray:
+        """Reachable target cells not yet photographed (a view, do not modify)."""
+        return self._pad_unexplored[PAD:-PAD, PAD:-PAD]
+
+    @property
+    def done(self) -> bool:
+        return self.remaining == 0
+
+    @property
+    def coverage(self) -> float:
+        """Fraction (0-1) of reachable target cells explored."""
+        return 1.0 if self.num_targets == 0 else 1.0 - self.remaining / self.num_targets
+
+    def zone_done(self, k: int) -> bool:
+        return self.num_drones == 1 or self.zone_remaining[k] == 0
+
+    def sees_unexplored(self) -> np.ndarray:
+        """(K,) bool: whether each drone's 19 x 19 view holds a cell it sees as unexplored."""
+        return np.array([self.view_unexplored(k).any() for k in range(self.num_drones)])
+
+    # ---------------------------------------------------------------- windows
+    def _window(self, array: np.ndarray, k: int, radius: int) -> np.ndarray:
+        r, c = self.positions[k] + PAD
+        return array[r - radius: r + radius + 1, c - radius: c + radius + 1]
+
+    def view_unexplored(self, k: int, radius: int = VIEW_RADIUS) -> np.ndarray:
+        """Cells drone k sees as unexplored around it (its zone only, until its zone is done)."""
+        window = self._window(self._pad_unexplored, k, radius)
+        if self.zone_done(k):
+            return window.copy()
+        return window & (self._window(self._pad_zone, k, radius) == k)
+
+    def view_blocked(self, k: int, radius: int = VIEW_RADIUS) -> np.ndarray:
+        """Cells drone k may not enter: obstacles, outside the map, other drones."""
+        blocked = self._window(self._pad_obstacle, k, radius).copy()
+        offsets = self.positions - self.positions[k] + radius
+        inside = np.all((offsets >= 0) & (offsets <= 2 * radius), axis=1)
+        inside[k] = False
+        blocked[offsets[inside, 0], offsets[inside, 1]] = True
+        return blocked
+
+    def seen_unexplored_map(self, k: int) -> np.ndarray:
+        """The whole-map version of view_unexplored, for the path-finders."""
+        if self.zone_done(k):
+            return self.unexplored
+        return self.unexplored & (self.zone_of == k)
+
+    def is_free(self, cell: Cell) -> bool:
+        r, c = cell
+        return not self._pad_obstacle[r + PAD, c + PAD]
+
+    # ------------------------------------------------------------------- step
+    def step(self, actions: np.ndarray | list[int]) -> StepOutcome:
+        """Move every drone by its action, then photograph under every drone.
+
+        Moves are resolved together: a drone moves when its target cell is free of
+        obstacles and of drones, repeating until nothing changes, so a drone may follow
+        one that moves away in the same step. Two drones asking for the same cell: the
+        lower index gets it. Swaps and rotations never happen: each needs a cell that is
+        still occupied.
+        """
+        if self.truncated:
+            raise RuntimeError("step() after the step cap; call reset()")
+        actions = np.asarray(actions, dtype=np.int64).reshape(self.num_drones)
+        wants = actions != HOVER
+        targets = self.positions.copy()
+        targets[wants] += ACTION_DELTAS[actions[wants]]
+        occupied = {tuple(p): k for k, p in enumerate(self.positions)}
+        moved = np.zeros(self.num_drones, dtype=bool)
+        pending = [k for k in range(self.num_drones) if wants[k] and self.is_free(tuple(targets[k]))]
+        progress = True
+        while pending and progress:
+            progress = False
+            for k in list(pending):
+                cell = tuple(targets[k])
+                if cell in occupied:
+                    continue
+                del occupied[tuple(self.positions[k])]
+                occupied[cell] = k
+                self.positions[k] = targets[k]
+                moved[k] = True
+                pending.remove(k)
+                progress = True
+        self.t += 1
+        new_cells = np.zeros(self.num_drones, dtype=np.int64)
+        for k in range(self.num_drones):
+            if moved[k]:
+                self.last_actions[k] = (actions[k], self.last_actions[k, 0])
+                self.visits[k][tuple(self.positions[k])] += 1
+                new_cells[k] = self._explore_footprint(k)
+        if self.t >= self.step_cap and not self.done:
+            self.truncated = True
+        return StepOutcome(moved=moved, blocked=wants & ~moved, new_cells=new_cells,
+                           done=self.done, truncated=self.truncated)
+
+    def _explore_footprint(self, k: int) -> int:
+        window = self._window(self._pad_unexplored, k, FOOTPRINT_RADIUS)
+        if not window.any():
+            return 0
+        zones = self._window(self._pad_zone, k, FOOTPRINT_RADIUS)[window]
+        count = int(zones.size)
+        np.subtract.at(self.zone_remaining, zones[zones < self.num_drones], 1)
+        window[:] = False  # a view into _pad_unexplored: marks the cells explored
+        self.remaining -= count
+        return count
