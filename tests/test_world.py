@@ -1,0 +1,112 @@
+import numpy as np
+import pytest
+
+from missionplan.gridmap import GridMap, MapError
+from missionplan.world import DOWN, HOVER, LEFT, RIGHT, UP, CoverageWorld, reachable_targets
+
+
+def open_map(rows=20, cols=30, launch=((10, 10), (10, 11))):
+    obstacle = np.zeros((rows, cols), dtype=bool)
+    return GridMap("open", obstacle, ~obstacle, list(launch))
+
+
+def two_zones(gmap, split_col):
+    zone = np.where(np.arange(gmap.shape[1])[None, :] < split_col, 0, 1) * np.ones(gmap.shape, dtype=int)
+    return zone
+
+
+def test_start_footprint_is_explored():
+    gmap = open_map(launch=((10, 10),))
+    world = CoverageWorld(gmap, gmap.launch)
+    assert world.num_targets == 600
+    assert world.remaining == 600 - 81
+    assert not world.unexplored[6:15, 6:15].any()
+    assert world.unexplored[5, 10] and world.unexplored[10, 15]
+
+
+def test_footprint_clipped_at_map_edge_and_new_cells_counted():
+    gmap = open_map(launch=((0, 0),))
+    world = CoverageWorld(gmap, gmap.launch)
+    assert world.remaining == 600 - 25
+    outcome = world.step([RIGHT])
+    assert outcome.moved.tolist() == [True]
+    assert outcome.new_cells.tolist() == [5]  # column 5, rows 0..4
+
+
+def test_unreachable_targets_are_set_explored_and_reported():
+    obstacle = np.zeros((12, 12), dtype=bool)
+    obstacle[3:8, 3:8] = True
+    obstacle[5, 5] = False  # a courtyard nobody can enter
+    gmap = GridMap("pocket", obstacle, ~obstacle, [(0, 0)])
+    world = CoverageWorld(gmap, gmap.launch)
+    assert world.unreachable_cells.tolist() == [[5, 5]]
+    assert not world.unexplored[5, 5]
+    assert world.num_targets == int((~obstacle).sum()) - 1
+    assert reachable_targets(gmap, gmap.launch)[5, 5] == np.False_
+
+
+def test_blocked_move_hovers_and_drones_never_share_a_cell():
+    gmap = open_map()
+    world = CoverageWorld(gmap, gmap.launch, two_zones(gmap, 15))
+    outcome = world.step([RIGHT, HOVER])  # drone 1 runs into drone 2
+    assert outcome.moved.tolist() == [False, False]
+    assert outcome.blocked.tolist() == [True, False]
+    assert world.positions.tolist() == [[10, 10], [10, 11]]
+
+
+def test_swap_is_refused_but_following_is_allowed():
+    gmap = open_map()
+    world = CoverageWorld(gmap, gmap.launch, two_zones(gmap, 15))
+    outcome = world.step([RIGHT, LEFT])  # a swap
+    assert outcome.moved.tolist() == [False, False]
+    outcome = world.step([RIGHT, RIGHT])  # drone 1 follows drone 2 into its old cell
+    assert outcome.moved.tolist() == [True, True]
+    assert world.positions.tolist() == [[10, 11], [10, 12]]
+
+
+def test_two_drones_asking_for_one_cell_lower_index_wins():
+    gmap = open_map(launch=((10, 10), (10, 12)))
+    world = CoverageWorld(gmap, gmap.launch, two_zones(gmap, 15))
+    outcome = world.step([RIGHT, LEFT])
+    assert outcome.moved.tolist() == [True, False]
+
+
+def test_obstacles_and_edges_block():
+    obstacle = np.zeros((5, 5), dtype=bool)
+    obstacle[1, 2] = True
+    gmap = GridMap("tiny", obstacle, ~obstacle, [(0, 2)])
+    world = CoverageWorld(gmap, gmap.launch)
+    assert world.step([UP]).blocked.tolist() == [True]
+    assert world.step([DOWN]).blocked.tolist() == [True]
+    assert world.positions.tolist() == [[0, 2]]
+
+
+def test_zone_sight_until_zone_done():
+    gmap = open_map(rows=9, cols=40, launch=((4, 16), (4, 35)))
+    world = CoverageWorld(gmap, gmap.launch, two_zones(gmap, 20))
+    view = world.view_unexplored(0)  # map columns 7..25 -> view columns 0..18
+    assert view[:, :5].any()  # columns 7..11: drone 1's own zone, still unexplored
+    assert not view[:, 13:].any()  # columns 20..25 belong to drone 2's zone: not seen
+    world.zone_remaining[0] = 0  # drone 1's zone done: it now sees every zone
+    assert world.view_unexplored(0)[:, 14:].any()
+
+
+def test_step_cap_is_a_failure_not_success():
+    gmap = open_map(launch=((10, 10),))
+    world = CoverageWorld(gmap, gmap.launch, step_cap=3)
+    for _ in range(2):
+        assert not world.step([HOVER]).truncated
+    outcome = world.step([HOVER])
+    assert outcome.truncated and not outcome.done
+
+
+def test_bad_launch_cells():
+    obstacle = np.zeros((5, 5), dtype=bool)
+    obstacle[0, 0] = True
+    gmap = GridMap("tiny", obstacle, ~obstacle, [])
+    with pytest.raises(MapError, match="inside an obstacle"):
+        CoverageWorld(gmap, [(0, 0)])
+    with pytest.raises(MapError, match="outside"):
+        CoverageWorld(gmap, [(9, 0)])
+    with pytest.raises(MapError, match="share"):
+        CoverageWorld(gmap, [(1, 1), (1, 1)], np.zeros((5, 5), dtype=int))

@@ -1,0 +1,54 @@
+import numpy as np
+import pytest
+
+from missionplan.zones import split_zones
+
+
+def two_banks(rows=40, cols=60):
+    """Two banks split by a horizontal river, joined by one bridge at the far right."""
+    free = np.ones((rows, cols), dtype=bool)
+    free[18:22, :] = False
+    free[18:22, cols - 4:] = True  # the only bridge
+    return free
+
+
+def test_every_target_gets_exactly_one_zone_and_is_seeded():
+    free = np.ones((30, 40), dtype=bool)
+    starts = [(0, 0), (29, 39), (0, 39)]
+    a = split_zones(free, free, starts, "euclidean", seed=7)
+    b = split_zones(free, free, starts, "euclidean", seed=7)
+    assert np.array_equal(a.zone, b.zone)
+    assert set(np.unique(a.zone)) == {0, 1, 2}
+    assert (a.zone >= 0).sum() == free.sum()
+    assert a.iterations >= 2
+
+
+def test_non_targets_get_no_zone():
+    free = np.ones((10, 10), dtype=bool)
+    targets = free.copy()
+    targets[:, :3] = False
+    z = split_zones(targets, free, [(5, 5), (5, 9)], "geodesic")
+    assert (z.zone[:, :3] == -1).all()
+    assert (z.zone[:, 3:] >= 0).all()
+
+
+def test_geodesic_zones_do_not_straddle_the_river():
+    free = two_banks()
+    starts = [(2, 5), (37, 5)]  # one drone per bank, both far from the bridge
+    geo = split_zones(free, free, starts, "geodesic", seed=1)
+    north, south = geo.zone[:18], geo.zone[22:]
+    # Along free cells the far bank is 40+ moves away: each bank is one zone (bar the bridge end).
+    assert (north[:, :40] == 0).all() and (south[:, :40] == 1).all()
+
+
+def test_lloyd_moves_centroids_away_from_a_shared_corner():
+    free = np.ones((40, 40), dtype=bool)
+    z = split_zones(free, free, [(0, 0), (0, 1)], "euclidean", seed=0)
+    sizes = np.bincount(z.zone.ravel())
+    assert sizes.min() > 0.35 * free.sum()  # close to an even split, not one sliver
+
+
+def test_unknown_method():
+    free = np.ones((4, 4), dtype=bool)
+    with pytest.raises(ValueError, match="unknown zone method"):
+        split_zones(free, free, [(0, 0), (3, 3)], "manhattan")
