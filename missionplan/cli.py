@@ -12,7 +12,7 @@ from pathlib import Path
 
 from .catalog import load_shipped, shipped_map_names
 from .gridmap import MapError
-from .pipeline import DEFAULT_POLICY, POLICIES, plan_map
+from .pipeline import DEFAULT_POLICY, POLICIES, launch_cells, plan_map
 from .zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 
 EXIT_USAGE = 2
@@ -37,6 +37,8 @@ def _build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--out", required=True, type=Path, help="output folder (created if missing)")
     plan.add_argument("--policy", default=DEFAULT_POLICY, choices=POLICIES, help="who decides moves in view of targets")
     plan.add_argument("--zones", default=DEFAULT_ZONE_METHOD, choices=ZONE_METHODS, help="zone distance")
+    plan.add_argument("--no-balance", action="store_true",
+                      help="plain Lloyd/Voronoi zones, without equalising their sizes")
     plan.add_argument("--seed", type=int, default=0, help="seed for zones and deadlock breaking")
     plan.add_argument("--quiet", action="store_true", help="no progress bar")
     return parser
@@ -63,20 +65,22 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from .report import build_report, write_report
 
     gmap = load_shipped(args.map)
+    launch_cells(gmap, args.uavs)  # bad drone counts fail before any folder is made
     try:
         args.out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise MapError(f"--out {args.out}: cannot create folder ({err.strerror})") from None
     show_progress = not args.quiet and sys.stderr.isatty()
     result = plan_map(gmap, args.uavs, policy=args.policy, zone_method=args.zones, seed=args.seed,
-                      progress=show_progress)
+                      progress=show_progress, balance_zones=not args.no_balance)
     report = build_report(result, args.seed)
     write_report(report, args.out / "report.json")
     draw_plan(result, args.out / "plan.png")
 
     m = report["metrics"]
+    zones = args.zones + ("" if args.no_balance else ", balanced")
     print(f"map {gmap.name} ({gmap.shape[0]} x {gmap.shape[1]}), {args.uavs} UAVs, policy {args.policy}, "
-          f"zones {args.zones}, seed {args.seed}")
+          f"zones {zones}, seed {args.seed}")
     print(f"targets U = {report['targets']} reachable, {report['unreachable']} unreachable (set explored); "
           f"floor U/(9A) = {report['floor']:.1f}")
     rows = [("MMN", _fmt(m["MMN"]), "mean moves per drone"),
@@ -107,6 +111,9 @@ def main(argv: list[str] | None = None) -> int:
     except MapError as err:
         print(f"missionplan: {err}", file=sys.stderr)
         return EXIT_USAGE
+    except BrokenPipeError:  # output piped into `head` and the like
+        sys.stderr.close()
+        return 0
 
 
 if __name__ == "__main__":

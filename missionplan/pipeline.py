@@ -55,7 +55,8 @@ def launch_cells(gmap: GridMap, uavs: int) -> list[Cell]:
 
 
 def plan_map(gmap: GridMap, uavs: int, policy: str = DEFAULT_POLICY, zone_method: str = DEFAULT_ZONE_METHOD,
-             seed: int = 0, starts: list[Cell] | None = None, progress: bool = False) -> PlanResult:
+             seed: int = 0, starts: list[Cell] | None = None, progress: bool = False,
+             balance_zones: bool = True) -> PlanResult:
     """Plan full coverage of `gmap` for `uavs` drones."""
     if zone_method not in ZONE_METHODS:
         raise MapError(f"unknown zone method {zone_method!r} (choose {', '.join(ZONE_METHODS)})")
@@ -63,7 +64,8 @@ def plan_map(gmap: GridMap, uavs: int, policy: str = DEFAULT_POLICY, zone_method
     starts = launch_cells(gmap, uavs) if starts is None else starts
     check_starts(gmap, starts)
     began = time.perf_counter()
-    zones = split_zones(reachable_targets(gmap, starts), gmap.free, starts, zone_method, seed)
+    zones = split_zones(reachable_targets(gmap, starts), gmap.free, starts, zone_method, seed,
+                        balance=balance_zones)
     zone_seconds = time.perf_counter() - began
     world = CoverageWorld(gmap, starts, zones.zone)
     run = Planner(world, chosen, seed=seed, progress=progress).run()

@@ -8,7 +8,11 @@ Every step, in a fixed drone order:
    next goal; it drops the path when something unexplored enters its view and re-plans
    when someone else photographs its goal;
 3. a drone whose next cell is taken hovers; one blocked for DEADLOCK_STEPS steps in a row
-   is in a deadlock: it steps aside at random (seeded) and re-plans around the drones.
+   is in a deadlock: it steps aside at random (seeded) and re-plans around the drones;
+4. beyond the thesis: a policy-driven drone that photographs nothing new for
+   POLICY_PATIENCE steps (it dithers next to cells it cannot reach inside its view) is
+   handed to the path-finder, which keeps it until that goal is photographed. This makes
+   the loop safe for any policy, including an imperfect network.
 The run ends when nothing reachable is left unexplored, or fails at the step cap or when
 coverage stops growing for too long (both reported, never called success).
 """
@@ -30,6 +34,7 @@ from .zones import grid_graph
 
 DEADLOCK_STEPS = 3
 MAX_GOAL_TRIES = 4
+POLICY_PATIENCE = 8
 
 
 class Policy(Protocol):
@@ -48,9 +53,11 @@ class _Navigation:
     path: list[Cell] = field(default_factory=list)
     blocked_steps: int = 0
     avoid_drones: bool = False  # re-plan treating the other drones as obstacles (after a deadlock)
+    fruitless_steps: int = 0  # policy steps in a row that photographed nothing
+    forced: bool = False  # on a path because the policy stopped making progress
 
     def clear(self) -> None:
-        self.goal, self.path = None, []
+        self.goal, self.path, self.forced = None, [], False
 
 
 @dataclass
@@ -85,6 +92,7 @@ class Planner:
         self.graph = grid_graph(self.free)
         self.nav = [_Navigation() for _ in range(world.num_drones)]
         self.deadlocks_broken = 0
+        self._by_policy = np.zeros(world.num_drones, dtype=bool)
 
     # ----------------------------------------------------------- path-finding
     def _plan_path(self, k: int) -> bool:
@@ -99,9 +107,11 @@ class Planner:
                 if i != k:
                     free[tuple(p)] = False
             nav.avoid_drones = False
+        # A drone done with its own zone helps only where it is the nearest drone.
+        rivals = np.delete(world.positions, k, axis=0) if world.zone_done(k) and world.num_drones > 1 else None
         excluded: set[Cell] = set()
         for _ in range(MAX_GOAL_TRIES):
-            goal = find_goal(self.graph, free.shape, start, seen, taken, excluded)
+            goal = find_goal(self.graph, free.shape, start, seen, taken, excluded, rivals)
             if goal is None:
                 break
             path = explorative_astar(free, seen, start, goal) or astar(free, start, goal)
@@ -131,6 +141,15 @@ class Planner:
         world = self.world
         num = world.num_drones
         sees = world.sees_unexplored()
+        for k in range(num):
+            nav = self.nav[k]
+            if sees[k] and nav.forced and nav.goal is not None and world.unexplored[nav.goal]:
+                sees[k] = False  # stays on the path it was handed when the policy stalled
+            elif sees[k] and nav.fruitless_steps >= POLICY_PATIENCE:
+                nav.clear()
+                nav.forced = True
+                nav.fruitless_steps = 0
+                sees[k] = False
         policy_drones = [k for k in range(num) if sees[k]]
         scores = self.policy.action_scores(world, policy_drones) if policy_drones else None
         actions = np.full(num, HOVER, dtype=np.int64)
@@ -158,7 +177,27 @@ class Planner:
                     else:
                         claimed.add(cell)
                 actions[k] = action
+        self._make_way(actions, claimed)
+        self._by_policy = sees
         return actions, len(policy_drones), num - len(policy_drones)
+
+    def _make_way(self, actions: np.ndarray, claimed: set[Cell]) -> None:
+        """A hovering drone whose cell another drone wants to enter steps to a free neighbour."""
+        world = self.world
+        occupied = {tuple(p): k for k, p in enumerate(world.positions)}
+        for k in range(world.num_drones):
+            if actions[k] == HOVER:
+                continue
+            wanted = tuple(world.positions[k] + ACTION_DELTAS[actions[k]])
+            j = occupied.get(wanted)
+            if j is None or actions[j] != HOVER or self.nav[j].goal is not None:
+                continue  # free, or a drone that moves or waits on its own path
+            for action in self.rng.permutation(4):
+                cell = tuple(world.positions[j] + ACTION_DELTAS[action])
+                if world.is_free(cell) and cell not in occupied and cell not in claimed:
+                    actions[j] = action
+                    claimed.add(cell)
+                    break
 
     def _break_deadlock(self, k: int) -> int:
         """Drone k has been blocked too long: a random free neighbour, then a fresh plan."""
@@ -194,7 +233,10 @@ class Planner:
                     actions[k] = self._break_deadlock(k)
             outcome = world.step(actions)
             for k in range(num):
-                self.nav[k].blocked_steps = self.nav[k].blocked_steps + 1 if outcome.blocked[k] else 0
+                nav = self.nav[k]
+                nav.blocked_steps = nav.blocked_steps + 1 if outcome.blocked[k] else 0
+                if self._by_policy[k]:
+                    nav.fruitless_steps = 0 if outcome.new_cells[k] else nav.fruitless_steps + 1
                 if outcome.moved[k] and self.nav[k].path and self.nav[k].path[0] == tuple(world.positions[k]):
                     self.nav[k].path.pop(0)
             hover_steps += int((~outcome.moved).sum())

@@ -1,6 +1,6 @@
 """report.json: the machine-readable record of a plan, enough to replay and check it.
 
-Keys: map, uavs, policy, zones, seed, success, failure, metrics (MMN, TE, MNT, MUD, MDU,
+Keys: map, uavs, policy, zones, zones_balanced, zone_sizes, seed, success, failure, metrics (MMN, TE, MNT, MUD, MDU,
 coverage, makespan, hover_steps; TE, MNT and coverage in percent), targets (reachable
 target cells U), unreachable (count) and unreachable_cells, floor (U / (9 A)), steps,
 deadlocks_broken, decisions (per step: by the policy / by the path-finders), timing
@@ -27,6 +27,8 @@ def build_report(result: PlanResult, seed: int) -> dict[str, Any]:
         "uavs": uavs,
         "policy": result.policy,
         "zones": result.zones.method,
+        "zones_balanced": result.zones.balanced,
+        "zone_sizes": result.zones.sizes().tolist(),
         "seed": seed,
         "success": run.success,
         "failure": run.failure,

@@ -9,6 +9,14 @@ distances are offered behind one interface:
 - `geodesic`: distance along free cells (4-connected), so a zone never straddles a
   river or a long block; centroids are snapped to the nearest sample point so that they
   stay on free cells.
+
+Beyond the thesis, optional balancing: Lloyd's zones can differ 2x in size, and the
+biggest zone sets the makespan. Balancing keeps the Lloyd centroids but assigns each cell
+to the zone minimising distance + w_k, raising w_k of zones that are too big until every
+zone is within BALANCE_TOLERANCE of the mean size (an additively weighted Voronoi
+partition). With geodesic distance each zone stays connected: the cell before x on the
+shortest path from a centroid is one step nearer to it and at most one step nearer to any
+other, so it belongs to the same zone.
 """
 
 from __future__ import annotations
@@ -25,6 +33,8 @@ ZONE_METHODS = ("geodesic", "euclidean")
 DEFAULT_ZONE_METHOD = "geodesic"
 NUM_SAMPLE_POINTS = 2000
 MAX_LLOYD_ITERATIONS = 100
+BALANCE_TOLERANCE = 0.03
+MAX_BALANCE_ITERATIONS = 500
 
 
 @dataclass
@@ -35,6 +45,10 @@ class Zones:
     centroids: np.ndarray  # (K, 2) final centroid positions (row, col)
     iterations: int
     method: str
+    balanced: bool = False
+
+    def sizes(self) -> np.ndarray:
+        return np.bincount(self.zone[self.zone >= 0], minlength=len(self.centroids))
 
 
 def grid_graph(free: np.ndarray) -> csr_matrix:
@@ -56,8 +70,33 @@ def _geodesic_from(graph: csr_matrix, cells: np.ndarray, cols: int) -> np.ndarra
     return shortest_path(graph, method="D", unweighted=True, indices=sources)
 
 
+def balanced_assignment(distances: np.ndarray, tolerance: float = BALANCE_TOLERANCE) -> np.ndarray:
+    """argmin_k (distances[k] + w_k) with offsets w chosen so zone sizes are near equal.
+
+    distances: (K, n) distance from each centroid to each cell (inf = unreachable).
+    """
+    num_zones, num_cells = distances.shape
+    offsets = np.zeros(num_zones)
+    finite = np.where(np.isfinite(distances), distances, np.inf)
+    scale = float(np.median(np.min(finite, axis=0)[np.isfinite(np.min(finite, axis=0))]) or 1.0)
+    target = num_cells / num_zones
+    best, best_spread = np.argmin(finite, axis=0), np.inf
+    for _ in range(MAX_BALANCE_ITERATIONS):
+        assignment = np.argmin(finite + offsets[:, None], axis=0)
+        sizes = np.bincount(assignment, minlength=num_zones)
+        spread = float(np.abs(sizes - target).max() / target)
+        if spread < best_spread:
+            best, best_spread = assignment, spread
+        if spread <= tolerance:
+            break
+        # Push big zones' boundaries in, pull small zones' out; a small fixed gain converges
+        # without oscillating because sizes change smoothly with the offsets.
+        offsets += 0.1 * scale * (sizes - target) / target
+    return best
+
+
 def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], method: str = DEFAULT_ZONE_METHOD,
-                seed: int = 0, num_points: int = NUM_SAMPLE_POINTS) -> Zones:
+                seed: int = 0, num_points: int = NUM_SAMPLE_POINTS, balance: bool = False) -> Zones:
     """Partition the `targets` cells into len(starts) zones, one per drone."""
     if method not in ZONE_METHODS:
         raise ValueError(f"unknown zone method {method!r} (choose {', '.join(ZONE_METHODS)})")
@@ -98,5 +137,6 @@ def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], metho
                 # Geodesic distances need a centroid on a free cell: the member nearest the mean.
                 mean = members[np.argmin(np.linalg.norm(members - mean, axis=1))].astype(float)
             centroids[k] = mean
-    zone[targets] = np.argmin(distances_to(target_cells, centroids), axis=0)
-    return Zones(zone, centroids, iterations, method)
+    final = distances_to(target_cells, centroids)
+    zone[targets] = balanced_assignment(final) if balance else np.argmin(final, axis=0)
+    return Zones(zone, centroids, iterations, method, balance)

@@ -1,0 +1,44 @@
+"""Every shipped map x 3-6 drones: full coverage, checked by replaying the paths.
+
+The replay (tests/replay_check.py) does not import the planner: it re-derives moves,
+collisions, swaps, obstacle entries and footprint coverage from report.json alone.
+"""
+
+import json
+
+import pytest
+
+from missionplan.catalog import load_shipped, shipped_map_names
+from missionplan.pipeline import plan_map
+from missionplan.report import build_report
+from replay_check import replay
+
+SHIPPED = ["leonardo", "grid-city", "old-town", "river-city"]
+
+
+def test_the_four_maps_ship():
+    assert set(SHIPPED) <= set(shipped_map_names())
+
+
+@pytest.mark.parametrize("uavs", [3, 4, 5, 6])
+@pytest.mark.parametrize("name", SHIPPED)
+def test_full_coverage_and_legal_paths(name, uavs):
+    result = plan_map(load_shipped(name), uavs)
+    report = json.loads(json.dumps(build_report(result, seed=0)))  # exactly what report.json holds
+    assert report["success"], report["failure"]
+    checked = replay(report)
+    assert checked["problems"] == []
+    assert checked["coverage"] == pytest.approx(100.0)
+    assert checked["reachable"] == report["targets"]
+    assert checked["unreachable"] == report["unreachable"]
+    assert checked["mmn"] == pytest.approx(report["metrics"]["MMN"])
+    assert checked["makespan"] == report["metrics"]["makespan"]
+    assert report["metrics"]["MMN"] >= report["floor"]  # the hard floor U / (9A)
+
+
+def test_leonardo_five_drones_beats_the_thesis():
+    result = plan_map(load_shipped("leonardo"), 5)
+    metrics = result.run.metrics
+    assert result.world.unreachable_cells.size > 0  # the map's enclosed pockets are detected
+    assert metrics["MMN"] < 133  # thesis Table 5.1, 5 UAVs
+    assert metrics["TE"] > 32.4
