@@ -28,11 +28,12 @@ all rows the same length, one character per cell:
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from .atomic import write_text_atomic
 
 OBSTACLE_CHAR = "#"
 TARGET_CHAR = "."
@@ -165,19 +166,6 @@ def format_map(gmap: GridMap) -> str:
     lines.append("grid:")
     lines += gmap.rows_text()
     return "\n".join(lines) + "\n"
-
-
-def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
-    """Write via a temp file in the same folder and rename, so no half-written file is left."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def save_map(gmap: GridMap, path: str | os.PathLike[str], comment: str = "") -> None:

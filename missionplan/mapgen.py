@@ -30,6 +30,8 @@ from .gridmap import Cell, GridMap, save_map
 OBSTACLE, TARGET, FREE = 0, 1, 2
 LAUNCH_COUNT = 6
 CITY_LAUNCH_EDGE_MARGIN = 5  # one footprint radius plus one: the drone's first photo lies inside the map
+MEDIAN_WORK_SAMPLES = 2000
+MEDIAN_OPTION_SAMPLES = 1000
 MIN_STREET_WIDTH = 3
 _SQUARE = np.ones((MIN_STREET_WIDTH, MIN_STREET_WIDTH), dtype=bool)
 
@@ -195,27 +197,35 @@ def launch_candidates(kind: np.ndarray, edge_margin: int = 0) -> np.ndarray:
     return roomy & main_component(kind)
 
 
-def spread_launch_cells(candidates: np.ndarray, count: int = LAUNCH_COUNT,
+def median_launch_cells(candidates: np.ndarray, work: np.ndarray, count: int = LAUNCH_COUNT,
                         first_pools: Sequence[np.ndarray] = ()) -> list[Cell]:
-    """Greedy farthest-point choice, so the first K cells are spread for every K.
+    """Greedy k-median: each next drone goes where it most shortens the work's trip to a drone.
 
-    Drone 1 starts at the candidate farthest from the candidates' centre; each next drone
-    at the candidate farthest from all drones chosen so far. `first_pools[k]`, when
-    given, restricts drone k+1 to those cells (e.g. one bank of a river).
+    Drone 1 starts at the candidate with the least total straight-line distance to the
+    `work` cells (the middle of the work); each next drone at the candidate that most
+    lowers the total distance from every work cell to its nearest drone, i.e. in the
+    biggest area still far from everyone. So the first K cells are well spread for every
+    K, and no drone wastes its first moves walking in from a corner. `first_pools[k]`,
+    when given, restricts drone k+1 to those cells (e.g. one bank of a river).
+    Both sets are thinned to a regular subsample to keep this fast on big maps.
     """
-    all_cells = np.argwhere(candidates).astype(float)
-    centre = all_cells.mean(axis=0)
-    chosen: list[np.ndarray] = []
+    work_cells = thinned(np.argwhere(work), MEDIAN_WORK_SAMPLES)
+    nearest = np.full(len(work_cells), np.inf, dtype=np.float32)
+    chosen: list[Cell] = []
     for k in range(count):
         pool = candidates & first_pools[k] if k < len(first_pools) else candidates
-        cells = np.argwhere(pool).astype(float)
-        if not chosen:
-            score = np.linalg.norm(cells - centre, axis=1)
-        else:
-            taken = np.array(chosen)
-            score = np.linalg.norm(cells[:, None, :] - taken[None, :, :], axis=2).min(axis=1)
-        chosen.append(cells[int(np.argmax(score))])
-    return [(int(r), int(c)) for r, c in chosen]
+        options = thinned(np.argwhere(pool), MEDIAN_OPTION_SAMPLES)
+        distance = np.linalg.norm(options[:, None, :] - work_cells[None, :, :], axis=2)
+        best = int(np.argmin(np.minimum(distance, nearest[None, :]).sum(axis=1)))
+        chosen.append((int(options[best, 0]), int(options[best, 1])))
+        nearest = np.minimum(nearest, distance[best])
+    return chosen
+
+
+def thinned(cells: np.ndarray, at_most: int) -> np.ndarray:
+    """Every n-th cell (row-major order), enough of them to stay under `at_most`, as float32."""
+    stride = max(1, -(-len(cells) // at_most))
+    return cells[::stride].astype(np.float32)
 
 
 def to_grid_map(name: str, kind: np.ndarray, launch: list[Cell], meta: dict[str, str]) -> GridMap:
@@ -229,7 +239,8 @@ def finish_city(name: str, kind: np.ndarray, meta: dict[str, str],
     clear_street_specks(kind)
     enforce_min_street_width(kind)
     drop_unreachable_targets(kind)
-    launch = spread_launch_cells(launch_candidates(kind, CITY_LAUNCH_EDGE_MARGIN), LAUNCH_COUNT, first_pools)
+    candidates = launch_candidates(kind, CITY_LAUNCH_EDGE_MARGIN)
+    launch = median_launch_cells(candidates, kind == TARGET, LAUNCH_COUNT, first_pools)
     return to_grid_map(name, kind, launch, meta)
 
 
@@ -274,7 +285,8 @@ def leonardo() -> GridMap:
         raise ValueError("the Leonardo layout has a street narrower than 3 cells")
     # No drop_unreachable_targets here: the courtyards must stay as unreachable targets.
     meta = {"title": "Leonardo Drone Contest arena (thesis Case I), reconstructed", "cell_m": "0.238"}
-    return to_grid_map("leonardo", kind, spread_launch_cells(launch_candidates(kind)), meta)
+    reachable_work = (kind == TARGET) & main_component(kind)  # the courtyards are nobody's work
+    return to_grid_map("leonardo", kind, median_launch_cells(launch_candidates(kind), reachable_work), meta)
 
 
 # --------------------------------------------------------------------------- Case II: grid city
@@ -308,8 +320,8 @@ def grid_city(seed: int = GRID_CITY_SEED) -> GridMap:
     n_rows, n_cols = GRID_CITY_SHAPE
     # Mostly narrow streets (3-5 cells, 6-10 m) with a few wider ones and rare 9-cell avenues.
     street_widths = (3, 3, 4, 4, 5, 5, 6, 7)
-    row_streets = street_intervals(rng, n_rows, (16, 26), street_widths, 9, 0.12)
-    col_streets = street_intervals(rng, n_cols, (16, 28), street_widths, 9, 0.12)
+    row_streets = street_intervals(rng, n_rows, (18, 28), street_widths, 9, 0.1)
+    col_streets = street_intervals(rng, n_cols, (18, 30), street_widths, 9, 0.1)
     row_blocks, col_blocks = gaps_between(row_streets, n_rows), gaps_between(col_streets, n_cols)
 
     kind = np.full(GRID_CITY_SHAPE, OBSTACLE, dtype=np.int8)
@@ -390,7 +402,7 @@ def cut_lane(kind: np.ndarray, rng: np.random.Generator, rect: Rect) -> None:
 
 
 def carve_courtyard(kind: np.ndarray, rng: np.random.Generator, rect: Rect) -> None:
-    """A perimeter block: buildings 4-6 cells deep around an enclosed courtyard (free, not a target)."""
+    """A perimeter block: buildings 5-7 cells deep around an enclosed courtyard (free, not a target)."""
     top, left, height, width = rect
     depth = int(rng.integers(5, 8))
     fill_rect(kind, (top + depth, left + depth, height - 2 * depth, width - 2 * depth), FREE)
@@ -490,11 +502,13 @@ def river_city(seed: int = RIVER_CITY_SEED) -> GridMap:
     kind[bridge_rows, bridge_cols] = TARGET
 
     north = rows < centre[None, :]
+    off_bridge = np.ones_like(north)
+    off_bridge[bridge_rows, bridge_cols] = False
     meta = {"title": "River city: two banks and a single bridge (like thesis Case IV, Porto and the Douro)",
             "cell_m": "2.0", "generator": "missionplan.mapgen.river_city", "seed": str(seed),
             "bridge": format_rect(bridge_rows, bridge_cols)}
     # Drones 1 and 2 on opposite banks, so even a two-drone run needs no early crossing.
-    return finish_city("river-city", kind, meta, first_pools=[north, ~north])
+    return finish_city("river-city", kind, meta, first_pools=[north & off_bridge, ~north & off_bridge])
 
 
 def paint_bank_streets(kind: np.ndarray, rng: np.random.Generator, row_span: tuple[float, float],

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import os
-import tempfile
-from pathlib import Path
 
 import matplotlib
 
@@ -13,6 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import ListedColormap  # noqa: E402
 
+from .atomic import atomic_path  # noqa: E402
 from .pipeline import PlanResult  # noqa: E402
 
 TRACK_COLOURS = plt.get_cmap("tab10").colors
@@ -71,14 +70,8 @@ def draw_plan(result: PlanResult, path: str | os.PathLike[str]) -> None:
     ax_dec.legend(fontsize=7, loc="lower left")
     ax_dec.set_ylim(0, num)
 
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=110)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=110, format="png")
     finally:
         plt.close(fig)

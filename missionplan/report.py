@@ -15,7 +15,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from .gridmap import write_text_atomic
+from .atomic import write_text_atomic
 from .pipeline import PlanResult
 
 

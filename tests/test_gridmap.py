@@ -46,3 +46,15 @@ def test_errors_name_the_file_and_problem(bad, message):
 def test_missing_file(tmp_path):
     with pytest.raises(MapError, match="cannot read map file"):
         load_map(tmp_path / "none.map")
+
+
+def test_saved_files_get_normal_permissions_and_no_temp_left(tmp_path):
+    import os
+    import stat
+
+    gmap = parse_map(TEXT, "tiny.map")
+    save_map(gmap, tmp_path / "tiny.map")
+    mask = os.umask(0)
+    os.umask(mask)
+    assert stat.S_IMODE((tmp_path / "tiny.map").stat().st_mode) == 0o666 & ~mask
+    assert [p.name for p in tmp_path.iterdir()] == ["tiny.map"]
