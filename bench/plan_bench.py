@@ -46,7 +46,7 @@ def main() -> int:
     parser.add_argument("--balance", default="on", help="zone balancing: on, off or on,off")
     args = parser.parse_args()
 
-    header = (f"{'map':<11} {'A':>2} {'policy':<7} {'zones':<12} {'U':>6} {'floor':>6} {'MMN':>7} {'/floor':>6} "
+    header = (f"{'map':<11} {'A':>2} {'policy':<7} {'zones':<12} {'U':>6} {'floor':>6} {'MMN':>7} {'/floor':>6} {'mkspan':>6} "
               f"{'TE%':>5} {'MNT%':>5} {'MUD*':>6} {'MDU*':>6} {'hover':>5} {'cov%':>5} {'plan s':>6} | "
               f"{'thesis case':<11} {'MMN':>5} {'TE%':>5} {'MNT%':>5} {'MUD':>6} {'MDU':>6}")
     print(header)
@@ -62,7 +62,7 @@ def main() -> int:
                     floor = world.num_targets / (9 * uavs)
                     seconds = result.zone_seconds + result.run.plan_seconds
                     row = (f"{name:<11} {uavs:>2} {policy:<7} {zones + ('+bal' if balance == 'on' else ''):<12} {world.num_targets:>6} {floor:>6.1f} "
-                           f"{m['MMN']:>7.1f} {m['MMN'] / floor:>6.2f} {m['TE']:>5.1f} {m['MNT']:>5.2f} "
+                           f"{m['MMN']:>7.1f} {m['MMN'] / floor:>6.2f} {m['makespan']:>6} {m['TE']:>5.1f} {m['MNT']:>5.2f} "
                            f"{fmt(m['MUD'], 2):>6} {fmt(m['MDU'], 2):>6} {m['hover_steps']:>5} "
                            f"{m['coverage']:>5.1f} {seconds:>6.2f} | ")
                     if name in THESIS and 3 <= uavs <= 6:

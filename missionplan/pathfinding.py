@@ -87,14 +87,15 @@ def explorative_astar(free: np.ndarray, seen_unexplored: np.ndarray, start: Cell
 
 def find_goal(graph: csr_matrix, shape: tuple[int, int], start: Cell, seen_unexplored: np.ndarray,
               taken_goals: list[Cell], excluded: set[Cell] | None = None,
-              rivals: np.ndarray | None = None) -> Cell | None:
+              rivals: np.ndarray | None = None, rival_backlog: np.ndarray | None = None) -> Cell | None:
     """Nearest (by flight along free cells) cell seen as unexplored that nobody else is heading for.
 
     Goals within CONGESTION_RADIUS of a goal in `taken_goals` are skipped; if every
     candidate is congested, the nearest congested one is returned rather than nothing.
-    With `rivals` (other drones' cells), only cells at least as near to `start` as to
-    every rival (Manhattan) are candidates: a drone that has finished its own zone
-    helps where it is the nearest drone, and gets None (stay put) where it is not.
+    With `rivals` (other drones' cells), only cells that `start` reaches no later than
+    every rival are candidates: a rival needs its Manhattan distance plus its
+    `rival_backlog` (steps of work it still has elsewhere). So a drone that has finished
+    its own zone helps where it would get there first, and gets None (stay put) where not.
     """
     cols = shape[1]
     order = breadth_first_order(graph, start[0] * cols + start[1], directed=True,
@@ -108,7 +109,8 @@ def find_goal(graph: csr_matrix, shape: tuple[int, int], start: Cell, seen_unexp
     cand_rc = np.stack(np.divmod(candidates, cols), axis=1)
     if rivals is not None and len(rivals):
         mine = np.abs(cand_rc - np.asarray(start)).sum(axis=1)
-        theirs = np.abs(cand_rc[:, None, :] - np.asarray(rivals)[None, :, :]).sum(axis=2).min(axis=1)
+        backlog = np.zeros(len(rivals)) if rival_backlog is None else np.asarray(rival_backlog, dtype=float)
+        theirs = (np.abs(cand_rc[:, None, :] - np.asarray(rivals)[None, :, :]).sum(axis=2) + backlog).min(axis=1)
         cand_rc = cand_rc[mine <= theirs]
         if len(cand_rc) == 0:
             return None

@@ -22,8 +22,9 @@ def draw_plan(result: PlanResult, path: str | os.PathLike[str]) -> None:
     rows, cols = gmap.shape
     num = len(result.starts)
     colours = [TRACK_COLOURS[k % len(TRACK_COLOURS)] for k in range(num)]
-    width = 13 if cols >= rows else 11
-    fig = plt.figure(figsize=(width, 6.5), constrained_layout=True)
+    map_width = 8.0
+    height = max(5.5, map_width * rows / cols + 1.2)  # room for the two-line title
+    fig = plt.figure(figsize=(map_width + 4.5, height), constrained_layout=True)
     grid = fig.add_gridspec(2, 2, width_ratios=[2.2, 1])
     ax_map = fig.add_subplot(grid[:, 0])
     ax_cov = fig.add_subplot(grid[0, 1])
@@ -62,11 +63,17 @@ def draw_plan(result: PlanResult, path: str | os.PathLike[str]) -> None:
     ax_cov.grid(alpha=0.3)
 
     steps = np.arange(1, len(run.policy_decisions) + 1)
-    ax_dec.stackplot(steps, run.policy_decisions, run.pathfinder_decisions,
-                     labels=[f"policy ({result.policy})", "A* / Explorative A*"],
-                     colors=["tab:orange", "tab:blue"], step="pre")
+    series = [run.policy_decisions, run.pathfinder_decisions, run.idle_decisions]
+    window = max(1, len(steps) // 100)  # long runs: a moving mean keeps the plot readable
+    if window > 1:
+        kernel = np.ones(window) / window
+        series = [np.convolve(s.astype(float), kernel, mode="same") for s in series]
+    ax_dec.stackplot(steps, *series,
+                     labels=[f"policy ({result.policy})", "A* / Explorative A*", "parked (done)"],
+                     colors=["tab:orange", "tab:blue", "0.8"], step="pre")
     ax_dec.set_xlabel("step")
-    ax_dec.set_ylabel("drones")
+    ax_dec.set_ylabel("drones" + (f" (mean of {window} steps)" if window > 1 else ""))
+    ax_dec.yaxis.get_major_locator().set_params(integer=True)
     ax_dec.legend(fontsize=7, loc="lower left")
     ax_dec.set_ylim(0, num)
 

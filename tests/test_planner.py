@@ -1,0 +1,106 @@
+"""The planning loop: deadlocks broken, failures reported, the expert's manners."""
+
+import numpy as np
+
+from missionplan.expert import ExpertPolicy, sequence_tables
+from missionplan.gridmap import GridMap
+from missionplan.planner import Planner
+from missionplan.world import DOWN, HOVER, RIGHT, UP, CoverageWorld
+from replay_check import replay
+
+
+def corridor_map(rows=9, cols=60, width=3):
+    """A street `width` cells wide with open squares at both ends."""
+    obstacle = np.ones((rows, cols), dtype=bool)
+    mid = rows // 2
+    obstacle[mid - width // 2: mid + width // 2 + 1, :] = False
+    obstacle[:, :6] = False
+    obstacle[:, -6:] = False
+    return GridMap("corridor", obstacle, ~obstacle, [])
+
+
+def as_report(world, run):
+    return {"grid": world.gmap.rows_text(), "paths": run.paths.tolist()}
+
+
+def alley_map(length=40, square=20):
+    """Two 7 x `square` yards (targets) joined by a one-lane alley (free, not a target)."""
+    cols = square + length + square
+    obstacle = np.ones((7, cols), dtype=bool)
+    obstacle[:, :square] = obstacle[:, -square:] = False
+    obstacle[3, square:-square] = False
+    target = ~obstacle
+    target[3, square:-square] = False
+    return GridMap("alley", obstacle, target, [])
+
+
+def test_head_on_in_a_one_lane_alley_one_drone_retreats():
+    gmap = alley_map()
+    zone = np.full(gmap.shape, -1)
+    zone[:, :20] = 1  # the left yard is drone 2's zone ...
+    zone[:, -20:] = 0  # ... and the right one drone 1's: both must cross the alley at once
+    # Both start inside the alley, each facing the yard it must cover.
+    world = CoverageWorld(gmap, [(3, 26), (3, 53)], zone)
+    planner = Planner(world, ExpertPolicy(), seed=3)
+    run = planner.run()
+    assert run.success, run.failure
+    assert planner.deadlocks_broken >= 1  # they met head-on in the alley ...
+    checked = replay(as_report(world, run))
+    assert checked["problems"] == []  # ... and passed without sharing or swapping cells
+    # Crossing (~60 moves), a retreat and covering a yard: bounded, no endless dithering.
+    assert run.steps < 300
+
+
+def test_step_cap_is_reported_as_failure():
+    gmap = corridor_map()
+    world = CoverageWorld(gmap, [(4, 0)], step_cap=5)
+    run = Planner(world, ExpertPolicy()).run()
+    assert not run.success
+    assert "step cap of 5 steps" in run.failure
+    assert run.metrics["coverage"] < 100
+
+
+def test_a_policy_that_stops_photographing_is_handed_to_the_path_finder():
+    gmap = corridor_map(width=3)
+    world = CoverageWorld(gmap, [(4, 2)])
+
+    class Dither:
+        name = "dither"
+
+        def action_scores(self, world, drones):  # up/down forever: photographs nothing new after a while
+            return np.array([[1.0 if world.t % 2 == 0 else 0.0, -1, 1.0 if world.t % 2 else 0.0, -1]] * len(drones))
+
+    run = Planner(world, Dither()).run()
+    assert run.success, run.failure
+    assert run.pathfinder_decisions.sum() > 0
+
+
+def test_expert_tables_cover_every_sequence_inside_the_view():
+    tables = sequence_tables()
+    assert tables.new_weights.shape == (4 ** 5, 361)
+    assert tables.cells.min() >= 0 and tables.cells.max() < 361
+    # Five straight moves into fresh ground reveal 5 new columns of 9 cells.
+    centre = 9 * 19 + 9
+    cells = np.concatenate([np.full((len(tables.cells), 1), centre), tables.cells], axis=1)
+    straight = np.flatnonzero(np.all(np.diff(cells, axis=1) == 1, axis=1))
+    assert len(straight) == 1
+    assert (tables.new_weights[straight[0]] > 0).sum() == 45
+
+
+def test_expert_runs_straight_down_a_street_and_never_into_a_wall():
+    obstacle = np.ones((9, 60), dtype=bool)
+    obstacle[2:7, :] = False  # a street 5 cells wide, nothing else
+    gmap = GridMap("street", obstacle, ~obstacle, [])
+    world = CoverageWorld(gmap, [(4, 8)])
+    policy = ExpertPolicy()
+    scores = policy.action_scores(world, [0])[0]
+    assert np.argmax(scores) == RIGHT  # the only unexplored ground is down the street
+    world_edge = CoverageWorld(gmap, [(2, 20)])
+    assert not np.isfinite(policy.action_scores(world_edge, [0])[0][UP])  # (1, 20) is a wall
+    moves = []
+    for _ in range(10):
+        action = int(np.argmax(policy.action_scores(world, [0])[0]))
+        moves.append(action)
+        world.step([action])
+    assert moves.count(RIGHT) == 10
+    assert HOVER not in moves and DOWN not in moves
