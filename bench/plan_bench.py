@@ -72,7 +72,7 @@ def main() -> int:
                     if not result.run.success:
                         row += f"  FAILED: {result.run.failure}"
                     print(row, flush=True)
-    print(f"\n{time.perf_counter() - started:.1f} s in all; floor = U / (9 A), the hard lower bound on MMN")
+    print(f"\n{time.perf_counter() - started:.1f} s in all; floor = U / (9 A), MMN if every move photographed 9 new cells (a lower bound up to the launch photos)")
     return 0
 
 
