@@ -4,7 +4,7 @@ Ours beside the thesis's Cases I-IV (Table 5.1-5.4). Our synthetic maps are the 
 the thesis's cases, not copies of them, so the comparison is a yardstick, not a race on
 the same grid. Run by hand:
 
-    .venv/bin/python bench/plan_bench.py [--policy expert] [--zones geodesic] [--maps leonardo,old-town]
+    .venv/bin/python bench/plan_bench.py [--policy nn,expert] [--zones geodesic] [--maps leonardo,old-town]
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from missionplan.catalog import load_shipped, shipped_map_names  # noqa: E402
-from missionplan.pipeline import DEFAULT_POLICY, POLICIES, plan_map  # noqa: E402
+from missionplan.pipeline import POLICIES, plan_map  # noqa: E402
 from missionplan.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS  # noqa: E402
 
 # Thesis Tables 5.1-5.4, for 3, 4, 5, 6 UAVs: (MMN, TE %, MNT %, MUD, MDU).
@@ -39,7 +39,7 @@ def fmt(value: float | None, digits: int = 1) -> str:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--policy", default=DEFAULT_POLICY, help=f"comma list of {', '.join(POLICIES)}")
+    parser.add_argument("--policy", default=",".join(POLICIES), help=f"comma list of {', '.join(POLICIES)}")
     parser.add_argument("--zones", default=DEFAULT_ZONE_METHOD, help=f"comma list of {', '.join(ZONE_METHODS)}")
     parser.add_argument("--maps", default=",".join(shipped_map_names()))
     parser.add_argument("--uavs", default="3,4,5,6")

@@ -2,4 +2,7 @@
 
 from .cli import main
 
-raise SystemExit(main())
+# The guard matters: `missionplan train` starts worker processes with "spawn", which
+# re-imports this module in every worker; only the real entry point may run main().
+if __name__ == "__main__":
+    raise SystemExit(main())

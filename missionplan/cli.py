@@ -1,7 +1,8 @@
 """The `missionplan` command line: parses arguments, calls the library, prints.
 
-Subcommands: `maps` (list the shipped maps) and `plan` (plan a shipped map or a .map
-file, write report.json and plan.png). Bad input gives one line on stderr and exit 2.
+Subcommands: `maps` (list the shipped maps), `plan` (plan a shipped map or a .map
+file, write report.json and plan.png) and `train` (reproduce the neural policy's weights
+by imitation of the expert). Bad input gives one line on stderr and exit 2.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from pathlib import Path
 
 from .catalog import load_shipped, shipped_map_names
 from .gridmap import MapError
-from .pipeline import DEFAULT_POLICY, POLICIES, launch_cells, plan_map
+from .pipeline import DEFAULT_POLICY, POLICIES, launch_cells, make_policy, plan_map
 from .zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 
 EXIT_USAGE = 2
@@ -35,12 +36,21 @@ def _build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--map", required=True, help="a shipped map name (see `missionplan maps`) or a .map file")
     plan.add_argument("--uavs", type=int, required=True, help="number of drones (uses the map's first N launch cells)")
     plan.add_argument("--out", required=True, type=Path, help="output folder (created if missing)")
-    plan.add_argument("--policy", default=DEFAULT_POLICY, choices=POLICIES, help="who decides moves in view of targets")
+    plan.add_argument("--policy", default=DEFAULT_POLICY, choices=POLICIES,
+                      help="who decides moves in view of targets: the neural network (nn) or the expert it imitates")
+    plan.add_argument("--weights", type=Path, help="network weights for --policy nn (default: the shipped ones)")
     plan.add_argument("--zones", default=DEFAULT_ZONE_METHOD, choices=ZONE_METHODS, help="zone distance")
     plan.add_argument("--no-balance", action="store_true",
                       help="plain Lloyd/Voronoi zones, without equalising their sizes")
     plan.add_argument("--seed", type=int, default=0, help="seed for zones and deadlock breaking")
     plan.add_argument("--quiet", action="store_true", help="no progress bar")
+    train = sub.add_parser("train", help="train the neural policy by imitation of the expert and write its weights")
+    train.add_argument("--out", required=True, type=Path, help="weights file to write (a training report goes beside it, .json)")
+    train.add_argument("--seed", type=int, default=0, help="seed of the training maps, the split and the network")
+    train.add_argument("--maps", type=int, default=None, help="number of training maps")
+    train.add_argument("--no-dagger", action="store_true", help="skip the DAgger pass")
+    train.add_argument("--workers", type=int, default=2, help="processes playing the expert demonstrations")
+    train.add_argument("--quiet", action="store_true", help="no progress bars")
     return parser
 
 
@@ -65,13 +75,14 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from .report import build_report, write_report
 
     gmap = load_shipped(args.map)
-    launch_cells(gmap, args.uavs)  # bad drone counts fail before any folder is made
+    launch_cells(gmap, args.uavs)  # bad drone counts and weights fail before any folder is made
+    policy = make_policy(args.policy, args.weights)
     try:
         args.out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise MapError(f"--out {args.out}: cannot create folder ({err.strerror})") from None
     show_progress = not args.quiet and sys.stderr.isatty()
-    result = plan_map(gmap, args.uavs, policy=args.policy, zone_method=args.zones, seed=args.seed,
+    result = plan_map(gmap, args.uavs, policy=policy, zone_method=args.zones, seed=args.seed,
                       progress=show_progress, balance_zones=not args.no_balance)
     report = build_report(result, args.seed)
     write_report(report, args.out / "report.json")
@@ -102,11 +113,43 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_train(args: argparse.Namespace) -> int:
+    import json
+
+    from .atomic import write_text_atomic
+    from .network import save_weights
+    from .training import DEFAULT_MAPS, train_policy
+
+    if args.maps is not None and args.maps < 4:
+        raise MapError(f"--maps must be at least 4, got {args.maps}")
+    if args.workers < 1:
+        raise MapError(f"--workers must be at least 1, got {args.workers}")
+    if not args.out.parent.is_dir():
+        raise MapError(f"--out {args.out}: folder {args.out.parent} does not exist")
+    net, report = train_policy(seed=args.seed, num_maps=args.maps or DEFAULT_MAPS, dagger=not args.no_dagger,
+                               workers=args.workers, progress=not args.quiet and sys.stderr.isatty())
+    save_weights(net, args.out)
+    report_path = args.out.with_suffix(".json")
+    write_text_atomic(report_path, json.dumps(report, indent=1) + "\n")
+    final = report["final"]
+    print(f"{report['parameters']} parameters; {final['samples']['clean']} samples after augmentation and cleaning "
+          f"({final['samples']['raw']} recorded)")
+    print(f"accuracy against the expert: train {final['train_accuracy']:.2f} %, validation "
+          f"{final['validation_accuracy']:.2f} %, test {final['test_accuracy']:.2f} %")
+    print("test confusion (rows: expert up/right/down/left, columns: network):")
+    for row in final["test_confusion"]:
+        print("  " + " ".join(f"{value:>7}" for value in row))
+    print(f"wrote {args.out} and {report_path}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _build_parser().parse_args(argv)
     try:
         if args.command == "maps":
             return _cmd_maps()
+        if args.command == "train":
+            return _cmd_train(args)
         return _cmd_plan(args)
     except MapError as err:
         print(f"missionplan: {err}", file=sys.stderr)

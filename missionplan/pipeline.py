@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -17,7 +18,7 @@ from .planner import Planner, PlanRun, Policy
 from .world import CoverageWorld, check_starts, reachable_targets
 from .zones import DEFAULT_ZONE_METHOD, ZONE_METHODS, Zones, split_zones
 
-POLICIES = ("expert",)
+POLICIES = ("nn", "expert")
 DEFAULT_POLICY = "expert"
 
 
@@ -37,9 +38,17 @@ class PlanResult:
         return self.world.unreachable_cells
 
 
-def make_policy(name: str) -> Policy:
+def make_policy(name: str, weights: str | Path | None = None) -> Policy:
+    """The named policy; `weights` only for nn (default: the shipped weights)."""
     if name == "expert":
         return ExpertPolicy()
+    if name == "nn":
+        from .network import SHIPPED_WEIGHTS, NeuralPolicy, load_weights  # torch only when the network is used
+
+        try:
+            return NeuralPolicy(load_weights(weights if weights is not None else SHIPPED_WEIGHTS))
+        except ValueError as error:
+            raise MapError(str(error)) from None
     raise MapError(f"unknown policy {name!r} (choose {', '.join(POLICIES)})")
 
 
@@ -54,13 +63,14 @@ def launch_cells(gmap: GridMap, uavs: int) -> list[Cell]:
     return starts
 
 
-def plan_map(gmap: GridMap, uavs: int, policy: str = DEFAULT_POLICY, zone_method: str = DEFAULT_ZONE_METHOD,
-             seed: int = 0, starts: list[Cell] | None = None, progress: bool = False,
-             balance_zones: bool = True) -> PlanResult:
-    """Plan full coverage of `gmap` for `uavs` drones."""
+def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
+             zone_method: str = DEFAULT_ZONE_METHOD, seed: int = 0, starts: list[Cell] | None = None,
+             progress: bool = False, balance_zones: bool = True, weights: str | Path | None = None) -> PlanResult:
+    """Plan full coverage of `gmap` for `uavs` drones; `policy` is a name or a ready Policy."""
     if zone_method not in ZONE_METHODS:
         raise MapError(f"unknown zone method {zone_method!r} (choose {', '.join(ZONE_METHODS)})")
-    chosen = make_policy(policy)
+    chosen = make_policy(policy, weights) if isinstance(policy, str) else policy
+    policy = chosen.name
     starts = launch_cells(gmap, uavs) if starts is None else starts
     check_starts(gmap, starts)
     began = time.perf_counter()

@@ -74,3 +74,30 @@ def test_launch_cell_in_an_obstacle(tmp_path):
     good = tmp_path / "good.map"
     write_map(good, "1,1")
     assert main(["plan", "--map", str(good), "--uavs", "1", "--out", str(tmp_path / "g"), "--quiet"]) == 0
+
+
+def test_train_writes_weights_and_report_that_plan_can_use(tmp_path):
+    weights = tmp_path / "small.pt"
+    out = run_cli("train", "--out", str(weights), "--maps", "4", "--no-dagger", "--workers", "2", "--quiet")
+    assert out.returncode == 0, out.stderr
+    assert "106684 parameters" in out.stdout and "test confusion" in out.stdout
+    assert "samples after augmentation and cleaning" in out.stdout
+    report = json.loads(weights.with_suffix(".json").read_text())
+    assert report["parameters"] == 106_684 and report["maps"] == 4
+    assert report["samples"]["augmented"] == 8 * report["samples"]["raw"]
+    assert 0 < report["final"]["test_accuracy"] <= 100
+    assert len(report["final"]["test_confusion"]) == 4
+    planned = run_cli("plan", "--map", "leonardo", "--uavs", "3", "--out", str(tmp_path / "run"),
+                      "--policy", "nn", "--weights", str(weights), "--quiet")
+    assert planned.returncode == 0, planned.stderr
+    assert json.loads((tmp_path / "run" / "report.json").read_text())["policy"] == "nn"
+
+
+def test_bad_weights_file_is_one_line_and_exit_2(tmp_path):
+    bad = tmp_path / "bad.pt"
+    bad.write_bytes(b"\x00" * 64)
+    out = run_cli("plan", "--map", "leonardo", "--uavs", "3", "--out", str(tmp_path / "run"),
+                  "--policy", "nn", "--weights", str(bad))
+    assert out.returncode == 2
+    assert out.stderr.count("\n") == 1 and "bad.pt" in out.stderr
+    assert not (tmp_path / "run").exists()

@@ -1,4 +1,4 @@
-"""Every shipped map x 3-6 drones: full coverage, checked by replaying the paths.
+"""Every shipped map x 3-6 drones x both policies: full coverage, checked by replaying the paths.
 
 The replay (tests/replay_check.py) does not import the planner: it re-derives moves,
 collisions, swaps, obstacle entries and footprint coverage from report.json alone.
@@ -22,8 +22,9 @@ def test_the_four_maps_ship():
 
 @pytest.mark.parametrize("uavs", [3, 4, 5, 6])
 @pytest.mark.parametrize("name", SHIPPED)
-def test_full_coverage_and_legal_paths(name, uavs):
-    result = plan_map(load_shipped(name), uavs)
+@pytest.mark.parametrize("policy", ["nn", "expert"])
+def test_full_coverage_and_legal_paths(policy, name, uavs):
+    result = plan_map(load_shipped(name), uavs, policy=policy)
     report = json.loads(json.dumps(build_report(result, seed=0)))  # exactly what report.json holds
     assert report["success"], report["failure"]
     checked = replay(report)
@@ -36,9 +37,20 @@ def test_full_coverage_and_legal_paths(name, uavs):
     assert report["metrics"]["MMN"] >= report["floor"]  # the hard floor U / (9A)
 
 
-def test_leonardo_five_drones_beats_the_thesis():
-    result = plan_map(load_shipped("leonardo"), 5)
+@pytest.mark.parametrize("policy", ["nn", "expert"])
+def test_leonardo_five_drones_beats_the_thesis(policy):
+    result = plan_map(load_shipped("leonardo"), 5, policy=policy)
     metrics = result.run.metrics
     assert result.world.unreachable_cells.size > 0  # the map's enclosed pockets are detected
     assert metrics["MMN"] < 133  # thesis Table 5.1, 5 UAVs
     assert metrics["TE"] > 32.4
+
+
+def test_report_counts_network_and_path_finder_decisions():
+    report = build_report(plan_map(load_shipped("leonardo"), 5, policy="nn"), seed=0)
+    decisions = report["decisions"]
+    assert report["policy"] == "nn"
+    assert len(decisions["policy"]) == report["steps"]
+    assert sum(decisions["policy"]) > 0 and sum(decisions["pathfinder"]) > 0
+    for step in range(report["steps"]):
+        assert decisions["policy"][step] + decisions["pathfinder"][step] + decisions["idle"][step] == 5
