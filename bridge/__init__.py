@@ -1,1 +1,24 @@
-"""bridge: MAVLink mission upload/download and the mock autopilot. Knows missions, not grids. Filled by issue 5."""
+"""bridge: MAVLink mission upload/download, the MAVSDK backend and the mock autopilot.
+
+Knows missions (lists of MAVLink mission items), not grids: nothing here imports the planner.
+Modules, one job each:
+  errors        BridgeUsageError (bad input, exit 2) and BridgeError (operational failure, exit 1)
+  mission       the mission model (MissionItem, Mission), wire items, flavour rules, comparison
+  missionfile   QGroundControl .plan and QGC WPL 110 .waypoints readers and writers
+  signing       MAVLink 2 signing keys: loading and applying them, never printing them
+  link          pymavlink connections: URL checks, heartbeats, finding a vehicle by system id
+  protocol      the GCS side of the mission protocol over pymavlink (upload, download, clear, set-current)
+  mavsdk_backend the same operations through MAVSDK-Python's MissionRaw plugin
+  uploader      backend-neutral upload + read-back verification
+  mock, mock_vehicle, mock_flight   the pure-Python mock autopilot (link and faults, one vehicle, kinematics)
+  commands      the `upload`, `download` and `mock` subcommands for the missionplan CLI
+"""
+
+from .errors import BridgeError, BridgeUsageError
+
+__all__ = ["BridgeError", "BridgeUsageError"]
+
+import logging as _logging
+
+# A library logs; the application decides where to. Without this, warnings would reach stderr.
+_logging.getLogger("bridge").addHandler(_logging.NullHandler())

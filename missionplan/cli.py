@@ -1,8 +1,9 @@
 """The `missionplan` command line: parses arguments, calls the library, prints.
 
 Subcommands: `maps` (list the shipped maps), `plan` (plan a shipped map or a .map
-file, write report.json and plan.png) and `train` (reproduce the neural policy's weights
-by imitation of the expert). Bad input gives one line on stderr and exit 2.
+file, write report.json and plan.png), `train` (reproduce the neural policy's weights
+by imitation of the expert), and from bridge/commands.py `upload`, `download` and `mock`
+(MAVLink mission transfer and the mock autopilot). Bad input gives one line on stderr and exit 2.
 """
 
 from __future__ import annotations
@@ -10,6 +11,9 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+
+from bridge import BridgeUsageError
+from bridge.commands import register as register_bridge_commands
 
 from .catalog import load_shipped, shipped_map_names
 from .gridmap import MapError
@@ -51,6 +55,7 @@ def _build_parser() -> argparse.ArgumentParser:
     train.add_argument("--no-dagger", action="store_true", help="skip the DAgger pass")
     train.add_argument("--workers", type=int, default=2, help="processes playing the expert demonstrations")
     train.add_argument("--quiet", action="store_true", help="no progress bars")
+    register_bridge_commands(sub)  # upload, download, mock (bridge/commands.py)
     return parser
 
 
@@ -146,12 +151,15 @@ def _cmd_train(args: argparse.Namespace) -> int:
 def main(argv: list[str] | None = None) -> int:
     args = _build_parser().parse_args(argv)
     try:
+        handler = getattr(args, "handler", None)
+        if handler is not None:  # upload / download / mock
+            return handler(args)
         if args.command == "maps":
             return _cmd_maps()
         if args.command == "train":
             return _cmd_train(args)
         return _cmd_plan(args)
-    except MapError as err:
+    except (MapError, BridgeUsageError) as err:
         print(f"missionplan: {err}", file=sys.stderr)
         return EXIT_USAGE
     except BrokenPipeError:  # output piped into `head` and the like

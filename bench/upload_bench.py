@@ -1,0 +1,74 @@
+"""Mission upload speed: items per second to the in-process mock autopilot on 127.0.0.1.
+
+Run by hand: `.venv/bin/python bench/upload_bench.py [--sizes 100,1000] [--losses 0,0.2] [--backends pymavlink,mavsdk]`.
+For each backend, mission size and loss (the same in both directions, plus 5 % duplicates and 5 %
+reordering when the loss is not 0) it uploads once and reads back once, and prints a table of
+seconds and items per second. The mock re-requests a missing item after 10 ms and the ground
+station's retry cap is 0.1 s (loopback settings: with the real-world 1.5 s a lossy transfer is
+dominated by waiting). No assertions: this is a measurement, not a test.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from bridge.mission import Mission, MissionItem, compare_wire, to_wire  # noqa: E402
+from bridge.mock import LinkFaults, MockAutopilot  # noqa: E402
+from bridge.protocol import Timeouts  # noqa: E402
+from bridge.uploader import open_backend  # noqa: E402
+
+
+def survey(n: int) -> Mission:
+    items = [MissionItem(22, 3, z=30.0)]
+    items += [MissionItem(16, 3, param2=1.0, x=45.07 + (i // 25) * 2e-4, y=7.68 + (i % 25) * 1e-4, z=30.0)
+              for i in range(n - 2)]
+    return Mission(items + [MissionItem(20, 2)], home=(45.07, 7.68, 240.0))
+
+
+def measure(backend: str, size: int, loss: float, seed: int) -> dict[str, object]:
+    faults = LinkFaults.lossy(loss, duplicate=0.05 if loss else 0.0, reorder=0.05 if loss else 0.0, seed=seed)
+    mission = survey(size)
+    with MockAutopilot(flavour="px4", faults=faults, request_interval=0.01, upload_timeout=5.0) as mock:
+        with open_backend(backend, mock.client_url, 1, timeouts=Timeouts(item_timeout=0.1, retries=30),
+                          connect_timeout=5) as b:
+            wire = to_wire(mission, b.vehicle.flavour)
+            start = time.perf_counter()
+            b.upload(0, wire)
+            upload_s = time.perf_counter() - start
+            start = time.perf_counter()
+            got = b.download(0)
+            read_s = time.perf_counter() - start
+            reader = getattr(b, "read_back_by", backend)
+        ok = not compare_wire(wire, got, skip_home=False) and not compare_wire(wire, mock.mission(1), skip_home=False)
+    return {"upload_s": upload_s, "read_s": read_s, "reader": reader, "ok": ok}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", default="100,1000")
+    parser.add_argument("--losses", default="0,0.2")
+    parser.add_argument("--backends", default="pymavlink,mavsdk")
+    parser.add_argument("--seed", type=int, default=1)
+    args = parser.parse_args()
+    sizes = [int(s) for s in args.sizes.split(",")]
+    losses = [float(s) for s in args.losses.split(",")]
+    backends = args.backends.split(",")
+    print(f"{'backend':<10} {'items':>6} {'loss':>5} {'upload s':>9} {'items/s':>9} {'read s':>8} {'items/s':>9}  "
+          f"{'verified':<8} read back by")
+    for backend in backends:
+        for size in sizes:
+            for loss in losses:
+                r = measure(backend, size, loss, args.seed)
+                print(f"{backend:<10} {size:>6} {loss:>5.0%} {r['upload_s']:>9.2f} {size / r['upload_s']:>9.0f} "
+                      f"{r['read_s']:>8.2f} {size / r['read_s']:>9.0f}  {'yes' if r['ok'] else 'NO':<8} {r['reader']}",
+                      flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,238 @@
+"""The `upload`, `download` and `mock` subcommands, for the missionplan command line.
+
+Owns argument definitions and handlers only; the work is done by uploader, missionfile and mock.
+`register(subparsers)` adds the three parsers, each with set_defaults(handler=...). A handler takes
+the parsed arguments and returns the exit code: 0 on success (for upload: the vehicle holds exactly
+the mission sent, unless --no-verify), 1 after printing one line to stderr when the vehicle or the
+link fails. Bad input (missing file, bad URL, bad system id, bad key file) raises BridgeUsageError;
+the main CLI prints its one-line message and exits 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from .errors import BridgeError, BridgeUsageError
+from .mission import Flavour, MissionType
+
+DEFAULT_CONNECT = "udpin:0.0.0.0:14550"  # where ground stations listen for vehicles by convention
+DEFAULT_LISTEN = "udpin:127.0.0.1:14550"
+
+
+def register(subparsers: Any) -> None:
+    """Add the upload, download and mock subcommands to an argparse subparsers object."""
+    up = subparsers.add_parser("upload", help="upload a .plan or .waypoints mission to a vehicle and verify it")
+    up.add_argument("file", type=Path, help="mission file (.plan or .waypoints)")
+    _vehicle_arguments(up)
+    up.add_argument("--backend", default="pymavlink", choices=("pymavlink", "mavsdk"),
+                    help="who runs the mission protocol (default pymavlink)")
+    up.add_argument("--no-verify", action="store_true", help="skip the read-back (exit 0 then means accepted)")
+    up.set_defaults(handler=cmd_upload)
+
+    down = subparsers.add_parser("download", help="download a vehicle's mission to a .plan or .waypoints file")
+    _vehicle_arguments(down, connect_required=True)
+    down.add_argument("-o", "--output", required=True, type=Path, help="file to write (.plan or .waypoints)")
+    down.set_defaults(handler=cmd_download)
+
+    mock = subparsers.add_parser("mock", help="run mock autopilots on loopback until interrupted")
+    mock.add_argument("--sysid", default="1", help="system ids to serve, comma-separated (default 1)")
+    mock.add_argument("--listen", default=DEFAULT_LISTEN,
+                      help=f"udpin:HOST:PORT, udpout:HOST:PORT or tcpin:HOST:PORT (default {DEFAULT_LISTEN})")
+    mock.add_argument("--flavour", default="ardupilot", choices=("ardupilot", "px4"), help="autopilot to imitate")
+    mock.add_argument("--speedup", type=float, default=1.0, help="simulated seconds per real second when flying")
+    mock.add_argument("--loss", type=float, default=0.0, help="packet loss probability in each direction")
+    mock.add_argument("--duplicate", type=float, default=0.0, help="probability a packet arrives twice")
+    mock.add_argument("--reorder", type=float, default=0.0, help="probability a packet is overtaken by later ones")
+    mock.add_argument("--latency", type=float, default=0.0, help="added one-way latency in seconds")
+    mock.add_argument("--request-interval", type=float, default=None,
+                      help="re-request a missing item after this many seconds (default: the flavour's)")
+    mock.add_argument("--signing-key", type=Path, help="MAVLink 2 signing key file (32 bytes or 64 hex digits)")
+    mock.add_argument("--seed", type=int, default=None, help="seed of the fault injection")
+    mock.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
+    mock.set_defaults(handler=cmd_mock)
+
+
+def _vehicle_arguments(parser: argparse.ArgumentParser, connect_required: bool = False) -> None:
+    parser.add_argument("--sysid", required=True, help="the vehicle's MAVLink system id (1..254)")
+    parser.add_argument("--compid", default="1", help="the autopilot's component id (default 1)")
+    if connect_required:
+        parser.add_argument("--connect", required=True, help="pymavlink connection string, e.g. tcp:127.0.0.1:5760")
+    else:
+        parser.add_argument("--connect", default=DEFAULT_CONNECT,
+                            help=f"pymavlink connection string (default {DEFAULT_CONNECT})")
+    parser.add_argument("--timeout", type=float, default=10.0,
+                        help="seconds to wait for the vehicle's heartbeat (default 10)")
+    parser.add_argument("--item-timeout", type=float, default=1.5,
+                        help="longest wait for one protocol step before re-sending (default 1.5 s)")
+    parser.add_argument("--retries", type=int, default=5,
+                        help="a step fails after item-timeout * (retries + 1) s without progress (default 5)")
+    parser.add_argument("--signing-key", type=Path, help="MAVLink 2 signing key file (32 bytes or 64 hex digits)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+# ------------------------------------------------------------------------------------------ helpers
+
+def _fail(command: str, err: BaseException) -> int:
+    print(f"missionplan {command}: {err}", file=sys.stderr)
+    return 1
+
+
+def _checked(args: argparse.Namespace) -> dict[str, Any]:
+    """The options every vehicle command shares, checked before anything is opened."""
+    from .link import parse_sysid, parse_url
+    from .protocol import Timeouts
+    from .signing import load_key
+
+    sysid = parse_sysid(args.sysid)
+    try:
+        compid = int(str(args.compid).strip())
+    except ValueError:
+        raise BridgeUsageError(f"--compid {args.compid!r}: not a component id (an integer 1..255)") from None
+    if not 1 <= compid <= 255:
+        raise BridgeUsageError(f"--compid {compid}: component ids run from 1 to 255")
+    parse_url(args.connect)
+    if not args.timeout > 0:
+        raise BridgeUsageError(f"--timeout must be positive, got {args.timeout}")
+    if not args.item_timeout > 0:
+        raise BridgeUsageError(f"--item-timeout must be positive, got {args.item_timeout}")
+    if args.retries < 0:
+        raise BridgeUsageError(f"--retries must not be negative, got {args.retries}")
+    key = load_key(args.signing_key) if args.signing_key is not None else None
+    return {"url": args.connect, "sysid": sysid, "compid": compid, "key": key,
+            "timeouts": Timeouts(item_timeout=args.item_timeout, retries=args.retries),
+            "connect_timeout": args.timeout}
+
+
+class _Bars:
+    """tqdm progress bars on stderr, one per transfer; silent when stderr is not a terminal."""
+
+    def __init__(self, quiet: bool) -> None:
+        self.quiet = quiet
+        self.bars: list[Any] = []
+
+    def __call__(self, label: str, total: int) -> Callable[[int, int], None] | None:
+        if self.quiet:
+            return None
+        from tqdm import tqdm
+
+        bar = tqdm(total=total or None, desc=label, unit="item", leave=False, disable=None, file=sys.stderr)
+        self.bars.append(bar)
+
+        def update(done: int, all_items: int) -> None:
+            if all_items and bar.total != all_items:
+                bar.total = all_items
+            bar.n = done
+            bar.refresh()
+
+        return update
+
+    def close(self) -> None:
+        for bar in self.bars:
+            bar.close()
+        self.bars.clear()
+
+
+# ----------------------------------------------------------------------------------------- handlers
+
+def cmd_upload(args: argparse.Namespace) -> int:
+    from .missionfile import read_mission_file
+    from .uploader import open_backend, upload_plan
+
+    opts = _checked(args)
+    plan = read_mission_file(args.file)
+    bars = _Bars(args.quiet)
+    backend = None
+    try:
+        backend = open_backend(args.backend, opts["url"], opts["sysid"], opts["compid"], opts["key"],
+                               opts["timeouts"], opts["connect_timeout"])
+        report = upload_plan(backend, plan.parts(), verify=not args.no_verify, progress=bars)
+    except BridgeError as err:
+        bars.close()
+        return _fail("upload", err)
+    finally:
+        bars.close()
+        if backend is not None:
+            backend.close()
+    print(report.summary())
+    return 0
+
+
+def cmd_download(args: argparse.Namespace) -> int:
+    from .missionfile import PlanFile, write_mission_file
+    from .uploader import download_plan, open_backend
+
+    opts = _checked(args)
+    out: Path = args.output
+    suffix = out.suffix.lower()
+    if suffix not in (".plan", ".waypoints"):
+        raise BridgeUsageError(f"-o {out}: unknown mission file type {out.suffix!r} (expected .plan or .waypoints)")
+    if not out.parent.is_dir():
+        raise BridgeUsageError(f"-o {out}: folder {out.parent} does not exist")
+    bars = _Bars(args.quiet)
+    backend = None
+    start = time.monotonic()
+    try:
+        backend = open_backend("pymavlink", opts["url"], opts["sysid"], opts["compid"], opts["key"],
+                               opts["timeouts"], opts["connect_timeout"])
+        mission = download_plan(backend, [MissionType.MISSION], bars)[0]
+        plan = PlanFile(mission=mission, firmware=backend.vehicle.flavour)
+        if suffix == ".plan":  # a .plan also carries the geofence and rally points
+            for mtype in (MissionType.FENCE, MissionType.RALLY):
+                try:
+                    part = download_plan(backend, [mtype], bars)[0]
+                except BridgeError as err:
+                    if getattr(err, "result", None) == 3:  # MAV_MISSION_UNSUPPORTED: the vehicle has none
+                        continue
+                    raise
+                if mtype == MissionType.FENCE:
+                    plan.fence = part
+                else:
+                    plan.rally = part
+        flavour: Flavour = backend.vehicle.flavour
+    except BridgeError as err:
+        return _fail("download", err)
+    finally:
+        bars.close()
+        if backend is not None:
+            backend.close()
+    write_mission_file(out, plan)
+    extra = "".join(f", {len(p.items)} {p.mission_type.label}" for p in (plan.fence, plan.rally) if p.items)
+    print(f"downloaded {len(plan.mission.items)} mission items{extra} from vehicle {opts['sysid']} ({flavour.value}) "
+          f"to {out} in {time.monotonic() - start:.2f} s")
+    return 0
+
+
+def cmd_mock(args: argparse.Namespace) -> int:
+    from .link import parse_sysids
+    from .mock import LinkFaults, MockAutopilot
+    from .signing import load_key
+
+    sysids = parse_sysids(args.sysid)
+    key = load_key(args.signing_key) if args.signing_key is not None else None
+    faults = LinkFaults(loss_in=args.loss, loss_out=args.loss, duplicate=args.duplicate, reorder=args.reorder,
+                        latency=args.latency, seed=args.seed)
+    if args.request_interval is not None and not args.request_interval > 0:
+        raise BridgeUsageError(f"--request-interval must be positive, got {args.request_interval}")
+    mock = MockAutopilot(args.listen, sysids=sysids, flavour=args.flavour, speedup=args.speedup, faults=faults,
+                         key=key, request_interval=args.request_interval)
+    ids = ",".join(str(s) for s in sysids)
+    print(f"mock autopilot: systems {ids} ({args.flavour}{', signed' if key else ''}) on {args.listen} "
+          f"(port {mock.port}); connect with --connect {mock.client_url}; Ctrl-C stops", flush=True)
+    mock.start()
+    try:
+        deadline = None if args.duration is None else time.monotonic() + args.duration
+        while deadline is None or time.monotonic() < deadline:
+            time.sleep(0.2)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        mock.stop()
+    done = sum(v.uploads_completed for v in mock.vehicles.values())
+    print(f"mock autopilot stopped: {done} uploads completed, {mock.stats['in']} packets in, "
+          f"{mock.stats['out']} out, {mock.stats['dropped_in'] + mock.stats['dropped_out']} dropped", flush=True)
+    return 0

@@ -1,0 +1,261 @@
+"""pymavlink links on the ground-station side: connection URLs, reading and sending, finding a vehicle.
+
+Owns:
+- pymavlink set-up for MAVLink 2 (MAVLINK20 must be set before pymavlink picks its dialect, or
+  mission_type would be silently dropped);
+- checking a pymavlink connection string (udpin:, udpout:, udp:, tcp:, tcpin:, a serial device with an
+  optional baud) and a system id, raising BridgeUsageError for bad ones;
+- Link: one connection with our GCS identity, optional signing, a 1 Hz GCS heartbeat, reads with a
+  deadline, and per-vehicle boot-time tracking so a reboot is noticed;
+- wait_vehicle: the HEARTBEAT of the requested system (and component) and what it tells: the flavour.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any
+
+os.environ.setdefault("MAVLINK20", "1")  # before pymavlink is imported: MAVLink 2 dialect modules
+
+from pymavlink import mavutil  # noqa: E402
+
+from .errors import BridgeError, BridgeUsageError  # noqa: E402
+from .mission import MAV_AUTOPILOT_INVALID, Flavour  # noqa: E402
+from .signing import SigningKey, apply_key  # noqa: E402
+
+if mavutil.mavlink.WIRE_PROTOCOL_VERSION != "2.0":  # someone imported pymavlink before us without MAVLINK20
+    os.environ["MAVLINK20"] = "1"
+    mavutil.set_dialect(mavutil.current_dialect or "ardupilotmega")
+
+mavlink: Any = mavutil.mavlink  # the MAVLink 2 dialect module (message classes and enums)
+
+GCS_SYSTEM_ID = 255
+GCS_COMPONENT_ID = 190  # MAV_COMP_ID_MISSIONPLANNER
+AUTOPILOT_COMPONENT_ID = 1
+MAV_TYPE_GCS = 6
+MAV_STATE_BOOT = 1
+REBOOT_JUMP = 0.25  # seconds; more than a late packet's delay, less than any reboot
+
+_HOST_PORT = re.compile(r"^(?P<host>[A-Za-z0-9_.\-]+|\[[0-9A-Fa-f:]+\]):(?P<port>\d{1,5})$")
+_SERIAL = re.compile(r"^(?P<device>(/dev/[^,:]+|COM\d+))(?:[,:](?P<baud>\d+))?$")
+
+
+@dataclass(frozen=True)
+class ConnectionSpec:
+    """A checked connection string: scheme (udpin, udpout, tcp, tcpin, serial), where, and baud."""
+
+    scheme: str
+    host: str = ""
+    port: int = 0
+    device: str = ""
+    baud: int = 115200
+
+    @property
+    def url(self) -> str:
+        if self.scheme == "serial":
+            return f"{self.device},{self.baud}"
+        return f"{self.scheme}:{self.host}:{self.port}"
+
+
+def parse_url(url: str, option: str = "--connect", allow_any_port: bool = False) -> ConnectionSpec:
+    """Check a pymavlink connection string; BridgeUsageError (one line) when it is not one we serve.
+
+    allow_any_port: port 0 (let the system pick a free one) is allowed, for listening sockets.
+    """
+    text = (url or "").strip()
+    if not text:
+        raise BridgeUsageError(f"{option}: empty connection string")
+    serial = _SERIAL.match(text)
+    if serial:
+        baud = int(serial.group("baud") or 115200)
+        if baud <= 0:
+            raise BridgeUsageError(f"{option} {url}: bad baud rate")
+        return ConnectionSpec("serial", device=serial.group("device"), baud=baud)
+    scheme, sep, rest = text.partition(":")
+    if not sep or scheme not in ("udpin", "udpout", "udp", "tcp", "tcpin"):
+        raise BridgeUsageError(f"{option} {url}: not a connection string (use udpin:HOST:PORT, udpout:HOST:PORT, "
+                               "tcp:HOST:PORT, tcpin:HOST:PORT or a serial device such as /dev/ttyUSB0,57600)")
+    match = _HOST_PORT.match(rest)
+    if not match:
+        raise BridgeUsageError(f"{option} {url}: expected {scheme}:HOST:PORT")
+    port = int(match.group("port"))
+    if not (0 if allow_any_port else 1) <= port < 65536:
+        raise BridgeUsageError(f"{option} {url}: port {port} out of range")
+    return ConnectionSpec("udpin" if scheme == "udp" else scheme, host=match.group("host"), port=port)
+
+
+def parse_sysid(value: str | int, option: str = "--sysid") -> int:
+    """A vehicle system id: 1..254 (0 is broadcast, 255 is by convention a ground station)."""
+    try:
+        sysid = int(str(value).strip())
+    except ValueError:
+        raise BridgeUsageError(f"{option} {value!r}: not a system id (an integer 1..254)") from None
+    if not 1 <= sysid <= 254:
+        raise BridgeUsageError(f"{option} {sysid}: system ids run from 1 to 254")
+    return sysid
+
+
+def parse_sysids(text: str, option: str = "--sysid") -> list[int]:
+    """A comma-separated list of distinct system ids, such as "1,2,3"."""
+    ids = [parse_sysid(part, option) for part in str(text).split(",") if part.strip()]
+    if not ids:
+        raise BridgeUsageError(f"{option}: no system id given")
+    if len(set(ids)) != len(ids):
+        raise BridgeUsageError(f"{option} {text}: a system id appears twice")
+    return ids
+
+
+@dataclass(frozen=True)
+class VehicleInfo:
+    """What a vehicle's HEARTBEAT says about it."""
+
+    sysid: int
+    compid: int
+    autopilot: int
+    mav_type: int
+    flavour: Flavour
+    signed: bool  # its packets carry a MAVLink 2 signature
+
+
+def is_signed(msg: Any) -> bool:
+    """Whether a packet carried a signature (checked or not: without a key pymavlink does not check)."""
+    return bool(msg.get_header().incompat_flags & mavlink.MAVLINK_IFLAG_SIGNED)
+
+
+class Link:
+    """One pymavlink connection with our ground-station identity. Used from one thread at a time."""
+
+    def __init__(self, url: str, key: SigningKey | None = None, source_system: int = GCS_SYSTEM_ID,
+                 source_component: int = GCS_COMPONENT_ID) -> None:
+        self.spec = parse_url(url)
+        self.url = url
+        self.key = key
+        try:
+            if self.spec.scheme == "serial":
+                self.conn = mavutil.mavlink_connection(self.spec.device, baud=self.spec.baud,
+                                                       source_system=source_system,
+                                                       source_component=source_component, autoreconnect=False)
+            else:
+                self.conn = mavutil.mavlink_connection(self.spec.url, source_system=source_system,
+                                                       source_component=source_component, retries=0)
+        except (OSError, ValueError) as err:
+            detail = getattr(err, "strerror", None) or str(err)
+            raise BridgeError(f"cannot open {url}: {detail}") from None
+        # Writes may come from two threads (the MAVSDK backend's pump and MAVSDK's own): one at a time.
+        self.write_lock = threading.Lock()
+        raw_write = self.conn.write
+
+        def locked_write(buf: bytes) -> None:
+            with self.write_lock:
+                raw_write(buf)
+
+        self.conn.write = locked_write  # type: ignore[method-assign]
+        self.mav = self.conn.mav
+        self.mav.robust_parsing = True  # bad bytes become BAD_DATA instead of exceptions
+        apply_key(self.mav, key)
+        self._last_heartbeat = 0.0
+        self._boot_epoch: dict[int, float] = {}
+        self._status: dict[int, int] = {}
+        self.reboots: dict[int, int] = {}
+        self.received = 0
+
+    # -- sending
+    def send(self, msg: Any) -> None:
+        self.mav.send(msg)
+
+    def heartbeat(self, force: bool = False) -> None:
+        """Our 1 Hz GCS heartbeat: vehicles listening with udpin learn our address from it."""
+        now = time.monotonic()
+        if force or now - self._last_heartbeat >= 1.0:
+            self._last_heartbeat = now
+            self.mav.heartbeat_send(MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID, 0, 0, 0)
+
+    # -- receiving
+    def recv(self, deadline: float) -> Any | None:
+        """The next good message, or None once time.monotonic() passes deadline."""
+        while True:
+            self.heartbeat()
+            msg = self.conn.recv_msg()
+            if msg is not None:
+                if msg.get_type() == "BAD_DATA":
+                    continue
+                self.received += 1
+                self._track_boot(msg)
+                return msg
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return None
+            self.conn.select(min(remaining, 0.5))
+
+    def _track_boot(self, msg: Any) -> None:
+        """A vehicle that reports MAV_STATE_BOOT again, or whose time_boot_ms starts again, has rebooted."""
+        if msg.get_type() == "HEARTBEAT":
+            sysid = msg.get_srcSystem()
+            booting = msg.system_status == MAV_STATE_BOOT
+            if booting and self._status.get(sysid, MAV_STATE_BOOT) != MAV_STATE_BOOT:
+                self.reboots[sysid] = self.reboots.get(sysid, 0) + 1
+            self._status[sysid] = int(msg.system_status)
+            return
+        boot_ms = getattr(msg, "time_boot_ms", None)
+        if boot_ms is None:
+            return
+        # When did the vehicle boot, by our clock? Latency only makes it look later, so keep the
+        # earliest estimate; a jump of more than REBOOT_JUMP seconds is a new boot.
+        sysid = msg.get_srcSystem()
+        epoch = time.monotonic() - boot_ms / 1000.0
+        last = self._boot_epoch.get(sysid)
+        if last is not None and epoch - last > REBOOT_JUMP:
+            self.reboots[sysid] = self.reboots.get(sysid, 0) + 1
+            self._boot_epoch[sysid] = epoch
+        else:
+            self._boot_epoch[sysid] = epoch if last is None else min(last, epoch)
+
+    @property
+    def bad_signatures(self) -> int:
+        """Packets refused because their signature did not match our key (or was missing)."""
+        return int(self.mav.signing.badsig_count + self.mav.signing.reject_count)
+
+    def close(self) -> None:
+        try:
+            self.conn.close()
+        except OSError:
+            pass
+
+    def __enter__(self) -> Link:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def wait_vehicle(link: Link, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID, timeout: float = 10.0) -> VehicleInfo:
+    """Wait for the HEARTBEAT of system sysid (component compid); BridgeError naming it on time-out."""
+    deadline = time.monotonic() + timeout
+    others: set[tuple[int, int]] = set()
+    link.heartbeat(force=True)
+    while True:
+        msg = link.recv(deadline)
+        if msg is None:
+            break
+        if msg.get_type() != "HEARTBEAT":
+            continue
+        src = (msg.get_srcSystem(), msg.get_srcComponent())
+        if msg.type == MAV_TYPE_GCS or msg.autopilot == MAV_AUTOPILOT_INVALID:
+            continue  # another ground station
+        if src == (sysid, compid):
+            return VehicleInfo(sysid=sysid, compid=compid, autopilot=int(msg.autopilot), mav_type=int(msg.type),
+                               flavour=Flavour.from_autopilot(int(msg.autopilot)), signed=is_signed(msg))
+        others.add(src)
+    detail = ""
+    if others:
+        detail = "; heard only " + ", ".join(f"system {s} component {c}" for s, c in sorted(others))
+    elif link.bad_signatures:
+        detail = (f"; {link.bad_signatures} packets were refused because they were unsigned or signed with "
+                  "another key (wrong --signing-key?)")
+    elif link.received == 0:
+        detail = "; nothing was received at all"
+    raise BridgeError(f"no heartbeat from system {sysid} (component {compid}) on {link.url} within {timeout:g} s{detail}")

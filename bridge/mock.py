@@ -1,0 +1,400 @@
+"""The mock autopilot's link: one process (or one background thread) serving one or many system ids.
+
+Owns the transport and the faults. MockAutopilot listens on a pymavlink-style URL — `udpin:HOST:PORT`
+(serves every ground station that sends to it), `udpout:HOST:PORT` (sends to a ground station
+listening there) or `tcpin:HOST:PORT` (accepts TCP clients) — with port 0 meaning "pick a free one".
+Every vehicle's output goes to every peer (like a shared radio link); each vehicle only acts on
+messages addressed to its system id. Faults are injected per packet and per direction: loss,
+duplicates, reordering (a packet held back so later ones overtake it) and added latency; the reboot
+fault lives on the vehicle (MockVehicle.reboot_after_items). With a signing key, packets that are
+unsigned or signed with another key are dropped and everything sent is signed.
+
+Use it in-process (`with MockAutopilot(...) as mock:` or start()/stop(); it runs on a daemon thread)
+or as the `missionplan mock` command (serve_forever()).
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import random
+import select
+import socket
+import threading
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+from .errors import BridgeUsageError
+from .link import mavlink, parse_url
+from .mission import Flavour
+from .mock_vehicle import MockVehicle, VehicleOptions
+from .signing import SigningKey, apply_key
+
+TICK = 0.005  # loop period when nothing arrives: timers and flight advance at least this often
+MAX_PEERS = 32
+
+
+@dataclass
+class LinkFaults:
+    """Per-packet faults. Probabilities in [0, 1], latency in seconds (one way)."""
+
+    loss_in: float = 0.0     # ground station -> vehicle
+    loss_out: float = 0.0    # vehicle -> ground station
+    duplicate: float = 0.0   # chance a packet is delivered twice
+    reorder: float = 0.0     # chance a packet is held back so that later ones overtake it
+    reorder_delay: float = 0.01
+    latency: float = 0.0
+    seed: int | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("loss_in", "loss_out", "duplicate", "reorder"):
+            value = getattr(self, name)
+            if not 0.0 <= value <= 1.0:
+                raise BridgeUsageError(f"{name.replace('_', '-')} must be between 0 and 1, got {value}")
+        if self.latency < 0 or self.reorder_delay < 0:
+            raise BridgeUsageError("latency and reorder delay must not be negative")
+
+    @classmethod
+    def lossy(cls, loss: float, duplicate: float = 0.0, reorder: float = 0.0, latency: float = 0.0,
+              seed: int | None = None) -> LinkFaults:
+        return cls(loss_in=loss, loss_out=loss, duplicate=duplicate, reorder=reorder, latency=latency, seed=seed)
+
+
+class _Writer:
+    """The file object a vehicle's pymavlink encoder writes to: hands bytes to the mock's link."""
+
+    def __init__(self, mock: MockAutopilot) -> None:
+        self.mock = mock
+
+    def write(self, buf: bytes) -> None:
+        self.mock._outgoing(bytes(buf))
+
+
+@dataclass
+class _Peer:
+    """A ground station we talk to: its address (UDP) or socket (TCP) and its signing-aware parser."""
+
+    key: Any
+    parser: Any
+    sock: socket.socket | None = None  # TCP client socket
+    framer: Any = None  # TCP: splits the stream into packets before the faults
+    last_seen: float = 0.0
+    alive: bool = True
+    stats: dict[str, int] = field(default_factory=lambda: {"in": 0, "out": 0})
+
+
+class MockAutopilot:
+    """A pure-Python autopilot simulator for one or many system ids on one loopback link."""
+
+    def __init__(self, listen: str = "udpin:127.0.0.1:0", sysids: Iterable[int] = (1,),
+                 flavour: Flavour | str = Flavour.ARDUPILOT, speedup: float = 1.0, faults: LinkFaults | None = None,
+                 key: SigningKey | None = None, request_interval: float | None = None,
+                 upload_timeout: float | None = None, homes: dict[int, tuple[float, float, float]] | None = None,
+                 cruise_speed: float = 5.0, max_items: int = 10_000) -> None:
+        self.spec = parse_url(listen, "--listen", allow_any_port=True)
+        if self.spec.scheme not in ("udpin", "udpout", "tcpin"):
+            raise BridgeUsageError(f"--listen {listen}: the mock serves udpin:, udpout: or tcpin: URLs")
+        if speedup <= 0:
+            raise BridgeUsageError(f"--speedup must be positive, got {speedup}")
+        self.flavour = Flavour(flavour)
+        self.faults = faults or LinkFaults()
+        self.key = key
+        self._rng = random.Random(self.faults.seed)
+        self._lock = threading.RLock()
+        self._queue: list[tuple[float, int, str, Any, bytes]] = []  # due, order, direction, peer key, bytes
+        self._order = itertools.count()
+        self._peers: dict[Any, _Peer] = {}
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._sock: socket.socket | None = None
+        self._listener: socket.socket | None = None
+        self._greet = False
+        self.stats = {"in": 0, "out": 0, "dropped_in": 0, "dropped_out": 0, "rejected": 0}
+        now = time.monotonic()
+        self.vehicles: dict[int, MockVehicle] = {}
+        base_home = (45.0703, 7.6869, 240.0)
+        for index, sysid in enumerate(sysids):
+            home = (homes or {}).get(sysid, (base_home[0] + 0.0005 * index, base_home[1], base_home[2]))
+            options = VehicleOptions(flavour=self.flavour, home=home, request_interval=request_interval,
+                                     upload_timeout=upload_timeout, speedup=speedup, cruise_speed=cruise_speed,
+                                     max_items=max_items)
+            encoder = mavlink.MAVLink(_Writer(self), srcSystem=sysid, srcComponent=1)
+            apply_key(encoder, key, link_id=index)
+            self.vehicles[sysid] = MockVehicle(sysid, options, encoder, now)
+        if not self.vehicles:
+            raise BridgeUsageError("the mock needs at least one system id")
+        self._open()
+
+    # ------------------------------------------------------------------------------ transport
+    def _open(self) -> None:
+        spec = self.spec
+        try:
+            if spec.scheme == "tcpin":
+                self._listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+                self._listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+                self._listener.bind((spec.host, spec.port))
+                self._listener.listen(8)
+                self._listener.setblocking(False)
+                self.address = self._listener.getsockname()[:2]
+            else:
+                self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+                if spec.scheme == "udpin":
+                    self._sock.bind((spec.host, spec.port))
+                else:
+                    self._sock.bind((spec.host, 0))
+                    self._peer(("udp", (socket.gethostbyname(spec.host), spec.port)), time.monotonic())
+                self._sock.setblocking(False)
+                self.address = self._sock.getsockname()[:2]
+        except OSError as err:
+            self.close_sockets()
+            raise BridgeUsageError(f"--listen {spec.url}: cannot open ({err.strerror})") from None
+
+    @property
+    def port(self) -> int:
+        return int(self.address[1])
+
+    @property
+    def client_url(self) -> str:
+        """The pymavlink URL a ground station uses to reach this mock."""
+        host = self.address[0]
+        if self.spec.scheme == "tcpin":
+            return f"tcp:{host}:{self.port}"
+        if self.spec.scheme == "udpin":
+            return f"udpout:{host}:{self.port}"
+        return f"udpin:{self.spec.host}:{self.spec.port}"
+
+    @property
+    def mavsdk_url(self) -> str:
+        """The same for MAVSDK's URL syntax."""
+        host = self.address[0]
+        if self.spec.scheme == "tcpin":
+            return f"tcpout://{host}:{self.port}"
+        if self.spec.scheme == "udpin":
+            return f"udpout://{host}:{self.port}"
+        return f"udpin://{self.spec.host}:{self.spec.port}"
+
+    def _new_parser(self) -> Any:
+        parser = mavlink.MAVLink(None, srcSystem=0, srcComponent=0)
+        parser.robust_parsing = True
+        apply_key(parser, self.key)
+        return parser
+
+    def _peer(self, key: Any, now: float, sock: socket.socket | None = None) -> _Peer:
+        peer = self._peers.get(key)
+        if peer is None:
+            if len(self._peers) >= MAX_PEERS:  # forget the quietest UDP peer
+                oldest = min((p for p in self._peers.values() if p.sock is None), key=lambda p: p.last_seen,
+                             default=None)
+                if oldest is not None:
+                    del self._peers[oldest.key]
+            framer = None
+            if sock is not None:
+                framer = mavlink.MAVLink(None)
+                framer.robust_parsing = True
+            peer = _Peer(key=key, parser=self._new_parser(), sock=sock, framer=framer)
+            self._peers[key] = peer
+            self._greet = True
+        peer.last_seen = now
+        return peer
+
+    def _outgoing(self, buf: bytes) -> None:
+        """A vehicle sent a packet: through the outbound faults to every peer."""
+        now = time.monotonic()
+        for peer in list(self._peers.values()):
+            self._through_faults("out", peer.key, buf, now)
+
+    def _through_faults(self, direction: str, peer_key: Any, buf: bytes, now: float) -> None:
+        f = self.faults
+        loss = f.loss_in if direction == "in" else f.loss_out
+        rng = self._rng
+        if loss and rng.random() < loss:
+            self.stats["dropped_" + direction] += 1
+            return
+        copies = 2 if f.duplicate and rng.random() < f.duplicate else 1
+        for _ in range(copies):
+            delay = f.latency
+            if f.reorder and rng.random() < f.reorder:
+                delay += f.reorder_delay * (0.5 + rng.random())
+            if delay <= 0:
+                self._deliver(direction, peer_key, buf, now)
+            else:
+                heapq.heappush(self._queue, (now + delay, next(self._order), direction, peer_key, buf))
+
+    def _deliver(self, direction: str, peer_key: Any, buf: bytes, now: float) -> None:
+        peer = self._peers.get(peer_key)
+        if peer is None or not peer.alive:
+            return
+        if direction == "out":
+            self.stats["out"] += 1
+            try:
+                if peer.sock is not None:
+                    peer.sock.sendall(buf)
+                elif self._sock is not None:
+                    self._sock.sendto(buf, peer_key[1])
+            except OSError:
+                if peer.sock is not None:
+                    self._drop_peer(peer)
+            return
+        self.stats["in"] += 1
+        before = peer.parser.signing.badsig_count + peer.parser.signing.reject_count
+        messages = peer.parser.parse_buffer(buf) or []
+        if peer.parser.signing.badsig_count + peer.parser.signing.reject_count > before:
+            self.stats["rejected"] += 1
+        for msg in messages:
+            if msg.get_type() == "BAD_DATA":
+                continue
+            for vehicle in self.vehicles.values():
+                vehicle.handle(msg, now)
+
+    def _drop_peer(self, peer: _Peer) -> None:
+        peer.alive = False
+        self._peers.pop(peer.key, None)
+        if peer.sock is not None:
+            try:
+                peer.sock.close()
+            except OSError:
+                pass
+
+    def _read(self, readable: list[Any], now: float) -> None:
+        if self._listener is not None and self._listener in readable:
+            try:
+                client, addr = self._listener.accept()
+                client.setblocking(False)
+                client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+                self._peer(("tcp", addr), now, sock=client)
+            except OSError:
+                pass
+        if self._sock is not None and self._sock in readable:
+            for _ in range(256):  # drain what is there, but let timers run
+                try:
+                    data, addr = self._sock.recvfrom(65535)
+                except (BlockingIOError, InterruptedError):
+                    break
+                except OSError:
+                    break  # e.g. ICMP port unreachable from a peer that went away
+                if self.spec.scheme == "udpout":
+                    key = next(iter(self._peers))  # our one destination; replies come from it
+                else:
+                    key = ("udp", addr)
+                self._peer(key, now)
+                self._through_faults("in", key, data, now)
+        for peer in list(self._peers.values()):
+            if peer.sock is None or peer.sock not in readable:
+                continue
+            try:
+                data = peer.sock.recv(65536)
+            except (BlockingIOError, InterruptedError):
+                continue
+            except OSError:
+                data = b""
+            if not data:
+                self._drop_peer(peer)
+                continue
+            peer.last_seen = now
+            for msg in peer.framer.parse_buffer(data) or []:
+                if msg.get_type() != "BAD_DATA":
+                    self._through_faults("in", peer.key, bytes(msg.get_msgbuf()), now)
+
+    # ------------------------------------------------------------------------------ the loop
+    def _loop_once(self) -> None:
+        now = time.monotonic()
+        timeout = TICK
+        if self._queue:
+            timeout = min(timeout, max(self._queue[0][0] - now, 0.0))
+        sockets: list[Any] = [s for s in (self._sock, self._listener) if s is not None]
+        sockets += [p.sock for p in self._peers.values() if p.sock is not None]
+        try:
+            readable, _, _ = select.select(sockets, [], [], timeout)
+        except (OSError, ValueError):
+            readable = []
+        with self._lock:
+            now = time.monotonic()
+            self._read(readable, now)
+            if self._greet:  # a new ground station: let it hear every vehicle now, not in up to 1 s
+                self._greet = False
+                for vehicle in self.vehicles.values():
+                    if vehicle.online:
+                        vehicle.send_heartbeat()
+            while self._queue and self._queue[0][0] <= now:
+                _, _, direction, peer_key, buf = heapq.heappop(self._queue)
+                self._deliver(direction, peer_key, buf, now)
+            for vehicle in self.vehicles.values():
+                vehicle.tick(now)
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            self._loop_once()
+
+    def start(self) -> MockAutopilot:
+        """Serve on a daemon thread until stop()."""
+        if self._thread is None:
+            self._stop.clear()
+            self._thread = threading.Thread(target=self._run, name=f"mock-autopilot-{self.port}", daemon=True)
+            self._thread.start()
+        return self
+
+    def stop(self, timeout: float = 2.0) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout)
+            self._thread = None
+        self.close_sockets()
+
+    def serve_forever(self) -> None:
+        """Serve on the calling thread until stop() or KeyboardInterrupt."""
+        try:
+            self._run()
+        finally:
+            self.close_sockets()
+
+    def close_sockets(self) -> None:
+        for peer in list(self._peers.values()):
+            if peer.sock is not None:
+                self._drop_peer(peer)
+        for sock in (self._sock, self._listener):
+            if sock is not None:
+                try:
+                    sock.close()
+                except OSError:
+                    pass
+        self._sock = self._listener = None
+
+    def __enter__(self) -> MockAutopilot:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    # ------------------------------------------------------------------------------ test helpers
+    def vehicle(self, sysid: int) -> MockVehicle:
+        return self.vehicles[sysid]
+
+    def mission(self, sysid: int, mission_type: int = 0) -> list[Any]:
+        """A copy of what vehicle sysid holds (thread-safe)."""
+        with self._lock:
+            return self.vehicles[sysid].mission(mission_type)
+
+    def set_faults(self, faults: LinkFaults) -> None:
+        with self._lock:
+            self.faults = faults
+            self._rng = random.Random(faults.seed)
+
+    def reboot_after_items(self, sysid: int, items: int, offline: float = 0.3) -> None:
+        """Vehicle sysid reboots once, when the next upload has delivered `items` items."""
+        with self._lock:
+            vehicle = self.vehicles[sysid]
+            vehicle.reboot_after_items = items
+            vehicle.reboot_offline = offline
+
+    def wait_until(self, predicate: Any, timeout: float) -> bool:
+        """Poll predicate(self) under the lock until true or timeout; returns the last value."""
+        deadline = time.monotonic() + timeout
+        while True:
+            with self._lock:
+                if predicate(self):
+                    return True
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.01)

@@ -1,0 +1,342 @@
+"""Kinematics of the mock autopilot: a point that flies a mission.
+
+Owns the flight of one vehicle in simulated time: takeoff climb, straight legs at the cruise speed
+(DO_CHANGE_SPEED changes it), the acceptance radius and hold time of waypoints, DO_JUMP, camera
+triggering by distance (DO_SET_CAM_TRIGG_DIST: photos counted and their positions kept), land and
+return-to-launch, and the flown track. No MAVLink here: the vehicle (mock_vehicle) feeds it the
+stored wire items and publishes the events it returns (current item changed, item reached).
+Positions use a local flat-earth approximation around home, good to centimetres over a city.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from .mission import (
+    CMD_DO_CHANGE_SPEED,
+    CMD_DO_JUMP,
+    CMD_DO_SET_CAM_TRIGG_DIST,
+    CMD_NAV_LAND,
+    CMD_NAV_RETURN_TO_LAUNCH,
+    CMD_NAV_TAKEOFF,
+    FRAME_GLOBAL,
+    FRAME_GLOBAL_INT,
+    WireItem,
+    is_global,
+)
+
+EARTH_RADIUS = 6_378_137.0
+NAV_COMMANDS_WITH_POSITION = frozenset({16, 17, 18, 19, 21, 22, 31})  # waypoint, loiters, land, takeoff
+
+
+@dataclass
+class FlightEvent:
+    kind: str  # "current" (new current item), "reached" (item reached), "landed", "done"
+    seq: int = 0
+
+
+@dataclass
+class FlightState:
+    lat: float
+    lon: float
+    alt: float  # metres above home
+    home: tuple[float, float, float]  # lat, lon, alt AMSL
+    armed: bool = False
+    mode: str = "LOITER"  # LOITER, AUTO, GUIDED, RTL, LAND, MANUAL
+    speed: float = 5.0
+    vz: float = 0.0
+    vn: float = 0.0
+    ve: float = 0.0
+    heading: float = 0.0
+    current: int = 0
+    mission_done: bool = False
+    photos: int = 0
+    photo_points: list[tuple[float, float]] = field(default_factory=list)
+    track: list[tuple[float, float, float, float]] = field(default_factory=list)  # t, lat, lon, alt
+    distance: float = 0.0
+    sim_time: float = 0.0
+
+    @property
+    def on_ground(self) -> bool:
+        return self.alt <= 0.01
+
+
+class FlightSim:
+    """Advances a FlightState through a mission in simulated seconds."""
+
+    def __init__(self, home: tuple[float, float, float], cruise_speed: float = 5.0, climb_rate: float = 2.5,
+                 land_rate: float = 1.5, default_acceptance: float = 1.0, track_interval: float = 1.0) -> None:
+        self.cruise_speed = cruise_speed
+        self.climb_rate = climb_rate
+        self.land_rate = land_rate
+        self.default_acceptance = default_acceptance
+        self.track_interval = track_interval
+        self.state = FlightState(lat=home[0], lon=home[1], alt=0.0, home=home, speed=cruise_speed)
+        self.items: list[WireItem] = []
+        self.first_seq = 0
+        self.last_seq: int | None = None
+        self._hold_left = 0.0
+        self._entered = False
+        self._trigger_dist = 0.0
+        self._trigger_acc = 0.0
+        self._jumps_left: dict[int, int] = {}
+        self._last_track = -math.inf
+
+    # ------------------------------------------------------------------------------- geometry
+    def _to_local(self, lat: float, lon: float) -> tuple[float, float]:
+        lat0, lon0 = self.state.home[0], self.state.home[1]
+        north = math.radians(lat - lat0) * EARTH_RADIUS
+        east = math.radians(lon - lon0) * EARTH_RADIUS * math.cos(math.radians(lat0))
+        return north, east
+
+    def _to_global(self, north: float, east: float) -> tuple[float, float]:
+        lat0, lon0 = self.state.home[0], self.state.home[1]
+        lat = lat0 + math.degrees(north / EARTH_RADIUS)
+        lon = lon0 + math.degrees(east / (EARTH_RADIUS * math.cos(math.radians(lat0))))
+        return lat, lon
+
+    def _target_of(self, item: WireItem) -> tuple[float, float, float]:
+        """Where a positional item points: lat, lon, altitude above home (0, 0 means here)."""
+        s = self.state
+        lat, lon = item.x / 1e7, item.y / 1e7
+        if not is_global(item.frame) or (item.x == 0 and item.y == 0):
+            lat, lon = s.lat, s.lon
+        alt = float(item.z)
+        if item.frame in (FRAME_GLOBAL, FRAME_GLOBAL_INT):
+            alt -= s.home[2]  # AMSL -> above home
+        return lat, lon, alt
+
+    # ------------------------------------------------------------------------------- control
+    def load(self, items: list[WireItem], first_seq: int) -> None:
+        self.items = list(items)
+        self.first_seq = first_seq
+        self.state.current = min(max(self.state.current, first_seq), max(len(items) - 1, 0))
+
+    def start_mission(self, first: int | None = None, last: int | None = None) -> list[FlightEvent]:
+        s = self.state
+        s.mode = "AUTO"
+        s.mission_done = False
+        self.last_seq = last
+        s.current = first if first is not None and first >= self.first_seq else self.first_seq
+        self._entered = False
+        self._jumps_left.clear()
+        return [FlightEvent("current", s.current)]
+
+    def set_current(self, seq: int) -> list[FlightEvent]:
+        self.state.current = seq
+        self.state.mission_done = False
+        self._entered = False
+        return [FlightEvent("current", seq)]
+
+    # ------------------------------------------------------------------------------- stepping
+    def advance(self, dt: float) -> list[FlightEvent]:
+        """Fly dt simulated seconds; returns the events to publish."""
+        events: list[FlightEvent] = []
+        s = self.state
+        s.vn = s.ve = s.vz = 0.0
+        remaining = dt
+        guard = 0
+        while remaining > 1e-9 and guard < 10_000:
+            guard += 1
+            if not s.armed:
+                break
+            used = self._step(remaining, events)
+            remaining -= used
+            if used <= 0 and not self._pending_instant():
+                break
+        s.sim_time += dt
+        if s.sim_time - self._last_track >= self.track_interval and s.armed:
+            self._last_track = s.sim_time
+            s.track.append((s.sim_time, s.lat, s.lon, s.alt))
+        return events
+
+    def _pending_instant(self) -> bool:
+        return self.state.mode == "AUTO" and not self.state.mission_done and self.state.current < len(self.items)
+
+    def _step(self, dt: float, events: list[FlightEvent]) -> float:
+        s = self.state
+        if s.mode == "AUTO":
+            return self._step_mission(dt, events)
+        if s.mode == "RTL":
+            return self._fly_home_and_land(dt, events)
+        if s.mode == "LAND":
+            return self._descend(dt, events)
+        return dt  # LOITER / GUIDED / MANUAL: hold position
+
+    def _finish_mission(self, events: list[FlightEvent]) -> None:
+        if self.state.mission_done:
+            return
+        self.state.mission_done = True
+        events.append(FlightEvent("done", self.state.current))
+
+    def _advance_item(self, events: list[FlightEvent], reached: bool) -> None:
+        s = self.state
+        if reached:
+            events.append(FlightEvent("reached", s.current))
+        if self.last_seq is not None and s.current >= self.last_seq:
+            self._finish_mission(events)
+            return
+        s.current += 1
+        self._entered = False
+        if s.current >= len(self.items):
+            s.current = len(self.items) - 1
+            self._finish_mission(events)
+            return
+        events.append(FlightEvent("current", s.current))
+
+    def _step_mission(self, dt: float, events: list[FlightEvent]) -> float:
+        s = self.state
+        if s.mission_done or s.current >= len(self.items):
+            if not s.mission_done:
+                self._finish_mission(events)
+            return dt
+        item = self.items[s.current]
+        cmd = item.command
+        if not self._entered:
+            self._entered = True
+            self._hold_left = float(item.param1) if cmd == 16 and item.param1 > 0 else 0.0
+            if cmd == CMD_DO_CHANGE_SPEED:
+                if item.param2 > 0:
+                    s.speed = float(item.param2)
+                self._advance_item(events, reached=False)
+                return 0.0
+            if cmd == CMD_DO_SET_CAM_TRIGG_DIST:
+                self._trigger_dist = max(float(item.param1), 0.0)
+                self._trigger_acc = 0.0
+                if item.param3 == 1:
+                    self._photo()
+                self._advance_item(events, reached=False)
+                return 0.0
+            if cmd == CMD_DO_JUMP:
+                target = int(round(item.param1))
+                repeats = int(round(item.param2))
+                left = self._jumps_left.setdefault(s.current, repeats if repeats >= 0 else 1_000_000)
+                if left > 0 and 0 <= target < len(self.items):
+                    self._jumps_left[s.current] = left - 1
+                    s.current = target
+                    self._entered = False
+                    events.append(FlightEvent("current", target))
+                else:
+                    self._advance_item(events, reached=False)
+                return 0.0
+            if cmd not in NAV_COMMANDS_WITH_POSITION and cmd not in (CMD_NAV_RETURN_TO_LAUNCH,):
+                self._advance_item(events, reached=False)  # other DO_ / condition commands: nothing to fly
+                return 0.0
+        if cmd == CMD_NAV_TAKEOFF:
+            target_alt = self._target_of(item)[2]
+            used, done = self._climb_to(target_alt, dt)
+            if done:
+                self._advance_item(events, reached=True)
+            return used
+        if cmd == CMD_NAV_RETURN_TO_LAUNCH:
+            used = self._fly_home_and_land(dt, events)
+            if s.on_ground and not s.armed:
+                self._advance_item(events, reached=True)
+            return used
+        if cmd == CMD_NAV_LAND:
+            lat, lon, _ = self._target_of(item)
+            used, arrived = self._fly_to(lat, lon, s.alt, dt, 0.05)
+            if not arrived:
+                return used
+            used2 = self._descend(dt - used, events)
+            if s.on_ground:
+                self._advance_item(events, reached=True)
+                self._finish_mission(events)
+            return used + used2
+        # waypoint (and loiter commands, flown as waypoints)
+        lat, lon, alt = self._target_of(item)
+        radius = float(item.param2) if item.param2 > 0 else self.default_acceptance
+        used, arrived = self._fly_to(lat, lon, alt, dt, radius)
+        if not arrived:
+            return used
+        if self._hold_left > 0:
+            hold = min(self._hold_left, dt - used)
+            self._hold_left -= hold
+            used += hold
+            if self._hold_left > 1e-9:
+                return used
+        self._advance_item(events, reached=True)
+        return used
+
+    def _photo(self) -> None:
+        s = self.state
+        s.photos += 1
+        s.photo_points.append((s.lat, s.lon))
+
+    def _climb_to(self, target_alt: float, dt: float) -> tuple[float, bool]:
+        s = self.state
+        delta = target_alt - s.alt
+        if abs(delta) <= 0.05:
+            return 0.0, True
+        step = self.climb_rate * dt
+        if abs(delta) <= step:
+            s.alt = target_alt
+            return abs(delta) / self.climb_rate, True
+        s.alt += math.copysign(step, delta)
+        s.vz = -math.copysign(self.climb_rate, delta)  # NED: down positive
+        return dt, False
+
+    def _fly_to(self, lat: float, lon: float, alt: float, dt: float, radius: float) -> tuple[float, bool]:
+        """Straight 3-D leg at the cruise speed; stops exactly at the target once within reach."""
+        s = self.state
+        n0, e0 = self._to_local(s.lat, s.lon)
+        n1, e1 = self._to_local(lat, lon)
+        dn, de, du = n1 - n0, e1 - e0, alt - s.alt
+        dist = math.sqrt(dn * dn + de * de + du * du)
+        if dist <= max(radius, 0.01):
+            return 0.0, True
+        speed = max(s.speed, 0.1)
+        step = speed * dt
+        if step >= dist:
+            frac, used = 1.0, dist / speed
+        else:
+            frac, used = step / dist, dt
+        horizontal = math.hypot(dn, de) * frac
+        s.lat, s.lon = self._to_global(n0 + dn * frac, e0 + de * frac)
+        s.alt += du * frac
+        s.distance += horizontal
+        if used > 0:
+            s.vn, s.ve, s.vz = dn * frac / used, de * frac / used, -du * frac / used
+        if horizontal > 0:
+            s.heading = math.degrees(math.atan2(de, dn)) % 360
+        self._count_photos(horizontal)
+        # Arrived once the remaining distance is inside the acceptance radius.
+        return used, frac >= 1.0 or dist * (1 - frac) <= radius
+
+    def _count_photos(self, horizontal: float) -> None:
+        if self._trigger_dist <= 0:
+            return
+        self._trigger_acc += horizontal
+        while self._trigger_acc >= self._trigger_dist:
+            self._trigger_acc -= self._trigger_dist
+            self._photo()
+
+    def _descend(self, dt: float, events: list[FlightEvent]) -> float:
+        s = self.state
+        if s.on_ground:
+            self._touchdown(events)
+            return dt
+        step = self.land_rate * dt
+        if step >= s.alt:
+            used = s.alt / self.land_rate
+            s.alt = 0.0
+            self._touchdown(events)
+            return used
+        s.alt -= step
+        s.vz = self.land_rate
+        return dt
+
+    def _touchdown(self, events: list[FlightEvent]) -> None:
+        s = self.state
+        if s.armed:
+            s.armed = False  # autopilots disarm after landing
+            events.append(FlightEvent("landed", s.current))
+        self._trigger_dist = 0.0
+
+    def _fly_home_and_land(self, dt: float, events: list[FlightEvent]) -> float:
+        s = self.state
+        used, arrived = self._fly_to(s.home[0], s.home[1], s.alt, dt, 0.05)
+        if not arrived:
+            return used
+        return used + self._descend(dt - used, events)

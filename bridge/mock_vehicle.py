@@ -1,0 +1,519 @@
+"""One simulated vehicle of the mock autopilot: its telemetry, mission protocol and commands.
+
+Owns the vehicle side of the mission protocol for every mission_type (mission, fence, rally):
+upload with re-requests on a timer and a give-up time-out (the old mission stays until an upload
+completes), download of any in-range item in any order, clear-all, set-current; COMMAND_LONG arm /
+disarm, mode changes, MAV_CMD_MISSION_START, DO_SET_MISSION_CURRENT and AUTOPILOT_VERSION requests,
+each answered with COMMAND_ACK; HEARTBEAT (quadrotor, ArduPilot or PX4), SYS_STATUS,
+GLOBAL_POSITION_INT, MISSION_CURRENT and MISSION_ITEM_REACHED; and the reboot fault (forget
+everything and go silent for a moment). The flight itself is mock_flight's; the link and the other
+faults are mock's. Everything here runs on the mock's one loop thread.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+from .mission import (
+    CMD_RALLY_POINT,
+    FRAME_GLOBAL,
+    GLOBAL_FRAMES,
+    Flavour,
+    MissionType,
+    WireItem,
+    encode_xy,
+    normalize_frame,
+)
+from .mock_flight import FlightEvent, FlightSim
+
+# MAV_MISSION_RESULT values the vehicle answers with.
+ACCEPTED, ERROR, UNSUPPORTED_FRAME, UNSUPPORTED, NO_SPACE = 0, 1, 2, 3, 4
+INVALID_PARAM5_X, INVALID_PARAM6_Y, INVALID_SEQUENCE, DENIED, OPERATION_CANCELLED = 10, 11, 13, 14, 15
+# MAV_RESULT for COMMAND_ACK.
+CMD_ACCEPTED, CMD_TEMPORARILY_REJECTED, CMD_DENIED, CMD_UNSUPPORTED, CMD_FAILED = 0, 1, 2, 3, 4
+
+MAV_TYPE_QUADROTOR = 2
+MAV_STATE_BOOT, MAV_STATE_STANDBY, MAV_STATE_ACTIVE = 1, 3, 4
+MODE_FLAG_CUSTOM, MODE_FLAG_AUTO, MODE_FLAG_GUIDED, MODE_FLAG_STABILIZE, MODE_FLAG_ARMED = 1, 4, 8, 16, 128
+CAPABILITIES = 4 | 8 | 256 | 8192 | 16384 | 32768  # MISSION_INT, COMMAND_INT, SET_POS_GLOBAL_INT, MAVLINK2, FENCE, RALLY
+
+# Mode names <-> custom_mode numbers. ArduCopter numbers directly; PX4 packs main mode << 16, sub mode << 24.
+ARDUPILOT_MODES = {"MANUAL": 0, "AUTO": 3, "GUIDED": 4, "LOITER": 5, "RTL": 6, "LAND": 9}
+PX4_MODES = {"MANUAL": 1 << 16, "GUIDED": (4 << 16) | (8 << 24), "LOITER": (4 << 16) | (3 << 24),
+             "AUTO": (4 << 16) | (4 << 24), "RTL": (4 << 16) | (5 << 24), "LAND": (4 << 16) | (6 << 24)}
+
+MISSION_COMMANDS_REJECTED = range(5000, 6000)  # fence and rally commands do not belong in a mission
+FENCE_COMMANDS = frozenset({5001, 5002, 5003, 5004})
+
+
+@dataclass
+class VehicleOptions:
+    """How one mock vehicle behaves. None picks the flavour's real-world default."""
+
+    flavour: Flavour = Flavour.ARDUPILOT
+    home: tuple[float, float, float] = (45.0703, 7.6869, 240.0)  # lat, lon, alt AMSL
+    request_interval: float | None = None  # re-request a missing item after this long (ArduPilot 1 s, PX4 0.25 s)
+    upload_timeout: float | None = None    # give a stalled upload up after this long (ArduPilot 8 s, PX4 5 s)
+    legacy_requests: bool | None = None    # ask with MISSION_REQUEST (#40) like ArduCopter does
+    max_items: int = 10_000
+    speedup: float = 1.0
+    cruise_speed: float = 5.0
+    telemetry_hz: float = 4.0
+
+    def resolved(self) -> VehicleOptions:
+        ardupilot = self.flavour is Flavour.ARDUPILOT
+        return replace(self,
+                       request_interval=self.request_interval or (1.0 if ardupilot else 0.25),
+                       upload_timeout=self.upload_timeout or (8.0 if ardupilot else 5.0),
+                       legacy_requests=ardupilot if self.legacy_requests is None else self.legacy_requests)
+
+
+@dataclass
+class _Upload:
+    mission_type: int
+    count: int
+    peer: tuple[int, int]
+    received: list[WireItem]
+    last_sent: float
+    last_progress: float
+
+
+class MockVehicle:
+    """The state and behaviour of one system id. Call handle() for each message and tick() often."""
+
+    def __init__(self, sysid: int, options: VehicleOptions, encoder: Any, now: float) -> None:
+        self.sysid = sysid
+        self.options = options.resolved()
+        self.flavour = self.options.flavour
+        self.mav = encoder  # pymavlink MAVLink with srcSystem=sysid, srcComponent=1, writing to the mock's link
+        self.reboots = 0
+        self.uploads_completed = 0
+        self.uploads_failed = 0
+        self.reboot_after_items: int | None = None
+        self.reboot_offline = 0.3
+        self._boot(now)
+
+    # ------------------------------------------------------------------------------ lifecycle
+    def _boot(self, now: float) -> None:
+        self._booting = True
+        self.boot_time = now
+        self.offline_until = 0.0
+        home = self.options.home
+        self.stores: dict[int, list[WireItem]] = {MissionType.MISSION: [], MissionType.FENCE: [], MissionType.RALLY: []}
+        if self.flavour.has_home_item(MissionType.MISSION):
+            self.stores[MissionType.MISSION] = [self._home_item()]
+        self.upload: _Upload | None = None
+        self.last_completed: tuple[int, int, tuple[int, int]] | None = None  # type, count, peer
+        self.flight = FlightSim(home, cruise_speed=self.options.cruise_speed)
+        self._load_flight()
+        self.reached: list[int] = []
+        self._last_tick = now
+        self._next_heartbeat = now
+        self._next_status = now
+        self._next_position = now
+
+    def _home_item(self) -> WireItem:
+        lat, lon, alt = self.options.home
+        return WireItem(seq=0, frame=FRAME_GLOBAL, command=16, current=0, autocontinue=1, param1=0.0, param2=0.0,
+                        param3=0.0, param4=0.0, x=encode_xy(FRAME_GLOBAL, lat), y=encode_xy(FRAME_GLOBAL, lon),
+                        z=float(alt), mission_type=0)
+
+    def reboot(self, now: float, offline: float | None = None) -> None:
+        """Forget every mission and the flight, and say nothing for `offline` seconds."""
+        self.reboots += 1
+        if self.upload is not None:
+            self.uploads_failed += 1
+        self._boot(now + (self.reboot_offline if offline is None else offline))
+        self.offline_until = now + (self.reboot_offline if offline is None else offline)
+
+    @property
+    def online(self) -> bool:
+        return self.offline_until <= 0.0
+
+    def mission(self, mission_type: int = MissionType.MISSION) -> list[WireItem]:
+        return list(self.stores[int(mission_type)])
+
+    @property
+    def first_mission_seq(self) -> int:
+        return 1 if self.flavour.has_home_item(MissionType.MISSION) else 0
+
+    def _load_flight(self) -> None:
+        self.flight.load(self.stores[MissionType.MISSION], self.first_mission_seq)
+
+    # ------------------------------------------------------------------------------ sending
+    def _time_boot_ms(self, now: float) -> int:
+        return max(int((now - self.boot_time) * 1000), 0)
+
+    def _custom_mode(self) -> int:
+        table = ARDUPILOT_MODES if self.flavour is Flavour.ARDUPILOT else PX4_MODES
+        return table.get(self.flight.state.mode, 0)
+
+    def send_heartbeat(self) -> None:
+        s = self.flight.state
+        base = MODE_FLAG_CUSTOM | MODE_FLAG_STABILIZE | MODE_FLAG_GUIDED
+        if s.mode == "AUTO":
+            base |= MODE_FLAG_AUTO
+        if s.armed:
+            base |= MODE_FLAG_ARMED
+        status = MAV_STATE_ACTIVE if s.armed else MAV_STATE_STANDBY
+        if self._booting:
+            status = MAV_STATE_BOOT  # the first heartbeat after a (re)boot, as autopilots report
+            self._booting = False
+        self.mav.heartbeat_send(MAV_TYPE_QUADROTOR, self.flavour.autopilot, base, self._custom_mode(), status)
+
+    def _send_status(self, now: float) -> None:
+        sensors = 0x0020_FFFF
+        self.mav.sys_status_send(sensors, sensors, sensors, 200, 16_000, 1_000, 90, 0, 0, 0, 0, 0, 0)
+        self._send_mission_current()
+
+    def _send_position(self, now: float) -> None:
+        s = self.flight.state
+        home_alt = s.home[2]
+        self.mav.global_position_int_send(self._time_boot_ms(now), int(round(s.lat * 1e7)), int(round(s.lon * 1e7)),
+                                          int(round((home_alt + s.alt) * 1000)), int(round(s.alt * 1000)),
+                                          int(round(s.vn * 100)), int(round(s.ve * 100)), int(round(s.vz * 100)),
+                                          int(round(s.heading * 100)) % 36000)
+
+    def _send_mission_current(self, seq: int | None = None) -> None:
+        s = self.flight.state
+        items = self.stores[MissionType.MISSION]
+        total = len(items)
+        if total <= self.first_mission_seq:
+            state = 1  # MISSION_STATE_NO_MISSION
+        elif s.mission_done:
+            state = 5  # COMPLETE
+        elif s.mode == "AUTO" and s.armed:
+            state = 3  # ACTIVE
+        else:
+            state = 2  # NOT_STARTED
+        self.mav.mission_current_send(s.current if seq is None else seq, total, state, 1 if s.mode == "AUTO" else 0)
+
+    # ------------------------------------------------------------------------------ ticking
+    def tick(self, now: float) -> None:
+        if not self.online:
+            if now < self.offline_until:
+                self._last_tick = now
+                return
+            self.offline_until = 0.0  # back from the reboot
+            self.boot_time = now
+        dt = max(now - self._last_tick, 0.0)
+        self._last_tick = now
+        if dt > 0 and self.flight.state.armed:
+            self._publish(self.flight.advance(dt * self.options.speedup))
+        if now >= self._next_heartbeat:
+            self._next_heartbeat = now + 1.0
+            self.send_heartbeat()
+        if now >= self._next_status:
+            self._next_status = now + 1.0
+            self._send_status(now)
+        if now >= self._next_position:
+            self._next_position = now + 1.0 / self.options.telemetry_hz
+            self._send_position(now)
+        self._upload_timers(now)
+
+    def _publish(self, events: list[FlightEvent]) -> None:
+        for event in events:
+            if event.kind == "current":
+                self._send_mission_current(event.seq)  # each change, even several in one step
+            elif event.kind == "reached":
+                self.reached.append(event.seq)
+                self.mav.mission_item_reached_send(event.seq)
+            elif event.kind in ("landed", "done"):
+                self._send_mission_current()
+                self.send_heartbeat()
+
+    def _upload_timers(self, now: float) -> None:
+        up = self.upload
+        if up is None:
+            return
+        if now - up.last_progress >= self.options.upload_timeout:
+            self.upload = None
+            self.uploads_failed += 1
+            self._ack(up.peer, up.mission_type, OPERATION_CANCELLED)  # the old mission stays
+            return
+        if now - up.last_sent >= self.options.request_interval:
+            self._request(up, now)
+
+    # ------------------------------------------------------------------------------ receiving
+    def handle(self, msg: Any, now: float) -> None:
+        if not self.online:
+            return
+        target = getattr(msg, "target_system", None)
+        if target is not None and target not in (0, self.sysid):
+            return  # for another vehicle on the same link
+        target_comp = getattr(msg, "target_component", None)
+        if target_comp is not None and target_comp not in (0, 1):
+            return
+        kind = msg.get_type()
+        handler = _HANDLERS.get(kind)
+        if handler is not None:
+            handler(self, msg, (msg.get_srcSystem(), msg.get_srcComponent()), now)
+
+    def _ack(self, peer: tuple[int, int], mission_type: int, result: int) -> None:
+        self.mav.mission_ack_send(peer[0], peer[1], result, mission_type)
+
+    def _request(self, up: _Upload, now: float) -> None:
+        seq = len(up.received)
+        if self.options.legacy_requests:
+            self.mav.mission_request_send(up.peer[0], up.peer[1], seq, up.mission_type)
+        else:
+            self.mav.mission_request_int_send(up.peer[0], up.peer[1], seq, up.mission_type)
+        up.last_sent = now
+
+    # -- upload
+    def _on_count(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        mission_type = int(getattr(msg, "mission_type", 0))
+        if mission_type not in self.stores:
+            self._ack(peer, mission_type, UNSUPPORTED)
+            return
+        if self.upload is not None and self.upload.peer != peer:
+            self._ack(peer, mission_type, DENIED)  # another ground station is uploading
+            return
+        count = int(msg.count)
+        if count > self.options.max_items:
+            self.upload = None
+            self._ack(peer, mission_type, NO_SPACE)
+            return
+        if count == 0:
+            self.upload = None
+            self._commit(mission_type, [], peer)
+            return
+        # A new (or repeated) count starts the requests over from item 0.
+        self.upload = _Upload(mission_type, count, peer, [], last_sent=now, last_progress=now)
+        self._request(self.upload, now)
+
+    def _check_item(self, item: WireItem) -> int:
+        """The MAV_MISSION_RESULT an item earns: ACCEPTED or why not."""
+        frame, command = item.frame, item.command
+        if item.mission_type == MissionType.FENCE:
+            if command not in FENCE_COMMANDS:
+                return UNSUPPORTED
+        elif item.mission_type == MissionType.RALLY:
+            if command != CMD_RALLY_POINT:
+                return UNSUPPORTED
+        elif command in MISSION_COMMANDS_REJECTED:
+            return UNSUPPORTED
+        if frame not in GLOBAL_FRAMES and frame != 2:
+            return UNSUPPORTED_FRAME
+        if frame in GLOBAL_FRAMES:
+            if abs(item.x) > 900_000_000:
+                return INVALID_PARAM5_X
+            if abs(item.y) > 1_800_000_000:
+                return INVALID_PARAM6_Y
+        if not all(math.isfinite(v) or math.isnan(v) for v in (item.param1, item.param2, item.param3, item.param4)):
+            return ERROR
+        return ACCEPTED
+
+    def _on_item(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        item = WireItem.from_message(msg)
+        up = self.upload
+        if up is None or up.peer != peer or up.mission_type != item.mission_type:
+            done = self.last_completed
+            if done is not None and done[0] == item.mission_type and done[2] == peer and item.seq < done[1]:
+                if item.seq == done[1] - 1:
+                    self._ack(peer, item.mission_type, ACCEPTED)  # the last item again: our ACK was lost
+                return  # a late copy of an item of the finished upload
+            if up is None:
+                self._ack(peer, item.mission_type, ERROR)  # no upload in progress (after a reboot, say)
+            return
+        if item.seq != len(up.received):
+            return  # out of order or repeated: the timer re-requests what is missing
+        result = self._check_item(item)
+        if result != ACCEPTED:
+            self.upload = None
+            self.uploads_failed += 1
+            self._ack(peer, up.mission_type, result)
+            return
+        up.received.append(item)
+        up.last_progress = now
+        if self.reboot_after_items is not None and len(up.received) >= self.reboot_after_items:
+            self.reboot_after_items = None
+            self.reboot(now)
+            return
+        if len(up.received) == up.count:
+            self.upload = None
+            self._commit(up.mission_type, up.received, peer)
+        else:
+            self._request(up, now)
+
+    def _commit(self, mission_type: int, items: list[WireItem], peer: tuple[int, int]) -> None:
+        """The upload completed: the new list replaces the old one."""
+        stored = [replace(it, current=0, frame=self._stored_frame(it.frame)) for it in items]
+        if self.flavour.has_home_item(mission_type):
+            # ArduPilot keeps its own home as item 0, whatever was uploaded there.
+            stored = [self._home_item()] + stored[1:]
+        self.stores[mission_type] = stored
+        self.uploads_completed += 1
+        self.last_completed = (mission_type, len(items), peer)
+        if mission_type == MissionType.MISSION:
+            s = self.flight.state
+            s.current = self.first_mission_seq
+            s.mission_done = False
+            self._load_flight()
+        self._ack(peer, mission_type, ACCEPTED)
+        self._send_mission_current()
+
+    def _stored_frame(self, frame: int) -> int:
+        # ArduPilot answers downloads with the plain frame numbers (6 comes back as 3, 5 as 0).
+        return normalize_frame(frame) if self.flavour is Flavour.ARDUPILOT else frame
+
+    def _on_gcs_ack(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        up = self.upload
+        if up is not None and up.peer == peer and int(getattr(msg, "mission_type", 0)) == up.mission_type:
+            if int(msg.type) != ACCEPTED:
+                self.upload = None  # the ground station cancelled: keep the old mission
+                self.uploads_failed += 1
+
+    # -- download
+    def _on_request_list(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        mission_type = int(getattr(msg, "mission_type", 0))
+        if mission_type not in self.stores:
+            self._ack(peer, mission_type, UNSUPPORTED)
+            return
+        self.mav.mission_count_send(peer[0], peer[1], len(self.stores[mission_type]), mission_type)
+
+    def _on_request(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        mission_type = int(getattr(msg, "mission_type", 0))
+        store = self.stores.get(mission_type)
+        if store is None:
+            self._ack(peer, mission_type, UNSUPPORTED)
+            return
+        seq = int(msg.seq)
+        if not 0 <= seq < len(store):
+            self._ack(peer, mission_type, INVALID_SEQUENCE)
+            return
+        item = replace(store[seq], seq=seq, current=1 if seq == self.flight.state.current and mission_type == 0 else 0)
+        if msg.get_type() == "MISSION_REQUEST":  # legacy request: legacy float item
+            x = item.x / 1e7 if item.frame in GLOBAL_FRAMES else float(item.x)
+            y = item.y / 1e7 if item.frame in GLOBAL_FRAMES else float(item.y)
+            self.mav.mission_item_send(peer[0], peer[1], seq, item.frame, item.command, item.current,
+                                       item.autocontinue, item.param1, item.param2, item.param3, item.param4,
+                                       x, y, item.z, mission_type)
+        else:
+            self.mav.mission_item_int_send(peer[0], peer[1], **item.fields())
+
+    # -- clear, set current
+    def _on_clear_all(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        mission_type = int(getattr(msg, "mission_type", 0))
+        types = list(self.stores) if mission_type == MissionType.ALL else [mission_type]
+        if any(t not in self.stores for t in types):
+            self._ack(peer, mission_type, UNSUPPORTED)
+            return
+        if self.flight.state.armed and self.flight.state.mode == "AUTO" and MissionType.MISSION in types:
+            self._ack(peer, mission_type, DENIED)  # not while flying it
+            return
+        for t in types:
+            self.stores[t] = [self._home_item()] if self.flavour.has_home_item(t) else []
+        if MissionType.MISSION in types:
+            self.flight.state.current = self.first_mission_seq
+            self._load_flight()
+        self._ack(peer, mission_type, ACCEPTED)
+
+    def _set_current(self, seq: int) -> bool:
+        if not 0 <= seq < len(self.stores[MissionType.MISSION]):
+            return False
+        self.flight.set_current(max(seq, self.first_mission_seq))
+        self._send_mission_current()
+        return True
+
+    def _on_set_current(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        if not self._set_current(int(msg.seq)):
+            self._send_mission_current()  # unchanged: the ground station sees its request failed
+
+    # -- commands
+    def _on_set_mode(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        self._apply_mode(int(msg.custom_mode), None)
+
+    def _apply_mode(self, custom: int, px4_sub: int | None) -> bool:
+        if self.flavour is Flavour.ARDUPILOT:
+            names = {v: k for k, v in ARDUPILOT_MODES.items()}
+            name = names.get(custom)
+        else:
+            if px4_sub is not None:  # DO_SET_MODE: param2 main mode, param3 sub mode
+                custom = (custom << 16) | (px4_sub << 24)
+            names = {v: k for k, v in PX4_MODES.items()}
+            name = names.get(custom)
+        if name is None:
+            return False
+        s = self.flight.state
+        if name == "AUTO":
+            if len(self.stores[MissionType.MISSION]) <= self.first_mission_seq:
+                return False
+            s.mode = "AUTO"
+            s.mission_done = False
+        else:
+            s.mode = name
+        self.send_heartbeat()
+        return True
+
+    def _on_command(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        command = int(msg.command)
+        p = [float(getattr(msg, f"param{i}", 0.0) or 0.0) for i in range(1, 8)]
+        result = self._command(command, p, now)
+        self.mav.command_ack_send(command, result, 0, 0, peer[0], peer[1])
+
+    def _command(self, command: int, p: list[float], now: float) -> int:
+        s = self.flight.state
+        if command == 400:  # COMPONENT_ARM_DISARM
+            if p[0] >= 0.5:
+                s.armed = True
+            else:
+                if not s.on_ground and int(p[1]) != 21196:  # 21196 forces a disarm in flight
+                    return CMD_DENIED
+                s.armed = False
+            self.send_heartbeat()
+            return CMD_ACCEPTED
+        if command == 176:  # DO_SET_MODE
+            ok = self._apply_mode(int(p[1]), int(p[2]) if self.flavour is not Flavour.ARDUPILOT else None)
+            return CMD_ACCEPTED if ok else CMD_DENIED
+        if command == 300:  # MISSION_START
+            if len(self.stores[MissionType.MISSION]) <= self.first_mission_seq:
+                return CMD_DENIED
+            if not s.armed:
+                return CMD_DENIED
+            first = int(p[0]) if p[0] > 0 else None
+            last = int(p[1]) if p[1] > 0 else None
+            self._publish(self.flight.start_mission(first, last))
+            self.send_heartbeat()
+            return CMD_ACCEPTED
+        if command == 224:  # DO_SET_MISSION_CURRENT
+            return CMD_ACCEPTED if self._set_current(int(p[0])) else CMD_DENIED
+        if command == 20:  # NAV_RETURN_TO_LAUNCH
+            s.mode = "RTL"
+            return CMD_ACCEPTED
+        if command == 21:  # NAV_LAND
+            s.mode = "LAND"
+            return CMD_ACCEPTED
+        if command in (512, 520):  # REQUEST_MESSAGE (AUTOPILOT_VERSION), REQUEST_AUTOPILOT_CAPABILITIES
+            if command == 520 or int(p[0]) == 148:
+                self._send_version()
+                return CMD_ACCEPTED
+            if int(p[0]) == 0:
+                self.send_heartbeat()
+                return CMD_ACCEPTED
+            return CMD_UNSUPPORTED
+        if command == 511:  # SET_MESSAGE_INTERVAL: streams run at fixed rates here
+            return CMD_ACCEPTED
+        return CMD_UNSUPPORTED
+
+    def _send_version(self) -> None:
+        self.mav.autopilot_version_send(CAPABILITIES, (4 << 24) | (6 << 16), 0, 0, 0, [0] * 8, [0] * 8, [0] * 8,
+                                        0, 0, self.sysid)
+
+
+_HANDLERS = {
+    "MISSION_COUNT": MockVehicle._on_count,
+    "MISSION_ITEM_INT": MockVehicle._on_item,
+    "MISSION_ITEM": MockVehicle._on_item,
+    "MISSION_ACK": MockVehicle._on_gcs_ack,
+    "MISSION_REQUEST_LIST": MockVehicle._on_request_list,
+    "MISSION_REQUEST_INT": MockVehicle._on_request,
+    "MISSION_REQUEST": MockVehicle._on_request,
+    "MISSION_CLEAR_ALL": MockVehicle._on_clear_all,
+    "MISSION_SET_CURRENT": MockVehicle._on_set_current,
+    "SET_MODE": MockVehicle._on_set_mode,
+    "COMMAND_LONG": MockVehicle._on_command,
+    "COMMAND_INT": MockVehicle._on_command,
+}

@@ -1,0 +1,319 @@
+"""The ground-station side of the MAVLink mission protocol over a pymavlink Link.
+
+Owns upload (MISSION_COUNT -> MISSION_REQUEST_INT / legacy MISSION_REQUEST -> MISSION_ITEM_INT ->
+MISSION_ACK), download (MISSION_REQUEST_LIST -> MISSION_COUNT -> MISSION_REQUEST_INT ->
+MISSION_ITEM_INT -> MISSION_ACK), clear-all and set-current, for every mission_type, addressed to one
+system and component and deaf to every other one on the link.
+
+Time-outs and retries: each side re-sends its last message when the answer does not come. The
+re-send interval adapts to the measured round trip (like TCP's retransmission timer: four times the
+smoothed round trip, at least `min_retry`, at most `item_timeout`, the 1.5 s QGroundControl uses), so a
+lossy loopback link is fast and a slow radio link is not flooded. A step gives up after
+`item_timeout * (retries + 1)` without progress. During an upload the vehicle drives: any request,
+in order, out of order or repeated, is answered with that item; the upload succeeds only at a
+MISSION_ACK ACCEPTED after the last item was asked for. Every MAV_MISSION_RESULT has a message.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from .errors import BridgeError
+from .link import GCS_SYSTEM_ID, Link, VehicleInfo
+from .mission import MissionType, WireItem
+
+ProgressFn = Callable[[int, int], None]  # (items done, items in all)
+
+MAV_MISSION_ACCEPTED = 0
+MAV_MISSION_ERROR = 1
+MAV_MISSION_INVALID_SEQUENCE = 13
+MAV_MISSION_OPERATION_CANCELLED = 15
+
+RESULT_TEXT: dict[int, str] = {
+    0: "accepted",
+    1: "generic error: the vehicle refused the mission (MAV_MISSION_ERROR)",
+    2: "an item uses a coordinate frame the vehicle does not support (MAV_MISSION_UNSUPPORTED_FRAME)",
+    3: "an item uses a command or mission type the vehicle does not support (MAV_MISSION_UNSUPPORTED)",
+    4: "the vehicle has no space for this many items (MAV_MISSION_NO_SPACE)",
+    5: "an item has an invalid parameter (MAV_MISSION_INVALID)",
+    6: "an item has an invalid param1 (MAV_MISSION_INVALID_PARAM1)",
+    7: "an item has an invalid param2 (MAV_MISSION_INVALID_PARAM2)",
+    8: "an item has an invalid param3 (MAV_MISSION_INVALID_PARAM3)",
+    9: "an item has an invalid param4 (MAV_MISSION_INVALID_PARAM4)",
+    10: "an item has an invalid x / latitude (MAV_MISSION_INVALID_PARAM5_X)",
+    11: "an item has an invalid y / longitude (MAV_MISSION_INVALID_PARAM6_Y)",
+    12: "an item has an invalid z / altitude (MAV_MISSION_INVALID_PARAM7)",
+    13: "items arrived out of sequence (MAV_MISSION_INVALID_SEQUENCE)",
+    14: "the vehicle denied the operation, e.g. busy with another transfer or flying (MAV_MISSION_DENIED)",
+    15: "the operation was cancelled, e.g. the vehicle timed out waiting for items (MAV_MISSION_OPERATION_CANCELLED)",
+}
+
+
+def result_text(result: int) -> str:
+    return RESULT_TEXT.get(result, f"unknown result {result}")
+
+
+class MissionTransferError(BridgeError):
+    """A mission transfer failed; result is the MAV_MISSION_RESULT when the vehicle sent one."""
+
+    def __init__(self, message: str, result: int | None = None) -> None:
+        super().__init__(message)
+        self.result = result
+
+
+@dataclass
+class Timeouts:
+    """Protocol timing on the ground-station side."""
+
+    item_timeout: float = 1.5  # longest wait before re-sending (QGroundControl's per-step time-out)
+    retries: int = 5           # a step fails after item_timeout * (retries + 1) without progress
+    min_retry: float = 0.01    # shortest re-send interval, whatever the round trip
+    first_retry: float = 0.25  # re-send interval before any round trip was measured
+
+    @property
+    def step_limit(self) -> float:
+        return self.item_timeout * (self.retries + 1)
+
+
+class _RetryTimer:
+    """Adaptive re-send interval from measured round trips (Karn: only first sends are timed)."""
+
+    def __init__(self, timeouts: Timeouts) -> None:
+        self.t = timeouts
+        self.srtt: float | None = None
+
+    def sample(self, rtt: float) -> None:
+        self.srtt = rtt if self.srtt is None else 0.875 * self.srtt + 0.125 * rtt
+
+    @property
+    def interval(self) -> float:
+        if self.srtt is None:
+            return min(self.t.first_retry, self.t.item_timeout)
+        return min(max(4.0 * self.srtt + 0.002, self.t.min_retry), self.t.item_timeout)
+
+
+class MissionClient:
+    """Mission protocol with one vehicle over a Link. Not thread-safe: one transfer at a time."""
+
+    def __init__(self, link: Link, vehicle: VehicleInfo, timeouts: Timeouts | None = None) -> None:
+        self.link = link
+        self.vehicle = vehicle
+        self.timeouts = timeouts or Timeouts()
+        self.timer = _RetryTimer(self.timeouts)
+
+    # ------------------------------------------------------------------------------------ helpers
+    @property
+    def _name(self) -> str:
+        return f"vehicle {self.vehicle.sysid}"
+
+    def _ours(self, msg: object) -> bool:
+        """From our vehicle (system and component) and addressed to us or to everyone."""
+        get_src = getattr(msg, "get_srcSystem", None)
+        if get_src is None or get_src() != self.vehicle.sysid:
+            return False
+        if msg.get_srcComponent() != self.vehicle.compid:  # type: ignore[attr-defined]
+            return False
+        target = getattr(msg, "target_system", 0)
+        return target in (0, self.link.mav.srcSystem, GCS_SYSTEM_ID) if target else True
+
+    def _recv(self, deadline: float) -> object | None:
+        """Our vehicle's next message before deadline."""
+        while True:
+            msg = self.link.recv(deadline)
+            if msg is None or self._ours(msg):
+                return msg
+
+    def _silence_hint(self) -> str:
+        if self.vehicle.signed and self.link.key is None:
+            return (" Its packets are signed (MAVLink 2 signing) and ours are not: it ignores us without the right "
+                    "--signing-key.")
+        if self.link.bad_signatures:
+            return " Some of its packets were refused for a bad signature: check --signing-key."
+        return ""
+
+    def _rebooted_since(self, start_reboots: int) -> bool:
+        return self.link.reboots.get(self.vehicle.sysid, 0) > start_reboots
+
+    def _ack(self, mission_type: int, result: int) -> None:
+        self.link.mav.mission_ack_send(self.vehicle.sysid, self.vehicle.compid, result, mission_type)
+
+    # ------------------------------------------------------------------------------------- upload
+    def upload(self, mission_type: int, items: list[WireItem], progress: ProgressFn | None = None) -> None:
+        """Upload items (seq 0..n-1). Returns at MISSION_ACK ACCEPTED, raises MissionTransferError otherwise."""
+        mission_type = int(mission_type)
+        label = MissionType(mission_type).label
+        count = len(items)
+        for index, item in enumerate(items):
+            if item.seq != index or item.mission_type != mission_type:
+                raise ValueError("upload items must have seq 0..n-1 and the upload's mission_type")
+        mav, sysid, compid = self.link.mav, self.vehicle.sysid, self.vehicle.compid
+        start_reboots = self.link.reboots.get(sysid, 0)
+        step_limit = self.timeouts.step_limit
+
+        def send_count() -> None:
+            mav.mission_count_send(sysid, compid, count, mission_type)
+
+        def send_item(seq: int) -> None:
+            mav.mission_item_int_send(sysid, compid, **{**items[seq].fields(), "mission_type": mission_type})
+
+        send_count()
+        now = time.monotonic()
+        last_progress = now
+        last_sent_at = now
+        first_send: dict[int, float] = {-1: now}  # seq -> time first sent, for round-trip samples
+        timed_out: set[int] = set()
+        sent_seq = -1  # the last thing we sent: -1 is the count
+        highest = -1
+        requested_any = False
+        while True:
+            deadline = min(last_sent_at + self.timer.interval, last_progress + step_limit)
+            msg = self._recv(deadline)
+            now = time.monotonic()
+            if msg is None:
+                if now - last_progress >= step_limit:
+                    self._ack(mission_type, MAV_MISSION_OPERATION_CANCELLED)  # let the vehicle stop waiting
+                    if self._rebooted_since(start_reboots):
+                        raise MissionTransferError(f"{self._name} rebooted during the {label} upload (after {highest + 1} "
+                                                   f"of {count} items); the upload did not complete")
+                    where = "answered nothing" if not requested_any else f"stopped asking after {highest + 1} of {count} items"
+                    raise MissionTransferError(f"{self._name} {where} for {step_limit:g} s during the {label} upload; "
+                                               f"the upload did not complete.{self._silence_hint()}")
+                timed_out.add(sent_seq)
+                if requested_any:
+                    send_item(sent_seq)  # vehicles re-request by themselves; this only helps ones that don't
+                else:
+                    send_count()
+                last_sent_at = now
+                continue
+            kind = msg.get_type()
+            if kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
+                if int(getattr(msg, "mission_type", 0)) != mission_type:
+                    continue
+                seq = int(msg.seq)
+                if not 0 <= seq < count:
+                    # A request from an earlier, longer transfer can arrive late; only a fresh one is an error.
+                    continue
+                if seq == sent_seq + 1 and sent_seq not in timed_out and sent_seq in first_send:
+                    self.timer.sample(now - first_send[sent_seq])
+                requested_any = True
+                if seq > highest:
+                    highest = seq
+                    last_progress = now
+                    if progress is not None:
+                        progress(seq, count)
+                first_send.setdefault(seq, now)
+                send_item(seq)
+                sent_seq = seq
+                last_sent_at = now
+            elif kind == "MISSION_ACK":
+                if int(getattr(msg, "mission_type", 0)) != mission_type:
+                    continue
+                result = int(msg.type)
+                if result == MAV_MISSION_ACCEPTED:
+                    if count == 0 or highest == count - 1:
+                        if progress is not None:
+                            progress(count, count)
+                        return
+                    continue  # a late ACCEPTED from an earlier transfer
+                if result == MAV_MISSION_INVALID_SEQUENCE and requested_any:
+                    continue  # ArduPilot's mid-upload complaint about a repeated item: not the end
+                if self._rebooted_since(start_reboots):
+                    raise MissionTransferError(f"{self._name} rebooted during the {label} upload (after {highest + 1} of "
+                                               f"{count} items) and answered: {result_text(result)}; the upload did not "
+                                               "complete", result)
+                if result == MAV_MISSION_ERROR and requested_any:
+                    raise MissionTransferError(f"{self._name} dropped the {label} upload after {highest + 1} of {count} "
+                                               "items (MAV_MISSION_ERROR: it no longer knows this transfer; did it "
+                                               "reboot?); the upload did not complete", result)
+                raise MissionTransferError(f"{self._name} refused the {label} upload after {highest + 1} of {count} "
+                                           f"items: {result_text(result)}", result)
+
+    # ----------------------------------------------------------------------------------- download
+    def download(self, mission_type: int, progress: ProgressFn | None = None) -> list[WireItem]:
+        """All items of one mission_type, in seq order."""
+        mission_type = int(mission_type)
+        label = MissionType(mission_type).label
+        mav, sysid, compid = self.link.mav, self.vehicle.sysid, self.vehicle.compid
+        step_limit = self.timeouts.step_limit
+
+        def request_list() -> None:
+            mav.mission_request_list_send(sysid, compid, mission_type)
+
+        count = self._exchange(request_list, lambda m: m.get_type() == "MISSION_COUNT"
+                               and int(getattr(m, "mission_type", 0)) == mission_type,
+                               f"the {label} count", mission_type)
+        total = int(count.count)  # type: ignore[attr-defined]
+        items: list[WireItem] = []
+        for seq in range(total):
+            def request(seq: int = seq) -> None:
+                mav.mission_request_int_send(sysid, compid, seq, mission_type)
+
+            msg = self._exchange(request, lambda m, seq=seq: m.get_type() in ("MISSION_ITEM_INT", "MISSION_ITEM")
+                                 and int(m.seq) == seq and int(getattr(m, "mission_type", 0)) == mission_type,
+                                 f"{label} item {seq} of {total}", mission_type, step_limit)
+            items.append(WireItem.from_message(msg))
+            if progress is not None:
+                progress(seq + 1, total)
+        self._ack(mission_type, MAV_MISSION_ACCEPTED)
+        return items
+
+    def _exchange(self, send: Callable[[], None], wanted: Callable[[object], bool], what: str,
+                  mission_type: int, step_limit: float | None = None) -> object:
+        """Send, re-send at the retry interval, until a wanted message comes; a MISSION_ACK error fails."""
+        step_limit = self.timeouts.step_limit if step_limit is None else step_limit
+        start = time.monotonic()
+        send()
+        first = True
+        sent_at = start
+        while True:
+            msg = self._recv(min(sent_at + self.timer.interval, start + step_limit))
+            now = time.monotonic()
+            if msg is None:
+                if now - start >= step_limit:
+                    raise MissionTransferError(f"{self._name} did not send {what} within {step_limit:g} s."
+                                               f"{self._silence_hint()}")
+                send()
+                first = False
+                sent_at = now
+                continue
+            if wanted(msg):
+                if first:
+                    self.timer.sample(now - sent_at)
+                return msg
+            if msg.get_type() == "MISSION_ACK" and int(getattr(msg, "mission_type", 0)) == mission_type:
+                result = int(msg.type)  # type: ignore[attr-defined]
+                if result not in (MAV_MISSION_ACCEPTED, MAV_MISSION_OPERATION_CANCELLED):
+                    # OPERATION_CANCELLED can be a late answer to an earlier transfer; ACCEPTED likewise.
+                    raise MissionTransferError(f"{self._name} refused to send {what}: {result_text(result)}", result)
+
+    # -------------------------------------------------------------------------- clear, set current
+    def clear(self, mission_type: int = MissionType.MISSION) -> None:
+        """MISSION_CLEAR_ALL for one mission_type (or ALL) until the vehicle acknowledges it."""
+        mission_type = int(mission_type)
+        mav, sysid, compid = self.link.mav, self.vehicle.sysid, self.vehicle.compid
+
+        def send() -> None:
+            mav.mission_clear_all_send(sysid, compid, mission_type)
+
+        msg = self._exchange(send, lambda m: m.get_type() == "MISSION_ACK"
+                             and int(getattr(m, "mission_type", 0)) == mission_type,
+                             f"an answer to clearing the {MissionType(mission_type).label}", -1)
+        result = int(msg.type)  # type: ignore[attr-defined]
+        if result != MAV_MISSION_ACCEPTED:
+            raise MissionTransferError(f"{self._name} refused to clear the {MissionType(mission_type).label}: "
+                                       f"{result_text(result)}", result)
+
+    def set_current(self, seq: int) -> None:
+        """Make item seq the current one (MISSION_SET_CURRENT) and wait until MISSION_CURRENT says so."""
+        mav, sysid, compid = self.link.mav, self.vehicle.sysid, self.vehicle.compid
+
+        def send() -> None:
+            mav.mission_set_current_send(sysid, compid, seq)
+
+        self._exchange(send, lambda m: m.get_type() == "MISSION_CURRENT" and int(m.seq) == seq,
+                       f"MISSION_CURRENT {seq}", MissionType.MISSION)
+
+
+__all__ = ["MissionClient", "MissionTransferError", "Timeouts", "result_text", "RESULT_TEXT"]

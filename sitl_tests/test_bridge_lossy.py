@@ -1,0 +1,38 @@
+"""A 500-item mission through a bad link (20 % loss each way, duplicates, reordering) to the mock
+autopilot, uploaded and read back item by item, with each backend."""
+
+from __future__ import annotations
+
+import pytest
+
+from bridge.mission import Flavour, Mission, MissionItem, compare_wire, to_wire
+from bridge.mock import LinkFaults, MockAutopilot
+from bridge.protocol import Timeouts
+from bridge.uploader import open_backend, upload_plan
+
+
+def survey(n: int) -> Mission:
+    items = [MissionItem(22, 3, z=30.0), MissionItem(206, 2, param1=8.0)]
+    items += [MissionItem(16, 3, param2=1.0, x=45.07 + (i // 20) * 2e-4, y=7.68 + (i % 20) * 1e-4, z=30.0)
+              for i in range(n - 4)]
+    items += [MissionItem(206, 2, param1=0.0), MissionItem(20, 2)]
+    return Mission(items, home=(45.07, 7.68, 240.0))
+
+
+@pytest.mark.parametrize("backend, flavour", [("pymavlink", "ardupilot"), ("mavsdk", "px4")])
+def test_500_items_through_loss_duplicates_and_reordering(backend: str, flavour: str) -> None:
+    faults = LinkFaults.lossy(0.2, duplicate=0.05, reorder=0.05, seed=2024)
+    mission = survey(500)
+    with MockAutopilot(flavour=flavour, faults=faults, request_interval=0.01, upload_timeout=3.0) as mock:
+        with open_backend(backend, mock.client_url, 1, timeouts=Timeouts(item_timeout=0.1, retries=30),
+                          connect_timeout=5) as b:
+            report = upload_plan(b, [mission])
+            assert report.verified and report.items == 500
+            reader = report.parts[0].read_back_by
+        held = mock.mission(1)
+        stats = dict(mock.stats)
+    sent = to_wire(mission, Flavour(flavour))
+    assert compare_wire(sent, held, skip_home=flavour == "ardupilot") == []
+    # The faults really happened, in both directions.
+    assert stats["dropped_in"] > 100 and stats["dropped_out"] > 100
+    print(f"{backend}: {report.summary()} (read back by {reader}); mock {stats}")

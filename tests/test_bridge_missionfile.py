@@ -1,0 +1,140 @@
+"""bridge.missionfile: .plan and .waypoints readers and writers, checked against pymavlink's mavwp."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import pytest
+
+os.environ.setdefault("MAVLINK20", "1")
+from pymavlink import mavwp  # noqa: E402
+
+from bridge import BridgeUsageError  # noqa: E402
+from bridge.mission import CMD_DO_JUMP, Mission, MissionItem, MissionType  # noqa: E402
+from bridge.missionfile import (  # noqa: E402
+    PlanFile,
+    read_mission_file,
+    read_plan,
+    read_waypoints,
+    write_mission_file,
+    write_plan,
+    write_waypoints,
+)
+
+
+def _mission(n: int = 6) -> Mission:
+    items = [MissionItem(22, 3, z=30.0), MissionItem(206, 2, param1=12.5)]
+    items += [MissionItem(16, 3, param2=2.0, param4=math.nan, x=45.07 + i * 1e-4, y=7.68 - i * 1e-4, z=30.0 + i)
+              for i in range(n)]
+    items += [MissionItem(CMD_DO_JUMP, 2, param1=3, param2=1), MissionItem(206, 2), MissionItem(20, 2)]
+    return Mission(items=items, home=(45.07, 7.68, 241.5))
+
+
+def test_plan_round_trip_keeps_every_item(tmp_path: Path) -> None:
+    plan = PlanFile(mission=_mission())
+    plan.fence = Mission([MissionItem(5001, 0, param1=3, x=45.0, y=7.0), MissionItem(5001, 0, param1=3, x=45.1, y=7.0),
+                          MissionItem(5001, 0, param1=3, x=45.1, y=7.1), MissionItem(5004, 0, param1=25, x=45.05, y=7.05)],
+                         MissionType.FENCE)
+    plan.rally = Mission([MissionItem(5100, 3, x=45.02, y=7.03, z=20)], MissionType.RALLY)
+    path = tmp_path / "m.plan"
+    write_plan(path, plan)
+    doc = json.loads(path.read_text())
+    assert doc["fileType"] == "Plan" and doc["version"] == 1
+    assert set(doc) >= {"mission", "geoFence", "rallyPoints", "groundStation"}
+    first_wp = doc["mission"]["items"][2]
+    assert first_wp["type"] == "SimpleItem" and len(first_wp["params"]) == 7 and first_wp["params"][3] is None
+    assert doc["mission"]["plannedHomePosition"] == [45.07, 7.68, 241.5]
+    assert doc["geoFence"]["polygons"][0]["inclusion"] is True and len(doc["geoFence"]["polygons"][0]["polygon"]) == 3
+    assert doc["geoFence"]["circles"][0]["inclusion"] is False
+    back = read_plan(path)
+    assert back.mission.home == (45.07, 7.68, 241.5)
+    assert len(back.mission.items) == len(plan.mission.items)
+    for a, b in zip(plan.mission.items, back.mission.items):
+        assert a.command == b.command and a.frame == b.frame
+        assert all((math.isnan(x) and math.isnan(y)) or x == y for x, y in zip(a.params, b.params))
+    assert [i.command for i in back.fence.items] == [5001, 5001, 5001, 5004]
+    assert back.rally.items[0].z == 20
+    assert [p.mission_type for p in back.parts()] == [MissionType.MISSION, MissionType.FENCE, MissionType.RALLY]
+
+
+def test_plan_do_jump_targets_follow_do_jump_ids(tmp_path: Path) -> None:
+    doc = {"fileType": "Plan", "version": 1, "groundStation": "QGroundControl",
+           "mission": {"version": 2, "firmwareType": 12, "plannedHomePosition": [45, 7, 200], "items": [
+               {"type": "SimpleItem", "command": 22, "frame": 3, "doJumpId": 10, "autoContinue": True,
+                "params": [0, 0, 0, None, 0, 0, 30]},
+               {"type": "SimpleItem", "command": 16, "frame": 3, "doJumpId": 20, "autoContinue": True,
+                "params": [0, 0, 0, None, 45.1, 7.1, 30]},
+               {"type": "SimpleItem", "command": 177, "frame": 2, "doJumpId": 30, "autoContinue": True,
+                "params": [20, 2, 0, 0, 0, 0, 0]}]},
+           "geoFence": {"version": 2, "polygons": [], "circles": []}, "rallyPoints": {"version": 2, "points": []}}
+    path = tmp_path / "jump.plan"
+    path.write_text(json.dumps(doc))
+    plan = read_plan(path)
+    assert plan.mission.items[2].param1 == 2  # doJumpId 20 is the model's item 2
+    assert plan.firmware is not None and plan.firmware.value == "px4"
+
+
+@pytest.mark.parametrize("content, message", [
+    ("{not json", "not valid JSON"),
+    ('{"fileType": "Mission"}', "not a QGroundControl plan"),
+    ('{"fileType": "Plan", "version": 1, "mission": {"items": [{"type": "ComplexItem", '
+     '"complexItemType": "survey"}]}}', "survey ComplexItem"),
+    ('{"fileType": "Plan", "version": 1, "mission": {"items": [{"type": "SimpleItem", "command": 16, '
+     '"frame": 3, "params": [1, 2]}]}}', "params must be a list of 7"),
+    ('{"fileType": "Plan", "version": 1, "mission": {"items": [{"type": "SimpleItem", "command": 177, '
+     '"frame": 2, "doJumpId": 1, "params": [9, 1, 0, 0, 0, 0, 0]}]}}', "DO_JUMP to doJumpId 9"),
+])
+def test_bad_plans_give_one_line_errors_naming_the_file(tmp_path: Path, content: str, message: str) -> None:
+    path = tmp_path / "bad.plan"
+    path.write_text(content)
+    with pytest.raises(BridgeUsageError) as err:
+        read_plan(path)
+    assert message in str(err.value) and str(path) in str(err.value) and "\n" not in str(err.value)
+
+
+def test_waypoints_are_read_by_pymavlink_mavwp(tmp_path: Path) -> None:
+    mission = _mission()
+    path = tmp_path / "m.waypoints"
+    write_waypoints(path, mission)
+    text = path.read_bytes()
+    assert text.startswith(b"QGC WPL 110\n") and b"\r" not in text
+    assert all(len(line.split(b"\t")) == 12 for line in text.splitlines()[1:])
+    loader = mavwp.MAVWPLoader()
+    assert loader.load(str(path)) == len(mission.items) + 1  # line 0 is home
+    home = loader.wp(0)
+    assert math.isclose(home.x, 45.07, abs_tol=1e-7) and math.isclose(home.z, 241.5)
+    for number, item in enumerate(mission.items, start=1):
+        wp = loader.wp(number)
+        assert (wp.command, wp.frame, bool(wp.autocontinue)) == (item.command, item.frame, item.autocontinue)
+        # mavwp keeps float degrees: compare as MISSION_ITEM_INT integers.
+        assert round(wp.x * 1e7) == round(item.x * 1e7) and round(wp.y * 1e7) == round(item.y * 1e7)
+        assert math.isclose(wp.z, item.z, abs_tol=1e-6)
+        assert (math.isnan(wp.param4) and math.isnan(item.param4)) or wp.param4 == item.param4
+    assert loader.wp(len(mission.items) - 2).param1 == 3  # DO_JUMP target: the model's item number
+
+
+def test_waypoints_round_trip_and_errors(tmp_path: Path) -> None:
+    path = tmp_path / "m.waypoints"
+    write_mission_file(path, PlanFile(mission=_mission()))
+    back = read_mission_file(path)
+    assert back.mission.home == (45.07, 7.68, 241.5)
+    assert [i.command for i in back.mission.items] == [i.command for i in _mission().items]
+    bad = tmp_path / "bad.waypoints"
+    bad.write_text("QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t45\t7\t200\t1\n1\t0\t3\t16\t0\t0\n")
+    with pytest.raises(BridgeUsageError, match="line 3: expected 12"):
+        read_waypoints(bad)
+    bad.write_text("hello\n")
+    with pytest.raises(BridgeUsageError, match="not a waypoints file"):
+        read_waypoints(bad)
+
+
+def test_missing_and_unknown_files(tmp_path: Path) -> None:
+    with pytest.raises(BridgeUsageError, match="no such file"):
+        read_mission_file(tmp_path / "nope.plan")
+    other = tmp_path / "m.txt"
+    other.write_text("x")
+    with pytest.raises(BridgeUsageError, match="unknown mission file type"):
+        read_mission_file(other)
