@@ -9,7 +9,7 @@ import time
 from typing import Any
 
 import pytest
-from conftest import free_udp_port
+from loopback import free_udp_port
 
 from bridge.mission import Flavour, Mission, MissionItem, compare_wire, to_wire
 from bridge.mock import MockAutopilot
