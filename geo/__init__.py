@@ -1,1 +1,26 @@
-"""geo: world <-> grid (camera footprint, projection, rasterising, area files). Filled by issue 4."""
+"""geo: world <-> grid (camera footprint, projection, rasterising, area files). Filled by issue 4.
+
+One job per module:
+
+* `geo.errors`  - `GeoError`, the one-line error for any wrong geographic input.
+* `geo.camera`  - footprint side S = 2*H*tan(FOV/2) and cell = S/9; `Camera` from FOV or sensor.
+* `geo.frame`   - `GridFrame`: the grid laid in the area's UTM zone, grid <-> lat/lon, map meta.
+* `geo.readers` - area / obstacle / no-fly polygons from GeoJSON, KML, QGroundControl .plan;
+                  building footprints (+ heights) from OSM .osm / .osm.pbf or GeoJSON.
+* `geo.area`    - `build_grid_map`: rasterise area, obstacles, buildings, no-fly into a GridMap.
+
+Grid coordinates are float (row, col) whose integer values are cell centres; row 0 is the top
+(north, before rotation) row; `rotation_deg` turns the grid clockwise from north.
+"""
+
+from .area import build_grid_map
+from .camera import Camera, cell_size_m, footprint_side_m
+from .errors import GeoError
+from .frame import GridFrame, utm_epsg_for
+from .readers import (Building, Feature, read_area, read_buildings, read_features, read_osm_buildings,
+                      read_polygons)
+
+__all__ = [
+    "Building", "Camera", "Feature", "GeoError", "GridFrame", "build_grid_map", "cell_size_m",
+    "footprint_side_m", "read_area", "read_buildings", "read_features", "read_osm_buildings", "read_polygons", "utm_epsg_for",
+]

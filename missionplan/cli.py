@@ -13,11 +13,13 @@ import sys
 from pathlib import Path
 
 from bridge import BridgeUsageError
+from geo.errors import GeoError
 from bridge.commands import register as register_bridge_commands
 
 from .catalog import load_shipped, shipped_map_names
 from .gridmap import MapError
 from .pipeline import DEFAULT_POLICY, POLICIES, launch_cells, make_policy, plan_map
+from .missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
 from .zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 
 EXIT_USAGE = 2
@@ -37,8 +39,28 @@ def _build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     sub.add_parser("maps", help="list the shipped maps")
     plan = sub.add_parser("plan", help="plan full coverage of a map and write report.json and plan.png")
-    plan.add_argument("--map", required=True, help="a shipped map name (see `missionplan maps`) or a .map file")
-    plan.add_argument("--uavs", type=int, required=True, help="number of drones (uses the map's first N launch cells)")
+    source = plan.add_mutually_exclusive_group(required=True)
+    source.add_argument("--map", help="a shipped map name (see `missionplan maps`) or a .map file")
+    source.add_argument("--area", type=Path, help="the area to photograph: .geojson, .kml or a QGroundControl .plan")
+    plan.add_argument("--uavs", type=int,
+                      help="number of drones (with --map: the map's first N launch cells; with --area: one per --launch)")
+    plan.add_argument("--obstacles", type=Path, action="append", default=[],
+                      help="obstacle / no-fly polygons (.geojson or .kml), repeatable")
+    plan.add_argument("--osm", type=Path, help="building footprints: OpenStreetMap .osm / .osm.pbf, or GeoJSON / KML with height or building:levels")
+    plan.add_argument("--launch", action="append", default=[], metavar="LAT,LON",
+                      help="a launch point, one per drone (with --area)")
+    plan.add_argument("--altitude", type=float, help="flight height above the launch points, metres (with --area)")
+    plan.add_argument("--fov", type=float, help="camera field of view, degrees")
+    plan.add_argument("--sensor-width", type=float, help="sensor width, mm (with --sensor-height and --focal-length)")
+    plan.add_argument("--sensor-height", type=float, help="sensor height, mm")
+    plan.add_argument("--focal-length", type=float, help="focal length, mm")
+    plan.add_argument("--rotation", type=float, default=0.0, help="grid rotation, degrees clockwise from north")
+    plan.add_argument("--speed", type=float, default=DEFAULT_SPEED_M_S, help="cruise speed, m/s")
+    plan.add_argument("--overlap", type=float, default=DEFAULT_OVERLAP,
+                      help="frontal overlap of consecutive photos, 0..1 (sets the camera trigger distance)")
+    plan.add_argument("--end", choices=END_ACTIONS, default="rtl", help="after the survey: return to launch or land")
+    plan.add_argument("--altitude-step", type=float, default=0.0,
+                      help="drone k flies this many metres above drone k-1 (layers go up from --altitude)")
     plan.add_argument("--out", required=True, type=Path, help="output folder (created if missing)")
     plan.add_argument("--policy", default=DEFAULT_POLICY, choices=POLICIES,
                       help="who decides moves in view of targets: the neural network (nn) or the expert it imitates")
@@ -79,8 +101,19 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from .plot import draw_plan  # matplotlib only when a picture is drawn
     from .report import build_report, write_report
 
-    gmap = load_shipped(args.map)
-    launch_cells(gmap, args.uavs)  # bad drone counts and weights fail before any folder is made
+    from .georef import load_area, mission_settings, shipped_frame
+
+    # Everything that can be wrong with the input fails here, before any folder is made.
+    if args.area is not None:
+        gmap, frame = load_area(args)
+        args.uavs = len(gmap.launch) if args.uavs is None else args.uavs
+    else:
+        if args.uavs is None:
+            raise MapError("--uavs is required with --map")
+        gmap = load_shipped(args.map)
+        frame = shipped_frame(gmap)
+    launch_cells(gmap, args.uavs)
+    settings = mission_settings(gmap, args) if frame is not None else None
     policy = make_policy(args.policy, args.weights)
     try:
         args.out.mkdir(parents=True, exist_ok=True)
@@ -90,6 +123,15 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     result = plan_map(gmap, args.uavs, policy=policy, zone_method=args.zones, seed=args.seed,
                       progress=show_progress, balance_zones=not args.no_balance)
     report = build_report(result, args.seed)
+    written = []
+    if frame is not None and settings is not None and result.run.success:
+        from .flightplan import make_flight_plans, write_flight_files
+
+        plans = make_flight_plans(result, frame, settings)
+        report["drones"] = plans.report()
+        report["georeference"] = {**frame.to_meta(), "altitude_m": settings.altitude_m,
+                                  "footprint_m": settings.footprint_m, "trigger_distance_m": settings.trigger_distance_m}
+        written = write_flight_files(args.out, result, frame, plans)
     write_report(report, args.out / "report.json")
     draw_plan(result, args.out / "plan.png")
 
@@ -111,7 +153,14 @@ def _cmd_plan(args: argparse.Namespace) -> int:
             ("plan s", f"{report['timing']['plan_s']:.2f}", "wall time, zones + planning")]
     for name, value, note in rows:
         print(f"  {name:<12} {value:>9}  {note}")
-    print(f"wrote {args.out / 'report.json'} and {args.out / 'plan.png'}")
+    if "drones" in report:
+        for drone in report["drones"]:
+            before, after = drone["smoothing"]["before"], drone["smoothing"]["after"]
+            print(f"  uav{drone['id']}: {drone['cells']} cells -> {drone['waypoints']} waypoints, "
+                  f"{drone['length_m']:.0f} m, {drone['flight_s']:.0f} s, {drone['photos']} photos "
+                  f"(turning {before['turning_deg']:.0f} -> {after['turning_deg']:.0f} deg)")
+    names = ", ".join(p.name for p in written[:2]) + (f", ... ({len(written)} files)" if written else "")
+    print(f"wrote {args.out / 'report.json'}, {args.out / 'plan.png'}" + (f", {names}" if written else ""))
     if not report["success"]:
         print(f"missionplan: plan failed: {report['failure']}", file=sys.stderr)
         return EXIT_FAILED
@@ -159,7 +208,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "train":
             return _cmd_train(args)
         return _cmd_plan(args)
-    except (MapError, BridgeUsageError) as err:
+    except (MapError, BridgeUsageError, GeoError) as err:
         print(f"missionplan: {err}", file=sys.stderr)
         return EXIT_USAGE
     except BrokenPipeError:  # output piped into `head` and the like

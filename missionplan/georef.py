@@ -1,0 +1,81 @@
+"""Georeferenced inputs for `missionplan plan`: an area file, or a shipped map's own georeference.
+
+Turns the command-line values into what the planner needs (a GridMap and its GridFrame) and
+into the mission settings (altitude, footprint, speed, overlap, end action). Checks every
+value first, so bad input fails with one line before any output folder exists.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from geo.area import build_grid_map
+from geo.camera import Camera
+from geo.errors import GeoError
+from geo.frame import GridFrame
+from geo.readers import read_area, read_buildings, read_polygons
+
+from .gridmap import GridMap
+from .missions import MissionSettings
+
+
+def parse_latlon(text: str) -> tuple[float, float]:
+    try:
+        lat, lon = (float(v) for v in text.split(","))
+    except ValueError:
+        raise GeoError(f"--launch {text}: expected LAT,LON in degrees, e.g. 45.0701,7.6573") from None
+    if not (-90 <= lat <= 90 and -180 <= lon <= 180):
+        raise GeoError(f"--launch {text}: latitude must be in [-90, 90] and longitude in [-180, 180]")
+    return lat, lon
+
+
+def _camera(args: argparse.Namespace) -> Camera:
+    sensor = (args.sensor_width, args.sensor_height, args.focal_length)
+    if args.fov is not None and any(v is not None for v in sensor):
+        raise GeoError("give either --fov or --sensor-width/--sensor-height/--focal-length, not both")
+    if args.fov is not None:
+        return Camera(fov_deg=args.fov)
+    if all(v is not None for v in sensor):
+        return Camera.from_sensor(*sensor)
+    raise GeoError("the camera is needed: --fov DEG, or --sensor-width MM --sensor-height MM --focal-length MM")
+
+
+def load_area(args: argparse.Namespace) -> tuple[GridMap, GridFrame]:
+    """The grid of `--area` with its obstacles, buildings and launch points."""
+    if args.altitude is None:
+        raise GeoError("--altitude is required with --area")
+    if not args.launch:
+        raise GeoError("--area needs at least one --launch LAT,LON (one per drone)")
+    camera = _camera(args)
+    area = read_area(args.area)
+    # Obstacle and no-fly files are obstacles whatever their height; OSM buildings may be overflown.
+    no_fly = [polygon for path in args.obstacles for polygon in read_polygons(path)]
+    buildings = read_buildings(args.osm) if args.osm is not None else []
+    launch = [parse_latlon(text) for text in args.launch]
+    return build_grid_map(args.area.stem, area, [], buildings, no_fly, launch, args.altitude, camera.fov_deg,
+                          rotation_deg=args.rotation, area_file=str(args.area))
+
+
+def shipped_frame(gmap: GridMap) -> GridFrame | None:
+    """The frame of a map that carries `origin_lat` / `origin_lon` (the shipped maps do), else None."""
+    meta = gmap.meta
+    if "origin_lat" not in meta or "origin_lon" not in meta:
+        return None
+    rows, cols = gmap.shape
+    return GridFrame.at(float(meta["origin_lat"]), float(meta["origin_lon"]), float(meta["cell_m"]), rows, cols,
+                        float(meta.get("rotation_deg", 0.0)))
+
+
+def mission_settings(gmap: GridMap, args: argparse.Namespace) -> MissionSettings:
+    """Altitude and footprint from the map (9 cells a side), speed, overlap and end action from the CLI."""
+    if not args.speed > 0:
+        raise GeoError(f"--speed {args.speed}: must be above 0 m/s")
+    if not 0 <= args.overlap < 1:
+        raise GeoError(f"--overlap {args.overlap}: must be in [0, 1)")
+    if args.altitude_step < 0:
+        raise GeoError(f"--altitude-step {args.altitude_step}: layers go up from the altitude, never below it")
+    altitude = float(gmap.meta.get("altitude_m", args.altitude or 0.0))
+    if not altitude > 0:
+        raise GeoError(f"map {gmap.name}: no flight altitude (altitude_m) in its metadata")
+    return MissionSettings(altitude_m=altitude, footprint_m=9 * float(gmap.meta["cell_m"]), speed_m_s=args.speed,
+                           overlap=args.overlap, end=args.end, altitude_step_m=args.altitude_step)

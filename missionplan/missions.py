@@ -1,0 +1,102 @@
+"""From a smoothed track to one MAVLink mission per drone (SPEC section 9).
+
+Each drone's mission, in order:
+
+1. NAV_TAKEOFF to its altitude above the launch point;
+2. DO_CHANGE_SPEED to the cruise speed;
+3. DO_SET_CAM_TRIGG_DIST: a photo every `trigger distance` metres, the first at once;
+4. one NAV_WAYPOINT per corrected waypoint;
+5. DO_SET_CAM_TRIGG_DIST 0: camera off;
+6. NAV_RETURN_TO_LAUNCH, or NAV_LAND where the track ends.
+
+Positions use the relative-altitude frame (MAV_FRAME_GLOBAL_RELATIVE_ALT). Drone k (from 0)
+flies at altitude H + k * altitude_step: layers go up from H, never below it, so the
+footprint (and the coverage) never shrinks. The trigger distance is the footprint side
+times (1 - frontal overlap); the default overlap 8/9 gives one photo per grid cell.
+
+The result is a `bridge.mission.Mission`, a plain list of items: bridge/ uploads it without
+knowing anything about grids.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from bridge.mission import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND,
+                            CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT,
+                            FRAME_MISSION, Mission, MissionItem)
+
+DEFAULT_SPEED_M_S = 5.0
+# 8/9: a photo every cell (S/9), exactly what the grid world assumes when it photographs the
+# 9 x 9 block under the drone at every step. A smaller overlap saves photos but leaves the
+# coverage to the footprint's margin.
+DEFAULT_OVERLAP = 8 / 9
+END_ACTIONS = ("rtl", "land")
+SPEED_TYPE_GROUND = 1  # DO_CHANGE_SPEED param1: ground speed
+
+
+@dataclass(frozen=True)
+class MissionSettings:
+    altitude_m: float
+    footprint_m: float  # side S of the square camera footprint at altitude_m
+    speed_m_s: float = DEFAULT_SPEED_M_S
+    overlap: float = DEFAULT_OVERLAP
+    end: str = "rtl"
+    altitude_step_m: float = 0.0
+
+    @property
+    def trigger_distance_m(self) -> float:
+        return self.footprint_m * (1.0 - self.overlap)
+
+    def altitude_of(self, drone: int) -> float:
+        return self.altitude_m + drone * self.altitude_step_m
+
+
+@dataclass
+class DroneMission:
+    """One drone's mission and the numbers report.json gives for it."""
+
+    sysid: int
+    mission: Mission
+    waypoints: int
+    length_m: float  # climb + survey legs + the way back (RTL) or the descent (land)
+    flight_s: float
+    photos: int
+
+
+def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latlon: np.ndarray,
+                  waypoints_m: np.ndarray, launch_m: np.ndarray, settings: MissionSettings) -> DroneMission:
+    """The mission of drone `drone` (0-based; its system id is drone + 1).
+
+    `waypoints_latlon` (n, 2) are the corrected waypoints; `waypoints_m` the same points in
+    a local metric frame and `launch_m` the launch point there, for lengths and photo counts.
+    """
+    altitude = settings.altitude_of(drone)
+    lat0, lon0 = launch_latlon
+    items = [
+        MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=lat0, y=lon0, z=altitude),
+        MissionItem(CMD_DO_CHANGE_SPEED, FRAME_MISSION, param1=SPEED_TYPE_GROUND, param2=settings.speed_m_s,
+                    param3=-1.0),
+        # param3 = 1: take the first photo at once, not only after the first trigger distance.
+        MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=settings.trigger_distance_m, param3=1.0),
+    ]
+    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, x=float(lat), y=float(lon), z=altitude)
+              for lat, lon in waypoints_latlon]
+    items.append(MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0))
+    if settings.end == "rtl":
+        items.append(MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION))
+    else:
+        last_lat, last_lon = waypoints_latlon[-1] if len(waypoints_latlon) else launch_latlon
+        items.append(MissionItem(CMD_NAV_LAND, FRAME_GLOBAL_RELATIVE_ALT, x=float(last_lat), y=float(last_lon), z=0.0))
+
+    legs = np.diff(np.vstack([launch_m, waypoints_m]), axis=0)
+    survey_m = float(np.hypot(legs[:, 0], legs[:, 1]).sum()) if len(legs) else 0.0
+    back_m = float(np.hypot(*(waypoints_m[-1] - launch_m))) if settings.end == "rtl" and len(waypoints_m) else 0.0
+    length = altitude + survey_m + back_m + altitude  # up, across, (back,) down
+    photos = 1 + math.floor(survey_m / settings.trigger_distance_m) if settings.trigger_distance_m > 0 else 1
+    mission = Mission(items=items, home=(lat0, lon0, 0.0))
+    return DroneMission(sysid=drone + 1, mission=mission, waypoints=len(waypoints_latlon), length_m=length,
+                        flight_s=length / settings.speed_m_s, photos=photos)
