@@ -174,3 +174,24 @@ def test_area_file_of_the_wrong_type_is_named(tmp_path, capsys):
                  "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert "area.shp" in err and err.count("\n") == 1
+
+
+def test_plan_files_read_back_to_exactly_the_built_missions(tmp_path):
+    from missionplan.catalog import load_shipped
+    from missionplan.flightplan import make_flight_plans, write_flight_files
+    from missionplan.georef import shipped_frame
+    from missionplan.missions import MissionSettings
+    from missionplan.pipeline import plan_map
+
+    gmap = load_shipped("leonardo")
+    result = plan_map(gmap, 3)
+    frame = shipped_frame(gmap)
+    plans = make_flight_plans(result, frame, MissionSettings(altitude_m=1.2, footprint_m=9 * 0.238))
+    write_flight_files(tmp_path, result, frame, plans)
+    for drone in plans.drones:
+        back = read_mission_file(tmp_path / f"uav{drone.sysid}.plan").mission
+        assert back.home == pytest.approx(drone.mission.home)
+        assert len(back.items) == len(drone.mission.items)
+        for sent, got in zip(drone.mission.items, back.items):
+            assert (got.command, got.frame, got.autocontinue) == (sent.command, sent.frame, sent.autocontinue)
+            assert got.params == pytest.approx(sent.params, abs=1e-9)
