@@ -5,7 +5,7 @@ Each drone's mission, in order:
 1. NAV_TAKEOFF to its altitude above the launch point;
 2. DO_CHANGE_SPEED to the cruise speed;
 3. DO_SET_CAM_TRIGG_DIST: a photo every `trigger distance` metres, the first at once;
-4. one NAV_WAYPOINT per corrected waypoint;
+4. one NAV_WAYPOINT per corrected waypoint, acceptance radius a quarter cell;
 5. DO_SET_CAM_TRIGG_DIST 0: camera off;
 6. NAV_RETURN_TO_LAUNCH, or NAV_LAND where the track ends.
 
@@ -48,6 +48,12 @@ class MissionSettings:
     altitude_step_m: float = 0.0
 
     @property
+    def acceptance_m(self) -> float:
+        """Waypoint acceptance radius: a quarter cell, so no vehicle cuts a corner by more than that
+        (left at 0, the autopilot's default of a metre or two would skip whole legs on small grids)."""
+        return self.footprint_m / 36.0
+
+    @property
     def trigger_distance_m(self) -> float:
         return self.footprint_m * (1.0 - self.overlap)
 
@@ -83,8 +89,8 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
         # param3 = 1: take the first photo at once, not only after the first trigger distance.
         MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=settings.trigger_distance_m, param3=1.0),
     ]
-    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, x=float(lat), y=float(lon), z=altitude)
-              for lat, lon in waypoints_latlon]
+    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=settings.acceptance_m,
+                          x=float(lat), y=float(lon), z=altitude) for lat, lon in waypoints_latlon]
     items.append(MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0))
     if settings.end == "rtl":
         items.append(MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION))

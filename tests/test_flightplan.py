@@ -195,3 +195,10 @@ def test_plan_files_read_back_to_exactly_the_built_missions(tmp_path):
         for sent, got in zip(drone.mission.items, back.items):
             assert (got.command, got.frame, got.autocontinue) == (sent.command, sent.frame, sent.autocontinue)
             assert got.params == pytest.approx(sent.params, abs=1e-9)
+
+
+def test_waypoints_carry_a_quarter_cell_acceptance_radius(leonardo_run):
+    out, _ = leonardo_run
+    for item in read_mission_file(out / "uav1.plan").mission.items:
+        if item.command == CMD_NAV_WAYPOINT:
+            assert item.param2 == pytest.approx(0.238 / 4, rel=1e-6)
