@@ -59,7 +59,7 @@ class MavsdkBackend:
     name = "mavsdk"
 
     def __init__(self, url: str, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID, key: SigningKey | None = None,
-                 timeouts: Timeouts | None = None, connect_timeout: float = 10.0, attempts: int = 3) -> None:
+                 timeouts: Timeouts | None = None, connect_timeout: float = 10.0, attempts: int = 6) -> None:
         mavsdk, mission_raw = _import_mavsdk()
         self._mr = mission_raw
         self.timeouts = timeouts or Timeouts()
