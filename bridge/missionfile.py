@@ -16,10 +16,12 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+# A leaf utility with no planner imports: bridge still knows nothing about grids.
+from missionplan.atomic import write_text_atomic
 
 from .errors import BridgeUsageError
 from .mission import (
@@ -63,20 +65,10 @@ class PlanFile:
 # ---------------------------------------------------------------------------------------------- I/O
 
 def _write_atomic(path: Path, text: str) -> None:
-    """Temp file beside the target then rename: a reader never sees half a file."""
+    """Temp file beside the target then rename (missionplan.atomic): a reader never sees half a file."""
     if not path.parent.is_dir():
         raise BridgeUsageError(f"{path}: folder {path.parent} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as handle:
-            handle.write(text)
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)  # the mode a plain open() would give, not mkstemp's 0600
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_text_atomic(path, text)
 
 
 def _read_text(path: Path) -> str:

@@ -29,6 +29,7 @@ from .world import FOOTPRINT_RADIUS
 @dataclass
 class FlightPlans:
     corrected: list[CorrectedPath]
+    waypoints_latlon: list[np.ndarray]  # per drone (n, 2): the corrected waypoints as (lat, lon)
     drones: list[DroneMission]
     settings: MissionSettings
 
@@ -46,19 +47,20 @@ class FlightPlans:
 def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSettings) -> FlightPlans:
     """Correct every drone's path and build its mission."""
     gmap, paths = result.gmap, result.run.paths
-    corrected, drones = [], []
+    corrected, latlons, drones = [], [], []
     for k in range(paths.shape[0]):
         # A diagonal is credited only with the cells every photo spacing still sees.
         track = correct_path(paths[k], gmap.obstacle, result.world.reachable, footprint_radius=FOOTPRINT_RADIUS,
                              sample_step=max(settings.trigger_distance_m / frame.cell_m, 0.25))
         waypoints = np.asarray(track.waypoints, dtype=float)
-        lat, lon = frame.grid_to_latlon(waypoints[:, 0], waypoints[:, 1])
+        latlon = np.column_stack(frame.grid_to_latlon(waypoints[:, 0], waypoints[:, 1]))
         launch = np.asarray(result.starts[k], dtype=float)
         launch_lat, launch_lon = frame.grid_to_latlon(launch[:1], launch[1:])
-        drones.append(build_mission(k, (float(launch_lat[0]), float(launch_lon[0])), np.column_stack([lat, lon]),
+        drones.append(build_mission(k, (float(launch_lat[0]), float(launch_lon[0])), latlon,
                                     waypoints * frame.cell_m, launch * frame.cell_m, settings))
         corrected.append(track)
-    return FlightPlans(corrected, drones, settings)
+        latlons.append(latlon)
+    return FlightPlans(corrected, latlons, drones, settings)
 
 
 def _zone_polygons(result: PlanResult, frame: GridFrame) -> list[dict[str, Any]]:
@@ -88,11 +90,9 @@ def _zone_polygons(result: PlanResult, frame: GridFrame) -> list[dict[str, Any]]
 
 def tracks_geojson(result: PlanResult, frame: GridFrame, plans: FlightPlans) -> dict[str, Any]:
     features = _zone_polygons(result, frame)
-    for k, (track, drone) in enumerate(zip(plans.corrected, plans.drones)):
-        waypoints = np.asarray(track.waypoints, dtype=float)
-        lat, lon = frame.grid_to_latlon(waypoints[:, 0], waypoints[:, 1])
+    for k, (latlon, drone) in enumerate(zip(plans.waypoints_latlon, plans.drones)):
         features.append({"type": "Feature",
-                         "geometry": {"type": "LineString", "coordinates": np.column_stack([lon, lat]).tolist()},
+                         "geometry": {"type": "LineString", "coordinates": latlon[:, ::-1].tolist()},
                          "properties": {"kind": "track", "uav": k + 1, "sysid": drone.sysid,
                                         "altitude_m": plans.settings.altitude_of(k), "waypoints": drone.waypoints,
                                         "length_m": round(drone.length_m, 2), "flight_s": round(drone.flight_s, 1),

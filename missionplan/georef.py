@@ -61,9 +61,7 @@ def shipped_frame(gmap: GridMap) -> GridFrame | None:
     meta = gmap.meta
     if "origin_lat" not in meta or "origin_lon" not in meta:
         return None
-    rows, cols = gmap.shape
-    return GridFrame.at(float(meta["origin_lat"]), float(meta["origin_lon"]), float(meta["cell_m"]), rows, cols,
-                        float(meta.get("rotation_deg", 0.0)))
+    return GridFrame.from_meta(meta, *gmap.shape)
 
 
 def mission_settings(gmap: GridMap, args: argparse.Namespace) -> MissionSettings:
