@@ -16,7 +16,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/missionplan plan --map leonardo --uavs 5 --out demo-out
+	$(BIN)/missionplan demo --out demo-out
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

@@ -256,6 +256,28 @@ class MavsdkBackend:
             progress(len(items), len(items))
         return items
 
+    def upload_qgc_plan(self, path: str, progress: ProgressFn | None = None) -> int:
+        """Let MAVSDK itself read a QGroundControl .plan (its own importer, not ours) and upload the
+        mission items it found; returns how many it uploaded."""
+        try:
+            imported = self.plugin.import_qgroundcontrol_mission(str(path))
+        except self._mr.MissionRawError as err:
+            raise self._fail(f"import of {path}", err.result) from None
+        items = list(imported.mission_items)
+        if not items:
+            raise BridgeError(f"{path}: MAVSDK's importer found no mission items")
+        plan = self._mr.MissionPlan(items)
+        for attempt in range(self.attempts):
+            try:
+                self._wait(lambda cb: self.plugin.upload_mission_with_progress_async(plan, cb),
+                           "mission upload", len(items), progress)
+                return len(items)
+            except MissionTransferError as err:
+                if "TIMEOUT" not in str(err) or attempt == self.attempts - 1:
+                    raise
+                log.info("MAVSDK upload attempt failed (%s); starting it again", err)
+        return len(items)
+
     def clear(self, mission_type: int = MissionType.MISSION) -> None:
         if int(mission_type) != MissionType.MISSION:
             # MissionRaw clears only the mission; fence and rally go through our client.

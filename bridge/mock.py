@@ -6,7 +6,8 @@ listening there) or `tcpin:HOST:PORT` (accepts TCP clients) — with port 0 mean
 Every vehicle's output goes to every peer (like a shared radio link); each vehicle only acts on
 messages addressed to its system id. Faults are injected per packet and per direction: loss,
 duplicates, reordering (a packet held back so later ones overtake it) and added latency; the reboot
-fault lives on the vehicle (MockVehicle.reboot_after_items). With a signing key, packets that are
+faults live on the vehicle (MockVehicle.reboot_after_items, during an upload, and
+reboot_at_item, in flight). With a signing key, packets that are
 unsigned or signed with another key are dropped and everything sent is signed.
 
 Use it in-process (`with MockAutopilot(...) as mock:` or start()/stop(); it runs on a daemon thread)
@@ -386,6 +387,13 @@ class MockAutopilot:
         with self._lock:
             vehicle = self.vehicles[sysid]
             vehicle.reboot_after_items = items
+            vehicle.reboot_offline = offline
+
+    def reboot_in_flight(self, sysid: int, after_item: int, offline: float = 0.3) -> None:
+        """Vehicle sysid reboots once, in flight, when it has reached mission item `after_item`."""
+        with self._lock:
+            vehicle = self.vehicles[sysid]
+            vehicle.reboot_at_item = after_item
             vehicle.reboot_offline = offline
 
     def wait_until(self, predicate: Any, timeout: float) -> bool:

@@ -2,7 +2,7 @@
 
 Owns the flight of one vehicle in simulated time: takeoff climb, straight legs at the cruise speed
 (DO_CHANGE_SPEED changes it), the acceptance radius and hold time of waypoints, DO_JUMP, camera
-triggering by distance (DO_SET_CAM_TRIGG_DIST: photos counted and their positions kept), land and
+triggering by distance (DO_SET_CAM_TRIGG_DIST: photos counted, their positions and altitudes kept), land and
 return-to-launch, and the flown track. No MAVLink here: the vehicle (mock_vehicle) feeds it the
 stored wire items and publishes the events it returns (current item changed, item reached).
 Positions use a local flat-earth approximation around home, good to centimetres over a city.
@@ -52,7 +52,7 @@ class FlightState:
     current: int = 0
     mission_done: bool = False
     photos: int = 0
-    photo_points: list[tuple[float, float]] = field(default_factory=list)
+    photo_points: list[tuple[float, float, float]] = field(default_factory=list)  # lat, lon, alt above home
     track: list[tuple[float, float, float, float]] = field(default_factory=list)  # t, lat, lon, alt
     distance: float = 0.0
     sim_time: float = 0.0
@@ -260,9 +260,11 @@ class FlightSim:
         return used
 
     def _photo(self) -> None:
-        s = self.state
-        s.photos += 1
-        s.photo_points.append((s.lat, s.lon))
+        self._photo_at(self.state.lat, self.state.lon, self.state.alt)
+
+    def _photo_at(self, lat: float, lon: float, alt: float) -> None:
+        self.state.photos += 1
+        self.state.photo_points.append((lat, lon, alt))
 
     def _climb_to(self, target_alt: float, dt: float) -> tuple[float, bool]:
         s = self.state
@@ -293,6 +295,7 @@ class FlightSim:
         else:
             frac, used = step / dist, dt
         horizontal = math.hypot(dn, de) * frac
+        alt0 = s.alt
         s.lat, s.lon = self._to_global(n0 + dn * frac, e0 + de * frac)
         s.alt += du * frac
         s.distance += horizontal
@@ -300,17 +303,22 @@ class FlightSim:
             s.vn, s.ve, s.vz = dn * frac / used, de * frac / used, -du * frac / used
         if horizontal > 0:
             s.heading = math.degrees(math.atan2(de, dn)) % 360
-        self._count_photos(horizontal)
+        self._count_photos(horizontal, (n0, e0, alt0), (dn * frac, de * frac, du * frac))
         # Arrived once the remaining distance is inside the acceptance radius.
         return used, frac >= 1.0 or dist * (1 - frac) <= radius
 
-    def _count_photos(self, horizontal: float) -> None:
-        if self._trigger_dist <= 0:
+    def _count_photos(self, horizontal: float, start: tuple[float, float, float],
+                      step: tuple[float, float, float]) -> None:
+        """Photos due on a step of `horizontal` metres from `start` (north, east, alt), each where its
+        trigger distance was reached along the step (a long step, after a stall, holds several)."""
+        if self._trigger_dist <= 0 or horizontal <= 0:
             return
         self._trigger_acc += horizontal
         while self._trigger_acc >= self._trigger_dist:
             self._trigger_acc -= self._trigger_dist
-            self._photo()
+            frac = 1.0 - self._trigger_acc / horizontal
+            lat, lon = self._to_global(start[0] + step[0] * frac, start[1] + step[1] * frac)
+            self._photo_at(lat, lon, start[2] + step[2] * frac)
 
     def _descend(self, dt: float, events: list[FlightEvent]) -> float:
         s = self.state

@@ -5,8 +5,9 @@ upload with re-requests on a timer and a give-up time-out (the old mission stays
 completes), download of any in-range item in any order, clear-all, set-current; COMMAND_LONG arm /
 disarm, mode changes, MAV_CMD_MISSION_START, DO_SET_MISSION_CURRENT and AUTOPILOT_VERSION requests,
 each answered with COMMAND_ACK; HEARTBEAT (quadrotor, ArduPilot or PX4), SYS_STATUS,
-GLOBAL_POSITION_INT, MISSION_CURRENT and MISSION_ITEM_REACHED; and the reboot fault (forget
-everything and go silent for a moment). The flight itself is mock_flight's; the link and the other
+GLOBAL_POSITION_INT (at the rate SET_MESSAGE_INTERVAL asks for), MISSION_CURRENT,
+MISSION_ITEM_REACHED and one CAMERA_FEEDBACK per photo (as ArduPilot sends for each trigger);
+and the reboot fault (forget everything, the flight included, and go silent for a moment). The flight itself is mock_flight's; the link and the other
 faults are mock's. Everything here runs on the mock's one loop thread.
 """
 
@@ -43,6 +44,9 @@ CAPABILITIES = 4 | 8 | 256 | 8192 | 16384 | 32768  # MISSION_INT, COMMAND_INT, S
 ARDUPILOT_MODES = {"MANUAL": 0, "AUTO": 3, "GUIDED": 4, "LOITER": 5, "RTL": 6, "LAND": 9}
 PX4_MODES = {"MANUAL": 1 << 16, "GUIDED": (4 << 16) | (8 << 24), "LOITER": (4 << 16) | (3 << 24),
              "AUTO": (4 << 16) | (4 << 24), "RTL": (4 << 16) | (5 << 24), "LAND": (4 << 16) | (6 << 24)}
+
+MSG_GLOBAL_POSITION_INT = 33
+MIN_STREAM_INTERVAL_S = 0.005  # the loop's tick: a faster stream could not be kept anyway
 
 MISSION_COMMANDS_REJECTED = range(5000, 6000)  # fence and rally commands do not belong in a mission
 FENCE_COMMANDS = frozenset({5001, 5002, 5003, 5004})
@@ -93,6 +97,7 @@ class MockVehicle:
         self.uploads_failed = 0
         self.reboot_after_items: int | None = None
         self.reboot_offline = 0.3
+        self.reboot_at_item: int | None = None  # reboot in flight once this mission item is reached
         self._boot(now)
 
     # ------------------------------------------------------------------------------ lifecycle
@@ -113,6 +118,8 @@ class MockVehicle:
         self._next_heartbeat = now
         self._next_status = now
         self._next_position = now
+        self.position_interval = 1.0 / self.options.telemetry_hz  # wall seconds; None: stream off
+        self._photos_sent = 0
 
     def _home_item(self) -> WireItem:
         lat, lon, alt = self.options.home
@@ -176,6 +183,17 @@ class MockVehicle:
                                           int(round(s.vn * 100)), int(round(s.ve * 100)), int(round(s.vz * 100)),
                                           int(round(s.heading * 100)) % 36000)
 
+    def _send_camera_feedback(self, now: float) -> None:
+        """One CAMERA_FEEDBACK per photo taken since the last call, with where it was taken."""
+        points = self.flight.state.photo_points
+        home_alt = self.flight.state.home[2]
+        while self._photos_sent < len(points):
+            lat, lon, alt = points[self._photos_sent]
+            self._photos_sent += 1
+            self.mav.camera_feedback_send(int(now * 1e6), self.sysid, 0, (self._photos_sent - 1) % 65536,
+                                          int(round(lat * 1e7)), int(round(lon * 1e7)), home_alt + alt, alt,
+                                          0.0, 0.0, self.flight.state.heading, 0.0, 0, self._photos_sent)
+
     def _send_mission_current(self, seq: int | None = None) -> None:
         s = self.flight.state
         items = self.stores[MissionType.MISSION]
@@ -202,15 +220,20 @@ class MockVehicle:
         self._last_tick = now
         if dt > 0 and self.flight.state.armed:
             self._publish(self.flight.advance(dt * self.options.speedup))
+            if self.reboot_at_item is not None and any(seq >= self.reboot_at_item for seq in self.reached):
+                self.reboot_at_item = None
+                self.reboot(now)  # a brown-out in flight: the vehicle is gone, the others fly on
+                return
         if now >= self._next_heartbeat:
             self._next_heartbeat = now + 1.0
             self.send_heartbeat()
         if now >= self._next_status:
             self._next_status = now + 1.0
             self._send_status(now)
-        if now >= self._next_position:
-            self._next_position = now + 1.0 / self.options.telemetry_hz
+        if self.position_interval is not None and now >= self._next_position:
+            self._next_position = now + self.position_interval
             self._send_position(now)
+        self._send_camera_feedback(now)
         self._upload_timers(now)
 
     def _publish(self, events: list[FlightEvent]) -> None:
@@ -494,7 +517,17 @@ class MockVehicle:
                 self.send_heartbeat()
                 return CMD_ACCEPTED
             return CMD_UNSUPPORTED
-        if command == 511:  # SET_MESSAGE_INTERVAL: streams run at fixed rates here
+        if command == 511:  # SET_MESSAGE_INTERVAL: only the position stream's rate can change
+            if int(p[0]) != MSG_GLOBAL_POSITION_INT:
+                return CMD_UNSUPPORTED
+            interval_us = p[1]
+            if interval_us < 0:
+                self.position_interval = None
+            elif interval_us == 0:
+                self.position_interval = 1.0 / self.options.telemetry_hz
+            else:
+                self.position_interval = max(interval_us / 1e6, MIN_STREAM_INTERVAL_S)
+            self._next_position = now
             return CMD_ACCEPTED
         return CMD_UNSUPPORTED
 

@@ -17,6 +17,8 @@ from geo.errors import GeoError
 from bridge.commands import register as register_bridge_commands
 
 from .catalog import load_shipped, shipped_map_names
+from .fleet_demo import register as register_demo_command
+from .fly import register as register_fly_command
 from .gridmap import MapError
 from .pipeline import DEFAULT_POLICY, POLICIES, launch_cells, make_policy, plan_map
 from .missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
@@ -78,6 +80,8 @@ def _build_parser() -> argparse.ArgumentParser:
     train.add_argument("--workers", type=int, default=2, help="processes playing the expert demonstrations")
     train.add_argument("--quiet", action="store_true", help="no progress bars")
     register_bridge_commands(sub)  # upload, download, mock (bridge/commands.py)
+    register_fly_command(sub)  # fly (missionplan/fly.py)
+    register_demo_command(sub, _cmd_plan, parser)  # demo = plan + mock fleet + fly (missionplan/fleet_demo.py)
     return parser
 
 
@@ -129,6 +133,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 
         plans = make_flight_plans(result, frame, settings)
         report["drones"] = plans.report()
+        report["separation"] = plans.separation()
         report["georeference"] = {**frame.to_meta(), "altitude_m": settings.altitude_m,
                                   "footprint_m": settings.footprint_m, "trigger_distance_m": settings.trigger_distance_m}
         written = write_flight_files(args.out, result, frame, plans)
@@ -159,6 +164,11 @@ def _cmd_plan(args: argparse.Namespace) -> int:
             print(f"  uav{drone['id']}: {drone['cells']} cells -> {drone['waypoints']} waypoints, "
                   f"{drone['length_m']:.0f} m, {drone['flight_s']:.0f} s, {drone['photos']} photos "
                   f"(turning {before['turning_deg']:.0f} -> {after['turning_deg']:.0f} deg)")
+    if "separation" in report:
+        sep = report["separation"]
+        print(f"  closest approach if flown as planned: {sep['3d']} m 3-D, {sep['horizontal']} m horizontal "
+              f"(uav{sep['pair_3d'][0]} and uav{sep['pair_3d'][1]} at {sep['at_s']} s); "
+              f"--altitude-step puts drones on separate layers" if sep["3d"] is not None else "")
     names = ", ".join(p.name for p in written[:2]) + (f", ... ({len(written)} files)" if written else "")
     print(f"wrote {args.out / 'report.json'}, {args.out / 'plan.png'}" + (f", {names}" if written else ""))
     if not report["success"]:
@@ -201,7 +211,7 @@ def main(argv: list[str] | None = None) -> int:
     args = _build_parser().parse_args(argv)
     try:
         handler = getattr(args, "handler", None)
-        if handler is not None:  # upload / download / mock
+        if handler is not None:  # upload / download / mock / fly / demo
             return handler(args)
         if args.command == "maps":
             return _cmd_maps()

@@ -1,17 +1,25 @@
-"""What a flown fleet achieved: coverage from photo positions, closest approach, and the picture.
+"""Judging a flown fleet from its recordings: coverage, separation, times, problems; flight.json and flight.png.
 
-Pure functions over recorded tracks (no MAVLink here): fly.py records, this module judges.
-- photo_positions: where photos were taken (the camera's reports, or every trigger_distance_m
-  along the recorded survey track when the vehicle reports none);
-- coverage: the share of the plan's reachable target cells whose centre lies within footprint_m/2
-  (Chebyshev, grid-frame metres) of a photo position;
-- min_separation: closest approach of any two drones, tracks interpolated onto one time base;
-- draw_flight: flight.png (flown coverage over the grid, tracks, flight time per drone).
+No MAVLink here: fly.py records (DroneRecord), this module judges what was recorded.
+- Photo positions: every CAMERA_FEEDBACK the vehicle sent (where each photo was really taken); a
+  photo whose report was lost on the link (a gap in img_idx) is placed on the recorded track between
+  its neighbours, in proportion to its index. A vehicle that sends no CAMERA_FEEDBACK at all gets a
+  photo every trigger distance along the recorded track of its survey (said so in flight.json).
+- Coverage: a target cell counts as photographed when the square footprint of one photo holds the
+  cell, short of at most a quarter cell on a side (SLACK_CELLS): the grid world's and the corrector's
+  rule (whole cell in the footprint) with the slack a real vehicle needs, since it may turn a
+  waypoint's acceptance radius (a quarter cell) early and reports positions to about a centimetre.
+  flight.json also gives the whole-cell and cell-centre figures. Only reachable targets count.
+- Separation: the closest approach of any two recorded tracks (timeline.closest_approach), against
+  what the plan promised (report.json `separation`), with a tolerance for what telemetry cannot pin down:
+  two acceptance radii, the spread of the mission start times, and one telemetry interval of flight.
+- flight.png: the grid with covered and missed targets, the flown tracks, and flight time per drone.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import json
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -19,91 +27,266 @@ import numpy as np
 
 from geo.frame import GridFrame
 
+from .atomic import write_text_atomic
+from .timeline import closest_approach
 
+COVERAGE_OK = 99.0
+# How much of a cell's side may fall outside the photo that counts for it: a quarter cell, the
+# waypoint acceptance radius the missions give the autopilot (a vehicle may turn that early), which
+# also absorbs the 1e-7 degree (about 1 cm) resolution of reported positions.
+SLACK_CELLS = 0.25
+CMD_WAYPOINT, CMD_DO_CHANGE_SPEED, CMD_CAM_TRIGG_DIST = 16, 178, 206
+
+
+@dataclass
+class DroneRecord:
+    """What the ground station learned about one vehicle during a flight (times: our monotonic clock)."""
+
+    id: int
+    planned_photos: int = 0
+    uploaded: bool = False
+    started: bool = False
+    finished: bool = False
+    held_after_flight: bool | None = None
+    mission_state: int = 0
+    current: int = 0
+    captures: int = 0  # photos the camera says it took (completed_captures / highest img_idx + 1)
+    wire: list[Any] = field(default_factory=list)  # the mission as uploaded (bridge.mission.WireItem)
+    reached: list[tuple[float, int]] = field(default_factory=list)  # arrival time, seq
+    # arrival time, lat, lon, up m, ground speed m/s, the vehicle's time since boot s
+    samples: list[tuple[float, float, float, float, float, float]] = field(default_factory=list)
+    camera: dict[int, tuple[float, float, float, float]] = field(default_factory=dict)  # img_idx -> t, lat, lon, up
+    t_start: float | None = None
+    t_end: float | None = None
+    last_heard: float = 0.0
+    problems: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass
+class FlightResult:
+    coverage: float
+    targets: int
+    separation: dict[str, Any]
+    drones: list[dict[str, Any]]
+    problems: list[str]
+    photo_source: str
+    wall_s: float
+    json_path: Path
+    png_path: Path
+
+    @property
+    def ok(self) -> bool:
+        return self.coverage >= COVERAGE_OK and not self.problems and bool(self.separation.get("kept"))
+
+
+# ------------------------------------------------------------------------------------------- geometry
 def frame_of(report: dict[str, Any]) -> GridFrame:
     grid = report["grid"]
-    geo = {k: str(v) for k, v in report["georeference"].items()}
-    return GridFrame.from_meta(geo, len(grid), len(grid[0]))
+    return GridFrame.from_meta({k: str(v) for k, v in report["georeference"].items()}, len(grid), len(grid[0]))
 
 
 def target_cells(report: dict[str, Any]) -> np.ndarray:
-    """(n, 2) int array of the plan's reachable target cells ('.' minus unreachable_cells)."""
+    """(n, 2) cells the plan had to photograph: the map's targets ('.') that are reachable."""
     unreachable = {tuple(int(v) for v in cell) for cell in report.get("unreachable_cells") or []}
     cells = [(r, c) for r, row in enumerate(report["grid"]) for c, ch in enumerate(row)
              if ch == "." and (r, c) not in unreachable]
     return np.array(cells, dtype=np.int64).reshape(-1, 2)
 
 
-def resample_polyline(points: np.ndarray, spacing: float) -> np.ndarray:
-    """Points every `spacing` (same units as points) along a polyline, the first point included."""
-    if len(points) == 0:
-        return points.reshape(0, 2)
-    if len(points) == 1 or spacing <= 0:
-        return points.copy()
-    seg = np.diff(points, axis=0)
-    lengths = np.hypot(seg[:, 0], seg[:, 1])
-    cum = np.concatenate([[0.0], np.cumsum(lengths)])
-    if cum[-1] <= 0:
-        return points[:1].copy()
-    at = np.arange(0.0, cum[-1] + 1e-9, spacing)
-    return np.column_stack([np.interp(at, cum, points[:, 0]), np.interp(at, cum, points[:, 1])])
-
-
-def to_grid_m(frame: GridFrame, lat: Sequence[float], lon: Sequence[float]) -> np.ndarray:
-    """lat/lon -> (n, 2) metres (row axis, col axis) in the grid frame (cell centres at integers * cell_m)."""
+def to_grid_m(frame: GridFrame, lat: Any, lon: Any) -> np.ndarray:
+    """lat/lon -> (n, 2) metres in the grid frame (row axis, column axis; cell centres at integers * cell_m)."""
+    lat, lon = np.atleast_1d(np.asarray(lat, dtype=float)), np.atleast_1d(np.asarray(lon, dtype=float))
     if len(lat) == 0:
         return np.zeros((0, 2))
-    r, c = frame.latlon_to_grid(np.asarray(lat, dtype=float), np.asarray(lon, dtype=float))
+    r, c = frame.latlon_to_grid(lat, lon)
     return np.column_stack([np.atleast_1d(r), np.atleast_1d(c)]) * frame.cell_m
 
 
-def coverage(frame: GridFrame, targets: np.ndarray, photos_m: np.ndarray, footprint_m: float) -> np.ndarray:
-    """Boolean per target cell: covered by some photo (Chebyshev distance <= footprint_m / 2)."""
+def _arc_length(points: np.ndarray) -> np.ndarray:
+    steps = np.diff(points, axis=0)
+    return np.concatenate([[0.0], np.cumsum(np.hypot(steps[:, 0], steps[:, 1]))])
+
+
+def _point_at(points: np.ndarray, arc: np.ndarray, s: np.ndarray) -> np.ndarray:
+    return np.column_stack([np.interp(s, arc, points[:, 0]), np.interp(s, arc, points[:, 1])])
+
+
+def photo_positions(frame: GridFrame, rec: DroneRecord, trigger_m: float) -> tuple[np.ndarray, int, str]:
+    """(photos (n, 2) grid metres, how many were placed on the track rather than reported, source)."""
+    if not rec.samples:
+        return np.zeros((0, 2)), 0, "none"
+    samples = np.array(rec.samples)
+    if rec.camera:
+        # The track with the reported photos inserted at their arrival times, and each photo's arc length on it.
+        known = sorted(rec.camera.items())
+        stamps = np.concatenate([samples[:, 0], [v[0] for _, v in known]])
+        lat = np.concatenate([samples[:, 1], [v[1] for _, v in known]])
+        lon = np.concatenate([samples[:, 2], [v[2] for _, v in known]])
+        order = np.argsort(stamps, kind="stable")
+        track = to_grid_m(frame, lat[order], lon[order])
+        arc = _arc_length(track)
+        where = np.empty(len(order), dtype=int)
+        where[order] = np.arange(len(order))
+        idx = np.array([i for i, _ in known], dtype=float)
+        s_known = arc[where[len(samples):]]
+        total = max(rec.captures, int(idx[-1]) + 1)
+        every = np.arange(total, dtype=float)
+        # Lost reports: in proportion to the index between known neighbours, trigger_m per photo past the ends.
+        s_all = np.interp(every, idx, s_known)
+        s_all = np.where(every < idx[0], s_known[0] - (idx[0] - every) * trigger_m, s_all)
+        s_all = np.where(every > idx[-1], s_known[-1] + (every - idx[-1]) * trigger_m, s_all)
+        positions = _point_at(track, arc, np.clip(s_all, 0.0, arc[-1]))
+        positions[idx.astype(int)] = to_grid_m(frame, [v[1] for _, v in known], [v[2] for _, v in known])
+        return positions, total - len(known), "camera"
+    # No camera reports: a photo every trigger_m along the survey part of the recorded track.
+    first, last = _survey_window(rec.wire)
+    reached = {seq: t for t, seq in reversed(rec.reached)}
+    t0 = reached.get(first, samples[0, 0]) if first is not None else samples[0, 0]
+    t1 = max((t for t, seq in rec.reached if seq == last), default=samples[-1, 0])
+    part = samples[(samples[:, 0] >= t0) & (samples[:, 0] <= t1)]
+    if len(part) == 0 or trigger_m <= 0:
+        return np.zeros((0, 2)), 0, "track"
+    track = to_grid_m(frame, part[:, 1], part[:, 2])
+    arc = _arc_length(track)
+    positions = _point_at(track, arc, np.arange(0.0, arc[-1] + 1e-9, trigger_m))
+    return positions, len(positions), "track"
+
+
+def _survey_window(wire: list[Any]) -> tuple[int | None, int | None]:
+    """Seqs of the first and last waypoint flown with the distance trigger on."""
+    first = last = None
+    on = False
+    for item in wire:
+        if item.command == CMD_CAM_TRIGG_DIST:
+            on = item.param1 > 0
+        elif item.command == CMD_WAYPOINT and on:
+            first = item.seq if first is None else first
+            last = item.seq
+    return first, last
+
+
+def coverage(frame: GridFrame, targets: np.ndarray, photos_m: np.ndarray, footprint_m: float,
+             slack_m: float) -> np.ndarray:
+    """Per target cell: does one photo's footprint hold the cell's square, short of at most slack_m on a side?
+
+    slack_m = 0 asks for the whole square; cell/2 only for its centre."""
     covered = np.zeros(len(targets), dtype=bool)
     if len(targets) == 0 or len(photos_m) == 0:
         return covered
     centres = targets.astype(float) * frame.cell_m
-    half = footprint_m / 2.0 + 1e-9
-    for start in range(0, len(photos_m), 2048):
-        chunk = photos_m[start:start + 2048]
-        d = np.maximum(np.abs(centres[:, None, 0] - chunk[None, :, 0]), np.abs(centres[:, None, 1] - chunk[None, :, 1]))
-        covered |= (d <= half).any(axis=1)
+    reach = footprint_m / 2.0 - frame.cell_m / 2.0 + slack_m + 1e-6  # a micrometre for the float round trip
+    for start in range(0, len(photos_m), 1024):
+        chunk = photos_m[start:start + 1024]
+        gap = np.maximum(np.abs(centres[:, None, 0] - chunk[None, :, 0]), np.abs(centres[:, None, 1] - chunk[None, :, 1]))
+        covered |= (gap <= reach).any(axis=1)
     return covered
 
 
-def min_separation(tracks: dict[int, np.ndarray], step_s: float = 0.05) -> dict[str, Any]:
-    """Closest approach between any two drones. tracks[id] = (n, 4) array t, north_m, east_m, up_m
-    (any common metric frame and one time base). Each pair is compared over the time both were recorded."""
-    best_h = best_3d = float("inf")
-    pair_h: list[int] = []
-    pair_3d: list[int] = []
-    ids = sorted(k for k, v in tracks.items() if len(v) >= 1)
-    for i, a in enumerate(ids):
-        for b in ids[i + 1:]:
-            ta, tb = tracks[a], tracks[b]
-            t0, t1 = max(ta[0, 0], tb[0, 0]), min(ta[-1, 0], tb[-1, 0])
-            if t1 < t0:
-                continue
-            times = np.arange(t0, t1 + step_s, step_s)
-            times = np.union1d(times, np.concatenate([ta[:, 0], tb[:, 0]]))
-            times = times[(times >= t0) & (times <= t1)]
-            pa = np.column_stack([np.interp(times, ta[:, 0], ta[:, k]) for k in (1, 2, 3)])
-            pb = np.column_stack([np.interp(times, tb[:, 0], tb[:, k]) for k in (1, 2, 3)])
-            d = pa - pb
-            h = np.hypot(d[:, 0], d[:, 1])
-            d3 = np.sqrt(h * h + d[:, 2] ** 2)
-            if h.min() < best_h:
-                best_h, pair_h = float(h.min()), [a, b]
-            if d3.min() < best_3d:
-                best_3d, pair_3d = float(d3.min()), [a, b]
-    if not np.isfinite(best_h):
-        return {"horizontal": None, "3d": None, "pair_horizontal": [], "pair_3d": []}
-    return {"horizontal": round(best_h, 3), "3d": round(best_3d, 3), "pair_horizontal": pair_h, "pair_3d": pair_3d}
+def vehicle_clock(samples: np.ndarray) -> np.ndarray:
+    """When each sample was taken, on our clock: the vehicle's own time stamps (free of our threads'
+    scheduling jitter) shifted by the smallest arrival delay seen, the usual one-way clock sync."""
+    return samples[:, 5] + float(np.min(samples[:, 0] - samples[:, 5]))
 
 
+def estimate_time_scale(records: list[DroneRecord]) -> float:
+    """Simulated seconds per wall second: distance flown between samples over the reported ground speed."""
+    ratios: list[float] = []
+    for rec in records:
+        s = np.array(rec.samples)
+        if len(s) < 2:
+            continue
+        dt = np.diff(s[:, 0])
+        speed = 0.5 * (s[1:, 4] + s[:-1, 4])
+        dn = np.radians(np.diff(s[:, 1])) * 6_378_137.0
+        de = np.radians(np.diff(s[:, 2])) * 6_378_137.0 * np.cos(np.radians(s[1:, 1]))
+        dist = np.hypot(dn, de)
+        ok = (dt > 0.01) & (speed > 0.5) & (dist > 0)
+        ratios.extend((dist[ok] / (dt[ok] * speed[ok])).tolist())
+    return float(np.median(ratios)) if len(ratios) >= 3 else 1.0
+
+
+# ------------------------------------------------------------------------------------------- judging
+def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], time_scale: float | None,
+          wall_s: float, telemetry_hz: float) -> FlightResult:
+    """Everything flight.json says, from the recordings; writes flight.json and flight.png."""
+    frame = frame_of(report)
+    geo = report["georeference"]
+    footprint, trigger = float(geo["footprint_m"]), float(geo.get("trigger_distance_m") or 0.0)
+    scale = time_scale if time_scale else estimate_time_scale(records)
+    planned = {int(d["id"]): d for d in report["drones"]}
+    targets = target_cells(report)
+    photos, tracks_m, timed, rows, sources = [], {}, {}, [], set()
+    for rec in records:
+        points, placed, source = photo_positions(frame, rec, trigger)
+        photos.append(points)
+        if source != "none":
+            sources.add(source)
+        samples = np.array(rec.samples) if rec.samples else np.zeros((0, 6))
+        tracks_m[rec.id] = to_grid_m(frame, samples[:, 1], samples[:, 2])
+        if len(samples):
+            timed[rec.id] = np.column_stack([vehicle_clock(samples), tracks_m[rec.id], samples[:, 3]])
+        end = rec.t_end if rec.t_end is not None else (samples[-1, 0] if len(samples) else rec.t_start)
+        flight_s = (end - rec.t_start) * scale if rec.t_start is not None and end is not None else 0.0
+        rows.append({"id": rec.id, "flight_s": round(flight_s, 2), "finished": rec.finished,
+                     "photos": int(len(points)), "photos_placed_on_track": placed,
+                     "planned_photos": rec.planned_photos,
+                     "planned_flight_s": float(planned.get(rec.id, {}).get("flight_s", 0.0)),
+                     "uploaded": rec.uploaded, "held_after_flight": rec.held_after_flight,
+                     "samples": len(samples), "items_reached": len({seq for _, seq in rec.reached}),
+                     "notes": rec.notes})
+    all_photos = np.vstack(photos) if photos else np.zeros((0, 2))
+    slack = frame.cell_m * SLACK_CELLS
+    covered = coverage(frame, targets, all_photos, footprint, slack)
+    percent = 100.0 * float(covered.mean()) if len(targets) else 100.0
+    other_rules = {name: round(100.0 * float(coverage(frame, targets, all_photos, footprint, frame.cell_m * cells).mean()), 2)
+                if len(targets) else 100.0 for name, cells in (("whole_cell", 0.0), ("cell_centre", 0.5))}
+    separation = _separation(report, records, timed, scale, telemetry_hz)
+    problems = [p for rec in records for p in rec.problems]
+    problems += [f"uav{rec.id}: mission not finished" for rec in records
+                 if rec.started and not rec.finished and not rec.problems]
+    if not separation["kept"] and separation["3d"] is not None:
+        problems.append(f"uav{separation['pair_3d'][0]} and uav{separation['pair_3d'][1]} came within "
+                        f"{separation['3d']} m; the plan promised {separation['planned_3d']} m")
+    photo_source = " and ".join(sorted(sources)) or "none"
+    doc = {"coverage": round(percent, 2), "targets": int(len(targets)), "covered": int(covered.sum()),
+           "missed_cells": targets[~covered].tolist(), "min_separation_m": separation, "drones": rows,
+           "problems": problems, "photos_from": photo_source, "time_scale": round(scale, 3),
+           "telemetry_hz": telemetry_hz, "wall_s": round(wall_s, 2),
+           "coverage_rule": f"a target cell counts as photographed when one photo's square footprint, at the "
+                            f"position the vehicle reported for it, holds the cell short of at most {SLACK_CELLS:g} "
+                            f"cell ({slack:.3f} m) on a side",
+           "coverage_other_rules": other_rules}
+    json_path, png_path = plan_dir / "flight.json", plan_dir / "flight.png"
+    write_text_atomic(json_path, json.dumps(doc, indent=1) + "\n")
+    draw_flight(png_path, report, frame, targets, covered, tracks_m, {r["id"]: r["flight_s"] for r in rows}, percent)
+    return FlightResult(coverage=round(percent, 2), targets=int(len(targets)), separation=separation, drones=rows,
+                        problems=problems, photo_source=photo_source, wall_s=round(wall_s, 2),
+                        json_path=json_path, png_path=png_path)
+
+
+def _separation(report: dict[str, Any], records: list[DroneRecord], timed: dict[int, np.ndarray],
+                scale: float, telemetry_hz: float) -> dict[str, Any]:
+    """Flown closest approach next to the plan's promise, and whether the promise was kept."""
+    flown = closest_approach(timed)
+    promise = report.get("separation") or {}
+    speed = max((float(item.param2) for rec in records for item in rec.wire if item.command == CMD_DO_CHANGE_SPEED), default=5.0)
+    acceptance = max((float(item.param2) for rec in records for item in rec.wire if item.command == CMD_WAYPOINT),
+                     default=0.0)
+    # When each vehicle left the ground (first sample above 5 cm): the real spread of the starts.
+    liftoff = [track[np.argmax(track[:, 3] > 0.05), 0] for track in timed.values() if (track[:, 3] > 0.05).any()]
+    start_spread_s = (max(liftoff) - min(liftoff)) * scale if liftoff else 0.0
+    tolerance = 2 * acceptance + speed * start_spread_s + speed * scale / telemetry_hz
+    planned_3d = promise.get("3d")
+    kept = flown["3d"] is None or planned_3d is None or flown["3d"] >= planned_3d - tolerance
+    return {**flown, "planned_horizontal": promise.get("horizontal"), "planned_3d": planned_3d,
+            "tolerance": round(tolerance, 3), "start_spread_s": round(start_spread_s, 3), "kept": bool(kept)}
+
+
+# ------------------------------------------------------------------------------------------- picture
 def draw_flight(path: Path, report: dict[str, Any], frame: GridFrame, targets: np.ndarray, covered: np.ndarray,
                 tracks_m: dict[int, np.ndarray], flight_s: dict[int, float], coverage_pct: float) -> None:
-    """flight.png: grid (obstacles, covered / missed targets), flown tracks, and flight time per drone."""
+    """flight.png: obstacles, covered (green) and missed (red) targets, flown tracks; flight time per drone."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -112,29 +295,27 @@ def draw_flight(path: Path, report: dict[str, Any], frame: GridFrame, targets: n
     grid = report["grid"]
     rows, cols = len(grid), len(grid[0])
     img = np.ones((rows, cols, 3))
-    for r, row in enumerate(grid):
-        for c, ch in enumerate(row):
-            if ch == "#":
-                img[r, c] = (0.25, 0.25, 0.25)
-            elif ch == ".":
-                img[r, c] = (0.85, 0.85, 0.85)  # target not in the reachable set
-    for (r, c), ok in zip(targets, covered):
-        img[r, c] = (0.62, 0.87, 0.62) if ok else (0.95, 0.45, 0.45)
+    chars = np.array([list(row) for row in grid])
+    img[chars == "#"] = (0.25, 0.25, 0.25)
+    img[chars == "."] = (0.85, 0.85, 0.85)  # targets outside the reachable set stay grey
+    if len(targets):
+        img[targets[covered, 0], targets[covered, 1]] = (0.62, 0.87, 0.62)
+        img[targets[~covered, 0], targets[~covered, 1]] = (0.95, 0.35, 0.35)
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(12, 5), gridspec_kw={"width_ratios": [4, 1]})
     ax.imshow(img, interpolation="nearest", origin="upper")
     colours = plt.get_cmap("tab10")
     for k, (uid, pts) in enumerate(sorted(tracks_m.items())):
         if len(pts):
             g = pts / frame.cell_m
-            ax.plot(g[:, 1], g[:, 0], "-", lw=1.2, color=colours(k % 10), label=f"uav{uid}")
+            ax.plot(g[:, 1], g[:, 0], "-", lw=1.0, color=colours(k % 10), label=f"uav{uid}")
             ax.plot(g[0, 1], g[0, 0], "o", ms=5, color=colours(k % 10))
     ax.set_xlim(-0.5, cols - 0.5)
     ax.set_ylim(rows - 0.5, -0.5)
-    ax.set_title(f"flown coverage {coverage_pct:.1f} % (green covered, red missed)")
+    ax.set_title(f"flown coverage {coverage_pct:.2f} % (green photographed, red missed)")
     ax.legend(loc="upper right", fontsize=7)
     ids = sorted(flight_s)
     bx.bar([f"uav{i}" for i in ids], [flight_s[i] for i in ids], color=[colours(k % 10) for k in range(len(ids))])
-    bx.set_ylabel("flight time (s)")
+    bx.set_ylabel("flight time (s, simulated)")
     bx.set_title("flight time")
     bx.tick_params(axis="x", labelrotation=45, labelsize=8)
     fig.tight_layout()

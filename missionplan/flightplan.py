@@ -23,6 +23,7 @@ from .atomic import write_text_atomic
 from .corrector import CorrectedPath, correct_path
 from .missions import DroneMission, MissionSettings, build_mission
 from .pipeline import PlanResult
+from .timeline import FlightModel, closest_approach, planned_track
 from .world import FOOTPRINT_RADIUS
 
 
@@ -32,6 +33,12 @@ class FlightPlans:
     waypoints_latlon: list[np.ndarray]  # per drone (n, 2): the corrected waypoints as (lat, lon)
     drones: list[DroneMission]
     settings: MissionSettings
+    timed: dict[int, np.ndarray]  # sysid -> (n, 4) t, row_m, col_m, up_m of the planned flight (timeline)
+
+    def separation(self) -> dict[str, Any]:
+        """report.json's `separation`: the closest approach of two drones if all fly as planned."""
+        return {**closest_approach(self.timed), "assumes": "all missions start together; straight legs at the "
+                "cruise speed, waypoints reached at their acceptance radius; climb 2.5 m/s, descent 1.5 m/s"}
 
     def report(self) -> list[dict[str, Any]]:
         """report.json's `drones`: one object per drone."""
@@ -48,6 +55,8 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
     """Correct every drone's path and build its mission."""
     gmap, paths = result.gmap, result.run.paths
     corrected, latlons, drones = [], [], []
+    timed: dict[int, np.ndarray] = {}
+    model = FlightModel(speed_m_s=settings.speed_m_s, acceptance_m=settings.acceptance_m)
     for k in range(paths.shape[0]):
         # A diagonal is credited only with the cells every photo spacing still sees.
         track = correct_path(paths[k], gmap.obstacle, result.world.reachable, footprint_radius=FOOTPRINT_RADIUS,
@@ -56,11 +65,14 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
         latlon = np.column_stack(frame.grid_to_latlon(waypoints[:, 0], waypoints[:, 1]))
         launch = np.asarray(result.starts[k], dtype=float)
         launch_lat, launch_lon = frame.grid_to_latlon(launch[:1], launch[1:])
+        timed[k + 1] = planned_track(launch * frame.cell_m, waypoints * frame.cell_m, settings.altitude_of(k),
+                                     settings.end, model)
         drones.append(build_mission(k, (float(launch_lat[0]), float(launch_lon[0])), latlon,
-                                    waypoints * frame.cell_m, launch * frame.cell_m, settings))
+                                    waypoints * frame.cell_m, launch * frame.cell_m, settings,
+                                    flight_s=float(timed[k + 1][-1, 0])))
         corrected.append(track)
         latlons.append(latlon)
-    return FlightPlans(corrected, latlons, drones, settings)
+    return FlightPlans(corrected, latlons, drones, settings, timed)
 
 
 def _zone_polygons(result: PlanResult, frame: GridFrame) -> list[dict[str, Any]]:

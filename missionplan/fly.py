@@ -1,141 +1,63 @@
-"""Fly a planned fleet over MAVLink and judge the flight: `missionplan fly DIR --connect URL`.
+"""Fly a planned fleet over MAVLink and record it: `missionplan fly DIR --connect URL`.
 
-Owns:
-- fly(): read DIR/report.json and every DIR/uavK.plan; one thread per drone (each with its own
-  pymavlink link) uploads uavK.plan to system id K and verifies the read-back (bridge.uploader),
-  sets GUIDED (ArduPilot), arms, starts the mission, then follows that vehicle's telemetry
-  (HEARTBEAT, GLOBAL_POSITION_INT, MISSION_CURRENT, MISSION_ITEM_REACHED, CAMERA_FEEDBACK) with one
-  tqdm bar per drone until it lands and disarms, the time-out passes, or it stops answering;
-- the judgement (flight_report): coverage of the plan's reachable targets by photo positions,
-  closest approach between drones, per-drone flight time; written to DIR/flight.json and DIR/flight.png;
-- start_mock_fleet(): in-process mock autopilots on 127.0.0.1 for K = 1..uavs, homes at the plan's
-  launch points when a plan directory is given;
-- register(): the `fly` subcommand (handler returns 0 when coverage >= 99 % and no problems, else 1).
+Owns the ground-station side of a flight. One thread per drone, each with its own link:
 
-Times: every sample is stamped with our monotonic clock on arrival. Against a sped-up mock the
-flight times are wall seconds times the time scale (given, or estimated from the reported
-velocities against the distance flown between samples).
+1. upload DIR/uavK.plan to system id K and prove by read-back that the vehicle holds it exactly
+   (or, with --upload-with mavsdk, let MAVSDK's QGroundControl importer read the file and upload it,
+   and prove the vehicle then holds exactly what our reader makes of the same file);
+2. ask for the position stream at --telemetry-hz (SET_MESSAGE_INTERVAL), set GUIDED (ArduPilot),
+   arm, wait for every other drone to be armed, then MAV_CMD_MISSION_START: all start together,
+   as the plan's separation assumes;
+3. record GLOBAL_POSITION_INT, MISSION_CURRENT, MISSION_ITEM_REACHED and CAMERA_FEEDBACK, with one
+   progress bar per drone, until the vehicle has landed and disarmed with its mission complete, or
+   it reboots, stops answering, or the time-out passes (each a problem, the others fly on);
+4. after landing, read the mission back once more: the vehicle must still hold what was uploaded.
+
+The recordings go to flight_report.judge (coverage from the photo positions, separation, times),
+which writes DIR/flight.json and DIR/flight.png. Also here: start_mock_fleet(), the in-process mock
+autopilots `missionplan demo` and the integration tests fly against.
 """
 
 from __future__ import annotations
 
 import json
-import math
 import threading
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from bridge.errors import BridgeError
-from bridge.link import mavlink
-from bridge.mission import Flavour, to_wire
+from bridge.errors import BridgeError, BridgeUsageError
+from bridge.mission import Flavour, compare_wire, to_wire
 from bridge.missionfile import read_mission_file
 from bridge.protocol import Timeouts
-from bridge.uploader import open_backend, upload_plan
+from bridge.uploader import MissionBackend, open_backend, upload_plan
 
-from . import flight_report as fr
-from .atomic import write_text_atomic
+from .flight_report import DroneRecord, FlightResult, judge
 
-CMD_ARM, CMD_DO_SET_MODE, CMD_MISSION_START = 400, 176, 300
-CMD_WAYPOINT, CMD_CAM_TRIGG_DIST = 16, 206
+CMD_ARM, CMD_DO_SET_MODE, CMD_MISSION_START, CMD_SET_MESSAGE_INTERVAL = 400, 176, 300, 511
+MSG_GLOBAL_POSITION_INT = 33
 MODE_FLAG_ARMED = 128
+MAV_STATE_BOOT = 1
+MAV_TYPE_GCS = 6
+MISSION_STATE_COMPLETE = 5
 ARDUPILOT_GUIDED = 4
 SILENCE_S = 5.0        # a vehicle that says nothing for this long has stopped answering
-COMMAND_TRIES = 4
-COMMAND_WAIT_S = 1.0
-COVERAGE_OK = 99.0
+ON_GROUND_M = 0.3      # relative altitude under which a disarmed vehicle counts as landed
+COMMAND_TRIES = 5
+COMMAND_WAIT_S = 0.5
+DEFAULT_TELEMETRY_HZ = 25.0
+UPLOADERS = ("missionplan", "mavsdk")  # who reads the .plan files and uploads them
 
 
-@dataclass
-class DroneFlight:
-    """What one thread learned about one vehicle."""
-
-    id: int
-    plan_photos: int = 0
-    uploaded: bool = False
-    started: bool = False
-    finished: bool = False
-    mission_state: int = 0
-    current: int = 0
-    total: int = 0
-    reached: list[tuple[float, int]] = field(default_factory=list)            # arrival time, seq
-    samples: list[tuple[float, float, float, float, float]] = field(default_factory=list)  # t, lat, lon, rel alt m, speed m/s
-    camera: list[tuple[float, float]] = field(default_factory=list)           # lat, lon of CAMERA_FEEDBACK
-    wire: list[Any] = field(default_factory=list)
-    t_start: float | None = None
-    t_end: float | None = None
-    last_heard: float = 0.0
-    problems: list[str] = field(default_factory=list)
-
-
-@dataclass
-class FlightResult:
-    coverage: float
-    min_separation_m: dict[str, Any]
-    drones: list[dict[str, Any]]
-    problems: list[str]
-    time_scale: float
-    wall_s: float
-    json_path: Path
-    png_path: Path
-
-    @property
-    def ok(self) -> bool:
-        return self.coverage >= COVERAGE_OK and not self.problems
-
-
-# ---------------------------------------------------------------------------------------------- mocks
-def plan_homes(plan_dir: Path, uavs: int) -> dict[int, tuple[float, float, float]]:
-    """sysid -> (lat, lon, alt AMSL) of each uavK.plan's planned home (else its first positional item)."""
-    homes: dict[int, tuple[float, float, float]] = {}
-    for k in range(1, uavs + 1):
-        path = Path(plan_dir) / f"uav{k}.plan"
-        if not path.exists():
-            continue
-        plan = read_mission_file(path)
-        if plan.mission.home is not None:
-            homes[k] = tuple(float(v) for v in plan.mission.home)  # type: ignore[assignment]
-            continue
-        for item in plan.mission.items:
-            if item.x or item.y:
-                homes[k] = (float(item.x), float(item.y), 0.0)
-                break
-    return homes
-
-
-def start_mock_fleet(uavs: int, speedup: float, plan_dir: Path | None = None, flavour: str = "ardupilot",
-                     faults: Any = None, acceptance_m: float | None = None) -> tuple[Any, str]:
-    """Start in-process mock autopilots (system ids 1..uavs) on 127.0.0.1; returns (mock, connect URL).
-    With plan_dir, each vehicle's home is its plan's launch point. acceptance_m sets the vehicles'
-    default waypoint acceptance radius (used for items whose param2 is 0; the mock's default is 1 m,
-    like a WPNAV_RADIUS setting) — the plans leave param2 at 0, so on fine grids (Leonardo: 0.24 m
-    cells, ~1 m legs) the default makes the mock cut corners and miss targets. Call mock.stop() when done."""
-    from bridge.mock import MockAutopilot
-
-    homes = plan_homes(Path(plan_dir), uavs) if plan_dir is not None else None
-    mock = MockAutopilot("udpin:127.0.0.1:0", sysids=range(1, uavs + 1), flavour=flavour, speedup=speedup,
-                         faults=faults, homes=homes)
-    if acceptance_m is not None:
-        for vehicle in mock.vehicles.values():  # before start(): no other thread touches them yet
-            vehicle.flight.default_acceptance = float(acceptance_m)
-    mock.start()
-    return mock, mock.client_url
-
-
-# ---------------------------------------------------------------------------------------------- one drone
 def _command(link: Any, sysid: int, command: int, params: list[float], deadline: float) -> int | None:
-    """COMMAND_LONG with retries; the MAV_RESULT of its COMMAND_ACK, or None without one."""
-    p = (params + [0.0] * 7)[:7]
+    """COMMAND_LONG with retries (confirmation counts up); its COMMAND_ACK's MAV_RESULT, or None."""
+    padded = (params + [0.0] * 7)[:7]
     for attempt in range(COMMAND_TRIES):
-        link.mav.command_long_send(sysid, 1, command, attempt, *p)
+        link.mav.command_long_send(sysid, 1, command, attempt, *padded)
         wait_until = min(time.monotonic() + COMMAND_WAIT_S, deadline)
-        while True:
-            msg = link.recv(wait_until)
-            if msg is None:
-                break
+        while (msg := link.recv(wait_until)) is not None:
             if msg.get_srcSystem() == sysid and msg.get_type() == "COMMAND_ACK" and int(msg.command) == command:
                 return int(msg.result)
         if time.monotonic() >= deadline:
@@ -143,291 +65,283 @@ def _command(link: Any, sysid: int, command: int, params: list[float], deadline:
     return None
 
 
-def _fly_one(url: str, drone: DroneFlight, plan_path: Path, deadline: float, bar: Any,
-             start_barrier: threading.Barrier, stop: threading.Event) -> None:
-    sysid = drone.id
-    backend = None
-    try:
+def _refused(what: str, result: int | None) -> str:
+    return f"{what} {'not acknowledged' if result is None else f'refused (MAV_RESULT {result})'}"
+
+
+class _StartGate:
+    """Drones start their missions together: each thread arrives once, ready or not."""
+
+    def __init__(self, parties: int) -> None:
+        self._barrier = threading.Barrier(max(parties, 1))
+        self._arrived = threading.local()
+
+    def arrive(self, timeout: float) -> None:
+        if getattr(self._arrived, "done", False):
+            return
+        self._arrived.done = True
         try:
-            backend = open_backend("pymavlink", url, sysid, timeouts=Timeouts(item_timeout=0.5, retries=10),
-                                   connect_timeout=max(1.0, min(10.0, deadline - time.monotonic())))
-            plan = read_mission_file(plan_path)
-            upload_plan(backend, plan.parts(), verify=True)
-            drone.wire = to_wire(plan.mission, backend.vehicle.flavour)
-            drone.uploaded = True
-        except (BridgeError, OSError) as err:
-            drone.problems.append(f"uav{sysid}: upload failed: {err}")
-            return
+            self._barrier.wait(timeout=max(timeout, 0.1))
+        except threading.BrokenBarrierError:
+            pass
+
+
+class _DroneFlight:
+    """One drone's thread: upload, start, follow. What it learns goes into `record`."""
+
+    def __init__(self, url: str, record: DroneRecord, plan_path: Path, deadline: float, telemetry_hz: float,
+                 gate: _StartGate, stop: threading.Event, bar: Any, upload_with: str = "missionplan") -> None:
+        self.url, self.record, self.plan_path, self.deadline = url, record, plan_path, deadline
+        self.upload_with = upload_with
+        self.telemetry_hz, self.gate, self.stop, self.bar = telemetry_hz, gate, stop, bar
+        self.backend: MissionBackend | None = None
+
+    def problem(self, text: str) -> None:
+        self.record.problems.append(f"uav{self.record.id}: {text}")
+
+    def run(self) -> None:
+        try:
+            if self._upload() and self._start():
+                self._follow()
+                if self.record.finished:
+                    self._check_still_held()
+        except Exception as err:  # noqa: BLE001 - one drone's failure must not hide the others'
+            self.problem(f"{type(err).__name__}: {err}")
         finally:
-            try:
-                start_barrier.wait(timeout=max(0.1, deadline - time.monotonic()))  # start together
-            except threading.BrokenBarrierError:
-                pass
-        link = backend.link
-        if backend.vehicle.flavour is Flavour.ARDUPILOT:
-            _command(link, sysid, CMD_DO_SET_MODE, [1.0, float(ARDUPILOT_GUIDED)], deadline)  # denial is not fatal
-        result = _command(link, sysid, CMD_ARM, [1.0], deadline)
+            self.gate.arrive(0.0)
+            if self.backend is not None:
+                self.backend.close()
+
+    def _upload(self) -> bool:
+        rec = self.record
+        try:
+            plan = read_mission_file(self.plan_path)
+            if self.upload_with == "mavsdk":
+                self._upload_by_mavsdk()
+            self.backend = open_backend("pymavlink", self.url, rec.id, timeouts=Timeouts(item_timeout=0.5, retries=10),
+                                        connect_timeout=self._connect_s())
+            rec.wire = to_wire(plan.mission, self.backend.vehicle.flavour)
+            if self.upload_with == "mavsdk":
+                # What MAVSDK made of the file must be exactly what our reader makes of it.
+                got = self.backend.download(0)
+                differences = compare_wire(rec.wire, got, skip_home=self.backend.vehicle.flavour.has_home_item(0))
+                if differences:
+                    raise BridgeError("the mission MAVSDK read from the .plan and uploaded differs from ours: "
+                                      + "; ".join(differences))
+            else:
+                upload_plan(self.backend, plan.parts(), verify=True)
+            rec.uploaded = True
+            return True
+        except (BridgeError, OSError) as err:
+            self.problem(f"upload failed: {err}")
+            return False
+
+    def _connect_s(self) -> float:
+        return max(1.0, min(10.0, self.deadline - time.monotonic()))
+
+    def _upload_by_mavsdk(self) -> None:
+        """MAVSDK's own QGroundControl importer opens the .plan and MAVSDK uploads what it read."""
+        mavsdk = open_backend("mavsdk", self.url, self.record.id, timeouts=Timeouts(item_timeout=0.5, retries=10),
+                              connect_timeout=self._connect_s())
+        try:
+            mavsdk.upload_qgc_plan(str(self.plan_path))  # type: ignore[attr-defined]
+        finally:
+            mavsdk.close()
+
+    def _start(self) -> bool:
+        rec, link, sysid = self.record, self.backend.link, self.record.id
+        interval_us = 1e6 / self.telemetry_hz
+        if _command(link, sysid, CMD_SET_MESSAGE_INTERVAL, [MSG_GLOBAL_POSITION_INT, interval_us], self.deadline) != 0:
+            rec.notes.append(f"position stream rate of {self.telemetry_hz:g} Hz not accepted: the vehicle's own rate")
+        if self.backend.vehicle.flavour is Flavour.ARDUPILOT:
+            _command(link, sysid, CMD_DO_SET_MODE, [1.0, float(ARDUPILOT_GUIDED)], self.deadline)  # arms in GUIDED
+        result = _command(link, sysid, CMD_ARM, [1.0], self.deadline)
         if result != 0:
-            drone.problems.append(f"uav{sysid}: arming {'not acknowledged' if result is None else f'refused ({result})'}")
-            return
-        result = _command(link, sysid, CMD_MISSION_START, [0.0, 0.0], deadline)
+            self.problem(_refused("arming", result))
+            return False
+        self.gate.arrive(self.deadline - time.monotonic())
+        result = _command(link, sysid, CMD_MISSION_START, [0.0, 0.0], self.deadline)
         if result != 0:
-            drone.problems.append(f"uav{sysid}: mission start {'not acknowledged' if result is None else f'refused ({result})'}")
-            return
-        drone.started = True
-        drone.t_start = drone.last_heard = time.monotonic()
-        drone.total = len(drone.wire)
-        if bar is not None:
-            bar.reset(total=max(drone.total - 1, 1))
-        armed = True
-        while not stop.is_set():
+            self.problem(_refused("mission start", result))
+            return False
+        rec.started = True
+        rec.t_start = rec.last_heard = time.monotonic()
+        if self.bar is not None:
+            self.bar.reset(total=max(len(rec.wire) - 1, 1))
+        return True
+
+    def _follow(self) -> None:
+        rec, link, sysid = self.record, self.backend.link, self.record.id
+        last_seq = len(rec.wire) - 1
+        armed, boot_ms, rel_alt = True, -1, 0.0
+        while not self.stop.is_set():
             now = time.monotonic()
-            if now >= deadline:
-                drone.problems.append(f"uav{sysid}: mission not finished within the time-out "
-                                      f"(item {drone.current} of {drone.total})")
-                break
-            if now - drone.last_heard > SILENCE_S:
-                drone.problems.append(f"uav{sysid}: vehicle stopped answering ({SILENCE_S:g} s without a message)")
-                break
-            msg = link.recv(min(deadline, now + 0.5))
+            if now >= self.deadline:
+                self.problem(f"mission not finished within the time-out (item {rec.current} of {last_seq})")
+                return
+            if now - rec.last_heard > SILENCE_S:
+                self.problem(f"stopped answering at item {rec.current} of {last_seq} "
+                             f"({SILENCE_S:g} s without a message)")
+                return
+            msg = link.recv(min(self.deadline, now + 0.5))
             if msg is None or msg.get_srcSystem() != sysid:
                 continue
-            t = time.monotonic()
-            drone.last_heard = t
+            t = rec.last_heard = time.monotonic()
             kind = msg.get_type()
             if kind == "GLOBAL_POSITION_INT":
-                speed = math.hypot(msg.vx, msg.vy) / 100.0
-                drone.samples.append((t, msg.lat / 1e7, msg.lon / 1e7, msg.relative_alt / 1000.0, speed))
-            elif kind == "MISSION_CURRENT":
-                drone.current = int(msg.seq)
-                drone.mission_state = int(getattr(msg, "mission_state", 0) or 0)
-                if bar is not None:
-                    bar.n = min(max(drone.current, bar.n), bar.total)
-                    bar.refresh()
-            elif kind == "MISSION_ITEM_REACHED":
-                drone.reached.append((t, int(msg.seq)))
-            elif kind == "CAMERA_FEEDBACK":
-                drone.camera.append((msg.lat / 1e7, msg.lng / 1e7))
-            elif kind == "HEARTBEAT" and msg.type != 6:
+                if msg.time_boot_ms < boot_ms:
+                    self.problem(f"rebooted in flight at item {rec.current} of {last_seq} (its clock restarted)")
+                    return
+                boot_ms, rel_alt = msg.time_boot_ms, msg.relative_alt / 1000.0
+                speed = float(np.hypot(msg.vx, msg.vy)) / 100.0
+                rec.samples.append((t, msg.lat / 1e7, msg.lon / 1e7, rel_alt, speed, msg.time_boot_ms / 1000.0))
+            elif kind == "HEARTBEAT" and msg.type != MAV_TYPE_GCS:
+                if msg.system_status == MAV_STATE_BOOT:
+                    self.problem(f"rebooted in flight at item {rec.current} of {last_seq} (mission lost)")
+                    return
                 armed = bool(msg.base_mode & MODE_FLAG_ARMED)
-            if not armed and (drone.reached or drone.mission_state == 5):
-                drone.finished = True
-                drone.t_end = t
-                if bar is not None:
-                    bar.n = bar.total
-                    bar.refresh()
-                break
-    except Exception as err:  # noqa: BLE001 - one drone's failure must not hide the others'
-        drone.problems.append(f"uav{sysid}: {type(err).__name__}: {err}")
-    finally:
-        if backend is not None:
-            backend.close()
+            elif kind == "MISSION_CURRENT":
+                rec.current = int(msg.seq)
+                rec.mission_state = int(getattr(msg, "mission_state", 0) or 0)
+                if self.bar is not None:
+                    self.bar.n = min(max(rec.current, self.bar.n), self.bar.total)
+                    self.bar.refresh()
+            elif kind == "MISSION_ITEM_REACHED":
+                rec.reached.append((t, int(msg.seq)))
+            elif kind == "CAMERA_FEEDBACK":
+                rec.camera.setdefault(int(msg.img_idx), (t, msg.lat / 1e7, msg.lng / 1e7, float(msg.alt_rel)))
+                rec.captures = max(rec.captures, int(msg.completed_captures), int(msg.img_idx) + 1)
+            complete = rec.mission_state == MISSION_STATE_COMPLETE or any(seq == last_seq for _, seq in rec.reached)
+            if not armed and complete and rel_alt < ON_GROUND_M:
+                rec.finished, rec.t_end = True, t
+                if self.bar is not None:
+                    self.bar.n = self.bar.total
+                    self.bar.refresh()
+                return
+
+    def _check_still_held(self) -> None:
+        """After landing: does the vehicle still hold exactly the mission that was uploaded?"""
+        rec = self.record
+        try:
+            got = self.backend.download(0)
+        except BridgeError as err:
+            self.problem(f"could not read the mission back after landing: {err}")
+            return
+        differences = compare_wire(rec.wire, got, skip_home=self.backend.vehicle.flavour.has_home_item(0))
+        rec.held_after_flight = not differences
+        if differences:
+            self.problem("holds another mission after the flight: " + "; ".join(differences))
 
 
-# ---------------------------------------------------------------------------------------------- judging
-def _survey_window(drone: DroneFlight) -> tuple[int | None, int | None]:
-    """Wire seqs of the first and last waypoint flown with the distance trigger on."""
-    first = last = None
-    on = False
-    for item in drone.wire:
-        if item.command == CMD_CAM_TRIGG_DIST:
-            on = item.param1 > 0
-        elif item.command == CMD_WAYPOINT and on:
-            first = item.seq if first is None else first
-            last = item.seq
-    return first, last
-
-
-def _estimate_time_scale(drones: list[DroneFlight]) -> float:
-    """Simulated seconds per wall second: distance flown between samples over the reported speed."""
-    ratios: list[float] = []
-    for d in drones:
-        s = d.samples
-        for a, b in zip(s, s[1:]):
-            dt = b[0] - a[0]
-            speed = 0.5 * (a[4] + b[4])
-            if dt <= 0.05 or speed < 0.5:
-                continue
-            dn = math.radians(b[1] - a[1]) * 6_378_137.0
-            de = math.radians(b[2] - a[2]) * 6_378_137.0 * math.cos(math.radians(a[1]))
-            dist = math.hypot(dn, de)
-            if dist > 0:
-                ratios.append(dist / (dt * speed))
-    if len(ratios) < 3:
-        return 1.0
-    return float(np.median(ratios))
-
-
-def _photo_positions(frame: Any, drone: DroneFlight, trigger_m: float, acceptance_m: float) -> np.ndarray:
-    """Photo positions (grid metres): camera reports, else every trigger_m along the survey part of the track."""
-    if drone.camera:
-        lat, lon = zip(*drone.camera)
-        return fr.to_grid_m(frame, lat, lon)
-    if not drone.samples:
-        return np.zeros((0, 2))
-    first, last = _survey_window(drone)
-    reached = {seq: t for t, seq in reversed(drone.reached)}  # first arrival of each seq
-    t0 = reached.get(first) if first is not None else None
-    t1 = None
-    if last is not None:
-        later = [t for t, seq in drone.reached if seq == last]
-        t1 = later[-1] if later else None
-    t0 = drone.samples[0][0] if t0 is None else t0
-    t1 = drone.samples[-1][0] if t1 is None else t1
-    # The recorded samples (4 Hz against the mock: they cut corners) merged, in arrival order, with the
-    # waypoints the vehicle reported reached. A reached waypoint counts as flown only up to where the
-    # vehicle, flying straight from its last known point, entered the waypoint's acceptance circle
-    # (param2, or acceptance_m when 0): a vehicle that turns early must not be credited with the corner.
-    by_seq = {it.seq: it for it in drone.wire}
-    merged = [(s[0], 1, s[1], s[2], 0.0) for s in drone.samples if t0 <= s[0] <= t1]
-    if first is not None and last is not None:
-        for t, seq in drone.reached:
-            item = by_seq.get(seq)
-            if item is not None and item.command == CMD_WAYPOINT and first <= seq <= last and t0 <= t <= t1:
-                radius = float(item.param2) if item.param2 > 0 else acceptance_m
-                merged.append((t, 0, item.x / 1e7, item.y / 1e7, radius))
-    merged.sort()
-    if not merged:
-        return np.zeros((0, 2))
-    xy = fr.to_grid_m(frame, [m[2] for m in merged], [m[3] for m in merged])
-    pts: list[np.ndarray] = []
-    here: np.ndarray | None = None
-    for m, q in zip(merged, xy):
-        if m[1] == 1 or here is None:
-            here = q
-        else:
-            gap = q - here
-            dist = float(np.hypot(gap[0], gap[1]))
-            if dist > m[4]:
-                here = here + gap * (1.0 - m[4] / dist)
-        pts.append(here)
-    pts_arr = np.array(pts)
-    return fr.resample_polyline(pts_arr, trigger_m) if trigger_m > 0 else pts_arr
-
-
-def judge(plan_dir: Path, report: dict[str, Any], drones: list[DroneFlight], time_scale: float | None,
-          wall_s: float, problems: list[str], acceptance_m: float = 1.0) -> FlightResult:
-    frame = fr.frame_of(report)
-    geo = report["georeference"]
-    footprint = float(geo["footprint_m"])
-    trigger = float(geo.get("trigger_distance_m") or 0.0)
-    scale = time_scale if time_scale else _estimate_time_scale(drones)
-    targets = fr.target_cells(report)
-    photos: list[np.ndarray] = []
-    tracks_m: dict[int, np.ndarray] = {}
-    timed: dict[int, np.ndarray] = {}
-    flight_s: dict[int, float] = {}
-    out_drones: list[dict[str, Any]] = []
-    for d in drones:
-        p = _photo_positions(frame, d, trigger, acceptance_m)
-        photos.append(p)
-        if d.samples:
-            arr = np.array(d.samples)
-            xy = fr.to_grid_m(frame, arr[:, 1], arr[:, 2])
-            tracks_m[d.id] = xy
-            # north/east-like metres in the grid frame (rows down, cols right), up = relative altitude
-            timed[d.id] = np.column_stack([arr[:, 0], xy[:, 0], xy[:, 1], arr[:, 3]])
-        else:
-            tracks_m[d.id] = np.zeros((0, 2))
-        if d.t_start is not None:
-            end = d.t_end if d.t_end is not None else (d.samples[-1][0] if d.samples else d.t_start)
-            flight_s[d.id] = round((end - d.t_start) * scale, 2)
-        else:
-            flight_s[d.id] = 0.0
-        out_drones.append({"id": d.id, "flight_s": flight_s[d.id], "finished": d.finished,
-                           "photos": int(len(d.camera) if d.camera else len(p)),
-                           "photos_source": "camera" if d.camera else "track",
-                           "planned_photos": d.plan_photos, "uploaded": d.uploaded,
-                           "samples": len(d.samples), "items_reached": len({s for _, s in d.reached})})
-    all_photos = np.vstack(photos) if photos else np.zeros((0, 2))
-    covered = fr.coverage(frame, targets, all_photos, footprint)
-    pct = 100.0 * float(covered.mean()) if len(targets) else 100.0
-    sep = fr.min_separation(timed)
-    json_path = plan_dir / "flight.json"
-    png_path = plan_dir / "flight.png"
-    doc = {"coverage": round(pct, 2), "targets": int(len(targets)), "covered": int(covered.sum()),
-           "min_separation_m": sep, "drones": out_drones, "problems": problems,
-           "time_scale": round(scale, 3), "acceptance_m": acceptance_m, "wall_s": round(wall_s, 2),
-           "photos_assumed": ("camera reports where present, else every trigger_distance_m along the recorded track "
-                              "(GLOBAL_POSITION_INT samples merged with the positions of waypoints reported reached)")}
-    write_text_atomic(json_path, json.dumps(doc, indent=2) + "\n")
-    fr.draw_flight(png_path, report, frame, targets, covered, tracks_m, flight_s, pct)
-    return FlightResult(coverage=round(pct, 2), min_separation_m=sep, drones=out_drones, problems=problems,
-                        time_scale=scale, wall_s=wall_s, json_path=json_path, png_path=png_path)
-
-
-# ---------------------------------------------------------------------------------------------- fly
 def fly(plan_dir: Path, connect: str, timeout_s: float = 600.0, progress: bool = True,
-        time_scale: float | None = None, acceptance_m: float = 1.0) -> FlightResult:
-    """Upload, verify, arm, start and follow every drone of plan_dir in parallel; write flight.json/.png."""
+        time_scale: float | None = None, telemetry_hz: float = DEFAULT_TELEMETRY_HZ,
+        upload_with: str = "missionplan") -> FlightResult:
+    """Upload, verify, arm, start and follow every drone of plan_dir at once; write flight.json/.png.
+
+    upload_with="mavsdk": MAVSDK's QGroundControl importer reads each .plan and MAVSDK uploads it;
+    the read-back must then equal what our own reader makes of the same file."""
+    if upload_with not in UPLOADERS:
+        raise BridgeUsageError(f"--upload-with {upload_with}: choose {' or '.join(UPLOADERS)}")
     plan_dir = Path(plan_dir)
     report = json.loads((plan_dir / "report.json").read_text())
-    ids = [int(d["id"]) for d in report["drones"]]
-    drones = [DroneFlight(id=k, plan_photos=int(next(d for d in report["drones"] if int(d["id"]) == k)
-                                               .get("photos", 0))) for k in ids]
-    problems: list[str] = []
-    plans = {k: plan_dir / f"uav{k}.plan" for k in ids}
-    for k, path in plans.items():
-        if not path.exists():
-            problems.append(f"uav{k}: upload failed: {path.name} is missing")
+    if "georeference" not in report or "drones" not in report:
+        raise BridgeUsageError(f"{plan_dir / 'report.json'}: not a georeferenced plan (no missions to fly)")
+    records = [DroneRecord(id=int(d["id"]), planned_photos=int(d.get("photos", 0))) for d in report["drones"]]
+    plans = {rec.id: plan_dir / f"uav{rec.id}.plan" for rec in records}
     start = time.monotonic()
     deadline = start + timeout_s
-    runnable = [d for d in drones if plans[d.id].exists()]
-    barrier = threading.Barrier(max(len(runnable), 1))
-    stop = threading.Event()
+    for rec in records:
+        if not plans[rec.id].exists():
+            rec.problems.append(f"uav{rec.id}: {plans[rec.id]} is missing")
+    runnable = [rec for rec in records if plans[rec.id].exists()]
+    gate, stop = _StartGate(len(runnable)), threading.Event()
     bars: dict[int, Any] = {}
     if progress:
         from tqdm import tqdm
 
-        for pos, d in enumerate(runnable):
-            bars[d.id] = tqdm(total=1, desc=f"uav{d.id}", position=pos, unit="item", leave=True)
-    threads = [threading.Thread(target=_fly_one, name=f"fly-uav{d.id}",
-                                args=(connect, d, plans[d.id], deadline, bars.get(d.id), barrier, stop), daemon=True)
-               for d in runnable]
-    for th in threads:
-        th.start()
+        bars = {rec.id: tqdm(total=1, desc=f"uav{rec.id}", position=pos, unit="item", leave=True)
+                for pos, rec in enumerate(runnable)}
+    threads = [threading.Thread(target=_DroneFlight(connect, rec, plans[rec.id], deadline, telemetry_hz, gate, stop,
+                                                    bars.get(rec.id), upload_with).run, name=f"fly-uav{rec.id}", daemon=True)
+               for rec in runnable]
+    for thread in threads:
+        thread.start()
     try:
-        for th in threads:
-            th.join(max(0.0, deadline - time.monotonic()) + 5.0)
+        for thread in threads:
+            thread.join(max(0.0, deadline - time.monotonic()) + 5.0)
     finally:
         stop.set()
-        for th in threads:
-            th.join(2.0)
+        for thread in threads:
+            thread.join(2.0)
         for bar in bars.values():
             bar.close()
-    wall = time.monotonic() - start
-    for d in drones:
-        problems.extend(d.problems)
-        if d.started and not d.finished and not d.problems:
-            problems.append(f"uav{d.id}: mission not finished")
-    return judge(plan_dir, report, drones, time_scale, wall, problems, acceptance_m)
+    return judge(plan_dir, report, records, time_scale, wall_s=time.monotonic() - start, telemetry_hz=telemetry_hz)
 
 
-# ---------------------------------------------------------------------------------------------- CLI
-def cmd_fly(args: Any) -> int:
-    result = fly(Path(args.dir), args.connect, timeout_s=args.timeout, progress=not args.quiet,
-                 time_scale=args.time_scale, acceptance_m=args.acceptance)
-    sep = result.min_separation_m
-    print(f"coverage {result.coverage:.2f} %, min separation {sep.get('horizontal')} m horizontal / "
-          f"{sep.get('3d')} m 3-D, {len(result.drones)} drones, {result.wall_s:.1f} s wall")
+def start_mock_fleet(plan_dir: Path, speedup: float, flavour: str = "ardupilot", faults: Any = None) -> Any:
+    """In-process mock autopilots on 127.0.0.1, one per uavK.plan of plan_dir (system id K, home at
+    its launch point). Returns the started MockAutopilot; fly against mock.client_url, then mock.stop()."""
+    from bridge.mock import MockAutopilot
+
+    homes: dict[int, tuple[float, float, float]] = {}
+    for path in sorted(Path(plan_dir).glob("uav*.plan")):
+        home = read_mission_file(path).mission.home
+        if home is not None:
+            homes[int(path.stem[3:])] = (float(home[0]), float(home[1]), float(home[2]))
+    if not homes:
+        raise BridgeUsageError(f"{plan_dir}: no uavK.plan files to fly")
+    mock = MockAutopilot("udpin:127.0.0.1:0", sysids=sorted(homes), flavour=flavour, speedup=speedup,
+                         faults=faults, homes=homes)
+    return mock.start()
+
+
+# ------------------------------------------------------------------------------------------- CLI
+def print_flight(result: FlightResult) -> None:
+    """The lines `fly` and `demo` print about a flight."""
+    sep = result.separation
+    print(f"flown coverage {result.coverage:.2f} % of {result.targets} target cells "
+          f"(photos from {result.photo_source}); {len(result.drones)} drones, {result.wall_s:.1f} s wall")
+    print(f"closest approach {sep['horizontal']} m horizontal / {sep['3d']} m 3-D; "
+          f"the plan promised {sep['planned_3d']} m 3-D (tolerance {sep['tolerance']} m): "
+          f"{'kept' if sep['kept'] else 'BROKEN'}")
     for d in result.drones:
-        print(f"  uav{d['id']}: {'finished' if d['finished'] else 'NOT finished'}, {d['flight_s']} s, "
-              f"{d['photos']} photos")
-    for p in result.problems:
-        print(f"  problem: {p}")
+        state = "finished" if d["finished"] else "NOT finished"
+        held = {True: "holds the uploaded mission", False: "LOST its mission", None: "mission not re-read"}
+        print(f"  uav{d['id']}: {state}, {d['flight_s']:.1f} s flown (planned {d['planned_flight_s']:.1f} s), "
+              f"{d['photos']} photos, {held[d['held_after_flight']]}")
+    for problem in result.problems:
+        print(f"  problem: {problem}")
     print(f"wrote {result.json_path} and {result.png_path}")
+
+
+def cmd_fly(args: Any) -> int:
+    if args.timeout <= 0:
+        raise BridgeUsageError(f"--timeout must be positive, got {args.timeout}")
+    if args.telemetry_hz <= 0:
+        raise BridgeUsageError(f"--telemetry-hz must be positive, got {args.telemetry_hz}")
+    if not (Path(args.dir) / "report.json").is_file():
+        raise BridgeUsageError(f"{args.dir}: no report.json (run `missionplan plan --out {args.dir}` first)")
+    result = fly(Path(args.dir), args.connect, timeout_s=args.timeout, progress=not args.quiet,
+                 time_scale=args.time_scale, telemetry_hz=args.telemetry_hz, upload_with=args.upload_with)
+    print_flight(result)
     return 0 if result.ok else 1
 
 
 def register(subparsers: Any) -> None:
-    """Add `fly DIR --connect URL [--timeout S] [--quiet] [--time-scale X] [--acceptance M]`."""
-    p = subparsers.add_parser("fly", help="upload a planned fleet, fly it over MAVLink and write flight.json/.png")
-    p.add_argument("dir", help="plan directory (report.json and uavK.plan)")
-    p.add_argument("--connect", required=True, help="pymavlink URL of the vehicles' link, e.g. udpout:127.0.0.1:14550")
+    """Add `fly DIR --connect URL [--timeout S] [--telemetry-hz HZ] [--time-scale X] [--upload-with W] [--quiet]`."""
+    p = subparsers.add_parser("fly", help="upload a planned fleet, fly it over MAVLink and judge the flight "
+                                          "(flight.json, flight.png)")
+    p.add_argument("dir", help="plan folder written by `missionplan plan` (report.json, uavK.plan)")
+    p.add_argument("--connect", required=True,
+                   help="pymavlink URL of the link the vehicles share, e.g. udpout:127.0.0.1:14550")
     p.add_argument("--timeout", type=float, default=600.0, help="give up after this many seconds (default 600)")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--telemetry-hz", type=float, default=DEFAULT_TELEMETRY_HZ,
+                   help=f"position stream rate to ask each vehicle for (default {DEFAULT_TELEMETRY_HZ:g})")
     p.add_argument("--time-scale", type=float, default=None,
-                   help="simulated seconds per wall second (default: estimated from the telemetry)")
-    p.add_argument("--acceptance", type=float, default=1.0,
-                   help="the vehicles' waypoint acceptance radius in metres for items that give none (default 1)")
+                   help="simulated seconds per wall second of a sped-up simulator (default: estimated from the "
+                        "reported velocities; 1 for real vehicles)")
+    p.add_argument("--upload-with", choices=UPLOADERS, default="missionplan",
+                   help="who reads the .plan files and uploads them: our reader and uploader (default), or "
+                        "MAVSDK's QGroundControl importer and MissionRaw (checked against ours by read-back)")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(handler=cmd_fly)

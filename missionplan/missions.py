@@ -5,9 +5,10 @@ Each drone's mission, in order:
 1. NAV_TAKEOFF to its altitude above the launch point;
 2. DO_CHANGE_SPEED to the cruise speed;
 3. DO_SET_CAM_TRIGG_DIST: a photo every `trigger distance` metres, the first at once;
-4. one NAV_WAYPOINT per corrected waypoint, acceptance radius a quarter cell;
-5. DO_SET_CAM_TRIGG_DIST 0: camera off;
-6. NAV_RETURN_TO_LAUNCH, or NAV_LAND where the track ends.
+4. per corrected waypoint: NAV_WAYPOINT (acceptance radius a quarter cell), then
+   DO_SET_CAM_TRIGG_DIST again with "trigger once now", so each corner gets a photo and the
+   photos of the next leg are spaced from it; after the last waypoint the distance is 0 (camera off);
+5. NAV_RETURN_TO_LAUNCH, or NAV_LAND where the track ends.
 
 Positions use the relative-altitude frame (MAV_FRAME_GLOBAL_RELATIVE_ALT). Drone k (from 0)
 flies at altitude H + k * altitude_step: layers go up from H, never below it, so the
@@ -74,11 +75,13 @@ class DroneMission:
 
 
 def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latlon: np.ndarray,
-                  waypoints_m: np.ndarray, launch_m: np.ndarray, settings: MissionSettings) -> DroneMission:
+                  waypoints_m: np.ndarray, launch_m: np.ndarray, settings: MissionSettings,
+                  flight_s: float | None = None) -> DroneMission:
     """The mission of drone `drone` (0-based; its system id is drone + 1).
 
     `waypoints_latlon` (n, 2) are the corrected waypoints; `waypoints_m` the same points in
     a local metric frame and `launch_m` the launch point there, for lengths and photo counts.
+    `flight_s` is the planned duration (missionplan.timeline); without it, length over cruise speed.
     """
     altitude = settings.altitude_of(drone)
     lat0, lon0 = launch_latlon
@@ -89,9 +92,18 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
         # param3 = 1: take the first photo at once, not only after the first trigger distance.
         MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=settings.trigger_distance_m, param3=1.0),
     ]
-    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=settings.acceptance_m,
-                          x=float(lat), y=float(lon), z=altitude) for lat, lon in waypoints_latlon]
-    items.append(MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0))
+    # After every waypoint, DO_SET_CAM_TRIGG_DIST again with "trigger once now": a photo where the
+    # track turns, and the distance count restarts there, so photos stay aligned with each leg's start
+    # (a corner's photo would otherwise fall up to one trigger distance short of it). The last one
+    # sets the distance to 0: one photo at the end of the track, then the camera stops.
+    for index, (lat, lon) in enumerate(waypoints_latlon):
+        last = index == len(waypoints_latlon) - 1
+        items.append(MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=settings.acceptance_m,
+                                 x=float(lat), y=float(lon), z=altitude))
+        items.append(MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION,
+                                 param1=0.0 if last else settings.trigger_distance_m, param3=1.0))
+    if not len(waypoints_latlon):
+        items.append(MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0))
     if settings.end == "rtl":
         items.append(MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION))
     else:
@@ -99,10 +111,14 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
         items.append(MissionItem(CMD_NAV_LAND, FRAME_GLOBAL_RELATIVE_ALT, x=float(last_lat), y=float(last_lon), z=0.0))
 
     legs = np.diff(np.vstack([launch_m, waypoints_m]), axis=0)
-    survey_m = float(np.hypot(legs[:, 0], legs[:, 1]).sum()) if len(legs) else 0.0
+    leg_m = np.hypot(legs[:, 0], legs[:, 1]) if len(legs) else np.zeros(0)
+    survey_m = float(leg_m.sum())
     back_m = float(np.hypot(*(waypoints_m[-1] - launch_m))) if settings.end == "rtl" and len(waypoints_m) else 0.0
     length = altitude + survey_m + back_m + altitude  # up, across, (back,) down
-    photos = 1 + math.floor(survey_m / settings.trigger_distance_m) if settings.trigger_distance_m > 0 else 1
+    # One photo at the start and one at each waypoint, plus one per trigger distance inside each leg.
+    photos = 1 + len(waypoints_m)
+    if settings.trigger_distance_m > 0 and len(leg_m):
+        photos += int(np.maximum(np.ceil(leg_m / settings.trigger_distance_m - 1e-9) - 1, 0).sum())
     mission = Mission(items=items, home=(lat0, lon0, 0.0))
     return DroneMission(sysid=drone + 1, mission=mission, waypoints=len(waypoints_latlon), length_m=length,
-                        flight_s=length / settings.speed_m_s, photos=photos)
+                        flight_s=length / settings.speed_m_s if flight_s is None else flight_s, photos=photos)

@@ -30,7 +30,13 @@ def test_every_drone_gets_plan_waypoints_and_a_report_entry(leonardo_run):
     for drone in report["drones"]:
         for key in ("cells", "waypoints", "length_m", "flight_s", "photos"):
             assert drone[key] > 0
-        assert drone["flight_s"] == pytest.approx(drone["length_m"] / 5.0, abs=0.06)
+        # The timeline: climb at 2.5 m/s, legs at 5 m/s (each cut short by up to the acceptance radius), 1.5 m/s down.
+        altitude = drone["altitude_m"]
+        expected = altitude / 2.5 + (drone["length_m"] - 2 * altitude) / 5.0 + altitude / 1.5
+        acceptance = report["georeference"]["footprint_m"] / 36
+        assert drone["flight_s"] == pytest.approx(expected, abs=0.06 + drone["waypoints"] * acceptance / 5.0)
+    separation = report["separation"]
+    assert separation["3d"] >= separation["horizontal"] > 0 and len(separation["pair_3d"]) == 2
 
 
 def test_waypoints_files_load_in_mavwp_with_the_same_items(leonardo_run):
@@ -56,6 +62,11 @@ def test_plan_files_read_back_to_the_mission_shape(leonardo_run):
         assert items[2].command == CMD_DO_SET_CAM_TRIGG_DIST and items[2].param1 > 0
         assert items[-2].command == CMD_DO_SET_CAM_TRIGG_DIST and items[-2].param1 == 0
         assert items[-1].command == CMD_NAV_RETURN_TO_LAUNCH
+        # every waypoint is followed by "trigger once now" (a photo at each corner), the last one stopping the camera
+        for index, item in enumerate(items):
+            if item.command == CMD_NAV_WAYPOINT:
+                after = items[index + 1]
+                assert after.command == CMD_DO_SET_CAM_TRIGG_DIST and after.param3 == 1
         waypoints = [i for i in items if i.command == CMD_NAV_WAYPOINT]
         assert len(waypoints) == report["drones"][k - 1]["waypoints"]
         assert all(i.frame == FRAME_GLOBAL_RELATIVE_ALT for i in waypoints)
@@ -94,7 +105,10 @@ def test_land_and_altitude_step_options(tmp_path):
         altitudes.append(items[0].z)
     assert altitudes == pytest.approx([1.2, 1.7, 2.2])
     report = json.loads((out / "report.json").read_text())
-    assert report["drones"][0]["flight_s"] == pytest.approx(report["drones"][0]["length_m"] / 2, abs=0.06)
+    first = report["drones"][0]
+    expected = 1.2 / 2.5 + (first["length_m"] - 2 * 1.2) / 2.0 + 1.2 / 1.5  # climb, legs at --speed 2, descent
+    acceptance = report["georeference"]["footprint_m"] / 36
+    assert first["flight_s"] == pytest.approx(expected, abs=0.06 + first["waypoints"] * acceptance / 2.0)
 
 
 @pytest.mark.parametrize("args, message", [
