@@ -166,9 +166,10 @@ def _cmd_plan(args: argparse.Namespace) -> int:
                   f"(turning {before['turning_deg']:.0f} -> {after['turning_deg']:.0f} deg)")
     if "separation" in report:
         sep = report["separation"]
-        print(f"  closest approach if flown as planned: {sep['3d']} m 3-D, {sep['horizontal']} m horizontal "
-              f"(uav{sep['pair_3d'][0]} and uav{sep['pair_3d'][1]} at {sep['at_s']} s); "
-              f"--altitude-step puts drones on separate layers" if sep["3d"] is not None else "")
+        if sep["3d"] is not None:
+            hint = "" if args.altitude_step > 0 else "; --altitude-step puts drones on separate layers"
+            print(f"  closest approach if flown as planned: {sep['3d']} m 3-D, {sep['horizontal']} m horizontal "
+                  f"(uav{sep['pair_3d'][0]} and uav{sep['pair_3d'][1]} at {sep['at_s']} s){hint}")
     names = ", ".join(p.name for p in written[:2]) + (f", ... ({len(written)} files)" if written else "")
     print(f"wrote {args.out / 'report.json'}, {args.out / 'plan.png'}" + (f", {names}" if written else ""))
     if not report["success"]:

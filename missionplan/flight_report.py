@@ -53,8 +53,8 @@ class DroneRecord:
     captures: int = 0  # photos the camera says it took (completed_captures / highest img_idx + 1)
     wire: list[Any] = field(default_factory=list)  # the mission as uploaded (bridge.mission.WireItem)
     reached: list[tuple[float, int]] = field(default_factory=list)  # arrival time, seq
-    # arrival time, lat, lon, up m, ground speed m/s, the vehicle's time since boot s
-    samples: list[tuple[float, float, float, float, float, float]] = field(default_factory=list)
+    # arrival time, lat, lon, up m, ground speed m/s, the vehicle's time since boot s, climb rate m/s
+    samples: list[tuple[float, float, float, float, float, float, float]] = field(default_factory=list)
     camera: dict[int, tuple[float, float, float, float]] = field(default_factory=dict)  # img_idx -> t, lat, lon, up
     t_start: float | None = None
     t_end: float | None = None
@@ -217,15 +217,20 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     planned = {int(d["id"]): d for d in report["drones"]}
     targets = target_cells(report)
     photos, tracks_m, timed, rows, sources = [], {}, {}, [], set()
+    liftoff: dict[int, float] = {}  # when each vehicle left the ground, on our clock
     for rec in records:
         points, placed, source = photo_positions(frame, rec, trigger)
         photos.append(points)
         if source != "none":
             sources.add(source)
-        samples = np.array(rec.samples) if rec.samples else np.zeros((0, 6))
+        samples = np.array(rec.samples) if rec.samples else np.zeros((0, 7))
         tracks_m[rec.id] = to_grid_m(frame, samples[:, 1], samples[:, 2])
         if len(samples):
             timed[rec.id] = np.column_stack([vehicle_clock(samples), tracks_m[rec.id], samples[:, 3]])
+            climbing = np.flatnonzero((samples[:, 3] > 0.05) & (samples[:, 6] > 0.1))
+            if len(climbing):  # back from the first sample in the climb, at the climb rate it reported
+                first = climbing[0]
+                liftoff[rec.id] = timed[rec.id][first, 0] - samples[first, 3] / samples[first, 6] / scale
         end = rec.t_end if rec.t_end is not None else (samples[-1, 0] if len(samples) else rec.t_start)
         flight_s = (end - rec.t_start) * scale if rec.t_start is not None and end is not None else 0.0
         rows.append({"id": rec.id, "flight_s": round(flight_s, 2), "finished": rec.finished,
@@ -241,7 +246,7 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     percent = 100.0 * float(covered.mean()) if len(targets) else 100.0
     other_rules = {name: round(100.0 * float(coverage(frame, targets, all_photos, footprint, frame.cell_m * cells).mean()), 2)
                 if len(targets) else 100.0 for name, cells in (("whole_cell", 0.0), ("cell_centre", 0.5))}
-    separation = _separation(report, records, timed, scale, telemetry_hz)
+    separation = _separation(report, records, timed, liftoff, scale, telemetry_hz)
     problems = [p for rec in records for p in rec.problems]
     problems += [f"uav{rec.id}: mission not finished" for rec in records
                  if rec.started and not rec.finished and not rec.problems]
@@ -266,21 +271,21 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
 
 
 def _separation(report: dict[str, Any], records: list[DroneRecord], timed: dict[int, np.ndarray],
-                scale: float, telemetry_hz: float) -> dict[str, Any]:
+                liftoff: dict[int, float], scale: float, telemetry_hz: float) -> dict[str, Any]:
     """Flown closest approach next to the plan's promise, and whether the promise was kept."""
     flown = closest_approach(timed)
     promise = report.get("separation") or {}
     speed = max((float(item.param2) for rec in records for item in rec.wire if item.command == CMD_DO_CHANGE_SPEED), default=5.0)
     acceptance = max((float(item.param2) for rec in records for item in rec.wire if item.command == CMD_WAYPOINT),
                      default=0.0)
-    # When each vehicle left the ground (first sample above 5 cm): the real spread of the starts.
-    liftoff = [track[np.argmax(track[:, 3] > 0.05), 0] for track in timed.values() if (track[:, 3] > 0.05).any()]
-    start_spread_s = (max(liftoff) - min(liftoff)) * scale if liftoff else 0.0
+    # How far apart the vehicles really left the ground: the plan assumed all at once.
+    start_spread_s = (max(liftoff.values()) - min(liftoff.values())) * scale if liftoff else 0.0
     tolerance = 2 * acceptance + speed * start_spread_s + speed * scale / telemetry_hz
     planned_3d = promise.get("3d")
     kept = flown["3d"] is None or planned_3d is None or flown["3d"] >= planned_3d - tolerance
     return {**flown, "planned_horizontal": promise.get("horizontal"), "planned_3d": planned_3d,
-            "tolerance": round(tolerance, 3), "start_spread_s": round(start_spread_s, 3), "kept": bool(kept)}
+            "tolerance": round(float(tolerance), 3), "start_spread_s": round(float(start_spread_s), 3),
+            "kept": bool(kept)}
 
 
 # ------------------------------------------------------------------------------------------- picture

@@ -24,6 +24,7 @@ import json
 import threading
 import time
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -51,15 +52,21 @@ DEFAULT_TELEMETRY_HZ = 25.0
 UPLOADERS = ("missionplan", "mavsdk")  # who reads the .plan files and uploads them
 
 
-def _command(link: Any, sysid: int, command: int, params: list[float], deadline: float) -> int | None:
-    """COMMAND_LONG with retries (confirmation counts up); its COMMAND_ACK's MAV_RESULT, or None."""
+def _command(link: Any, sysid: int, command: int, params: list[float], deadline: float,
+             other: Callable[[Any], Any] | None = None) -> int | None:
+    """COMMAND_LONG with retries (confirmation counts up); its COMMAND_ACK's MAV_RESULT, or None.
+    Other messages of the vehicle that arrive meanwhile go to `other`, when given."""
     padded = (params + [0.0] * 7)[:7]
     for attempt in range(COMMAND_TRIES):
         link.mav.command_long_send(sysid, 1, command, attempt, *padded)
         wait_until = min(time.monotonic() + COMMAND_WAIT_S, deadline)
         while (msg := link.recv(wait_until)) is not None:
-            if msg.get_srcSystem() == sysid and msg.get_type() == "COMMAND_ACK" and int(msg.command) == command:
+            if msg.get_srcSystem() != sysid:
+                continue
+            if msg.get_type() == "COMMAND_ACK" and int(msg.command) == command:
                 return int(msg.result)
+            if other is not None:
+                other(msg)
         if time.monotonic() >= deadline:
             break
     return None
@@ -95,6 +102,7 @@ class _DroneFlight:
         self.upload_with = upload_with
         self.telemetry_hz, self.gate, self.stop, self.bar = telemetry_hz, gate, stop, bar
         self.backend: MissionBackend | None = None
+        self.armed, self.boot_ms, self.rel_alt = True, -1, 0.0  # as last reported
 
     def problem(self, text: str) -> None:
         self.record.problems.append(f"uav{self.record.id}: {text}")
@@ -160,7 +168,8 @@ class _DroneFlight:
             self.problem(_refused("arming", result))
             return False
         self.gate.arrive(self.deadline - time.monotonic())
-        result = _command(link, sysid, CMD_MISSION_START, [0.0, 0.0], self.deadline)
+        # The first positions may come before the acknowledgement: keep them.
+        result = _command(link, sysid, CMD_MISSION_START, [0.0, 0.0], self.deadline, other=self._take)
         if result != 0:
             self.problem(_refused("mission start", result))
             return False
@@ -173,7 +182,6 @@ class _DroneFlight:
     def _follow(self) -> None:
         rec, link, sysid = self.record, self.backend.link, self.record.id
         last_seq = len(rec.wire) - 1
-        armed, boot_ms, rel_alt = True, -1, 0.0
         while not self.stop.is_set():
             now = time.monotonic()
             if now >= self.deadline:
@@ -186,38 +194,45 @@ class _DroneFlight:
             msg = link.recv(min(self.deadline, now + 0.5))
             if msg is None or msg.get_srcSystem() != sysid:
                 continue
-            t = rec.last_heard = time.monotonic()
-            kind = msg.get_type()
-            if kind == "GLOBAL_POSITION_INT":
-                if msg.time_boot_ms < boot_ms:
-                    self.problem(f"rebooted in flight at item {rec.current} of {last_seq} (its clock restarted)")
-                    return
-                boot_ms, rel_alt = msg.time_boot_ms, msg.relative_alt / 1000.0
-                speed = float(np.hypot(msg.vx, msg.vy)) / 100.0
-                rec.samples.append((t, msg.lat / 1e7, msg.lon / 1e7, rel_alt, speed, msg.time_boot_ms / 1000.0))
-            elif kind == "HEARTBEAT" and msg.type != MAV_TYPE_GCS:
-                if msg.system_status == MAV_STATE_BOOT:
-                    self.problem(f"rebooted in flight at item {rec.current} of {last_seq} (mission lost)")
-                    return
-                armed = bool(msg.base_mode & MODE_FLAG_ARMED)
-            elif kind == "MISSION_CURRENT":
-                rec.current = int(msg.seq)
-                rec.mission_state = int(getattr(msg, "mission_state", 0) or 0)
-                if self.bar is not None:
-                    self.bar.n = min(max(rec.current, self.bar.n), self.bar.total)
-                    self.bar.refresh()
-            elif kind == "MISSION_ITEM_REACHED":
-                rec.reached.append((t, int(msg.seq)))
-            elif kind == "CAMERA_FEEDBACK":
-                rec.camera.setdefault(int(msg.img_idx), (t, msg.lat / 1e7, msg.lng / 1e7, float(msg.alt_rel)))
-                rec.captures = max(rec.captures, int(msg.completed_captures), int(msg.img_idx) + 1)
+            rebooted = self._take(msg)
+            if rebooted:
+                self.problem(f"rebooted in flight at item {rec.current} of {last_seq} ({rebooted})")
+                return
             complete = rec.mission_state == MISSION_STATE_COMPLETE or any(seq == last_seq for _, seq in rec.reached)
-            if not armed and complete and rel_alt < ON_GROUND_M:
-                rec.finished, rec.t_end = True, t
+            if not self.armed and complete and self.rel_alt < ON_GROUND_M:
+                rec.finished, rec.t_end = True, rec.last_heard
                 if self.bar is not None:
                     self.bar.n = self.bar.total
                     self.bar.refresh()
                 return
+
+    def _take(self, msg: Any) -> str:
+        """Record one message of our vehicle; a non-empty answer says how it showed it rebooted."""
+        rec = self.record
+        t = rec.last_heard = time.monotonic()
+        kind = msg.get_type()
+        if kind == "GLOBAL_POSITION_INT":
+            if msg.time_boot_ms < self.boot_ms:
+                return "its clock restarted"
+            self.boot_ms, self.rel_alt = msg.time_boot_ms, msg.relative_alt / 1000.0
+            rec.samples.append((t, msg.lat / 1e7, msg.lon / 1e7, self.rel_alt, float(np.hypot(msg.vx, msg.vy)) / 100.0,
+                                msg.time_boot_ms / 1000.0, -msg.vz / 100.0))
+        elif kind == "HEARTBEAT" and msg.type != MAV_TYPE_GCS:
+            if msg.system_status == MAV_STATE_BOOT:
+                return "mission lost"
+            self.armed = bool(msg.base_mode & MODE_FLAG_ARMED)
+        elif kind == "MISSION_CURRENT":
+            rec.current = int(msg.seq)
+            rec.mission_state = int(getattr(msg, "mission_state", 0) or 0)
+            if self.bar is not None:
+                self.bar.n = min(max(rec.current, self.bar.n), self.bar.total)
+                self.bar.refresh()
+        elif kind == "MISSION_ITEM_REACHED":
+            rec.reached.append((t, int(msg.seq)))
+        elif kind == "CAMERA_FEEDBACK":
+            rec.camera.setdefault(int(msg.img_idx), (t, msg.lat / 1e7, msg.lng / 1e7, float(msg.alt_rel)))
+            rec.captures = max(rec.captures, int(msg.completed_captures), int(msg.img_idx) + 1)
+        return ""
 
     def _check_still_held(self) -> None:
         """After landing: does the vehicle still hold exactly the mission that was uploaded?"""
