@@ -333,6 +333,9 @@ class FlightSim:
             return used
         s.alt -= step
         s.vz = self.land_rate
+        if s.on_ground:  # within a centimetre: down, or a LAND item would finish still armed
+            s.alt = 0.0
+            self._touchdown(events)
         return dt
 
     def _touchdown(self, events: list[FlightEvent]) -> None:

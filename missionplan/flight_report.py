@@ -112,24 +112,40 @@ def _point_at(points: np.ndarray, arc: np.ndarray, s: np.ndarray) -> np.ndarray:
     return np.column_stack([np.interp(s, arc, points[:, 0]), np.interp(s, arc, points[:, 1])])
 
 
+def _arc_on_track(track: np.ndarray, arc: np.ndarray, points: np.ndarray, arrived: np.ndarray,
+                  lookback: int = 4) -> np.ndarray:
+    """Arc length along `track` of each point, projected on the nearest of the few segments flown
+    just before its report arrived (`arrived`: samples received before it). Not by arrival order
+    alone: a report can come after a sample taken past its photo; and only near in time, since
+    a track may cross itself."""
+    if len(track) < 2:
+        return np.zeros(len(points))
+    last = np.clip(arrived - 1, 0, len(track) - 2)
+    segments = np.clip(last[:, None] - np.arange(lookback + 1)[None, :], 0, len(track) - 2)  # (m, L)
+    a, b = track[segments], track[segments + 1]
+    ab = b - a
+    length2 = np.maximum((ab ** 2).sum(axis=2), 1e-12)
+    frac = np.clip(((points[:, None, :] - a) * ab).sum(axis=2) / length2, 0.0, 1.0)
+    foot = a + frac[..., None] * ab
+    nearest = np.argmin(((points[:, None, :] - foot) ** 2).sum(axis=2), axis=1)
+    rows = np.arange(len(points))
+    seg = segments[rows, nearest]
+    return arc[seg] + frac[rows, nearest] * np.sqrt(length2[rows, nearest])
+
+
 def photo_positions(frame: GridFrame, rec: DroneRecord, trigger_m: float) -> tuple[np.ndarray, int, str]:
     """(photos (n, 2) grid metres, how many were placed on the track rather than reported, source)."""
     if not rec.samples:
         return np.zeros((0, 2)), 0, "none"
     samples = np.array(rec.samples)
     if rec.camera:
-        # The track with the reported photos inserted at their arrival times, and each photo's arc length on it.
         known = sorted(rec.camera.items())
-        stamps = np.concatenate([samples[:, 0], [v[0] for _, v in known]])
-        lat = np.concatenate([samples[:, 1], [v[1] for _, v in known]])
-        lon = np.concatenate([samples[:, 2], [v[2] for _, v in known]])
-        order = np.argsort(stamps, kind="stable")
-        track = to_grid_m(frame, lat[order], lon[order])
+        track = to_grid_m(frame, samples[:, 1], samples[:, 2])
         arc = _arc_length(track)
-        where = np.empty(len(order), dtype=int)
-        where[order] = np.arange(len(order))
         idx = np.array([i for i, _ in known], dtype=float)
-        s_known = arc[where[len(samples):]]
+        reported = to_grid_m(frame, [v[1] for _, v in known], [v[2] for _, v in known])
+        arrived = np.searchsorted(samples[:, 0], [v[0] for _, v in known], side="right")
+        s_known = np.maximum.accumulate(_arc_on_track(track, arc, reported, arrived))
         total = max(rec.captures, int(idx[-1]) + 1)
         every = np.arange(total, dtype=float)
         # Lost reports: in proportion to the index between known neighbours, trigger_m per photo past the ends.
@@ -137,7 +153,7 @@ def photo_positions(frame: GridFrame, rec: DroneRecord, trigger_m: float) -> tup
         s_all = np.where(every < idx[0], s_known[0] - (idx[0] - every) * trigger_m, s_all)
         s_all = np.where(every > idx[-1], s_known[-1] + (every - idx[-1]) * trigger_m, s_all)
         positions = _point_at(track, arc, np.clip(s_all, 0.0, arc[-1]))
-        positions[idx.astype(int)] = to_grid_m(frame, [v[1] for _, v in known], [v[2] for _, v in known])
+        positions[idx.astype(int)] = reported
         return positions, total - len(known), "camera"
     # No camera reports: a photo every trigger_m along the survey part of the recorded track.
     first, last = _survey_window(rec.wire)
