@@ -496,6 +496,8 @@ class MockVehicle:
                 return CMD_DENIED
             if not s.armed:
                 return CMD_DENIED
+            if s.mode == "AUTO" and not s.mission_done and not s.on_ground:
+                return CMD_ACCEPTED  # already flying it: like ArduCopter, a repeated start does not restart
             first = int(p[0]) if p[0] > 0 else None
             last = int(p[1]) if p[1] > 0 else None
             self._publish(self.flight.start_mission(first, last))

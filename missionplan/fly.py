@@ -42,7 +42,8 @@ MSG_GLOBAL_POSITION_INT = 33
 MODE_FLAG_ARMED = 128
 MAV_STATE_BOOT = 1
 MAV_TYPE_GCS = 6
-MISSION_STATE_COMPLETE = 5
+MISSION_STATE_ACTIVE, MISSION_STATE_COMPLETE = 3, 5
+MAV_RESULT_ACCEPTED = 0
 ARDUPILOT_GUIDED = 4
 SILENCE_S = 5.0        # a vehicle that says nothing for this long has stopped answering
 ON_GROUND_M = 0.3      # relative altitude under which a disarmed vehicle counts as landed
@@ -53,11 +54,16 @@ UPLOADERS = ("missionplan", "mavsdk")  # who reads the .plan files and uploads t
 
 
 def _command(link: Any, sysid: int, command: int, params: list[float], deadline: float,
-             other: Callable[[Any], Any] | None = None) -> int | None:
+             other: Callable[[Any], Any] | None = None, done: Callable[[], bool] | None = None) -> int | None:
     """COMMAND_LONG with retries (confirmation counts up); its COMMAND_ACK's MAV_RESULT, or None.
-    Other messages of the vehicle that arrive meanwhile go to `other`, when given."""
+    Other messages of the vehicle that arrive meanwhile go to `other`, when given. `done` says the
+    command has visibly taken effect: then a lost acknowledgement is not worth a repeat (MAVLink
+    repeats are executed again, and a repeated mission start may restart the mission on some
+    autopilots), and the answer is ACCEPTED."""
     padded = (params + [0.0] * 7)[:7]
     for attempt in range(COMMAND_TRIES):
+        if attempt and done is not None and done():
+            return MAV_RESULT_ACCEPTED
         link.mav.command_long_send(sysid, 1, command, attempt, *padded)
         wait_until = min(time.monotonic() + COMMAND_WAIT_S, deadline)
         while (msg := link.recv(wait_until)) is not None:
@@ -169,7 +175,8 @@ class _DroneFlight:
             return False
         self.gate.arrive(self.deadline - time.monotonic())
         # The first positions may come before the acknowledgement: keep them.
-        result = _command(link, sysid, CMD_MISSION_START, [0.0, 0.0], self.deadline, other=self._take)
+        result = _command(link, sysid, CMD_MISSION_START, [0.0, 0.0], self.deadline, other=self._take,
+                          done=lambda: rec.mission_state == MISSION_STATE_ACTIVE)
         if result != 0:
             self.problem(_refused("mission start", result))
             return False

@@ -274,3 +274,23 @@ def test_reboot_in_flight_after_an_item() -> None:
     before = [m.time_boot_ms for m in msgs[:boot] if m.get_type() == "GLOBAL_POSITION_INT"]
     after = [m.time_boot_ms for m in msgs[boot:] if m.get_type() == "GLOBAL_POSITION_INT"]
     assert before and after and after[0] < before[-1]
+
+
+def test_a_repeated_mission_start_does_not_restart_a_running_mission() -> None:
+    # A ground station repeats MISSION_START when its acknowledgement is lost; ArduCopter then keeps flying.
+    with _mock(speedup=5.0) as mock:
+        backend = open_backend("pymavlink", mock.client_url, 1, timeouts=FAST, connect_timeout=3.0)
+        try:
+            upload_plan(backend, [_survey(2.0, [10.0, 60.0])], verify=True)
+            link = backend.link
+
+            def past_first_waypoint(m: MockAutopilot) -> bool:
+                return 3 in m.vehicle(1).reached
+
+            _fly(link, lambda msgs: any(x.get_type() == "MISSION_ITEM_REACHED" and x.seq == 3 for x in msgs), 8.0)
+            assert mock.wait_until(past_first_waypoint, 2.0)
+            assert _command(link, CMD_MISSION_START, 0.0, 0.0) == MAV_RESULT_ACCEPTED
+            current = mock.vehicle(1).flight.state.current
+        finally:
+            backend.close()
+    assert current >= 4  # still heading for the second waypoint, not back to the take-off
