@@ -41,8 +41,16 @@ def _import_mavsdk() -> Any:
     return mavsdk, mission_raw
 
 
+_NATIVE_LOCK = threading.Lock()  # creating and destroying MAVSDK instances: one thread at a time
+_logs_routed = False
+
+
 def _route_mavsdk_logs() -> None:
-    """Send MAVSDK's own log lines to Python logging instead of the terminal."""
+    """Send MAVSDK's own log lines to Python logging instead of the terminal (once per process)."""
+    global _logs_routed
+    if _logs_routed:
+        return
+    _logs_routed = True
     mavsdk, _ = _import_mavsdk()
     levels = {0: logging.DEBUG, 1: logging.INFO, 2: logging.WARNING, 3: logging.ERROR}
 
@@ -80,9 +88,10 @@ class MavsdkBackend:
 
     # ------------------------------------------------------------------------------ plumbing
     def _start_mavsdk(self, mavsdk: Any, connect_timeout: float) -> None:
-        _route_mavsdk_logs()
-        config = mavsdk.Configuration.create_with_component_type(mavsdk.ComponentType.GROUND_STATION)
-        self._mavsdk = mavsdk.Mavsdk(config)
+        with _NATIVE_LOCK:  # two Mavsdk instances created at once from two threads crash the library
+            _route_mavsdk_logs()
+            config = mavsdk.Configuration.create_with_component_type(mavsdk.ComponentType.GROUND_STATION)
+            self._mavsdk = mavsdk.Mavsdk(config)
         lib = self._mavsdk._lib
         lib.mavsdk_set_timeout_s.argtypes = [ctypes.c_void_p, ctypes.c_double]
         lib.mavsdk_set_timeout_s.restype = None
@@ -301,7 +310,8 @@ class MavsdkBackend:
     def close(self) -> None:
         self._pause_pump()
         if self._mavsdk is not None:
-            self._mavsdk.destroy()
+            with _NATIVE_LOCK:
+                self._mavsdk.destroy()
             self._mavsdk = None
         self.link.close()
 
