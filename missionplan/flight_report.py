@@ -24,10 +24,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from geo.frame import GridFrame
 
 from .atomic import write_text_atomic
+from .gridmap import GridMap
 from .timeline import closest_approach
 
 COVERAGE_OK = 99.0
@@ -86,12 +88,17 @@ def frame_of(report: dict[str, Any]) -> GridFrame:
     return GridFrame.from_meta({k: str(v) for k, v in report["georeference"].items()}, len(grid), len(grid[0]))
 
 
+def planned_grid(report: dict[str, Any]) -> GridMap:
+    """The grid the plan was made on (report.json `grid`)."""
+    return GridMap.from_rows(str(report.get("map", "plan")), report["grid"])
+
+
 def target_cells(report: dict[str, Any]) -> np.ndarray:
-    """(n, 2) cells the plan had to photograph: the map's targets ('.') that are reachable."""
-    unreachable = {tuple(int(v) for v in cell) for cell in report.get("unreachable_cells") or []}
-    cells = [(r, c) for r, row in enumerate(report["grid"]) for c, ch in enumerate(row)
-             if ch == "." and (r, c) not in unreachable]
-    return np.array(cells, dtype=np.int64).reshape(-1, 2)
+    """(n, 2) cells the plan had to photograph: the map's targets that are reachable."""
+    target = planned_grid(report).target.copy()
+    unreachable = np.asarray(report.get("unreachable_cells") or [], dtype=np.int64).reshape(-1, 2)
+    target[unreachable[:, 0], unreachable[:, 1]] = False
+    return np.argwhere(target)
 
 
 def to_grid_m(frame: GridFrame, lat: Any, lon: Any) -> np.ndarray:
@@ -182,21 +189,25 @@ def _survey_window(wire: list[Any]) -> tuple[int | None, int | None]:
     return first, last
 
 
+def nearest_photo_gap(frame: GridFrame, targets: np.ndarray, photos_m: np.ndarray) -> np.ndarray:
+    """Per target cell: Chebyshev distance (metres) from its centre to the nearest photo position."""
+    if len(photos_m) == 0:
+        return np.full(len(targets), np.inf)
+    gap, _ = cKDTree(photos_m).query(targets.astype(float) * frame.cell_m, p=np.inf)
+    return np.atleast_1d(gap)
+
+
+def covered_by_gap(frame: GridFrame, gap: np.ndarray, footprint_m: float, slack_m: float) -> np.ndarray:
+    """Which cells one photo holds, short of at most slack_m on a side (see coverage)."""
+    return gap <= footprint_m / 2.0 - frame.cell_m / 2.0 + slack_m + 1e-6  # a micrometre for the float round trip
+
+
 def coverage(frame: GridFrame, targets: np.ndarray, photos_m: np.ndarray, footprint_m: float,
              slack_m: float) -> np.ndarray:
     """Per target cell: does one photo's footprint hold the cell's square, short of at most slack_m on a side?
 
     slack_m = 0 asks for the whole square; cell/2 only for its centre."""
-    covered = np.zeros(len(targets), dtype=bool)
-    if len(targets) == 0 or len(photos_m) == 0:
-        return covered
-    centres = targets.astype(float) * frame.cell_m
-    reach = footprint_m / 2.0 - frame.cell_m / 2.0 + slack_m + 1e-6  # a micrometre for the float round trip
-    for start in range(0, len(photos_m), 1024):
-        chunk = photos_m[start:start + 1024]
-        gap = np.maximum(np.abs(centres[:, None, 0] - chunk[None, :, 0]), np.abs(centres[:, None, 1] - chunk[None, :, 1]))
-        covered |= (gap <= reach).any(axis=1)
-    return covered
+    return covered_by_gap(frame, nearest_photo_gap(frame, targets, photos_m), footprint_m, slack_m)
 
 
 def vehicle_clock(samples: np.ndarray) -> np.ndarray:
@@ -258,10 +269,11 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
                      "notes": rec.notes})
     all_photos = np.vstack(photos) if photos else np.zeros((0, 2))
     slack = frame.cell_m * SLACK_CELLS
-    covered = coverage(frame, targets, all_photos, footprint, slack)
+    gap = nearest_photo_gap(frame, targets, all_photos)  # once; each rule is a threshold on it
+    covered = covered_by_gap(frame, gap, footprint, slack)
     percent = 100.0 * float(covered.mean()) if len(targets) else 100.0
-    other_rules = {name: round(100.0 * float(coverage(frame, targets, all_photos, footprint, frame.cell_m * cells).mean()), 2)
-                if len(targets) else 100.0 for name, cells in (("whole_cell", 0.0), ("cell_centre", 0.5))}
+    other_rules = {name: round(100.0 * float(covered_by_gap(frame, gap, footprint, frame.cell_m * cells).mean()), 2)
+                   if len(targets) else 100.0 for name, cells in (("whole_cell", 0.0), ("cell_centre", 0.5))}
     separation = _separation(report, records, timed, liftoff, scale, telemetry_hz)
     problems = [p for rec in records for p in rec.problems]
     problems += [f"uav{rec.id}: mission not finished" for rec in records
@@ -313,12 +325,11 @@ def draw_flight(path: Path, report: dict[str, Any], frame: GridFrame, targets: n
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    grid = report["grid"]
-    rows, cols = len(grid), len(grid[0])
+    gmap = planned_grid(report)
+    rows, cols = gmap.shape
     img = np.ones((rows, cols, 3))
-    chars = np.array([list(row) for row in grid])
-    img[chars == "#"] = (0.25, 0.25, 0.25)
-    img[chars == "."] = (0.85, 0.85, 0.85)  # targets outside the reachable set stay grey
+    img[gmap.obstacle] = (0.25, 0.25, 0.25)
+    img[gmap.target] = (0.85, 0.85, 0.85)  # targets outside the reachable set stay grey
     if len(targets):
         img[targets[covered, 0], targets[covered, 1]] = (0.62, 0.87, 0.62)
         img[targets[~covered, 0], targets[~covered, 1]] = (0.95, 0.35, 0.35)
