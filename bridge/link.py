@@ -6,7 +6,8 @@ Owns:
 - checking a pymavlink connection string (udpin:, udpout:, udp:, tcp:, tcpin:, a serial device with an
   optional baud) and a system id, raising BridgeUsageError for bad ones;
 - Link: one connection with our GCS identity, optional signing, a 1 Hz GCS heartbeat, reads with a
-  deadline, and per-vehicle boot-time tracking so a reboot is noticed;
+  deadline, COMMAND_LONG with retries and its COMMAND_ACK, and per-vehicle boot-time tracking so a
+  reboot is noticed;
 - wait_vehicle: the HEARTBEAT of the requested system (and component) and what it tells: the flavour.
 """
 
@@ -16,6 +17,7 @@ import os
 import re
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -39,6 +41,9 @@ AUTOPILOT_COMPONENT_ID = 1
 MAV_TYPE_GCS = 6
 MAV_STATE_BOOT = 1
 REBOOT_JUMP = 0.25  # seconds; more than a late packet's delay, less than any reboot
+COMMAND_TRIES = 5    # COMMAND_LONG sends before giving up
+COMMAND_WAIT_S = 0.5  # for its COMMAND_ACK, each time
+MAV_RESULT_ACCEPTED = 0
 
 _HOST_PORT = re.compile(r"^(?P<host>[A-Za-z0-9_.\-]+|\[[0-9A-Fa-f:]+\]):(?P<port>\d{1,5})$")
 _SERIAL = re.compile(r"^(?P<device>(/dev/[^,:]+|COM\d+))(?:[,:](?P<baud>\d+))?$")
@@ -173,6 +178,31 @@ class Link:
         if force or now - self._last_heartbeat >= 1.0:
             self._last_heartbeat = now
             self.mav.heartbeat_send(MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID, 0, 0, 0)
+
+    def command_long(self, sysid: int, command: int, params: list[float], deadline: float,
+                     other: Callable[[Any], Any] | None = None, done: Callable[[], bool] | None = None,
+                     tries: int = COMMAND_TRIES, wait_s: float = COMMAND_WAIT_S) -> int | None:
+        """COMMAND_LONG to (sysid, autopilot) with retries, the confirmation counting up; the MAV_RESULT
+        of its COMMAND_ACK, or None without one. Other messages of that vehicle that arrive meanwhile
+        go to `other`, when given. `done` says the command has visibly taken effect: then a lost
+        acknowledgement is not worth a repeat (MAVLink repeats are executed again, and a repeated
+        mission start may restart the mission on some autopilots), and the answer is ACCEPTED."""
+        padded = (list(params) + [0.0] * 7)[:7]
+        for attempt in range(tries):
+            if attempt and done is not None and done():
+                return MAV_RESULT_ACCEPTED
+            self.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, command, attempt, *padded)
+            wait_until = min(time.monotonic() + wait_s, deadline)
+            while (msg := self.recv(wait_until)) is not None:
+                if msg.get_srcSystem() != sysid:
+                    continue
+                if msg.get_type() == "COMMAND_ACK" and int(msg.command) == command:
+                    return int(msg.result)
+                if other is not None:
+                    other(msg)
+            if time.monotonic() >= deadline:
+                break
+        return None
 
     # -- receiving
     def recv(self, deadline: float) -> Any | None:

@@ -4,6 +4,7 @@ Owns:
 - MissionBackend: what a backend offers (upload / download / clear / set-current of wire items for
   one vehicle), with two implementations: PymavlinkBackend here and MavsdkBackend in mavsdk_backend;
 - open_backend: connect by URL, find the vehicle by system id, learn its flavour;
+- read_back_differences: download a list and compare it with what was sent;
 - upload_plan: turn the mission (and fence / rally lists, if any) into the vehicle's wire items by
   flavour, upload each, read each back and compare item by item (ArduPilot's item 0 is its home and
   is skipped). It succeeds only when the vehicle holds exactly what was sent.
@@ -137,6 +138,14 @@ class UploadReport:
 ProgressFactory = Callable[[str, int], ProgressFn | None]  # (label, total) -> progress callback
 
 
+def read_back_differences(backend: MissionBackend, mission_type: int, wire: list[WireItem],
+                          progress: ProgressFn | None = None) -> list[str]:
+    """Download what the vehicle holds and compare it with `wire` item by item (ArduPilot's own home
+    item skipped); an empty list when it holds exactly that."""
+    got = backend.download(mission_type, progress)
+    return compare_wire(wire, got, skip_home=backend.vehicle.flavour.has_home_item(mission_type))
+
+
 def upload_plan(backend: MissionBackend, parts: list[Mission], verify: bool = True,
                 progress: ProgressFactory | None = None) -> UploadReport:
     """Upload each part (mission, fence, rally) and, with verify, prove the vehicle holds it exactly."""
@@ -151,8 +160,8 @@ def upload_plan(backend: MissionBackend, parts: list[Mission], verify: bool = Tr
         verified = False
         reader = ""
         if verify:
-            got = backend.download(mtype, progress(f"verify {mtype.label}", len(wire)) if progress else None)
-            problems = compare_wire(wire, got, skip_home=vehicle.flavour.has_home_item(mtype))
+            problems = read_back_differences(backend, mtype, wire,
+                                             progress(f"verify {mtype.label}", len(wire)) if progress else None)
             if problems:
                 raise VerifyError(f"vehicle {vehicle.sysid} accepted the {mtype.label} but holds something else: "
                                   + "; ".join(problems))

@@ -24,58 +24,28 @@ import json
 import threading
 import time
 from pathlib import Path
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from bridge.errors import BridgeError, BridgeUsageError
-from bridge.mission import Flavour, compare_wire, to_wire
+from bridge.mission import Flavour, to_wire
 from bridge.missionfile import read_mission_file
 from bridge.protocol import Timeouts
-from bridge.uploader import MissionBackend, open_backend, upload_plan
+from bridge.uploader import MissionBackend, open_backend, read_back_differences, upload_plan
 
 from .flight_report import DroneRecord, FlightResult, judge
 
 CMD_ARM, CMD_DO_SET_MODE, CMD_MISSION_START, CMD_SET_MESSAGE_INTERVAL = 400, 176, 300, 511
 MSG_GLOBAL_POSITION_INT = 33
 MODE_FLAG_ARMED = 128
-MAV_STATE_BOOT = 1
 MAV_TYPE_GCS = 6
 MISSION_STATE_ACTIVE, MISSION_STATE_COMPLETE = 3, 5
-MAV_RESULT_ACCEPTED = 0
 ARDUPILOT_GUIDED = 4
 SILENCE_S = 5.0        # a vehicle that says nothing for this long has stopped answering
 ON_GROUND_M = 0.3      # relative altitude under which a disarmed vehicle counts as landed
-COMMAND_TRIES = 5
-COMMAND_WAIT_S = 0.5
 DEFAULT_TELEMETRY_HZ = 25.0
 UPLOADERS = ("missionplan", "mavsdk")  # who reads the .plan files and uploads them
-
-
-def _command(link: Any, sysid: int, command: int, params: list[float], deadline: float,
-             other: Callable[[Any], Any] | None = None, done: Callable[[], bool] | None = None) -> int | None:
-    """COMMAND_LONG with retries (confirmation counts up); its COMMAND_ACK's MAV_RESULT, or None.
-    Other messages of the vehicle that arrive meanwhile go to `other`, when given. `done` says the
-    command has visibly taken effect: then a lost acknowledgement is not worth a repeat (MAVLink
-    repeats are executed again, and a repeated mission start may restart the mission on some
-    autopilots), and the answer is ACCEPTED."""
-    padded = (params + [0.0] * 7)[:7]
-    for attempt in range(COMMAND_TRIES):
-        if attempt and done is not None and done():
-            return MAV_RESULT_ACCEPTED
-        link.mav.command_long_send(sysid, 1, command, attempt, *padded)
-        wait_until = min(time.monotonic() + COMMAND_WAIT_S, deadline)
-        while (msg := link.recv(wait_until)) is not None:
-            if msg.get_srcSystem() != sysid:
-                continue
-            if msg.get_type() == "COMMAND_ACK" and int(msg.command) == command:
-                return int(msg.result)
-            if other is not None:
-                other(msg)
-        if time.monotonic() >= deadline:
-            break
-    return None
 
 
 def _refused(what: str, result: int | None) -> str:
@@ -108,7 +78,7 @@ class _DroneFlight:
         self.upload_with = upload_with
         self.telemetry_hz, self.gate, self.stop, self.bar = telemetry_hz, gate, stop, bar
         self.backend: MissionBackend | None = None
-        self.armed, self.boot_ms, self.rel_alt = True, -1, 0.0  # as last reported
+        self.armed, self.rel_alt, self.last_reached = True, 0.0, -1  # as last reported
 
     def problem(self, text: str) -> None:
         self.record.problems.append(f"uav{self.record.id}: {text}")
@@ -137,8 +107,7 @@ class _DroneFlight:
             rec.wire = to_wire(plan.mission, self.backend.vehicle.flavour)
             if self.upload_with == "mavsdk":
                 # What MAVSDK made of the file must be exactly what our reader makes of it.
-                got = self.backend.download(0)
-                differences = compare_wire(rec.wire, got, skip_home=self.backend.vehicle.flavour.has_home_item(0))
+                differences = read_back_differences(self.backend, 0, rec.wire)
                 if differences:
                     raise BridgeError("the mission MAVSDK read from the .plan and uploaded differs from ours: "
                                       + "; ".join(differences))
@@ -165,17 +134,17 @@ class _DroneFlight:
     def _start(self) -> bool:
         rec, link, sysid = self.record, self.backend.link, self.record.id
         interval_us = 1e6 / self.telemetry_hz
-        if _command(link, sysid, CMD_SET_MESSAGE_INTERVAL, [MSG_GLOBAL_POSITION_INT, interval_us], self.deadline) != 0:
+        if link.command_long(sysid, CMD_SET_MESSAGE_INTERVAL, [MSG_GLOBAL_POSITION_INT, interval_us], self.deadline) != 0:
             rec.notes.append(f"position stream rate of {self.telemetry_hz:g} Hz not accepted: the vehicle's own rate")
         if self.backend.vehicle.flavour is Flavour.ARDUPILOT:
-            _command(link, sysid, CMD_DO_SET_MODE, [1.0, float(ARDUPILOT_GUIDED)], self.deadline)  # arms in GUIDED
-        result = _command(link, sysid, CMD_ARM, [1.0], self.deadline)
+            link.command_long(sysid, CMD_DO_SET_MODE, [1.0, float(ARDUPILOT_GUIDED)], self.deadline)  # arms in GUIDED
+        result = link.command_long(sysid, CMD_ARM, [1.0], self.deadline)
         if result != 0:
             self.problem(_refused("arming", result))
             return False
         self.gate.arrive(self.deadline - time.monotonic())
         # The first positions may come before the acknowledgement: keep them.
-        result = _command(link, sysid, CMD_MISSION_START, [0.0, 0.0], self.deadline, other=self._take,
+        result = link.command_long(sysid, CMD_MISSION_START, [0.0, 0.0], self.deadline, other=self._take,
                           done=lambda: rec.mission_state == MISSION_STATE_ACTIVE)
         if result != 0:
             self.problem(_refused("mission start", result))
@@ -189,6 +158,7 @@ class _DroneFlight:
     def _follow(self) -> None:
         rec, link, sysid = self.record, self.backend.link, self.record.id
         last_seq = len(rec.wire) - 1
+        reboots = link.reboots.get(sysid, 0)  # the link notices reboots (boot heartbeat, clock restart)
         while not self.stop.is_set():
             now = time.monotonic()
             if now >= self.deadline:
@@ -201,11 +171,11 @@ class _DroneFlight:
             msg = link.recv(min(self.deadline, now + 0.5))
             if msg is None or msg.get_srcSystem() != sysid:
                 continue
-            rebooted = self._take(msg)
-            if rebooted:
-                self.problem(f"rebooted in flight at item {rec.current} of {last_seq} ({rebooted})")
+            if link.reboots.get(sysid, 0) > reboots:
+                self.problem(f"rebooted in flight at item {rec.current} of {last_seq} (mission lost)")
                 return
-            complete = rec.mission_state == MISSION_STATE_COMPLETE or any(seq == last_seq for _, seq in rec.reached)
+            self._take(msg)
+            complete = rec.mission_state == MISSION_STATE_COMPLETE or self.last_reached >= last_seq
             if not self.armed and complete and self.rel_alt < ON_GROUND_M:
                 rec.finished, rec.t_end = True, rec.last_heard
                 if self.bar is not None:
@@ -213,20 +183,16 @@ class _DroneFlight:
                     self.bar.refresh()
                 return
 
-    def _take(self, msg: Any) -> str:
-        """Record one message of our vehicle; a non-empty answer says how it showed it rebooted."""
+    def _take(self, msg: Any) -> None:
+        """Record one message of our vehicle."""
         rec = self.record
         t = rec.last_heard = time.monotonic()
         kind = msg.get_type()
         if kind == "GLOBAL_POSITION_INT":
-            if msg.time_boot_ms < self.boot_ms:
-                return "its clock restarted"
-            self.boot_ms, self.rel_alt = msg.time_boot_ms, msg.relative_alt / 1000.0
+            self.rel_alt = msg.relative_alt / 1000.0
             rec.samples.append((t, msg.lat / 1e7, msg.lon / 1e7, self.rel_alt, float(np.hypot(msg.vx, msg.vy)) / 100.0,
                                 msg.time_boot_ms / 1000.0, -msg.vz / 100.0))
         elif kind == "HEARTBEAT" and msg.type != MAV_TYPE_GCS:
-            if msg.system_status == MAV_STATE_BOOT:
-                return "mission lost"
             self.armed = bool(msg.base_mode & MODE_FLAG_ARMED)
         elif kind == "MISSION_CURRENT":
             rec.current = int(msg.seq)
@@ -236,20 +202,19 @@ class _DroneFlight:
                 self.bar.refresh()
         elif kind == "MISSION_ITEM_REACHED":
             rec.reached.append((t, int(msg.seq)))
+            self.last_reached = max(self.last_reached, int(msg.seq))
         elif kind == "CAMERA_FEEDBACK":
             rec.camera.setdefault(int(msg.img_idx), (t, msg.lat / 1e7, msg.lng / 1e7, float(msg.alt_rel)))
             rec.captures = max(rec.captures, int(msg.completed_captures), int(msg.img_idx) + 1)
-        return ""
 
     def _check_still_held(self) -> None:
         """After landing: does the vehicle still hold exactly the mission that was uploaded?"""
         rec = self.record
         try:
-            got = self.backend.download(0)
+            differences = read_back_differences(self.backend, 0, rec.wire)
         except BridgeError as err:
             self.problem(f"could not read the mission back after landing: {err}")
             return
-        differences = compare_wire(rec.wire, got, skip_home=self.backend.vehicle.flavour.has_home_item(0))
         rec.held_after_flight = not differences
         if differences:
             self.problem("holds another mission after the flight: " + "; ".join(differences))
