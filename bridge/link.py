@@ -164,6 +164,7 @@ class Link:
         apply_key(self.mav, key)
         self._last_heartbeat = 0.0
         self._boot_epoch: dict[int, float] = {}
+        self._boot_ms: dict[int, int] = {}  # the latest time_boot_ms heard from each vehicle
         self._status: dict[int, int] = {}
         self.reboots: dict[int, int] = {}
         self.received = 0
@@ -234,15 +235,20 @@ class Link:
         if boot_ms is None:
             return
         # When did the vehicle boot, by our clock? Latency only makes it look later, so keep the
-        # earliest estimate; a jump of more than REBOOT_JUMP seconds is a new boot.
+        # earliest estimate. A new boot moves that estimate later by more than REBOOT_JUMP *and*
+        # sets the vehicle's clock back; a packet read late (a busy thread, a full socket buffer)
+        # only does the first, so it must not count.
         sysid = msg.get_srcSystem()
         epoch = time.monotonic() - boot_ms / 1000.0
         last = self._boot_epoch.get(sysid)
-        if last is not None and epoch - last > REBOOT_JUMP:
+        clock_back = boot_ms < self._boot_ms.get(sysid, 0) - REBOOT_JUMP * 1000.0
+        if last is not None and epoch - last > REBOOT_JUMP and clock_back:
             self.reboots[sysid] = self.reboots.get(sysid, 0) + 1
             self._boot_epoch[sysid] = epoch
+            self._boot_ms[sysid] = boot_ms
         else:
             self._boot_epoch[sysid] = epoch if last is None else min(last, epoch)
+            self._boot_ms[sysid] = max(self._boot_ms.get(sysid, 0), boot_ms)
 
     @property
     def bad_signatures(self) -> int:
