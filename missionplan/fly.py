@@ -53,20 +53,21 @@ def _refused(what: str, result: int | None) -> str:
 
 
 class _StartGate:
-    """Drones start their missions together: each thread arrives once, ready or not."""
+    """Drones start their missions together. Every drone's thread checks in once: a ready one
+    waits there for all the others; one that failed (upload refused, arming denied) checks in
+    without waiting, so the rest are not held up by it."""
 
     def __init__(self, parties: int) -> None:
-        self._barrier = threading.Barrier(max(parties, 1))
-        self._arrived = threading.local()
+        self._waiting_for = parties
+        self._all_in = threading.Condition()
 
-    def arrive(self, timeout: float) -> None:
-        if getattr(self._arrived, "done", False):
-            return
-        self._arrived.done = True
-        try:
-            self._barrier.wait(timeout=max(timeout, 0.1))
-        except threading.BrokenBarrierError:
-            pass
+    def check_in(self, wait_s: float) -> None:
+        with self._all_in:
+            self._waiting_for -= 1
+            if self._waiting_for <= 0:
+                self._all_in.notify_all()
+            elif wait_s > 0:
+                self._all_in.wait_for(lambda: self._waiting_for <= 0, timeout=wait_s)
 
 
 class _DroneFlight:
@@ -79,6 +80,7 @@ class _DroneFlight:
         self.telemetry_hz, self.gate, self.stop, self.bar = telemetry_hz, gate, stop, bar
         self.backend: MissionBackend | None = None
         self.armed, self.rel_alt, self.last_reached = True, 0.0, -1  # as last reported
+        self.checked_in = False  # at the start gate
 
     def problem(self, text: str) -> None:
         self.record.problems.append(f"uav{self.record.id}: {text}")
@@ -92,7 +94,8 @@ class _DroneFlight:
         except Exception as err:  # noqa: BLE001 - one drone's failure must not hide the others'
             self.problem(f"{type(err).__name__}: {err}")
         finally:
-            self.gate.arrive(0.0)
+            if not self.checked_in:  # failed before the start: let the others go without us
+                self.gate.check_in(0.0)
             if self.backend is not None:
                 self.backend.close()
 
@@ -142,7 +145,8 @@ class _DroneFlight:
         if result != 0:
             self.problem(_refused("arming", result))
             return False
-        self.gate.arrive(self.deadline - time.monotonic())
+        self.checked_in = True
+        self.gate.check_in(self.deadline - time.monotonic())
         # The first positions may come before the acknowledgement: keep them.
         result = link.command_long(sysid, CMD_MISSION_START, [0.0, 0.0], self.deadline, other=self._take,
                           done=lambda: rec.mission_state == MISSION_STATE_ACTIVE)
