@@ -188,6 +188,14 @@ def _fly(link: Link, until: Any, timeout: float) -> list[Any]:
     return msgs
 
 
+def _drain(link: Link, msgs: list[Any], seconds: float) -> None:
+    """Append what system 1 sends in the next `seconds` (bounded)."""
+    until = time.monotonic() + seconds
+    while (msg := link.recv(until)) is not None:
+        if msg.get_srcSystem() == 1:
+            msgs.append(msg)
+
+
 def _story(msgs: list[Any]) -> str:
     """What the vehicle said about its progress, for failure messages."""
     words = []
@@ -213,11 +221,7 @@ def test_one_camera_feedback_per_photo_with_consecutive_img_idx() -> None:
             report = upload_plan(backend, [_survey(2.0, [21.0])], verify=True)
             assert report.verified
             msgs = _fly(backend.link, _landed, timeout=8.0)
-            # Whatever was sent with the landing: a short bounded drain.
-            drain_until = time.monotonic() + 0.3
-            while (msg := backend.link.recv(drain_until)) is not None:
-                if msg.get_srcSystem() == 1:
-                    msgs.append(msg)
+            _drain(backend.link, msgs, 0.3)  # whatever was sent with the landing
         finally:
             backend.close()
         assert _landed(msgs), f"the vehicle did not land and disarm in time: {_story(msgs)}"
@@ -251,11 +255,7 @@ def test_reboot_in_flight_after_an_item() -> None:
                 return any(m.get_type() == "HEARTBEAT" and m.system_status == 1 for m in msgs)  # MAV_STATE_BOOT
 
             msgs = _fly(backend.link, rebooted, timeout=8.0)
-            # A little of what it says after the boot (positions at 4 Hz): bounded.
-            after_until = time.monotonic() + 0.8
-            while (msg := backend.link.recv(after_until)) is not None:
-                if msg.get_srcSystem() == 1:
-                    msgs.append(msg)
+            _drain(backend.link, msgs, 0.8)  # a little of what it says after the boot (positions at 4 Hz)
         finally:
             backend.close()
         assert rebooted(msgs), "no boot heartbeat after the reboot"
