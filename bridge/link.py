@@ -27,7 +27,7 @@ from pymavlink import mavutil  # noqa: E402
 
 from .errors import BridgeError, BridgeUsageError  # noqa: E402
 from .mission import MAV_AUTOPILOT_INVALID, Flavour  # noqa: E402
-from .signing import SigningKey, apply_key  # noqa: E402
+from .signing import SigningKey, apply_key, stale_signatures  # noqa: E402
 
 if mavutil.mavlink.WIRE_PROTOCOL_VERSION != "2.0":  # someone imported pymavlink before us without MAVLINK20
     os.environ["MAVLINK20"] = "1"
@@ -253,7 +253,24 @@ class Link:
     @property
     def bad_signatures(self) -> int:
         """Packets refused because their signature did not match our key (or was missing)."""
-        return int(self.mav.signing.badsig_count + self.mav.signing.reject_count)
+        signing = self.mav.signing
+        return int(signing.badsig_count + signing.reject_count) - self.stale_signatures
+
+    @property
+    def stale_signatures(self) -> int:
+        """Packets signed with our key but refused for an old timestamp (see bridge.signing)."""
+        return stale_signatures(self.mav)
+
+    def signing_problem(self) -> str:
+        """Why signed packets were refused, as a clause for an error message ("" when none were)."""
+        if self.stale_signatures:
+            return (f"{self.stale_signatures} packets carried the right signature but signing timestamps more than "
+                    "60 s behind this computer's clock, or going backwards (the key is right; the vehicle's signing "
+                    "clock lags ours: check this computer's date and the vehicle's time source)")
+        if self.bad_signatures:
+            return (f"{self.bad_signatures} packets were refused because they were unsigned or signed with "
+                    "another key (wrong --signing-key?)")
+        return ""
 
     def close(self) -> None:
         try:
@@ -289,9 +306,8 @@ def wait_vehicle(link: Link, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID, t
     detail = ""
     if others:
         detail = "; heard only " + ", ".join(f"system {s} component {c}" for s, c in sorted(others))
-    elif link.bad_signatures:
-        detail = (f"; {link.bad_signatures} packets were refused because they were unsigned or signed with "
-                  "another key (wrong --signing-key?)")
+    elif link.signing_problem():
+        detail = "; " + link.signing_problem()
     elif link.received == 0:
         detail = "; nothing was received at all"
     raise BridgeError(f"no heartbeat from system {sysid} (component {compid}) on {link.url} within {timeout:g} s{detail}")

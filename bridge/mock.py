@@ -23,7 +23,7 @@ import select
 import socket
 import threading
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -93,7 +93,9 @@ class MockAutopilot:
                  flavour: Flavour | str = Flavour.ARDUPILOT, speedup: float = 1.0, faults: LinkFaults | None = None,
                  key: SigningKey | None = None, request_interval: float | None = None,
                  upload_timeout: float | None = None, homes: dict[int, tuple[float, float, float]] | None = None,
-                 cruise_speed: float = 5.0, max_items: int = 10_000) -> None:
+                 cruise_speed: float = 5.0, max_items: int = 10_000,
+                 clock: Callable[[], float] | None = None) -> None:
+        """clock: the vehicles' wall clock (seconds since 1970) for signing timestamps; default time.time."""
         self.spec = parse_url(listen, "--listen", allow_any_port=True)
         if self.spec.scheme not in ("udpin", "udpout", "tcpin"):
             raise BridgeUsageError(f"--listen {listen}: the mock serves udpin:, udpout: or tcpin: URLs")
@@ -102,6 +104,7 @@ class MockAutopilot:
         self.flavour = Flavour(flavour)
         self.faults = faults or LinkFaults()
         self.key = key
+        self.clock = clock
         self._rng = random.Random(self.faults.seed)
         self._lock = threading.RLock()
         self._queue: list[tuple[float, int, str, Any, bytes]] = []  # due, order, direction, peer key, bytes
@@ -122,7 +125,7 @@ class MockAutopilot:
                                      upload_timeout=upload_timeout, speedup=speedup, cruise_speed=cruise_speed,
                                      max_items=max_items)
             encoder = mavlink.MAVLink(_Writer(self), srcSystem=sysid, srcComponent=1)
-            apply_key(encoder, key, link_id=index)
+            apply_key(encoder, key, link_id=index, clock=clock)
             self.vehicles[sysid] = MockVehicle(sysid, options, encoder, now)
         if not self.vehicles:
             raise BridgeUsageError("the mock needs at least one system id")
@@ -179,7 +182,7 @@ class MockAutopilot:
     def _new_parser(self) -> Any:
         parser = mavlink.MAVLink(None, srcSystem=0, srcComponent=0)
         parser.robust_parsing = True
-        apply_key(parser, self.key)
+        apply_key(parser, self.key, clock=self.clock)
         return parser
 
     def _peer(self, key: Any, now: float, sock: socket.socket | None = None) -> _Peer:
