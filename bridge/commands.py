@@ -50,7 +50,8 @@ def register(subparsers: Any) -> None:
     mock = subparsers.add_parser("mock", help="run mock autopilots on loopback until interrupted")
     mock.add_argument("--sysid", default="1", help="system ids to serve, comma-separated (default 1)")
     mock.add_argument("--listen", default=DEFAULT_LISTEN,
-                      help=f"udpin:HOST:PORT, udpout:HOST:PORT or tcpin:HOST:PORT (default {DEFAULT_LISTEN})")
+                      help=f"udpin:HOST:PORT, udpout:HOST:PORT, tcpin:HOST:PORT, a serial device DEVICE,BAUD, or "
+                           f"pty (a pseudo-terminal: connect to the /dev/pts/N it prints) (default {DEFAULT_LISTEN})")
     mock.add_argument("--flavour", default="ardupilot", choices=("ardupilot", "px4"), help="autopilot to imitate")
     mock.add_argument("--speedup", type=float, default=1.0, help="simulated seconds per real second when flying")
     mock.add_argument("--loss", type=float, default=0.0, help="packet loss probability in each direction")
@@ -274,8 +275,14 @@ def cmd_mock(args: argparse.Namespace) -> int:
     mock = MockAutopilot(args.listen, sysids=sysids, flavour=args.flavour, speedup=args.speedup, faults=faults,
                          key=key, request_interval=args.request_interval)
     ids = ",".join(str(s) for s in sysids)
-    print(f"mock autopilot: systems {ids} ({args.flavour}{', signed' if key else ''}) on {args.listen} "
-          f"(port {mock.port}); connect with --connect {mock.client_url}; Ctrl-C stops", flush=True)
+    if mock.spec.scheme == "serial":
+        where, connect = f"serial device {mock.device}", f"the other end of {mock.device}"
+    elif mock.spec.scheme == "pty":
+        where, connect = f"pseudo-terminal {mock.device}", mock.client_url
+    else:
+        where, connect = f"{args.listen} (port {mock.port})", mock.client_url
+    print(f"mock autopilot: systems {ids} ({args.flavour}{', signed' if key else ''}) on {where}; "
+          f"connect with --connect {connect}; Ctrl-C stops", flush=True)
     mock.start()
     try:
         deadline = None if args.duration is None else time.monotonic() + args.duration
