@@ -129,7 +129,7 @@ class MockAutopilot:
         self._pty_slave: int | None = None  # held open so the master never reads EIO between clients
         self.device = ""
         self._greet = False
-        self.stats = {"in": 0, "out": 0, "dropped_in": 0, "dropped_out": 0, "rejected": 0}
+        self.stats = {"in": 0, "out": 0, "dropped_in": 0, "dropped_out": 0, "rejected": 0, "clients": 0}
         now = time.monotonic()
         self.vehicles: dict[int, MockVehicle] = {}
         base_home = (45.0703, 7.6869, 240.0)
@@ -311,6 +311,7 @@ class MockAutopilot:
         if self._listener is not None and self._listener in readable:
             try:
                 client, addr = self._listener.accept()
+                self.stats["clients"] += 1
                 client.setblocking(False)
                 client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
                 self._peer(("tcp", addr), now, sock=client)
