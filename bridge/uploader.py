@@ -205,5 +205,6 @@ def clear_plan(backend: MissionBackend) -> str:
             raise VerifyError(f"vehicle {vehicle.sysid} acknowledged clearing its {mtype.label} but still holds "
                               f"{len(left.items)} {mtype.label} items")
         cleared.append(mtype.label)
-    return (f"cleared the {', '.join(cleared)} of vehicle {vehicle.sysid} ({vehicle.flavour.value}); verified empty "
+    names = ", ".join(cleared[:-1]) + " and " + cleared[-1] if len(cleared) > 1 else cleared[0]
+    return (f"cleared the {names} of vehicle {vehicle.sysid} ({vehicle.flavour.value}); verified empty "
             f"by read-back; {time.monotonic() - start:.2f} s")

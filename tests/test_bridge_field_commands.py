@@ -91,7 +91,7 @@ def test_clear_empties_mission_fence_and_rally(tmp_path: Path, mock: MockAutopil
     capsys.readouterr()
     assert run(["clear", "--sysid", "1", "--connect", mock.client_url] + FAST) == 0
     out = capsys.readouterr().out.strip()
-    assert out.startswith("cleared the mission, fence, rally of vehicle 1 (ardupilot); verified empty by read-back")
+    assert out.startswith("cleared the mission, fence and rally of vehicle 1 (ardupilot); verified empty by read-back")
     assert len(mock.mission(1)) == 1 and mock.mission(1, 1) == [] and mock.mission(1, 2) == []
 
 
