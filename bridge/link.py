@@ -58,7 +58,7 @@ MAX_RECONNECTS = 5       # closed connections one Link survives; a peer that kee
 log = logging.getLogger("bridge.link")
 
 _HOST_PORT = re.compile(r"^(?P<host>[A-Za-z0-9_.\-]+|\[[0-9A-Fa-f:]+\]):(?P<port>\d{1,5})$")
-_SERIAL = re.compile(r"^(?P<device>(/dev/[^,:]+|COM\d+))(?:[,:](?P<baud>\d+))?$")
+_SERIAL = re.compile(r"^(/dev/\S+|COM\d+([,:]\S*)?)$", re.IGNORECASE)
 
 
 @dataclass(frozen=True)
@@ -86,12 +86,17 @@ def parse_url(url: str, option: str = "--connect", allow_any_port: bool = False)
     text = (url or "").strip()
     if not text:
         raise BridgeUsageError(f"{option}: empty connection string")
-    serial = _SERIAL.match(text)
-    if serial:
-        baud = int(serial.group("baud") or 115200)
-        if baud <= 0:
-            raise BridgeUsageError(f"{option} {url}: bad baud rate")
-        return ConnectionSpec("serial", device=serial.group("device"), baud=baud)
+    if _SERIAL.match(text):
+        # DEVICE,BAUD (or DEVICE:BAUD): the baud is what follows the last comma, or the last colon
+        # when the rest is not itself a device (/dev/serial/by-path/ names contain colons).
+        device, baud_text = text, ""
+        if "," in text:
+            device, _, baud_text = text.rpartition(",")
+        elif ":" in text and not os.path.exists(text) and text.rpartition(":")[2].isdigit():
+            device, _, baud_text = text.rpartition(":")
+        if baud_text and (not baud_text.isdigit() or int(baud_text) == 0):
+            raise BridgeUsageError(f"{option} {url}: bad baud rate {baud_text!r}")
+        return ConnectionSpec("serial", device=device, baud=int(baud_text or 115200))
     scheme, sep, rest = text.partition(":")
     if not sep or scheme not in ("udpin", "udpout", "udp", "tcp", "tcpin"):
         raise BridgeUsageError(f"{option} {url}: not a connection string (use udpin:HOST:PORT, udpout:HOST:PORT, "

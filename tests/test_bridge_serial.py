@@ -36,6 +36,11 @@ def test_serial_urls_parse() -> None:
     assert parse_url("/dev/ttyACM0:115200").baud == 115200
     assert parse_url("/dev/serial/by-id/usb-3DR_Radio-if00-port0,57600").device.endswith("port0")
     assert parse_url("/dev/ttyUSB0").baud == 115200
+    by_path = "/dev/serial/by-path/pci-0000:00:14.0-usb-0:2:1.0-port0"
+    assert (parse_url(by_path + ",57600").device, parse_url(by_path).device) == (by_path, by_path)
+    assert parse_url("COM3,57600").device == "COM3"
+    with pytest.raises(BridgeUsageError, match="bad baud rate"):
+        parse_url("/dev/ttyUSB0,fast")
 
 
 def test_upload_and_download_over_a_pty(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
