@@ -34,7 +34,7 @@ from pymavlink import mavutil  # noqa: E402
 
 from .errors import BridgeError, BridgeUsageError  # noqa: E402
 from .mission import MAV_AUTOPILOT_INVALID, Flavour  # noqa: E402
-from .signing import SigningKey, apply_key, stale_signatures  # noqa: E402
+from .signing import SigningKey, apply_key, refused_packets  # noqa: E402
 
 if mavutil.mavlink.WIRE_PROTOCOL_VERSION != "2.0":  # someone imported pymavlink before us without MAVLINK20
     os.environ["MAVLINK20"] = "1"
@@ -324,23 +324,27 @@ class Link:
     @property
     def bad_signatures(self) -> int:
         """Packets refused because their signature did not match our key (or was missing)."""
-        signing = self.mav.signing
-        return int(signing.badsig_count + signing.reject_count) - self.stale_signatures
+        wrong, unsigned, _ = refused_packets(self.mav)
+        return wrong + unsigned
 
     @property
     def stale_signatures(self) -> int:
         """Packets signed with our key but refused for an old timestamp (see bridge.signing)."""
-        return stale_signatures(self.mav)
+        return refused_packets(self.mav)[2]
 
     def signing_problem(self) -> str:
-        """Why signed packets were refused, as a clause for an error message ("" when none were)."""
-        if self.stale_signatures:
-            return (f"{self.stale_signatures} packets carried the right signature but signing timestamps more than "
-                    "60 s behind this computer's clock, or going backwards (the key is right; the vehicle's signing "
-                    "clock lags ours: check this computer's date and the vehicle's time source)")
-        if self.bad_signatures:
-            return (f"{self.bad_signatures} packets were refused because they were unsigned or signed with "
-                    "another key (wrong --signing-key?)")
+        """Why packets were refused by our signature check, as a clause for a message ("" when none were)."""
+        wrong, unsigned, stale = refused_packets(self.mav)
+        if stale:
+            return (f"{stale} packets carried the right signature but signing timestamps more than 60 s behind "
+                    "this computer's clock, or going backwards (the key is right; the vehicle's signing clock "
+                    "lags ours: check this computer's date and the vehicle's time source)")
+        if wrong:
+            return (f"{wrong} packets were refused because they were signed with another key "
+                    "(wrong --signing-key?)")
+        if unsigned:
+            return (f"{unsigned} packets were refused because they were not signed: the vehicle does not sign "
+                    "(put the key on it first, or leave out --signing-key)")
         return ""
 
     def close(self) -> None:

@@ -109,7 +109,9 @@ def apply_key(mav: Any, key: SigningKey | None, link_id: int = 0, clock: Callabl
     now: Callable[[], int] = (lambda: signing_timestamp(clock())) if clock is not None else signing_timestamp
     state.secret_key = key.secret
     state.sign_outgoing = True
-    state.allow_unsigned_callback = None  # unsigned or badly signed packets are refused
+    # Unsigned or badly signed packets are refused. pymavlink counts a refusal only when a callback
+    # said no, so say no here: then reject_count - badsig_count is the number of unsigned packets.
+    state.allow_unsigned_callback = _refuse
     state.link_id = link_id
     state.timestamp = max(state.timestamp, now())
     state.stale_count = 0
@@ -125,6 +127,10 @@ def apply_key(mav: Any, key: SigningKey | None, link_id: int = 0, clock: Callabl
 
     mav.send = send
     mav.check_signature = check_signature
+
+
+def _refuse(mav: Any, msg_id: int) -> bool:
+    return False
 
 
 def _check_signature(state: Any, now: Callable[[], int], msgbuf: bytearray, src_system: int,
@@ -153,3 +159,10 @@ def _check_signature(state: Any, now: Callable[[], int], msgbuf: bytearray, src_
 def stale_signatures(mav: Any) -> int:
     """Packets with the right signature refused for their timestamp (replayed, or a clock far behind)."""
     return int(getattr(mav.signing, "stale_count", 0))
+
+
+def refused_packets(mav: Any) -> tuple[int, int, int]:
+    """(signed with another key, not signed at all, right key but stale timestamp) since apply_key."""
+    state = mav.signing
+    stale = stale_signatures(mav)
+    return (int(state.badsig_count) - stale, int(state.reject_count) - int(state.badsig_count), stale)

@@ -142,3 +142,18 @@ def test_a_forged_packet_does_not_lock_out_the_stream_it_imitates() -> None:
     sender.heartbeat_send(2, 3, 0, 0, 0)
     assert [m.get_type() for m in receiver.parse_buffer(genuine.data) or []] == ["HEARTBEAT"]
     assert receiver.signing.stale_count == 0 and receiver.signing.badsig_count == 1
+
+
+def test_a_key_for_a_vehicle_that_does_not_sign_says_so() -> None:
+    """Seen on ArduCopter SITL after a wipe: with --signing-key and an unsigned vehicle the message was
+    "nothing was received at all" (pymavlink does not count unsigned packets it drops)."""
+    from bridge import BridgeError
+    from bridge.mock import MockAutopilot
+    from bridge.uploader import open_backend
+
+    with MockAutopilot(request_interval=0.02) as mock:
+        with pytest.raises(BridgeError) as err:
+            open_backend("pymavlink", mock.client_url, 1, key=new_key(), connect_timeout=1.0)
+    text = str(err.value)
+    assert "packets were refused because they were not signed: the vehicle does not sign" in text
+    assert "nothing was received" not in text
