@@ -21,6 +21,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -188,10 +189,12 @@ def check_item(item: MissionItem, where: str, path: str | os.PathLike[str]) -> M
         if math.isinf(value):
             raise BridgeUsageError(f"{path}: {where}: param{number} is {value} (parameters must be finite; "
                                    "null means unset)")
+        if not _fits_float32(value):
+            raise BridgeUsageError(f"{path}: {where}: param{number} {value:g} does not fit a MAVLink float")
     positional = item.command in POSITIONAL_COMMANDS and is_global(item.frame)
     for name, value, limit in (("latitude", item.x, 90.0), ("longitude", item.y, 180.0)):
         if not is_global(item.frame):
-            name, limit = ("x" if name == "latitude" else "y"), 2.0**31
+            name, limit = ("x" if name == "latitude" else "y"), 2.0**31 - 1  # an int32 on the wire
         if math.isnan(value):
             if positional:
                 raise BridgeUsageError(f"{path}: {where}: {name} is NaN / null, but command {item.command} "
@@ -201,18 +204,29 @@ def check_item(item: MissionItem, where: str, path: str | os.PathLike[str]) -> M
     if math.isinf(item.z) or (positional and math.isnan(item.z)):
         raise BridgeUsageError(f"{path}: {where}: altitude is {item.z}, but command {item.command} needs a finite "
                                "altitude")
+    if not _fits_float32(item.z):
+        raise BridgeUsageError(f"{path}: {where}: altitude {item.z:g} does not fit a MAVLink float")
     if math.isnan(item.x) or math.isnan(item.y):
         item.x = 0.0 if math.isnan(item.x) else item.x
         item.y = 0.0 if math.isnan(item.y) else item.y
     return item
 
 
+def _fits_float32(value: float) -> bool:
+    """Whether MAVLink's float fields (params, z) can carry the value (NaN can)."""
+    try:
+        struct.pack("<f", value)
+    except OverflowError:
+        return False
+    return True
+
+
 def _check_home(home: tuple[float, float, float], where: str, path: Path) -> tuple[float, float, float]:
     lat, lon, alt = home
     if not (abs(lat) <= 90.0 and abs(lon) <= 180.0):
         raise BridgeUsageError(f"{path}: {where}: [{lat}, {lon}] is not a latitude / longitude")
-    if math.isinf(alt):
-        raise BridgeUsageError(f"{path}: {where}: altitude is {alt}")
+    if math.isinf(alt) or not _fits_float32(alt):
+        raise BridgeUsageError(f"{path}: {where}: altitude {alt:g} is not a usable number")
     return (lat, lon, 0.0 if math.isnan(alt) else alt)
 
 

@@ -183,12 +183,16 @@ class MockAutopilot:
         else:
             self.device = self.spec.device
             fd = os.open(self.device, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
-            tty.setraw(fd)
-            speed = getattr(termios, f"B{self.spec.baud}", None)
-            if speed is not None:
-                attrs = termios.tcgetattr(fd)
-                attrs[4] = attrs[5] = speed
-                termios.tcsetattr(fd, termios.TCSANOW, attrs)
+            try:
+                tty.setraw(fd)
+                speed = getattr(termios, f"B{self.spec.baud}", None)
+                if speed is not None:
+                    attrs = termios.tcgetattr(fd)
+                    attrs[4] = attrs[5] = speed
+                    termios.tcsetattr(fd, termios.TCSANOW, attrs)
+            except termios.error:
+                os.close(fd)
+                raise BridgeUsageError(f"--listen {self.spec.url}: {self.device} is not a serial device") from None
         os.set_blocking(fd, False)
         self.address = (self.device, 0)
         self._peer(("serial", self.device), time.monotonic(), fd=fd)
@@ -299,13 +303,13 @@ class MockAutopilot:
     def _drop_peer(self, peer: _Peer) -> None:
         peer.alive = False
         self._peers.pop(peer.key, None)
-        for closer in (peer.sock.close if peer.sock is not None else None,
-                       (lambda: os.close(peer.fd)) if peer.fd is not None else None):  # type: ignore[arg-type]
-            if closer is not None:
-                try:
-                    closer()
-                except OSError:
-                    pass
+        try:
+            if peer.sock is not None:
+                peer.sock.close()
+            if peer.fd is not None:
+                os.close(peer.fd)
+        except OSError:
+            pass
 
     def _read(self, readable: list[Any], now: float) -> None:
         if self._listener is not None and self._listener in readable:

@@ -129,8 +129,8 @@ class MissionClient:
         if self.vehicle.signed and self.link.key is None:
             return (" Its packets are signed (MAVLink 2 signing) and ours are not: it ignores us without the right "
                     "--signing-key.")
-        if self.link.stale_signatures or self.link.bad_signatures:
-            return f" Some of its packets were refused: {self.link.signing_problem()}."
+        if problem := self.link.signing_problem():
+            return f" Some of its packets were refused: {problem}."
         return ""
 
     def _rebooted_since(self, start_reboots: int) -> bool:

@@ -81,6 +81,8 @@ REGRESSIONS: list[tuple[tuple[str | int, ...], Any]] = [
     (("mission", "items", 2, "params", 0), None), (("mission", "plannedHomePosition", 0), math.nan),
     (("mission", "items", 2, "params", 4), None), (("mission", "items", 1, "params", 4), 500),
     (("mission", "items", 1, "params", 4), math.nan), (("mission",), []), (("geoFence",), 7),
+    (("mission", "items", 1, "params", 0), 3.4028235677973366e38),  # beyond float32: found by this test
+    (("mission", "items", 1, "params", 6), -1e39), (("mission", "plannedHomePosition", 2), 1e39),
 ]
 
 
