@@ -69,6 +69,33 @@ def test_missionplan_upload_process_over_a_pty(tmp_path: Path) -> None:
         assert mock.vehicle(1).uploads_completed == 1
 
 
+def test_a_serial_line_that_goes_away_mid_upload_is_one_line(tmp_path: Path,
+                                                              capfd: pytest.CaptureFixture[str]) -> None:
+    """The far end of the line disappears (the mock closes its pty: a radio unplugged)."""
+    import threading
+
+    items = [MissionItem(22, 3, z=25.0)] + [MissionItem(16, 3, x=45.07 + i * 1e-5, y=7.68, z=25.0)
+                                            for i in range(300)]
+    plan_path = tmp_path / "long.plan"
+    write_plan(plan_path, PlanFile(mission=Mission(items, home=(45.07, 7.68, 240.0))))
+    mock = MockAutopilot("pty", request_interval=0.05).start()
+    try:
+        def unplug() -> None:
+            if mock.wait_until(lambda m: m.stats["in"] >= 40, timeout=20):
+                mock.stop()
+
+        thread = threading.Thread(target=unplug, daemon=True)
+        thread.start()
+        code = run(["upload", str(plan_path), "--sysid", "1", "--connect", mock.client_url] + FAST)
+        thread.join(5)
+    finally:
+        mock.stop()
+    out, err = capfd.readouterr()
+    lines = err.strip().splitlines()
+    assert code == 1 and len(lines) == 1 and "the serial device went away (unplugged?)" in lines[0]
+    assert "Traceback" not in out + err
+
+
 def test_missing_serial_device_is_one_line_exit_2(tmp_path: Path) -> None:
     plan_path = tmp_path / "m.plan"
     write_plan(plan_path, PlanFile(mission=_mission(3)))
