@@ -127,3 +127,22 @@ def test_download_into_an_unwritable_place_is_one_line_and_leaves_nothing(
     assert code == 2 and len(err) == 1 and err[0].startswith(f"missionplan: -o {out}: ")
     assert sorted(p.name for p in tmp_path.iterdir()) == before
     assert not Path(out).is_file()
+
+
+def test_download_whose_write_fails_late_is_one_line_exit_1(tmp_path: Path, mock: MockAutopilot,
+                                                             monkeypatch: pytest.MonkeyPatch,
+                                                             capsys: pytest.CaptureFixture[str]) -> None:
+    """The folder took the probe but the write itself fails (disk full): one line, exit 1, no file."""
+    import errno
+
+    import bridge.missionfile
+
+    def full(path: object, text: str) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(bridge.missionfile, "write_text_atomic", full)
+    out = tmp_path / "m.plan"
+    assert main(["download", "--sysid", "1", "--connect", mock.client_url, "-o", str(out)] + FAST) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"missionplan download: cannot write {out}: No space left on device; nothing was written"]
+    assert list(tmp_path.iterdir()) == []
