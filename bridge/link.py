@@ -239,7 +239,8 @@ class Link:
                 msg = self.conn.recv_msg()
             except OSError as err:  # ECONNRESET (after handle_disconnect), a serial device unplugged
                 if not self._closed_by_peer:
-                    what = "the serial device went away (unplugged?)" if self.spec.scheme == "serial" else "the link failed"
+                    what = ("the serial device went away (unplugged?)" if self.spec.scheme == "serial"
+                            else "the link failed")
                     raise BridgeError(f"{self.url}: {what}: {getattr(err, 'strerror', None) or err}") from None
                 msg = None
             if self._closed_by_peer:
