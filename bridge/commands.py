@@ -1,7 +1,7 @@
-"""The `upload`, `download` and `mock` subcommands, for the missionplan command line.
+"""The `upload`, `download`, `clear` and `mock` subcommands, for the missionplan command line.
 
 Owns argument definitions and handlers only; the work is done by uploader, missionfile and mock.
-`register(subparsers)` adds the three parsers, each with set_defaults(handler=...). A handler takes
+`register(subparsers)` adds the four parsers, each with set_defaults(handler=...). A handler takes
 the parsed arguments and returns the exit code: 0 on success (for upload: the vehicle holds exactly
 the mission sent, unless --no-verify), 1 after printing one line to stderr when the vehicle or the
 link fails. Bad input (missing file, bad URL, bad system id, bad key file) raises BridgeUsageError;
@@ -11,7 +11,9 @@ the main CLI prints its one-line message and exits 2.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -25,24 +27,31 @@ DEFAULT_LISTEN = "udpin:127.0.0.1:14550"
 
 
 def register(subparsers: Any) -> None:
-    """Add the upload, download and mock subcommands to an argparse subparsers object."""
+    """Add the upload, download, clear and mock subcommands to an argparse subparsers object."""
     up = subparsers.add_parser("upload", help="upload a .plan or .waypoints mission to a vehicle and verify it")
-    up.add_argument("file", type=Path, help="mission file (.plan or .waypoints)")
+    up.add_argument("file", type=Path, help="mission file (.plan, .waypoints, or a QGC WPL 110 .txt)")
     _vehicle_arguments(up)
     up.add_argument("--backend", default="pymavlink", choices=("pymavlink", "mavsdk"),
                     help="who runs the mission protocol (default pymavlink)")
     up.add_argument("--no-verify", action="store_true", help="skip the read-back (exit 0 then means accepted)")
+    up.add_argument("--allow-empty", action="store_true",
+                    help="let a file without mission items clear the vehicle's mission (refused otherwise)")
     up.set_defaults(handler=cmd_upload)
 
     down = subparsers.add_parser("download", help="download a vehicle's mission to a .plan or .waypoints file")
     _vehicle_arguments(down, connect_required=True)
-    down.add_argument("-o", "--output", required=True, type=Path, help="file to write (.plan or .waypoints)")
+    down.add_argument("-o", "--output", required=True, type=Path, help="file to write (.plan, .waypoints or .txt)")
     down.set_defaults(handler=cmd_download)
+
+    clear = subparsers.add_parser("clear", help="clear a vehicle's mission, geofence and rally points, and verify")
+    _vehicle_arguments(clear, connect_required=True)
+    clear.set_defaults(handler=cmd_clear)
 
     mock = subparsers.add_parser("mock", help="run mock autopilots on loopback until interrupted")
     mock.add_argument("--sysid", default="1", help="system ids to serve, comma-separated (default 1)")
     mock.add_argument("--listen", default=DEFAULT_LISTEN,
-                      help=f"udpin:HOST:PORT, udpout:HOST:PORT or tcpin:HOST:PORT (default {DEFAULT_LISTEN})")
+                      help=f"udpin:HOST:PORT, udpout:HOST:PORT, tcpin:HOST:PORT, a serial device DEVICE,BAUD, or "
+                           f"pty (a pseudo-terminal: connect to the /dev/pts/N it prints) (default {DEFAULT_LISTEN})")
     mock.add_argument("--flavour", default="ardupilot", choices=("ardupilot", "px4"), help="autopilot to imitate")
     mock.add_argument("--speedup", type=float, default=1.0, help="simulated seconds per real second when flying")
     mock.add_argument("--loss", type=float, default=0.0, help="packet loss probability in each direction")
@@ -145,6 +154,10 @@ def cmd_upload(args: argparse.Namespace) -> int:
 
     opts = _checked(args)
     plan = read_mission_file(args.file)
+    if not plan.mission.items and not args.allow_empty:
+        # Uploading nothing replaces the vehicle's mission with nothing: never by accident.
+        raise BridgeUsageError(f"{args.file}: the file holds no mission items; uploading it would wipe the "
+                               "vehicle's mission (pass --allow-empty to mean that, or use `missionplan clear`)")
     bars = _Bars(args.quiet)
     backend = None
     try:
@@ -166,13 +179,16 @@ def cmd_download(args: argparse.Namespace) -> int:
     from .missionfile import PlanFile, write_mission_file
     from .uploader import download_plan, open_backend
 
+    from .missionfile import output_format
+
     opts = _checked(args)
     out: Path = args.output
-    suffix = out.suffix.lower()
-    if suffix not in (".plan", ".waypoints"):
-        raise BridgeUsageError(f"-o {out}: unknown mission file type {out.suffix!r} (expected .plan or .waypoints)")
-    if not out.parent.is_dir():
-        raise BridgeUsageError(f"-o {out}: folder {out.parent} does not exist")
+    try:
+        as_plan = output_format(out) == "plan"
+    except BridgeUsageError:
+        raise BridgeUsageError(f"-o {out}: unknown mission file type {out.suffix!r} (expected .plan, .waypoints "
+                               "or .txt)") from None
+    _check_writable(out)
     bars = _Bars(args.quiet)
     backend = None
     start = time.monotonic()
@@ -181,7 +197,7 @@ def cmd_download(args: argparse.Namespace) -> int:
                                opts["timeouts"], opts["connect_timeout"])
         mission = download_plan(backend, [MissionType.MISSION], bars)[0]
         plan = PlanFile(mission=mission, firmware=backend.vehicle.flavour)
-        if suffix == ".plan":  # a .plan also carries the geofence and rally points
+        if as_plan:  # a .plan also carries the geofence and rally points
             for mtype in (MissionType.FENCE, MissionType.RALLY):
                 try:
                     part = download_plan(backend, [mtype], bars)[0]
@@ -200,10 +216,48 @@ def cmd_download(args: argparse.Namespace) -> int:
         bars.close()
         if backend is not None:
             backend.close()
-    write_mission_file(out, plan)
+    try:
+        write_mission_file(out, plan)  # atomic: on failure nothing is left behind
+    except OSError as err:
+        return _fail("download", BridgeError(f"cannot write {out}: {err.strerror or err}; nothing was written"))
     extra = "".join(f", {len(p.items)} {p.mission_type.label}" for p in (plan.fence, plan.rally) if p.items)
     print(f"downloaded {len(plan.mission.items)} mission items{extra} from vehicle {opts['sysid']} ({flavour.value}) "
           f"to {out} in {time.monotonic() - start:.2f} s")
+    return 0
+
+
+def _check_writable(out: Path) -> None:
+    """-o must be creatable before we spend a download on it: probe with a temp file in its folder.
+
+    (os.access says yes to root even on read-only or special file systems; a real create does not.)
+    """
+    if out.is_dir():
+        raise BridgeUsageError(f"-o {out}: is a folder, not a file name")
+    if not out.parent.is_dir():
+        raise BridgeUsageError(f"-o {out}: folder {out.parent} does not exist")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".probe", dir=out.parent)
+    except OSError as err:
+        raise BridgeUsageError(f"-o {out}: cannot write in {out.parent} ({err.strerror or err})") from None
+    os.close(fd)
+    os.unlink(probe)
+
+
+def cmd_clear(args: argparse.Namespace) -> int:
+    from .uploader import clear_plan, open_backend
+
+    opts = _checked(args)
+    backend = None
+    try:
+        backend = open_backend("pymavlink", opts["url"], opts["sysid"], opts["compid"], opts["key"],
+                               opts["timeouts"], opts["connect_timeout"])
+        report = clear_plan(backend)
+    except BridgeError as err:
+        return _fail("clear", err)
+    finally:
+        if backend is not None:
+            backend.close()
+    print(report)
     return 0
 
 
@@ -221,8 +275,14 @@ def cmd_mock(args: argparse.Namespace) -> int:
     mock = MockAutopilot(args.listen, sysids=sysids, flavour=args.flavour, speedup=args.speedup, faults=faults,
                          key=key, request_interval=args.request_interval)
     ids = ",".join(str(s) for s in sysids)
-    print(f"mock autopilot: systems {ids} ({args.flavour}{', signed' if key else ''}) on {args.listen} "
-          f"(port {mock.port}); connect with --connect {mock.client_url}; Ctrl-C stops", flush=True)
+    if mock.spec.scheme == "serial":
+        where, connect = f"serial device {mock.device}", f"the other end of {mock.device}"
+    elif mock.spec.scheme == "pty":
+        where, connect = f"pseudo-terminal {mock.device}", mock.client_url
+    else:
+        where, connect = f"{args.listen} (port {mock.port})", mock.client_url
+    print(f"mock autopilot: systems {ids} ({args.flavour}{', signed' if key else ''}) on {where}; "
+          f"connect with --connect {connect}; Ctrl-C stops", flush=True)
     mock.start()
     try:
         deadline = None if args.duration is None else time.monotonic() + args.duration

@@ -8,13 +8,20 @@ Owns:
 - Link: one connection with our GCS identity, optional signing, a 1 Hz GCS heartbeat, reads with a
   deadline, COMMAND_LONG with retries and its COMMAND_ACK, and per-vehicle boot-time tracking so a
   reboot is noticed;
+- a lost transport: pymavlink prints "EOF on TCP socket" on every read of a closed TCP connection
+  (and `select` wakes at once for it, so a read loop printed it a million times). Link takes those
+  hooks over: it says once (log warning on "bridge.link") that the peer closed the connection,
+  reconnects a bounded number of times, and otherwise raises one BridgeError. A serial device that
+  vanishes (unplugged) is a BridgeError too; one that does not exist is a BridgeUsageError;
 - wait_vehicle: the HEARTBEAT of the requested system (and component) and what it tells: the flavour.
 """
 
 from __future__ import annotations
 
+import logging
 import os
 import re
+import socket
 import threading
 import time
 from collections.abc import Callable
@@ -27,7 +34,7 @@ from pymavlink import mavutil  # noqa: E402
 
 from .errors import BridgeError, BridgeUsageError  # noqa: E402
 from .mission import MAV_AUTOPILOT_INVALID, Flavour  # noqa: E402
-from .signing import SigningKey, apply_key  # noqa: E402
+from .signing import SigningKey, apply_key, refused_packets  # noqa: E402
 
 if mavutil.mavlink.WIRE_PROTOCOL_VERSION != "2.0":  # someone imported pymavlink before us without MAVLINK20
     os.environ["MAVLINK20"] = "1"
@@ -44,9 +51,14 @@ REBOOT_JUMP = 0.25  # seconds; more than a late packet's delay, less than any re
 COMMAND_TRIES = 5    # COMMAND_LONG sends before giving up
 COMMAND_WAIT_S = 0.5  # for its COMMAND_ACK, each time
 MAV_RESULT_ACCEPTED = 0
+RECONNECT_TRIES = 4      # TCP connects after the peer closed the connection, before giving up
+RECONNECT_WAIT_S = 0.5   # between them (and the connect time-out of each)
+MAX_RECONNECTS = 5       # closed connections one Link survives; a peer that keeps dropping us is broken
+
+log = logging.getLogger("bridge.link")
 
 _HOST_PORT = re.compile(r"^(?P<host>[A-Za-z0-9_.\-]+|\[[0-9A-Fa-f:]+\]):(?P<port>\d{1,5})$")
-_SERIAL = re.compile(r"^(?P<device>(/dev/[^,:]+|COM\d+))(?:[,:](?P<baud>\d+))?$")
+_SERIAL = re.compile(r"^(/dev/\S+|COM\d+([,:]\S*)?)$", re.IGNORECASE)
 
 
 @dataclass(frozen=True)
@@ -74,12 +86,17 @@ def parse_url(url: str, option: str = "--connect", allow_any_port: bool = False)
     text = (url or "").strip()
     if not text:
         raise BridgeUsageError(f"{option}: empty connection string")
-    serial = _SERIAL.match(text)
-    if serial:
-        baud = int(serial.group("baud") or 115200)
-        if baud <= 0:
-            raise BridgeUsageError(f"{option} {url}: bad baud rate")
-        return ConnectionSpec("serial", device=serial.group("device"), baud=baud)
+    if _SERIAL.match(text):
+        # DEVICE,BAUD (or DEVICE:BAUD): the baud is what follows the last comma, or the last colon
+        # when the rest is not itself a device (/dev/serial/by-path/ names contain colons).
+        device, baud_text = text, ""
+        if "," in text:
+            device, _, baud_text = text.rpartition(",")
+        elif ":" in text and not os.path.exists(text) and text.rpartition(":")[2].isdigit():
+            device, _, baud_text = text.rpartition(":")
+        if baud_text and (not baud_text.isdigit() or int(baud_text) == 0):
+            raise BridgeUsageError(f"{option} {url}: bad baud rate {baud_text!r}")
+        return ConnectionSpec("serial", device=device, baud=int(baud_text or 115200))
     scheme, sep, rest = text.partition(":")
     if not sep or scheme not in ("udpin", "udpout", "udp", "tcp", "tcpin"):
         raise BridgeUsageError(f"{option} {url}: not a connection string (use udpin:HOST:PORT, udpout:HOST:PORT, "
@@ -139,17 +156,22 @@ class Link:
         self.spec = parse_url(url)
         self.url = url
         self.key = key
+        self._closed_by_peer = False
+        self.reconnects = 0
         try:
             if self.spec.scheme == "serial":
-                self.conn = mavutil.mavlink_connection(self.spec.device, baud=self.spec.baud,
-                                                       source_system=source_system,
-                                                       source_component=source_component, autoreconnect=False)
+                self.conn = _open_serial(self.spec, url, source_system, source_component)
             else:
                 self.conn = mavutil.mavlink_connection(self.spec.url, source_system=source_system,
                                                        source_component=source_component, retries=0)
+        except BridgeUsageError:
+            raise
         except (OSError, ValueError) as err:
             detail = getattr(err, "strerror", None) or str(err)
             raise BridgeError(f"cannot open {url}: {detail}") from None
+        if self.spec.scheme == "tcp":
+            # pymavlink prints on every read of a closed socket; we notice, and say it once.
+            self.conn.handle_eof = self.conn.handle_disconnect = self._peer_closed
         # Writes may come from two threads (the MAVSDK backend's pump and MAVSDK's own): one at a time.
         self.write_lock = threading.Lock()
         raw_write = self.conn.write
@@ -207,10 +229,23 @@ class Link:
 
     # -- receiving
     def recv(self, deadline: float) -> Any | None:
-        """The next good message, or None once time.monotonic() passes deadline."""
+        """The next good message, or None once time.monotonic() passes deadline.
+
+        BridgeError when the transport is gone for good (TCP peer closed and reconnecting failed,
+        serial device unplugged)."""
         while True:
-            self.heartbeat()
-            msg = self.conn.recv_msg()
+            try:
+                self.heartbeat()
+                msg = self.conn.recv_msg()
+            except OSError as err:  # ECONNRESET (after handle_disconnect), a serial device unplugged
+                if not self._closed_by_peer:
+                    what = ("the serial device went away (unplugged?)" if self.spec.scheme == "serial"
+                            else "the link failed")
+                    raise BridgeError(f"{self.url}: {what}: {getattr(err, 'strerror', None) or err}") from None
+                msg = None
+            if self._closed_by_peer:
+                self._reconnect()
+                continue
             if msg is not None:
                 if msg.get_type() == "BAD_DATA":
                     continue
@@ -250,10 +285,69 @@ class Link:
             self._boot_epoch[sysid] = epoch if last is None else min(last, epoch)
             self._boot_ms[sysid] = max(self._boot_ms.get(sysid, 0), boot_ms)
 
+    # -- a TCP peer that closed the connection
+    def _peer_closed(self) -> None:
+        self._closed_by_peer = True
+
+    def _reconnect(self) -> None:
+        """Reconnect to the TCP peer after it closed the connection: RECONNECT_TRIES attempts, at most
+        MAX_RECONNECTS times per Link; BridgeError when that fails. Said once per event on the log."""
+        self._closed_by_peer = False
+        self.reconnects += 1
+        where = f"{self.spec.host}:{self.spec.port}"
+        if self.reconnects > MAX_RECONNECTS:
+            raise BridgeError(f"{self.url}: the other end closed the TCP connection {self.reconnects} times; "
+                              "giving up")
+        log.warning("%s: the other end closed the TCP connection; reconnecting (up to %d tries)", self.url,
+                    RECONNECT_TRIES)
+        try:
+            self.conn.port.close()
+        except OSError:
+            pass
+        problem = "no answer"
+        for attempt in range(RECONNECT_TRIES):
+            if attempt:
+                time.sleep(RECONNECT_WAIT_S)
+            try:
+                sock = socket.create_connection((self.spec.host, self.spec.port), timeout=RECONNECT_WAIT_S)
+            except OSError as err:
+                problem = err.strerror or str(err)
+                continue
+            sock.setblocking(False)
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            self.conn.port = sock
+            self.conn.fd = sock.fileno()
+            self.mav.buf, self.mav.buf_index = bytearray(), 0  # half a packet from the old connection
+            log.warning("%s: reconnected to %s", self.url, where)
+            return
+        raise BridgeError(f"{self.url}: the other end closed the TCP connection and {RECONNECT_TRIES} reconnects "
+                          f"over {RECONNECT_TRIES * RECONNECT_WAIT_S:g} s failed ({problem})")
+
     @property
     def bad_signatures(self) -> int:
         """Packets refused because their signature did not match our key (or was missing)."""
-        return int(self.mav.signing.badsig_count + self.mav.signing.reject_count)
+        wrong, unsigned, _ = refused_packets(self.mav)
+        return wrong + unsigned
+
+    @property
+    def stale_signatures(self) -> int:
+        """Packets signed with our key but refused for an old timestamp (see bridge.signing)."""
+        return refused_packets(self.mav)[2]
+
+    def signing_problem(self) -> str:
+        """Why packets were refused by our signature check, as a clause for a message ("" when none were)."""
+        wrong, unsigned, stale = refused_packets(self.mav)
+        if stale:
+            return (f"{stale} packets carried the right signature but signing timestamps more than 60 s behind "
+                    "this computer's clock, or going backwards (the key is right; the vehicle's signing clock "
+                    "lags ours: check this computer's date and the vehicle's time source)")
+        if wrong:
+            return (f"{wrong} packets were refused because they were signed with another key "
+                    "(wrong --signing-key?)")
+        if unsigned:
+            return (f"{unsigned} packets were refused because they were not signed: the vehicle does not sign "
+                    "(put the key on it first, or leave out --signing-key)")
+        return ""
 
     def close(self) -> None:
         try:
@@ -266,6 +360,26 @@ class Link:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _open_serial(spec: ConnectionSpec, url: str, source_system: int, source_component: int) -> Any:
+    """A pymavlink serial connection; a device that is not there is bad input (exit 2), one that
+    cannot be opened an operational failure (exit 1, with the usual causes named)."""
+    if not spec.device.upper().startswith("COM") and not os.path.exists(spec.device):
+        raise BridgeUsageError(f"--connect {url}: no such device {spec.device} (is the radio or autopilot plugged "
+                               "in? see ls /dev/serial/by-id/)")
+    try:
+        import serial  # noqa: F401  (pyserial: pymavlink imports it when it opens the port)
+    except ImportError:
+        raise BridgeError(f"cannot open {url}: serial links need pyserial (pip install pyserial==3.5)") from None
+    try:
+        return mavutil.mavlink_connection(spec.device, baud=spec.baud, source_system=source_system,
+                                          source_component=source_component, autoreconnect=False)
+    except OSError as err:  # serial.SerialException is an OSError
+        detail = getattr(err, "strerror", None) or str(err)
+        hint = " (add yourself to the dialout group, or check who else has the port open)" if (
+            getattr(err, "errno", None) in (13, 16) or "ermission" in detail or "busy" in detail) else ""
+        raise BridgeError(f"cannot open {url}: {detail}{hint}") from None
 
 
 def wait_vehicle(link: Link, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID, timeout: float = 10.0) -> VehicleInfo:
@@ -289,9 +403,8 @@ def wait_vehicle(link: Link, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID, t
     detail = ""
     if others:
         detail = "; heard only " + ", ".join(f"system {s} component {c}" for s, c in sorted(others))
-    elif link.bad_signatures:
-        detail = (f"; {link.bad_signatures} packets were refused because they were unsigned or signed with "
-                  "another key (wrong --signing-key?)")
+    elif link.signing_problem():
+        detail = "; " + link.signing_problem()
     elif link.received == 0:
         detail = "; nothing was received at all"
     raise BridgeError(f"no heartbeat from system {sysid} (component {compid}) on {link.url} within {timeout:g} s{detail}")

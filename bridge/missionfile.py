@@ -7,7 +7,12 @@ Owns the translation between those formats and bridge.mission's model:
 - `.waypoints`: first line "QGC WPL 110", then one tab-separated line of 12 columns per item; line 0
   is the home position (Mission Planner's convention), so mission items are lines 1..n.
 DO_JUMP targets: a `.plan` names them by doJumpId, a `.waypoints` by line number; both become the
-model's 1-based item number. Bad files raise BridgeUsageError naming the file and the problem.
+model's 1-based item number. Which reader runs: `.plan` and `.waypoints` by suffix; any other name
+(Mission Planner's `.waypoints.txt` / `.txt`) by content, the `QGC WPL 110` header or a JSON plan.
+Bad files raise BridgeUsageError naming the file, the item and the problem, and nothing else: a
+reader never lets a number through that the wire cannot carry faithfully (a NaN or infinite
+coordinate, a latitude beyond +-90, a frame that is not a uint8) because MISSION_ITEM_INT would carry
+it as 0 or as garbage and the read-back would still agree with it.
 Writes are atomic (temp file, then rename) with LF line endings.
 """
 
@@ -16,6 +21,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -44,6 +50,17 @@ from .mission import (
 WPL_HEADER = "QGC WPL 110"
 MAV_TYPE_QUADROTOR = 2
 SUFFIXES = (".plan", ".waypoints")
+PLAN_MISSION_VERSION = 2  # the only mission.version QGroundControl reads
+
+# Commands whose x / y are a position the vehicle flies to (or fences / rallies at). MISSION_ITEM_INT
+# carries x / y as integers, so a NaN there would reach the vehicle as 0, 0 and read back "verified".
+POSITIONAL_COMMANDS = frozenset({
+    16, 17, 18, 19, 21, 22, 31,   # NAV_WAYPOINT, LOITER_UNLIM / _TURNS / _TIME, LAND, TAKEOFF, LOITER_TO_ALT
+    82, 84, 85,                   # NAV_SPLINE_WAYPOINT, NAV_VTOL_TAKEOFF, NAV_VTOL_LAND
+    195, 201,                     # DO_SET_ROI_LOCATION, DO_SET_ROI
+    CMD_FENCE_POLYGON_VERTEX_INCLUSION, CMD_FENCE_POLYGON_VERTEX_EXCLUSION,
+    CMD_FENCE_CIRCLE_INCLUSION, CMD_FENCE_CIRCLE_EXCLUSION, CMD_RALLY_POINT,
+})
 
 
 @dataclass
@@ -85,26 +102,41 @@ def _read_text(path: Path) -> str:
 
 
 def read_mission_file(path: str | os.PathLike[str]) -> PlanFile:
-    """Read a `.plan` or `.waypoints` file, chosen by its suffix."""
+    """Read a `.plan` or `.waypoints` file: by suffix, or for any other name by its first line."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".plan":
         return read_plan(path)
     if suffix == ".waypoints":
         return PlanFile(mission=read_waypoints(path))
-    raise BridgeUsageError(f"{path}: unknown mission file type {path.suffix!r} (expected .plan or .waypoints)")
+    # Mission Planner and QGroundControl also save QGC WPL files as `.waypoints.txt` or `.txt`.
+    start = _read_text(path).lstrip()
+    if start.startswith("QGC WPL"):
+        return PlanFile(mission=read_waypoints(path))
+    if start.startswith("{"):
+        return read_plan(path)
+    raise BridgeUsageError(f"{path}: not a mission file (expected a QGroundControl .plan or a file whose first line "
+                           f"is \"{WPL_HEADER}\")")
 
 
-def write_mission_file(path: str | os.PathLike[str], plan: PlanFile) -> None:
-    """Write a `.plan` or `.waypoints` file, chosen by its suffix (.waypoints keeps only the mission)."""
+def output_format(path: str | os.PathLike[str]) -> str:
+    """"plan" or "waypoints": what write_mission_file writes to this name; BridgeUsageError otherwise."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".plan":
+        return "plan"
+    if suffix in (".waypoints", ".txt"):  # .txt: Mission Planner's other name for a QGC WPL file
+        return "waypoints"
+    raise BridgeUsageError(f"{path}: unknown mission file type {path.suffix!r} (expected .plan, .waypoints "
+                           "or .txt)")
+
+
+def write_mission_file(path: str | os.PathLike[str], plan: PlanFile) -> None:
+    """Write a `.plan` or `.waypoints` (or `.txt`) file, chosen by its suffix (.waypoints keeps only the mission)."""
+    if output_format(path) == "plan":
         write_plan(path, plan)
-    elif suffix == ".waypoints":
-        write_waypoints(path, plan.mission)
     else:
-        raise BridgeUsageError(f"{path}: unknown mission file type {path.suffix!r} (expected .plan or .waypoints)")
+        write_waypoints(path, plan.mission)
 
 
 # -------------------------------------------------------------------------------------------- .plan
@@ -114,19 +146,94 @@ def _number(value: Any, where: str, path: Path) -> float:
     if value is None:
         return math.nan
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise BridgeUsageError(f"{path}: {where}: expected a number, got {value!r}")
-    return float(value)
+        raise BridgeUsageError(f"{path}: {where}: expected a number, got {_short(value)}")
+    try:
+        return float(value)
+    except OverflowError:  # a JSON integer with hundreds of digits
+        raise BridgeUsageError(f"{path}: {where}: number out of range") from None
 
 
-def _integer(value: Any, where: str, path: Path) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or float(value) != int(value):
-        raise BridgeUsageError(f"{path}: {where}: expected an integer, got {value!r}")
+def _integer(value: Any, where: str, path: Path, low: int = -(2**31), high: int = 2**31 - 1) -> int:
+    """A JSON integer (or integral float) in [low, high]: the range of the MAVLink field it goes to."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or (
+            isinstance(value, float) and not (math.isfinite(value) and value.is_integer())):
+        raise BridgeUsageError(f"{path}: {where}: expected an integer, got {_short(value)}")
+    if not low <= value <= high:
+        raise BridgeUsageError(f"{path}: {where}: {_short(value)} is out of range ({low}..{high})")
     return int(value)
+
+
+def _short(value: Any) -> str:
+    """A value for an error message: one line, not the whole of a large JSON structure."""
+    text = repr(value).replace("\n", " ")
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _list(value: Any, where: str, path: Path) -> list[Any]:
+    """An optional JSON list (absent or null is empty)."""
+    if value is None:
+        return []
+    if not isinstance(value, list):
+        raise BridgeUsageError(f"{path}: {where} must be a list, got {_short(value)}")
+    return value
+
+
+def check_item(item: MissionItem, where: str, path: str | os.PathLike[str]) -> MissionItem:
+    """Refuse numbers the wire cannot carry faithfully; NaN x / y of items without a position become 0.
+
+    Parameters 1-4 may be NaN (QGroundControl's null: "unchanged", e.g. yaw) but not infinite. In a
+    global frame a positional command needs a finite latitude in [-90, 90], longitude in [-180, 180]
+    and altitude; other items' NaN x / y are written as 0 (all MISSION_ITEM_INT can carry).
+    """
+    for number, value in enumerate((item.param1, item.param2, item.param3, item.param4), start=1):
+        if math.isinf(value):
+            raise BridgeUsageError(f"{path}: {where}: param{number} is {value} (parameters must be finite; "
+                                   "null means unset)")
+        if not _fits_float32(value):
+            raise BridgeUsageError(f"{path}: {where}: param{number} {value:g} does not fit a MAVLink float")
+    positional = item.command in POSITIONAL_COMMANDS and is_global(item.frame)
+    for name, value, limit in (("latitude", item.x, 90.0), ("longitude", item.y, 180.0)):
+        if not is_global(item.frame):
+            name, limit = ("x" if name == "latitude" else "y"), 2.0**31 - 1  # an int32 on the wire
+        if math.isnan(value):
+            if positional:
+                raise BridgeUsageError(f"{path}: {where}: {name} is NaN / null, but command {item.command} "
+                                       "needs a position")
+        elif not abs(value) <= limit:
+            raise BridgeUsageError(f"{path}: {where}: {name} {value} is out of range (-{limit:g}..{limit:g})")
+    if math.isinf(item.z) or (positional and math.isnan(item.z)):
+        raise BridgeUsageError(f"{path}: {where}: altitude is {item.z}, but command {item.command} needs a finite "
+                               "altitude")
+    if not _fits_float32(item.z):
+        raise BridgeUsageError(f"{path}: {where}: altitude {item.z:g} does not fit a MAVLink float")
+    if math.isnan(item.x) or math.isnan(item.y):
+        item.x = 0.0 if math.isnan(item.x) else item.x
+        item.y = 0.0 if math.isnan(item.y) else item.y
+    return item
+
+
+def _fits_float32(value: float) -> bool:
+    """Whether MAVLink's float fields (params, z) can carry the value (NaN can)."""
+    try:
+        struct.pack("<f", value)
+    except OverflowError:
+        return False
+    return True
+
+
+def _check_home(home: tuple[float, float, float], where: str, path: Path) -> tuple[float, float, float]:
+    lat, lon, alt = home
+    if not (abs(lat) <= 90.0 and abs(lon) <= 180.0):
+        raise BridgeUsageError(f"{path}: {where}: [{lat}, {lon}] is not a latitude / longitude")
+    if math.isinf(alt) or not _fits_float32(alt):
+        raise BridgeUsageError(f"{path}: {where}: altitude {alt:g} is not a usable number")
+    return (lat, lon, 0.0 if math.isnan(alt) else alt)
 
 
 def _latlon(value: Any, where: str, path: Path, length: int = 2) -> list[float]:
     if not isinstance(value, list) or len(value) < length:
-        raise BridgeUsageError(f"{path}: {where}: expected [lat, lon{', alt' if length == 3 else ''}], got {value!r}")
+        raise BridgeUsageError(f"{path}: {where}: expected [lat, lon{', alt' if length == 3 else ''}], "
+                               f"got {_short(value)}")
     return [_number(v, where, path) for v in value[:length]]
 
 
@@ -136,18 +243,25 @@ def read_plan(path: str | os.PathLike[str]) -> PlanFile:
         doc = json.loads(_read_text(path))
     except json.JSONDecodeError as err:
         raise BridgeUsageError(f"{path}: not valid JSON (line {err.lineno}: {err.msg})") from None
+    except RecursionError:
+        raise BridgeUsageError(f"{path}: not a plan (JSON nested too deeply)") from None
     if not isinstance(doc, dict) or doc.get("fileType") != "Plan":
         raise BridgeUsageError(f"{path}: not a QGroundControl plan (fileType is not \"Plan\")")
-    if doc.get("version") != 1:
-        raise BridgeUsageError(f"{path}: unsupported plan version {doc.get('version')!r} (expected 1)")
+    if type(doc.get("version")) is not int or doc["version"] != 1:
+        raise BridgeUsageError(f"{path}: unsupported plan version {_short(doc.get('version'))} (expected 1)")
     mission_doc = doc.get("mission")
     if not isinstance(mission_doc, dict) or not isinstance(mission_doc.get("items"), list):
         raise BridgeUsageError(f"{path}: the plan has no mission.items list")
+    # QGroundControl refuses any other mission version; a later format may mean something else.
+    if "version" in mission_doc and (type(mission_doc["version"]) is not int
+                                     or mission_doc["version"] != PLAN_MISSION_VERSION):
+        raise BridgeUsageError(f"{path}: unsupported mission.version {_short(mission_doc['version'])} "
+                               f"(QGroundControl plans have {PLAN_MISSION_VERSION})")
 
     home = None
     if mission_doc.get("plannedHomePosition") is not None:
         lat, lon, alt = _latlon(mission_doc["plannedHomePosition"], "mission.plannedHomePosition", path, 3)
-        home = (lat, lon, 0.0 if math.isnan(alt) else alt)
+        home = _check_home((lat, lon, alt), "mission.plannedHomePosition", path)
 
     raw_items: list[tuple[MissionItem, int | None]] = []
     for index, entry in enumerate(mission_doc["items"]):
@@ -165,20 +279,21 @@ def read_plan(path: str | os.PathLike[str]) -> PlanFile:
         if not isinstance(params, list) or len(params) != 7:
             raise BridgeUsageError(f"{path}: {where}: params must be a list of 7 numbers")
         p = [_number(v, f"{where} params", path) for v in params]
-        frame = _integer(entry.get("frame"), f"{where} frame", path)
-        command = _integer(entry.get("command"), f"{where} command", path)
+        frame = _integer(entry.get("frame"), f"{where} frame", path, 0, 255)  # uint8 on the wire
+        command = _integer(entry.get("command"), f"{where} command", path, 0, 65535)  # uint16
         jump_id = entry.get("doJumpId")
-        raw_items.append((MissionItem(command=command, frame=frame, param1=p[0], param2=p[1], param3=p[2],
-                                      param4=p[3], x=0.0 if math.isnan(p[4]) and is_global(frame) else p[4],
-                                      y=0.0 if math.isnan(p[5]) and is_global(frame) else p[5], z=p[6],
-                                      autocontinue=bool(entry.get("autoContinue", True))),
-                          None if jump_id is None else _integer(jump_id, f"{where} doJumpId", path)))
+        item = check_item(MissionItem(command=command, frame=frame, param1=p[0], param2=p[1], param3=p[2],
+                                      param4=p[3], x=p[4], y=p[5], z=p[6],
+                                      autocontinue=bool(entry.get("autoContinue", True))), where, path)
+        raw_items.append((item, None if jump_id is None else _integer(jump_id, f"{where} doJumpId", path)))
 
     # DO_JUMP names its target by doJumpId; the model counts items from 1.
     by_jump_id = {jump_id: number for number, (_, jump_id) in enumerate(raw_items, start=1) if jump_id is not None}
     items: list[MissionItem] = []
     for number, (item, _) in enumerate(raw_items, start=1):
         if item.command == CMD_DO_JUMP:
+            if not math.isfinite(item.param1):
+                raise BridgeUsageError(f"{path}: mission item {number}: DO_JUMP without a target doJumpId")
             target = int(round(item.param1))
             if target not in by_jump_id:
                 raise BridgeUsageError(f"{path}: mission item {number}: DO_JUMP to doJumpId {target}, which no item has")
@@ -206,25 +321,29 @@ def _read_fence(doc: Any, path: Path) -> Mission:
         return fence
     if not isinstance(doc, dict):
         raise BridgeUsageError(f"{path}: geoFence must be an object")
-    for index, poly in enumerate(doc.get("polygons", []) or []):
+    for index, poly in enumerate(_list(doc.get("polygons"), "geoFence.polygons", path)):
         where = f"geoFence polygon {index + 1}"
         if not isinstance(poly, dict) or not isinstance(poly.get("polygon"), list) or len(poly["polygon"]) < 3:
             raise BridgeUsageError(f"{path}: {where}: needs a polygon of at least 3 [lat, lon] points")
         command = CMD_FENCE_POLYGON_VERTEX_INCLUSION if poly.get("inclusion", True) else CMD_FENCE_POLYGON_VERTEX_EXCLUSION
         vertices = poly["polygon"]
-        for vertex in vertices:
+        for number, vertex in enumerate(vertices, start=1):
             lat, lon = _latlon(vertex, where, path)
-            fence.items.append(MissionItem(command=command, frame=FRAME_GLOBAL, param1=float(len(vertices)),
-                                           x=lat, y=lon, z=0.0))
-    for index, circle in enumerate(doc.get("circles", []) or []):
+            fence.items.append(check_item(MissionItem(command=command, frame=FRAME_GLOBAL,
+                                                      param1=float(len(vertices)), x=lat, y=lon, z=0.0),
+                                          f"{where} point {number}", path))
+    for index, circle in enumerate(_list(doc.get("circles"), "geoFence.circles", path)):
         where = f"geoFence circle {index + 1}"
         body = circle.get("circle") if isinstance(circle, dict) else None
         if not isinstance(body, dict):
             raise BridgeUsageError(f"{path}: {where}: expected {{\"circle\": {{\"center\": [lat, lon], \"radius\": r}}}}")
         lat, lon = _latlon(body.get("center"), where, path)
         radius = _number(body.get("radius"), f"{where} radius", path)
+        if not (math.isfinite(radius) and radius > 0):
+            raise BridgeUsageError(f"{path}: {where}: radius must be a positive number of metres, got {radius}")
         command = CMD_FENCE_CIRCLE_INCLUSION if circle.get("inclusion", True) else CMD_FENCE_CIRCLE_EXCLUSION
-        fence.items.append(MissionItem(command=command, frame=FRAME_GLOBAL, param1=radius, x=lat, y=lon, z=0.0))
+        fence.items.append(check_item(MissionItem(command=command, frame=FRAME_GLOBAL, param1=radius, x=lat, y=lon,
+                                                  z=0.0), where, path))
     return fence
 
 
@@ -234,9 +353,11 @@ def _read_rally(doc: Any, path: Path) -> Mission:
         return rally
     if not isinstance(doc, dict):
         raise BridgeUsageError(f"{path}: rallyPoints must be an object")
-    for index, point in enumerate(doc.get("points", []) or []):
-        lat, lon, alt = _latlon(point, f"rally point {index + 1}", path, 3)
-        rally.items.append(MissionItem(command=CMD_RALLY_POINT, frame=FRAME_GLOBAL_RELATIVE_ALT, x=lat, y=lon, z=alt))
+    for index, point in enumerate(_list(doc.get("points"), "rallyPoints.points", path)):
+        where = f"rally point {index + 1}"
+        lat, lon, alt = _latlon(point, where, path, 3)
+        rally.items.append(check_item(MissionItem(command=CMD_RALLY_POINT, frame=FRAME_GLOBAL_RELATIVE_ALT, x=lat,
+                                                  y=lon, z=alt), where, path))
     return rally
 
 
@@ -335,15 +456,18 @@ def read_waypoints(path: str | os.PathLike[str]) -> Mission:
             index, _current, frame, command = (int(fields[0]), int(fields[1]), int(fields[2]), int(fields[3]))
             p1, p2, p3, p4, x, y, z = (float(v) for v in fields[4:11])
             autocontinue = int(float(fields[11]))
-        except ValueError:
+        except (ValueError, OverflowError):
             raise BridgeUsageError(f"{path}: line {line_no}: a column is not a number") from None
         if index != position:
             raise BridgeUsageError(f"{path}: line {line_no}: item index {index}, expected {position}")
+        if not (0 <= frame <= 255 and 0 <= command <= 65535):
+            raise BridgeUsageError(f"{path}: line {line_no}: frame {frame} or command {command} out of range")
         if position == 0:
-            home = None if (x, y, z) == (0.0, 0.0, 0.0) else (x, y, z)
+            home = None if (x, y, z) == (0.0, 0.0, 0.0) else _check_home((x, y, z), f"line {line_no} (home)", path)
             continue
-        items.append(MissionItem(command=command, frame=frame, param1=p1, param2=p2, param3=p3, param4=p4,
-                                 x=x, y=y, z=z, autocontinue=bool(autocontinue)))
+        items.append(check_item(MissionItem(command=command, frame=frame, param1=p1, param2=p2, param3=p3,
+                                            param4=p4, x=x, y=y, z=z, autocontinue=bool(autocontinue)),
+                                f"line {line_no} (item {position})", path))
     return Mission(items=items, mission_type=MissionType.MISSION, home=home)
 
 

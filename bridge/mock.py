@@ -2,7 +2,11 @@
 
 Owns the transport and the faults. MockAutopilot listens on a pymavlink-style URL — `udpin:HOST:PORT`
 (serves every ground station that sends to it), `udpout:HOST:PORT` (sends to a ground station
-listening there) or `tcpin:HOST:PORT` (accepts TCP clients) — with port 0 meaning "pick a free one".
+listening there) or `tcpin:HOST:PORT` (accepts TCP clients) — with port 0 meaning "pick a free one";
+or on a serial line: `DEVICE,BAUD` (a real port, e.g. one end of a USB-serial null-modem pair) or
+`pty` (a pseudo-terminal pair made here: the mock keeps the master, a ground station opens the
+slave /dev/pts/N like a serial port; client_url names it). A serial line carries no more than the
+bytes: the baud rate is set on a real port but not simulated.
 Every vehicle's output goes to every peer (like a shared radio link); each vehicle only acts on
 messages addressed to its system id. Faults are injected per packet and per direction: loss,
 duplicates, reordering (a packet held back so later ones overtake it) and added latency; the reboot
@@ -18,17 +22,20 @@ from __future__ import annotations
 
 import heapq
 import itertools
+import os
 import random
 import select
 import socket
+import termios
 import threading
 import time
-from collections.abc import Iterable
+import tty
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
 from .errors import BridgeUsageError
-from .link import mavlink, parse_url
+from .link import ConnectionSpec, mavlink, parse_url
 from .mission import Flavour
 from .mock_vehicle import MockVehicle, VehicleOptions
 from .signing import SigningKey, apply_key
@@ -80,7 +87,8 @@ class _Peer:
     key: Any
     parser: Any
     sock: socket.socket | None = None  # TCP client socket
-    framer: Any = None  # TCP: splits the stream into packets before the faults
+    fd: int | None = None  # serial line / pty master
+    framer: Any = None  # TCP and serial: splits the stream into packets before the faults
     last_seen: float = 0.0
     alive: bool = True
     stats: dict[str, int] = field(default_factory=lambda: {"in": 0, "out": 0})
@@ -93,15 +101,22 @@ class MockAutopilot:
                  flavour: Flavour | str = Flavour.ARDUPILOT, speedup: float = 1.0, faults: LinkFaults | None = None,
                  key: SigningKey | None = None, request_interval: float | None = None,
                  upload_timeout: float | None = None, homes: dict[int, tuple[float, float, float]] | None = None,
-                 cruise_speed: float = 5.0, max_items: int = 10_000) -> None:
-        self.spec = parse_url(listen, "--listen", allow_any_port=True)
-        if self.spec.scheme not in ("udpin", "udpout", "tcpin"):
-            raise BridgeUsageError(f"--listen {listen}: the mock serves udpin:, udpout: or tcpin: URLs")
+                 cruise_speed: float = 5.0, max_items: int = 10_000,
+                 clock: Callable[[], float] | None = None) -> None:
+        """clock: the vehicles' wall clock (seconds since 1970) for signing timestamps; default time.time."""
+        if str(listen).strip().lower() == "pty":
+            self.spec = ConnectionSpec("pty", baud=57600)
+        else:
+            self.spec = parse_url(listen, "--listen", allow_any_port=True)
+        if self.spec.scheme not in ("udpin", "udpout", "tcpin", "serial", "pty"):
+            raise BridgeUsageError(f"--listen {listen}: the mock serves udpin:, udpout: or tcpin: URLs, a serial "
+                                   "device (/dev/ttyUSB1,57600) or pty")
         if speedup <= 0:
             raise BridgeUsageError(f"--speedup must be positive, got {speedup}")
         self.flavour = Flavour(flavour)
         self.faults = faults or LinkFaults()
         self.key = key
+        self.clock = clock
         self._rng = random.Random(self.faults.seed)
         self._lock = threading.RLock()
         self._queue: list[tuple[float, int, str, Any, bytes]] = []  # due, order, direction, peer key, bytes
@@ -111,8 +126,10 @@ class MockAutopilot:
         self._stop = threading.Event()
         self._sock: socket.socket | None = None
         self._listener: socket.socket | None = None
+        self._pty_slave: int | None = None  # held open so the master never reads EIO between clients
+        self.device = ""
         self._greet = False
-        self.stats = {"in": 0, "out": 0, "dropped_in": 0, "dropped_out": 0, "rejected": 0}
+        self.stats = {"in": 0, "out": 0, "dropped_in": 0, "dropped_out": 0, "rejected": 0, "clients": 0}
         now = time.monotonic()
         self.vehicles: dict[int, MockVehicle] = {}
         base_home = (45.0703, 7.6869, 240.0)
@@ -122,7 +139,7 @@ class MockAutopilot:
                                      upload_timeout=upload_timeout, speedup=speedup, cruise_speed=cruise_speed,
                                      max_items=max_items)
             encoder = mavlink.MAVLink(_Writer(self), srcSystem=sysid, srcComponent=1)
-            apply_key(encoder, key, link_id=index)
+            apply_key(encoder, key, link_id=index, clock=clock)
             self.vehicles[sysid] = MockVehicle(sysid, options, encoder, now)
         if not self.vehicles:
             raise BridgeUsageError("the mock needs at least one system id")
@@ -132,7 +149,9 @@ class MockAutopilot:
     def _open(self) -> None:
         spec = self.spec
         try:
-            if spec.scheme == "tcpin":
+            if spec.scheme in ("serial", "pty"):
+                self._open_serial()
+            elif spec.scheme == "tcpin":
                 self._listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
                 self._listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
                 self._listener.bind((spec.host, spec.port))
@@ -150,7 +169,33 @@ class MockAutopilot:
                 self.address = self._sock.getsockname()[:2]
         except OSError as err:
             self.close_sockets()
-            raise BridgeUsageError(f"--listen {spec.url}: cannot open ({err.strerror})") from None
+            raise BridgeUsageError(f"--listen {spec.url if spec.scheme != 'pty' else 'pty'}: cannot open "
+                                   f"({err.strerror})") from None
+
+    def _open_serial(self) -> None:
+        """A serial device (raw, at its baud) or a fresh pty pair; one peer: the other end of the line."""
+        if self.spec.scheme == "pty":
+            master, slave = os.openpty()
+            tty.setraw(slave)  # no echo, no line editing: bytes pass as they are, both ways
+            self._pty_slave = slave
+            self.device = os.ttyname(slave)
+            fd = master
+        else:
+            self.device = self.spec.device
+            fd = os.open(self.device, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+            try:
+                tty.setraw(fd)
+                speed = getattr(termios, f"B{self.spec.baud}", None)
+                if speed is not None:
+                    attrs = termios.tcgetattr(fd)
+                    attrs[4] = attrs[5] = speed
+                    termios.tcsetattr(fd, termios.TCSANOW, attrs)
+            except termios.error:
+                os.close(fd)
+                raise BridgeUsageError(f"--listen {self.spec.url}: {self.device} is not a serial device") from None
+        os.set_blocking(fd, False)
+        self.address = (self.device, 0)
+        self._peer(("serial", self.device), time.monotonic(), fd=fd)
 
     @property
     def port(self) -> int:
@@ -158,8 +203,10 @@ class MockAutopilot:
 
     @property
     def client_url(self) -> str:
-        """The pymavlink URL a ground station uses to reach this mock."""
+        """The pymavlink URL a ground station uses to reach this mock (serial: this end's device)."""
         host = self.address[0]
+        if self.spec.scheme in ("serial", "pty"):
+            return f"{self.device},{self.spec.baud}"
         if self.spec.scheme == "tcpin":
             return f"tcp:{host}:{self.port}"
         if self.spec.scheme == "udpin":
@@ -170,6 +217,8 @@ class MockAutopilot:
     def mavsdk_url(self) -> str:
         """The same for MAVSDK's URL syntax."""
         host = self.address[0]
+        if self.spec.scheme in ("serial", "pty"):
+            return f"serial://{self.device}:{self.spec.baud}"
         if self.spec.scheme == "tcpin":
             return f"tcpout://{host}:{self.port}"
         if self.spec.scheme == "udpin":
@@ -179,10 +228,10 @@ class MockAutopilot:
     def _new_parser(self) -> Any:
         parser = mavlink.MAVLink(None, srcSystem=0, srcComponent=0)
         parser.robust_parsing = True
-        apply_key(parser, self.key)
+        apply_key(parser, self.key, clock=self.clock)
         return parser
 
-    def _peer(self, key: Any, now: float, sock: socket.socket | None = None) -> _Peer:
+    def _peer(self, key: Any, now: float, sock: socket.socket | None = None, fd: int | None = None) -> _Peer:
         peer = self._peers.get(key)
         if peer is None:
             if len(self._peers) >= MAX_PEERS:  # forget the quietest UDP peer
@@ -191,10 +240,10 @@ class MockAutopilot:
                 if oldest is not None:
                     del self._peers[oldest.key]
             framer = None
-            if sock is not None:
+            if sock is not None or fd is not None:
                 framer = mavlink.MAVLink(None)
                 framer.robust_parsing = True
-            peer = _Peer(key=key, parser=self._new_parser(), sock=sock, framer=framer)
+            peer = _Peer(key=key, parser=self._new_parser(), sock=sock, fd=fd, framer=framer)
             self._peers[key] = peer
             self._greet = True
         peer.last_seen = now
@@ -230,7 +279,9 @@ class MockAutopilot:
         if direction == "out":
             self.stats["out"] += 1
             try:
-                if peer.sock is not None:
+                if peer.fd is not None:
+                    os.write(peer.fd, buf)  # a full line buffer drops the packet, as a radio would
+                elif peer.sock is not None:
                     peer.sock.sendall(buf)
                 elif self._sock is not None:
                     self._sock.sendto(buf, peer_key[1])
@@ -252,16 +303,19 @@ class MockAutopilot:
     def _drop_peer(self, peer: _Peer) -> None:
         peer.alive = False
         self._peers.pop(peer.key, None)
-        if peer.sock is not None:
-            try:
+        try:
+            if peer.sock is not None:
                 peer.sock.close()
-            except OSError:
-                pass
+            if peer.fd is not None:
+                os.close(peer.fd)
+        except OSError:
+            pass
 
     def _read(self, readable: list[Any], now: float) -> None:
         if self._listener is not None and self._listener in readable:
             try:
                 client, addr = self._listener.accept()
+                self.stats["clients"] += 1
                 client.setblocking(False)
                 client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
                 self._peer(("tcp", addr), now, sock=client)
@@ -282,16 +336,22 @@ class MockAutopilot:
                 self._peer(key, now)
                 self._through_faults("in", key, data, now)
         for peer in list(self._peers.values()):
-            if peer.sock is None or peer.sock not in readable:
-                continue
-            try:
-                data = peer.sock.recv(65536)
-            except (BlockingIOError, InterruptedError):
-                continue
-            except OSError:
-                data = b""
-            if not data:
-                self._drop_peer(peer)
+            if peer.fd is not None and peer.fd in readable:
+                try:
+                    data = os.read(peer.fd, 65536)
+                except OSError:  # EAGAIN, or EIO from a line with nobody on it: nothing to read
+                    continue
+            elif peer.sock is not None and peer.sock in readable:
+                try:
+                    data = peer.sock.recv(65536)
+                except (BlockingIOError, InterruptedError):
+                    continue
+                except OSError:
+                    data = b""
+                if not data:
+                    self._drop_peer(peer)
+                    continue
+            else:
                 continue
             peer.last_seen = now
             for msg in peer.framer.parse_buffer(data) or []:
@@ -306,6 +366,7 @@ class MockAutopilot:
             timeout = min(timeout, max(self._queue[0][0] - now, 0.0))
         sockets: list[Any] = [s for s in (self._sock, self._listener) if s is not None]
         sockets += [p.sock for p in self._peers.values() if p.sock is not None]
+        sockets += [p.fd for p in self._peers.values() if p.fd is not None]
         try:
             readable, _, _ = select.select(sockets, [], [], timeout)
         except (OSError, ValueError):
@@ -352,8 +413,14 @@ class MockAutopilot:
 
     def close_sockets(self) -> None:
         for peer in list(self._peers.values()):
-            if peer.sock is not None:
+            if peer.sock is not None or peer.fd is not None:
                 self._drop_peer(peer)
+        if self._pty_slave is not None:
+            try:
+                os.close(self._pty_slave)
+            except OSError:
+                pass
+            self._pty_slave = None
         for sock in (self._sock, self._listener):
             if sock is not None:
                 try:
@@ -376,6 +443,13 @@ class MockAutopilot:
         """A copy of what vehicle sysid holds (thread-safe)."""
         with self._lock:
             return self.vehicles[sysid].mission(mission_type)
+
+    def drop_clients(self) -> None:
+        """Close every TCP client's connection (the listener stays): a link that breaks mid-transfer."""
+        with self._lock:
+            for peer in list(self._peers.values()):
+                if peer.sock is not None:
+                    self._drop_peer(peer)
 
     def set_faults(self, faults: LinkFaults) -> None:
         with self._lock:

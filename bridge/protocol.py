@@ -129,8 +129,8 @@ class MissionClient:
         if self.vehicle.signed and self.link.key is None:
             return (" Its packets are signed (MAVLink 2 signing) and ours are not: it ignores us without the right "
                     "--signing-key.")
-        if self.link.bad_signatures:
-            return " Some of its packets were refused for a bad signature: check --signing-key."
+        if problem := self.link.signing_problem():
+            return f" Some of its packets were refused: {problem}."
         return ""
 
     def _rebooted_since(self, start_reboots: int) -> bool:

@@ -4,13 +4,27 @@ A key is a 32-byte secret. The key file holds either the 32 raw bytes or 64 hexa
 (whitespace ignored). The key is never printed, logged or put in an exception message; SigningKey's
 repr hides it. A link set up with a key signs what it sends and rejects unsigned or wrongly signed
 packets (no allow_unsigned_callback), so a vehicle with a key ignores anyone without it.
+
+Timestamps. A signature carries a 48-bit timestamp (10 us units since 2015-01-01) that must grow on
+each stream (link id, system, component); a receiver refuses a *new* stream whose timestamp is more
+than 60 s behind its own. pymavlink 2.4 sets its timestamp once (at setup) and then only adds 1 per
+packet sent, so a link that has been up for minutes sends timestamps minutes old, and every newcomer
+refuses it as a replay: that was issue 11's "signing breaks after 60 s". apply_key therefore brings
+the timestamp up to the wall clock before every send (never backwards: max with the last one used),
+and checks incoming signatures itself: the signature first, and only a good signature may advance a
+stream's timestamp (pymavlink records the timestamp of a forged packet before checking it, so one
+bad packet could lock a stream out). A right-key packet refused for its timestamp is counted apart
+(`stale_count`), so the message can blame the clock rather than the key.
 """
 
 from __future__ import annotations
 
+import hashlib
+import hmac
 import os
 import string
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,6 +33,7 @@ from .errors import BridgeUsageError
 
 KEY_BYTES = 32
 _SIGNING_EPOCH = 1420070400  # MAVLink signing timestamps count 10 us units from 2015-01-01
+NEW_STREAM_WINDOW = 60 * 100_000  # a new stream may start at most 60 s behind our timestamp (10 us units)
 
 
 @dataclass(frozen=True)
@@ -66,24 +81,88 @@ def new_key() -> SigningKey:
     return SigningKey(os.urandom(KEY_BYTES))
 
 
+def wall_clock() -> float:
+    """Seconds since 1970 (time.time); a vehicle simulator or a test may pass another clock."""
+    return time.time()
+
+
 def signing_timestamp(now: float | None = None) -> int:
-    """The current MAVLink signing timestamp (10 us units since 2015)."""
-    now = time.time() if now is None else now
+    """The MAVLink signing timestamp (10 us units since 2015) at wall-clock time `now` (default: now)."""
+    now = wall_clock() if now is None else now
     return int(max(now - _SIGNING_EPOCH, 0) * 100_000)
 
 
-def apply_key(mav: Any, key: SigningKey | None, link_id: int = 0) -> None:
+def apply_key(mav: Any, key: SigningKey | None, link_id: int = 0, clock: Callable[[], float] | None = None) -> None:
     """Sign what this pymavlink MAVLink object sends and accept only packets signed with the key.
 
     mav is a pymavlink MAVLink (connection.mav). With key None the object neither signs nor checks.
+    clock: the wall clock (seconds since 1970) the signing timestamps follow; default time.time.
     """
+    state = mav.signing
+    for name in ("send", "check_signature"):  # undo an earlier apply_key: back to pymavlink's own
+        mav.__dict__.pop(name, None)
     if key is None:
-        mav.signing.secret_key = None
-        mav.signing.sign_outgoing = False
-        mav.signing.allow_unsigned_callback = None
+        state.secret_key = None
+        state.sign_outgoing = False
+        state.allow_unsigned_callback = None
         return
-    mav.signing.secret_key = key.secret
-    mav.signing.sign_outgoing = True
-    mav.signing.allow_unsigned_callback = None  # unsigned or badly signed packets are refused
-    mav.signing.link_id = link_id
-    mav.signing.timestamp = max(mav.signing.timestamp, signing_timestamp())
+    now: Callable[[], int] = (lambda: signing_timestamp(clock())) if clock is not None else signing_timestamp
+    state.secret_key = key.secret
+    state.sign_outgoing = True
+    # Unsigned or badly signed packets are refused. pymavlink counts a refusal only when a callback
+    # said no, so say no here: then reject_count - badsig_count is the number of unsigned packets.
+    state.allow_unsigned_callback = _refuse
+    state.link_id = link_id
+    state.timestamp = max(state.timestamp, now())
+    state.stale_count = 0
+    plain_send = type(mav).send
+
+    def send(msg: Any, force_mavlink1: bool = False) -> None:
+        # pymavlink signs with state.timestamp and then adds 1: keep it at the clock, never going back.
+        state.timestamp = max(state.timestamp, now())
+        plain_send(mav, msg, force_mavlink1=force_mavlink1)
+
+    def check_signature(msgbuf: bytearray, src_system: int, src_component: int) -> bool:
+        return _check_signature(state, now, msgbuf, src_system, src_component)
+
+    mav.send = send
+    mav.check_signature = check_signature
+
+
+def _refuse(mav: Any, msg_id: int) -> bool:
+    return False
+
+
+def _check_signature(state: Any, now: Callable[[], int], msgbuf: bytearray, src_system: int,
+                     src_component: int) -> bool:
+    """pymavlink's MAVLink.check_signature, with the signature checked before the timestamp is trusted
+    and timestamp refusals counted in state.stale_count. msgbuf ends with link id (1 byte), timestamp
+    (6 bytes, little-endian) and signature (6 bytes)."""
+    expected = hashlib.sha256(state.secret_key + bytes(msgbuf[:-6])).digest()[:6]
+    if not hmac.compare_digest(expected, bytes(msgbuf[-6:])):
+        return False  # another key (or none): pymavlink counts it in badsig_count
+    timestamp = int.from_bytes(bytes(msgbuf[-12:-6]), "little")
+    stream = (msgbuf[-13], src_system, src_component)
+    last = state.stream_timestamps.get(stream)
+    if last is not None:
+        stale = timestamp <= last  # a replay, or a duplicate
+    else:
+        stale = timestamp + NEW_STREAM_WINDOW < max(state.timestamp, now())
+    if stale:
+        state.stale_count += 1  # the right key, but a replay or a sender whose clock is far behind
+        return False
+    state.stream_timestamps[stream] = timestamp
+    state.timestamp = max(state.timestamp, timestamp)
+    return True
+
+
+def stale_signatures(mav: Any) -> int:
+    """Packets with the right signature refused for their timestamp (replayed, or a clock far behind)."""
+    return int(getattr(mav.signing, "stale_count", 0))
+
+
+def refused_packets(mav: Any) -> tuple[int, int, int]:
+    """(signed with another key, not signed at all, right key but stale timestamp) since apply_key."""
+    state = mav.signing
+    stale = stale_signatures(mav)
+    return (int(state.badsig_count) - stale, int(state.reject_count) - int(state.badsig_count), stale)

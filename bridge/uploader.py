@@ -180,3 +180,31 @@ def download_plan(backend: MissionBackend, mission_types: list[MissionType],
         items = backend.download(mtype, progress(f"download {mtype.label}", 0) if progress else None)
         out.append(from_wire(items, backend.vehicle.flavour, mtype))
     return out
+
+
+def clear_plan(backend: MissionBackend) -> str:
+    """Clear the mission, fence and rally lists and read each back empty; the one-line report.
+
+    One MISSION_CLEAR_ALL per list rather than MAV_MISSION_TYPE_ALL, which not every autopilot serves;
+    a vehicle without fence or rally support (MAV_MISSION_UNSUPPORTED) has none to clear.
+    """
+    from .protocol import MissionTransferError
+
+    start = time.monotonic()
+    vehicle = backend.vehicle
+    cleared: list[str] = []
+    for mtype in (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY):
+        try:
+            backend.clear(mtype)
+        except MissionTransferError as err:
+            if err.result == 3 and mtype != MissionType.MISSION:  # MAV_MISSION_UNSUPPORTED
+                continue
+            raise
+        left = download_plan(backend, [mtype])[0]
+        if left.items:
+            raise VerifyError(f"vehicle {vehicle.sysid} acknowledged clearing its {mtype.label} but still holds "
+                              f"{len(left.items)} {mtype.label} items")
+        cleared.append(mtype.label)
+    names = ", ".join(cleared[:-1]) + " and " + cleared[-1] if len(cleared) > 1 else cleared[0]
+    return (f"cleared the {names} of vehicle {vehicle.sysid} ({vehicle.flavour.value}); verified empty "
+            f"by read-back; {time.monotonic() - start:.2f} s")

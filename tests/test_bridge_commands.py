@@ -69,7 +69,7 @@ def test_upload_plan_and_waypoints_then_download(tmp_path: Path, mock: MockAutop
     (["upload", "FILE", "--sysid", "1", "--connect", "http://127.0.0.1:80"], "not a connection string"),
     (["upload", "FILE", "--sysid", "1", "--connect", "udpout:127.0.0.1"], "expected udpout:HOST:PORT"),
     (["upload", "FILE", "--sysid", "1", "--signing-key", "NOKEY"], "no such file"),
-    (["download", "--sysid", "1", "--connect", "udpout:127.0.0.1:9", "-o", "x.txt"], "unknown mission file type"),
+    (["download", "--sysid", "1", "--connect", "udpout:127.0.0.1:9", "-o", "x.kml"], "unknown mission file type"),
     (["mock", "--sysid", "1,1"], "appears twice"),
     (["mock", "--listen", "tcp:127.0.0.1:5760"], "udpin:, udpout: or tcpin:"),
     (["mock", "--loss", "1.5", "--listen", "udpin:127.0.0.1:0"], "between 0 and 1"),

@@ -136,5 +136,123 @@ def test_missing_and_unknown_files(tmp_path: Path) -> None:
         read_mission_file(tmp_path / "nope.plan")
     other = tmp_path / "m.txt"
     other.write_text("x")
-    with pytest.raises(BridgeUsageError, match="unknown mission file type"):
+    with pytest.raises(BridgeUsageError, match="not a mission file"):
         read_mission_file(other)
+    with pytest.raises(BridgeUsageError, match="unknown mission file type"):
+        write_mission_file(tmp_path / "m.kml", PlanFile(mission=_mission()))
+
+
+# ------------------------------------------------------------------ issue 11 item 5: numbers the wire cannot carry
+
+def _plan_with(params: list, command: int = 16, frame: int = 3) -> str:
+    """A plan text with one item; json.dumps writes NaN / Infinity literals, as some tools do."""
+    return json.dumps({"fileType": "Plan", "version": 1, "groundStation": "QGroundControl",
+                       "mission": {"version": 2, "plannedHomePosition": [45, 7, 200], "items": [
+                           {"type": "SimpleItem", "command": 22, "frame": 3, "doJumpId": 1, "autoContinue": True,
+                            "params": [0, 0, 0, None, 45.0, 7.0, 30]},
+                           {"type": "SimpleItem", "command": command, "frame": frame, "doJumpId": 2,
+                            "autoContinue": True, "params": params}]},
+                       "geoFence": {"version": 2, "polygons": [], "circles": []},
+                       "rallyPoints": {"version": 2, "points": []}})
+
+
+@pytest.mark.parametrize("params, message", [
+    ([0, 0, 0, 0, math.nan, 7.68, 30], "mission item 2: latitude is NaN"),
+    ([0, 0, 0, 0, None, 7.68, 30], "mission item 2: latitude is NaN"),
+    ([0, 0, 0, 0, 45.07, math.nan, 30], "mission item 2: longitude is NaN"),
+    ([0, 0, 0, 0, math.inf, 7.68, 30], "mission item 2: latitude inf is out of range"),
+    ([0, 0, 0, 0, 91.0, 7.68, 30], "mission item 2: latitude 91.0 is out of range"),
+    ([0, 0, 0, 0, 45.07, -180.5, 30], "mission item 2: longitude -180.5 is out of range"),
+    ([0, 0, 0, 0, 45.07, 7.68, math.inf], "mission item 2: altitude is inf"),
+    ([0, 0, 0, 0, 45.07, 7.68, None], "mission item 2: altitude is nan"),
+    ([0, -math.inf, 0, 0, 45.07, 7.68, 30], "mission item 2: param2 is -inf"),
+])
+def test_plan_non_finite_or_out_of_range_numbers_are_bad_input(tmp_path: Path, params: list, message: str) -> None:
+    path = tmp_path / "nan.plan"
+    path.write_text(_plan_with(params))
+    with pytest.raises(BridgeUsageError) as err:
+        read_mission_file(path)
+    assert message in str(err.value) and str(path) in str(err.value) and "\n" not in str(err.value)
+
+
+def test_plan_nan_where_nan_is_meaningful_is_kept(tmp_path: Path) -> None:
+    """null yaw (param4) means "unchanged"; a DO_CHANGE_SPEED has no position, so its null x / y are 0."""
+    path = tmp_path / "ok.plan"
+    path.write_text(_plan_with([0, 2.0, 0, None, 45.07, 7.68, 30]))
+    assert math.isnan(read_plan(path).mission.items[1].param4)
+    path.write_text(_plan_with([1, 5.0, -1, 0, None, None, None], command=178, frame=2))
+    item = read_plan(path).mission.items[1]
+    assert (item.x, item.y) == (0.0, 0.0)
+
+
+@pytest.mark.parametrize("part, message", [
+    ({"geoFence": {"polygons": [{"inclusion": True, "polygon": [[45, 7], [45.1, None], [45.1, 7.1]]}]}},
+     "geoFence polygon 1 point 2: longitude is NaN"),
+    ({"geoFence": {"circles": [{"inclusion": True, "circle": {"center": [95, 7], "radius": 10}}]}},
+     "geoFence circle 1: latitude 95.0 is out of range"),
+    ({"geoFence": {"circles": [{"inclusion": True, "circle": {"center": [45, 7], "radius": math.inf}}]}},
+     "geoFence circle 1: radius must be a positive number"),
+    ({"rallyPoints": {"points": [[45, 7, math.nan]]}}, "rally point 1: altitude is nan"),
+    ({"mission": {"version": 2, "plannedHomePosition": [math.nan, 7, 200], "items": []}},
+     "mission.plannedHomePosition: [nan, 7.0] is not a latitude / longitude"),
+])
+def test_plan_fence_rally_and_home_numbers_are_checked(tmp_path: Path, part: dict, message: str) -> None:
+    doc = json.loads(_plan_with([0, 0, 0, 0, 45.07, 7.68, 30]))
+    doc.update(part)
+    path = tmp_path / "f.plan"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(BridgeUsageError) as err:
+        read_plan(path)
+    assert message in str(err.value) and str(path) in str(err.value)
+
+
+@pytest.mark.parametrize("row, message", [
+    ("1\t0\t3\t16\t0\t0\t0\t0\tnan\t7.68\t30\t1", "line 3 (item 1): latitude is NaN"),
+    ("1\t0\t3\t16\t0\t0\t0\t0\t45.07\tinf\t30\t1", "line 3 (item 1): longitude inf is out of range"),
+    ("1\t0\t3\t16\t0\t0\t0\t0\t-90.5\t7.68\t30\t1", "line 3 (item 1): latitude -90.5 is out of range"),
+    ("1\t0\t3\t16\t0\t0\t0\t0\t45.07\t7.68\tnan\t1", "line 3 (item 1): altitude is nan"),
+    ("1\t0\t3\t16\tinf\t0\t0\t0\t45.07\t7.68\t30\t1", "line 3 (item 1): param1 is inf"),
+    ("1\t0\t3\t16\t0\t0\t0\t0\t45.07\t7.68\t30\tinf", "line 3: a column is not a number"),
+    ("1\t0\t300\t16\t0\t0\t0\t0\t45.07\t7.68\t30\t1", "line 3: frame 300 or command 16 out of range"),
+])
+def test_waypoints_non_finite_or_out_of_range_numbers_are_bad_input(tmp_path: Path, row: str, message: str) -> None:
+    path = tmp_path / "nan.waypoints"
+    path.write_text("QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t45\t7\t200\t1\n" + row + "\n")
+    with pytest.raises(BridgeUsageError) as err:
+        read_mission_file(path)
+    assert message in str(err.value) and str(path) in str(err.value) and "\n" not in str(err.value)
+    path.write_text("QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\tnan\t7\t200\t1\n")
+    with pytest.raises(BridgeUsageError, match="line 2 \\(home\\)"):
+        read_mission_file(path)
+
+
+# ------------------------------------------------------------- issue 11 item 9: versions and file names
+
+def test_plan_mission_version_other_than_2_is_refused(tmp_path: Path) -> None:
+    doc = json.loads(_plan_with([0, 0, 0, 0, 45.07, 7.68, 30]))
+    path = tmp_path / "v.plan"
+    for version in (1, 3, "2", 2.5):
+        doc["mission"]["version"] = version
+        path.write_text(json.dumps(doc))
+        with pytest.raises(BridgeUsageError, match="unsupported mission.version"):
+            read_plan(path)
+    doc["mission"]["version"] = 2
+    path.write_text(json.dumps(doc))
+    assert len(read_plan(path).mission.items) == 2
+
+
+@pytest.mark.parametrize("name", ["mp.waypoints.txt", "mp.txt", "MP.TXT", "noext"])
+def test_waypoints_under_other_names_are_read_by_their_header(tmp_path: Path, name: str) -> None:
+    """Mission Planner saves QGC WPL 110 files as .waypoints.txt or .txt: the header decides."""
+    path = tmp_path / name
+    write_waypoints(tmp_path / "m.waypoints", _mission())
+    path.write_bytes((tmp_path / "m.waypoints").read_bytes().replace(b"\n", b"\r\n"))  # as Windows writes it
+    plan = read_mission_file(path)
+    assert [i.command for i in plan.mission.items] == [i.command for i in _mission().items]
+    plan_txt = tmp_path / "qgc.plan.txt"
+    write_plan(tmp_path / "q.plan", PlanFile(mission=_mission()))
+    plan_txt.write_text((tmp_path / "q.plan").read_text())
+    assert len(read_mission_file(plan_txt).mission.items) == len(_mission().items)
+    out = tmp_path / "out.txt"
+    write_mission_file(out, plan)
+    assert out.read_text().startswith("QGC WPL 110\n")
