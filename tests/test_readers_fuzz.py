@@ -64,9 +64,11 @@ def mutated(draw: st.DrawFn, doc: object) -> object:
             keys = list(cursor.keys()) if isinstance(cursor, dict) else list(range(len(cursor)))
             node, key = cursor, draw(st.sampled_from(keys))
             cursor = cursor[key]
+        # A wrong scalar where a list or object belongs is the common structural fault.
+        replacement = st.one_of(odd_numbers, st.booleans(), st.text(max_size=4), json_values)
         if node is None:
-            return draw(json_values)
-        node[key] = draw(json_values)
+            return draw(replacement)
+        node[key] = draw(replacement)
     return doc
 
 
