@@ -274,12 +274,12 @@ def _read_geojson(path: Path) -> list[Feature]:
     out: list[Feature] = []
     for k, (geom, props) in enumerate(items):
         where = f"{path}: feature {k}"
+        if props is not None and not isinstance(props, dict):
+            raise GeoError(f"{where}: 'properties' is not an object (it is {_kind(props)})")
         if geom is None:
             continue  # GeoJSON allows features without geometry; they carry no polygon
         if not isinstance(geom, dict):
             raise GeoError(f"{where}: 'geometry' is not an object (it is {_kind(geom)})")
-        if props is not None and not isinstance(props, dict):
-            raise GeoError(f"{where}: 'properties' is not an object (it is {_kind(props)})")
         _check_geojson_rings(geom, where)
         try:
             g = shape(geom)
