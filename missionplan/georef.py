@@ -75,6 +75,8 @@ def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, Unk
             raise GeoError("--unknown-building-height needs --osm (the buildings it applies to)")
         if not (math.isfinite(assumed) and assumed >= 0):
             raise GeoError(f"--unknown-building-height {assumed}: must be a height in metres, 0 or more")
+    if not math.isfinite(args.rotation):
+        raise GeoError(f"--rotation {args.rotation}: must be a finite angle in degrees")
     camera = _camera(args)
     area = read_area(args.area)
     # Obstacle and no-fly files are obstacles whatever their height; OSM buildings may be overflown.
@@ -108,12 +110,13 @@ def shipped_frame(gmap: GridMap) -> GridFrame | None:
 
 def mission_settings(gmap: GridMap, args: argparse.Namespace) -> MissionSettings:
     """Altitude and footprint from the map (9 cells a side), speed, overlap and end action from the CLI."""
-    if not args.speed > 0:
+    if not (args.speed > 0 and math.isfinite(args.speed)):
         raise GeoError(f"--speed {args.speed}: must be above 0 m/s")
     if not 0 <= args.overlap < 1:
         raise GeoError(f"--overlap {args.overlap}: must be in [0, 1)")
-    if args.altitude_step < 0:
-        raise GeoError(f"--altitude-step {args.altitude_step}: layers go up from the altitude, never below it")
+    if not (args.altitude_step >= 0 and math.isfinite(args.altitude_step)):  # NaN compares false
+        raise GeoError(f"--altitude-step {args.altitude_step}: must be a finite number of metres, 0 or more "
+                       f"(layers go up from the altitude, never below it)")
     altitude = float(gmap.meta.get("altitude_m", args.altitude or 0.0))
     if not altitude > 0:
         raise GeoError(f"map {gmap.name}: no flight altitude (altitude_m) in its metadata")

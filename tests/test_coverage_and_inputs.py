@@ -280,3 +280,22 @@ def test_old_grids_stay_exit_0_with_warnings(tmp_path):
     cov = _report(tmp_path)["coverage"]
     assert cov["small_shares"] and cov["small_shares"][0]["uav"] == 2
     assert np.isclose(cov["all_pct"], 100.0)
+
+
+@pytest.mark.parametrize("flag, value, message", [
+    ("--rotation", "nan", "--rotation nan: must be a finite angle"),
+    ("--rotation", "inf", "--rotation inf: must be a finite angle"),
+    ("--speed", "inf", "--speed inf: must be above 0 m/s"),
+    ("--altitude-step", "nan", "--altitude-step nan: must be a finite number of metres"),
+    ("--altitude-step", "inf", "--altitude-step inf: must be a finite number of metres"),
+    ("--launch", "nan,7.651", "latitude must be in [-90, 90]"),
+])
+def test_non_finite_numbers_on_the_command_line(tmp_path, capsys, flag, value, message):
+    area = _geojson(tmp_path / "area.geojson", [[7.650, 45.060], [7.652, 45.060], [7.652, 45.062],
+                                                 [7.650, 45.062], [7.650, 45.060]])
+    args = ["plan", "--area", str(area), "--altitude", "40", "--fov", "84", "--out", str(tmp_path / "o"), "--quiet"]
+    args += [flag, value] + ([] if flag == "--launch" else ["--launch", "45.061,7.651"])
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+    assert not (tmp_path / "o").exists()
