@@ -145,7 +145,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     else:
         if args.uavs is None:
             raise MapError("--uavs is required with --map")
-        if args.unknown_building_height is not None:
+        if getattr(args, "unknown_building_height", None) is not None:
             raise MapError("--unknown-building-height is for --area with --osm; a map's grid is already drawn")
         gmap = load_shipped(args.map)
         frame = shipped_frame(gmap)

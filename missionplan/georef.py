@@ -92,6 +92,7 @@ def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, Unk
                               rotation_deg=args.rotation, area_file=str(args.area))
 
     gmap, frame = build(buildings)
+
     def overflown() -> GridMap:
         # Height 0 m: below any flight altitude, so each such footprint is a roof the drones cross.
         return build([b if b.height_m is not None else Building(b.geometry, 0.0, b.properties) for b in buildings])[0]

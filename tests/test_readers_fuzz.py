@@ -3,13 +3,15 @@ arbitrary and structurally wrong input with its own one-line error naming the fi
 another exception. The bridge's .plan / .waypoints mission readers are tested beside them
 (bridge/missionfile.py).
 
-Each example writes one small file; max_examples keeps the whole module to seconds.
+Each example writes one small file; max_examples keeps the whole module to seconds. For a
+longer hunt: MISSIONPLAN_FUZZ_EXAMPLES=5000 pytest tests/test_readers_fuzz.py
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
 import tempfile
 from pathlib import Path
 
@@ -21,7 +23,7 @@ from geo.errors import GeoError
 from geo.readers import read_area, read_buildings, read_features, read_osm_buildings, read_polygons
 from missionplan.gridmap import MapError, load_map, parse_map
 
-FUZZ = settings(max_examples=150, deadline=None, database=None,
+FUZZ = settings(max_examples=int(os.environ.get("MISSIONPLAN_FUZZ_EXAMPLES", "150")), deadline=None, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
 _DIR = Path(tempfile.mkdtemp(prefix="mp-fuzz-"))
