@@ -484,11 +484,15 @@ def _read_osm_buildings(path: Path) -> list[Building]:
     out: list[Building] = []
     try:
         fp = (osmium.FileProcessor(str(path)).with_areas()
-              .with_filter(osmium.filter.EntityFilter(osmium.osm.AREA | osmium.osm.WAY)))
+              .with_filter(osmium.filter.EntityFilter(osmium.osm.AREA | osmium.osm.WAY))
+              .with_filter(osmium.filter.KeyFilter("building")))  # in C++: Python sees buildings only
         for obj in fp:
             if obj.is_way():
                 if obj.tags.get("building", "no") != "no":
-                    _check_osm_way_nodes(path, obj)
+                    try:
+                        wkb.create_linestring(obj)  # C++: fails only when a node location is not valid
+                    except (RuntimeError, osmium.InvalidLocationError):
+                        _check_osm_way_nodes(path, obj)  # the slow look, only then: missing or out of range
                 continue
             area = obj
             tags = dict(area.tags)

@@ -238,6 +238,10 @@ def _cmd_train(args: argparse.Namespace) -> int:
         raise MapError(f"--workers must be at least 1, got {args.workers}")
     if not args.out.parent.is_dir():
         raise MapError(f"--out {args.out}: folder {args.out.parent} does not exist")
+    try:
+        probe_writable(args.out.parent)  # before minutes of training, not after
+    except OSError as err:
+        raise MapError(f"--out {args.out}: cannot write files in {args.out.parent} ({err.strerror})") from None
     net, report = train_policy(seed=args.seed, num_maps=args.maps or DEFAULT_MAPS, dagger=not args.no_dagger,
                                workers=args.workers, progress=not args.quiet and sys.stderr.isatty())
     save_weights(net, args.out)

@@ -299,3 +299,14 @@ def test_non_finite_numbers_on_the_command_line(tmp_path, capsys, flag, value, m
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
     assert not (tmp_path / "o").exists()
+
+
+def test_train_into_an_unwritable_folder_is_one_line_exit_2(tmp_path, capsys):
+    folder = _unwritable_folder(tmp_path)
+    try:
+        assert main(["train", "--out", str(folder / "w.pt"), "--maps", "4", "--quiet"]) == 2
+    finally:
+        if folder.is_relative_to(tmp_path):
+            folder.chmod(stat.S_IRWXU)
+    err = capsys.readouterr().err
+    assert err.startswith(f"missionplan: --out {folder / 'w.pt'}: cannot write files in {folder} (") and err.count("\n") == 1
