@@ -17,6 +17,11 @@ ambiguous - except digitising slips that make_valid fixes without changing the a
 touching themselves, slivers; common in GIS exports), which are repaired silently. OSM
 building footprints, thousands of them drawn by others, are always repaired with make_valid
 instead of rejecting the whole extract for one broken roof.
+
+Any other wrong input is a GeoError naming the file: a structure that is not what the format
+says (`features` not a list, a `.plan` mission that is not an object, points that are not
+number pairs), GeoJSON / KML rings that are not closed, NaN, infinite or out-of-range
+coordinates, and shapes spanning more than 180 degrees of longitude (across the antimeridian).
 """
 
 from __future__ import annotations
