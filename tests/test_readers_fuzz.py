@@ -219,6 +219,23 @@ def test_osm_pbf_reader_on_bytes(data):
     _only_own_errors(_write("fuzz.osm.pbf", data), read_buildings)
 
 
+VIENNA_PBF = Path(__file__).resolve().parents[1].parent / "shared" / "maps" / "vienna_rabenhof.osm.pbf"
+
+
+@pytest.mark.skipif(not VIENNA_PBF.is_file(), reason=f"shared OSM data not found at {VIENNA_PBF}")
+@settings(FUZZ, max_examples=min(FUZZ.max_examples, 60))
+@given(st.data())
+def test_osm_pbf_reader_on_a_damaged_real_extract(data):
+    # A real extract with a few bytes changed or its tail cut: compressed blocks, varints and
+    # string tables go wrong in ways random bytes never reach.
+    pbf = bytearray(VIENNA_PBF.read_bytes())
+    if data.draw(st.booleans()):
+        del pbf[data.draw(st.integers(1, len(pbf) - 1)):]
+    for _ in range(data.draw(st.integers(1, 4))):
+        pbf[data.draw(st.integers(0, len(pbf) - 1))] = data.draw(st.integers(0, 255))
+    _only_own_errors(_write("damaged.osm.pbf", bytes(pbf)), read_buildings)
+
+
 # ---- .map ----------------------------------------------------------------------------------
 
 @st.composite
