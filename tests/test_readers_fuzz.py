@@ -9,9 +9,11 @@ longer hunt: MISSIONPLAN_FUZZ_EXAMPLES=5000 pytest tests/test_readers_fuzz.py
 
 from __future__ import annotations
 
+import atexit
 import json
 import math
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -27,6 +29,7 @@ FUZZ = settings(max_examples=int(os.environ.get("MISSIONPLAN_FUZZ_EXAMPLES", "15
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
 _DIR = Path(tempfile.mkdtemp(prefix="mp-fuzz-"))
+atexit.register(shutil.rmtree, _DIR, True)  # examples overwrite the same few files; drop them at the end
 
 # Numbers that break readers: NaN, infinities, out-of-range degrees, huge and tiny values.
 odd_numbers = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-10**20, 10**20),
