@@ -37,3 +37,14 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
 def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8", newline="\n")  # LF on every platform
+
+
+def probe_writable(folder: str | os.PathLike[str]) -> None:
+    """Create and remove a temp file in `folder`; OSError when outputs could not be written there.
+
+    Asked before a long planning run: an existing folder may still refuse files (permissions,
+    a read-only mount), and finding out only at the first output would waste the run.
+    """
+    fd, tmp = tempfile.mkstemp(prefix=".write-probe.", dir=folder)
+    os.close(fd)
+    os.unlink(tmp)

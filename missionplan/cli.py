@@ -9,13 +9,16 @@ by imitation of the expert), and from bridge/commands.py `upload`, `download` an
 from __future__ import annotations
 
 import argparse
+import re
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 from bridge import BridgeUsageError
 from geo.errors import GeoError
 from bridge.commands import register as register_bridge_commands
 
+from .atomic import probe_writable
 from .catalog import load_shipped, shipped_map_names
 from .fleet_demo import register as register_demo_command
 from .fly import register as register_fly_command
@@ -28,12 +31,35 @@ EXIT_USAGE = 2
 EXIT_FAILED = 1
 
 
+# A negative number or LAT,LON pair such as -33.86,151.21 (argparse would take it for an option).
+_NEGATIVE_VALUE = re.compile(r"-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?(,\s*-?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?)*")
+
+
+def attach_negative_values(argv: Sequence[str]) -> list[str]:
+    """`--launch -33.86,151.21` -> `--launch=-33.86,151.21`, so a southern or western
+    coordinate works with a space like any other value. argparse only recognises plain
+    negative numbers, not a comma pair; the `=` form is unambiguous."""
+    out: list[str] = []
+    for token in argv:
+        if (out and _NEGATIVE_VALUE.fullmatch(token) and out[-1].startswith("--") and "=" not in out[-1]
+                and out[-1] != "--"):
+            out[-1] = f"{out[-1]}={token}"
+        else:
+            out.append(token)
+    return out
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse that reports a bad argument in one line with exit code 2."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
         sys.stderr.write(f"missionplan: {message}\n")
         raise SystemExit(EXIT_USAGE)
+
+    def parse_known_args(self, args: Sequence[str] | None = None,  # type: ignore[override]
+                         namespace: argparse.Namespace | None = None) -> tuple[argparse.Namespace, list[str]]:
+        argv = sys.argv[1:] if args is None else args
+        return super().parse_known_args(attach_negative_values(argv), namespace)
 
 
 def _build_parser() -> argparse.ArgumentParser:
@@ -49,8 +75,11 @@ def _build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--obstacles", type=Path, action="append", default=[],
                       help="obstacle / no-fly polygons (.geojson or .kml), repeatable")
     plan.add_argument("--osm", type=Path, help="building footprints: OpenStreetMap .osm / .osm.pbf, or GeoJSON / KML with height or building:levels")
+    plan.add_argument("--unknown-building-height", type=float, metavar="M",
+                      help="height in metres of --osm buildings without height or building:levels "
+                           "(default: unknown, so they are obstacles)")
     plan.add_argument("--launch", action="append", default=[], metavar="LAT,LON",
-                      help="a launch point, one per drone (with --area)")
+                      help="a launch point, one per drone (with --area; -33.86,151.21 works after a space)")
     plan.add_argument("--altitude", type=float, help="flight height above the launch points, metres (with --area)")
     plan.add_argument("--fov", type=float, help="camera field of view, degrees")
     plan.add_argument("--sensor-width", type=float, help="sensor width, mm (with --sensor-height and --focal-length)")
@@ -105,24 +134,32 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from .plot import draw_plan  # matplotlib only when a picture is drawn
     from .report import build_report, write_report
 
-    from .georef import load_area, mission_settings, shipped_frame
+    from .coverage_check import coverage_report
+    from .georef import UnknownHeights, load_area_checked, mission_settings, shipped_frame
 
     # Everything that can be wrong with the input fails here, before any folder is made.
+    unknown = UnknownHeights(0, 0, None, None)
     if args.area is not None:
-        gmap, frame = load_area(args)
+        gmap, frame, unknown = load_area_checked(args)
         args.uavs = len(gmap.launch) if args.uavs is None else args.uavs
     else:
         if args.uavs is None:
             raise MapError("--uavs is required with --map")
+        if getattr(args, "unknown_building_height", None) is not None:
+            raise MapError("--unknown-building-height is for --area with --osm; a map's grid is already drawn")
         gmap = load_shipped(args.map)
         frame = shipped_frame(gmap)
-    launch_cells(gmap, args.uavs)
+    starts = launch_cells(gmap, args.uavs)
     settings = mission_settings(gmap, args) if frame is not None else None
     policy = make_policy(args.policy, args.weights)
     try:
         args.out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise MapError(f"--out {args.out}: cannot create folder ({err.strerror})") from None
+    try:
+        probe_writable(args.out)
+    except OSError as err:
+        raise MapError(f"--out {args.out}: cannot write files there ({err.strerror})") from None
     show_progress = not args.quiet and sys.stderr.isatty()
     result = plan_map(gmap, args.uavs, policy=policy, zone_method=args.zones, seed=args.seed,
                       progress=show_progress, balance_zones=not args.no_balance)
@@ -137,6 +174,12 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         report["georeference"] = {**frame.to_meta(), "altitude_m": settings.altitude_m,
                                   "footprint_m": settings.footprint_m, "trigger_distance_m": settings.trigger_distance_m}
         written = write_flight_files(args.out, result, frame, plans)
+    osm = args.area is not None and args.osm is not None
+    report["coverage"] = coverage_report(
+        gmap, starts, report["targets"], report["unreachable"], report["metrics"]["coverage"], report["zone_sizes"],
+        unknown_buildings=unknown.buildings if osm else None, total_buildings=unknown.total if osm else None,
+        assumed_height_m=unknown.assumed_m, if_overflown=unknown.if_overflown,
+        launch_labels=list(args.launch[:args.uavs]) if args.area is not None else None)
     write_report(report, args.out / "report.json")
     draw_plan(result, args.out / "plan.png")
 
@@ -151,7 +194,9 @@ def _cmd_plan(args: argparse.Namespace) -> int:
             ("MNT %", _fmt(m["MNT"], 2), "weighted turns per move"),
             ("MUD*", _fmt(m["MUD"], 2), "mean drone spacing, steady state (cells)"),
             ("MDU*", _fmt(m["MDU"], 2), "mean distance unexplored -> drone, steady state"),
-            ("coverage %", _fmt(m["coverage"]), ""),
+            ("coverage %", _fmt(m["coverage"]), f"of the {report['targets']} reachable targets"),
+            ("coverage all", _fmt(report["coverage"]["all_pct"]),
+             f"% of all {report['coverage']['targets_all']} targets ({report['unreachable']} unreachable)"),
             ("makespan", _fmt(m["makespan"]), "moves of the busiest drone"),
             ("hover steps", _fmt(m["hover_steps"]), ""),
             ("MMN / floor", f"{m['MMN'] / report['floor']:.2f}" if report["floor"] else "-", ""),
@@ -170,6 +215,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
             hint = "" if args.altitude_step > 0 else "; --altitude-step puts drones on separate layers"
             print(f"  closest approach if flown as planned: {sep['3d']} m 3-D, {sep['horizontal']} m horizontal "
                   f"(uav{sep['pair_3d'][0]} and uav{sep['pair_3d'][1]} at {sep['at_s']} s){hint}")
+    for warning in report["coverage"]["warnings"]:
+        print(f"missionplan: warning: {warning}", file=sys.stderr)
     names = ", ".join(p.name for p in written[:2]) + (f", ... ({len(written)} files)" if written else "")
     print(f"wrote {args.out / 'report.json'}, {args.out / 'plan.png'}" + (f", {names}" if written else ""))
     if not report["success"]:
@@ -191,6 +238,10 @@ def _cmd_train(args: argparse.Namespace) -> int:
         raise MapError(f"--workers must be at least 1, got {args.workers}")
     if not args.out.parent.is_dir():
         raise MapError(f"--out {args.out}: folder {args.out.parent} does not exist")
+    try:
+        probe_writable(args.out.parent)  # before minutes of training, not after
+    except OSError as err:
+        raise MapError(f"--out {args.out}: cannot write files in {args.out.parent} ({err.strerror})") from None
     net, report = train_policy(seed=args.seed, num_maps=args.maps or DEFAULT_MAPS, dagger=not args.no_dagger,
                                workers=args.workers, progress=not args.quiet and sys.stderr.isatty())
     save_weights(net, args.out)

@@ -8,12 +8,15 @@ value first, so bad input fails with one line before any output folder exists.
 from __future__ import annotations
 
 import argparse
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
 
 from geo.area import build_grid_map
 from geo.camera import Camera
 from geo.errors import GeoError
 from geo.frame import GridFrame
-from geo.readers import read_area, read_buildings, read_polygons
+from geo.readers import Building, read_area, read_buildings, read_polygons
 
 from .gridmap import GridMap
 from .missions import MissionSettings
@@ -40,20 +43,62 @@ def _camera(args: argparse.Namespace) -> Camera:
     raise GeoError("the camera is needed: --fov DEG, or --sensor-width MM --sensor-height MM --focal-length MM")
 
 
+@dataclass
+class UnknownHeights:
+    """Buildings of unknown height in `--osm` and what counting them as obstacles costs.
+
+    `if_overflown` builds the same grid with those buildings overflown (called only when the
+    plan leaves many targets unreachable, to tell how many of them these buildings cut off).
+    """
+
+    buildings: int  # footprints in --osm without height or building:levels
+    total: int  # all footprints in --osm
+    assumed_m: float | None  # --unknown-building-height, when given
+    if_overflown: Callable[[], GridMap] | None
+
+
 def load_area(args: argparse.Namespace) -> tuple[GridMap, GridFrame]:
     """The grid of `--area` with its obstacles, buildings and launch points."""
+    gmap, frame, _ = load_area_checked(args)
+    return gmap, frame
+
+
+def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, UnknownHeights]:
+    """`load_area`, plus the buildings of unknown height and the grid without them as obstacles."""
     if args.altitude is None:
         raise GeoError("--altitude is required with --area")
     if not args.launch:
         raise GeoError("--area needs at least one --launch LAT,LON (one per drone)")
+    assumed = getattr(args, "unknown_building_height", None)
+    if assumed is not None:
+        if args.osm is None:
+            raise GeoError("--unknown-building-height needs --osm (the buildings it applies to)")
+        if not (math.isfinite(assumed) and assumed >= 0):
+            raise GeoError(f"--unknown-building-height {assumed}: must be a height in metres, 0 or more")
+    if not math.isfinite(args.rotation):
+        raise GeoError(f"--rotation {args.rotation}: must be a finite angle in degrees")
     camera = _camera(args)
     area = read_area(args.area)
     # Obstacle and no-fly files are obstacles whatever their height; OSM buildings may be overflown.
     no_fly = [polygon for path in args.obstacles for polygon in read_polygons(path)]
     buildings = read_buildings(args.osm) if args.osm is not None else []
+    unknown = sum(b.height_m is None for b in buildings)
+    if assumed is not None:
+        buildings = [b if b.height_m is not None else Building(b.geometry, assumed, b.properties) for b in buildings]
     launch = [parse_latlon(text) for text in args.launch]
-    return build_grid_map(args.area.stem, area, [], buildings, no_fly, launch, args.altitude, camera.fov_deg,
-                          rotation_deg=args.rotation, area_file=str(args.area))
+
+    def build(blds: list[Building]) -> tuple[GridMap, GridFrame]:
+        return build_grid_map(args.area.stem, area, [], blds, no_fly, launch, args.altitude, camera.fov_deg,
+                              rotation_deg=args.rotation, area_file=str(args.area))
+
+    gmap, frame = build(buildings)
+
+    def overflown() -> GridMap:
+        # Height 0 m: below any flight altitude, so each such footprint is a roof the drones cross.
+        return build([b if b.height_m is not None else Building(b.geometry, 0.0, b.properties) for b in buildings])[0]
+
+    return gmap, frame, UnknownHeights(unknown, len(buildings), assumed,
+                                       overflown if unknown and assumed is None else None)
 
 
 def shipped_frame(gmap: GridMap) -> GridFrame | None:
@@ -66,12 +111,13 @@ def shipped_frame(gmap: GridMap) -> GridFrame | None:
 
 def mission_settings(gmap: GridMap, args: argparse.Namespace) -> MissionSettings:
     """Altitude and footprint from the map (9 cells a side), speed, overlap and end action from the CLI."""
-    if not args.speed > 0:
+    if not (args.speed > 0 and math.isfinite(args.speed)):
         raise GeoError(f"--speed {args.speed}: must be above 0 m/s")
     if not 0 <= args.overlap < 1:
         raise GeoError(f"--overlap {args.overlap}: must be in [0, 1)")
-    if args.altitude_step < 0:
-        raise GeoError(f"--altitude-step {args.altitude_step}: layers go up from the altitude, never below it")
+    if not (args.altitude_step >= 0 and math.isfinite(args.altitude_step)):  # NaN compares false
+        raise GeoError(f"--altitude-step {args.altitude_step}: must be a finite number of metres, 0 or more "
+                       f"(layers go up from the altitude, never below it)")
     altitude = float(gmap.meta.get("altitude_m", args.altitude or 0.0))
     if not altitude > 0:
         raise GeoError(f"map {gmap.name}: no flight altitude (altitude_m) in its metadata")

@@ -156,6 +156,8 @@ def load_map(path: str | os.PathLike[str]) -> GridMap:
         text = path.read_text(encoding="utf-8")
     except OSError as err:
         raise MapError(f"{path}: cannot read map file ({err.strerror})") from None
+    except UnicodeDecodeError as err:
+        raise MapError(f"{path}: not a map file (not UTF-8 text: byte {err.start})") from None
     return parse_map(text, str(path))
 
 

@@ -1,0 +1,108 @@
+"""Coverage honesty: what a plan covers of ALL the targets, and warnings when that is much less.
+
+The planner covers the reachable targets (those 4-connected through free cells to a launch
+cell), and exit 0 means exactly that: every reachable target is covered. Targets walled in
+by obstacles (courtyards, pockets, often buildings of unknown height counted as obstacles)
+are left out. This module puts both numbers side by side in report.json (`coverage`) and
+says, with counts and the likely cause, when more than 5 % of the targets are unreachable
+and when a drone gets under a fifth of the mean share (its launch point in a pocket).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from scipy import ndimage
+
+from .gridmap import Cell, GridMap
+from .world import reachable_targets
+
+UNREACHABLE_WARN_FRACTION = 0.05  # warn when more than this share of all targets is unreachable
+SMALL_SHARE_FRACTION = 0.2  # warn about a drone whose share is under this fraction of the mean
+
+
+def _pct(part: int, whole: int) -> float:
+    return round(100.0 * part / whole, 2) if whole else 100.0
+
+
+def _launch_pockets(gmap: GridMap, starts: list[Cell]) -> list[int]:
+    """Per drone: target cells in the free region (4-connected) its launch cell lies in."""
+    labels, _ = ndimage.label(gmap.free)  # 4-connectivity, as the drones move
+    counts = np.bincount(labels[gmap.target], minlength=labels.max() + 1)
+    return [int(counts[labels[cell]]) for cell in starts]
+
+
+def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: int, unreachable: int,
+                    coverage_pct: float, zone_sizes: list[int], unknown_buildings: int | None = None,
+                    total_buildings: int | None = None, assumed_height_m: float | None = None,
+                    if_overflown: Callable[[], GridMap] | None = None,
+                    launch_labels: list[str] | None = None) -> dict[str, Any]:
+    """The `coverage` block of report.json: both coverage numbers, counts, causes, warnings.
+
+    `coverage_pct` is the plan's coverage of the reachable targets; `zone_sizes` the targets
+    given to each drone. The unknown-height arguments come with an `--osm` area plan:
+    `if_overflown` builds the grid with those buildings crossed, to count what they cut off.
+    `launch_labels` names each drone's launch point in warnings (default: its grid cell).
+    """
+    total = reachable_targets_count + unreachable
+    covered = int(round(coverage_pct * reachable_targets_count / 100.0))
+    block: dict[str, Any] = {
+        "reachable_pct": round(float(coverage_pct), 2),
+        "all_pct": _pct(covered, total),
+        "covered": covered,
+        "targets_reachable": reachable_targets_count,
+        "targets_all": total,
+        "unreachable": unreachable,
+        "unreachable_pct": _pct(unreachable, total) if total else 0.0,
+        "unknown_height_buildings": unknown_buildings,
+        "unknown_building_height_m": assumed_height_m,
+        "unreachable_by_unknown_height": None,
+        "small_shares": [],
+        "warnings": [],
+    }
+    warnings: list[str] = block["warnings"]
+    if total and unreachable > UNREACHABLE_WARN_FRACTION * total:
+        pockets = ("lie in pockets walled in by obstacles, tall buildings or the area edge (courtyards, closed "
+                   "blocks); a launch point inside a pocket would reach it")
+        cause = f"they {pockets}"
+        if if_overflown is not None:
+            cut = _cut_off_by(gmap, starts, if_overflown())
+            block["unreachable_by_unknown_height"] = cut
+            if cut:
+                cause = (f"{cut} of them are cut off only by the {unknown_buildings} of {total_buildings} buildings "
+                         f"of unknown height (no height, no building:levels tag), counted as obstacles: if those "
+                         f"are low enough to overfly, give --unknown-building-height M (or tag building:levels, "
+                         f"3 m a level)")
+                if cut < unreachable:
+                    cause += f"; the other {unreachable - cut} {pockets}"
+        warnings.append(f"{unreachable} of {total} target cells ({block['unreachable_pct']:.1f} %) are unreachable: "
+                        f"the plan covers {block['reachable_pct']:.1f} % of the reachable targets but "
+                        f"{block['all_pct']:.1f} % of all; {cause}")
+    if zone_sizes:
+        mean = sum(zone_sizes) / len(zone_sizes)
+        pockets = _launch_pockets(gmap, starts)
+        for k, size in enumerate(zone_sizes):
+            if size >= SMALL_SHARE_FRACTION * mean:
+                continue
+            uav = k + 1
+            block["small_shares"].append({"uav": uav, "targets": int(size), "mean": round(mean, 1),
+                                          "launch_pocket_targets": pockets[k]})
+            if pockets[k] < SMALL_SHARE_FRACTION * mean:
+                where = launch_labels[k] if launch_labels else f"cell {tuple(starts[k])}"
+                why = (f"its launch point {where} is in a pocket of {pockets[k]} target cells walled off "
+                       f"from the rest; move it into the open street")
+            else:
+                why = "its zone came out small; another launch point spreads the work better"
+            warnings.append(f"uav{uav} gets {size} target cells, under a fifth of the mean share ({mean:.0f}): {why}")
+    return block
+
+
+def _cut_off_by(gmap: GridMap, starts: list[Cell], crossed: GridMap) -> int:
+    """Targets of `gmap` unreachable from `starts` that become reachable on the `crossed` grid."""
+    if crossed.shape != gmap.shape:
+        return 0  # another grid (cannot happen for the same area and camera): no claim
+    before = reachable_targets(gmap, starts)
+    after = reachable_targets(crossed, starts)
+    return int((gmap.target & ~before & after).sum())
