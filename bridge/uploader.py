@@ -140,10 +140,12 @@ ProgressFactory = Callable[[str, int], ProgressFn | None]  # (label, total) -> p
 
 def read_back_differences(backend: MissionBackend, mission_type: int, wire: list[WireItem],
                           progress: ProgressFn | None = None) -> list[str]:
-    """Download what the vehicle holds and compare it with `wire` item by item (ArduPilot's own home
-    item skipped); an empty list when it holds exactly that."""
+    """Download what the vehicle holds and compare it with `wire` item by item by the flavour's rule
+    (bridge.mission.stored_form; ArduPilot's own home item skipped); an empty list when it holds
+    exactly that."""
     got = backend.download(mission_type, progress)
-    return compare_wire(wire, got, skip_home=backend.vehicle.flavour.has_home_item(mission_type))
+    flavour = backend.vehicle.flavour
+    return compare_wire(wire, got, skip_home=flavour.has_home_item(mission_type), flavour=flavour)
 
 
 def upload_plan(backend: MissionBackend, parts: list[Mission], verify: bool = True,
