@@ -93,7 +93,7 @@ class MockAutopilot:
                  flavour: Flavour | str = Flavour.ARDUPILOT, speedup: float = 1.0, faults: LinkFaults | None = None,
                  key: SigningKey | None = None, request_interval: float | None = None,
                  upload_timeout: float | None = None, homes: dict[int, tuple[float, float, float]] | None = None,
-                 cruise_speed: float = 5.0, max_items: int = 10_000) -> None:
+                 cruise_speed: float = 5.0, max_items: int = 10_000, gps_fix_after: float = 0.0) -> None:
         self.spec = parse_url(listen, "--listen", allow_any_port=True)
         if self.spec.scheme not in ("udpin", "udpout", "tcpin"):
             raise BridgeUsageError(f"--listen {listen}: the mock serves udpin:, udpout: or tcpin: URLs")
@@ -120,7 +120,7 @@ class MockAutopilot:
             home = (homes or {}).get(sysid, (base_home[0] + 0.0005 * index, base_home[1], base_home[2]))
             options = VehicleOptions(flavour=self.flavour, home=home, request_interval=request_interval,
                                      upload_timeout=upload_timeout, speedup=speedup, cruise_speed=cruise_speed,
-                                     max_items=max_items)
+                                     max_items=max_items, gps_fix_after=gps_fix_after)
             encoder = mavlink.MAVLink(_Writer(self), srcSystem=sysid, srcComponent=1)
             apply_key(encoder, key, link_id=index)
             self.vehicles[sysid] = MockVehicle(sysid, options, encoder, now)

@@ -50,7 +50,7 @@ def test_mavsdk_own_transport_uploads_and_downloads_to_the_mock(flavour: str, au
             wire = to_wire(mission, Flavour(flavour))
             plugin.upload_mission([RawItem(**w.fields()) for w in wire])
             held = mock.mission(2)
-            assert compare_wire(wire, held, skip_home=flavour == "ardupilot") == []
+            assert compare_wire(wire, held, skip_home=flavour == "ardupilot", flavour=Flavour(flavour)) == []
             assert mock.mission(1) == mock.mission(1)[:1]  # sysid 1 untouched (only home, or nothing)
             got = plugin.download_mission()
             assert len(got) == len(wire)
