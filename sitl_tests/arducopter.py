@@ -82,6 +82,25 @@ def free_instance(start: int = FIRST_INSTANCE, skip: set[int] | None = None) -> 
     raise RuntimeError(f"no free SITL instance number in {FIRST_INSTANCE}..{MAX_INSTANCE - 1}")
 
 
+def wait_mission_ready(link: object, sysid: int, timeout: float = 30.0) -> None:
+    """Until vehicle sysid reports a mission of at least its home item. Just after start ArduCopter
+    answers MISSION_COUNT 0 and refuses uploads with NO_SPACE: its mission store is not loaded yet."""
+    from bridge.link import wait_vehicle
+
+    deadline = time.monotonic() + timeout
+    wait_vehicle(link, sysid, timeout=timeout)  # type: ignore[arg-type]
+    while time.monotonic() < deadline:
+        link.mav.mission_request_list_send(sysid, 1, 0)  # type: ignore[attr-defined]
+        wait_until = min(time.monotonic() + 0.2, deadline)
+        while (msg := link.recv(wait_until)) is not None:  # type: ignore[attr-defined]
+            if msg.get_srcSystem() == sysid and msg.get_type() == "MISSION_COUNT":
+                if int(msg.count) >= 1:
+                    return
+                break
+        time.sleep(0.05)
+    raise RuntimeError(f"ArduCopter SITL system {sysid} did not load its mission store within {timeout:g} s")
+
+
 class ArduCopter:
     """One ArduCopter SITL process. Use as a context manager, or start() / stop()."""
 
@@ -124,9 +143,18 @@ class ArduCopter:
                                          stdin=subprocess.DEVNULL, start_new_session=True)
             log.close()
             if self._wait_bound(bind_wait):
+                if self.serial0.startswith("tcp"):
+                    self.wait_ready()
                 return self
             self.stop()
         raise RuntimeError(f"ArduCopter SITL did not start after {attempts} tries (instances {sorted(tried)})")
+
+    def wait_ready(self, timeout: float = 30.0) -> None:
+        """Until its mission store is loaded (serial0 = tcp only: we connect, ask, and disconnect)."""
+        from bridge.link import Link
+
+        with Link(self.url) as link:
+            wait_mission_ready(link, self.sysid, timeout)
 
     def _wait_bound(self, timeout: float) -> bool:
         """Until SITL says it listens (tcp) or has started (udpclient); False if it died first."""

@@ -65,8 +65,10 @@ def test_mavsdk_backend_over_tcp_with_fence() -> None:
     with MockAutopilot(listen="tcpin:127.0.0.1:0", flavour="px4", request_interval=0.05) as mock:
         with open_backend("mavsdk", mock.client_url, 1, timeouts=Timeouts(item_timeout=0.3), connect_timeout=5) as b:
             report = upload_plan(b, [survey(30), fence])
-            assert report.verified and [p.read_back_by for p in report.parts] == ["mavsdk", "mavsdk"]
-        assert len(mock.mission(1)) == 30 and len(mock.mission(1, 1)) == 1
+            # The file has no rally points: the vehicle's are cleared, and that is read back too.
+            assert report.verified and [p.read_back_by for p in report.parts] == ["mavsdk", "mavsdk", "mavsdk"]
+            assert [p.items for p in report.parts] == [30, 1, 0]
+        assert len(mock.mission(1)) == 30 and len(mock.mission(1, 1)) == 1 and mock.mission(1, 2) == []
 
 
 def test_our_uploader_against_mavsdk_mission_raw_server() -> None:
