@@ -306,7 +306,7 @@ def is_positional(command: int) -> bool:
 def ardupilot_stored(item: WireItem) -> WireItem:
     """The item as ArduCopter stores it and returns it on download (its seq and mission_type kept).
 
-    - altitudes: whole centimetres (truncated) in a mission, whole metres for rally points, none for
+    - altitudes: whole centimetres (truncated, and returned as cm * 0.01 in float32) in a mission, whole metres for rally points, none for
       fence vertices; latitude and longitude: the 1e-7 degree integers as sent;
     - non-positional mission items: frame 0 (MAV_FRAME_GLOBAL), x = y = z = 0;
     - deprecated *_INT frames: their plain number (6 -> 3, 5 -> 0, 11 -> 10);
@@ -328,7 +328,8 @@ def ardupilot_stored(item: WireItem) -> WireItem:
     elif not is_positional(item.command):
         frame, x, y, z = FRAME_GLOBAL, 0, 0, 0.0
     else:
-        z = math.trunc(_f32(_f32(z) * 100.0)) / 100.0 if math.isfinite(z) else z  # float32 maths, as on board
+        if math.isfinite(z):  # int32 centimetres, truncated; returned as cm * 0.01f (float32 maths, as on board)
+            z = _f32(_f32(math.trunc(_f32(_f32(z) * 100.0))) * _f32(0.01))
     if item.command == CMD_NAV_WAYPOINT and item.mission_type == MissionType.MISSION:
         hold = item.param1
         if math.isfinite(hold) and 0.0 <= hold < UINT16_SECONDS:

@@ -124,7 +124,7 @@ class MockVehicle:
         self.last_completed: tuple[int, int, tuple[int, int]] | None = None  # type, count, peer
         self.flight = FlightSim(home, cruise_speed=self.options.cruise_speed)
         if "WPNAV_RADIUS" in self.params:  # ArduCopter turns within WPNAV_RADIUS of every waypoint
-            self.flight.default_acceptance = self.params["WPNAV_RADIUS"] / 100.0
+            self.flight.default_acceptance = max(self.params["WPNAV_RADIUS"], 5.0) / 100.0
         self._load_flight()
         self.reached: list[int] = []
         self._next_heartbeat = now
@@ -439,7 +439,9 @@ class MockVehicle:
             self._ack(peer, mission_type, INVALID_SEQUENCE)
             return
         stored = self._home_item() if seq == 0 and self.flavour.has_home_item(mission_type) else store[seq]
-        item = replace(stored, seq=seq, current=1 if seq == self.flight.state.current and mission_type == 0 else 0)
+        # ArduPilot marks no item current in a download; PX4 marks the one it is at.
+        current = seq == self.flight.state.current and mission_type == 0 and self.flavour is not Flavour.ARDUPILOT
+        item = replace(stored, seq=seq, current=int(current))
         if msg.get_type() == "MISSION_REQUEST":  # legacy request: legacy float item
             x = item.x / 1e7 if item.frame in GLOBAL_FRAMES else float(item.x)
             y = item.y / 1e7 if item.frame in GLOBAL_FRAMES else float(item.y)
@@ -580,10 +582,9 @@ class MockVehicle:
         if name not in self.params:
             return
         value = float(msg.param_value)
+        self.params[name] = value  # stored as given, out of range or not (ArduCopter SITL does the same)
         if name == "WPNAV_RADIUS":
-            value = min(max(value, 5.0), 1000.0)  # ArduCopter's legal range, cm
-            self.flight.default_acceptance = value / 100.0
-        self.params[name] = value
+            self.flight.default_acceptance = max(value, 5.0) / 100.0  # AC_WPNav flies at least 5 cm
         self._send_param(name, peer)
 
     def _send_version(self) -> None:
