@@ -171,6 +171,7 @@ def test_the_comparison_catches_a_mock_that_stores_verbatim(monkeypatch: pytest.
     """Without SITL: the faithful mock against one that stores what it got (the old mock) and answers
     out-of-turn items like PX4 differ exactly where ArduCopter and the old mock did."""
     faithful = _mock_session()
+    assert faithful["answers"] == {"request": "MISSION_REQUEST", "early item": 13, "final": 0, "stray item": 1}
     monkeypatch.setattr(MockVehicle, "_stored", lambda self, item: item)
     verbatim = _mock_session()
     found = drift(faithful, verbatim)
