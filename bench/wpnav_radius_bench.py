@@ -7,7 +7,8 @@ corner), one `leg` m east of it (a right-angle turn), NAV_LAND there. `default` 
 copter keeps WPNAV_RADIUS = 200 cm); a number R uploads waypoints with param2 = R m, which the upload
 turns into WPNAV_RADIUS = R * 100 cm. The vehicle is armed in GUIDED and started with
 MAV_CMD_MISSION_START; the track (GLOBAL_POSITION_INT at 20 Hz of simulated time) is recorded until
-the last waypoint is reached, and the table gives the closest horizontal approach to the corner.
+the last waypoint is reached, and the table gives the closest horizontal approach to the corner and
+the simulated seconds from the first position after MISSION_START (take-off) to the last waypoint.
 No assertions: a measurement, not a test.
 """
 
@@ -80,17 +81,19 @@ def fly_once(radius_m: float | None, leg: float, timeout: float = 180.0) -> dict
             raise RuntimeError("MISSION_START refused")
         track: list[tuple[float, float]] = []
         reached_last = False
+        boot_ms: list[int] = []  # the vehicle's clock (simulated time) at each position
         while not reached_last and (msg := link.recv(deadline)) is not None:
             if msg.get_srcSystem() != 1:
                 continue
             if msg.get_type() == "GLOBAL_POSITION_INT":
                 track.append(_local(msg.lat / 1e7, msg.lon / 1e7))
+                boot_ms.append(int(msg.time_boot_ms))
             elif msg.get_type() == "MISSION_ITEM_REACHED" and int(msg.seq) >= 3:
                 reached_last = True
         if not reached_last:
             raise RuntimeError("the mission did not reach its last waypoint in time")
     return {"wpnav_cm": wpnav, "closest_m": _closest(track, (leg, 0.0)), "samples": len(track),
-            "set": bool(report.params)}
+            "flight_s": (boot_ms[-1] - boot_ms[0]) / 1000.0, "set": bool(report.params)}
 
 
 def main() -> int:
@@ -103,12 +106,14 @@ def main() -> int:
     except BaseException as err:  # pytest's Skipped outside pytest: say why and stop
         print(err)
         return 1
-    print(f"{'plan radius':>12} {'WPNAV_RADIUS':>13} {'closest to corner m':>20} {'samples':>8}")
+    print(f"leg {args.leg:g} m, right-angle corner, 10 m altitude, WPNAV_SPEED default")
+    print(f"{'plan radius':>12} {'WPNAV_RADIUS':>13} {'closest to corner m':>20} {'flight s':>9} {'samples':>8}")
     for text in args.radii.split(","):
         radius = None if text == "default" else float(text)
         r = fly_once(radius, args.leg)
         label = "default" if radius is None else f"{radius:g} m"
-        print(f"{label:>12} {r['wpnav_cm']:>10.0f} cm {r['closest_m']:>20.2f} {r['samples']:>8}", flush=True)
+        print(f"{label:>12} {r['wpnav_cm']:>10.0f} cm {r['closest_m']:>20.2f} {r['flight_s']:>9.1f} {r['samples']:>8}",
+              flush=True)
     return 0
 
 
