@@ -11,10 +11,14 @@ Ports: instance I listens on TCP 5760 + 10·I (serial0; serial1 / serial2 on +2 
 used only when all of those were free a moment ago, and an instance that dies at start (a port
 taken between the probe and the bind) is retried on the next free number.
 
+Readiness: just after start ArduCopter reports a mission of 0 items and refuses uploads with
+NO_SPACE until its mission store is loaded; start() waits for that (wait_mission_ready).
+
 Reuse: `ArduCopter(...)` is one vehicle; `serial0` picks how it talks: `tcp:0` (the default: we
 connect to `tcp:127.0.0.1:PORT`, see `.url`) or `udpclient:127.0.0.1:PORT` (it sends to a ground
-station listening there: several vehicles, each with its own sysid, into one `udpin:` port, as a
-fleet flies). `sitl_or_skip()` skips a test with a reason when the binary is absent.
+station listening there, `.gcs_url`: several vehicles, each with its own sysid, into one `udpin:`
+port, as a fleet flies; start them with wait=False and call wait_mission_ready on the shared link).
+`sitl_or_skip()` skips a test with a reason when the binary is absent.
 """
 
 from __future__ import annotations
@@ -131,7 +135,8 @@ class ArduCopter:
                 "--sysid", str(self.sysid), "-w", "-I", str(self.instance), "--serial0", self.serial0,
                 *self.extra_args]
 
-    def start(self, attempts: int = 4, bind_wait: float = 10.0) -> ArduCopter:
+    def start(self, attempts: int = 4, bind_wait: float = 10.0, wait: bool = True) -> ArduCopter:
+        """Start on a free instance number; with wait, return once its mission store is loaded."""
         sitl_or_skip()
         tried: set[int] = set()
         for _ in range(attempts):
@@ -143,17 +148,25 @@ class ArduCopter:
                                          stdin=subprocess.DEVNULL, start_new_session=True)
             log.close()
             if self._wait_bound(bind_wait):
-                if self.serial0.startswith("tcp"):
+                if wait:
                     self.wait_ready()
                 return self
             self.stop()
         raise RuntimeError(f"ArduCopter SITL did not start after {attempts} tries (instances {sorted(tried)})")
 
+    @property
+    def gcs_url(self) -> str:
+        """Where a ground station reaches it: tcp:127.0.0.1:PORT, or udpin:HOST:PORT for udpclient."""
+        if self.serial0.startswith("udpclient:"):
+            return "udpin:" + self.serial0.split(":", 1)[1]
+        return self.url
+
     def wait_ready(self, timeout: float = 30.0) -> None:
-        """Until its mission store is loaded (serial0 = tcp only: we connect, ask, and disconnect)."""
+        """Until its mission store is loaded: we connect (or, for udpclient, listen), ask, and let go.
+        A caller that already holds the vehicle's udpin port uses wait_mission_ready on its own link."""
         from bridge.link import Link
 
-        with Link(self.url) as link:
+        with Link(self.gcs_url) as link:
             wait_mission_ready(link, self.sysid, timeout)
 
     def _wait_bound(self, timeout: float) -> bool:
@@ -205,13 +218,14 @@ class ArduCopter:
 
 @pytest.fixture()
 def arducopter():
-    """A factory: arducopter(sysid=..., home=..., serial0=...) starts an instance, stopped at teardown."""
+    """A factory: arducopter(sysid=..., home=..., serial0=..., wait=...) starts an instance (ready for
+    missions unless wait=False), stopped at teardown, even when the test fails."""
     started: list[ArduCopter] = []
 
-    def start(**kwargs: object) -> ArduCopter:
+    def start(wait: bool = True, **kwargs: object) -> ArduCopter:
         vehicle = ArduCopter(**kwargs)  # type: ignore[arg-type]
         started.append(vehicle)
-        return vehicle.start()
+        return vehicle.start(wait=wait)
 
     sitl_or_skip()
     try:

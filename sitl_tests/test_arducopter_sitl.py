@@ -103,3 +103,14 @@ def test_fence_and_rally_round_trip_and_an_unfenced_plan_clears_them(arducopter,
     with open_backend("pymavlink", vehicle.url, 3, connect_timeout=20) as backend:
         assert backend.download(MissionType.FENCE) == [] and backend.download(MissionType.RALLY) == []
         assert len(backend.download(MissionType.MISSION)) == n + 1  # and home
+
+
+def test_a_vehicle_that_sends_to_a_udpin_port(arducopter, shipped_plans, capsys) -> None:  # noqa: F811
+    """How fleets reach a ground station: SITL with --serial0 udpclient:127.0.0.1:PORT, we listen there."""
+    from loopback import free_udp_port
+
+    port = free_udp_port()
+    arducopter(sysid=4, serial0=f"udpclient:127.0.0.1:{port}")
+    assert main(["upload", str(shipped_plans["leonardo"]), "--sysid", "4", "--connect", f"udpin:127.0.0.1:{port}",
+                 *CLI_FAST]) == 0
+    assert "to vehicle 4 (ardupilot, pymavlink); verified by read-back" in capsys.readouterr().out
