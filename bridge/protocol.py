@@ -241,7 +241,7 @@ class MissionClient:
                     raise MissionTransferError(f"{self._name} rebooted during the {label} upload (after {highest + 1} of "
                                                f"{count} items) and answered: {result_text(result)}; the upload did not "
                                                "complete", result)
-                if result == MAV_MISSION_ERROR and highest == count - 1:
+                if result == MAV_MISSION_ERROR and count > 0 and highest == count - 1:
                     # ArduPilot answers an item it no longer expects with ERROR: our copy of the last
                     # item came after it had completed, and its ACCEPTED was lost. Only a read-back tells.
                     raise UploadUnconfirmed(f"{self._name} received every {label} item but its acknowledgement was "

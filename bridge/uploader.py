@@ -187,6 +187,16 @@ def _send_part(backend: MissionBackend, mtype: MissionType, part: Mission, wire:
     return False, False
 
 
+def set_plan_params(backend: MissionBackend, mission: Mission) -> list[str]:
+    """Set what the vehicle needs to fly `mission` as written (bridge.params: WPNAV_RADIUS on an
+    ArduPilot multirotor); one phrase per parameter set, for the report."""
+    setting: ParamSetting | None = acceptance_radius_setting(backend.vehicle, mission)
+    if setting is None:
+        return []
+    old, _ = backend.set_param(setting.name, setting.value)
+    return [setting.describe(old)]
+
+
 def upload_plan(backend: MissionBackend, parts: list[Mission], verify: bool = True,
                 progress: ProgressFactory | None = None, set_params: bool = True) -> UploadReport:
     """Upload mission, fence and rally (an absent or empty fence / rally list is cleared on the vehicle)
@@ -198,10 +208,7 @@ def upload_plan(backend: MissionBackend, parts: list[Mission], verify: bool = Tr
     report = UploadReport(sysid=vehicle.sysid, flavour=vehicle.flavour.value, backend=backend.name)
     parts = plan_parts(parts)
     if set_params:
-        setting: ParamSetting | None = acceptance_radius_setting(vehicle, parts[0])
-        if setting is not None:
-            old, _ = backend.set_param(setting.name, setting.value)
-            report.params.append(setting.describe(old))
+        report.params = set_plan_params(backend, parts[0])
     for part in parts:
         mtype = MissionType(part.mission_type)
         wire = to_wire(part, vehicle.flavour)

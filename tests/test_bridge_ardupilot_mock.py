@@ -86,3 +86,34 @@ def test_mock_homes_from_the_command_line_and_from_plans(tmp_path: Path) -> None
             mock_homes([1, 2], homes, plan)
     with pytest.raises(BridgeUsageError, match="no uav3.plan"):
         mock_homes([3], [], tmp_path)
+
+
+def test_wpnav_radius_from_the_plan_clamped_to_its_range_and_proven_by_param_value(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from bridge.errors import BridgeError
+    from bridge.link import VehicleInfo
+    from bridge import mock_vehicle
+    from bridge.params import acceptance_radius_setting
+
+    copter = VehicleInfo(1, 1, 3, 2, Flavour.ARDUPILOT, False)
+    assert acceptance_radius_setting(copter, survey(3)).value == 50.0  # type: ignore[union-attr]
+    tiny = Mission([MissionItem(16, 3, param2=0.01, x=45.0, y=7.0, z=5.0)])
+    setting = acceptance_radius_setting(copter, tiny)
+    assert setting is not None and setting.value == 5.0 and "clamped from 1" in setting.describe(200.0)
+    huge = Mission([MissionItem(16, 3, param2=25.0, x=45.0, y=7.0, z=5.0)])
+    assert acceptance_radius_setting(copter, huge).value == 1000.0  # type: ignore[union-attr]
+    assert acceptance_radius_setting(VehicleInfo(1, 1, 12, 2, Flavour.PX4, False), survey(3)) is None
+    assert acceptance_radius_setting(VehicleInfo(1, 1, 3, 1, Flavour.ARDUPILOT, False), survey(3)) is None  # plane
+    assert acceptance_radius_setting(copter, Mission([MissionItem(16, 3, x=45.0, y=7.0, z=5.0)])) is None
+    with MockAutopilot(flavour="ardupilot", request_interval=0.05) as mock:
+        with PymavlinkBackend(mock.client_url, 1, timeouts=Timeouts(item_timeout=0.3), connect_timeout=5) as b:
+            report = upload_plan(b, [survey(3)], set_params=False)
+            assert report.params == [] and mock.vehicle(1).params["WPNAV_RADIUS"] == 200.0
+            assert upload_plan(b, [survey(3)]).params == [
+                "WPNAV_RADIUS = 50 cm (was 200): the plan's acceptance radius (ArduCopter ignores the waypoints' param2)"]
+            assert mock.vehicle(1).flight.default_acceptance == 0.5  # and the mock flies it
+            # A vehicle that keeps another value fails the upload instead of flying a radius nobody chose.
+            monkeypatch.setitem(mock_vehicle._HANDLERS, "PARAM_SET",
+                                lambda self, msg, peer, now: self._send_param("WPNAV_RADIUS", peer))
+            with pytest.raises(BridgeError, match="kept WPNAV_RADIUS = 50 when set to 20"):
+                upload_plan(b, [Mission([MissionItem(16, 3, param2=0.2, x=45.0, y=7.0, z=5.0)])])
