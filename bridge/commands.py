@@ -280,6 +280,8 @@ def cmd_mock(args: argparse.Namespace) -> int:
     ids = ",".join(str(s) for s in sysids)
     print(f"mock autopilot: systems {ids} ({args.flavour}{', signed' if key else ''}) on {args.listen} "
           f"(port {mock.port}); connect with --connect {mock.client_url}; Ctrl-C stops", flush=True)
+    for sysid, (lat, lon, alt) in sorted(homes.items()):
+        print(f"  system {sysid} starts at {lat:.7f}, {lon:.7f}, {alt:g} m AMSL", flush=True)
     mock.start()
     try:
         deadline = None if args.duration is None else time.monotonic() + args.duration
