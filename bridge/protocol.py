@@ -243,7 +243,9 @@ class MissionClient:
                                                "complete", result)
                 if result == MAV_MISSION_ERROR and count > 0 and highest == count - 1:
                     # ArduPilot answers an item it no longer expects with ERROR: our copy of the last
-                    # item came after it had completed, and its ACCEPTED was lost. Only a read-back tells.
+                    # item came after it had completed, and its ACCEPTED was lost. Only a read-back tells,
+                    # and more such ERRORs (a duplicate, an answer to a nudge) may still be on their way.
+                    self._stray_until[mission_type] = now + STRAY_ACK_S
                     raise UploadUnconfirmed(f"{self._name} received every {label} item but its acknowledgement was "
                                             "lost; only a read-back can tell whether it holds the upload", result)
                 if result == MAV_MISSION_ERROR and requested_any:

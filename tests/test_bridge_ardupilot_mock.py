@@ -117,3 +117,25 @@ def test_wpnav_radius_from_the_plan_clamped_to_its_range_and_proven_by_param_val
                                 lambda self, msg, peer, now: self._send_param("WPNAV_RADIUS", peer))
             with pytest.raises(BridgeError, match="kept WPNAV_RADIUS = 50 when set to 20"):
                 upload_plan(b, [Mission([MissionItem(16, 3, param2=0.2, x=45.0, y=7.0, z=5.0)])])
+
+
+def test_a_lost_final_accepted_is_settled_by_read_back(monkeypatch: pytest.MonkeyPatch) -> None:
+    from bridge import mock_vehicle
+
+    original = mock_vehicle.MockVehicle._ack
+    dropped: list[int] = []
+
+    def lossy_ack(self, peer, mission_type, result):  # type: ignore[no-untyped-def]
+        if result == mock_vehicle.ACCEPTED and mission_type == 0 and not dropped:
+            dropped.append(result)  # the ACCEPTED of the first mission upload never arrives
+            return
+        for _ in range(2 if result == mock_vehicle.ERROR else 1):  # and every ERROR arrives twice
+            original(self, peer, mission_type, result)
+
+    monkeypatch.setattr(mock_vehicle.MockVehicle, "_ack", lossy_ack)
+    with MockAutopilot(flavour="ardupilot", request_interval=0.05) as mock:
+        with PymavlinkBackend(mock.client_url, 1, timeouts=Timeouts(item_timeout=0.3), connect_timeout=5) as b:
+            report = upload_plan(b, [survey(5)], verify=False)
+        # Our copy of the last item drew ArduPilot's ERROR: the outcome was unknown, so it was read back.
+        assert dropped and mock.vehicle(1).stray_item_acks >= 1
+        assert len(mock.mission(1)) == 8 and not report.verified
