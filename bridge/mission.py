@@ -285,16 +285,17 @@ POSITIONAL_COMMANDS = frozenset({
 })
 
 # Params ArduCopter does not store, per command: the vehicle returns the value given here instead.
+# Only what was seen on SITL (docs/autopilots.md); a param not listed must come back as sent.
 # NAV_WAYPOINT keeps only param1 (the hold time, in whole seconds); its param2 (acceptance radius) is
 # dropped: the copter flies WPNAV_RADIUS instead (see bridge.params).
 ARDUPILOT_UNSTORED_PARAMS: dict[int, dict[str, float]] = {
     CMD_NAV_WAYPOINT: {"param2": 0.0, "param3": 0.0, "param4": 0.0},
     CMD_NAV_TAKEOFF: {"param4": 0.0},
     CMD_NAV_LAND: {"param2": 0.0, "param4": 1.0},
-    CMD_NAV_RETURN_TO_LAUNCH: {"param1": 0.0, "param2": 0.0, "param3": 0.0, "param4": 0.0},
+    CMD_NAV_RETURN_TO_LAUNCH: {"param1": 0.0},
     CMD_DO_CHANGE_SPEED: {"param4": 0.0},
     CMD_DO_SET_CAM_TRIGG_DIST: {"param2": 0.0, "param4": 0.0},
-    CMD_RALLY_POINT: {"param1": 0.0, "param2": 0.0, "param3": 0.0, "param4": 0.0},
+    CMD_RALLY_POINT: {"param1": 0.0},
 }
 UINT16_SECONDS = 65536  # NAV_WAYPOINT's hold time is a uint16 of whole seconds on ArduCopter
 
