@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import struct
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from .errors import BridgeError
@@ -43,30 +44,43 @@ class ParamClient:
         self.link = link
         self.vehicle = vehicle
 
-    def _await_value(self, name: str, send: object, tries: int, wait_s: float) -> float:
+    def _await_value(self, name: str, send: Callable[[], None], tries: int, wait_s: float,
+                     wanted: Callable[[float], bool] = lambda value: True) -> tuple[float | None, bool]:
+        """Send, re-send up to `tries` times, until a PARAM_VALUE for `name` passes `wanted`:
+        (the last value heard, or None; whether it passed). A value that does not pass may be a late
+        answer to an earlier request (a duplicate, a retry), so it does not end the wait."""
+        last: float | None = None
         for _ in range(tries):
-            send()  # type: ignore[operator]
+            send()
             deadline = time.monotonic() + wait_s
             while (msg := self.link.recv(deadline)) is not None:
                 if msg.get_srcSystem() != self.vehicle.sysid or msg.get_type() != "PARAM_VALUE":
                     continue
                 if str(msg.param_id).rstrip("\x00") == name:
-                    return float(msg.param_value)
-        raise BridgeError(f"vehicle {self.vehicle.sysid} did not answer for parameter {name} "
-                          f"({tries} tries, {wait_s:g} s each)")
+                    last = float(msg.param_value)
+                    if wanted(last):
+                        return last, True
+        return last, False
 
     def get(self, name: str, tries: int = PARAM_TRIES, wait_s: float = PARAM_WAIT_S) -> float:
         mav, sysid, compid = self.link.mav, self.vehicle.sysid, self.vehicle.compid
-        return self._await_value(name, lambda: mav.param_request_read_send(sysid, compid, name.encode(), -1),
-                                 tries, wait_s)
+        value, _ = self._await_value(name, lambda: mav.param_request_read_send(sysid, compid, name.encode(), -1),
+                                     tries, wait_s)
+        if value is None:
+            raise BridgeError(f"vehicle {sysid} did not answer for parameter {name} ({tries} tries, {wait_s:g} s each)")
+        return value
 
     def set(self, name: str, value: float, tries: int = PARAM_TRIES, wait_s: float = PARAM_WAIT_S) -> float:
         """Set and return the value the vehicle then reports; BridgeError when it keeps another one."""
         mav, sysid, compid = self.link.mav, self.vehicle.sysid, self.vehicle.compid
-        got = self._await_value(name, lambda: mav.param_set_send(sysid, compid, name.encode(), float(value),
-                                                                 MAV_PARAM_TYPE_REAL32), tries, wait_s)
-        if not math.isclose(got, _f32(value), rel_tol=1e-6, abs_tol=1e-6):
-            raise BridgeError(f"vehicle {self.vehicle.sysid} kept {name} = {got:g} when set to {value:g}")
+        target = _f32(value)
+        got, ok = self._await_value(
+            name, lambda: mav.param_set_send(sysid, compid, name.encode(), float(value), MAV_PARAM_TYPE_REAL32),
+            tries, wait_s, lambda v: math.isclose(v, target, rel_tol=1e-6, abs_tol=1e-6))
+        if got is None:
+            raise BridgeError(f"vehicle {sysid} did not answer for parameter {name} ({tries} tries, {wait_s:g} s each)")
+        if not ok:
+            raise BridgeError(f"vehicle {sysid} kept {name} = {got:g} when set to {value:g}")
         return got
 
 

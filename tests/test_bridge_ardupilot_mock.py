@@ -139,3 +139,21 @@ def test_a_lost_final_accepted_is_settled_by_read_back(monkeypatch: pytest.Monke
         # Our copy of the last item drew ArduPilot's ERROR: the outcome was unknown, so it was read back.
         assert dropped and mock.vehicle(1).stray_item_acks >= 1
         assert len(mock.mission(1)) == 8 and not report.verified
+
+
+def test_a_late_param_value_with_the_old_value_does_not_fail_the_set(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Through a lossy link a PARAM_VALUE answering an earlier read (the old value) can arrive after
+    # our PARAM_SET went out; the vehicle's answer to the set follows it.
+    from bridge import mock_vehicle
+
+    original = mock_vehicle._HANDLERS["PARAM_SET"]
+
+    def stale_first(self, msg, peer, now):  # type: ignore[no-untyped-def]
+        self._send_param("WPNAV_RADIUS", peer)  # the old value, late
+        original(self, msg, peer, now)
+
+    monkeypatch.setitem(mock_vehicle._HANDLERS, "PARAM_SET", stale_first)
+    with MockAutopilot(flavour="ardupilot", request_interval=0.05) as mock:
+        with PymavlinkBackend(mock.client_url, 1, timeouts=Timeouts(item_timeout=0.3), connect_timeout=5) as b:
+            assert b.set_param("WPNAV_RADIUS", 25.0) == (200.0, 25.0)
+        assert mock.vehicle(1).params["WPNAV_RADIUS"] == 25.0
