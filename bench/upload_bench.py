@@ -1,25 +1,34 @@
-"""Mission upload speed: items per second to the in-process mock autopilot on 127.0.0.1.
+"""Mission upload speed: items per second to the in-process mock autopilot on 127.0.0.1, and to real
+ArduCopter SITL.
 
-Run by hand: `.venv/bin/python bench/upload_bench.py [--sizes 100,1000] [--losses 0,0.2] [--backends pymavlink,mavsdk]`.
+Run by hand: `.venv/bin/python bench/upload_bench.py [--sizes 100,1000] [--losses 0,0.2] [--backends pymavlink,mavsdk]
+[--sitl-sizes 100,1000]`.
 For each backend, mission size and loss (the same in both directions, plus 5 % duplicates and 5 %
 reordering when the loss is not 0) it uploads once and reads back once, and prints a table of
 seconds and items per second. The mock re-requests a missing item after 10 ms and the ground
 station's retry cap is 0.1 s (loopback settings: with the real-world 1.5 s a lossy transfer is
-dominated by waiting). No assertions: this is a measurement, not a test.
+dominated by waiting). The ArduCopter rows upload with our pymavlink backend and its real-world
+timing (1.5 s item time-out), next to the ArduPilot-flavoured mock with the same timing, to a fresh
+SITL instance (../shared/sitl/arducopter, --speedup 10,
+sitl_tests/arducopter.py) over TCP, read back, verify by the ArduPilot rule, and count the
+INVALID_SEQUENCE acks it sent (the upload must not race its re-requests: 0 expected).
+No assertions: this is a measurement, not a test.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "sitl_tests"))
 
-from bridge.mission import Mission, MissionItem, compare_wire, to_wire  # noqa: E402
+from bridge.mission import Flavour, Mission, MissionItem, compare_wire, to_wire  # noqa: E402
 from bridge.mock import LinkFaults, MockAutopilot  # noqa: E402
-from bridge.protocol import Timeouts  # noqa: E402
+from bridge.protocol import MissionTransferError, Timeouts  # noqa: E402
 from bridge.uploader import open_backend  # noqa: E402
 
 
@@ -48,26 +57,65 @@ def measure(backend: str, size: int, loss: float, seed: int) -> dict[str, object
     return {"upload_s": upload_s, "read_s": read_s, "reader": reader, "ok": ok}
 
 
+def measure_ardupilot(size: int, sitl: bool) -> dict[str, object]:
+    """One upload and read-back with real-world timing, to ArduCopter SITL or the ArduPilot-flavoured
+    mock (its 1 s re-requests, 650-item limit not imitated)."""
+    from arducopter import ArduCopter  # sitl_tests/arducopter.py: free ports, own folder and session
+
+    mission = survey(size)
+    with contextlib.ExitStack() as stack:
+        if sitl:
+            url = stack.enter_context(ArduCopter(sysid=1)).url
+        else:
+            url = stack.enter_context(MockAutopilot(flavour="ardupilot")).client_url
+        b = stack.enter_context(open_backend("pymavlink", url, 1, timeouts=Timeouts(), connect_timeout=20))
+        wire = to_wire(mission, b.vehicle.flavour)
+        start = time.perf_counter()
+        try:
+            b.upload(0, wire)
+        except MissionTransferError as err:  # e.g. NO_SPACE: this SITL build holds 650 items, home included
+            return {"refused": str(err)}
+        upload_s = time.perf_counter() - start
+        start = time.perf_counter()
+        got = b.download(0)
+        read_s = time.perf_counter() - start
+        ok = not compare_wire(wire, got, skip_home=True, flavour=Flavour.ARDUPILOT)
+        invalid = b.client.invalid_sequence_acks  # type: ignore[attr-defined]
+    return {"upload_s": upload_s, "read_s": read_s, "reader": f"pymavlink; {invalid} INVALID_SEQUENCE acks",
+            "ok": ok}
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default="100,1000")
     parser.add_argument("--losses", default="0,0.2")
     parser.add_argument("--backends", default="pymavlink,mavsdk")
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--sitl-sizes", default="100,649,1000", help="ArduCopter SITL rows ('' for none)")
     args = parser.parse_args()
     sizes = [int(s) for s in args.sizes.split(",")]
     losses = [float(s) for s in args.losses.split(",")]
     backends = args.backends.split(",")
-    print(f"{'backend':<10} {'items':>6} {'loss':>5} {'upload s':>9} {'items/s':>9} {'read s':>8} {'items/s':>9}  "
-          f"{'verified':<8} read back by")
+    print(f"{'vehicle':<16} {'backend':<10} {'items':>6} {'loss':>5} {'upload s':>9} {'items/s':>9} {'read s':>8} "
+          f"{'items/s':>9}  {'verified':<8} read back by")
     for backend in backends:
         for size in sizes:
             for loss in losses:
                 r = measure(backend, size, loss, args.seed)
-                print(f"{backend:<10} {size:>6} {loss:>5.0%} {r['upload_s']:>9.2f} {size / r['upload_s']:>9.0f} "
-                      f"{r['read_s']:>8.2f} {size / r['read_s']:>9.0f}  {'yes' if r['ok'] else 'NO':<8} {r['reader']}",
-                      flush=True)
+                _row("mock (px4)", backend, size, loss, r)
+    for size in [int(s) for s in args.sitl_sizes.split(",") if s.strip()]:
+        _row("mock (ardupilot)", "pymavlink", size, 0.0, measure_ardupilot(size, sitl=False))
+        _row("ArduCopter SITL", "pymavlink", size, 0.0, measure_ardupilot(size, sitl=True))
     return 0
+
+
+def _row(vehicle: str, backend: str, size: int, loss: float, r: dict[str, object]) -> None:
+    if "refused" in r:
+        print(f"{vehicle:<16} {backend:<10} {size:>6} {loss:>5.0%}  {r['refused']}", flush=True)
+        return
+    up, read = float(r["upload_s"]), float(r["read_s"])  # type: ignore[arg-type]
+    print(f"{vehicle:<16} {backend:<10} {size:>6} {loss:>5.0%} {up:>9.2f} {size / up:>9.0f} {read:>8.2f} "
+          f"{size / read:>9.0f}  {'yes' if r['ok'] else 'NO':<8} {r['reader']}", flush=True)
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ Modules, one job each:
   link          pymavlink connections: URL checks, heartbeats, finding a vehicle by system id
   protocol      the GCS side of the mission protocol over pymavlink (upload, download, clear, set-current)
   mavsdk_backend the same operations through MAVSDK-Python's MissionRaw plugin
+  params        parameter get / set, and WPNAV_RADIUS from a plan's acceptance radius (ArduCopter)
   uploader      backend-neutral upload + read-back verification
   mock, mock_vehicle, mock_flight   the pure-Python mock autopilot (link and faults, one vehicle, kinematics)
   commands      the `upload`, `download` and `mock` subcommands for the missionplan CLI

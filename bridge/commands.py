@@ -11,6 +11,7 @@ the main CLI prints its one-line message and exits 2.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import tempfile
@@ -24,6 +25,7 @@ from .mission import Flavour, MissionType
 
 DEFAULT_CONNECT = "udpin:0.0.0.0:14550"  # where ground stations listen for vehicles by convention
 DEFAULT_LISTEN = "udpin:127.0.0.1:14550"
+DEFAULT_HOME_ALT = 0.0  # metres AMSL when --home gives none
 
 
 def register(subparsers: Any) -> None:
@@ -36,6 +38,9 @@ def register(subparsers: Any) -> None:
     up.add_argument("--no-verify", action="store_true", help="skip the read-back (exit 0 then means accepted)")
     up.add_argument("--allow-empty", action="store_true",
                     help="let a file without mission items clear the vehicle's mission (refused otherwise)")
+    up.add_argument("--keep-params", action="store_true",
+                    help="set no vehicle parameter (by default an ArduCopter gets WPNAV_RADIUS = the plan's "
+                         "acceptance radius, which it does not read from the waypoints)")
     up.set_defaults(handler=cmd_upload)
 
     down = subparsers.add_parser("download", help="download a vehicle's mission to a .plan or .waypoints file")
@@ -61,6 +66,11 @@ def register(subparsers: Any) -> None:
     mock.add_argument("--request-interval", type=float, default=None,
                       help="re-request a missing item after this many seconds (default: the flavour's)")
     mock.add_argument("--signing-key", type=Path, help="MAVLink 2 signing key file (32 bytes or 64 hex digits)")
+    mock.add_argument("--home", action="append", default=[], metavar="[SYSID=]LAT,LON[,ALT]",
+                      help="where a vehicle starts: LAT,LON for every one (drone K placed K-1 x 55 m north), "
+                           "or SYSID=LAT,LON for one; repeatable")
+    mock.add_argument("--plan", type=Path, metavar="DIR",
+                      help="start each vehicle K at the plannedHomePosition of DIR/uavK.plan")
     mock.add_argument("--seed", type=int, default=None, help="seed of the fault injection")
     mock.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
     mock.set_defaults(handler=cmd_mock)
@@ -163,7 +173,8 @@ def cmd_upload(args: argparse.Namespace) -> int:
     try:
         backend = open_backend(args.backend, opts["url"], opts["sysid"], opts["compid"], opts["key"],
                                opts["timeouts"], opts["connect_timeout"])
-        report = upload_plan(backend, plan.parts(), verify=not args.no_verify, progress=bars)
+        report = upload_plan(backend, plan.parts(), verify=not args.no_verify, progress=bars,
+                             set_params=not args.keep_params)
     except BridgeError as err:
         bars.close()
         return _fail("upload", err)
@@ -259,6 +270,49 @@ def cmd_clear(args: argparse.Namespace) -> int:
             backend.close()
     print(report)
     return 0
+def _home_value(text: str, option: str) -> tuple[float, float, float]:
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        values = []
+    if len(values) not in (2, 3) or not all(math.isfinite(v) for v in values):
+        raise BridgeUsageError(f"{option} {text}: expected LAT,LON or LAT,LON,ALT in degrees and metres")
+    lat, lon = values[0], values[1]
+    if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+        raise BridgeUsageError(f"{option} {text}: latitude must be within -90..90 and longitude within -180..180")
+    return lat, lon, values[2] if len(values) == 3 else DEFAULT_HOME_ALT
+
+
+def mock_homes(sysids: list[int], homes: list[str], plan_dir: Path | None) -> dict[int, tuple[float, float, float]]:
+    """Each vehicle's home from --home (all, or per SYSID=) and --plan DIR (uavK.plan's planned home)."""
+    from .link import parse_sysid
+    from .missionfile import read_mission_file
+
+    out: dict[int, tuple[float, float, float]] = {}
+    if plan_dir is not None:
+        if not plan_dir.is_dir():
+            raise BridgeUsageError(f"--plan {plan_dir}: not a folder")
+        for sysid in sysids:
+            path = plan_dir / f"uav{sysid}.plan"
+            if not path.is_file():
+                raise BridgeUsageError(f"--plan {plan_dir}: no uav{sysid}.plan for system id {sysid}")
+            home = read_mission_file(path).mission.home
+            if home is None:
+                raise BridgeUsageError(f"{path}: no plannedHomePosition")
+            out[sysid] = (float(home[0]), float(home[1]), float(home[2]))
+    for text in sorted(homes, key=lambda t: "=" in t):  # one for all first, then per system id
+        if "=" in text:
+            who, _, where = text.partition("=")
+            sysid = parse_sysid(who, "--home")
+            if sysid not in sysids:
+                raise BridgeUsageError(f"--home {text}: system id {sysid} is not served (--sysid)")
+            out[sysid] = _home_value(where, "--home")
+        else:
+            lat, lon, alt = _home_value(text, "--home")
+            for index, sysid in enumerate(sysids):  # side by side, 0.0005 degree (55 m) apart
+                out[sysid] = (lat + 0.0005 * index, lon, alt)
+    return out
 
 
 def cmd_mock(args: argparse.Namespace) -> int:
@@ -272,8 +326,9 @@ def cmd_mock(args: argparse.Namespace) -> int:
                         latency=args.latency, seed=args.seed)
     if args.request_interval is not None and not args.request_interval > 0:
         raise BridgeUsageError(f"--request-interval must be positive, got {args.request_interval}")
+    homes = mock_homes(sysids, args.home, args.plan)
     mock = MockAutopilot(args.listen, sysids=sysids, flavour=args.flavour, speedup=args.speedup, faults=faults,
-                         key=key, request_interval=args.request_interval)
+                         key=key, request_interval=args.request_interval, homes=homes)
     ids = ",".join(str(s) for s in sysids)
     if mock.spec.scheme == "serial":
         where, connect = f"serial device {mock.device}", f"the other end of {mock.device}"
@@ -283,6 +338,8 @@ def cmd_mock(args: argparse.Namespace) -> int:
         where, connect = f"{args.listen} (port {mock.port})", mock.client_url
     print(f"mock autopilot: systems {ids} ({args.flavour}{', signed' if key else ''}) on {where}; "
           f"connect with --connect {connect}; Ctrl-C stops", flush=True)
+    for sysid, (lat, lon, alt) in sorted(homes.items()):
+        print(f"  system {sysid} starts at {lat:.7f}, {lon:.7f}, {alt:g} m AMSL", flush=True)
     mock.start()
     try:
         deadline = None if args.duration is None else time.monotonic() + args.duration

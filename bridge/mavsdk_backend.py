@@ -23,6 +23,7 @@ from typing import Any
 from .errors import BridgeError
 from .link import AUTOPILOT_COMPONENT_ID, Link, VehicleInfo, mavlink, wait_vehicle
 from .mission import MissionType, WireItem
+from .params import ParamClient, set_param
 from .protocol import MissionClient, MissionTransferError, ProgressFn, Timeouts
 from .signing import SigningKey, apply_key
 
@@ -300,6 +301,14 @@ class MavsdkBackend:
             self.plugin.clear_mission()
         except self._mr.MissionRawError as err:
             raise self._fail("clear", err.result) from None
+
+    def set_param(self, name: str, value: float) -> tuple[float | None, float]:
+        """Through our own parameter client on the same link (MAVSDK's pump paused meanwhile)."""
+        self._pause_pump()
+        try:
+            return set_param(ParamClient(self.link, self.vehicle), name, value)
+        finally:
+            self._resume_pump()
 
     def set_current(self, seq: int) -> None:
         try:

@@ -8,7 +8,8 @@ Owns:
 - The flavour rules that turn a Mission into wire items and back: ArduPilot keeps home as item 0 of
   the mission (an upload sends a placeholder there, a download returns the real home), PX4 does not;
   DO_JUMP targets are counted with home as item 0 on ArduPilot and without it on PX4.
-- compare_wire: the item-by-item read-back check.
+- The read-back rule per flavour: stored_form / ardupilot_stored say what a vehicle may legally
+  change in what it stores (measured on ArduCopter SITL); compare_wire is the item-by-item check.
 
 Model convention for DO_JUMP: param1 is the 1-based number of the target in Mission.items (the same
 number as QGroundControl's doJumpId for plain missions and as the line number in a .waypoints file).
@@ -268,6 +269,83 @@ def from_wire(items: list[WireItem], flavour: Flavour, mission_type: int = Missi
     return Mission(items=out, mission_type=MissionType(mission_type), home=home)
 
 
+# ------------------------------------------------------------------------------------------------
+# What a vehicle may legally change in the items it stores (the read-back rule, per flavour).
+#
+# Measured on ArduCopter 4.7-dev SITL (docs/autopilots.md has the table and how): it keeps only
+# what its storage format has room for and hands the rest back as fixed values. Verify accepts, field
+# by field, either the value sent or the value ArduPilot's storage turns it into; nothing else.
+# PX4 and other autopilots: the value sent (deprecated *_INT frames read as their plain number).
+
+# Commands that carry a position (x, y, z). Everything else in a mission (DO_*, CONDITION_*, RTL,
+# camera, gimbal) is non-positional: ArduPilot returns it in frame 0 with x = y = z = 0.
+POSITIONAL_COMMANDS = frozenset({
+    16, 17, 18, 19, 21, 22, 23, 30, 31, 82, 84, 85, 94,  # NAV_* with a location
+    179, 189, 192, 195, 201,  # DO_SET_HOME, DO_LAND_START, DO_REPOSITION, DO_SET_ROI_LOCATION, DO_SET_ROI
+})
+
+# Params ArduCopter does not store, per command: the vehicle returns the value given here instead.
+# Only what was seen on SITL (docs/autopilots.md); a param not listed must come back as sent.
+# NAV_WAYPOINT keeps only param1 (the hold time, in whole seconds); its param2 (acceptance radius) is
+# dropped: the copter flies WPNAV_RADIUS instead (see bridge.params).
+ARDUPILOT_UNSTORED_PARAMS: dict[int, dict[str, float]] = {
+    CMD_NAV_WAYPOINT: {"param2": 0.0, "param3": 0.0, "param4": 0.0},
+    CMD_NAV_TAKEOFF: {"param4": 0.0},
+    CMD_NAV_LAND: {"param2": 0.0, "param4": 1.0},
+    CMD_NAV_RETURN_TO_LAUNCH: {"param1": 0.0},
+    CMD_DO_CHANGE_SPEED: {"param4": 0.0},
+    CMD_DO_SET_CAM_TRIGG_DIST: {"param2": 0.0, "param4": 0.0},
+    CMD_RALLY_POINT: {"param1": 0.0},
+}
+UINT16_SECONDS = 65536  # NAV_WAYPOINT's hold time is a uint16 of whole seconds on ArduCopter
+
+
+def is_positional(command: int) -> bool:
+    return command in POSITIONAL_COMMANDS or command >= 5000  # fence and rally items are points too
+
+
+def ardupilot_stored(item: WireItem) -> WireItem:
+    """The item as ArduCopter stores it and returns it on download (its seq and mission_type kept).
+
+    - altitudes: whole centimetres (truncated, and returned as cm * 0.01 in float32) in a mission, whole metres for rally points, none for
+      fence vertices; latitude and longitude: the 1e-7 degree integers as sent;
+    - non-positional mission items: frame 0 (MAV_FRAME_GLOBAL), x = y = z = 0;
+    - deprecated *_INT frames: their plain number (6 -> 3, 5 -> 0, 11 -> 10);
+    - params it has no room for: ARDUPILOT_UNSTORED_PARAMS; NAV_WAYPOINT's hold time truncated to
+      whole seconds;
+    - fence and rally items: autocontinue 0 (they are not flown), fence items in frame 0.
+    The home item (mission seq 0) is not covered: the vehicle replaces it with its own home.
+    """
+    frame, x, y, z = normalize_frame(item.frame), item.x, item.y, item.z
+    autocontinue = item.autocontinue
+    params = {"param1": item.param1, "param2": item.param2, "param3": item.param3, "param4": item.param4}
+    for name, value in ARDUPILOT_UNSTORED_PARAMS.get(item.command, {}).items():
+        params[name] = value
+    if item.mission_type == MissionType.FENCE:
+        frame, z, autocontinue = FRAME_GLOBAL, 0.0, 0
+    elif item.mission_type == MissionType.RALLY:
+        autocontinue = 0
+        z = float(math.trunc(_f32(z))) if math.isfinite(z) else z
+    elif not is_positional(item.command):
+        frame, x, y, z = FRAME_GLOBAL, 0, 0, 0.0
+    else:
+        if math.isfinite(z):  # int32 centimetres, truncated; returned as cm * 0.01f (float32 maths, as on board)
+            z = _f32(_f32(math.trunc(_f32(_f32(z) * 100.0))) * _f32(0.01))
+    if item.command == CMD_NAV_WAYPOINT and item.mission_type == MissionType.MISSION:
+        hold = item.param1
+        if math.isfinite(hold) and 0.0 <= hold < UINT16_SECONDS:
+            params["param1"] = float(math.trunc(hold))
+        # A negative or huge hold time wraps around on the vehicle: left as sent, so it shows as a difference.
+    return replace(item, frame=frame, x=x, y=y, z=z, autocontinue=autocontinue, **params)
+
+
+def stored_form(item: WireItem, flavour: Flavour) -> WireItem:
+    """What a vehicle of this flavour may legally hold instead of `item` (besides `item` itself)."""
+    if flavour is Flavour.ARDUPILOT:
+        return ardupilot_stored(item)
+    return replace(item, frame=normalize_frame(item.frame))
+
+
 def _same_float(sent: float, got: float, abs_tol: float) -> bool:
     a, b = _f32(sent), _f32(got)
     if math.isnan(a) or math.isnan(b):
@@ -275,35 +353,49 @@ def _same_float(sent: float, got: float, abs_tol: float) -> bool:
     return math.isclose(a, b, rel_tol=1e-6, abs_tol=abs_tol)
 
 
-def compare_items(sent: WireItem, got: WireItem) -> list[str]:
-    """What differs between one sent item and the vehicle's copy, as short phrases."""
+def _field_matches(name: str, sent: float, legal: float, got: float) -> bool:
+    """got equals what was sent, or the flavour's stored form of it, within the wire's rounding."""
+    for want in (sent, legal):
+        if name in ("x", "y"):
+            if abs(int(want) - int(got)) <= 1:  # 1e-7 degree: a vehicle may round the last digit
+                return True
+        elif name == "z":
+            if _same_float(want, got, abs_tol=0.01):  # float32, and centimetres
+                return True
+        elif name == "frame":
+            if normalize_frame(int(want)) == normalize_frame(int(got)):
+                return True
+        elif name == "autocontinue":
+            if bool(want) == bool(got):
+                return True
+        elif name in ("command", "mission_type"):
+            if int(want) == int(got):
+                return True
+        elif _same_float(want, got, abs_tol=1e-4):
+            return True
+    return False
+
+
+def compare_items(sent: WireItem, got: WireItem, flavour: Flavour = Flavour.GENERIC) -> list[str]:
+    """What differs between one sent item and the vehicle's copy, as short phrases, beyond what a
+    vehicle of this flavour may legally change (stored_form)."""
+    legal = stored_form(sent, flavour) if sent.command == got.command else sent
     diffs: list[str] = []
-    if sent.command != got.command:
-        diffs.append(f"command sent {sent.command}, vehicle has {got.command}")
-    if normalize_frame(sent.frame) != normalize_frame(got.frame):
-        diffs.append(f"frame sent {sent.frame}, vehicle has {got.frame}")
-    if bool(sent.autocontinue) != bool(got.autocontinue):
-        diffs.append(f"autocontinue sent {sent.autocontinue}, vehicle has {got.autocontinue}")
-    for name in ("param1", "param2", "param3", "param4"):
+    for name in ("command", "frame", "autocontinue", "param1", "param2", "param3", "param4", "x", "y", "z",
+                 "mission_type"):
         a, b = getattr(sent, name), getattr(got, name)
-        if not _same_float(a, b, abs_tol=1e-4):
-            diffs.append(f"{name} sent {a:g}, vehicle has {b:g}")
-    # Vehicles may keep slightly less precision than 1e-7 degrees (ArduPilot): allow about 1 cm.
-    for name in ("x", "y"):
-        a, b = getattr(sent, name), getattr(got, name)
-        if abs(a - b) > 1:
-            diffs.append(f"{name} sent {a}, vehicle has {b}")
-    if not _same_float(sent.z, got.z, abs_tol=0.01):
-        diffs.append(f"z sent {sent.z:g}, vehicle has {got.z:g}")
-    if sent.mission_type != got.mission_type:
-        diffs.append(f"mission_type sent {sent.mission_type}, vehicle has {got.mission_type}")
+        if not _field_matches(name, a, getattr(legal, name), b):
+            shown = f"{a:g}, vehicle has {b:g}" if isinstance(a, float) else f"{a}, vehicle has {b}"
+            diffs.append(f"{name} sent {shown}")
     return diffs
 
 
-def compare_wire(sent: list[WireItem], got: list[WireItem], skip_home: bool, limit: int = 5) -> list[str]:
-    """Item-by-item differences between what was sent and what the vehicle holds (empty: identical).
+def compare_wire(sent: list[WireItem], got: list[WireItem], skip_home: bool, limit: int = 5,
+                 flavour: Flavour = Flavour.GENERIC) -> list[str]:
+    """Item-by-item differences between what was sent and what the vehicle holds (empty: identical up
+    to what the flavour may legally change, see stored_form).
 
-    skip_home: ArduPilot replaces item 0 by its real home, so it is not compared.
+    skip_home: ArduPilot replaces item 0 by its real home, so it is not compared (it must exist).
     """
     problems: list[str] = []
     if len(sent) != len(got):
@@ -316,7 +408,7 @@ def compare_wire(sent: list[WireItem], got: list[WireItem], skip_home: bool, lim
         if other is None:
             problems.append(f"item {item.seq}: missing on the vehicle")
         else:
-            diffs = compare_items(item, other)
+            diffs = compare_items(item, other, flavour)
             if diffs:
                 problems.append(f"item {item.seq}: " + "; ".join(diffs))
         if len(problems) > limit:

@@ -2,7 +2,12 @@
 
 Owns the vehicle side of the mission protocol for every mission_type (mission, fence, rally):
 upload with re-requests on a timer and a give-up time-out (the old mission stays until an upload
-completes), download of any in-range item in any order, clear-all, set-current; COMMAND_LONG arm /
+completes), download of any in-range item in any order, clear-all, set-current. The ArduPilot flavour
+does what ArduCopter SITL does: it stores items as bridge.mission.ardupilot_stored says (NAV_WAYPOINT
+keeps only param1, DO_* come back in frame 0, ...), keeps its home as item 0 (0, 0, 0 until its GPS
+has a fix), re-requests after 1 s, answers an item it did not ask for with INVALID_SEQUENCE and one
+after the upload completed with ERROR, and flies every waypoint to WPNAV_RADIUS (PARAM_SET /
+PARAM_REQUEST_READ), not to param2; COMMAND_LONG arm /
 disarm, mode changes, MAV_CMD_MISSION_START, DO_SET_MISSION_CURRENT and AUTOPILOT_VERSION requests,
 each answered with COMMAND_ACK; HEARTBEAT (quadrotor, ArduPilot or PX4), SYS_STATUS,
 GLOBAL_POSITION_INT (at the rate SET_MESSAGE_INTERVAL asks for), MISSION_CURRENT,
@@ -24,8 +29,8 @@ from .mission import (
     Flavour,
     MissionType,
     WireItem,
+    ardupilot_stored,
     encode_xy,
-    normalize_frame,
 )
 from .mock_flight import FlightEvent, FlightSim
 
@@ -62,6 +67,7 @@ class VehicleOptions:
     upload_timeout: float | None = None    # give a stalled upload up after this long (ArduPilot 8 s, PX4 5 s)
     legacy_requests: bool | None = None    # ask with MISSION_REQUEST (#40) like ArduCopter does
     max_items: int = 10_000
+    gps_fix_after: float = 0.0  # simulated seconds from boot until the home is known (SITL: about 35-40)
     speedup: float = 1.0
     cruise_speed: float = 5.0
     telemetry_hz: float = 4.0
@@ -98,12 +104,17 @@ class MockVehicle:
         self.reboot_after_items: int | None = None
         self.reboot_offline = 0.3
         self.reboot_at_item: int | None = None  # reboot in flight once this mission item is reached
+        self.invalid_sequence_acks = 0  # INVALID_SEQUENCE answers to items it did not ask for
+        self.stray_item_acks = 0        # ERROR answers to items that came after an upload completed
+        # Parameters survive a reboot, like ArduPilot's EEPROM. Only the one the bridge sets is known.
+        self.params: dict[str, float] = {"WPNAV_RADIUS": 200.0} if self.flavour is Flavour.ARDUPILOT else {}
         self._boot(now)
 
     # ------------------------------------------------------------------------------ lifecycle
     def _boot(self, now: float) -> None:
         self._booting = True
         self.boot_time = now
+        self._last_tick = now
         self.offline_until = 0.0
         home = self.options.home
         self.stores: dict[int, list[WireItem]] = {MissionType.MISSION: [], MissionType.FENCE: [], MissionType.RALLY: []}
@@ -112,17 +123,23 @@ class MockVehicle:
         self.upload: _Upload | None = None
         self.last_completed: tuple[int, int, tuple[int, int]] | None = None  # type, count, peer
         self.flight = FlightSim(home, cruise_speed=self.options.cruise_speed)
+        if "WPNAV_RADIUS" in self.params:  # ArduCopter turns within WPNAV_RADIUS of every waypoint
+            self.flight.default_acceptance = max(self.params["WPNAV_RADIUS"], 5.0) / 100.0
         self._load_flight()
         self.reached: list[int] = []
-        self._last_tick = now
         self._next_heartbeat = now
         self._next_status = now
         self._next_position = now
         self.position_interval = 1.0 / self.options.telemetry_hz  # wall seconds; None: stream off
         self._photos_sent = 0
 
+    @property
+    def has_fix(self) -> bool:
+        """Whether the simulated GPS has a fix yet (before it, ArduPilot's home item reads 0, 0, 0)."""
+        return (self._last_tick - self.boot_time) * self.options.speedup >= self.options.gps_fix_after
+
     def _home_item(self) -> WireItem:
-        lat, lon, alt = self.options.home
+        lat, lon, alt = self.options.home if self.has_fix else (0.0, 0.0, 0.0)
         return WireItem(seq=0, frame=FRAME_GLOBAL, command=16, current=0, autocontinue=1, param1=0.0, param2=0.0,
                         param3=0.0, param4=0.0, x=encode_xy(FRAME_GLOBAL, lat), y=encode_xy(FRAME_GLOBAL, lon),
                         z=float(alt), mission_type=0)
@@ -140,7 +157,10 @@ class MockVehicle:
         return self.offline_until <= 0.0
 
     def mission(self, mission_type: int = MissionType.MISSION) -> list[WireItem]:
-        return list(self.stores[int(mission_type)])
+        items = list(self.stores[int(mission_type)])
+        if items and self.flavour.has_home_item(int(mission_type)):
+            items[0] = self._home_item()  # the home as it is now
+        return items
 
     @property
     def first_mission_seq(self) -> int:
@@ -334,6 +354,13 @@ class MockVehicle:
         up = self.upload
         if up is None or up.peer != peer or up.mission_type != item.mission_type:
             done = self.last_completed
+            if self.flavour is Flavour.ARDUPILOT:
+                if up is None:
+                    # ArduPilot: "mission item received while not receiving", even for a copy of the
+                    # last item of an upload that just completed (its ACCEPTED is not repeated).
+                    self.stray_item_acks += done is not None
+                    self._ack(peer, item.mission_type, ERROR)
+                return
             if done is not None and done[0] == item.mission_type and done[2] == peer and item.seq < done[1]:
                 if item.seq == done[1] - 1:
                     self._ack(peer, item.mission_type, ACCEPTED)  # the last item again: our ACK was lost
@@ -342,6 +369,9 @@ class MockVehicle:
                 self._ack(peer, item.mission_type, ERROR)  # no upload in progress (after a reboot, say)
             return
         if item.seq != len(up.received):
+            if self.flavour is Flavour.ARDUPILOT:  # ArduPilot complains about any item it did not ask for
+                self.invalid_sequence_acks += 1
+                self._ack(peer, up.mission_type, INVALID_SEQUENCE)
             return  # out of order or repeated: the timer re-requests what is missing
         result = self._check_item(item)
         if result != ACCEPTED:
@@ -363,7 +393,7 @@ class MockVehicle:
 
     def _commit(self, mission_type: int, items: list[WireItem], peer: tuple[int, int]) -> None:
         """The upload completed: the new list replaces the old one."""
-        stored = [replace(it, current=0, frame=self._stored_frame(it.frame)) for it in items]
+        stored = [self._stored(replace(it, current=0)) for it in items]
         if self.flavour.has_home_item(mission_type):
             # ArduPilot keeps its own home as item 0, whatever was uploaded there.
             stored = [self._home_item()] + stored[1:]
@@ -378,9 +408,10 @@ class MockVehicle:
         self._ack(peer, mission_type, ACCEPTED)
         self._send_mission_current()
 
-    def _stored_frame(self, frame: int) -> int:
-        # ArduPilot answers downloads with the plain frame numbers (6 comes back as 3, 5 as 0).
-        return normalize_frame(frame) if self.flavour is Flavour.ARDUPILOT else frame
+    def _stored(self, item: WireItem) -> WireItem:
+        # ArduPilot keeps what its storage has room for (bridge.mission.ardupilot_stored, measured on
+        # ArduCopter SITL: no NAV_WAYPOINT param2, frame 0 for DO_* ...); PX4 keeps what it got.
+        return ardupilot_stored(item) if self.flavour is Flavour.ARDUPILOT else item
 
     def _on_gcs_ack(self, msg: Any, peer: tuple[int, int], now: float) -> None:
         up = self.upload
@@ -407,7 +438,10 @@ class MockVehicle:
         if not 0 <= seq < len(store):
             self._ack(peer, mission_type, INVALID_SEQUENCE)
             return
-        item = replace(store[seq], seq=seq, current=1 if seq == self.flight.state.current and mission_type == 0 else 0)
+        stored = self._home_item() if seq == 0 and self.flavour.has_home_item(mission_type) else store[seq]
+        # ArduPilot marks no item current in a download; PX4 marks the one it is at.
+        current = seq == self.flight.state.current and mission_type == 0 and self.flavour is not Flavour.ARDUPILOT
+        item = replace(stored, seq=seq, current=int(current))
         if msg.get_type() == "MISSION_REQUEST":  # legacy request: legacy float item
             x = item.x / 1e7 if item.frame in GLOBAL_FRAMES else float(item.x)
             y = item.y / 1e7 if item.frame in GLOBAL_FRAMES else float(item.y)
@@ -533,6 +567,26 @@ class MockVehicle:
             return CMD_ACCEPTED
         return CMD_UNSUPPORTED
 
+    # -- parameters
+    def _send_param(self, name: str, peer: tuple[int, int]) -> None:
+        names = sorted(self.params)
+        self.mav.param_value_send(name.encode(), float(self.params[name]), 9, len(names), names.index(name))
+
+    def _on_param_read(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        name = str(msg.param_id).rstrip("\x00")
+        if name in self.params:
+            self._send_param(name, peer)  # an unknown name gets no answer, as on ArduPilot
+
+    def _on_param_set(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        name = str(msg.param_id).rstrip("\x00")
+        if name not in self.params:
+            return
+        value = float(msg.param_value)
+        self.params[name] = value  # stored as given, out of range or not (ArduCopter SITL does the same)
+        if name == "WPNAV_RADIUS":
+            self.flight.default_acceptance = max(value, 5.0) / 100.0  # AC_WPNav flies at least 5 cm
+        self._send_param(name, peer)
+
     def _send_version(self) -> None:
         self.mav.autopilot_version_send(CAPABILITIES, (4 << 24) | (6 << 16), 0, 0, 0, [0] * 8, [0] * 8, [0] * 8,
                                         0, 0, self.sysid)
@@ -551,4 +605,6 @@ _HANDLERS = {
     "SET_MODE": MockVehicle._on_set_mode,
     "COMMAND_LONG": MockVehicle._on_command,
     "COMMAND_INT": MockVehicle._on_command,
+    "PARAM_REQUEST_READ": MockVehicle._on_param_read,
+    "PARAM_SET": MockVehicle._on_param_set,
 }

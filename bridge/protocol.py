@@ -5,13 +5,17 @@ MISSION_ACK), download (MISSION_REQUEST_LIST -> MISSION_COUNT -> MISSION_REQUEST
 MISSION_ITEM_INT -> MISSION_ACK), clear-all and set-current, for every mission_type, addressed to one
 system and component and deaf to every other one on the link.
 
-Time-outs and retries: each side re-sends its last message when the answer does not come. The
-re-send interval adapts to the measured round trip (like TCP's retransmission timer: four times the
-smoothed round trip, at least `min_retry`, at most `item_timeout`, the 1.5 s QGroundControl uses), so a
-lossy loopback link is fast and a slow radio link is not flooded. A step gives up after
-`item_timeout * (retries + 1)` without progress. During an upload the vehicle drives: any request,
-in order, out of order or repeated, is answered with that item; the upload succeeds only at a
-MISSION_ACK ACCEPTED after the last item was asked for. Every MAV_MISSION_RESULT has a message.
+Time-outs and retries: each side re-sends its last message when the answer does not come. In a
+download we drive, and the re-send interval adapts to the measured round trip (like TCP's
+retransmission timer: four times the smoothed round trip, at least `min_retry`, at most
+`item_timeout`, the 1.5 s QGroundControl uses). In an upload the vehicle drives and re-requests by
+itself (ArduPilot after 1 s, PX4 after 0.25 s): any request, in order, out of order or repeated, is
+answered with that item, and we re-send on our own only after `item_timeout` of silence, so we never
+race the vehicle's re-request (ArduPilot answers an item it did not ask for with INVALID_SEQUENCE, and
+one after the end with ERROR). The upload succeeds only at a MISSION_ACK ACCEPTED after the last item
+was asked for; an ERROR or INVALID_SEQUENCE ack that arrives just after it is a stray, not a failure.
+A step gives up after `item_timeout * (retries + 1)` without progress. Every MAV_MISSION_RESULT has a
+message.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ MAV_MISSION_ACCEPTED = 0
 MAV_MISSION_ERROR = 1
 MAV_MISSION_INVALID_SEQUENCE = 13
 MAV_MISSION_OPERATION_CANCELLED = 15
+STRAY_ACK_S = 2.0  # after an upload, an ERROR / INVALID_SEQUENCE ack of its type is a late stray
 
 RESULT_TEXT: dict[int, str] = {
     0: "accepted",
@@ -61,6 +66,10 @@ class MissionTransferError(BridgeError):
     def __init__(self, message: str, result: int | None = None) -> None:
         super().__init__(message)
         self.result = result
+
+
+class UploadUnconfirmed(MissionTransferError):
+    """Every item went out, but the vehicle's final ACCEPTED was lost: a read-back decides."""
 
 
 @dataclass
@@ -102,6 +111,8 @@ class MissionClient:
         self.vehicle = vehicle
         self.timeouts = timeouts or Timeouts()
         self.timer = _RetryTimer(self.timeouts)
+        self.invalid_sequence_acks = 0  # ArduPilot's complaints about items it did not ask for
+        self._stray_until: dict[int, float] = {}  # mission_type -> end of the stray-ACK window
 
     # ------------------------------------------------------------------------------------ helpers
     @property
@@ -161,14 +172,17 @@ class MissionClient:
         send_count()
         now = time.monotonic()
         last_progress = now
-        last_sent_at = now
-        first_send: dict[int, float] = {-1: now}  # seq -> time first sent, for round-trip samples
-        timed_out: set[int] = set()
+        last_heard = now  # the vehicle's last message of this transfer
+        first_send: dict[int, float] = {}  # seq -> time first sent, for round-trip samples
         sent_seq = -1  # the last thing we sent: -1 is the count
         highest = -1
         requested_any = False
+        nudge = self.timeouts.item_timeout
         while True:
-            deadline = min(last_sent_at + self.timer.interval, last_progress + step_limit)
+            # The vehicle drives the upload and re-requests by itself (ArduPilot after 1 s, PX4 after
+            # 0.25 s): we re-send only after a whole item_timeout of silence, never racing its re-request
+            # (a copy it did not ask for earns an INVALID_SEQUENCE ack, and after the end an ERROR ack).
+            deadline = min(last_heard + nudge, last_progress + step_limit)
             msg = self._recv(deadline)
             now = time.monotonic()
             if msg is None:
@@ -180,12 +194,11 @@ class MissionClient:
                     where = "answered nothing" if not requested_any else f"stopped asking after {highest + 1} of {count} items"
                     raise MissionTransferError(f"{self._name} {where} for {step_limit:g} s during the {label} upload; "
                                                f"the upload did not complete.{self._silence_hint()}")
-                timed_out.add(sent_seq)
                 if requested_any:
-                    send_item(sent_seq)  # vehicles re-request by themselves; this only helps ones that don't
+                    send_item(sent_seq)  # only for a vehicle that does not re-request by itself
                 else:
                     send_count()
-                last_sent_at = now
+                last_heard = now
                 continue
             kind = msg.get_type()
             if kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
@@ -195,7 +208,8 @@ class MissionClient:
                 if not 0 <= seq < count:
                     # A request from an earlier, longer transfer can arrive late; only a fresh one is an error.
                     continue
-                if seq == sent_seq + 1 and sent_seq not in timed_out and sent_seq in first_send:
+                last_heard = now
+                if seq == sent_seq + 1 and sent_seq in first_send and seq not in first_send:
                     self.timer.sample(now - first_send[sent_seq])
                 requested_any = True
                 if seq > highest:
@@ -206,29 +220,44 @@ class MissionClient:
                 first_send.setdefault(seq, now)
                 send_item(seq)
                 sent_seq = seq
-                last_sent_at = now
             elif kind == "MISSION_ACK":
                 if int(getattr(msg, "mission_type", 0)) != mission_type:
                     continue
                 result = int(msg.type)
                 if result == MAV_MISSION_ACCEPTED:
                     if count == 0 or highest == count - 1:
+                        self._stray_until[mission_type] = now + STRAY_ACK_S
                         if progress is not None:
                             progress(count, count)
                         return
                     continue  # a late ACCEPTED from an earlier transfer
+                if result in (MAV_MISSION_ERROR, MAV_MISSION_INVALID_SEQUENCE) and self._stray(mission_type, now) \
+                        and not requested_any:
+                    continue  # the late answer to a stray copy of the previous upload's items
                 if result == MAV_MISSION_INVALID_SEQUENCE and requested_any:
+                    self.invalid_sequence_acks += 1
                     continue  # ArduPilot's mid-upload complaint about a repeated item: not the end
                 if self._rebooted_since(start_reboots):
                     raise MissionTransferError(f"{self._name} rebooted during the {label} upload (after {highest + 1} of "
                                                f"{count} items) and answered: {result_text(result)}; the upload did not "
                                                "complete", result)
+                if result == MAV_MISSION_ERROR and count > 0 and highest == count - 1:
+                    # ArduPilot answers an item it no longer expects with ERROR: our copy of the last
+                    # item came after it had completed, and its ACCEPTED was lost. Only a read-back tells,
+                    # and more such ERRORs (a duplicate, an answer to a nudge) may still be on their way.
+                    self._stray_until[mission_type] = now + STRAY_ACK_S
+                    raise UploadUnconfirmed(f"{self._name} received every {label} item but its acknowledgement was "
+                                            "lost; only a read-back can tell whether it holds the upload", result)
                 if result == MAV_MISSION_ERROR and requested_any:
                     raise MissionTransferError(f"{self._name} dropped the {label} upload after {highest + 1} of {count} "
                                                "items (MAV_MISSION_ERROR: it no longer knows this transfer; did it "
                                                "reboot?); the upload did not complete", result)
                 raise MissionTransferError(f"{self._name} refused the {label} upload after {highest + 1} of {count} "
                                            f"items: {result_text(result)}", result)
+
+    def _stray(self, mission_type: int, now: float) -> bool:
+        """Within the window after an upload of this type in which stray error ACKs may still arrive."""
+        return now < self._stray_until.get(mission_type, 0.0)
 
     # ----------------------------------------------------------------------------------- download
     def download(self, mission_type: int, progress: ProgressFn | None = None) -> list[WireItem]:
@@ -284,6 +313,8 @@ class MissionClient:
                 return msg
             if msg.get_type() == "MISSION_ACK" and int(getattr(msg, "mission_type", 0)) == mission_type:
                 result = int(msg.type)  # type: ignore[attr-defined]
+                if result in (MAV_MISSION_ERROR, MAV_MISSION_INVALID_SEQUENCE) and self._stray(mission_type, now):
+                    continue  # a late answer to a stray item of the upload that just completed
                 if result not in (MAV_MISSION_ACCEPTED, MAV_MISSION_OPERATION_CANCELLED):
                     # OPERATION_CANCELLED can be a late answer to an earlier transfer; ACCEPTED likewise.
                     raise MissionTransferError(f"{self._name} refused to send {what}: {result_text(result)}", result)
@@ -316,4 +347,4 @@ class MissionClient:
                        f"MISSION_CURRENT {seq}", MissionType.MISSION)
 
 
-__all__ = ["MissionClient", "MissionTransferError", "Timeouts", "result_text", "RESULT_TEXT"]
+__all__ = ["MissionClient", "MissionTransferError", "UploadUnconfirmed", "Timeouts", "result_text", "RESULT_TEXT"]

@@ -5,9 +5,11 @@ Owns:
   one vehicle), with two implementations: PymavlinkBackend here and MavsdkBackend in mavsdk_backend;
 - open_backend: connect by URL, find the vehicle by system id, learn its flavour;
 - read_back_differences: download a list and compare it with what was sent;
-- upload_plan: turn the mission (and fence / rally lists, if any) into the vehicle's wire items by
-  flavour, upload each, read each back and compare item by item (ArduPilot's item 0 is its home and
-  is skipped). It succeeds only when the vehicle holds exactly what was sent.
+- upload_plan: turn the mission, fence and rally lists into the vehicle's wire items by flavour,
+  upload each (clear the fence / rally when the file has none), read each back and compare item by
+  item by the flavour's rule (ArduPilot's item 0 is its home and is skipped). It succeeds only when
+  the vehicle holds exactly what was sent. It also sets the parameters the vehicle needs to fly the
+  plan as written (bridge.params: WPNAV_RADIUS on ArduCopter), unless told not to.
 """
 
 from __future__ import annotations
@@ -20,7 +22,11 @@ from typing import Protocol
 from .errors import BridgeError, BridgeUsageError
 from .link import AUTOPILOT_COMPONENT_ID, Link, VehicleInfo, wait_vehicle
 from .mission import Mission, MissionType, WireItem, compare_wire, from_wire, to_wire
-from .protocol import MissionClient, ProgressFn, Timeouts
+
+MAV_MISSION_UNSUPPORTED = 3
+PLAN_TYPES = (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY)
+from .params import ParamClient, ParamSetting, acceptance_radius_setting, set_param
+from .protocol import MissionClient, MissionTransferError, ProgressFn, Timeouts, UploadUnconfirmed
 from .signing import SigningKey
 
 BACKENDS = ("pymavlink", "mavsdk")
@@ -39,6 +45,8 @@ class MissionBackend(Protocol):
     def clear(self, mission_type: int = MissionType.MISSION) -> None: ...
 
     def set_current(self, seq: int) -> None: ...
+
+    def set_param(self, name: str, value: float) -> tuple[float | None, float]: ...
 
     def close(self) -> None: ...
 
@@ -70,6 +78,9 @@ class PymavlinkBackend:
 
     def set_current(self, seq: int) -> None:
         self.client.set_current(seq)
+
+    def set_param(self, name: str, value: float) -> tuple[float | None, float]:
+        return set_param(ParamClient(self.link, self.vehicle), name, value)
 
     def close(self) -> None:
         self.link.close()
@@ -105,6 +116,7 @@ class PartReport:
     wire_items: int     # items on the wire (with the home placeholder)
     verified: bool
     read_back_by: str = ""
+    unsupported: bool = False  # the vehicle has no such list (MAV_MISSION_UNSUPPORTED): it holds none
 
 
 @dataclass
@@ -113,6 +125,7 @@ class UploadReport:
     flavour: str
     backend: str
     parts: list[PartReport] = field(default_factory=list)
+    params: list[str] = field(default_factory=list)  # parameters set, each described in one phrase
     seconds: float = 0.0
 
     @property
@@ -125,14 +138,16 @@ class UploadReport:
 
     def summary(self) -> str:
         """The final line the CLI prints."""
-        counts = ", ".join(f"{p.items} {p.mission_type.label}" for p in self.parts)
+        counts = ", ".join(f"{p.items} {p.mission_type.label}" if p.items or p.mission_type == MissionType.MISSION
+                           else f"no {p.mission_type.label}" for p in self.parts)
         if self.verified:
-            readers = sorted({p.read_back_by for p in self.parts})
+            readers = sorted({p.read_back_by for p in self.parts if p.read_back_by})
             how = f"verified by read-back ({' and '.join(readers)})"
         else:
             how = "not verified (--no-verify)"
+        params = "".join(f"; set {text}" for text in self.params)
         return (f"uploaded {self.items} items ({counts}) to vehicle {self.sysid} ({self.flavour}, {self.backend}); "
-                f"{how}; {self.seconds:.2f} s")
+                f"{how}{params}; {self.seconds:.2f} s")
 
 
 ProgressFactory = Callable[[str, int], ProgressFn | None]  # (label, total) -> progress callback
@@ -140,34 +155,78 @@ ProgressFactory = Callable[[str, int], ProgressFn | None]  # (label, total) -> p
 
 def read_back_differences(backend: MissionBackend, mission_type: int, wire: list[WireItem],
                           progress: ProgressFn | None = None) -> list[str]:
-    """Download what the vehicle holds and compare it with `wire` item by item (ArduPilot's own home
-    item skipped); an empty list when it holds exactly that."""
+    """Download what the vehicle holds and compare it with `wire` item by item by the flavour's rule
+    (bridge.mission.stored_form; ArduPilot's own home item skipped); an empty list when it holds
+    exactly that."""
     got = backend.download(mission_type, progress)
-    return compare_wire(wire, got, skip_home=backend.vehicle.flavour.has_home_item(mission_type))
+    flavour = backend.vehicle.flavour
+    return compare_wire(wire, got, skip_home=flavour.has_home_item(mission_type), flavour=flavour)
+
+
+def plan_parts(parts: list[Mission]) -> list[Mission]:
+    """Mission, fence and rally, in that order: the lists given, and an empty one for each type missing
+    (an upload leaves the vehicle holding exactly the file's three lists, so a missing one is cleared)."""
+    by_type = {MissionType(p.mission_type): p for p in parts}
+    return [by_type.get(t, Mission(mission_type=t)) for t in PLAN_TYPES]
+
+
+def _send_part(backend: MissionBackend, mtype: MissionType, part: Mission, wire: list[WireItem],
+               progress: ProgressFactory | None) -> tuple[bool, bool]:
+    """Upload (or, for an empty fence / rally, clear) one list: (unsupported, unconfirmed)."""
+    try:
+        if not part.items and mtype != MissionType.MISSION:
+            backend.clear(mtype)
+        else:
+            backend.upload(mtype, wire, progress(f"upload {mtype.label}", len(wire)) if progress else None)
+    except UploadUnconfirmed:
+        return False, True
+    except MissionTransferError as err:
+        if not part.items and err.result == MAV_MISSION_UNSUPPORTED:
+            return True, False  # a vehicle without fences (rally points) holds none: that is what was asked
+        raise
+    return False, False
+
+
+def set_plan_params(backend: MissionBackend, mission: Mission) -> list[str]:
+    """Set what the vehicle needs to fly `mission` as written (bridge.params: WPNAV_RADIUS on an
+    ArduPilot multirotor); one phrase per parameter set, for the report."""
+    setting: ParamSetting | None = acceptance_radius_setting(backend.vehicle, mission)
+    if setting is None:
+        return []
+    old, _ = backend.set_param(setting.name, setting.value)
+    return [setting.describe(old)]
 
 
 def upload_plan(backend: MissionBackend, parts: list[Mission], verify: bool = True,
-                progress: ProgressFactory | None = None) -> UploadReport:
-    """Upload each part (mission, fence, rally) and, with verify, prove the vehicle holds it exactly."""
+                progress: ProgressFactory | None = None, set_params: bool = True) -> UploadReport:
+    """Upload mission, fence and rally (an absent or empty fence / rally list is cleared on the vehicle)
+    and, with verify, prove by read-back that the vehicle holds exactly those three lists, by the
+    flavour's rule (bridge.mission.stored_form). With set_params, first set what the vehicle needs to
+    fly the plan as written (bridge.params: WPNAV_RADIUS on ArduCopter)."""
     start = time.monotonic()
     vehicle = backend.vehicle
     report = UploadReport(sysid=vehicle.sysid, flavour=vehicle.flavour.value, backend=backend.name)
+    parts = plan_parts(parts)
+    if set_params:
+        report.params = set_plan_params(backend, parts[0])
     for part in parts:
         mtype = MissionType(part.mission_type)
         wire = to_wire(part, vehicle.flavour)
-        label = f"upload {mtype.label}"
-        backend.upload(mtype, wire, progress(label, len(wire)) if progress else None)
+        unsupported, unconfirmed = _send_part(backend, mtype, part, wire, progress)
         verified = False
         reader = ""
-        if verify:
+        if (verify or unconfirmed) and not unsupported:
             problems = read_back_differences(backend, mtype, wire,
                                              progress(f"verify {mtype.label}", len(wire)) if progress else None)
             if problems:
-                raise VerifyError(f"vehicle {vehicle.sysid} accepted the {mtype.label} but holds something else: "
+                what = "accepted the" if not unconfirmed else "did not confirm the"
+                raise VerifyError(f"vehicle {vehicle.sysid} {what} {mtype.label} but holds something else: "
                                   + "; ".join(problems))
-            verified = True
-            reader = getattr(backend, "read_back_by", backend.name)
-        report.parts.append(PartReport(mtype, len(part.items), len(wire), verified, reader))
+            verified = verify
+            reader = getattr(backend, "read_back_by", backend.name) if verify else ""
+        elif verify:
+            verified = True  # the vehicle has no such list at all, and none was asked for
+        report.parts.append(PartReport(mtype, len(part.items), len(wire), verified, reader, unsupported))
     report.seconds = time.monotonic() - start
     return report
 

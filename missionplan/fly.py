@@ -32,7 +32,7 @@ from bridge.errors import BridgeError, BridgeUsageError
 from bridge.mission import Flavour, to_wire
 from bridge.missionfile import read_mission_file
 from bridge.protocol import Timeouts
-from bridge.uploader import MissionBackend, open_backend, read_back_differences, upload_plan
+from bridge.uploader import MissionBackend, open_backend, read_back_differences, set_plan_params, upload_plan
 
 from .flight_report import DroneRecord, FlightResult, judge
 
@@ -114,6 +114,7 @@ class _DroneFlight:
                 if differences:
                     raise BridgeError("the mission MAVSDK read from the .plan and uploaded differs from ours: "
                                       + "; ".join(differences))
+                set_plan_params(self.backend, plan.mission)  # WPNAV_RADIUS: MAVSDK sets no parameters
             else:
                 upload_plan(self.backend, plan.parts(), verify=True)
             rec.uploaded = True

@@ -50,7 +50,7 @@ def test_mavsdk_own_transport_uploads_and_downloads_to_the_mock(flavour: str, au
             wire = to_wire(mission, Flavour(flavour))
             plugin.upload_mission([RawItem(**w.fields()) for w in wire])
             held = mock.mission(2)
-            assert compare_wire(wire, held, skip_home=flavour == "ardupilot") == []
+            assert compare_wire(wire, held, skip_home=flavour == "ardupilot", flavour=Flavour(flavour)) == []
             assert mock.mission(1) == mock.mission(1)[:1]  # sysid 1 untouched (only home, or nothing)
             got = plugin.download_mission()
             assert len(got) == len(wire)
@@ -65,8 +65,10 @@ def test_mavsdk_backend_over_tcp_with_fence() -> None:
     with MockAutopilot(listen="tcpin:127.0.0.1:0", flavour="px4", request_interval=0.05) as mock:
         with open_backend("mavsdk", mock.client_url, 1, timeouts=Timeouts(item_timeout=0.3), connect_timeout=5) as b:
             report = upload_plan(b, [survey(30), fence])
-            assert report.verified and [p.read_back_by for p in report.parts] == ["mavsdk", "mavsdk"]
-        assert len(mock.mission(1)) == 30 and len(mock.mission(1, 1)) == 1
+            # The file has no rally points: the vehicle's are cleared, and that is read back too.
+            assert report.verified and [p.read_back_by for p in report.parts] == ["mavsdk", "mavsdk", "mavsdk"]
+            assert [p.items for p in report.parts] == [30, 1, 0]
+        assert len(mock.mission(1)) == 30 and len(mock.mission(1, 1)) == 1 and mock.mission(1, 2) == []
 
 
 def test_our_uploader_against_mavsdk_mission_raw_server() -> None:
@@ -104,3 +106,11 @@ def test_our_uploader_against_mavsdk_mission_raw_server() -> None:
             assert compare_wire(sent, b.download(0), skip_home=False) == []
     finally:
         sdk.destroy()
+
+
+def test_mavsdk_backend_to_an_ardupilot_vehicle_verifies_by_its_rule_and_sets_wpnav_radius() -> None:
+    with MockAutopilot(flavour="ardupilot", request_interval=0.05) as mock:
+        with open_backend("mavsdk", mock.client_url, 1, timeouts=Timeouts(item_timeout=0.3), connect_timeout=5) as b:
+            report = upload_plan(b, [survey(20)])
+        assert report.verified and report.params and report.params[0].startswith("WPNAV_RADIUS = ")
+        assert mock.vehicle(1).params["WPNAV_RADIUS"] != 200.0 and len(mock.mission(1)) == 21

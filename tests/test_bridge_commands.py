@@ -46,7 +46,10 @@ def test_upload_plan_and_waypoints_then_download(tmp_path: Path, mock: MockAutop
     write_plan(plan_path, PlanFile(mission=_mission()))
     assert run(["upload", str(plan_path), "--sysid", "1", "--connect", mock.client_url] + FAST) == 0
     out = capsys.readouterr().out.strip().splitlines()
-    assert out[-1].startswith("uploaded 14 items (14 mission) to vehicle 1 (ardupilot, pymavlink); verified by read-back")
+    assert out[-1].startswith("uploaded 14 items (14 mission, no fence, no rally) to vehicle 1 (ardupilot, pymavlink); "
+                              "verified by read-back (pymavlink); set WPNAV_RADIUS = 100 cm (was 200): the plan's "
+                              "acceptance radius (ArduCopter ignores the waypoints' param2)")
+    assert mock.vehicle(1).params["WPNAV_RADIUS"] == 100.0
     wp_path = tmp_path / "m.waypoints"
     write_waypoints(wp_path, _mission(5))
     assert run(["upload", str(wp_path), "--sysid", "2", "--connect", mock.client_url] + FAST) == 0

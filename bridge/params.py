@@ -1,0 +1,134 @@
+"""Vehicle parameters over MAVLink, and the one the mission upload sets: ArduCopter's WPNAV_RADIUS.
+
+Owns:
+- ParamClient: read one parameter (PARAM_REQUEST_READ -> PARAM_VALUE) and set one (PARAM_SET, proved
+  by the PARAM_VALUE the vehicle answers with), with retries and a bound, for one vehicle on a Link;
+- acceptance_radius_setting: what the upload does about a plan's waypoint acceptance radius. ArduCopter
+  does not store NAV_WAYPOINT's param2 (bridge.mission.ARDUPILOT_UNSTORED_PARAMS): it turns at every
+  waypoint when within WPNAV_RADIUS (cm, default 200, legal range 5..1000). So for an ArduPilot
+  multirotor the plan's radius (the smallest positive param2 of its waypoints) goes to WPNAV_RADIUS,
+  clamped to that range. PX4 and other autopilots read param2 per waypoint: nothing to set.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from .errors import BridgeError
+from .link import Link, VehicleInfo
+from .mission import CMD_NAV_WAYPOINT, Flavour, Mission
+
+MAV_PARAM_TYPE_REAL32 = 9
+PARAM_TRIES = 5
+PARAM_WAIT_S = 1.0  # per try: ArduPilot answers within a few ms, a radio within a second
+
+WPNAV_RADIUS = "WPNAV_RADIUS"
+WPNAV_RADIUS_RANGE_CM = (5.0, 1000.0)  # ArduCopter's AC_WPNav: @Range 5 1000, minimum 5 cm
+# MAV_TYPE of the multirotors ArduCopter flies (quad, coaxial, helicopter, hexa, octo, tri, dodeca,
+# deca): they all navigate with AC_WPNav.
+MULTIROTOR_TYPES = frozenset({2, 3, 4, 13, 14, 15, 29, 35})
+
+
+def _f32(value: float) -> float:
+    return struct.unpack("<f", struct.pack("<f", value))[0]
+
+
+class ParamClient:
+    """Parameter get / set with one vehicle over a Link (one thread at a time, like MissionClient)."""
+
+    def __init__(self, link: Link, vehicle: VehicleInfo) -> None:
+        self.link = link
+        self.vehicle = vehicle
+
+    def _await_value(self, name: str, send: Callable[[], None], tries: int, wait_s: float,
+                     wanted: Callable[[float], bool] = lambda value: True) -> tuple[float | None, bool]:
+        """Send, re-send up to `tries` times, until a PARAM_VALUE for `name` passes `wanted`:
+        (the last value heard, or None; whether it passed). A value that does not pass may be a late
+        answer to an earlier request (a duplicate, a retry), so it does not end the wait."""
+        last: float | None = None
+        for _ in range(tries):
+            send()
+            deadline = time.monotonic() + wait_s
+            while (msg := self.link.recv(deadline)) is not None:
+                if msg.get_srcSystem() != self.vehicle.sysid or msg.get_type() != "PARAM_VALUE":
+                    continue
+                if str(msg.param_id).rstrip("\x00") == name:
+                    last = float(msg.param_value)
+                    if wanted(last):
+                        return last, True
+        return last, False
+
+    def get(self, name: str, tries: int = PARAM_TRIES, wait_s: float = PARAM_WAIT_S) -> float:
+        mav, sysid, compid = self.link.mav, self.vehicle.sysid, self.vehicle.compid
+        value, _ = self._await_value(name, lambda: mav.param_request_read_send(sysid, compid, name.encode(), -1),
+                                     tries, wait_s)
+        if value is None:
+            raise BridgeError(f"vehicle {sysid} did not answer for parameter {name} ({tries} tries, {wait_s:g} s each)")
+        return value
+
+    def set(self, name: str, value: float, tries: int = PARAM_TRIES, wait_s: float = PARAM_WAIT_S) -> float:
+        """Set and return the value the vehicle then reports; BridgeError when it keeps another one."""
+        mav, sysid, compid = self.link.mav, self.vehicle.sysid, self.vehicle.compid
+        target = _f32(value)
+        got, ok = self._await_value(
+            name, lambda: mav.param_set_send(sysid, compid, name.encode(), float(value), MAV_PARAM_TYPE_REAL32),
+            tries, wait_s, lambda v: math.isclose(v, target, rel_tol=1e-6, abs_tol=1e-6))
+        if got is None:
+            raise BridgeError(f"vehicle {sysid} did not answer for parameter {name} ({tries} tries, {wait_s:g} s each)")
+        if not ok:
+            raise BridgeError(f"vehicle {sysid} kept {name} = {got:g} when set to {value:g}")
+        return got
+
+
+def set_param(client: ParamClient, name: str, value: float) -> tuple[float | None, float]:
+    """(the value before, or None if it could not be read; the value the vehicle reports now)."""
+    try:
+        old: float | None = client.get(name, tries=2)
+    except BridgeError:
+        old = None
+    return old, client.set(name, value)
+
+
+@dataclass(frozen=True)
+class ParamSetting:
+    """A parameter the upload sets so that the vehicle flies the plan as written."""
+
+    name: str
+    value: float       # what is sent (after clamping to the legal range)
+    wanted: float      # what the plan asked for, in the parameter's unit
+    unit: str
+    why: str
+
+    @property
+    def clamped(self) -> bool:
+        return not math.isclose(self.value, round(self.wanted), abs_tol=1e-9)
+
+    def describe(self, old: float | None = None) -> str:
+        was = f" (was {old:g})" if old is not None and not math.isclose(old, self.value, abs_tol=1e-6) else ""
+        clamp = f", clamped from {self.wanted:g}" if self.clamped else ""
+        return f"{self.name} = {self.value:g} {self.unit}{was}{clamp}: {self.why}"
+
+
+def plan_acceptance_radius(mission: Mission) -> float | None:
+    """The smallest positive acceptance radius (NAV_WAYPOINT param2, metres) of the mission, if any."""
+    radii = [it.param2 for it in mission.items
+             if it.command == CMD_NAV_WAYPOINT and math.isfinite(it.param2) and it.param2 > 0]
+    return min(radii) if radii else None
+
+
+def acceptance_radius_setting(vehicle: VehicleInfo, mission: Mission) -> ParamSetting | None:
+    """WPNAV_RADIUS for an ArduPilot multirotor from the plan's acceptance radius; None otherwise."""
+    if vehicle.flavour is not Flavour.ARDUPILOT or vehicle.mav_type not in MULTIROTOR_TYPES:
+        return None
+    radius_m = plan_acceptance_radius(mission)
+    if radius_m is None:
+        return None
+    wanted = round(radius_m * 100.0)  # the parameter moves in whole centimetres
+    low, high = WPNAV_RADIUS_RANGE_CM
+    value = float(min(max(wanted, low), high))
+    return ParamSetting(WPNAV_RADIUS, value, radius_m * 100.0, "cm",
+                        "the plan's acceptance radius (ArduCopter ignores the waypoints' param2)")

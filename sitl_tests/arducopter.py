@@ -1,0 +1,235 @@
+"""Real ArduCopter SITL for the tests: start instances, find free ports, stop them whatever happens.
+
+The binary and its default parameters live beside the repository (`../shared/sitl/arducopter`,
+`../shared/sitl/copter.parm`, read in place, never copied). Each instance runs in its own
+`tempfile.mkdtemp()` folder (it writes eeprom.bin, terrain/ and logs/ there), in its own session
+(`start_new_session=True`) so that teardown kills its whole process group, with `-w` (wiped
+parameters and mission) and `--speedup`.
+
+Ports: instance I listens on TCP 5760 + 10·I (serial0; serial1 / serial2 on +2 / +3) and binds UDP
+5501 + 10·I (RC input). Other test runs on this machine start SITL too, so an instance number is
+used only when all of those were free a moment ago, and an instance that dies at start (a port
+taken between the probe and the bind) is retried on the next free number.
+
+Readiness: just after start ArduCopter reports a mission of 0 items and refuses uploads with
+NO_SPACE until its mission store is loaded; start() waits for that (wait_mission_ready).
+
+Reuse: `ArduCopter(...)` is one vehicle; `serial0` picks how it talks: `tcp:0` (the default: we
+connect to `tcp:127.0.0.1:PORT`, see `.url`) or `udpclient:127.0.0.1:PORT` (it sends to a ground
+station listening there, `.gcs_url`: several vehicles, each with its own sysid, into one `udpin:`
+port, as a fleet flies; start them with wait=False and call wait_mission_ready on the shared link).
+`sitl_or_skip()` skips a test with a reason when the binary is absent.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+SITL_DIR = REPO.parent / "shared" / "sitl"
+BINARY = SITL_DIR / "arducopter"
+DEFAULTS = SITL_DIR / "copter.parm"
+SPEEDUP = 10  # stable on 2 shared cores (the SITL README)
+FIRST_INSTANCE = 20  # stay clear of the usual 0..9 a person would start by hand
+MAX_INSTANCE = 120
+
+
+def sitl_or_skip() -> Path:
+    """The SITL binary, or skip the calling test saying why."""
+    if not (BINARY.is_file() and os.access(BINARY, os.X_OK)):
+        pytest.skip(f"ArduCopter SITL not found at {BINARY} (see ../shared/sitl/README.md)")
+    return BINARY
+
+
+def _tcp_free(port: int) -> bool:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        try:
+            sock.bind(("0.0.0.0", port))  # SITL binds every interface
+        except OSError:
+            return False
+    return True
+
+
+def _udp_free(port: int) -> bool:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        try:
+            sock.bind(("0.0.0.0", port))
+        except OSError:
+            return False
+    return True
+
+
+def instance_free(instance: int) -> bool:
+    """Whether every port instance I would bind is free now."""
+    base = 5760 + 10 * instance
+    return all(_tcp_free(p) for p in (base, base + 2, base + 3)) and _udp_free(5501 + 10 * instance)
+
+
+def free_instance(start: int = FIRST_INSTANCE, skip: set[int] | None = None) -> int:
+    """The first instance number from `start` whose ports are all free (spread by pid across runs)."""
+    skip = skip or set()
+    span = MAX_INSTANCE - FIRST_INSTANCE
+    offset = (os.getpid() * 7) % span  # two test runs started together probe different numbers first
+    for k in range(span):
+        instance = FIRST_INSTANCE + (start - FIRST_INSTANCE + offset + k) % span
+        if instance not in skip and instance_free(instance):
+            return instance
+    raise RuntimeError(f"no free SITL instance number in {FIRST_INSTANCE}..{MAX_INSTANCE - 1}")
+
+
+def wait_mission_ready(link: object, sysid: int, timeout: float = 30.0) -> None:
+    """Until vehicle sysid reports a mission of at least its home item. Just after start ArduCopter
+    answers MISSION_COUNT 0 and refuses uploads with NO_SPACE: its mission store is not loaded yet."""
+    from bridge.link import wait_vehicle
+
+    deadline = time.monotonic() + timeout
+    wait_vehicle(link, sysid, timeout=timeout)  # type: ignore[arg-type]
+    while time.monotonic() < deadline:
+        link.mav.mission_request_list_send(sysid, 1, 0)  # type: ignore[attr-defined]
+        wait_until = min(time.monotonic() + 0.2, deadline)
+        while (msg := link.recv(wait_until)) is not None:  # type: ignore[attr-defined]
+            if msg.get_srcSystem() == sysid and msg.get_type() == "MISSION_COUNT":
+                if int(msg.count) >= 1:
+                    return
+                break
+        time.sleep(0.05)
+    raise RuntimeError(f"ArduCopter SITL system {sysid} did not load its mission store within {timeout:g} s")
+
+
+class ArduCopter:
+    """One ArduCopter SITL process. Use as a context manager, or start() / stop()."""
+
+    def __init__(self, sysid: int = 1, home: tuple[float, float, float, float] = (45.4643, 9.1895, 120.0, 0.0),
+                 speedup: int = SPEEDUP, serial0: str = "tcp:0", extra_args: tuple[str, ...] = ()) -> None:
+        self.sysid = sysid
+        self.home = home
+        self.speedup = speedup
+        self.serial0 = serial0
+        self.extra_args = extra_args
+        self.instance = -1
+        self.workdir: Path | None = None
+        self.proc: subprocess.Popen[bytes] | None = None
+
+    @property
+    def tcp_port(self) -> int:
+        return 5760 + 10 * self.instance
+
+    @property
+    def url(self) -> str:
+        """Our pymavlink connection string for serial0 = tcp:0."""
+        return f"tcp:127.0.0.1:{self.tcp_port}"
+
+    def command(self) -> list[str]:
+        lat, lon, alt, heading = self.home
+        return [str(BINARY), "--model", "+", "--speedup", str(self.speedup),
+                "--home", f"{lat},{lon},{alt},{heading}", "--defaults", str(DEFAULTS),
+                "--sysid", str(self.sysid), "-w", "-I", str(self.instance), "--serial0", self.serial0,
+                *self.extra_args]
+
+    def start(self, attempts: int = 4, bind_wait: float = 10.0, wait: bool = True) -> ArduCopter:
+        """Start on a free instance number; with wait, return once its mission store is loaded."""
+        sitl_or_skip()
+        tried: set[int] = set()
+        for _ in range(attempts):
+            self.instance = free_instance(skip=tried)
+            tried.add(self.instance)
+            self.workdir = Path(tempfile.mkdtemp(prefix=f"arducopter-{self.sysid}-"))
+            log = open(self.workdir / "sitl.log", "wb")  # noqa: SIM115 (closed with the process)
+            self.proc = subprocess.Popen(self.command(), cwd=self.workdir, stdout=log, stderr=subprocess.STDOUT,
+                                         stdin=subprocess.DEVNULL, start_new_session=True)
+            log.close()
+            if self._wait_bound(bind_wait):
+                if wait:
+                    self.wait_ready()
+                return self
+            self.stop()
+        raise RuntimeError(f"ArduCopter SITL did not start after {attempts} tries (instances {sorted(tried)})")
+
+    @property
+    def gcs_url(self) -> str:
+        """Where a ground station reaches it: tcp:127.0.0.1:PORT, or udpin:HOST:PORT for udpclient."""
+        if self.serial0.startswith("udpclient:"):
+            return "udpin:" + self.serial0.split(":", 1)[1]
+        return self.url
+
+    def wait_ready(self, timeout: float = 30.0) -> None:
+        """Until its mission store is loaded: we connect (or, for udpclient, listen), ask, and let go.
+        A caller that already holds the vehicle's udpin port uses wait_mission_ready on its own link."""
+        from bridge.link import Link
+
+        with Link(self.gcs_url) as link:
+            wait_mission_ready(link, self.sysid, timeout)
+
+    def _wait_bound(self, timeout: float) -> bool:
+        """Until SITL says it listens (tcp) or has started (udpclient); False if it died first."""
+        assert self.proc is not None and self.workdir is not None
+        deadline = time.monotonic() + timeout
+        marker = b"SERIAL0 on TCP port" if self.serial0.startswith("tcp") else b"Starting sketch"
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                return False
+            if marker in self.log_bytes():
+                return True
+            time.sleep(0.05)
+        return False
+
+    def log_bytes(self) -> bytes:
+        try:
+            return (self.workdir / "sitl.log").read_bytes() if self.workdir else b""
+        except OSError:
+            return b""
+
+    def stop(self) -> None:
+        """Kill the whole process group (SIGTERM, then SIGKILL), then remove its folder."""
+        proc, self.proc = self.proc, None
+        if proc is None:
+            return
+        if proc.poll() is None:
+            for sig, wait in ((signal.SIGTERM, 3.0), (signal.SIGKILL, 3.0)):
+                try:
+                    os.killpg(proc.pid, sig)
+                except ProcessLookupError:
+                    break
+                try:
+                    proc.wait(wait)
+                    break
+                except subprocess.TimeoutExpired:
+                    continue
+        else:
+            proc.wait()
+        if self.workdir is not None:
+            shutil.rmtree(self.workdir, ignore_errors=True)
+
+    def __enter__(self) -> ArduCopter:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+
+@pytest.fixture()
+def arducopter():
+    """A factory: arducopter(sysid=..., home=..., serial0=..., wait=...) starts an instance (ready for
+    missions unless wait=False), stopped at teardown, even when the test fails."""
+    started: list[ArduCopter] = []
+
+    def start(wait: bool = True, **kwargs: object) -> ArduCopter:
+        vehicle = ArduCopter(**kwargs)  # type: ignore[arg-type]
+        started.append(vehicle)
+        return vehicle.start(wait=wait)
+
+    sitl_or_skip()
+    try:
+        yield start
+    finally:
+        for vehicle in started:
+            vehicle.stop()
