@@ -23,7 +23,7 @@ from .atomic import write_text_atomic
 from .corrector import CorrectedPath, correct_path
 from .missions import DroneMission, MissionSettings, build_mission
 from .pipeline import PlanResult
-from .timeline import FlightModel, closest_approach, planned_track
+from .timeline import ASSUMES, FlightModel, closest_approach, planned_track
 from .world import FOOTPRINT_RADIUS
 
 
@@ -37,8 +37,7 @@ class FlightPlans:
 
     def separation(self) -> dict[str, Any]:
         """report.json's `separation`: the closest approach of two drones if all fly as planned."""
-        return {**closest_approach(self.timed), "assumes": "all missions start together; straight legs at the "
-                "cruise speed, waypoints reached at their acceptance radius; climb 2.5 m/s, descent 1.5 m/s"}
+        return {**closest_approach(self.timed), "assumes": ASSUMES}
 
     def report(self) -> list[dict[str, Any]]:
         """report.json's `drones`: one object per drone."""

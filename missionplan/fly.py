@@ -227,8 +227,11 @@ class _DroneFlight:
 
 def fly(plan_dir: Path, connect: str, timeout_s: float = 600.0, progress: bool = True,
         time_scale: float | None = None, telemetry_hz: float = DEFAULT_TELEMETRY_HZ,
-        upload_with: str = "missionplan") -> FlightResult:
+        upload_with: str = "missionplan", photos_from_track: bool = False) -> FlightResult:
     """Upload, verify, arm, start and follow every drone of plan_dir at once; write flight.json/.png.
+
+    photos_from_track: count a photo every trigger distance along the track of a vehicle that reports
+    none (no CAMERA_FEEDBACK); without it such a flight is judged a failure (flight_report.judge).
 
     upload_with="mavsdk": MAVSDK's QGroundControl importer reads each .plan and MAVSDK uploads it;
     the read-back must then equal what our own reader makes of the same file."""
@@ -267,7 +270,8 @@ def fly(plan_dir: Path, connect: str, timeout_s: float = 600.0, progress: bool =
             thread.join(2.0)
         for bar in bars.values():
             bar.close()
-    return judge(plan_dir, report, records, time_scale, wall_s=time.monotonic() - start, telemetry_hz=telemetry_hz)
+    return judge(plan_dir, report, records, time_scale, wall_s=time.monotonic() - start, telemetry_hz=telemetry_hz,
+                 photos_from_track=photos_from_track)
 
 
 def start_mock_fleet(plan_dir: Path, speedup: float, flavour: str = "ardupilot", faults: Any = None) -> Any:
@@ -314,7 +318,8 @@ def cmd_fly(args: Any) -> int:
     if not (Path(args.dir) / "report.json").is_file():
         raise BridgeUsageError(f"{args.dir}: no report.json (run `missionplan plan --out {args.dir}` first)")
     result = fly(Path(args.dir), args.connect, timeout_s=args.timeout, progress=not args.quiet,
-                 time_scale=args.time_scale, telemetry_hz=args.telemetry_hz, upload_with=args.upload_with)
+                 time_scale=args.time_scale, telemetry_hz=args.telemetry_hz, upload_with=args.upload_with,
+                 photos_from_track=args.photos_from_track)
     print_flight(result)
     return 0 if result.ok else 1
 
@@ -335,5 +340,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--upload-with", choices=UPLOADERS, default="missionplan",
                    help="who reads the .plan files and uploads them: our reader and uploader (default), or "
                         "MAVSDK's QGroundControl importer and MissionRaw (checked against ours by read-back)")
+    p.add_argument("--photos-from-track", action="store_true",
+                   help="a vehicle that reports no photos (no CAMERA_FEEDBACK: no camera configured) gets one every "
+                        "trigger distance along its flown track; without this flag such a flight fails")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(handler=cmd_fly)
