@@ -102,8 +102,10 @@ class MockAutopilot:
                  key: SigningKey | None = None, request_interval: float | None = None,
                  upload_timeout: float | None = None, homes: dict[int, tuple[float, float, float]] | None = None,
                  cruise_speed: float = 5.0, max_items: int = 10_000,
-                 clock: Callable[[], float] | None = None, gps_fix_after: float = 0.0) -> None:
-        """clock: the vehicles' wall clock (seconds since 1970) for signing timestamps; default time.time."""
+                 clock: Callable[[], float] | None = None, gps_fix_after: float = 0.0, sitl_like: bool = False) -> None:
+        """clock: the vehicles' wall clock (seconds since 1970) for signing timestamps; default time.time.
+        sitl_like: each vehicle behaves like ArduCopter SITL (mock_vehicle's module doc): no camera until
+        CAM1_TYPE is set and the vehicle rebooted (configure_camera), ArduCopter's flight."""
         if str(listen).strip().lower() == "pty":
             self.spec = ConnectionSpec("pty", baud=57600)
         else:
@@ -137,7 +139,7 @@ class MockAutopilot:
             home = (homes or {}).get(sysid, (base_home[0] + 0.0005 * index, base_home[1], base_home[2]))
             options = VehicleOptions(flavour=self.flavour, home=home, request_interval=request_interval,
                                      upload_timeout=upload_timeout, speedup=speedup, cruise_speed=cruise_speed,
-                                     max_items=max_items, gps_fix_after=gps_fix_after)
+                                     max_items=max_items, gps_fix_after=gps_fix_after, sitl_like=sitl_like)
             encoder = mavlink.MAVLink(_Writer(self), srcSystem=sysid, srcComponent=1)
             apply_key(encoder, key, link_id=index, clock=clock)
             self.vehicles[sysid] = MockVehicle(sysid, options, encoder, now)
@@ -469,6 +471,13 @@ class MockAutopilot:
             vehicle = self.vehicles[sysid]
             vehicle.reboot_at_item = after_item
             vehicle.reboot_offline = offline
+
+    def configure_camera(self, sysid: int, offline: float = 0.05) -> None:
+        """What a team does once on a real vehicle: CAM1_TYPE = 1 and a reboot (it takes effect at boot)."""
+        with self._lock:
+            vehicle = self.vehicles[sysid]
+            vehicle.params["CAM1_TYPE"] = 1.0
+            vehicle.reboot(time.monotonic(), offline)
 
     def wait_until(self, predicate: Any, timeout: float) -> bool:
         """Poll predicate(self) under the lock until true or timeout; returns the last value."""

@@ -274,9 +274,12 @@ def fly(plan_dir: Path, connect: str, timeout_s: float = 600.0, progress: bool =
                  photos_from_track=photos_from_track)
 
 
-def start_mock_fleet(plan_dir: Path, speedup: float, flavour: str = "ardupilot", faults: Any = None) -> Any:
+def start_mock_fleet(plan_dir: Path, speedup: float, flavour: str = "ardupilot", faults: Any = None,
+                     sitl_like: bool = True, cameras: bool = True) -> Any:
     """In-process mock autopilots on 127.0.0.1, one per uavK.plan of plan_dir (system id K, home at
-    its launch point). Returns the started MockAutopilot; fly against mock.client_url, then mock.stop()."""
+    its launch point). Returns the started MockAutopilot; fly against mock.client_url, then mock.stop().
+    sitl_like: they fly like ArduCopter SITL (the plan's timeline); cameras: each has its camera
+    configured (CAM1_TYPE and a reboot, as a team does once), else it reports no photos."""
     from bridge.mock import MockAutopilot
 
     homes: dict[int, tuple[float, float, float]] = {}
@@ -287,8 +290,12 @@ def start_mock_fleet(plan_dir: Path, speedup: float, flavour: str = "ardupilot",
     if not homes:
         raise BridgeUsageError(f"{plan_dir}: no uavK.plan files to fly")
     mock = MockAutopilot("udpin:127.0.0.1:0", sysids=sorted(homes), flavour=flavour, speedup=speedup,
-                         faults=faults, homes=homes)
-    return mock.start()
+                         faults=faults, homes=homes, sitl_like=sitl_like)
+    mock.start()
+    if sitl_like and cameras:
+        for sysid in homes:
+            mock.configure_camera(sysid)
+    return mock
 
 
 # ------------------------------------------------------------------------------------------- CLI
