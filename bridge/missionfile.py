@@ -56,6 +56,7 @@ class PlanFile:
     firmware: Flavour | None = None
     cruise_speed: float | None = None
     hover_speed: float | None = None
+    fence_max_altitude: float | None = None  # geoFence "maxAltitude" (metres above home), our extension
 
     def parts(self) -> list[Mission]:
         """The mission, then the fence and rally lists that have items."""
@@ -192,6 +193,8 @@ def read_plan(path: str | os.PathLike[str]) -> PlanFile:
                     cruise_speed=_optional_number(mission_doc.get("cruiseSpeed"), path, "mission.cruiseSpeed"),
                     hover_speed=_optional_number(mission_doc.get("hoverSpeed"), path, "mission.hoverSpeed"))
     plan.fence = _read_fence(doc.get("geoFence"), path)
+    if isinstance(doc.get("geoFence"), dict) and doc["geoFence"].get("maxAltitude") is not None:
+        plan.fence_max_altitude = _number(doc["geoFence"]["maxAltitude"], "geoFence maxAltitude", path)
     plan.rally = _read_rally(doc.get("rallyPoints"), path)
     return plan
 
@@ -276,7 +279,10 @@ def plan_document(plan: PlanFile) -> dict[str, Any]:
         "vehicleType": MAV_TYPE_QUADROTOR,
         "version": 2,
     }
-    return {"fileType": "Plan", "geoFence": _fence_document(plan.fence), "groundStation": "QGroundControl",
+    fence = _fence_document(plan.fence)
+    if plan.fence_max_altitude is not None:  # QGroundControl ignores it; the autopilot's ceiling is a parameter
+        fence["maxAltitude"] = plan.fence_max_altitude
+    return {"fileType": "Plan", "geoFence": fence, "groundStation": "QGroundControl",
             "mission": mission_doc, "rallyPoints": _rally_document(plan.rally), "version": 1}
 
 

@@ -22,6 +22,9 @@ from .fly import register as register_fly_command
 from .gridmap import MapError
 from .pipeline import DEFAULT_POLICY, POLICIES, launch_cells, make_policy, plan_map
 from .missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
+from .safety import DEFAULT_CLEARANCE_M
+from .separation import DEFAULT_MAX_ALTITUDE_M
+from .sorties import DEFAULT_ENDURANCE_MIN, DEFAULT_RESERVE
 from .zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 
 EXIT_USAGE = 2
@@ -63,6 +66,19 @@ def _build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--end", choices=END_ACTIONS, default="rtl", help="after the survey: return to launch or land")
     plan.add_argument("--altitude-step", type=float, default=0.0,
                       help="drone k flies this many metres above drone k-1 (layers go up from --altitude)")
+    plan.add_argument("--min-separation", type=float, metavar="M",
+                      help="closest two drones may come, 3-D metres, over the whole flight (default: the map's "
+                           "min_separation_m, else 5); altitude layers are added when needed")
+    plan.add_argument("--max-altitude", type=float, default=DEFAULT_MAX_ALTITUDE_M, metavar="M",
+                      help=f"no altitude layer above this (default {DEFAULT_MAX_ALTITUDE_M:g} m)")
+    plan.add_argument("--clearance", type=float, metavar="M",
+                      help="horizontal margin of the tracks from obstacles (default: the map's clearance_m, "
+                           f"else the larger of {DEFAULT_CLEARANCE_M:g} m and one cell)")
+    plan.add_argument("--endurance", type=float, default=DEFAULT_ENDURANCE_MIN, metavar="MIN",
+                      help=f"usable flight minutes per battery; longer routes fly in sorties (default "
+                           f"{DEFAULT_ENDURANCE_MIN:g}; 0: no limit)")
+    plan.add_argument("--reserve", type=float, default=DEFAULT_RESERVE, metavar="F",
+                      help=f"fraction of the endurance kept for landing (default {DEFAULT_RESERVE:g})")
     plan.add_argument("--out", required=True, type=Path, help="output folder (created if missing)")
     plan.add_argument("--policy", default=DEFAULT_POLICY, choices=POLICIES,
                       help="who decides moves in view of targets: the neural network (nn) or the expert it imitates")
@@ -106,6 +122,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from .report import build_report, write_report
 
     from .georef import load_area, mission_settings, shipped_frame
+    from .outputs import remove_stale_outputs
+    from .safety import safety_settings
 
     # Everything that can be wrong with the input fails here, before any folder is made.
     if args.area is not None:
@@ -118,6 +136,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         frame = shipped_frame(gmap)
     launch_cells(gmap, args.uavs)
     settings = mission_settings(gmap, args) if frame is not None else None
+    safety = safety_settings(gmap, args, settings.altitude_m) if settings is not None else None
     policy = make_policy(args.policy, args.weights)
     try:
         args.out.mkdir(parents=True, exist_ok=True)
@@ -127,18 +146,21 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     result = plan_map(gmap, args.uavs, policy=policy, zone_method=args.zones, seed=args.seed,
                       progress=show_progress, balance_zones=not args.no_balance)
     report = build_report(result, args.seed)
-    written = []
+    written, sortie_starts = [], None
     if frame is not None and settings is not None and result.run.success:
         from .flightplan import make_flight_plans, write_flight_files
 
-        plans = make_flight_plans(result, frame, settings)
+        plans = make_flight_plans(result, frame, settings, safety)
         report["drones"] = plans.report()
         report["separation"] = plans.separation()
         report["georeference"] = {**frame.to_meta(), "altitude_m": settings.altitude_m,
                                   "footprint_m": settings.footprint_m, "trigger_distance_m": settings.trigger_distance_m}
         written = write_flight_files(args.out, result, frame, plans)
+        sortie_starts = plans.sortie_starts
+    report["files"] = sorted({p.name for p in written} | {"report.json", "plan.png"})
+    remove_stale_outputs(args.out, keep=report["files"])  # before the new report.json replaces the old list
     write_report(report, args.out / "report.json")
-    draw_plan(result, args.out / "plan.png")
+    draw_plan(result, args.out / "plan.png", sortie_starts=sortie_starts)
 
     m = report["metrics"]
     zones = args.zones + ("" if args.no_balance else ", balanced")
@@ -161,15 +183,17 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     if "drones" in report:
         for drone in report["drones"]:
             before, after = drone["smoothing"]["before"], drone["smoothing"]["after"]
+            sorties = f" in {len(drone['sorties'])} sorties" if len(drone.get("sorties", [])) > 1 else ""
             print(f"  uav{drone['id']}: {drone['cells']} cells -> {drone['waypoints']} waypoints, "
-                  f"{drone['length_m']:.0f} m, {drone['flight_s']:.0f} s, {drone['photos']} photos "
-                  f"(turning {before['turning_deg']:.0f} -> {after['turning_deg']:.0f} deg)")
+                  f"{drone['length_m']:.0f} m, {drone['flight_s']:.0f} s{sorties}, {drone['photos']} photos "
+                  f"at {drone['altitude_m']:g} m (turning {before['turning_deg']:.0f} -> {after['turning_deg']:.0f} deg)")
     if "separation" in report:
         sep = report["separation"]
         if sep["3d"] is not None:
-            hint = "" if args.altitude_step > 0 else "; --altitude-step puts drones on separate layers"
             print(f"  closest approach if flown as planned: {sep['3d']} m 3-D, {sep['horizontal']} m horizontal "
-                  f"(uav{sep['pair_3d'][0]} and uav{sep['pair_3d'][1]} at {sep['at_s']} s){hint}")
+                  f"(uav{sep['pair_3d'][0]} and uav{sep['pair_3d'][1]} at {sep['at_s']} s"
+                  f"{'' if len(sep['sorties']) < 2 else ' of sortie ' + str(sep['sortie'])}); "
+                  f"at least {sep['required_m']:g} m guaranteed by {sep['method']}")
     names = ", ".join(p.name for p in written[:2]) + (f", ... ({len(written)} files)" if written else "")
     print(f"wrote {args.out / 'report.json'}, {args.out / 'plan.png'}" + (f", {names}" if written else ""))
     if not report["success"]:

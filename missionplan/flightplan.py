@@ -10,7 +10,7 @@ to a temporary name and renamed.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -20,9 +20,13 @@ from bridge.missionfile import PlanFile, write_mission_file
 from geo.frame import GridFrame
 
 from .atomic import write_text_atomic
-from .corrector import CorrectedPath, correct_path
+from .corrector import MARGIN_CELLS, CorrectedPath, correct_path
+from .geofence import Fence, drone_fence
 from .missions import DroneMission, MissionSettings, build_mission
 from .pipeline import PlanResult
+from .safety import SafetySettings
+from .separation import Layering, SeparationError, choose_layers, closest_over_sorties, position_at
+from .sorties import Sortie, split_sorties
 from .timeline import FlightModel, closest_approach, planned_track
 from .world import FOOTPRINT_RADIUS
 
@@ -31,48 +35,157 @@ from .world import FOOTPRINT_RADIUS
 class FlightPlans:
     corrected: list[CorrectedPath]
     waypoints_latlon: list[np.ndarray]  # per drone (n, 2): the corrected waypoints as (lat, lon)
-    drones: list[DroneMission]
-    settings: MissionSettings
-    timed: dict[int, np.ndarray]  # sysid -> (n, 4) t, row_m, col_m, up_m of the planned flight (timeline)
+    drones: list[DroneMission]  # per drone, its first sortie's mission (its only one without an endurance)
+    settings: MissionSettings  # with the altitude step the separation chose
+    timed: dict[int, np.ndarray]  # sysid -> (n, 4) t, row_m, col_m, up_m of the first sortie (timeline)
+    sorties: list[list[DroneMission]] = field(default_factory=list)  # per drone, every sortie's mission
+    sortie_tracks: list[dict[int, np.ndarray]] = field(default_factory=list)  # per sortie, sysid -> timed track
+    sortie_starts: list[np.ndarray] = field(default_factory=list)  # per drone (J, 2) grid row, col: each sortie's survey start
+    fences: list[Fence] = field(default_factory=list)  # per drone; empty when no safety settings were given
+    layering: Layering | None = None
+    safety: SafetySettings | None = None
+
+    def __post_init__(self) -> None:
+        if not self.sorties:
+            self.sorties = [[drone] for drone in self.drones]
+        if not self.sortie_tracks:
+            self.sortie_tracks = [self.timed]
 
     def separation(self) -> dict[str, Any]:
-        """report.json's `separation`: the closest approach of two drones if all fly as planned."""
-        return {**closest_approach(self.timed), "assumes": "all missions start together; straight legs at the "
-                "cruise speed, waypoints reached at their acceptance radius; climb 2.5 m/s, descent 1.5 m/s"}
+        """report.json's `separation`: the closest approach of two drones if all fly as planned; with
+        safety settings, the minimum it guarantees and how."""
+        approach = closest_over_sorties(self.sortie_tracks)
+        doc = {**approach, "assumes": "the drones of a sortie start together; straight legs at the cruise speed, "
+               "waypoints reached at their acceptance radius; climb 2.5 m/s, descent 1.5 m/s",
+               "sorties": [closest_approach(tracks) for tracks in self.sortie_tracks]}
+        if self.safety is not None and self.layering is not None:
+            doc.update({"required_m": self.safety.min_separation_m, "method": self.layering.method,
+                        "altitude_step_m": self.layering.step_m,
+                        "guaranteed_m": None if approach["3d"] is None else approach["3d"]})
+        return doc
 
     def report(self) -> list[dict[str, Any]]:
-        """report.json's `drones`: one object per drone."""
+        """report.json's `drones`: one object per drone (totals over its sorties, then each sortie)."""
         rows = []
-        for k, (track, drone) in enumerate(zip(self.corrected, self.drones)):
-            rows.append({"id": drone.sysid, "cells": int(track.before["waypoints"]), "waypoints": drone.waypoints,
-                         "length_m": round(drone.length_m, 2), "flight_s": round(drone.flight_s, 1),
-                         "photos": drone.photos, "altitude_m": round(self.settings.altitude_of(k), 2),
-                         "smoothing": {"before": track.before, "after": track.after}})
+        for k, (track, missions) in enumerate(zip(self.corrected, self.sorties)):
+            sysid = missions[0].sysid
+            row = {"id": sysid, "cells": int(track.before["waypoints"]),
+                   "waypoints": int(sum(m.waypoints for m in missions)),
+                   "length_m": round(sum(m.length_m for m in missions), 2),
+                   "flight_s": round(sum(m.flight_s for m in missions), 1),
+                   "photos": int(sum(m.photos for m in missions)), "altitude_m": round(self.settings.altitude_of(k), 2),
+                   "smoothing": {"before": track.before, "after": track.after},
+                   "sorties": [{"file": sortie_file(sysid, j + 1), "flight_s": round(m.flight_s, 1),
+                                "photos": m.photos, "waypoints": m.waypoints} for j, m in enumerate(missions)]}
+            if self.fences:
+                fence = self.fences[k]
+                row["geofence"] = {"vertices": len(fence.latlon), "max_altitude_m": fence.max_altitude_m,
+                                   "margin_m": self.safety.fence_margin_m if self.safety else None}
+            rows.append(row)
         return rows
 
 
-def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSettings) -> FlightPlans:
-    """Correct every drone's path and build its mission."""
+def sortie_file(sysid: int, sortie: int, suffix: str = ".plan") -> str:
+    """uavK.plan for the first sortie, uavK-sJ.plan for sortie J >= 2."""
+    return f"uav{sysid}{suffix}" if sortie == 1 else f"uav{sysid}-s{sortie}{suffix}"
+
+
+def _place(frame: GridFrame, point_m: np.ndarray) -> str:
+    lat, lon = frame.grid_to_latlon(np.array([point_m[0] / frame.cell_m]), np.array([point_m[1] / frame.cell_m]))
+    return f"{float(lat[0]):.6f},{float(lon[0]):.6f}, {point_m[2]:.1f} m up"
+
+
+def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSettings,
+                      safety: SafetySettings | None = None) -> FlightPlans:
+    """Correct every drone's path and build its missions.
+
+    With `safety`: routes longer than the endurance become sorties, the altitude layers are chosen so
+    the separation holds (SeparationError names the pair and the place otherwise), each drone gets a
+    geofence. Without it: one mission per drone at the altitudes of `settings`, nothing enforced."""
     gmap, paths = result.gmap, result.run.paths
-    corrected, latlons, drones = [], [], []
-    timed: dict[int, np.ndarray] = {}
+    cell = frame.cell_m
+    corrected, latlons, launches, routes = [], [], [], []
     model = FlightModel(speed_m_s=settings.speed_m_s, acceptance_m=settings.acceptance_m)
+    margin_cells = MARGIN_CELLS if safety is None else max(MARGIN_CELLS, safety.clearance_m / cell - 0.5)
     for k in range(paths.shape[0]):
         # A diagonal is credited only with the cells every photo spacing still sees.
         track = correct_path(paths[k], gmap.obstacle, result.world.reachable, footprint_radius=FOOTPRINT_RADIUS,
-                             sample_step=max(settings.trigger_distance_m / frame.cell_m, 0.25))
+                             sample_step=max(settings.trigger_distance_m / cell, 0.25), margin_cells=margin_cells)
         waypoints = np.asarray(track.waypoints, dtype=float)
-        latlon = np.column_stack(frame.grid_to_latlon(waypoints[:, 0], waypoints[:, 1]))
-        launch = np.asarray(result.starts[k], dtype=float)
-        launch_lat, launch_lon = frame.grid_to_latlon(launch[:1], launch[1:])
-        timed[k + 1] = planned_track(launch * frame.cell_m, waypoints * frame.cell_m, settings.altitude_of(k),
-                                     settings.end, model)
-        drones.append(build_mission(k, (float(launch_lat[0]), float(launch_lon[0])), latlon,
-                                    waypoints * frame.cell_m, launch * frame.cell_m, settings,
-                                    flight_s=float(timed[k + 1][-1, 0])))
+        latlons.append(np.column_stack(frame.grid_to_latlon(waypoints[:, 0], waypoints[:, 1])))
+        launches.append(np.asarray(result.starts[k], dtype=float) * cell)
+        routes.append(waypoints * cell)
         corrected.append(track)
-        latlons.append(latlon)
-    return FlightPlans(corrected, latlons, drones, settings, timed)
+    uavs = len(routes)
+    budget = safety.budget_s if safety is not None else None
+
+    def split(step: float) -> list[list[Sortie]]:
+        layered = replace(settings, altitude_step_m=step)
+        return [split_sorties(launches[k], routes[k], layered.altitude_of(k), settings.end, model, budget, f"uav{k + 1}")
+                for k in range(uavs)]
+
+    def tracks_for(step: float) -> list[dict[int, np.ndarray]]:
+        sorties = split(step)
+        count = max(len(s) for s in sorties)
+        return [{k + 1: planned_track(launches[k], sorties[k][j].waypoints_m, settings.altitude_m + k * step,
+                                      sorties[k][j].end, model)
+                 for k in range(uavs) if j < len(sorties[k])} for j in range(count)]
+
+    layering = None
+    step = settings.altitude_step_m
+    if safety is not None:
+        try:
+            layering = choose_layers(tracks_for, uavs, settings.altitude_m, settings.altitude_step_m,
+                                     safety.min_separation_m, safety.max_altitude_m)
+        except SeparationError as failure:
+            if failure.layering is None:  # every candidate's top layer is above the ceiling
+                failure.args = (f"--min-separation {safety.min_separation_m:g} m cannot be guaranteed"
+                                f"{failure.ceiling}",)
+                raise failure from None
+            raise _separation_failure(failure, frame, tracks_for, safety) from None
+        step = layering.step_m
+    settings = replace(settings, altitude_step_m=step)
+    all_sorties = split(step)
+    sortie_tracks = tracks_for(step)
+    missions: list[list[DroneMission]] = []
+    starts, fences = [], []
+    for k in range(uavs):
+        launch_lat, launch_lon = frame.grid_to_latlon(launches[k][:1] / cell, launches[k][1:] / cell)
+        home = (float(launch_lat[0]), float(launch_lon[0]))
+        drone_missions = []
+        for j, sortie in enumerate(all_sorties[k]):
+            grid = sortie.waypoints_m / cell
+            latlon = np.column_stack(frame.grid_to_latlon(grid[:, 0], grid[:, 1])) if len(grid) else np.zeros((0, 2))
+            drone_missions.append(build_mission(k, home, latlon, sortie.waypoints_m, launches[k], settings,
+                                                flight_s=float(sortie_tracks[j][k + 1][-1, 0]), end=sortie.end,
+                                                resumes=sortie.resumes))
+        missions.append(drone_missions)
+        starts.append(np.array([s.waypoints_m[0] / cell for s in all_sorties[k] if len(s.waypoints_m)]).reshape(-1, 2))
+        if safety is not None:
+            points = np.vstack([launches[k][None, :]] + [s.waypoints_m for s in all_sorties[k]])
+            fences.append(drone_fence(frame, np.argwhere(result.zones.zone == k), points, settings.altitude_of(k),
+                                      safety.fence_margin_m, safety.max_altitude_m))
+    return FlightPlans(corrected, latlons, [m[0] for m in missions], settings, sortie_tracks[0], missions,
+                       sortie_tracks, starts, fences, layering, safety)
+
+
+def _separation_failure(failure: SeparationError, frame: GridFrame,
+                        tracks_for: Any, safety: SafetySettings) -> SeparationError:
+    """The error naming the pair, the sortie, the time and the place of the closest approach."""
+    layering = failure.layering
+    assert layering is not None
+    approach = layering.approach
+    a, b = approach["pair_3d"]
+    sortie = approach["sortie"]
+    tracks = tracks_for(layering.step_m)[sortie - 1]
+    origin = min(float(t[0, 0]) for t in tracks.values())
+    where = position_at(tracks[a], origin + approach["at_s"])
+    error = SeparationError(layering, failure.ceiling)
+    error.args = (f"--min-separation {safety.min_separation_m:g} m cannot be guaranteed: uav{a} and uav{b} come "
+                  f"within {approach['3d']} m of each other near {_place(frame, where)}, "
+                  f"{approach['at_s']} s into sortie {sortie} ({layering.method}){failure.ceiling}. "
+                  f"Lower --min-separation, raise --max-altitude or move the launch points apart",)
+    return error
 
 
 def _zone_polygons(result: PlanResult, frame: GridFrame) -> list[dict[str, Any]]:
@@ -102,6 +215,10 @@ def _zone_polygons(result: PlanResult, frame: GridFrame) -> list[dict[str, Any]]
 
 def tracks_geojson(result: PlanResult, frame: GridFrame, plans: FlightPlans) -> dict[str, Any]:
     features = _zone_polygons(result, frame)
+    for k, fence in enumerate(plans.fences):
+        ring = fence.latlon[:, ::-1].tolist()
+        features.append({"type": "Feature", "geometry": {"type": "Polygon", "coordinates": [ring + ring[:1]]},
+                         "properties": {"kind": "geofence", "uav": k + 1, "max_altitude_m": fence.max_altitude_m}})
     for k, (latlon, drone) in enumerate(zip(plans.waypoints_latlon, plans.drones)):
         features.append({"type": "Feature",
                          "geometry": {"type": "LineString", "coordinates": latlon[:, ::-1].tolist()},
@@ -113,15 +230,20 @@ def tracks_geojson(result: PlanResult, frame: GridFrame, plans: FlightPlans) -> 
 
 
 def write_flight_files(out: Path, result: PlanResult, frame: GridFrame, plans: FlightPlans) -> list[Path]:
-    """Write uavK.plan, uavK.waypoints and tracks.geojson into `out`; returns the paths written."""
+    """Write every sortie's uavK[-sJ].plan and .waypoints, and tracks.geojson, into `out`; returns the paths."""
     written = []
-    for drone in plans.drones:
-        plan_file = PlanFile(mission=drone.mission, cruise_speed=plans.settings.speed_m_s,
-                             hover_speed=plans.settings.speed_m_s)
-        for suffix in (".plan", ".waypoints"):
-            path = out / f"uav{drone.sysid}{suffix}"
-            write_mission_file(path, plan_file)
-            written.append(path)
+    for k, missions in enumerate(plans.sorties):
+        fence = plans.fences[k] if plans.fences else None
+        for j, drone in enumerate(missions):
+            plan_file = PlanFile(mission=drone.mission, cruise_speed=plans.settings.speed_m_s,
+                                 hover_speed=plans.settings.speed_m_s)
+            if fence is not None:
+                plan_file.fence = fence.mission()
+                plan_file.fence_max_altitude = fence.max_altitude_m
+            for suffix in (".plan", ".waypoints"):
+                path = out / sortie_file(drone.sysid, j + 1, suffix)
+                write_mission_file(path, plan_file)
+                written.append(path)
     path = out / "tracks.geojson"
     write_text_atomic(path, json.dumps(tracks_geojson(result, frame, plans)) + "\n")
     written.append(path)

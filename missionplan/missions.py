@@ -76,21 +76,28 @@ class DroneMission:
 
 def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latlon: np.ndarray,
                   waypoints_m: np.ndarray, launch_m: np.ndarray, settings: MissionSettings,
-                  flight_s: float | None = None) -> DroneMission:
+                  flight_s: float | None = None, end: str | None = None, resumes: bool = False) -> DroneMission:
     """The mission of drone `drone` (0-based; its system id is drone + 1).
+
+    A battery sortie after the first (`resumes`) flies from the launch point to its first waypoint
+    with the camera off, and takes its first photo there; `end` overrides settings.end (every sortie
+    but the last returns to launch for its battery swap).
 
     `waypoints_latlon` (n, 2) are the corrected waypoints; `waypoints_m` the same points in
     a local metric frame and `launch_m` the launch point there, for lengths and photo counts.
     `flight_s` is the planned duration (missionplan.timeline); without it, length over cruise speed.
     """
     altitude = settings.altitude_of(drone)
+    end = settings.end if end is None else end
     lat0, lon0 = launch_latlon
     items = [
         MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=lat0, y=lon0, z=altitude),
         MissionItem(CMD_DO_CHANGE_SPEED, FRAME_MISSION, param1=SPEED_TYPE_GROUND, param2=settings.speed_m_s,
                     param3=-1.0),
-        # param3 = 1: take the first photo at once, not only after the first trigger distance.
-        MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=settings.trigger_distance_m, param3=1.0),
+        # param3 = 1: take the first photo at once, not only after the first trigger distance; a resumed
+        # sortie keeps the camera off on its way out (the first waypoint's item below turns it on).
+        MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0 if resumes else settings.trigger_distance_m,
+                    param3=0.0 if resumes else 1.0),
     ]
     # After every waypoint, DO_SET_CAM_TRIGG_DIST again with "trigger once now": a photo where the
     # track turns, and the distance count restarts there, so photos stay aligned with each leg's start
@@ -104,7 +111,7 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
                                  param1=0.0 if last else settings.trigger_distance_m, param3=1.0))
     if not len(waypoints_latlon):
         items.append(MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0))
-    if settings.end == "rtl":
+    if end == "rtl":
         items.append(MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION))
     else:
         last_lat, last_lon = waypoints_latlon[-1] if len(waypoints_latlon) else launch_latlon
@@ -113,12 +120,14 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
     legs = np.diff(np.vstack([launch_m, waypoints_m]), axis=0)
     leg_m = np.hypot(legs[:, 0], legs[:, 1]) if len(legs) else np.zeros(0)
     survey_m = float(leg_m.sum())
-    back_m = float(np.hypot(*(waypoints_m[-1] - launch_m))) if settings.end == "rtl" and len(waypoints_m) else 0.0
+    back_m = float(np.hypot(*(waypoints_m[-1] - launch_m))) if end == "rtl" and len(waypoints_m) else 0.0
     length = altitude + survey_m + back_m + altitude  # up, across, (back,) down
-    # One photo at the start and one at each waypoint, plus one per trigger distance inside each leg.
-    photos = 1 + len(waypoints_m)
-    if settings.trigger_distance_m > 0 and len(leg_m):
-        photos += int(np.maximum(np.ceil(leg_m / settings.trigger_distance_m - 1e-9) - 1, 0).sum())
+    # One photo at the start and one at each waypoint, plus one per trigger distance inside each leg
+    # (not on a resumed sortie's way out: the camera is off there, and its start is its first waypoint).
+    photos = (0 if resumes else 1) + len(waypoints_m)
+    photo_legs = leg_m[1:] if resumes else leg_m
+    if settings.trigger_distance_m > 0 and len(photo_legs):
+        photos += int(np.maximum(np.ceil(photo_legs / settings.trigger_distance_m - 1e-9) - 1, 0).sum())
     mission = Mission(items=items, home=(lat0, lon0, 0.0))
     return DroneMission(sysid=drone + 1, mission=mission, waypoints=len(waypoints_latlon), length_m=length,
                         flight_s=length / settings.speed_m_s if flight_s is None else flight_s, photos=photos)
