@@ -233,6 +233,54 @@ def estimate_time_scale(records: list[DroneRecord]) -> float:
     return float(np.median(ratios)) if len(ratios) >= 3 else 1.0
 
 
+# ------------------------------------------------------------------------------------------- sorties
+def _planned_photos_m(frame: GridFrame, items: list[Any], trigger_m: float) -> np.ndarray:
+    """Where a mission's photos are planned: each waypoint flown with the camera on, and every
+    trigger distance along the legs between two such waypoints (grid metres)."""
+    points, on, previous = [], False, None
+    for item in items:
+        if item.command == CMD_CAM_TRIGG_DIST:
+            on = item.param1 > 0 or item.param3 > 0  # "trigger once now" also takes one at the waypoint
+        elif item.command == CMD_WAYPOINT:
+            here = to_grid_m(frame, item.x, item.y)[0]
+            if on and previous is not None and trigger_m > 0:
+                length = float(np.hypot(*(here - previous)))
+                for s in np.arange(0.0, length, trigger_m):
+                    points.append(previous + (here - previous) * (s / length))
+            points.append(here)
+            previous = here
+    return np.array(points).reshape(-1, 2)
+
+
+def sortie_view(report: dict[str, Any], sortie: int, missions: dict[int, list[Any]]) -> dict[str, Any]:
+    """report.json as `fly --sortie J` judges it: the drones that fly sortie J with that sortie's planned
+    photos and time, that sortie's separation promise, and as targets only the cells its planned photos
+    hold (the other sorties photograph the rest). `missions`: sysid -> the sortie's mission items
+    (bridge.mission.MissionItem, latitude / longitude in degrees)."""
+    view = dict(report)
+    drones = []
+    for drone in report["drones"]:
+        entries = drone.get("sorties") or [{"file": f"uav{drone['id']}.plan", "flight_s": drone.get("flight_s", 0.0),
+                                            "photos": drone.get("photos", 0), "waypoints": drone.get("waypoints", 0)}]
+        if sortie <= len(entries):
+            drones.append({**drone, **entries[sortie - 1]})
+    view["drones"] = drones
+    promises = (report.get("separation") or {}).get("sorties") or []
+    if sortie <= len(promises):
+        view["separation"] = promises[sortie - 1]
+    if any(len(d.get("sorties") or []) > 1 for d in report["drones"]):
+        frame = frame_of(report)
+        geo = report["georeference"]
+        trigger = float(geo.get("trigger_distance_m") or 0.0)
+        photos = [_planned_photos_m(frame, missions.get(int(d["id"]), []), trigger) for d in drones]
+        targets = target_cells(report)
+        planned = np.vstack(photos) if photos else np.zeros((0, 2))
+        mine = covered_by_gap(frame, nearest_photo_gap(frame, targets, planned), float(geo["footprint_m"]), 0.0)
+        others = targets[~mine]
+        view["unreachable_cells"] = list(report.get("unreachable_cells") or []) + others.tolist()
+    return view
+
+
 # ------------------------------------------------------------------------------------------- judging
 def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], time_scale: float | None,
           wall_s: float, telemetry_hz: float) -> FlightResult:

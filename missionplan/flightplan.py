@@ -26,7 +26,7 @@ from .missions import DroneMission, MissionSettings, build_mission
 from .pipeline import PlanResult
 from .safety import SafetySettings
 from .separation import Layering, SeparationError, choose_layers, closest_over_sorties, position_at
-from .sorties import Sortie, split_sorties
+from .sorties import Sortie, sortie_file, split_sorties
 from .timeline import FlightModel, closest_approach, planned_track
 from .world import FOOTPRINT_RADIUS
 
@@ -83,11 +83,6 @@ class FlightPlans:
                                    "margin_m": self.safety.fence_margin_m if self.safety else None}
             rows.append(row)
         return rows
-
-
-def sortie_file(sysid: int, sortie: int, suffix: str = ".plan") -> str:
-    """uavK.plan for the first sortie, uavK-sJ.plan for sortie J >= 2."""
-    return f"uav{sysid}{suffix}" if sortie == 1 else f"uav{sysid}-s{sortie}{suffix}"
 
 
 def _place(frame: GridFrame, point_m: np.ndarray) -> str:

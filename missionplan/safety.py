@@ -38,8 +38,8 @@ class SafetySettings:
     def fence_margin_m(self) -> float:
         """The geofence lies this far outside everything the drone flies over: room for the acceptance
         radius, wind and GPS error before the autopilot's breach action, but never less than the
-        separation (a neighbour's fence may then overlap, never its track)."""
-        return max(self.min_separation_m, self.clearance_m, 5.0)
+        separation and the clearance."""
+        return max(self.min_separation_m, self.clearance_m)
 
 
 def _positive(name: str, value: float) -> float:

@@ -27,6 +27,11 @@ DEFAULT_ENDURANCE_MIN = 20.0
 DEFAULT_RESERVE = 0.2  # fraction of the endurance kept for landing (wind, a go-around, a slow descent)
 
 
+def sortie_file(sysid: int, sortie: int, suffix: str = ".plan") -> str:
+    """uavK.plan for the first sortie, uavK-sJ.plan for sortie J >= 2."""
+    return f"uav{sysid}{suffix}" if sortie == 1 else f"uav{sysid}-s{sortie}{suffix}"
+
+
 @dataclass(frozen=True)
 class Sortie:
     waypoints_m: np.ndarray  # (n, 2) survey waypoints in order, the first one where the survey (re)starts
