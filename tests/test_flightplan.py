@@ -58,7 +58,8 @@ def test_plan_files_read_back_to_the_mission_shape(leonardo_run):
     for k in range(1, 6):
         plan = read_mission_file(out / f"uav{k}.plan")
         items = plan.mission.items
-        assert items[0].command == CMD_NAV_TAKEOFF and items[0].z == pytest.approx(1.2)
+        # layered 1 m apart (the map's min_separation_m) when one altitude would bring two drones too close
+        assert items[0].command == CMD_NAV_TAKEOFF and items[0].z == pytest.approx(report["drones"][k - 1]["altitude_m"])
         assert items[2].command == CMD_DO_SET_CAM_TRIGG_DIST and items[2].param1 > 0
         assert items[-2].command == CMD_DO_SET_CAM_TRIGG_DIST and items[-2].param1 == 0
         assert items[-1].command == CMD_NAV_RETURN_TO_LAUNCH

@@ -1,0 +1,237 @@
+"""Field safety of georeferenced plans: separation by construction, sorties, geofence, stale files."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+
+from bridge.mission import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_FENCE_POLYGON_VERTEX_INCLUSION, CMD_NAV_LAND,
+                            CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, MissionType)
+from bridge.missionfile import read_mission_file
+from missionplan.cli import main
+from missionplan.flight_report import frame_of, to_grid_m
+from missionplan.sorties import split_sorties
+from missionplan.timeline import FlightModel, closest_approach, planned_track
+
+
+def _plan(out: Path, *args: str) -> int:
+    return main(["plan", "--map", "leonardo", "--out", str(out), "--quiet", *args])
+
+
+@pytest.fixture(scope="module")
+def leonardo5(tmp_path_factory):
+    out = tmp_path_factory.mktemp("safe5")
+    assert _plan(out, "--uavs", "5") == 0
+    return out, json.loads((out / "report.json").read_text())
+
+
+def _tracks_from_files(out: Path, report: dict, sortie: int = 1) -> dict[int, np.ndarray]:
+    """Every drone's timed track rebuilt from the written .plan files alone (not from the planner's memory)."""
+    frame = frame_of(report)
+    speed = 5.0
+    tracks = {}
+    for drone in report["drones"]:
+        if sortie > len(drone["sorties"]):
+            continue
+        plan = read_mission_file(out / drone["sorties"][sortie - 1]["file"]).mission
+        home = to_grid_m(frame, plan.home[0], plan.home[1])[0]
+        waypoints = [i for i in plan.items if i.command == CMD_NAV_WAYPOINT]
+        points = to_grid_m(frame, [i.x for i in waypoints], [i.y for i in waypoints])
+        altitude = next(i.z for i in plan.items if i.command == CMD_NAV_TAKEOFF)
+        end = "land" if plan.items[-1].command == CMD_NAV_LAND else "rtl"
+        model = FlightModel(speed_m_s=speed, acceptance_m=waypoints[0].param2)
+        tracks[drone["id"]] = planned_track(home, points, altitude, end, model)
+    return tracks
+
+
+# ------------------------------------------------------------------------------------------ separation
+def test_demo_plan_guarantees_the_maps_separation_on_the_timeline_of_its_files(leonardo5):
+    out, report = leonardo5
+    sep = report["separation"]
+    assert sep["required_m"] == 1.0  # declared by maps/leonardo.map for its small drones
+    assert sep["3d"] >= 1.0 and sep["guaranteed_m"] == sep["3d"]
+    # The same closest approach, measured independently from what the files say the drones fly.
+    again = closest_approach(_tracks_from_files(out, report))
+    assert again["3d"] == pytest.approx(sep["3d"], abs=0.02)
+    # One altitude brought two drones within 0.27 m: layers were needed and are in the files.
+    altitudes = [d["altitude_m"] for d in report["drones"]]
+    assert sep["altitude_step_m"] == 1.0 and altitudes == pytest.approx([1.2, 2.2, 3.2, 4.2, 5.2])
+
+
+def test_a_ceiling_below_the_layers_is_refused_naming_the_pair_and_the_place(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert _plan(out, "--uavs", "5", "--max-altitude", "3") == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert "--min-separation 1 m cannot be guaranteed: uav" in err and " near 45.4" in err
+    assert "--max-altitude 3" in err
+    assert not (out / "uav1.plan").exists()
+
+
+def test_far_apart_drones_need_no_layers(tmp_path):
+    out = tmp_path / "run"
+    assert _plan(out, "--uavs", "2", "--min-separation", "0.5") == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report["separation"]["altitude_step_m"] == 0.0 and report["separation"]["3d"] >= 0.5
+    assert {d["altitude_m"] for d in report["drones"]} == {1.2}
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--min-separation", "0"], "--min-separation"),
+    (["--max-altitude", "1"], "--max-altitude"),
+    (["--reserve", "1"], "--reserve"),
+    (["--endurance", "-3"], "--endurance"),
+    (["--clearance", "-1"], "--clearance"),
+])
+def test_bad_safety_values_are_one_line(tmp_path, capsys, args, message):
+    out = tmp_path / "run"
+    assert _plan(out, "--uavs", "2", *args) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+# -------------------------------------------------------------------------------------------- sorties
+def test_split_sorties_keeps_every_sortie_within_the_budget_and_resumes_where_it_stopped():
+    model = FlightModel(speed_m_s=5.0, acceptance_m=0.5)
+    launch = np.array([0.0, 0.0])
+    route = np.array([[0, 0], [0, 400], [50, 400], [50, 0], [100, 0], [100, 400], [150, 400]], dtype=float)
+    budget = 200.0
+    sorties = split_sorties(launch, route, 20.0, "rtl", model, budget)
+    assert len(sorties) >= 3
+    for index, sortie in enumerate(sorties):
+        track = planned_track(launch, sortie.waypoints_m, 20.0, sortie.end, model)
+        assert track[-1, 0] <= budget + 1e-6
+        assert sortie.resumes == (index > 0)
+        if index:
+            assert np.allclose(sortie.waypoints_m[0], sorties[index - 1].waypoints_m[-1])
+    # Together they fly the whole route: same vertices, in order, plus the cut points.
+    flown = np.vstack([s.waypoints_m for s in sorties])
+    for vertex in route:
+        assert np.min(np.hypot(*(flown - vertex).T)) < 1e-9
+    total = sum(float(np.hypot(*np.diff(s.waypoints_m, axis=0).T).sum()) for s in sorties)
+    assert total == pytest.approx(float(np.hypot(*np.diff(route, axis=0).T).sum()))
+
+
+def test_a_budget_too_short_for_the_transit_is_refused():
+    from missionplan.gridmap import MapError
+
+    model = FlightModel(speed_m_s=5.0, acceptance_m=0.5)
+    with pytest.raises(MapError, match="uav2: a sortie cannot fly out"):
+        split_sorties(np.zeros(2), np.array([[0.0, 0.0], [0.0, 2000.0]]), 20.0, "rtl", model, 100.0, "uav2")
+
+
+@pytest.fixture(scope="module")
+def leonardo_sorties(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sorties")
+    # 0.1 min endurance, 20 % reserve: 4.8 s a sortie, on 12-18 s routes.
+    assert _plan(out, "--uavs", "3", "--endurance", "0.1") == 0
+    return out, json.loads((out / "report.json").read_text())
+
+
+def test_long_routes_fly_in_sorties_with_files_and_report_entries(leonardo_sorties):
+    out, report = leonardo_sorties
+    for drone in report["drones"]:
+        sorties = drone["sorties"]
+        assert len(sorties) >= 2
+        assert [s["file"] for s in sorties] == [f"uav{drone['id']}.plan"] + \
+            [f"uav{drone['id']}-s{j}.plan" for j in range(2, len(sorties) + 1)]
+        assert all(s["flight_s"] <= 4.8 + 1e-6 for s in sorties)
+        assert sum(s["photos"] for s in sorties) == drone["photos"]
+        for j, entry in enumerate(sorties):
+            items = read_mission_file(out / entry["file"]).mission.items
+            assert sum(i.command == CMD_NAV_WAYPOINT for i in items) == entry["waypoints"]
+            if j:  # a resumed sortie: camera off on the way out, on from its first waypoint
+                assert items[2].command == CMD_DO_SET_CAM_TRIGG_DIST and items[2].param1 == 0
+                assert items[2].param3 == 0
+        assert set(report["files"]) >= {s["file"] for s in sorties}
+
+
+def test_each_sortie_keeps_the_separation_started_together(leonardo_sorties):
+    out, report = leonardo_sorties
+    count = max(len(d["sorties"]) for d in report["drones"])
+    assert len(report["separation"]["sorties"]) == count
+    for j in range(1, count + 1):
+        tracks = _tracks_from_files(out, report, j)
+        if len(tracks) > 1:
+            assert closest_approach(tracks)["3d"] >= report["separation"]["required_m"] - 0.02
+
+
+def test_fly_flies_a_later_sortie_against_the_mock(leonardo_sorties):
+    from missionplan.fly import fly, start_mock_fleet
+
+    out, _ = leonardo_sorties
+    mock = start_mock_fleet(out, speedup=2.0)
+    try:
+        result = fly(out, mock.client_url, timeout_s=120, progress=False, time_scale=2.0, telemetry_hz=50.0,
+                     sortie=2)
+    finally:
+        mock.stop()
+    assert result.ok, result.problems
+    assert 0 < result.targets < 1956  # judged on what sortie 2 photographs, not the whole arena
+    assert result.separation["kept"]
+
+
+# ------------------------------------------------------------------------------------------- geofence
+def test_every_point_of_the_flight_lies_inside_the_drones_fence(leonardo_sorties, leonardo5):
+    for out, report in (leonardo5, leonardo_sorties):
+        for drone in report["drones"]:
+            for entry in drone["sorties"]:
+                plan = read_mission_file(out / entry["file"])
+                fence = [i for i in plan.fence.items if i.command == CMD_FENCE_POLYGON_VERTEX_INCLUSION]
+                assert len(fence) >= 3 and all(i.param1 == len(fence) for i in fence)
+                polygon = shapely.Polygon([(i.y, i.x) for i in fence])
+                assert polygon.is_valid
+                home = plan.mission.home
+                points = [(home[1], home[0])]  # take-off, return and (RTL) landing
+                points += [(i.y, i.x) for i in plan.mission.items if i.command in (CMD_NAV_WAYPOINT, CMD_NAV_LAND)]
+                for lon, lat in points:
+                    assert polygon.contains(shapely.Point(lon, lat))
+                altitude = next(i.z for i in plan.mission.items if i.command == CMD_NAV_TAKEOFF)
+                assert plan.fence_max_altitude is not None and plan.fence_max_altitude > altitude
+
+
+def test_fence_round_trips_through_the_mock(leonardo5):
+    from bridge.mission import Flavour, to_wire
+    from bridge.mock import MockAutopilot
+    from bridge.protocol import Timeouts
+    from bridge.uploader import open_backend, upload_plan
+
+    out, _ = leonardo5
+    plan = read_mission_file(out / "uav2.plan")
+    assert plan.fence.items
+    with MockAutopilot("udpin:127.0.0.1:0", sysids=[2], request_interval=0.02).start() as mock:
+        backend = open_backend("pymavlink", mock.client_url, 2, timeouts=Timeouts(item_timeout=0.5, retries=10),
+                               connect_timeout=5.0)
+        try:
+            upload_plan(backend, plan.parts(), verify=True)
+            held = backend.download(MissionType.FENCE)
+        finally:
+            backend.close()
+    sent = to_wire(plan.fence, Flavour.ARDUPILOT)
+    assert [(w.command, w.x, w.y, w.param1) for w in held] == [(w.command, w.x, w.y, w.param1) for w in sent]
+
+
+# ------------------------------------------------------------------------------------------ stale files
+def test_a_replan_removes_only_the_files_the_previous_plan_wrote(tmp_path):
+    out = tmp_path / "run"
+    assert _plan(out, "--uavs", "4") == 0
+    (out / "notes.txt").write_text("the crew's own file")
+    (out / "uav9.plan").write_text("not ours: not in report.json")
+    assert (out / "uav4.plan").exists()
+    assert _plan(out, "--uavs", "2") == 0
+    names = {p.name for p in out.iterdir()}
+    assert not {"uav3.plan", "uav3.waypoints", "uav4.plan", "uav4.waypoints"} & names
+    assert {"uav1.plan", "uav2.waypoints", "report.json", "plan.png", "notes.txt", "uav9.plan"} <= names
+    assert json.loads((out / "report.json").read_text())["files"] == sorted(
+        {"plan.png", "report.json", "tracks.geojson", "uav1.plan", "uav1.waypoints", "uav2.plan", "uav2.waypoints"})
+
+
+def test_a_replan_without_sorties_removes_the_old_sortie_files(tmp_path):
+    out = tmp_path / "run"
+    assert _plan(out, "--uavs", "2", "--endurance", "0.2") == 0
+    assert (out / "uav1-s2.plan").exists()
+    assert _plan(out, "--uavs", "2") == 0
+    assert not list(out.glob("uav*-s*"))
