@@ -153,6 +153,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         plans = make_flight_plans(result, frame, settings, safety)
         report["drones"] = plans.report()
         report["separation"] = plans.separation()
+        report["clearance"] = plans.clearance(result, frame)
         report["georeference"] = {**frame.to_meta(), "altitude_m": settings.altitude_m,
                                   "footprint_m": settings.footprint_m, "trigger_distance_m": settings.trigger_distance_m}
         written = write_flight_files(args.out, result, frame, plans)
@@ -194,6 +195,14 @@ def _cmd_plan(args: argparse.Namespace) -> int:
                   f"(uav{sep['pair_3d'][0]} and uav{sep['pair_3d'][1]} at {sep['at_s']} s"
                   f"{'' if len(sep['sorties']) < 2 else ' of sortie ' + str(sep['sortie'])}); "
                   f"at least {sep['required_m']:g} m guaranteed by {sep['method']}")
+    if "clearance" in report and report["clearance"]["kept_m"] is not None:
+        cl = report["clearance"]
+        print(f"  clearance from obstacles: {cl['kept_m']:g} m (asked {cl['required_m']:g} m)")
+        if not cl["kept"]:
+            lat, lon = cl["closest_at"]
+            print(f"missionplan: warning: uav{cl['closest_uav']} passes {cl['kept_m']:g} m from an obstacle near "
+                  f"{lat:.6f},{lon:.6f}, under --clearance {cl['required_m']:g} m: the grid planner keeps only "
+                  f"half a cell (see docs/field-safety.md)", file=sys.stderr)
     names = ", ".join(p.name for p in written[:2]) + (f", ... ({len(written)} files)" if written else "")
     print(f"wrote {args.out / 'report.json'}, {args.out / 'plan.png'}" + (f", {names}" if written else ""))
     if not report["success"]:

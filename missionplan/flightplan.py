@@ -40,6 +40,7 @@ class FlightPlans:
     timed: dict[int, np.ndarray]  # sysid -> (n, 4) t, row_m, col_m, up_m of the first sortie (timeline)
     sorties: list[list[DroneMission]] = field(default_factory=list)  # per drone, every sortie's mission
     sortie_tracks: list[dict[int, np.ndarray]] = field(default_factory=list)  # per sortie, sysid -> timed track
+    sortie_routes: list[list[np.ndarray]] = field(default_factory=list)  # per drone, per sortie: launch + waypoints, grid m
     sortie_starts: list[np.ndarray] = field(default_factory=list)  # per drone (J, 2) grid row, col: each sortie's survey start
     fences: list[Fence] = field(default_factory=list)  # per drone; empty when no safety settings were given
     layering: Layering | None = None
@@ -62,6 +63,31 @@ class FlightPlans:
             doc.update({"required_m": self.safety.min_separation_m, "method": self.layering.method,
                         "altitude_step_m": self.layering.step_m,
                         "guaranteed_m": None if approach["3d"] is None else approach["3d"]})
+        return doc
+
+    def clearance(self, result: PlanResult, frame: GridFrame) -> dict[str, Any]:
+        """report.json's `clearance`: each drone's smallest horizontal distance from an obstacle cell over
+        all its sorties (missionplan.clearance), the asked margin, and where the closest track is."""
+        from .clearance import obstacle_shape, track_clearance
+
+        shape = obstacle_shape(result.gmap.obstacle, frame.cell_m)
+        per_drone, worst = [], (float("inf"), 0, np.zeros(2))
+        for k, missions in enumerate(self.sortie_routes):
+            distance, where = float("inf"), np.zeros(2)
+            for route in missions:
+                d, w = track_clearance(shape, route)
+                if d < distance:
+                    distance, where = d, w
+            per_drone.append(round(distance, 2) if np.isfinite(distance) else None)
+            if distance < worst[0]:
+                worst = (distance, k + 1, where)
+        required = self.safety.clearance_m if self.safety is not None else None
+        kept = None if not np.isfinite(worst[0]) else round(worst[0], 2)
+        doc: dict[str, Any] = {"required_m": required, "kept_m": kept, "per_drone_m": per_drone,
+                               "kept": required is None or kept is None or kept >= required - 1e-6}
+        if kept is not None:
+            lat, lon = frame.grid_to_latlon(np.array([worst[2][0] / frame.cell_m]), np.array([worst[2][1] / frame.cell_m]))
+            doc.update({"closest_uav": worst[1], "closest_at": [round(float(lat[0]), 7), round(float(lon[0]), 7)]})
         return doc
 
     def report(self) -> list[dict[str, Any]]:
@@ -160,8 +186,9 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
             points = np.vstack([launches[k][None, :]] + [s.waypoints_m for s in all_sorties[k]])
             fences.append(drone_fence(frame, np.argwhere(result.zones.zone == k), points, settings.altitude_of(k),
                                       safety.fence_margin_m, safety.max_altitude_m))
+    sortie_routes = [[np.vstack([launches[k][None, :], s.waypoints_m]) for s in all_sorties[k]] for k in range(uavs)]
     return FlightPlans(corrected, latlons, [m[0] for m in missions], settings, sortie_tracks[0], missions,
-                       sortie_tracks, starts, fences, layering, safety)
+                       sortie_tracks, sortie_routes, starts, fences, layering, safety)
 
 
 def _separation_failure(failure: SeparationError, frame: GridFrame,
