@@ -1,18 +1,83 @@
-"""How far each drone's track stays from obstacles, horizontally, in metres: report.json `clearance`.
+"""Clearance from obstacles: the band drones may not fly in, and how far each track really stays out.
 
-The track is the polyline the drone flies (launch point, then its waypoints in every sortie); the
-obstacles are the grid's obstacle cells as squares, so the figure is a lower bound of the distance
-to the buildings themselves (a cell is an obstacle when it touches one). The corrector keeps
---clearance on every shortcut it takes; the grid planner's own moves keep half a cell (cell centres
-next to an obstacle cell), so a clearance above half a cell is measured and reported, and a track
-under it is named with its place (docs/field-safety.md).
+By construction: the grid planner flies the map with the *clearance band* - every free cell whose
+centre is closer than --clearance to an obstacle cell's square - made an obstacle too (`flight_map`).
+Grid moves go between cell centres outside the band, and along such a move the distance to a
+square is smallest at an end, so every grid move keeps the clearance; the trajectory corrector keeps
+it on its shortcuts (margin = clearance against the original obstacles, see flightplan). Targets in
+the band stay targets: they are photographed from outside it, by the 4-cell footprint radius
+(`band_coverage` counts which were, and the rest are reported, not hidden).
+
+Measured: the track is the polyline the drone flies (launch point, then its waypoints in every
+sortie); the obstacles are the grid's obstacle cells as squares, so `track_clearance` is a lower
+bound of the distance to the buildings themselves (a cell is an obstacle when it touches one).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+import dataclasses
+
 import numpy as np
+from scipy import ndimage
+
+from .gridmap import GridMap, MapError
+from .world import FOOTPRINT_RADIUS
+
+
+def band_structure(clearance_cells: float) -> np.ndarray:
+    """Offsets (dr, dc) of the obstacle cells whose square is closer than `clearance_cells` to a cell centre."""
+    reach = int(np.ceil(clearance_cells + 0.5))
+    d = np.arange(-reach, reach + 1)
+    dr, dc = np.meshgrid(d, d, indexing="ij")
+    gap = np.hypot(np.maximum(np.abs(dr) - 0.5, 0.0), np.maximum(np.abs(dc) - 0.5, 0.0))
+    return gap < clearance_cells - 1e-9
+
+
+def clearance_band(obstacle: np.ndarray, clearance_cells: float) -> np.ndarray:
+    """Free cells whose centre lies closer than `clearance_cells` to an obstacle cell's square."""
+    if clearance_cells <= 0.5 or not obstacle.any():  # a cell centre is always half a cell from its neighbours
+        return np.zeros_like(obstacle, dtype=bool)
+    return ndimage.binary_dilation(obstacle, structure=band_structure(clearance_cells)) & ~obstacle
+
+
+def flight_map(gmap: GridMap, clearance_m: float, uavs: int) -> tuple[GridMap, np.ndarray]:
+    """(the map the grid planner flies: the clearance band made obstacle, the band). MapError naming the
+    drone when a launch cell lies in the band (it could not leave it without breaking the clearance)."""
+    cell_m = float(gmap.meta["cell_m"])
+    band = clearance_band(gmap.obstacle, clearance_m / cell_m)
+    for k, cell in enumerate(gmap.launch[:uavs], start=1):
+        if gmap.inside(cell) and band[cell]:
+            raise MapError(f"map {gmap.name}: the launch point of drone {k} (cell {cell[0]},{cell[1]}) is closer than "
+                           f"--clearance {clearance_m:g} m to an obstacle: move it into the open or lower --clearance")
+    if not band.any():
+        return gmap, band
+    return dataclasses.replace(gmap, obstacle=gmap.obstacle | band, target=gmap.target & ~band), band
+
+
+def footprint_union(paths: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Cells inside the footprint (the 9 x 9 block) of any cell of any drone's path (K, T+1, 2)."""
+    visited = np.zeros(shape, dtype=bool)
+    cells = np.asarray(paths).reshape(-1, 2)
+    visited[cells[:, 0], cells[:, 1]] = True
+    size = 2 * FOOTPRINT_RADIUS + 1
+    return ndimage.binary_dilation(visited, structure=np.ones((size, size), dtype=bool))
+
+
+def band_coverage(report: dict, gmap: GridMap, band: np.ndarray, paths: np.ndarray) -> dict:
+    """Put the band's targets back into report.json: the grid is the map as given (not the planner's),
+    band targets no footprint of the plan holds join `unreachable_cells`, the ones it holds join
+    `targets`. Returns the counts for report.json `clearance`."""
+    band_targets = gmap.target & band
+    held = footprint_union(paths, gmap.shape)
+    photographed, missed = band_targets & held, band_targets & ~held
+    report["grid"] = gmap.rows_text()
+    report["targets"] = int(report["targets"]) + int(photographed.sum())
+    report["unreachable_cells"] = list(report["unreachable_cells"]) + np.argwhere(missed).tolist()
+    report["unreachable"] = len(report["unreachable_cells"])
+    return {"band_cells": int(band.sum()), "band_targets": int(band_targets.sum()),
+            "band_targets_photographed": int(photographed.sum()), "band_targets_missed": int(missed.sum())}
 
 
 def obstacle_shape(obstacle: np.ndarray, cell_m: float) -> Any:

@@ -122,6 +122,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from .report import build_report, write_report
 
     from .georef import load_area, mission_settings, shipped_frame
+    from .clearance import band_coverage, flight_map
     from .outputs import remove_stale_outputs
     from .safety import safety_settings
 
@@ -137,23 +138,26 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     launch_cells(gmap, args.uavs)
     settings = mission_settings(gmap, args) if frame is not None else None
     safety = safety_settings(gmap, args, settings.altitude_m) if settings is not None else None
+    # The planner flies outside the clearance band; `gmap` stays the map as given (report, corrector).
+    plan_gmap, band = flight_map(gmap, safety.clearance_m, args.uavs) if safety is not None else (gmap, None)
     policy = make_policy(args.policy, args.weights)
     try:
         args.out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise MapError(f"--out {args.out}: cannot create folder ({err.strerror})") from None
     show_progress = not args.quiet and sys.stderr.isatty()
-    result = plan_map(gmap, args.uavs, policy=policy, zone_method=args.zones, seed=args.seed,
+    result = plan_map(plan_gmap, args.uavs, policy=policy, zone_method=args.zones, seed=args.seed,
                       progress=show_progress, balance_zones=not args.no_balance)
     report = build_report(result, args.seed)
+    band_counts = band_coverage(report, gmap, band, result.run.paths) if band is not None and band.any() else {}
     written, sortie_starts = [], None
     if frame is not None and settings is not None and result.run.success:
         from .flightplan import make_flight_plans, write_flight_files
 
-        plans = make_flight_plans(result, frame, settings, safety)
+        plans = make_flight_plans(result, frame, settings, safety, base=gmap)
         report["drones"] = plans.report()
         report["separation"] = plans.separation()
-        report["clearance"] = plans.clearance(result, frame)
+        report["clearance"] = {**plans.clearance(gmap, frame), **band_counts}
         report["georeference"] = {**frame.to_meta(), "altitude_m": settings.altitude_m,
                                   "footprint_m": settings.footprint_m, "trigger_distance_m": settings.trigger_distance_m}
         written = write_flight_files(args.out, result, frame, plans)
@@ -198,11 +202,10 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     if "clearance" in report and report["clearance"]["kept_m"] is not None:
         cl = report["clearance"]
         print(f"  clearance from obstacles: {cl['kept_m']:g} m (asked {cl['required_m']:g} m)")
-        if not cl["kept"]:
-            lat, lon = cl["closest_at"]
-            print(f"missionplan: warning: uav{cl['closest_uav']} passes {cl['kept_m']:g} m from an obstacle near "
-                  f"{lat:.6f},{lon:.6f}, under --clearance {cl['required_m']:g} m: the grid planner keeps only "
-                  f"half a cell (see docs/field-safety.md)", file=sys.stderr)
+        if cl.get("band_targets_missed"):
+            print(f"missionplan: warning: {cl['band_targets_missed']} of the {cl['band_targets']} target cells closer "
+                  f"than --clearance {cl['required_m']:g} m to an obstacle are out of every photo (narrow streets, "
+                  f"courtyards); counted unreachable", file=sys.stderr)
     names = ", ".join(p.name for p in written[:2]) + (f", ... ({len(written)} files)" if written else "")
     print(f"wrote {args.out / 'report.json'}, {args.out / 'plan.png'}" + (f", {names}" if written else ""))
     if not report["success"]:

@@ -22,6 +22,7 @@ from geo.frame import GridFrame
 from .atomic import write_text_atomic
 from .corrector import MARGIN_CELLS, CorrectedPath, correct_path
 from .geofence import Fence, drone_fence
+from .gridmap import GridMap
 from .missions import DroneMission, MissionSettings, build_mission
 from .pipeline import PlanResult
 from .safety import SafetySettings
@@ -65,12 +66,13 @@ class FlightPlans:
                         "guaranteed_m": None if approach["3d"] is None else approach["3d"]})
         return doc
 
-    def clearance(self, result: PlanResult, frame: GridFrame) -> dict[str, Any]:
+    def clearance(self, gmap: GridMap, frame: GridFrame) -> dict[str, Any]:
         """report.json's `clearance`: each drone's smallest horizontal distance from an obstacle cell over
-        all its sorties (missionplan.clearance), the asked margin, and where the closest track is."""
+        all its sorties (missionplan.clearance) on `gmap` (the map as given, without the clearance band),
+        the asked margin, and where the closest track is."""
         from .clearance import obstacle_shape, track_clearance
 
-        shape = obstacle_shape(result.gmap.obstacle, frame.cell_m)
+        shape = obstacle_shape(gmap.obstacle, frame.cell_m)
         per_drone, worst = [], (float("inf"), 0, np.zeros(2))
         for k, missions in enumerate(self.sortie_routes):
             distance, where = float("inf"), np.zeros(2)
@@ -117,20 +119,26 @@ def _place(frame: GridFrame, point_m: np.ndarray) -> str:
 
 
 def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSettings,
-                      safety: SafetySettings | None = None) -> FlightPlans:
+                      safety: SafetySettings | None = None, base: GridMap | None = None) -> FlightPlans:
     """Correct every drone's path and build its missions.
 
     With `safety`: routes longer than the endurance become sorties, the altitude layers are chosen so
     the separation holds (SeparationError names the pair and the place otherwise), each drone gets a
-    geofence. Without it: one mission per drone at the altitudes of `settings`, nothing enforced."""
-    gmap, paths = result.gmap, result.run.paths
+    geofence. Without it: one mission per drone at the altitudes of `settings`, nothing enforced.
+    `base`: the map as given when the planner flew it with a clearance band (missionplan.clearance): the
+    corrector keeps the clearance from its obstacles and every target the grid path photographed."""
+    paths = result.run.paths
+    base = result.gmap if base is None else base
+    targets = result.world.reachable if base is result.gmap else base.target
     cell = frame.cell_m
     corrected, latlons, launches, routes = [], [], [], []
     model = FlightModel(speed_m_s=settings.speed_m_s, acceptance_m=settings.acceptance_m)
-    margin_cells = MARGIN_CELLS if safety is None else max(MARGIN_CELLS, safety.clearance_m / cell - 0.5)
+    # Not touching an obstacle square within a box buffer of `margin` cells keeps the segment at least
+    # that far from it (Chebyshev distance <= Euclidean).
+    margin_cells = MARGIN_CELLS if safety is None else max(MARGIN_CELLS, safety.clearance_m / cell)
     for k in range(paths.shape[0]):
         # A diagonal is credited only with the cells every photo spacing still sees.
-        track = correct_path(paths[k], gmap.obstacle, result.world.reachable, footprint_radius=FOOTPRINT_RADIUS,
+        track = correct_path(paths[k], base.obstacle, targets, footprint_radius=FOOTPRINT_RADIUS,
                              sample_step=max(settings.trigger_distance_m / cell, 0.25), margin_cells=margin_cells)
         waypoints = np.asarray(track.waypoints, dtype=float)
         latlons.append(np.column_stack(frame.grid_to_latlon(waypoints[:, 0], waypoints[:, 1])))
