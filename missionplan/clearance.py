@@ -101,3 +101,87 @@ def track_clearance(obstacles: Any, points_m: np.ndarray) -> tuple[float, np.nda
     line = shapely.LineString(points) if len(points) > 1 else shapely.Point(points[0])
     where, _ = nearest_points(line, obstacles)
     return float(shapely.distance(line, obstacles)), np.array([where.x, where.y])
+
+
+def _toward(free: np.ndarray, sources: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Breadth-first over `free` from every cell of `sources` at once: (steps to the nearest source, -1
+    where none is reachable; for each cell the flat index of its next cell toward that source)."""
+    from collections import deque
+
+    rows, cols = free.shape
+    dist = np.full(free.shape, -1, dtype=np.int64)
+    nxt = np.full(free.shape, -1, dtype=np.int64)
+    queue = deque()
+    for r, c in np.argwhere(sources & free):
+        dist[r, c] = 0
+        queue.append((int(r), int(c)))
+    while queue:
+        r, c = queue.popleft()
+        for nr, nc in ((r - 1, c), (r, c + 1), (r + 1, c), (r, c - 1)):
+            if 0 <= nr < rows and 0 <= nc < cols and free[nr, nc] and dist[nr, nc] < 0:
+                dist[nr, nc] = dist[r, c] + 1
+                nxt[nr, nc] = r * cols + c
+                queue.append((nr, nc))
+    return dist, nxt
+
+
+def photograph_band(paths: np.ndarray, flight: GridMap, gmap: GridMap, band: np.ndarray,
+                    zone: np.ndarray) -> tuple[np.ndarray, int]:
+    """Extend the drones' grid paths (K, T+1, 2) so every band target a footprint can reach from outside
+    the band is photographed. A target the survey left out is visited by a detour out of the survey
+    path, where the path passes nearest to a cell that sees it, and back to the path (so the plan's
+    order and end stay as they were). Returns the new paths (the others hover at their end) and the
+    moves added.
+
+    Why a separate pass: the planner's world tracks only targets it can fly to; a band target is seen
+    from up to FOOTPRINT_RADIUS cells away, from outside the band."""
+    r = FOOTPRINT_RADIUS
+    square = np.ones((2 * r + 1, 2 * r + 1), dtype=bool)
+    rows, cols = gmap.shape
+    starts = [tuple(int(v) for v in p[0]) for p in paths]
+    labels, _ = ndimage.label(flight.free)
+    flyable = np.isin(labels, [labels[s] for s in starts if labels[s] > 0]) & flight.free
+    pending = gmap.target & band & ~footprint_union(paths, gmap.shape)
+    pending &= ndimage.binary_dilation(flyable, structure=square)  # seen from some flyable cell
+    tracks = [list(map(tuple, p.tolist())) for p in paths]
+    added = 0
+
+    def sees_pending(cell: tuple[int, int]) -> bool:
+        return bool(pending[max(cell[0] - r, 0):cell[0] + r + 1, max(cell[1] - r, 0):cell[1] + r + 1].any())
+
+    for _ in range(1000):  # rounds; each photographs at least one pending target or stops
+        if not pending.any():
+            break
+        dist, nxt = _toward(flyable, ndimage.binary_dilation(pending, structure=square))
+        # Every drone's path cell with its distance to a cell that sees a pending target.
+        options = sorted((int(dist[cell]), k, i) for k, track in enumerate(tracks)
+                         for i, cell in enumerate(track) if dist[cell] >= 0)
+        if not options:
+            break
+        detours: dict[tuple[int, int], list[tuple[int, int]]] = {}
+        progress = False
+        for d, k, i in options:
+            here = tracks[k][i]
+            route = [here]
+            while dist[route[-1]] > 0:
+                flat = int(nxt[route[-1]])
+                route.append((flat // cols, flat % cols))
+            if not sees_pending(route[-1]):
+                continue
+            for cr, cc in route:
+                pending[max(cr - r, 0):cr + r + 1, max(cc - r, 0):cc + r + 1] = False
+            detours[(k, i)] = detours.get((k, i), []) + route[1:] + route[-2::-1]
+            progress = True
+        if not progress:
+            break
+        for k in range(len(tracks)):
+            new = []
+            for i, cell in enumerate(tracks[k]):
+                new.append(cell)
+                extra = detours.get((k, i), [])
+                new.extend(extra)
+                added += len(extra)
+            tracks[k] = new
+    length = max(len(t) for t in tracks)
+    out = np.array([t + [t[-1]] * (length - len(t)) for t in tracks], dtype=paths.dtype)
+    return out, added

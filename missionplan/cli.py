@@ -122,7 +122,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from .report import build_report, write_report
 
     from .georef import load_area, mission_settings, shipped_frame
-    from .clearance import band_coverage, flight_map
+    from .clearance import band_coverage, flight_map, photograph_band
     from .outputs import remove_stale_outputs
     from .safety import safety_settings
 
@@ -148,8 +148,13 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     show_progress = not args.quiet and sys.stderr.isatty()
     result = plan_map(plan_gmap, args.uavs, policy=policy, zone_method=args.zones, seed=args.seed,
                       progress=show_progress, balance_zones=not args.no_balance)
+    band_counts: dict = {}
+    if band is not None and band.any() and result.run.success:
+        result.run.paths, band_counts["band_moves_added"] = photograph_band(result.run.paths, plan_gmap, gmap, band,
+                                                                            result.zones.zone)
     report = build_report(result, args.seed)
-    band_counts = band_coverage(report, gmap, band, result.run.paths) if band is not None and band.any() else {}
+    if band is not None and band.any():
+        band_counts.update(band_coverage(report, gmap, band, result.run.paths))
     written, sortie_starts = [], None
     if frame is not None and settings is not None and result.run.success:
         from .flightplan import make_flight_plans, write_flight_files

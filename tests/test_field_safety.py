@@ -296,3 +296,26 @@ def test_a_launch_point_inside_the_clearance_band_is_refused(tmp_path, capsys):
     assert main(["plan", "--map", "grid-city", "--uavs", "3", "--clearance", "5", "--out", str(out), "--quiet"]) == 2
     err = capsys.readouterr().err
     assert "launch point of drone" in err and "--clearance 5 m" in err and err.count("\n") == 1
+
+
+def test_band_targets_are_photographed_by_detours_that_stay_outside_the_band():
+    from missionplan.clearance import clearance_band, flight_map, footprint_union, photograph_band
+    from missionplan.gridmap import GridMap
+
+    # A 30 x 30 open square with a wall; a 3 m clearance on 1 m cells bands three cells round the wall.
+    obstacle = np.zeros((30, 30), dtype=bool)
+    obstacle[10:20, 15] = True
+    gmap = GridMap("t", obstacle, ~obstacle, launch=[(2, 2)], meta={"cell_m": "1"})
+    flight, band = flight_map(gmap, 3.0, 1)
+    assert (band == clearance_band(obstacle, 3.0)).all() and band[15, 14] and not band[15, 10]
+    # A path that never comes near the wall leaves the band targets out of its photos.
+    path = np.array([[[2, c] for c in range(2, 28)]])
+    assert (gmap.target & band & ~footprint_union(path, gmap.shape)).any()
+    zone = np.where(flight.target, 0, -1)
+    longer, added = photograph_band(path, flight, gmap, band, zone)
+    assert added > 0 and longer.shape[1] == path.shape[1] + added
+    assert not (gmap.target & band & ~footprint_union(longer, gmap.shape)).any()  # every band target is seen
+    cells = longer[0]
+    assert flight.free[cells[:, 0], cells[:, 1]].all()  # and the detours never enter the band
+    assert (np.abs(np.diff(cells, axis=0)).sum(axis=1) <= 1).all()  # 4-connected moves (or hovers)
+    assert (cells[-1] == path[0, -1]).all()  # the survey still ends where it did
