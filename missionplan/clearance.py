@@ -103,7 +103,7 @@ def track_clearance(obstacles: Any, points_m: np.ndarray) -> tuple[float, np.nda
     return float(shapely.distance(line, obstacles)), np.array([where.x, where.y])
 
 
-def _toward(free: np.ndarray, sources: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def steps_toward(free: np.ndarray, sources: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Breadth-first over `free` from every cell of `sources` at once: (steps to the nearest source, -1
     where none is reachable; for each cell the flat index of its next cell toward that source)."""
     from collections import deque
@@ -152,7 +152,7 @@ def photograph_band(paths: np.ndarray, flight: GridMap, gmap: GridMap, band: np.
     for _ in range(1000):  # rounds; each photographs at least one pending target or stops
         if not pending.any():
             break
-        dist, nxt = _toward(flyable, ndimage.binary_dilation(pending, structure=square))
+        dist, nxt = steps_toward(flyable, ndimage.binary_dilation(pending, structure=square))
         # Every drone's path cell with its distance to a cell that sees a pending target.
         options = sorted((int(dist[cell]), k, i) for k, track in enumerate(tracks)
                          for i, cell in enumerate(track) if dist[cell] >= 0)

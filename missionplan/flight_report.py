@@ -235,19 +235,22 @@ def estimate_time_scale(records: list[DroneRecord]) -> float:
 
 # ------------------------------------------------------------------------------------------- sorties
 def _planned_photos_m(frame: GridFrame, items: list[Any], trigger_m: float) -> np.ndarray:
-    """Where a mission's photos are planned: each waypoint flown with the camera on, and every
-    trigger distance along the legs between two such waypoints (grid metres)."""
-    points, on, previous = [], False, None
+    """Where a mission's photos are planned (grid metres): one wherever DO_SET_CAM_TRIGG_DIST says "trigger
+    once now" after a waypoint, and one every trigger distance along each leg flown with the distance
+    trigger on (not on a way out or home, where it is 0)."""
+    points: list[np.ndarray] = []
+    distance, previous = 0.0, None
     for item in items:
         if item.command == CMD_CAM_TRIGG_DIST:
-            on = item.param1 > 0 or item.param3 > 0  # "trigger once now" also takes one at the waypoint
+            if item.param3 > 0 and previous is not None:
+                points.append(previous)
+            distance = item.param1
         elif item.command == CMD_WAYPOINT:
             here = to_grid_m(frame, item.x, item.y)[0]
-            if on and previous is not None and trigger_m > 0:
+            if distance > 0 and previous is not None and trigger_m > 0:
                 length = float(np.hypot(*(here - previous)))
-                for s in np.arange(0.0, length, trigger_m):
-                    points.append(previous + (here - previous) * (s / length))
-            points.append(here)
+                for along in np.arange(trigger_m, length, trigger_m):
+                    points.append(previous + (here - previous) * (along / length))
             previous = here
     return np.array(points).reshape(-1, 2)
 

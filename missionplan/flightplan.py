@@ -118,6 +118,55 @@ def _place(frame: GridFrame, point_m: np.ndarray) -> str:
     return f"{float(lat[0]):.6f},{float(lon[0]):.6f}, {point_m[2]:.1f} m up"
 
 
+def _latlon(frame: GridFrame, points_m: np.ndarray) -> np.ndarray:
+    """(n, 2) grid metres -> (n, 2) latitude, longitude."""
+    if not len(points_m):
+        return np.zeros((0, 2))
+    grid = np.asarray(points_m, dtype=float) / frame.cell_m
+    return np.column_stack(frame.grid_to_latlon(grid[:, 0], grid[:, 1]))
+
+
+class _Homing:
+    """One drone's ways between its launch point and any cell, along free cells (breadth first, once),
+    straightened by the corrector with the clearance margin and no coverage duty."""
+
+    def __init__(self, free: np.ndarray, launch: tuple[int, int], obstacle: np.ndarray, margin_cells: float,
+                 cell_m: float) -> None:
+        from .clearance import steps_toward
+
+        source = np.zeros(free.shape, dtype=bool)
+        source[tuple(launch)] = True
+        self.steps, self.toward = steps_toward(free, source)
+        self.launch, self.obstacle, self.margin, self.cell = tuple(launch), obstacle, margin_cells, cell_m
+        self.cols = free.shape[1]
+        self._ways: dict[tuple[int, int], np.ndarray] = {}
+
+    def _cell(self, point_m: np.ndarray) -> tuple[int, int]:
+        return int(round(point_m[0] / self.cell)), int(round(point_m[1] / self.cell))
+
+    def home_m(self, point_m: np.ndarray) -> float:
+        """Length of the free-cell way from the launch point to `point_m` (an upper bound of the flown one)."""
+        steps = self.steps[self._cell(point_m)]
+        return float(steps) * self.cell if steps >= 0 else float(np.hypot(*point_m)) + 1e9
+
+    def way(self, point_m: np.ndarray, outbound: bool) -> np.ndarray:
+        """Waypoints (metres) strictly between the launch point and `point_m`, out from launch or home to it;
+        the way home ends over the launch point itself."""
+        start = self._cell(point_m)
+        if start not in self._ways:
+            cells = [start]
+            while cells[-1] != self.launch and self.toward[cells[-1]] >= 0 and len(cells) <= self.steps.size:
+                flat = int(self.toward[cells[-1]])
+                cells.append((flat // self.cols, flat % self.cols))
+            track = correct_path(np.array(cells), self.obstacle, np.zeros(self.obstacle.shape, dtype=bool),
+                                 margin_cells=self.margin)
+            self._ways[start] = np.asarray(track.waypoints, dtype=float) * self.cell  # point ... launch
+        home = self._ways[start]
+        if outbound:
+            return home[::-1][1:-1]
+        return home[1:]
+
+
 def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSettings,
                       safety: SafetySettings | None = None, base: GridMap | None = None) -> FlightPlans:
     """Correct every drone's path and build its missions.
@@ -147,16 +196,33 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
         corrected.append(track)
     uavs = len(routes)
     budget = safety.budget_s if safety is not None else None
+    # With safety settings, the way out to a sortie's start and the way home go round the obstacles
+    # (along free cells of the planner's map, then through the corrector), never straight through them.
+    homing = [_Homing(result.gmap.free, result.starts[k], base.obstacle, margin_cells, cell) if safety is not None
+              else None for k in range(uavs)]
 
     def split(step: float) -> list[list[Sortie]]:
         layered = replace(settings, altitude_step_m=step)
-        return [split_sorties(launches[k], routes[k], layered.altitude_of(k), settings.end, model, budget, f"uav{k + 1}")
+        return [split_sorties(launches[k], routes[k], layered.altitude_of(k), settings.end, model, budget, f"uav{k + 1}",
+                              home_m=homing[k].home_m if homing[k] else None, step_m=cell if homing[k] else None)
                 for k in range(uavs)]
+
+    def legs(k: int, sortie: Sortie) -> tuple[np.ndarray, np.ndarray]:
+        """(the way out, the way home) of a sortie, metres; empty where the flight needs none."""
+        if homing[k] is None or not len(sortie.waypoints_m):
+            return np.zeros((0, 2)), np.zeros((0, 2))
+        out = homing[k].way(sortie.waypoints_m[0], outbound=True) if sortie.resumes else np.zeros((0, 2))
+        back = homing[k].way(sortie.waypoints_m[-1], outbound=False) if sortie.end == "rtl" else np.zeros((0, 2))
+        return out, back
+
+    def flown(k: int, sortie: Sortie) -> np.ndarray:
+        out, back = legs(k, sortie)
+        return np.vstack([out, sortie.waypoints_m, back])
 
     def tracks_for(step: float) -> list[dict[int, np.ndarray]]:
         sorties = split(step)
         count = max(len(s) for s in sorties)
-        return [{k + 1: planned_track(launches[k], sorties[k][j].waypoints_m, settings.altitude_m + k * step,
+        return [{k + 1: planned_track(launches[k], flown(k, sorties[k][j]), settings.altitude_m + k * step,
                                       sorties[k][j].end, model)
                  for k in range(uavs) if j < len(sorties[k])} for j in range(count)]
 
@@ -183,18 +249,20 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
         home = (float(launch_lat[0]), float(launch_lon[0]))
         drone_missions = []
         for j, sortie in enumerate(all_sorties[k]):
-            grid = sortie.waypoints_m / cell
-            latlon = np.column_stack(frame.grid_to_latlon(grid[:, 0], grid[:, 1])) if len(grid) else np.zeros((0, 2))
-            drone_missions.append(build_mission(k, home, latlon, sortie.waypoints_m, launches[k], settings,
-                                                flight_s=float(sortie_tracks[j][k + 1][-1, 0]), end=sortie.end,
-                                                resumes=sortie.resumes))
+            out, back = legs(k, sortie)
+            drone_missions.append(build_mission(k, home, _latlon(frame, sortie.waypoints_m), sortie.waypoints_m,
+                                                launches[k], settings, flight_s=float(sortie_tracks[j][k + 1][-1, 0]),
+                                                end=sortie.end, resumes=sortie.resumes,
+                                                transit=(_latlon(frame, out), out), back=(_latlon(frame, back), back)))
         missions.append(drone_missions)
         starts.append(np.array([s.waypoints_m[0] / cell for s in all_sorties[k] if len(s.waypoints_m)]).reshape(-1, 2))
         if safety is not None:
-            points = np.vstack([launches[k][None, :]] + [s.waypoints_m for s in all_sorties[k]])
+            points = np.vstack([launches[k][None, :]] + [flown(k, s) for s in all_sorties[k]])
             fences.append(drone_fence(frame, np.argwhere(result.zones.zone == k), points, settings.altitude_of(k),
                                       safety.fence_margin_m, safety.max_altitude_m))
-    sortie_routes = [[np.vstack([launches[k][None, :], s.waypoints_m]) for s in all_sorties[k]] for k in range(uavs)]
+    sortie_routes = [[np.vstack([launches[k][None, :], flown(k, s), launches[k][None, :]])
+                      if s.end == "rtl" else np.vstack([launches[k][None, :], flown(k, s)])
+                      for s in all_sorties[k]] for k in range(uavs)]
     return FlightPlans(corrected, latlons, [m[0] for m in missions], settings, sortie_tracks[0], missions,
                        sortie_tracks, sortie_routes, starts, fences, layering, safety)
 

@@ -99,7 +99,7 @@ def test_split_sorties_keeps_every_sortie_within_the_budget_and_resumes_where_it
     launch = np.array([0.0, 0.0])
     route = np.array([[0, 0], [0, 400], [50, 400], [50, 0], [100, 0], [100, 400], [150, 400]], dtype=float)
     budget = 200.0
-    sorties = split_sorties(launch, route, 20.0, "rtl", model, budget)
+    sorties = split_sorties(launch, route, 20.0, "rtl", model, budget, step_m=10.0)
     assert len(sorties) >= 3
     for index, sortie in enumerate(sorties):
         track = planned_track(launch, sortie.waypoints_m, 20.0, sortie.end, model)
@@ -107,6 +107,7 @@ def test_split_sorties_keeps_every_sortie_within_the_budget_and_resumes_where_it
         assert sortie.resumes == (index > 0)
         if index:
             assert np.allclose(sortie.waypoints_m[0], sorties[index - 1].waypoints_m[-1])
+            assert np.allclose(sortie.waypoints_m[0] % 10.0, 0.0)  # cut on a cell centre, 10 m apart
     # Together they fly the whole route: same vertices, in order, plus the cut points.
     flown = np.vstack([s.waypoints_m for s in sorties])
     for vertex in route:
@@ -126,8 +127,8 @@ def test_a_budget_too_short_for_the_transit_is_refused():
 @pytest.fixture(scope="module")
 def leonardo_sorties(tmp_path_factory):
     out = tmp_path_factory.mktemp("sorties")
-    # 0.1 min endurance, 20 % reserve: 4.8 s a sortie, on 12-18 s routes.
-    assert _plan(out, "--uavs", "3", "--endurance", "0.1") == 0
+    # 0.12 min endurance, 20 % reserve: 5.76 s a sortie, on 12-18 s routes.
+    assert _plan(out, "--uavs", "3", "--endurance", "0.12") == 0
     return out, json.loads((out / "report.json").read_text())
 
 
@@ -138,7 +139,7 @@ def test_long_routes_fly_in_sorties_with_files_and_report_entries(leonardo_sorti
         assert len(sorties) >= 2
         assert [s["file"] for s in sorties] == [f"uav{drone['id']}.plan"] + \
             [f"uav{drone['id']}-s{j}.plan" for j in range(2, len(sorties) + 1)]
-        assert all(s["flight_s"] <= 4.8 + 1e-6 for s in sorties)
+        assert all(s["flight_s"] <= 5.76 + 1e-6 for s in sorties)
         assert sum(s["photos"] for s in sorties) == drone["photos"]
         for j, entry in enumerate(sorties):
             items = read_mission_file(out / entry["file"]).mission.items
