@@ -217,8 +217,9 @@ def _read_fence(doc: Any, path: Path) -> Mission:
         vertices = poly["polygon"]
         for vertex in vertices:
             lat, lon = _latlon(vertex, where, path)
+            # autocontinue 0: a fence point is no navigation step, and ArduPilot stores (and reads back) 0
             fence.items.append(MissionItem(command=command, frame=FRAME_GLOBAL, param1=float(len(vertices)),
-                                           x=lat, y=lon, z=0.0))
+                                           x=lat, y=lon, z=0.0, autocontinue=False))
     for index, circle in enumerate(doc.get("circles", []) or []):
         where = f"geoFence circle {index + 1}"
         body = circle.get("circle") if isinstance(circle, dict) else None
@@ -227,7 +228,8 @@ def _read_fence(doc: Any, path: Path) -> Mission:
         lat, lon = _latlon(body.get("center"), where, path)
         radius = _number(body.get("radius"), f"{where} radius", path)
         command = CMD_FENCE_CIRCLE_INCLUSION if circle.get("inclusion", True) else CMD_FENCE_CIRCLE_EXCLUSION
-        fence.items.append(MissionItem(command=command, frame=FRAME_GLOBAL, param1=radius, x=lat, y=lon, z=0.0))
+        fence.items.append(MissionItem(command=command, frame=FRAME_GLOBAL, param1=radius, x=lat, y=lon, z=0.0,
+                                       autocontinue=False))
     return fence
 
 

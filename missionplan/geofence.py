@@ -33,8 +33,9 @@ class Fence:
 
     def mission(self) -> Mission:
         """The fence as MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION items (what bridge/ uploads)."""
+        # autocontinue 0, as the .plan reader makes fence points and ArduPilot stores them
         items = [MissionItem(CMD_FENCE_POLYGON_VERTEX_INCLUSION, FRAME_GLOBAL, param1=float(len(self.latlon)),
-                             x=float(lat), y=float(lon), z=0.0) for lat, lon in self.latlon]
+                             x=float(lat), y=float(lon), z=0.0, autocontinue=False) for lat, lon in self.latlon]
         return Mission(items=items, mission_type=MissionType.FENCE)
 
 
