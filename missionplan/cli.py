@@ -122,7 +122,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from .report import build_report, write_report
 
     from .georef import load_area, mission_settings, shipped_frame
-    from .clearance import band_coverage, flight_map, photograph_band
+    from .fieldplan import plan_field
     from .outputs import remove_stale_outputs
     from .safety import safety_settings
 
@@ -138,31 +138,26 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     launch_cells(gmap, args.uavs)
     settings = mission_settings(gmap, args) if frame is not None else None
     safety = safety_settings(gmap, args, settings.altitude_m) if settings is not None else None
-    # The planner flies outside the clearance band; `gmap` stays the map as given (report, corrector).
-    plan_gmap, band = flight_map(gmap, safety.clearance_m, args.uavs) if safety is not None else (gmap, None)
+    if safety is not None:  # a launch point inside the clearance band fails here, before any folder
+        from .clearance import flight_map
+
+        flight_map(gmap, safety.clearance_m, args.uavs)
     policy = make_policy(args.policy, args.weights)
     try:
         args.out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise MapError(f"--out {args.out}: cannot create folder ({err.strerror})") from None
     show_progress = not args.quiet and sys.stderr.isatty()
-    result = plan_map(plan_gmap, args.uavs, policy=policy, zone_method=args.zones, seed=args.seed,
-                      progress=show_progress, balance_zones=not args.no_balance)
-    band_counts: dict = {}
-    if band is not None and band.any() and result.run.success:
-        result.run.paths, band_counts["band_moves_added"] = photograph_band(result.run.paths, plan_gmap, gmap, band,
-                                                                            result.zones.zone)
+    # Clearance band, band detours, flight plans, sorties, separation, geofences (missionplan/fieldplan.py).
+    field = plan_field(gmap, args.uavs, frame, settings, safety, balance_zones=not args.no_balance, policy=policy,
+                       zone_method=args.zones, seed=args.seed, progress=show_progress)
+    result, plans = field.result, field.plans
     report = build_report(result, args.seed)
-    if band is not None and band.any():
-        band_counts.update(band_coverage(report, gmap, band, result.run.paths))
+    field.fill_report(report, gmap, frame)
     written, sortie_starts = [], None
-    if frame is not None and settings is not None and result.run.success:
-        from .flightplan import make_flight_plans, write_flight_files
+    if plans is not None and frame is not None and settings is not None:
+        from .flightplan import write_flight_files
 
-        plans = make_flight_plans(result, frame, settings, safety, base=gmap)
-        report["drones"] = plans.report()
-        report["separation"] = plans.separation()
-        report["clearance"] = {**plans.clearance(gmap, frame), **band_counts}
         report["georeference"] = {**frame.to_meta(), "altitude_m": settings.altitude_m,
                                   "footprint_m": settings.footprint_m, "trigger_distance_m": settings.trigger_distance_m}
         written = write_flight_files(args.out, result, frame, plans)

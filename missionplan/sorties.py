@@ -35,6 +35,25 @@ def sortie_file(sysid: int, sortie: int, suffix: str = ".plan") -> str:
     return f"uav{sysid}{suffix}" if sortie == 1 else f"uav{sysid}-s{sortie}{suffix}"
 
 
+# Re-balance the zones for sorties only when the drones' total flight times differ more than this.
+REBALANCE_SPREAD = 0.05
+
+
+def sortie_shares(zone_cells: np.ndarray, flight_s: np.ndarray, sorties: np.ndarray) -> np.ndarray | None:
+    """Zone shares that even out the drones' total flight times when some fly several sorties, or None.
+
+    A drone whose sorties spend longer in transit (a zone far from its launch point) photographs fewer
+    cells per second of flight; giving each drone cells in proportion to its measured rate (cells per
+    second, transits, climbs and descents included) evens out the busiest drone's time."""
+    zone_cells, flight_s = np.asarray(zone_cells, dtype=float), np.asarray(flight_s, dtype=float)
+    if len(zone_cells) < 2 or int(np.max(sorties)) < 2 or np.any(flight_s <= 0) or np.any(zone_cells <= 0):
+        return None
+    if flight_s.max() <= (1.0 + REBALANCE_SPREAD) * flight_s.min():
+        return None
+    rate = zone_cells / flight_s
+    return rate / rate.sum()
+
+
 @dataclass(frozen=True)
 class Sortie:
     waypoints_m: np.ndarray  # (n, 2) survey waypoints in order, the first one where the survey (re)starts

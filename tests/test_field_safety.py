@@ -320,3 +320,25 @@ def test_band_targets_are_photographed_by_detours_that_stay_outside_the_band():
     assert flight.free[cells[:, 0], cells[:, 1]].all()  # and the detours never enter the band
     assert (np.abs(np.diff(cells, axis=0)).sum(axis=1) <= 1).all()  # 4-connected moves (or hovers)
     assert (cells[-1] == path[0, -1]).all()  # the survey still ends where it did
+
+
+# --------------------------------------------------------------------------------- zones and sorties
+def test_balanced_zones_follow_the_shares_asked():
+    from missionplan.zones import split_zones
+
+    targets = np.ones((40, 40), dtype=bool)
+    zones = split_zones(targets, targets, [(5, 5), (34, 34)], balance=True, shares=np.array([0.65, 0.35]))
+    sizes = zones.sizes() / targets.sum()
+    assert sizes == pytest.approx([0.65, 0.35], abs=0.04)  # far from the even split below
+    even = split_zones(targets, targets, [(5, 5), (34, 34)], balance=True).sizes() / targets.sum()
+    assert even == pytest.approx([0.5, 0.5], abs=0.03)
+
+
+def test_sortie_shares_give_the_slower_drone_fewer_cells_and_none_without_sorties():
+    from missionplan.sorties import sortie_shares
+
+    # Same cells, but drone 2 needs 1.5 x the time (its sorties transit far): it gets 40 %.
+    shares = sortie_shares(np.array([100, 100]), np.array([1000.0, 1500.0]), np.array([3, 4]))
+    assert shares == pytest.approx([0.6, 0.4])
+    assert sortie_shares(np.array([100, 100]), np.array([1000.0, 1500.0]), np.array([1, 1])) is None
+    assert sortie_shares(np.array([100, 100]), np.array([1000.0, 1020.0]), np.array([2, 2])) is None
