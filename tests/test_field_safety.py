@@ -331,7 +331,8 @@ def test_balanced_zones_follow_the_shares_asked():
     sizes = zones.sizes() / targets.sum()
     assert sizes == pytest.approx([0.65, 0.35], abs=0.04)  # far from the even split below
     even = split_zones(targets, targets, [(5, 5), (34, 34)], balance=True).sizes() / targets.sum()
-    assert even == pytest.approx([0.5, 0.5], abs=0.03)
+    assert even == pytest.approx([0.5, 0.5], abs=0.04)  # a diagonal boundary moves ~40 cells at a time
+    assert sizes[0] - even[0] > 0.1
 
 
 def test_sortie_shares_give_the_slower_drone_fewer_cells_and_none_without_sorties():
