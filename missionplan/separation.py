@@ -63,7 +63,7 @@ def position_at(track: np.ndarray, t: float) -> np.ndarray:
 def choose_layers(tracks_for: Callable[[float], list[dict[int, np.ndarray]]], uavs: int, altitude_m: float,
                   asked_step_m: float, min_separation_m: float, max_altitude_m: float) -> Layering:
     """The first candidate (see the module docstring) that keeps `min_separation_m`; SeparationError
-    otherwise, with the closest pair of the last candidate tried (the caller adds the place: `describe`).
+    otherwise, carrying the last candidate tried (the caller names its closest pair and the place).
 
     tracks_for(step) gives, per sortie, sysid -> timed track with drone k at altitude + k * step."""
     candidates = [(asked_step_m, "altitudes as asked" if asked_step_m > 0 else "one altitude, horizontal spacing")]
