@@ -20,7 +20,7 @@ from .catalog import load_shipped, shipped_map_names
 from .fleet_demo import register as register_demo_command
 from .fly import register as register_fly_command
 from .gridmap import MapError
-from .pipeline import DEFAULT_POLICY, POLICIES, launch_cells, make_policy, plan_map
+from .pipeline import DEFAULT_POLICY, POLICIES, launch_cells, make_policy
 from .missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
 from .safety import DEFAULT_CLEARANCE_M
 from .separation import DEFAULT_MAX_ALTITUDE_M
