@@ -255,11 +255,15 @@ def _planned_photos_m(frame: GridFrame, items: list[Any], trigger_m: float) -> n
     return np.array(points).reshape(-1, 2)
 
 
-def sortie_view(report: dict[str, Any], sortie: int, missions: dict[int, list[Any]]) -> dict[str, Any]:
+def sortie_view(report: dict[str, Any], sortie: int, missions: dict[int, dict[int, list[Any]]]) -> dict[str, Any]:
     """report.json as `fly --sortie J` judges it: the drones that fly sortie J with that sortie's planned
-    photos and time, that sortie's separation promise, and as targets only the cells its planned photos
-    hold (the other sorties photograph the rest). `missions`: sysid -> the sortie's mission items
-    (bridge.mission.MissionItem, latitude / longitude in degrees)."""
+    photos and time, that sortie's separation promise, and as targets only the cells that are its duty.
+
+    A plan with several sorties: a cell is sortie J's duty when J's planned photos hold it with room to
+    spare (SLACK_CELLS, the acceptance radius a vehicle may cut), or hold it at all and no other sortie's
+    planned photos do. A cell held only at the edge of J's last photo and again by the next sortie's
+    first is not J's alone to hold. `missions`: sortie -> sysid -> that sortie's mission items
+    (bridge.mission.MissionItem, latitude / longitude in degrees); needed only with several sorties."""
     view = dict(report)
     drones = []
     for drone in report["drones"]:
@@ -274,13 +278,19 @@ def sortie_view(report: dict[str, Any], sortie: int, missions: dict[int, list[An
     if any(len(d.get("sorties") or []) > 1 for d in report["drones"]):
         frame = frame_of(report)
         geo = report["georeference"]
-        trigger = float(geo.get("trigger_distance_m") or 0.0)
-        photos = [_planned_photos_m(frame, missions.get(int(d["id"]), []), trigger) for d in drones]
+        trigger, footprint = float(geo.get("trigger_distance_m") or 0.0), float(geo["footprint_m"])
         targets = target_cells(report)
-        planned = np.vstack(photos) if photos else np.zeros((0, 2))
-        mine = covered_by_gap(frame, nearest_photo_gap(frame, targets, planned), float(geo["footprint_m"]), 0.0)
-        others = targets[~mine]
-        view["unreachable_cells"] = list(report.get("unreachable_cells") or []) + others.tolist()
+
+        def gap(which: list[int]) -> np.ndarray:
+            photos = [_planned_photos_m(frame, items, trigger) for j in which for items in missions.get(j, {}).values()]
+            return nearest_photo_gap(frame, targets, np.vstack(photos) if photos else np.zeros((0, 2)))
+
+        mine = gap([sortie])
+        others = gap([j for j in missions if j != sortie])
+        slack = SLACK_CELLS * frame.cell_m
+        duty = covered_by_gap(frame, mine, footprint, -slack) | (
+            covered_by_gap(frame, mine, footprint, 0.0) & ~covered_by_gap(frame, others, footprint, 0.0))
+        view["unreachable_cells"] = list(report.get("unreachable_cells") or []) + targets[~duty].tolist()
     return view
 
 

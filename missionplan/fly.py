@@ -244,9 +244,12 @@ def fly(plan_dir: Path, connect: str, timeout_s: float = 600.0, progress: bool =
     if sortie < 1:
         raise BridgeUsageError(f"--sortie must be 1 or more, got {sortie}")
     files = {int(d["id"]): plan_dir / sortie_file(int(d["id"]), sortie) for d in report["drones"]}
-    several = any(len(d.get("sorties") or []) > 1 for d in report["drones"])  # only then read the files here
-    report = sortie_view(report, sortie, {k: read_mission_file(p).mission.items for k, p in files.items()
-                                          if several and p.is_file()})
+    # With several sorties, every sortie's planned photos decide which cells are this one's duty.
+    count = max(len(d.get("sorties") or [1]) for d in report["drones"])
+    missions = {j: {int(d["id"]): read_mission_file(path).mission.items for d in report["drones"]
+                    if (path := plan_dir / sortie_file(int(d["id"]), j)).is_file()}
+                for j in range(1, count + 1)} if count > 1 else {}
+    report = sortie_view(report, sortie, missions)
     if not report["drones"]:
         raise BridgeUsageError(f"{plan_dir}: no drone has a sortie {sortie}")
     records = [DroneRecord(id=int(d["id"]), planned_photos=int(d.get("photos", 0))) for d in report["drones"]]
