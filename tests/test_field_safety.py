@@ -343,3 +343,32 @@ def test_sortie_shares_give_the_slower_drone_fewer_cells_and_none_without_sortie
     assert shares == pytest.approx([0.6, 0.4])
     assert sortie_shares(np.array([100, 100]), np.array([1000.0, 1500.0]), np.array([1, 1])) is None
     assert sortie_shares(np.array([100, 100]), np.array([1000.0, 1020.0]), np.array([2, 2])) is None
+
+
+def test_an_older_report_without_a_file_list_names_its_drones_files(tmp_path):
+    from missionplan.outputs import remove_stale_outputs
+
+    (tmp_path / "report.json").write_text(json.dumps({"drones": [{"id": 1}, {"id": 3}]}))
+    for name in ("uav1.plan", "uav3.plan", "uav3.waypoints", "tracks.geojson", "mine.plan"):
+        (tmp_path / name).write_text("x")
+    removed = remove_stale_outputs(tmp_path, keep={"uav1.plan", "report.json", "plan.png"})
+    assert sorted(p.name for p in removed) == ["tracks.geojson", "uav3.plan", "uav3.waypoints"]
+    assert (tmp_path / "mine.plan").exists() and (tmp_path / "uav1.plan").exists()
+    # A report listing a name that is not one of ours, or a path, removes nothing of it.
+    (tmp_path / "report.json").write_text(json.dumps({"files": ["../escape.plan", "notes.txt", "mine.plan"]}))
+    assert remove_stale_outputs(tmp_path, keep=set()) == []
+
+
+def test_a_fence_round_a_ragged_zone_stays_small_and_holds_every_point():
+    from geo.frame import GridFrame
+    from missionplan.geofence import MAX_VERTICES, drone_fence
+
+    frame = GridFrame.at(45.0, 7.0, 2.0, 100, 100)
+    rng = np.random.default_rng(1)
+    cells = rng.integers(0, 100, size=(400, 2))  # a ragged zone: its hull has many corners
+    points = rng.uniform(0, 200, size=(50, 2))
+    fence = drone_fence(frame, cells, points, 20.0, 5.0, 120.0)
+    assert 3 <= len(fence.latlon) <= MAX_VERTICES
+    polygon = shapely.Polygon(fence.polygon_m)
+    assert polygon.contains(shapely.MultiPoint(points)) and polygon.contains(shapely.MultiPoint(cells * 2.0))
+    assert fence.max_altitude_m == 25.0
