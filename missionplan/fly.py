@@ -34,7 +34,8 @@ from bridge.missionfile import read_mission_file
 from bridge.protocol import Timeouts
 from bridge.uploader import MissionBackend, open_backend, read_back_differences, set_plan_params, upload_plan
 
-from .flight_report import DroneRecord, FlightResult, judge
+from .flight_report import DroneRecord, FlightResult, judge, sortie_view
+from .sorties import sortie_file
 
 CMD_ARM, CMD_DO_SET_MODE, CMD_MISSION_START, CMD_SET_MESSAGE_INTERVAL = 400, 176, 300, 511
 MSG_GLOBAL_POSITION_INT = 33
@@ -227,8 +228,11 @@ class _DroneFlight:
 
 def fly(plan_dir: Path, connect: str, timeout_s: float = 600.0, progress: bool = True,
         time_scale: float | None = None, telemetry_hz: float = DEFAULT_TELEMETRY_HZ,
-        upload_with: str = "missionplan", photos_from_track: bool = False) -> FlightResult:
+        upload_with: str = "missionplan", sortie: int = 1, photos_from_track: bool = False) -> FlightResult:
     """Upload, verify, arm, start and follow every drone of plan_dir at once; write flight.json/.png.
+
+    sortie=J flies battery sortie J (uavK-sJ.plan, J >= 2) of every drone that has one, judged on the
+    targets that sortie's plan photographs.
 
     photos_from_track: count a photo every trigger distance along the track of a vehicle that reports
     none (no CAMERA_FEEDBACK); without it such a flight is judged a failure (flight_report.judge).
@@ -241,8 +245,19 @@ def fly(plan_dir: Path, connect: str, timeout_s: float = 600.0, progress: bool =
     report = json.loads((plan_dir / "report.json").read_text())
     if "georeference" not in report or "drones" not in report:
         raise BridgeUsageError(f"{plan_dir / 'report.json'}: not a georeferenced plan (no missions to fly)")
+    if sortie < 1:
+        raise BridgeUsageError(f"--sortie must be 1 or more, got {sortie}")
+    files = {int(d["id"]): plan_dir / sortie_file(int(d["id"]), sortie) for d in report["drones"]}
+    # With several sorties, every sortie's planned photos decide which cells are this one's duty.
+    count = max(len(d.get("sorties") or [1]) for d in report["drones"])
+    missions = {j: {int(d["id"]): read_mission_file(path).mission.items for d in report["drones"]
+                    if (path := plan_dir / sortie_file(int(d["id"]), j)).is_file()}
+                for j in range(1, count + 1)} if count > 1 else {}
+    report = sortie_view(report, sortie, missions)
+    if not report["drones"]:
+        raise BridgeUsageError(f"{plan_dir}: no drone has a sortie {sortie}")
     records = [DroneRecord(id=int(d["id"]), planned_photos=int(d.get("photos", 0))) for d in report["drones"]]
-    plans = {rec.id: plan_dir / f"uav{rec.id}.plan" for rec in records}
+    plans = {rec.id: files[rec.id] for rec in records}
     start = time.monotonic()
     deadline = start + timeout_s
     for rec in records:
@@ -284,6 +299,8 @@ def start_mock_fleet(plan_dir: Path, speedup: float, flavour: str = "ardupilot",
 
     homes: dict[int, tuple[float, float, float]] = {}
     for path in sorted(Path(plan_dir).glob("uav*.plan")):
+        if not path.stem[3:].isdigit():  # uavK-sJ.plan: a later sortie of drone K, same home
+            continue
         home = read_mission_file(path).mission.home
         if home is not None:
             homes[int(path.stem[3:])] = (float(home[0]), float(home[1]), float(home[2]))
@@ -326,7 +343,7 @@ def cmd_fly(args: Any) -> int:
         raise BridgeUsageError(f"{args.dir}: no report.json (run `missionplan plan --out {args.dir}` first)")
     result = fly(Path(args.dir), args.connect, timeout_s=args.timeout, progress=not args.quiet,
                  time_scale=args.time_scale, telemetry_hz=args.telemetry_hz, upload_with=args.upload_with,
-                 photos_from_track=args.photos_from_track)
+                 sortie=args.sortie, photos_from_track=args.photos_from_track)
     print_flight(result)
     return 0 if result.ok else 1
 
@@ -347,6 +364,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--upload-with", choices=UPLOADERS, default="missionplan",
                    help="who reads the .plan files and uploads them: our reader and uploader (default), or "
                         "MAVSDK's QGroundControl importer and MissionRaw (checked against ours by read-back)")
+    p.add_argument("--sortie", type=int, default=1, metavar="J",
+                   help="battery sortie to fly: 1 (uavK.plan, default) or J (uavK-sJ.plan, drones that have one)")
     p.add_argument("--photos-from-track", action="store_true",
                    help="a vehicle that reports no photos (no CAMERA_FEEDBACK: no camera configured) gets one every "
                         "trigger distance along its flown track; without this flag such a flight fails")
