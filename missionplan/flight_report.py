@@ -34,7 +34,9 @@ from geo.frame import GridFrame
 
 from .atomic import write_text_atomic
 from .gridmap import GridMap
-from .timeline import closest_approach
+from bridge.copter_model import CopterParams
+
+from .timeline import FlightModel, closest_approach, planned_seconds
 
 COVERAGE_OK = 99.0
 # How much of a cell's side may fall outside the photo that counts for it: a quarter cell, the
@@ -42,6 +44,7 @@ COVERAGE_OK = 99.0
 # also absorbs the 1e-7 degree (about 1 cm) resolution of reported positions.
 SLACK_CELLS = 0.25
 CMD_WAYPOINT, CMD_DO_CHANGE_SPEED, CMD_CAM_TRIGG_DIST = 16, 178, 206
+CMD_TAKEOFF, CMD_LAND = 22, 21
 
 
 @dataclass
@@ -62,6 +65,7 @@ class DroneRecord:
     # arrival time, lat, lon, up m, ground speed m/s, the vehicle's time since boot s, climb rate m/s
     samples: list[tuple[float, float, float, float, float, float, float]] = field(default_factory=list)
     camera: dict[int, tuple[float, float, float, float]] = field(default_factory=dict)  # img_idx -> t, lat, lon, up
+    params: dict[str, float] = field(default_factory=dict)  # ArduCopter navigation parameters the vehicle reported
     t_start: float | None = None
     t_end: float | None = None
     last_heard: float = 0.0
@@ -244,6 +248,26 @@ def flown_seconds(rec: DroneRecord, scale: float) -> float:
     return float((end - rec.t_start) * scale)
 
 
+def retimed_with_vehicle_params(frame: GridFrame, rec: DroneRecord) -> float | None:
+    """The uploaded mission's planned duration (the timeline) with the navigation parameters the
+    vehicle reported instead of ArduCopter's defaults `plan` assumed; None without any."""
+    if not rec.params or not rec.wire:
+        return None
+    items = list(rec.wire)
+    start = next((i for i, it in enumerate(items) if it.command == CMD_TAKEOFF), None)
+    if start is None:
+        return None
+    takeoff = items[start]
+    waypoints = [it for it in items[start + 1:] if it.command == CMD_WAYPOINT]
+    copter = CopterParams.from_params(rec.params)
+    speed = next((float(it.param2) for it in items if it.command == CMD_DO_CHANGE_SPEED and it.param2 > 0),
+                 copter.wp_speed)
+    launch = to_grid_m(frame, [takeoff.x / 1e7], [takeoff.y / 1e7])[0]
+    route = to_grid_m(frame, [w.x / 1e7 for w in waypoints], [w.y / 1e7 for w in waypoints])
+    end = "land" if items[-1].command == CMD_LAND else "rtl"
+    return planned_seconds(launch, route, float(takeoff.z), end, FlightModel(speed, 0.0, copter))
+
+
 def estimate_time_scale(records: list[DroneRecord]) -> float:
     """Simulated seconds per wall second: distance flown between samples over the reported ground speed."""
     ratios: list[float] = []
@@ -359,6 +383,9 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
                      "photos": int(len(points)), "photos_placed_on_track": placed,
                      "planned_photos": rec.planned_photos,
                      "planned_flight_s": float(planned.get(rec.id, {}).get("flight_s", 0.0)),
+                     "planned_flight_s_vehicle": (None if (retimed := retimed_with_vehicle_params(frame, rec)) is None
+                                                  else round(retimed, 1)),
+                     "vehicle_params": rec.params,
                      "uploaded": rec.uploaded, "held_after_flight": rec.held_after_flight,
                      "samples": len(samples), "items_reached": len({seq for _, seq in rec.reached}),
                      "notes": rec.notes})

@@ -31,6 +31,8 @@ import numpy as np
 from bridge.errors import BridgeError, BridgeUsageError
 from bridge.mission import Flavour, to_wire
 from bridge.missionfile import read_mission_file
+from bridge.copter_model import PARAMETERS as COPTER_PARAMETERS
+from bridge.params import ParamClient, read_params
 from bridge.protocol import Timeouts
 from bridge.uploader import MissionBackend, open_backend, read_back_differences, set_plan_params, upload_plan
 
@@ -119,6 +121,8 @@ class _DroneFlight:
             else:
                 upload_plan(self.backend, plan.parts(), verify=True)
             rec.uploaded = True
+            if self.backend.vehicle.flavour is Flavour.ARDUPILOT:  # what the vehicle will fly with: re-times the plan
+                rec.params = read_params(ParamClient(self.backend.link, self.backend.vehicle), list(COPTER_PARAMETERS))
             return True
         except (BridgeError, OSError) as err:
             self.problem(f"upload failed: {err}")
@@ -327,7 +331,9 @@ def print_flight(result: FlightResult) -> None:
     for d in result.drones:
         state = "finished" if d["finished"] else "NOT finished"
         held = {True: "holds the uploaded mission", False: "LOST its mission", None: "mission not re-read"}
-        print(f"  uav{d['id']}: {state}, {d['flight_s']:.1f} s flown (planned {d['planned_flight_s']:.1f} s), "
+        retimed = d.get("planned_flight_s_vehicle")
+        vehicle = f"; {retimed:.1f} s with the vehicle's parameters" if retimed is not None else ""
+        print(f"  uav{d['id']}: {state}, {d['flight_s']:.1f} s flown (planned {d['planned_flight_s']:.1f} s{vehicle}), "
               f"{d['photos']} photos, {held[d['held_after_flight']]}")
     for problem in result.problems:
         print(f"  problem: {problem}")

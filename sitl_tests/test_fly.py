@@ -232,3 +232,29 @@ def test_flight_png_without_any_track_draws_no_empty_legend(planned, recwarn):
                 {1: np.zeros((0, 2)), 2: np.zeros((0, 2))}, {1: 0.0, 2: 0.0}, 0.0)
     assert not [w for w in recwarn if "No artists with labels" in str(w.message)]
     assert (plan_dir / "flight.png").stat().st_size > 10_000
+
+
+def test_fly_retimes_the_plan_with_the_vehicles_own_parameters(planned):
+    # The plan assumed ArduCopter's defaults; these vehicles loiter 0 s above home (RTL_LOIT_TIME) and
+    # land at 1 m/s (LAND_SPEED): fly reads them (PARAM_REQUEST_READ) and re-times each mission.
+    from bridge.link import Link, wait_vehicle
+    from bridge.params import ParamClient
+
+    plan_dir = planned("leonardo", 3)
+    mock = start_mock_fleet(plan_dir, SPEEDUP["leonardo"])
+    try:
+        with Link(mock.client_url) as link:
+            for sysid in (1, 2, 3):
+                client = ParamClient(link, wait_vehicle(link, sysid, timeout=5.0))
+                client.set("RTL_LOIT_TIME", 0.0)
+                client.set("LAND_SPEED", 100.0)
+        result = fly(plan_dir, mock.client_url, timeout_s=TIMEOUT_S, progress=False, time_scale=SPEEDUP["leonardo"],
+                     telemetry_hz=TELEMETRY_HZ)
+    finally:
+        mock.stop()
+    assert result.ok, result.problems
+    for drone in result.drones:
+        assert drone["vehicle_params"]["RTL_LOIT_TIME"] == 0.0 and drone["vehicle_params"]["LAND_SPEED"] == 100.0
+        # 5 s less loitering, and the landing (below LAND_ALT_LOW on this 1.2 m map) at twice the speed.
+        assert drone["planned_flight_s_vehicle"] < drone["planned_flight_s"] - 5.0
+        assert drone["flight_s"] == pytest.approx(drone["planned_flight_s_vehicle"], abs=1.5)
