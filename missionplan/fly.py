@@ -332,7 +332,8 @@ def print_flight(result: FlightResult) -> None:
         state = "finished" if d["finished"] else "NOT finished"
         held = {True: "holds the uploaded mission", False: "LOST its mission", None: "mission not re-read"}
         retimed = d.get("planned_flight_s_vehicle")
-        vehicle = f"; {retimed:.1f} s with the vehicle's parameters" if retimed is not None else ""
+        vehicle = (f"; {retimed:.1f} s with the vehicle's parameters"
+                   if retimed is not None and abs(retimed - d["planned_flight_s"]) >= 0.05 else "")
         print(f"  uav{d['id']}: {state}, {d['flight_s']:.1f} s flown (planned {d['planned_flight_s']:.1f} s{vehicle}), "
               f"{d['photos']} photos, {held[d['held_after_flight']]}")
     for problem in result.problems:
