@@ -44,10 +44,14 @@ DEFAULT_SPEEDUP = 50.0
 TELEMETRY_HZ = 50.0
 SITL_TELEMETRY_HZ = 10.0  # wall Hz at 10x: one position per simulated second
 OSM = ROOT.parent / "shared" / "maps" / "turin_cenisia_osm_buildings.geojson"
-# Street plans at 20 m over Turin's Cenisia district (README): a block for one drone, the district for four.
+# Street plans at 20 m over Turin's Cenisia district (README): a block for one drone and for three, the
+# district for four.
 STREETS: dict[str, tuple[list[list[float]], list[str]]] = {
     "block": ([[7.652188, 45.069850], [7.654088, 45.069850], [7.654088, 45.068250], [7.652188, 45.068250]],
               ["45.069450,7.652588"]),
+    # The same block for three drones, launched from street points of the one-drone plan: close neighbours.
+    "block3": ([[7.652188, 45.069850], [7.654088, 45.069850], [7.654088, 45.068250], [7.652188, 45.068250]],
+               ["45.069441,7.652592", "45.068404,7.653226", "45.069349,7.654017"]),
     "cenisia": ([[7.65189, 45.06563], [7.65861, 45.06563], [7.65861, 45.07000], [7.65189, 45.07000]],
                 ["45.069450,7.652588", "45.069513,7.657924", "45.066065,7.652668", "45.066127,7.658004"]),
 }
@@ -154,7 +158,7 @@ def main_bench() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--maps", default="leonardo,grid-city,old-town,river-city", help="shipped maps ('' for none)")
     parser.add_argument("--uavs", default="3,5,6", help="drones per shipped map")
-    parser.add_argument("--streets", default="block,cenisia", help=f"street plans ({', '.join(STREETS)}; '' for none)")
+    parser.add_argument("--streets", default="block,block3,cenisia", help=f"street plans ({', '.join(STREETS)}; '' for none)")
     parser.add_argument("--sitl", action="store_true", help="also fly the street plans on ArduCopter SITL")
     parser.add_argument("--policy", default="nn", choices=("nn", "expert"))
     args = parser.parse_args()

@@ -71,6 +71,10 @@ def register(subparsers: Any) -> None:
                            "or SYSID=LAT,LON for one; repeatable")
     mock.add_argument("--plan", type=Path, metavar="DIR",
                       help="start each vehicle K at the plannedHomePosition of DIR/uavK.plan")
+    mock.add_argument("--sitl-like", action="store_true",
+                      help="behave like ArduCopter SITL: no camera until CAM1_TYPE is set and the vehicle rebooted, "
+                           "img_idx from 1 across flights, ArduCopter's navigation parameters and flight "
+                           "(docs/flight-timeline.md)")
     mock.add_argument("--seed", type=int, default=None, help="seed of the fault injection")
     mock.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
     mock.set_defaults(handler=cmd_mock)
@@ -328,7 +332,7 @@ def cmd_mock(args: argparse.Namespace) -> int:
         raise BridgeUsageError(f"--request-interval must be positive, got {args.request_interval}")
     homes = mock_homes(sysids, args.home, args.plan)
     mock = MockAutopilot(args.listen, sysids=sysids, flavour=args.flavour, speedup=args.speedup, faults=faults,
-                         key=key, request_interval=args.request_interval, homes=homes)
+                         key=key, request_interval=args.request_interval, homes=homes, sitl_like=args.sitl_like)
     ids = ",".join(str(s) for s in sysids)
     if mock.spec.scheme == "serial":
         where, connect = f"serial device {mock.device}", f"the other end of {mock.device}"

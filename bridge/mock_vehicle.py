@@ -119,6 +119,7 @@ class MockVehicle:
         if self.options.sitl_like:
             self.params.update({**CopterParams().as_params(), "CAM1_TYPE": 0.0})
         self.camera = True  # sends CAMERA_FEEDBACK; SITL-like: only when CAM1_TYPE was set at boot
+        self._reboot_pending = False  # a reboot command acknowledged: reboot once the ack is out
         self._boot(now)
 
     # ------------------------------------------------------------------------------ lifecycle
@@ -528,7 +529,7 @@ class MockVehicle:
         p = [float(getattr(msg, f"param{i}", 0.0) or 0.0) for i in range(1, 8)]
         result = self._command(command, p, now)
         self.mav.command_ack_send(command, result, 0, 0, peer[0], peer[1])
-        if getattr(self, "_reboot_pending", False):
+        if self._reboot_pending:
             self._reboot_pending = False
             self.reboot(now)
 
