@@ -37,7 +37,7 @@ sys.path.insert(0, str(ROOT / "sitl_tests"))
 import missionplan.fly as fly_module  # noqa: E402
 from missionplan.cli import main  # noqa: E402
 from missionplan.flight_report import judge  # noqa: E402
-from missionplan.fly import fly, start_mock_fleet  # noqa: E402
+from missionplan.fly import fly, flight_view, start_mock_fleet  # noqa: E402
 
 SPEEDUP = {"leonardo": 2.0}  # a 20 x 10 m arena; the street maps are hundreds of metres: 50x
 DEFAULT_SPEEDUP = 50.0
@@ -88,7 +88,9 @@ def _row(vehicle: str, name: str, uavs: int, plan_dir: Path, problems: list[str]
     def metres(value: Any) -> str:
         return f"{value:.2f}" if value is not None else "-"
 
-    note = "" if not problems else "  " + "; ".join(problems)
+    sorties = max(len(d.get("sorties") or [1]) for d in json.loads((plan_dir / "report.json").read_text())["drones"])
+    note = "" if sorties == 1 else f"  (sortie 1 of {sorties})"
+    note += "" if not problems else "  " + "; ".join(problems)
     return (f"{vehicle:<16}{name:<11}{uavs:>3}{doc['targets']:>9}{doc['coverage']:>9.2f}"
             f"{doc['coverage_other_rules']['whole_cell']:>9.2f}{metres(sep['3d']):>10}{metres(sep['planned_3d']):>10}"
             f"{sep['tolerance']:>7.2f}{flight:>10.1f}{planned:>9.1f}{100 * worst:>7.1f}%{photos:>8}{wall:>8.1f}{note}")
@@ -150,7 +152,9 @@ def sitl_row(name: str, uavs: int, plan_dir: Path) -> str:
         finally:
             fly_module.judge = original
         records.append(_shifted(kept[0], -kept[0].t_start if kept[0].t_start is not None else 0.0))
-    result = judge(plan_dir, report, records, 10.0, wall_s=wall, telemetry_hz=SITL_TELEMETRY_HZ)
+    # Judged as fly judges sortie 1 of the whole fleet (a long plan flies in battery sorties).
+    view = flight_view(plan_dir, report, 1)
+    result = judge(plan_dir, view, records, 10.0, wall_s=wall, telemetry_hz=SITL_TELEMETRY_HZ)
     return _row("ArduCopter SITL", name, uavs, plan_dir, result.problems, wall)
 
 

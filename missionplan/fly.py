@@ -230,6 +230,16 @@ class _DroneFlight:
             self.problem("holds another mission after the flight: " + "; ".join(differences))
 
 
+def flight_view(plan_dir: Path, report: dict[str, Any], sortie: int) -> dict[str, Any]:
+    """report.json as a flight of `sortie` is judged (flight_report.sortie_view): with several sorties,
+    every sortie's planned photos (read from its files) decide which cells are this one's duty."""
+    count = max(len(d.get("sorties") or [1]) for d in report["drones"])
+    missions = {j: {int(d["id"]): read_mission_file(path).mission.items for d in report["drones"]
+                    if (path := plan_dir / sortie_file(int(d["id"]), j)).is_file()}
+                for j in range(1, count + 1)} if count > 1 else {}
+    return sortie_view(report, sortie, missions)
+
+
 def fly(plan_dir: Path, connect: str, timeout_s: float = 600.0, progress: bool = True,
         time_scale: float | None = None, telemetry_hz: float = DEFAULT_TELEMETRY_HZ,
         upload_with: str = "missionplan", sortie: int = 1, photos_from_track: bool = False) -> FlightResult:
@@ -252,12 +262,7 @@ def fly(plan_dir: Path, connect: str, timeout_s: float = 600.0, progress: bool =
     if sortie < 1:
         raise BridgeUsageError(f"--sortie must be 1 or more, got {sortie}")
     files = {int(d["id"]): plan_dir / sortie_file(int(d["id"]), sortie) for d in report["drones"]}
-    # With several sorties, every sortie's planned photos decide which cells are this one's duty.
-    count = max(len(d.get("sorties") or [1]) for d in report["drones"])
-    missions = {j: {int(d["id"]): read_mission_file(path).mission.items for d in report["drones"]
-                    if (path := plan_dir / sortie_file(int(d["id"]), j)).is_file()}
-                for j in range(1, count + 1)} if count > 1 else {}
-    report = sortie_view(report, sortie, missions)
+    report = flight_view(plan_dir, report, sortie)
     if not report["drones"]:
         raise BridgeUsageError(f"{plan_dir}: no drone has a sortie {sortie}")
     records = [DroneRecord(id=int(d["id"]), planned_photos=int(d.get("photos", 0))) for d in report["drones"]]
