@@ -206,7 +206,8 @@ class MockVehicle:
 
     # ------------------------------------------------------------------------------ sending
     def _time_boot_ms(self, now: float) -> int:
-        return max(int((now - self.boot_time) * 1000), 0)
+        # Simulated time, as ArduCopter SITL stamps its messages (a sped-up clock runs faster than ours).
+        return max(int((now - self.boot_time) * self.options.speedup * 1000), 0)
 
     def _custom_mode(self) -> int:
         table = ARDUPILOT_MODES if self.flavour is Flavour.ARDUPILOT else PX4_MODES

@@ -63,11 +63,13 @@ def stream_rates(telemetry_hz: float) -> dict[int, float]:
     return {**READY_RATES_HZ, MSG_GLOBAL_POSITION_INT: float(telemetry_hz)}
 
 
-def request_streams(link: Any, sysid: int, rates_hz: dict[int, float], deadline: float) -> list[str]:
-    """SET_MESSAGE_INTERVAL for each message id; the names of the streams the vehicle did not accept."""
+def request_streams(link: Any, sysid: int, rates_hz: dict[int, float], deadline: float,
+                    other: Callable[[Any], Any] | None = None) -> list[str]:
+    """SET_MESSAGE_INTERVAL for each message id; the names of the streams the vehicle did not accept.
+    The vehicle's other messages meanwhile go to `other` (the first of each stream among them)."""
     refused: list[str] = []
     for msgid, hz in rates_hz.items():
-        result = link.command_long(sysid, CMD_SET_MESSAGE_INTERVAL, [float(msgid), 1e6 / hz], deadline)
+        result = link.command_long(sysid, CMD_SET_MESSAGE_INTERVAL, [float(msgid), 1e6 / hz], deadline, other=other)
         if result != MAV_RESULT_ACCEPTED:
             refused.append(STREAM_NAMES.get(msgid, str(msgid)))
     return refused

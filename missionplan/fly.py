@@ -169,7 +169,8 @@ class _DroneFlight:
             self.problem(f"not found: {err}")
             return False
         self.vehicle = Vehicle(view, self.backend.vehicle, self.fleet.say, also=self._take_if_started)
-        refused = request_streams(view, rec.id, stream_rates(self.telemetry_hz), self.deadline)
+        refused = request_streams(view, rec.id, stream_rates(self.telemetry_hz), self.deadline,
+                                  other=self.vehicle.take)
         if refused:
             rec.notes.append(f"streams not accepted (SET_MESSAGE_INTERVAL): {', '.join(refused)}; the vehicle's own rates")
         return True
@@ -428,14 +429,19 @@ def print_flight(result: FlightResult) -> None:
     sep = result.separation
     print(f"flown coverage {result.coverage:.2f} % of {result.targets} target cells "
           f"(photos from {result.photo_source}); {len(result.drones)} drones, {result.wall_s:.1f} s wall")
-    print(f"closest approach {sep['horizontal']} m horizontal / {sep['3d']} m 3-D; "
-          f"the plan promised {sep['planned_3d']} m 3-D (tolerance {sep['tolerance']} m): "
-          f"{'kept' if sep['kept'] else 'BROKEN'}")
+    if sep["kept"] is None:
+        print(f"separation not measured: {sep.get('tracks', 0)} drone(s) flew, it takes two"
+              + (f" (the plan promised {sep['planned_3d']} m 3-D)" if sep["planned_3d"] is not None else ""))
+    else:
+        print(f"closest approach {sep['horizontal']} m horizontal / {sep['3d']} m 3-D; "
+              f"the plan promised {sep['planned_3d']} m 3-D (tolerance {sep['tolerance']} m): "
+              f"{'kept' if sep['kept'] else 'BROKEN'}")
     for d in result.drones:
         state = "finished" if d["finished"] else "NOT finished"
         held = {True: "holds the uploaded mission", False: "LOST its mission", None: "mission not re-read"}
         print(f"  uav{d['id']}: {state}, {d['flight_s']:.1f} s flown (planned {d['planned_flight_s']:.1f} s), "
-              f"{d['photos']} photos, {held[d['held_after_flight']]}")
+              f"{d['photos']} photos, {held[d['held_after_flight']]}"
+              + "".join(f"; {note}" for note in d.get("notes", []) if note.startswith("left ")))
     for problem in result.problems:
         print(f"  problem: {problem}")
     print(f"wrote {result.json_path} and {result.png_path}")
