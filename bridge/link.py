@@ -247,7 +247,10 @@ class Link:
         """To the vehicle the packet is for; to every vehicle heard when it is for no one in particular
         (or for one we have not heard yet)."""
         where = self.addresses.get(self._send_to) if self._send_to else None
-        targets = [where] if where is not None else list(dict.fromkeys(self.addresses.values())) or list(self.conn.clients)
+        if where is not None:
+            targets = [where]
+        else:
+            targets = list(dict.fromkeys(self.addresses.values())) or list(self.conn.clients)
         for address in targets:
             try:
                 self.conn.port.sendto(buf, address)

@@ -73,6 +73,7 @@ class PlanFile:
     firmware: Flavour | None = None
     cruise_speed: float | None = None
     hover_speed: float | None = None
+    fence_max_altitude: float | None = None  # geoFence "maxAltitude" (metres above home), our extension
 
     def parts(self) -> list[Mission]:
         """The mission, then the fence and rally lists that have items."""
@@ -307,6 +308,8 @@ def read_plan(path: str | os.PathLike[str]) -> PlanFile:
                     cruise_speed=_optional_number(mission_doc.get("cruiseSpeed"), path, "mission.cruiseSpeed"),
                     hover_speed=_optional_number(mission_doc.get("hoverSpeed"), path, "mission.hoverSpeed"))
     plan.fence = _read_fence(doc.get("geoFence"), path)
+    if isinstance(doc.get("geoFence"), dict) and doc["geoFence"].get("maxAltitude") is not None:
+        plan.fence_max_altitude = _number(doc["geoFence"]["maxAltitude"], "geoFence maxAltitude", path)
     plan.rally = _read_rally(doc.get("rallyPoints"), path)
     return plan
 
@@ -329,8 +332,10 @@ def _read_fence(doc: Any, path: Path) -> Mission:
         vertices = poly["polygon"]
         for number, vertex in enumerate(vertices, start=1):
             lat, lon = _latlon(vertex, where, path)
+            # autocontinue 0: a fence point is no navigation step, and ArduPilot stores (and reads back) 0
             fence.items.append(check_item(MissionItem(command=command, frame=FRAME_GLOBAL,
-                                                      param1=float(len(vertices)), x=lat, y=lon, z=0.0),
+                                                      param1=float(len(vertices)), x=lat, y=lon, z=0.0,
+                                                      autocontinue=False),
                                           f"{where} point {number}", path))
     for index, circle in enumerate(_list(doc.get("circles"), "geoFence.circles", path)):
         where = f"geoFence circle {index + 1}"
@@ -343,7 +348,7 @@ def _read_fence(doc: Any, path: Path) -> Mission:
             raise BridgeUsageError(f"{path}: {where}: radius must be a positive number of metres, got {radius}")
         command = CMD_FENCE_CIRCLE_INCLUSION if circle.get("inclusion", True) else CMD_FENCE_CIRCLE_EXCLUSION
         fence.items.append(check_item(MissionItem(command=command, frame=FRAME_GLOBAL, param1=radius, x=lat, y=lon,
-                                                  z=0.0), where, path))
+                                                  z=0.0, autocontinue=False), where, path))
     return fence
 
 
@@ -397,7 +402,10 @@ def plan_document(plan: PlanFile) -> dict[str, Any]:
         "vehicleType": MAV_TYPE_QUADROTOR,
         "version": 2,
     }
-    return {"fileType": "Plan", "geoFence": _fence_document(plan.fence), "groundStation": "QGroundControl",
+    fence = _fence_document(plan.fence)
+    if plan.fence_max_altitude is not None:  # QGroundControl ignores it; the autopilot's ceiling is a parameter
+        fence["maxAltitude"] = plan.fence_max_altitude
+    return {"fileType": "Plan", "geoFence": fence, "groundStation": "QGroundControl",
             "mission": mission_doc, "rallyPoints": _rally_document(plan.rally), "version": 1}
 
 

@@ -23,8 +23,11 @@ from .catalog import load_shipped, shipped_map_names
 from .fleet_demo import register as register_demo_command
 from .fly import register as register_fly_command
 from .gridmap import MapError
-from .pipeline import DEFAULT_POLICY, POLICIES, launch_cells, make_policy, plan_map
+from .pipeline import DEFAULT_POLICY, POLICIES, launch_cells, make_policy
 from .missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
+from .safety import DEFAULT_CLEARANCE_M
+from .separation import DEFAULT_MAX_ALTITUDE_M
+from .sorties import DEFAULT_ENDURANCE_MIN, DEFAULT_RESERVE
 from .zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 
 EXIT_USAGE = 2
@@ -92,6 +95,19 @@ def _build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--end", choices=END_ACTIONS, default="rtl", help="after the survey: return to launch or land")
     plan.add_argument("--altitude-step", type=float, default=0.0,
                       help="drone k flies this many metres above drone k-1 (layers go up from --altitude)")
+    plan.add_argument("--min-separation", type=float, metavar="M",
+                      help="closest two drones may come, 3-D metres, over the whole flight (default: the map's "
+                           "min_separation_m, else 5); altitude layers are added when needed")
+    plan.add_argument("--max-altitude", type=float, default=DEFAULT_MAX_ALTITUDE_M, metavar="M",
+                      help=f"no altitude layer above this (default {DEFAULT_MAX_ALTITUDE_M:g} m)")
+    plan.add_argument("--clearance", type=float, metavar="M",
+                      help="horizontal margin of the tracks from obstacles (default: the map's clearance_m, "
+                           f"else the larger of {DEFAULT_CLEARANCE_M:g} m and one cell)")
+    plan.add_argument("--endurance", type=float, default=DEFAULT_ENDURANCE_MIN, metavar="MIN",
+                      help=f"usable flight minutes per battery; longer routes fly in sorties (default "
+                           f"{DEFAULT_ENDURANCE_MIN:g}; 0: no limit)")
+    plan.add_argument("--reserve", type=float, default=DEFAULT_RESERVE, metavar="F",
+                      help=f"fraction of the endurance kept for landing (default {DEFAULT_RESERVE:g})")
     plan.add_argument("--out", required=True, type=Path, help="output folder (created if missing)")
     plan.add_argument("--policy", default=DEFAULT_POLICY, choices=POLICIES,
                       help="who decides moves in view of targets: the neural network (nn) or the expert it imitates")
@@ -136,6 +152,9 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 
     from .coverage_check import coverage_report
     from .georef import UnknownHeights, load_area_checked, mission_settings, shipped_frame
+    from .fieldplan import plan_field
+    from .outputs import remove_stale_outputs
+    from .safety import safety_settings
 
     # Everything that can be wrong with the input fails here, before any folder is made.
     unknown = UnknownHeights(0, 0, None, None)
@@ -151,6 +170,11 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         frame = shipped_frame(gmap)
     starts = launch_cells(gmap, args.uavs)
     settings = mission_settings(gmap, args) if frame is not None else None
+    safety = safety_settings(gmap, args, settings.altitude_m) if settings is not None else None
+    if safety is not None:  # a launch point inside the clearance band fails here, before any folder
+        from .clearance import flight_map
+
+        flight_map(gmap, safety.clearance_m, args.uavs)
     policy = make_policy(args.policy, args.weights)
     try:
         args.out.mkdir(parents=True, exist_ok=True)
@@ -161,27 +185,30 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     except OSError as err:
         raise MapError(f"--out {args.out}: cannot write files there ({err.strerror})") from None
     show_progress = not args.quiet and sys.stderr.isatty()
-    result = plan_map(gmap, args.uavs, policy=policy, zone_method=args.zones, seed=args.seed,
-                      progress=show_progress, balance_zones=not args.no_balance)
+    # Clearance band, band detours, flight plans, sorties, separation, geofences (missionplan/fieldplan.py).
+    field = plan_field(gmap, args.uavs, frame, settings, safety, balance_zones=not args.no_balance, policy=policy,
+                       zone_method=args.zones, seed=args.seed, progress=show_progress)
+    result, plans = field.result, field.plans
     report = build_report(result, args.seed)
-    written = []
-    if frame is not None and settings is not None and result.run.success:
-        from .flightplan import make_flight_plans, write_flight_files
+    field.fill_report(report, gmap, frame)
+    written, sortie_starts = [], None
+    if plans is not None and frame is not None and settings is not None:
+        from .flightplan import write_flight_files
 
-        plans = make_flight_plans(result, frame, settings)
-        report["drones"] = plans.report()
-        report["separation"] = plans.separation()
         report["georeference"] = {**frame.to_meta(), "altitude_m": settings.altitude_m,
                                   "footprint_m": settings.footprint_m, "trigger_distance_m": settings.trigger_distance_m}
         written = write_flight_files(args.out, result, frame, plans)
+        sortie_starts = plans.sortie_starts
     osm = args.area is not None and args.osm is not None
     report["coverage"] = coverage_report(
         gmap, starts, report["targets"], report["unreachable"], report["metrics"]["coverage"], report["zone_sizes"],
         unknown_buildings=unknown.buildings if osm else None, total_buildings=unknown.total if osm else None,
         assumed_height_m=unknown.assumed_m, if_overflown=unknown.if_overflown,
         launch_labels=list(args.launch[:args.uavs]) if args.area is not None else None)
+    report["files"] = sorted({p.name for p in written} | {"report.json", "plan.png"})
+    remove_stale_outputs(args.out, keep=report["files"])  # before the new report.json replaces the old list
     write_report(report, args.out / "report.json")
-    draw_plan(result, args.out / "plan.png")
+    draw_plan(result, args.out / "plan.png", sortie_starts=sortie_starts)
 
     m = report["metrics"]
     zones = args.zones + ("" if args.no_balance else ", balanced")
@@ -206,15 +233,24 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     if "drones" in report:
         for drone in report["drones"]:
             before, after = drone["smoothing"]["before"], drone["smoothing"]["after"]
+            sorties = f" in {len(drone['sorties'])} sorties" if len(drone.get("sorties", [])) > 1 else ""
             print(f"  uav{drone['id']}: {drone['cells']} cells -> {drone['waypoints']} waypoints, "
-                  f"{drone['length_m']:.0f} m, {drone['flight_s']:.0f} s, {drone['photos']} photos "
-                  f"(turning {before['turning_deg']:.0f} -> {after['turning_deg']:.0f} deg)")
+                  f"{drone['length_m']:.0f} m, {drone['flight_s']:.0f} s{sorties}, {drone['photos']} photos "
+                  f"at {drone['altitude_m']:g} m (turning {before['turning_deg']:.0f} -> {after['turning_deg']:.0f} deg)")
     if "separation" in report:
         sep = report["separation"]
         if sep["3d"] is not None:
-            hint = "" if args.altitude_step > 0 else "; --altitude-step puts drones on separate layers"
             print(f"  closest approach if flown as planned: {sep['3d']} m 3-D, {sep['horizontal']} m horizontal "
-                  f"(uav{sep['pair_3d'][0]} and uav{sep['pair_3d'][1]} at {sep['at_s']} s){hint}")
+                  f"(uav{sep['pair_3d'][0]} and uav{sep['pair_3d'][1]} at {sep['at_s']} s"
+                  f"{'' if len(sep['sorties']) < 2 else ' of sortie ' + str(sep['sortie'])}); "
+                  f"at least {sep['required_m']:g} m guaranteed by {sep['method']}")
+    if "clearance" in report and report["clearance"]["kept_m"] is not None:
+        cl = report["clearance"]
+        print(f"  clearance from obstacles: {cl['kept_m']:g} m (asked {cl['required_m']:g} m)")
+        if cl.get("band_targets_missed"):
+            print(f"missionplan: warning: {cl['band_targets_missed']} of the {cl['band_targets']} target cells closer "
+                  f"than --clearance {cl['required_m']:g} m to an obstacle are out of every photo (narrow streets, "
+                  f"courtyards); counted unreachable", file=sys.stderr)
     for warning in report["coverage"]["warnings"]:
         print(f"missionplan: warning: {warning}", file=sys.stderr)
     names = ", ".join(p.name for p in written[:2]) + (f", ... ({len(written)} files)" if written else "")

@@ -251,6 +251,67 @@ def estimate_time_scale(records: list[DroneRecord]) -> float:
     return float(np.median(ratios)) if len(ratios) >= 3 else 1.0
 
 
+# ------------------------------------------------------------------------------------------- sorties
+def _planned_photos_m(frame: GridFrame, items: list[Any], trigger_m: float) -> np.ndarray:
+    """Where a mission's photos are planned (grid metres): one wherever DO_SET_CAM_TRIGG_DIST says "trigger
+    once now" after a waypoint, and one every trigger distance along each leg flown with the distance
+    trigger on (not on a way out or home, where it is 0)."""
+    points: list[np.ndarray] = []
+    distance, previous = 0.0, None
+    for item in items:
+        if item.command == CMD_CAM_TRIGG_DIST:
+            if item.param3 > 0 and previous is not None:
+                points.append(previous)
+            distance = item.param1
+        elif item.command == CMD_WAYPOINT:
+            here = to_grid_m(frame, item.x, item.y)[0]
+            if distance > 0 and previous is not None and trigger_m > 0:
+                length = float(np.hypot(*(here - previous)))
+                for along in np.arange(trigger_m, length, trigger_m):
+                    points.append(previous + (here - previous) * (along / length))
+            previous = here
+    return np.array(points).reshape(-1, 2)
+
+
+def sortie_view(report: dict[str, Any], sortie: int, missions: dict[int, dict[int, list[Any]]]) -> dict[str, Any]:
+    """report.json as `fly --sortie J` judges it: the drones that fly sortie J with that sortie's planned
+    photos and time, that sortie's separation promise, and as targets only the cells that are its duty.
+
+    A plan with several sorties: a cell is sortie J's duty when J's planned photos hold it with room to
+    spare (SLACK_CELLS, the acceptance radius a vehicle may cut), or hold it at all and no other sortie's
+    planned photos do. A cell held only at the edge of J's last photo and again by the next sortie's
+    first is not J's alone to hold. `missions`: sortie -> sysid -> that sortie's mission items
+    (bridge.mission.MissionItem, latitude / longitude in degrees); needed only with several sorties."""
+    view = dict(report)
+    drones = []
+    for drone in report["drones"]:
+        entries = drone.get("sorties") or [{"file": f"uav{drone['id']}.plan", "flight_s": drone.get("flight_s", 0.0),
+                                            "photos": drone.get("photos", 0), "waypoints": drone.get("waypoints", 0)}]
+        if sortie <= len(entries):
+            drones.append({**drone, **entries[sortie - 1]})
+    view["drones"] = drones
+    promises = (report.get("separation") or {}).get("sorties") or []
+    if sortie <= len(promises):
+        view["separation"] = promises[sortie - 1]
+    if any(len(d.get("sorties") or []) > 1 for d in report["drones"]):
+        frame = frame_of(report)
+        geo = report["georeference"]
+        trigger, footprint = float(geo.get("trigger_distance_m") or 0.0), float(geo["footprint_m"])
+        targets = target_cells(report)
+
+        def gap(which: list[int]) -> np.ndarray:
+            photos = [_planned_photos_m(frame, items, trigger) for j in which for items in missions.get(j, {}).values()]
+            return nearest_photo_gap(frame, targets, np.vstack(photos) if photos else np.zeros((0, 2)))
+
+        mine = gap([sortie])
+        others = gap([j for j in missions if j != sortie])
+        slack = SLACK_CELLS * frame.cell_m
+        duty = covered_by_gap(frame, mine, footprint, -slack) | (
+            covered_by_gap(frame, mine, footprint, 0.0) & ~covered_by_gap(frame, others, footprint, 0.0))
+        view["unreachable_cells"] = list(report.get("unreachable_cells") or []) + targets[~duty].tolist()
+    return view
+
+
 # ------------------------------------------------------------------------------------------- judging
 def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], time_scale: float | None,
           wall_s: float, telemetry_hz: float) -> FlightResult:

@@ -10,7 +10,7 @@ to a temporary name and renamed.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -20,9 +20,14 @@ from bridge.missionfile import PlanFile, write_mission_file
 from geo.frame import GridFrame
 
 from .atomic import write_text_atomic
-from .corrector import CorrectedPath, correct_path
+from .corrector import MARGIN_CELLS, CorrectedPath, correct_path
+from .geofence import Fence, drone_fence
+from .gridmap import GridMap
 from .missions import DroneMission, MissionSettings, build_mission
 from .pipeline import PlanResult
+from .safety import SafetySettings
+from .separation import Layering, SeparationError, choose_layers, closest_over_sorties, position_at
+from .sorties import Sortie, sortie_file, split_sorties
 from .timeline import FlightModel, closest_approach, planned_track
 from .world import FOOTPRINT_RADIUS
 
@@ -31,48 +36,254 @@ from .world import FOOTPRINT_RADIUS
 class FlightPlans:
     corrected: list[CorrectedPath]
     waypoints_latlon: list[np.ndarray]  # per drone (n, 2): the corrected waypoints as (lat, lon)
-    drones: list[DroneMission]
-    settings: MissionSettings
-    timed: dict[int, np.ndarray]  # sysid -> (n, 4) t, row_m, col_m, up_m of the planned flight (timeline)
+    drones: list[DroneMission]  # per drone, its first sortie's mission (its only one without an endurance)
+    settings: MissionSettings  # with the altitude step the separation chose
+    timed: dict[int, np.ndarray]  # sysid -> (n, 4) t, row_m, col_m, up_m of the first sortie (timeline)
+    sorties: list[list[DroneMission]] = field(default_factory=list)  # per drone, every sortie's mission
+    sortie_tracks: list[dict[int, np.ndarray]] = field(default_factory=list)  # per sortie, sysid -> timed track
+    sortie_routes: list[list[np.ndarray]] = field(default_factory=list)  # per drone, per sortie: launch + waypoints, grid m
+    sortie_starts: list[np.ndarray] = field(default_factory=list)  # per drone (J, 2) grid row, col: each sortie's survey start
+    fences: list[Fence] = field(default_factory=list)  # per drone; empty when no safety settings were given
+    layering: Layering | None = None
+    safety: SafetySettings | None = None
+
+    def __post_init__(self) -> None:
+        if not self.sorties:
+            self.sorties = [[drone] for drone in self.drones]
+        if not self.sortie_tracks:
+            self.sortie_tracks = [self.timed]
 
     def separation(self) -> dict[str, Any]:
-        """report.json's `separation`: the closest approach of two drones if all fly as planned."""
-        return {**closest_approach(self.timed), "assumes": "all missions start together; straight legs at the "
-                "cruise speed, waypoints reached at their acceptance radius; climb 2.5 m/s, descent 1.5 m/s"}
+        """report.json's `separation`: the closest approach of two drones if all fly as planned; with
+        safety settings, the minimum it guarantees and how."""
+        approach = closest_over_sorties(self.sortie_tracks)
+        doc = {**approach, "assumes": "the drones of a sortie start together; straight legs at the cruise speed, "
+               "waypoints reached at their acceptance radius; climb 2.5 m/s, descent 1.5 m/s",
+               "sorties": [closest_approach(tracks) for tracks in self.sortie_tracks]}
+        if self.safety is not None and self.layering is not None:
+            doc.update({"required_m": self.safety.min_separation_m, "method": self.layering.method,
+                        "altitude_step_m": self.layering.step_m,
+                        "guaranteed_m": None if approach["3d"] is None else approach["3d"]})
+        return doc
+
+    def clearance(self, gmap: GridMap, frame: GridFrame) -> dict[str, Any]:
+        """report.json's `clearance`: each drone's smallest horizontal distance from an obstacle cell over
+        all its sorties (missionplan.clearance) on `gmap` (the map as given, without the clearance band),
+        the asked margin, and where the closest track is."""
+        from .clearance import obstacle_shape, track_clearance
+
+        shape = obstacle_shape(gmap.obstacle, frame.cell_m)
+        per_drone, worst = [], (float("inf"), 0, np.zeros(2))
+        for k, missions in enumerate(self.sortie_routes):
+            distance, where = float("inf"), np.zeros(2)
+            for route in missions:
+                d, w = track_clearance(shape, route)
+                if d < distance:
+                    distance, where = d, w
+            per_drone.append(round(distance, 2) if np.isfinite(distance) else None)
+            if distance < worst[0]:
+                worst = (distance, k + 1, where)
+        required = self.safety.clearance_m if self.safety is not None else None
+        kept = None if not np.isfinite(worst[0]) else round(worst[0], 2)
+        doc: dict[str, Any] = {"required_m": required, "kept_m": kept, "per_drone_m": per_drone,
+                               "kept": required is None or kept is None or kept >= required - 1e-6}
+        if kept is not None:
+            lat, lon = frame.grid_to_latlon(np.array([worst[2][0] / frame.cell_m]), np.array([worst[2][1] / frame.cell_m]))
+            doc.update({"closest_uav": worst[1], "closest_at": [round(float(lat[0]), 7), round(float(lon[0]), 7)]})
+        return doc
 
     def report(self) -> list[dict[str, Any]]:
-        """report.json's `drones`: one object per drone."""
+        """report.json's `drones`: one object per drone (totals over its sorties, then each sortie)."""
         rows = []
-        for k, (track, drone) in enumerate(zip(self.corrected, self.drones)):
-            rows.append({"id": drone.sysid, "cells": int(track.before["waypoints"]), "waypoints": drone.waypoints,
-                         "length_m": round(drone.length_m, 2), "flight_s": round(drone.flight_s, 1),
-                         "photos": drone.photos, "altitude_m": round(self.settings.altitude_of(k), 2),
-                         "smoothing": {"before": track.before, "after": track.after}})
+        for k, (track, missions) in enumerate(zip(self.corrected, self.sorties)):
+            sysid = missions[0].sysid
+            row = {"id": sysid, "cells": int(track.before["waypoints"]),
+                   "waypoints": int(sum(m.waypoints for m in missions)),
+                   "length_m": round(sum(m.length_m for m in missions), 2),
+                   "flight_s": round(sum(m.flight_s for m in missions), 1),
+                   "photos": int(sum(m.photos for m in missions)), "altitude_m": round(self.settings.altitude_of(k), 2),
+                   "smoothing": {"before": track.before, "after": track.after},
+                   "sorties": [{"file": sortie_file(sysid, j + 1), "flight_s": round(m.flight_s, 1),
+                                "photos": m.photos, "waypoints": m.waypoints} for j, m in enumerate(missions)]}
+            if self.fences:
+                fence = self.fences[k]
+                row["geofence"] = {"vertices": len(fence.latlon), "max_altitude_m": fence.max_altitude_m,
+                                   "margin_m": self.safety.fence_margin_m if self.safety else None}
+            rows.append(row)
         return rows
 
 
-def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSettings) -> FlightPlans:
-    """Correct every drone's path and build its mission."""
-    gmap, paths = result.gmap, result.run.paths
-    corrected, latlons, drones = [], [], []
-    timed: dict[int, np.ndarray] = {}
+def _place(frame: GridFrame, point_m: np.ndarray) -> str:
+    lat, lon = frame.grid_to_latlon(np.array([point_m[0] / frame.cell_m]), np.array([point_m[1] / frame.cell_m]))
+    return f"{float(lat[0]):.6f},{float(lon[0]):.6f}, {point_m[2]:.1f} m up"
+
+
+def _latlon(frame: GridFrame, points_m: np.ndarray) -> np.ndarray:
+    """(n, 2) grid metres -> (n, 2) latitude, longitude."""
+    if not len(points_m):
+        return np.zeros((0, 2))
+    grid = np.asarray(points_m, dtype=float) / frame.cell_m
+    return np.column_stack(frame.grid_to_latlon(grid[:, 0], grid[:, 1]))
+
+
+class _Homing:
+    """One drone's ways between its launch point and any cell, along free cells (breadth first, once),
+    straightened by the corrector with the clearance margin and no coverage duty."""
+
+    def __init__(self, free: np.ndarray, launch: tuple[int, int], obstacle: np.ndarray, margin_cells: float,
+                 cell_m: float) -> None:
+        from .clearance import steps_toward
+
+        source = np.zeros(free.shape, dtype=bool)
+        source[tuple(launch)] = True
+        self.steps, self.toward = steps_toward(free, source)
+        self.launch, self.obstacle, self.margin, self.cell = tuple(launch), obstacle, margin_cells, cell_m
+        self.cols = free.shape[1]
+        self._ways: dict[tuple[int, int], np.ndarray] = {}
+
+    def _cell(self, point_m: np.ndarray) -> tuple[int, int]:
+        return int(round(point_m[0] / self.cell)), int(round(point_m[1] / self.cell))
+
+    def home_m(self, point_m: np.ndarray) -> float:
+        """Length of the free-cell way from the launch point to `point_m` (an upper bound of the flown one)."""
+        steps = self.steps[self._cell(point_m)]
+        return float(steps) * self.cell if steps >= 0 else float(np.hypot(*point_m)) + 1e9
+
+    def way(self, point_m: np.ndarray, outbound: bool) -> np.ndarray:
+        """Waypoints (metres) strictly between the launch point and `point_m`, out from launch or home to it;
+        the way home ends over the launch point itself."""
+        start = self._cell(point_m)
+        if start not in self._ways:
+            cells = [start]
+            while cells[-1] != self.launch and self.toward[cells[-1]] >= 0 and len(cells) <= self.steps.size:
+                flat = int(self.toward[cells[-1]])
+                cells.append((flat // self.cols, flat % self.cols))
+            track = correct_path(np.array(cells), self.obstacle, np.zeros(self.obstacle.shape, dtype=bool),
+                                 margin_cells=self.margin)
+            self._ways[start] = np.asarray(track.waypoints, dtype=float) * self.cell  # point ... launch
+        home = self._ways[start]
+        if outbound:
+            return home[::-1][1:-1]
+        return home[1:]
+
+
+def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSettings,
+                      safety: SafetySettings | None = None, base: GridMap | None = None) -> FlightPlans:
+    """Correct every drone's path and build its missions.
+
+    With `safety`: routes longer than the endurance become sorties, the altitude layers are chosen so
+    the separation holds (SeparationError names the pair and the place otherwise), each drone gets a
+    geofence. Without it: one mission per drone at the altitudes of `settings`, nothing enforced.
+    `base`: the map as given when the planner flew it with a clearance band (missionplan.clearance): the
+    corrector keeps the clearance from its obstacles and every target the grid path photographed."""
+    paths = result.run.paths
+    base = result.gmap if base is None else base
+    targets = result.world.reachable if base is result.gmap else base.target
+    cell = frame.cell_m
+    corrected, latlons, launches, routes = [], [], [], []
     model = FlightModel(speed_m_s=settings.speed_m_s, acceptance_m=settings.acceptance_m)
+    # Not touching an obstacle square within a box buffer of `margin` cells keeps the segment at least
+    # that far from it (Chebyshev distance <= Euclidean).
+    margin_cells = MARGIN_CELLS if safety is None else max(MARGIN_CELLS, safety.clearance_m / cell)
     for k in range(paths.shape[0]):
         # A diagonal is credited only with the cells every photo spacing still sees.
-        track = correct_path(paths[k], gmap.obstacle, result.world.reachable, footprint_radius=FOOTPRINT_RADIUS,
-                             sample_step=max(settings.trigger_distance_m / frame.cell_m, 0.25))
+        track = correct_path(paths[k], base.obstacle, targets, footprint_radius=FOOTPRINT_RADIUS,
+                             sample_step=max(settings.trigger_distance_m / cell, 0.25), margin_cells=margin_cells)
         waypoints = np.asarray(track.waypoints, dtype=float)
-        latlon = np.column_stack(frame.grid_to_latlon(waypoints[:, 0], waypoints[:, 1]))
-        launch = np.asarray(result.starts[k], dtype=float)
-        launch_lat, launch_lon = frame.grid_to_latlon(launch[:1], launch[1:])
-        timed[k + 1] = planned_track(launch * frame.cell_m, waypoints * frame.cell_m, settings.altitude_of(k),
-                                     settings.end, model)
-        drones.append(build_mission(k, (float(launch_lat[0]), float(launch_lon[0])), latlon,
-                                    waypoints * frame.cell_m, launch * frame.cell_m, settings,
-                                    flight_s=float(timed[k + 1][-1, 0])))
+        latlons.append(np.column_stack(frame.grid_to_latlon(waypoints[:, 0], waypoints[:, 1])))
+        launches.append(np.asarray(result.starts[k], dtype=float) * cell)
+        routes.append(waypoints * cell)
         corrected.append(track)
-        latlons.append(latlon)
-    return FlightPlans(corrected, latlons, drones, settings, timed)
+    uavs = len(routes)
+    budget = safety.budget_s if safety is not None else None
+    # With safety settings, the way out to a sortie's start and the way home go round the obstacles
+    # (along free cells of the planner's map, then through the corrector), never straight through them.
+    homing = [_Homing(result.gmap.free, result.starts[k], base.obstacle, margin_cells, cell) if safety is not None
+              else None for k in range(uavs)]
+
+    def split(step: float) -> list[list[Sortie]]:
+        layered = replace(settings, altitude_step_m=step)
+        return [split_sorties(launches[k], routes[k], layered.altitude_of(k), settings.end, model, budget, f"uav{k + 1}",
+                              home_m=homing[k].home_m if homing[k] else None, step_m=cell if homing[k] else None)
+                for k in range(uavs)]
+
+    def legs(k: int, sortie: Sortie) -> tuple[np.ndarray, np.ndarray]:
+        """(the way out, the way home) of a sortie, metres; empty where the flight needs none."""
+        if homing[k] is None or not len(sortie.waypoints_m):
+            return np.zeros((0, 2)), np.zeros((0, 2))
+        out = homing[k].way(sortie.waypoints_m[0], outbound=True) if sortie.resumes else np.zeros((0, 2))
+        back = homing[k].way(sortie.waypoints_m[-1], outbound=False) if sortie.end == "rtl" else np.zeros((0, 2))
+        return out, back
+
+    def flown(k: int, sortie: Sortie) -> np.ndarray:
+        out, back = legs(k, sortie)
+        return np.vstack([out, sortie.waypoints_m, back])
+
+    def tracks_for(step: float) -> list[dict[int, np.ndarray]]:
+        sorties = split(step)
+        count = max(len(s) for s in sorties)
+        return [{k + 1: planned_track(launches[k], flown(k, sorties[k][j]), settings.altitude_m + k * step,
+                                      sorties[k][j].end, model)
+                 for k in range(uavs) if j < len(sorties[k])} for j in range(count)]
+
+    layering = None
+    step = settings.altitude_step_m
+    if safety is not None:
+        try:
+            layering = choose_layers(tracks_for, uavs, settings.altitude_m, settings.altitude_step_m,
+                                     safety.min_separation_m, safety.max_altitude_m)
+        except SeparationError as failure:
+            if failure.layering is None:  # every candidate's top layer is above the ceiling
+                failure.args = (f"--min-separation {safety.min_separation_m:g} m cannot be guaranteed"
+                                f"{failure.ceiling}",)
+                raise failure from None
+            raise _separation_failure(failure, frame, tracks_for, safety) from None
+        step = layering.step_m
+    settings = replace(settings, altitude_step_m=step)
+    all_sorties = split(step)
+    sortie_tracks = tracks_for(step)
+    missions: list[list[DroneMission]] = []
+    starts, fences = [], []
+    for k in range(uavs):
+        launch_lat, launch_lon = frame.grid_to_latlon(launches[k][:1] / cell, launches[k][1:] / cell)
+        home = (float(launch_lat[0]), float(launch_lon[0]))
+        drone_missions = []
+        for j, sortie in enumerate(all_sorties[k]):
+            out, back = legs(k, sortie)
+            drone_missions.append(build_mission(k, home, _latlon(frame, sortie.waypoints_m), sortie.waypoints_m,
+                                                launches[k], settings, flight_s=float(sortie_tracks[j][k + 1][-1, 0]),
+                                                end=sortie.end, resumes=sortie.resumes,
+                                                transit=(_latlon(frame, out), out), back=(_latlon(frame, back), back)))
+        missions.append(drone_missions)
+        starts.append(np.array([s.waypoints_m[0] / cell for s in all_sorties[k] if len(s.waypoints_m)]).reshape(-1, 2))
+        if safety is not None:
+            points = np.vstack([launches[k][None, :]] + [flown(k, s) for s in all_sorties[k]])
+            fences.append(drone_fence(frame, np.argwhere(result.zones.zone == k), points, settings.altitude_of(k),
+                                      safety.fence_margin_m, safety.max_altitude_m))
+    sortie_routes = [[np.vstack([launches[k][None, :], flown(k, s), launches[k][None, :]])
+                      if s.end == "rtl" else np.vstack([launches[k][None, :], flown(k, s)])
+                      for s in all_sorties[k]] for k in range(uavs)]
+    return FlightPlans(corrected, latlons, [m[0] for m in missions], settings, sortie_tracks[0], missions,
+                       sortie_tracks, sortie_routes, starts, fences, layering, safety)
+
+
+def _separation_failure(failure: SeparationError, frame: GridFrame,
+                        tracks_for: Any, safety: SafetySettings) -> SeparationError:
+    """The error naming the pair, the sortie, the time and the place of the closest approach."""
+    layering = failure.layering
+    assert layering is not None
+    approach = layering.approach
+    a, b = approach["pair_3d"]
+    sortie = approach["sortie"]
+    tracks = tracks_for(layering.step_m)[sortie - 1]
+    origin = min(float(t[0, 0]) for t in tracks.values())
+    where = position_at(tracks[a], origin + approach["at_s"])
+    error = SeparationError(layering, failure.ceiling)
+    error.args = (f"--min-separation {safety.min_separation_m:g} m cannot be guaranteed: uav{a} and uav{b} come "
+                  f"within {approach['3d']} m of each other near {_place(frame, where)}, "
+                  f"{approach['at_s']} s into sortie {sortie} ({layering.method}){failure.ceiling}. "
+                  f"Lower --min-separation, raise --max-altitude or move the launch points apart",)
+    return error
 
 
 def _zone_polygons(result: PlanResult, frame: GridFrame) -> list[dict[str, Any]]:
@@ -102,6 +313,10 @@ def _zone_polygons(result: PlanResult, frame: GridFrame) -> list[dict[str, Any]]
 
 def tracks_geojson(result: PlanResult, frame: GridFrame, plans: FlightPlans) -> dict[str, Any]:
     features = _zone_polygons(result, frame)
+    for k, fence in enumerate(plans.fences):
+        ring = fence.latlon[:, ::-1].tolist()
+        features.append({"type": "Feature", "geometry": {"type": "Polygon", "coordinates": [ring + ring[:1]]},
+                         "properties": {"kind": "geofence", "uav": k + 1, "max_altitude_m": fence.max_altitude_m}})
     for k, (latlon, drone) in enumerate(zip(plans.waypoints_latlon, plans.drones)):
         features.append({"type": "Feature",
                          "geometry": {"type": "LineString", "coordinates": latlon[:, ::-1].tolist()},
@@ -113,15 +328,20 @@ def tracks_geojson(result: PlanResult, frame: GridFrame, plans: FlightPlans) -> 
 
 
 def write_flight_files(out: Path, result: PlanResult, frame: GridFrame, plans: FlightPlans) -> list[Path]:
-    """Write uavK.plan, uavK.waypoints and tracks.geojson into `out`; returns the paths written."""
+    """Write every sortie's uavK[-sJ].plan and .waypoints, and tracks.geojson, into `out`; returns the paths."""
     written = []
-    for drone in plans.drones:
-        plan_file = PlanFile(mission=drone.mission, cruise_speed=plans.settings.speed_m_s,
-                             hover_speed=plans.settings.speed_m_s)
-        for suffix in (".plan", ".waypoints"):
-            path = out / f"uav{drone.sysid}{suffix}"
-            write_mission_file(path, plan_file)
-            written.append(path)
+    for k, missions in enumerate(plans.sorties):
+        fence = plans.fences[k] if plans.fences else None
+        for j, drone in enumerate(missions):
+            plan_file = PlanFile(mission=drone.mission, cruise_speed=plans.settings.speed_m_s,
+                                 hover_speed=plans.settings.speed_m_s)
+            if fence is not None:
+                plan_file.fence = fence.mission()
+                plan_file.fence_max_altitude = fence.max_altitude_m
+            for suffix in (".plan", ".waypoints"):
+                path = out / sortie_file(drone.sysid, j + 1, suffix)
+                write_mission_file(path, plan_file)
+                written.append(path)
     path = out / "tracks.geojson"
     write_text_atomic(path, json.dumps(tracks_geojson(result, frame, plans)) + "\n")
     written.append(path)

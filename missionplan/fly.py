@@ -47,7 +47,8 @@ from bridge.readiness import DEFAULT_LAUNCH_OFFSET_M, Vehicle, request_streams, 
 from bridge.shared_link import LinkPool
 from bridge.uploader import MissionBackend, open_backend, read_back_differences, set_plan_params, upload_plan
 
-from .flight_report import DroneRecord, FlightResult, judge
+from .flight_report import DroneRecord, FlightResult, judge, sortie_view
+from .sorties import sortie_file
 
 CMD_DO_SET_MODE, CMD_MISSION_START = 176, 300
 MODE_FLAG_ARMED = 128
@@ -172,7 +173,8 @@ class _DroneFlight:
         refused = request_streams(view, rec.id, stream_rates(self.telemetry_hz), self.deadline,
                                   other=self.vehicle.take)
         if refused:
-            rec.notes.append(f"streams not accepted (SET_MESSAGE_INTERVAL): {', '.join(refused)}; the vehicle's own rates")
+            rec.notes.append(f"streams not accepted (SET_MESSAGE_INTERVAL): {', '.join(refused)}; "
+                             "the vehicle's own rates")
         return True
 
     def _ready(self) -> bool:
@@ -251,7 +253,8 @@ class _DroneFlight:
             return False
         link = self.backend.link
         if self.backend.vehicle.flavour is Flavour.ARDUPILOT:  # arms in GUIDED, starts AUTO by MISSION_START
-            link.command_long(sysid, CMD_DO_SET_MODE, [1.0, float(ARDUPILOT_GUIDED)], self.deadline, other=self.vehicle.take)
+            link.command_long(sysid, CMD_DO_SET_MODE, [1.0, float(ARDUPILOT_GUIDED)], self.deadline,
+                              other=self.vehicle.take)
         armed, why = self.vehicle.arm(min(self.deadline, time.monotonic() + self.fleet.ready_s))
         if not armed:
             self.problem(why)
@@ -346,13 +349,15 @@ class _DroneFlight:
 
 def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, progress: bool = True,
         time_scale: float | None = None, telemetry_hz: float = DEFAULT_TELEMETRY_HZ,
-        upload_with: str = "missionplan", ready_s: float = DEFAULT_READY_S,
+        upload_with: str = "missionplan", sortie: int = 1, ready_s: float = DEFAULT_READY_S,
         max_launch_offset_m: float = DEFAULT_LAUNCH_OFFSET_M) -> FlightResult:
     """Wait until ready, upload, verify, site-check, arm, start and follow every drone of plan_dir at
     once; write flight.json/.png.
 
     connect: one URL or several (each URL, or SYSID=URL; bridge.shared_link.parse_connects): one
     connection per URL, shared by the vehicles on it.
+    sortie=J flies battery sortie J (uavK-sJ.plan, J >= 2) of every drone that has one, judged on the
+    targets that sortie's plan photographs.
     upload_with="mavsdk": MAVSDK's QGroundControl importer reads each .plan and MAVSDK uploads it;
     the read-back must then equal what our own reader makes of the same file."""
     if upload_with not in UPLOADERS:
@@ -362,8 +367,19 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     if "georeference" not in report or "drones" not in report:
         raise BridgeUsageError(f"{plan_dir / 'report.json'}: not a georeferenced plan (no missions to fly)")
     pool = LinkPool([connect] if isinstance(connect, str) else list(connect))  # bad URLs: exit 2, before anything
+    if sortie < 1:
+        raise BridgeUsageError(f"--sortie must be 1 or more, got {sortie}")
+    files = {int(d["id"]): plan_dir / sortie_file(int(d["id"]), sortie) for d in report["drones"]}
+    # With several sorties, every sortie's planned photos decide which cells are this one's duty.
+    count = max(len(d.get("sorties") or [1]) for d in report["drones"])
+    missions = {j: {int(d["id"]): read_mission_file(path).mission.items for d in report["drones"]
+                    if (path := plan_dir / sortie_file(int(d["id"]), j)).is_file()}
+                for j in range(1, count + 1)} if count > 1 else {}
+    report = sortie_view(report, sortie, missions)
+    if not report["drones"]:
+        raise BridgeUsageError(f"{plan_dir}: no drone has a sortie {sortie}")
     records = [DroneRecord(id=int(d["id"]), planned_photos=int(d.get("photos", 0))) for d in report["drones"]]
-    plans = {rec.id: plan_dir / f"uav{rec.id}.plan" for rec in records}
+    plans = {rec.id: files[rec.id] for rec in records}
     start = time.monotonic()
     deadline = start + timeout_s
     for rec in records:
@@ -412,6 +428,8 @@ def start_mock_fleet(plan_dir: Path, speedup: float, flavour: str = "ardupilot",
 
     homes: dict[int, tuple[float, float, float]] = {}
     for path in sorted(Path(plan_dir).glob("uav*.plan")):
+        if not path.stem[3:].isdigit():  # uavK-sJ.plan: a later sortie of drone K, same home
+            continue
         home = read_mission_file(path).mission.home
         if home is not None:
             homes[int(path.stem[3:])] = (float(home[0]), float(home[1]), float(home[2]))
@@ -457,16 +475,18 @@ def cmd_fly(args: Any) -> int:
     if args.ready_timeout <= 0:
         raise BridgeUsageError(f"--ready-timeout must be positive, got {args.ready_timeout}")
     if not args.max_launch_offset >= 0:
-        raise BridgeUsageError(f"--max-launch-offset must be a distance in metres (0 or more), got {args.max_launch_offset}")
+        raise BridgeUsageError(f"--max-launch-offset must be a distance in metres (0 or more), "
+                               f"got {args.max_launch_offset}")
     result = fly(Path(args.dir), args.connect, timeout_s=args.timeout, progress=not args.quiet,
                  time_scale=args.time_scale, telemetry_hz=args.telemetry_hz, upload_with=args.upload_with,
-                 ready_s=args.ready_timeout, max_launch_offset_m=args.max_launch_offset)
+                 sortie=args.sortie, ready_s=args.ready_timeout, max_launch_offset_m=args.max_launch_offset)
     print_flight(result)
     return 0 if result.ok else 1
 
 
 def register(subparsers: Any) -> None:
-    """Add `fly DIR --connect URL [--connect ...] [--ready-timeout S] [--max-launch-offset M] [--timeout S] [--telemetry-hz HZ] [--time-scale X] [--upload-with W] [--quiet]`."""
+    """Add `fly DIR --connect URL [--connect ...] [--ready-timeout S] [--max-launch-offset M] [--timeout S]
+    [--telemetry-hz HZ] [--time-scale X] [--upload-with W] [--sortie J] [--quiet]`."""
     p = subparsers.add_parser("fly", help="upload a planned fleet, fly it over MAVLink and judge the flight "
                                           "(flight.json, flight.png)")
     p.add_argument("dir", help="plan folder written by `missionplan plan` (report.json, uavK.plan)")
@@ -489,5 +509,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--upload-with", choices=UPLOADERS, default="missionplan",
                    help="who reads the .plan files and uploads them: our reader and uploader (default), or "
                         "MAVSDK's QGroundControl importer and MissionRaw (checked against ours by read-back)")
+    p.add_argument("--sortie", type=int, default=1, metavar="J",
+                   help="battery sortie to fly: 1 (uavK.plan, default) or J (uavK-sJ.plan, drones that have one)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(handler=cmd_fly)

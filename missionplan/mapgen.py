@@ -557,13 +557,26 @@ SHIPPED_GEOREFERENCE: dict[str, tuple[float, float, float]] = {
 }
 
 
+# Field-safety values a shipped map declares for itself (missionplan/safety.py reads them; the
+# defaults are 5 m for both). The Leonardo arena is flown by palm-sized drones 1.2 m up between
+# walls a few cells apart: 1 m between drones, and the half cell the grid itself keeps from a wall.
+# The three cities are the thesis's grids (2 m cells, streets 2-4 cells wide, flown at 10 m): the
+# default 5 m clearance would close most streets, so they keep the grid's own half cell, 1 m.
+SHIPPED_SAFETY: dict[str, dict[str, str]] = {
+    "leonardo": {"min_separation_m": "1", "clearance_m": "0.1"},
+    "grid-city": {"clearance_m": "1"},
+    "old-town": {"clearance_m": "1"},
+    "river-city": {"clearance_m": "1"},
+}
+
+
 def georeference(gmap: GridMap) -> GridMap:
     """A copy of a shipped map with its origin, altitude and camera field of view in the metadata."""
     origin_lat, origin_lon, altitude = SHIPPED_GEOREFERENCE[gmap.name]
     footprint = 9 * float(gmap.meta["cell_m"])
     fov = 2 * np.degrees(np.arctan(footprint / (2 * altitude)))
     meta = {**gmap.meta, "origin_lat": f"{origin_lat:.6f}", "origin_lon": f"{origin_lon:.6f}",
-            "altitude_m": f"{altitude:g}", "fov_deg": f"{fov:.4f}"}
+            "altitude_m": f"{altitude:g}", "fov_deg": f"{fov:.4f}", **SHIPPED_SAFETY.get(gmap.name, {})}
     return dataclasses.replace(gmap, meta=meta)
 
 

@@ -76,22 +76,40 @@ class DroneMission:
 
 def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latlon: np.ndarray,
                   waypoints_m: np.ndarray, launch_m: np.ndarray, settings: MissionSettings,
-                  flight_s: float | None = None) -> DroneMission:
+                  flight_s: float | None = None, end: str | None = None, resumes: bool = False,
+                  transit: tuple[np.ndarray, np.ndarray] | None = None,
+                  back: tuple[np.ndarray, np.ndarray] | None = None) -> DroneMission:
     """The mission of drone `drone` (0-based; its system id is drone + 1).
+
+    A battery sortie after the first (`resumes`) flies from the launch point to its first waypoint
+    with the camera off, and takes its first photo there; `end` overrides settings.end (every sortie
+    but the last returns to launch for its battery swap). `transit` and `back`: (latlon (n, 2), metres
+    (n, 2)) waypoints flown with the camera off from the launch point to the first survey waypoint and
+    from the last one home (routed round obstacles; `back` ends over the launch point).
 
     `waypoints_latlon` (n, 2) are the corrected waypoints; `waypoints_m` the same points in
     a local metric frame and `launch_m` the launch point there, for lengths and photo counts.
     `flight_s` is the planned duration (missionplan.timeline); without it, length over cruise speed.
     """
     altitude = settings.altitude_of(drone)
+    end = settings.end if end is None else end
+    empty = (np.zeros((0, 2)), np.zeros((0, 2)))
+    transit_latlon, transit_m = transit if transit is not None else empty
+    back_latlon, back_m = back if back is not None else empty
+    camera_off = resumes or len(transit_latlon) > 0
     lat0, lon0 = launch_latlon
     items = [
         MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=lat0, y=lon0, z=altitude),
         MissionItem(CMD_DO_CHANGE_SPEED, FRAME_MISSION, param1=SPEED_TYPE_GROUND, param2=settings.speed_m_s,
                     param3=-1.0),
-        # param3 = 1: take the first photo at once, not only after the first trigger distance.
-        MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=settings.trigger_distance_m, param3=1.0),
+        # param3 = 1: take the first photo at once, not only after the first trigger distance; a resumed
+        # sortie keeps the camera off on its way out (the first waypoint's item below turns it on).
+        MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0 if camera_off else settings.trigger_distance_m,
+                    param3=0.0 if camera_off else 1.0),
     ]
+    for lat, lon in transit_latlon:  # camera off on the way out
+        items.append(MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=settings.acceptance_m,
+                                 x=float(lat), y=float(lon), z=altitude))
     # After every waypoint, DO_SET_CAM_TRIGG_DIST again with "trigger once now": a photo where the
     # track turns, and the distance count restarts there, so photos stay aligned with each leg's start
     # (a corner's photo would otherwise fall up to one trigger distance short of it). The last one
@@ -104,21 +122,29 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
                                  param1=0.0 if last else settings.trigger_distance_m, param3=1.0))
     if not len(waypoints_latlon):
         items.append(MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0))
-    if settings.end == "rtl":
+    for lat, lon in back_latlon:  # camera off on the way home, round the obstacles RTL would fly through
+        items.append(MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=settings.acceptance_m,
+                                 x=float(lat), y=float(lon), z=altitude))
+    if end == "rtl":
         items.append(MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION))
     else:
-        last_lat, last_lon = waypoints_latlon[-1] if len(waypoints_latlon) else launch_latlon
+        last_lat, last_lon = (back_latlon[-1] if len(back_latlon) else
+                              waypoints_latlon[-1] if len(waypoints_latlon) else launch_latlon)
         items.append(MissionItem(CMD_NAV_LAND, FRAME_GLOBAL_RELATIVE_ALT, x=float(last_lat), y=float(last_lon), z=0.0))
 
-    legs = np.diff(np.vstack([launch_m, waypoints_m]), axis=0)
-    leg_m = np.hypot(legs[:, 0], legs[:, 1]) if len(legs) else np.zeros(0)
-    survey_m = float(leg_m.sum())
-    back_m = float(np.hypot(*(waypoints_m[-1] - launch_m))) if settings.end == "rtl" and len(waypoints_m) else 0.0
-    length = altitude + survey_m + back_m + altitude  # up, across, (back,) down
-    # One photo at the start and one at each waypoint, plus one per trigger distance inside each leg.
-    photos = 1 + len(waypoints_m)
-    if settings.trigger_distance_m > 0 and len(leg_m):
-        photos += int(np.maximum(np.ceil(leg_m / settings.trigger_distance_m - 1e-9) - 1, 0).sum())
+    flown = np.vstack([np.reshape(launch_m, (1, 2)), np.reshape(transit_m, (-1, 2)), np.reshape(waypoints_m, (-1, 2)),
+                       np.reshape(back_m, (-1, 2))])
+    across = float(np.hypot(*np.diff(flown, axis=0).T).sum()) if len(flown) > 1 else 0.0
+    home_m = float(np.hypot(*(flown[-1] - np.reshape(launch_m, 2)))) if end == "rtl" else 0.0
+    length = altitude + across + home_m + altitude  # up, across, (back,) down
+    # One photo at the start and one at each waypoint, plus one per trigger distance inside each survey
+    # leg (not on a way out or home: the camera is off there, and a resumed survey starts at its first waypoint).
+    survey = np.vstack([np.reshape(launch_m, (1, 2)), waypoints_m]) if not camera_off else np.reshape(waypoints_m, (-1, 2))
+    photo_legs = np.hypot(*np.diff(survey, axis=0).T) if len(survey) > 1 else np.zeros(0)
+    photos = (0 if camera_off else 1) + len(waypoints_m)
+    if settings.trigger_distance_m > 0 and len(photo_legs):
+        photos += int(np.maximum(np.ceil(photo_legs / settings.trigger_distance_m - 1e-9) - 1, 0).sum())
     mission = Mission(items=items, home=(lat0, lon0, 0.0))
-    return DroneMission(sysid=drone + 1, mission=mission, waypoints=len(waypoints_latlon), length_m=length,
+    count = len(transit_latlon) + len(waypoints_latlon) + len(back_latlon)
+    return DroneMission(sysid=drone + 1, mission=mission, waypoints=count, length_m=length,
                         flight_s=length / settings.speed_m_s if flight_s is None else flight_s, photos=photos)

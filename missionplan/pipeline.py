@@ -65,8 +65,10 @@ def launch_cells(gmap: GridMap, uavs: int) -> list[Cell]:
 
 def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
              zone_method: str = DEFAULT_ZONE_METHOD, seed: int = 0, starts: list[Cell] | None = None,
-             progress: bool = False, balance_zones: bool = True, weights: str | Path | None = None) -> PlanResult:
-    """Plan full coverage of `gmap` for `uavs` drones; `policy` is a name or a ready Policy."""
+             progress: bool = False, balance_zones: bool = True, weights: str | Path | None = None,
+             zone_shares: np.ndarray | None = None) -> PlanResult:
+    """Plan full coverage of `gmap` for `uavs` drones; `policy` is a name or a ready Policy; `zone_shares`:
+    the fraction of the targets each balanced zone gets (default equal)."""
     if zone_method not in ZONE_METHODS:
         raise MapError(f"unknown zone method {zone_method!r} (choose {', '.join(ZONE_METHODS)})")
     chosen = make_policy(policy, weights) if isinstance(policy, str) else policy
@@ -75,7 +77,7 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
     check_starts(gmap, starts)
     began = time.perf_counter()
     zones = split_zones(reachable_targets(gmap, starts), gmap.free, starts, zone_method, seed,
-                        balance=balance_zones)
+                        balance=balance_zones, shares=zone_shares)
     zone_seconds = time.perf_counter() - began
     world = CoverageWorld(gmap, starts, zones.zone)
     run = Planner(world, chosen, seed=seed, progress=progress).run()

@@ -17,7 +17,9 @@ from .pipeline import PlanResult  # noqa: E402
 TRACK_COLOURS = plt.get_cmap("tab10").colors
 
 
-def draw_plan(result: PlanResult, path: str | os.PathLike[str]) -> None:
+def draw_plan(result: PlanResult, path: str | os.PathLike[str], sortie_starts: list[np.ndarray] | None = None) -> None:
+    """`sortie_starts`: per drone, (J, 2) grid points where each battery sortie's survey starts; sorties 2
+    and later are marked with their number."""
     gmap, run = result.gmap, result.run
     rows, cols = gmap.shape
     num = len(result.starts)
@@ -44,6 +46,9 @@ def draw_plan(result: PlanResult, path: str | os.PathLike[str]) -> None:
         track = run.paths[k]
         ax_map.plot(track[:, 1], track[:, 0], color=colours[k], lw=1.1, label=f"UAV {k + 1}")
         ax_map.plot(*track[0][::-1], marker="^", ms=8, color=colours[k], mec="black")
+        for j, (r, c) in enumerate((sortie_starts[k] if sortie_starts else [])[1:], start=2):
+            ax_map.plot(c, r, marker="o", ms=9, color="white", mec=colours[k], mew=2)
+            ax_map.annotate(f"{j}", (c, r), ha="center", va="center", fontsize=6, color="black")
     status = "100 % covered" if run.success else f"FAILED: {run.failure}"
     m = run.metrics
     ax_map.set_title(f"{gmap.name}: {num} UAVs, policy {result.policy}, zones {result.zones.method} - {status}\n"

@@ -70,8 +70,10 @@ def _geodesic_from(graph: csr_matrix, cells: np.ndarray, cols: int) -> np.ndarra
     return shortest_path(graph, method="D", unweighted=True, indices=sources)
 
 
-def balanced_assignment(distances: np.ndarray, tolerance: float = BALANCE_TOLERANCE) -> np.ndarray:
-    """argmin_k (distances[k] + w_k) with offsets w chosen so zone sizes are near equal.
+def balanced_assignment(distances: np.ndarray, tolerance: float = BALANCE_TOLERANCE,
+                        shares: np.ndarray | None = None) -> np.ndarray:
+    """argmin_k (distances[k] + w_k) with offsets w chosen so zone sizes are near equal, or near
+    `shares` (K fractions summing to 1) of the cells when given.
 
     distances: (K, n) distance from each centroid to each cell (inf = unreachable).
     """
@@ -79,12 +81,12 @@ def balanced_assignment(distances: np.ndarray, tolerance: float = BALANCE_TOLERA
     offsets = np.zeros(num_zones)
     finite = np.where(np.isfinite(distances), distances, np.inf)
     scale = float(np.median(np.min(finite, axis=0)[np.isfinite(np.min(finite, axis=0))]) or 1.0)
-    target = num_cells / num_zones
+    target = num_cells / num_zones if shares is None else num_cells * np.asarray(shares, dtype=float)
     best, best_spread = np.argmin(finite, axis=0), np.inf
     for _ in range(MAX_BALANCE_ITERATIONS):
         assignment = np.argmin(finite + offsets[:, None], axis=0)
         sizes = np.bincount(assignment, minlength=num_zones)
-        spread = float(np.abs(sizes - target).max() / target)
+        spread = float((np.abs(sizes - target) / target).max())
         if spread < best_spread:
             best, best_spread = assignment, spread
         if spread <= tolerance:
@@ -96,8 +98,10 @@ def balanced_assignment(distances: np.ndarray, tolerance: float = BALANCE_TOLERA
 
 
 def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], method: str = DEFAULT_ZONE_METHOD,
-                seed: int = 0, num_points: int = NUM_SAMPLE_POINTS, balance: bool = False) -> Zones:
-    """Partition the `targets` cells into len(starts) zones, one per drone."""
+                seed: int = 0, num_points: int = NUM_SAMPLE_POINTS, balance: bool = False,
+                shares: np.ndarray | None = None) -> Zones:
+    """Partition the `targets` cells into len(starts) zones, one per drone (balanced: to `shares` of the
+    cells when given, e.g. less for a drone whose battery sorties spend more time in transit)."""
     if method not in ZONE_METHODS:
         raise ValueError(f"unknown zone method {method!r} (choose {', '.join(ZONE_METHODS)})")
     num_zones = len(starts)
@@ -138,5 +142,5 @@ def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], metho
                 mean = members[np.argmin(np.linalg.norm(members - mean, axis=1))].astype(float)
             centroids[k] = mean
     final = distances_to(target_cells, centroids)
-    zone[targets] = balanced_assignment(final) if balance else np.argmin(final, axis=0)
+    zone[targets] = balanced_assignment(final, shares=shares) if balance else np.argmin(final, axis=0)
     return Zones(zone, centroids, iterations, method, balance)

@@ -58,12 +58,19 @@ def test_plan_files_read_back_to_the_mission_shape(leonardo_run):
     for k in range(1, 6):
         plan = read_mission_file(out / f"uav{k}.plan")
         items = plan.mission.items
-        assert items[0].command == CMD_NAV_TAKEOFF and items[0].z == pytest.approx(1.2)
+        # layered 1 m apart (the map's min_separation_m) when one altitude would bring two drones too close
+        assert items[0].command == CMD_NAV_TAKEOFF and items[0].z == pytest.approx(report["drones"][k - 1]["altitude_m"])
         assert items[2].command == CMD_DO_SET_CAM_TRIGG_DIST and items[2].param1 > 0
-        assert items[-2].command == CMD_DO_SET_CAM_TRIGG_DIST and items[-2].param1 == 0
         assert items[-1].command == CMD_NAV_RETURN_TO_LAUNCH
-        # every waypoint is followed by "trigger once now" (a photo at each corner), the last one stopping the camera
-        for index, item in enumerate(items):
+        # The camera stops after the last survey waypoint; then only the way home round the walls, over the launch point.
+        stop = max(i for i, item in enumerate(items) if item.command == CMD_DO_SET_CAM_TRIGG_DIST)
+        assert items[stop].param1 == 0
+        home_way = items[stop + 1:-1]
+        assert all(item.command == CMD_NAV_WAYPOINT for item in home_way)
+        if home_way:
+            assert (home_way[-1].x, home_way[-1].y) == pytest.approx(plan.mission.home[:2], abs=1e-7)
+        # every survey waypoint is followed by "trigger once now" (a photo at each corner), the last one stopping the camera
+        for index, item in enumerate(items[:stop]):
             if item.command == CMD_NAV_WAYPOINT:
                 after = items[index + 1]
                 assert after.command == CMD_DO_SET_CAM_TRIGG_DIST and after.param3 == 1
