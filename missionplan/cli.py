@@ -13,6 +13,7 @@ import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from bridge import BridgeUsageError
 from geo.errors import GeoError
@@ -146,6 +147,17 @@ def _fmt(value: float | int | None, digits: int = 1) -> str:
     return f"{value:.{digits}f}" if isinstance(value, float) else str(value)
 
 
+def _cell_mask(shape: tuple[int, int], cells: list[list[int]]) -> Any:
+    """A boolean grid that is True on `cells` ([row, col] pairs from report.json)."""
+    import numpy as np
+
+    mask = np.zeros(shape, dtype=bool)
+    if cells:
+        rows, cols = np.asarray(cells, dtype=int).T
+        mask[rows, cols] = True
+    return mask
+
+
 def _cmd_plan(args: argparse.Namespace) -> int:
     from .plot import draw_plan  # matplotlib only when a picture is drawn
     from .report import build_report, write_report
@@ -204,7 +216,9 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         gmap, starts, report["targets"], report["unreachable"], report["metrics"]["coverage"], report["zone_sizes"],
         unknown_buildings=unknown.buildings if osm else None, total_buildings=unknown.total if osm else None,
         assumed_height_m=unknown.assumed_m, if_overflown=unknown.if_overflown,
-        launch_labels=list(args.launch[:args.uavs]) if args.area is not None else None)
+        launch_labels=list(args.launch[:args.uavs]) if args.area is not None else None,
+        unreachable_mask=_cell_mask(gmap.shape, report["unreachable_cells"]),
+        clearance_m=float(report.get("clearance", {}).get("required_m") or 0.0))
     report["files"] = sorted({p.name for p in written} | {"report.json", "plan.png"})
     remove_stale_outputs(args.out, keep=report["files"])  # before the new report.json replaces the old list
     write_report(report, args.out / "report.json")
@@ -247,7 +261,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     if "clearance" in report and report["clearance"]["kept_m"] is not None:
         cl = report["clearance"]
         print(f"  clearance from obstacles: {cl['kept_m']:g} m (asked {cl['required_m']:g} m)")
-        if cl.get("band_targets_missed"):
+        if cl.get("band_targets_missed") and not report["coverage"]["unreachable_by_clearance"]:
             print(f"missionplan: warning: {cl['band_targets_missed']} of the {cl['band_targets']} target cells closer "
                   f"than --clearance {cl['required_m']:g} m to an obstacle are out of every photo (narrow streets, "
                   f"courtyards); counted unreachable", file=sys.stderr)

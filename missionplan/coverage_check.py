@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
+from .clearance import clearance_band
 from .gridmap import Cell, GridMap
 from .world import reachable_targets
 
@@ -38,13 +39,16 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
                     coverage_pct: float, zone_sizes: list[int], unknown_buildings: int | None = None,
                     total_buildings: int | None = None, assumed_height_m: float | None = None,
                     if_overflown: Callable[[], GridMap] | None = None,
-                    launch_labels: list[str] | None = None) -> dict[str, Any]:
+                    launch_labels: list[str] | None = None, unreachable_mask: np.ndarray | None = None,
+                    clearance_m: float = 0.0) -> dict[str, Any]:
     """The `coverage` block of report.json: both coverage numbers, counts, causes, warnings.
 
     `coverage_pct` is the plan's coverage of the reachable targets; `zone_sizes` the targets
     given to each drone. The unknown-height arguments come with an `--osm` area plan:
     `if_overflown` builds the grid with those buildings crossed, to count what they cut off.
     `launch_labels` names each drone's launch point in warnings (default: its grid cell).
+    `unreachable_mask` (the report's unreachable cells) and `clearance_m` let the warning name a
+    third cause: targets inside the `--clearance` band that no photo taken outside it sees.
     """
     total = reachable_targets_count + unreachable
     covered = int(round(coverage_pct * reachable_targets_count / 100.0))
@@ -59,24 +63,43 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
         "unknown_height_buildings": unknown_buildings,
         "unknown_building_height_m": assumed_height_m,
         "unreachable_by_unknown_height": None,
+        "unreachable_by_clearance": None,
         "small_shares": [],
         "warnings": [],
     }
     warnings: list[str] = block["warnings"]
     if total and unreachable > UNREACHABLE_WARN_FRACTION * total:
-        pockets = ("lie in pockets walled in by obstacles, tall buildings or the area edge (courtyards, closed "
-                   "blocks); a launch point inside a pocket would reach it")
-        cause = f"they {pockets}"
+        pockets = ("lie in pockets walled in by obstacles, tall buildings, the clearance margin or the area edge "
+                   "(courtyards, closed blocks); a launch point inside a pocket would reach it")
+        causes: list[str] = []
+        explained = np.zeros(gmap.shape, dtype=bool)
         if if_overflown is not None:
             cut = _cut_off_by(gmap, starts, if_overflown())
-            block["unreachable_by_unknown_height"] = cut
-            if cut:
-                cause = (f"{cut} of them are cut off only by the {unknown_buildings} of {total_buildings} buildings "
-                         f"of unknown height (no height, no building:levels tag), counted as obstacles: if those "
-                         f"are low enough to overfly, give --unknown-building-height M (or tag building:levels, "
-                         f"3 m a level)")
-                if cut < unreachable:
-                    cause += f"; the other {unreachable - cut} {pockets}"
+            if unreachable_mask is not None:
+                cut &= unreachable_mask
+            block["unreachable_by_unknown_height"] = int(cut.sum())
+            if cut.any():
+                causes.append(f"{int(cut.sum())} of them are cut off only by the {unknown_buildings} of "
+                              f"{total_buildings} buildings of unknown height (no height, no building:levels tag), "
+                              f"counted as obstacles: if those are low enough to overfly, give "
+                              f"--unknown-building-height M (or tag building:levels, 3 m a level)")
+                explained |= cut
+        if unreachable_mask is not None and clearance_m > 0:
+            cell_m = float(gmap.meta.get("cell_m", 0.0) or 0.0)
+            band = clearance_band(gmap.obstacle, clearance_m / cell_m) if cell_m > 0 else np.zeros_like(explained)
+            # pocket cells are pockets whatever the margin: only band targets the drones can get near count
+            in_band = unreachable_mask & band & reachable_targets(gmap, starts) & ~explained
+            block["unreachable_by_clearance"] = int(in_band.sum())
+            if in_band.any():
+                causes.append(f"{int(in_band.sum())} of them lie within --clearance {clearance_m:g} m of an obstacle "
+                              f"and out of every photo taken outside it (narrow streets, courtyards); a smaller "
+                              f"--clearance reaches them")
+                explained |= in_band
+        if not causes:
+            causes.append(f"they {pockets}")
+        elif int(explained.sum()) < unreachable:
+            causes.append(f"the other {unreachable - int(explained.sum())} {pockets}")
+        cause = "; ".join(causes)
         warnings.append(f"{unreachable} of {total} target cells ({block['unreachable_pct']:.1f} %) are unreachable: "
                         f"the plan covers {block['reachable_pct']:.1f} % of the reachable targets but "
                         f"{block['all_pct']:.1f} % of all; {cause}")
@@ -99,10 +122,10 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
     return block
 
 
-def _cut_off_by(gmap: GridMap, starts: list[Cell], crossed: GridMap) -> int:
-    """Targets of `gmap` unreachable from `starts` that become reachable on the `crossed` grid."""
+def _cut_off_by(gmap: GridMap, starts: list[Cell], crossed: GridMap) -> np.ndarray:
+    """Targets of `gmap` unreachable from `starts` that become reachable on the `crossed` grid (a mask)."""
     if crossed.shape != gmap.shape:
-        return 0  # another grid (cannot happen for the same area and camera): no claim
+        return np.zeros(gmap.shape, dtype=bool)  # another grid (cannot happen for the same area and camera): no claim
     before = reachable_targets(gmap, starts)
     after = reachable_targets(crossed, starts)
-    return int((gmap.target & ~before & after).sum())
+    return gmap.target & ~before & after
