@@ -61,6 +61,31 @@ def test_one_udpin_port_answers_each_vehicle_at_its_own_address() -> None:
             mock.stop()
 
 
+def test_cli_upload_to_one_vehicle_of_a_fleet_on_one_udpin_port(tmp_path, capsys) -> None:
+    from bridge.mission import Mission, MissionItem
+    from bridge.missionfile import PlanFile, write_plan
+    from missionplan.cli import main
+
+    lat, lon, _ = MILAN
+    mission = Mission([MissionItem(22, 3, z=10.0)] + [MissionItem(16, 3, x=lat + 0.0001 * k, y=lon, z=10.0)
+                                                      for k in range(1, 6)] + [MissionItem(20, 2)], home=MILAN)
+    path = tmp_path / "one.plan"
+    write_plan(path, PlanFile(mission=mission))
+    port = _free_udp_port()
+    mocks = _senders(port, (1, 2, 3))
+    try:
+        time.sleep(0.3)  # the vehicles are sending before the ground station listens, as in the field
+        code = main(["upload", str(path), "--sysid", "2", "--connect", f"udpin:127.0.0.1:{port}", "--timeout", "5"])
+        out = capsys.readouterr().out
+        assert code == 0, out
+        assert len(mocks[1].mission(2)) == 8  # home + 7
+        assert len(mocks[0].mission(1)) == 1 and len(mocks[2].mission(3)) == 1  # only their homes
+        assert mocks[0].stats["in"] < 20 and mocks[2].stats["in"] < 20  # heartbeats, not vehicle 2's mission
+    finally:
+        for mock in mocks:
+            mock.stop()
+
+
 def test_a_shared_link_routes_by_system_id_and_bounds_each_queue() -> None:
     with MockAutopilot(sysids=[1, 2]) as mock:
         with SharedLink(mock.client_url, queue_packets=50) as shared:
