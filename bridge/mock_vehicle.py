@@ -66,6 +66,7 @@ EKF_FLAGS_READY = 1 | 2 | 4 | 8 | 16 | 32 | 64 | 256 | 512
 NOT_READY_TEXTS = ("PreArm: Need Position Estimate", "Arm: Need Alt Estimate", "AHRS: waiting for home")
 MAV_SEVERITY_CRITICAL, MAV_SEVERITY_INFO = 2, 6
 CMD_GET_HOME_POSITION = 410
+PREARM_REPEAT_S = 30.0  # simulated seconds between ArduPilot's reports of a failing pre-arm check
 MIN_STREAM_INTERVAL_S = 0.005  # the loop's tick: a faster stream could not be kept anyway
 
 MISSION_COMMANDS_REJECTED = range(5000, 6000)  # fence and rally commands do not belong in a mission
@@ -148,6 +149,7 @@ class MockVehicle:
         self._next_due = {msgid: now for msgid in STREAMS}
         self._photos_sent = 0
         self._said_waiting = False
+        self._next_prearm_text = PREARM_REPEAT_S  # simulated seconds since boot
 
     def _default_intervals(self) -> dict[int, float | None]:
         """Streams before any SET_MESSAGE_INTERVAL: none (streams_until_asked, like ArduPilot whose
@@ -326,9 +328,14 @@ class MockVehicle:
             if interval is not None and now >= self._next_due[msgid]:
                 self._next_due[msgid] = now + interval
                 self._send_stream(msgid, now)
-        if not self.ready and not self._said_waiting and self.flavour is Flavour.ARDUPILOT:
-            self._said_waiting = True
-            self._send_text(NOT_READY_TEXTS[2], MAV_SEVERITY_INFO)
+        if not self.ready and self.flavour is Flavour.ARDUPILOT:
+            if not self._said_waiting:
+                self._said_waiting = True
+                self._send_text(NOT_READY_TEXTS[2], MAV_SEVERITY_INFO)
+            simulated = (now - self.boot_time) * self.options.speedup
+            if simulated >= self._next_prearm_text:  # ArduPilot repeats a failing pre-arm check every 30 s
+                self._next_prearm_text = simulated + PREARM_REPEAT_S
+                self._send_text(NOT_READY_TEXTS[0])
         self._send_camera_feedback(now)
         self._upload_timers(now)
 

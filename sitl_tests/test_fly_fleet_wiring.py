@@ -106,8 +106,9 @@ def test_swapped_system_ids_arm_no_vehicle(plan_dir, tmp_path, capsys) -> None:
 def test_a_vehicle_that_never_gets_ready_is_named_with_its_reasons(plan_dir, tmp_path, capsys) -> None:
     plan = _fresh(plan_dir, tmp_path)
     port = free_udp_port()
+    # Never ready; 2 s of wall time are 60 simulated seconds, in which ArduPilot repeats its PreArm reason.
     mock = MockAutopilot(f"udpout:127.0.0.1:{port}", sysids=list(SYSIDS),
-                         homes={k: _launch(plan, k) for k in SYSIDS}, speedup=1.0, gps_fix_after=1e6,
+                         homes={k: _launch(plan, k) for k in SYSIDS}, speedup=30.0, gps_fix_after=1e6,
                          streams_until_asked=True).start()
     try:
         code = main(["fly", str(plan), "--connect", f"udpin:127.0.0.1:{port}", "--timeout", "60",
@@ -120,5 +121,6 @@ def test_a_vehicle_that_never_gets_ready_is_named_with_its_reasons(plan_dir, tmp
     assert not any(v.flight.state.armed for v in mock.vehicles.values())
     for k in SYSIDS:
         assert any(p.startswith(f"uav{k}: not ready to fly within 2 s: still waiting for a 3-D GPS fix")
-                   and "AHRS: waiting for home" in p for p in doc["problems"]), doc["problems"]
+                   and "the vehicle said: " in p and "PreArm: Need Position Estimate" in p
+                   for p in doc["problems"]), doc["problems"]
     assert "separation not measured" in out and out.count("left disarmed") == 3
