@@ -77,6 +77,26 @@ def test_a_fleet_on_one_udpin_port_waits_until_ready_and_flies(plan_dir, tmp_pat
     assert all(d["items_reached"] > 1 for d in doc["drones"])
 
 
+def test_a_fleet_on_several_ports_each_vehicle_found_by_its_heartbeat(plan_dir, tmp_path, capsys) -> None:
+    plan = _fresh(plan_dir, tmp_path)
+    ports = [free_udp_port(), free_udp_port()]
+    homes = {k: _launch(plan, k) for k in SYSIDS}
+    mocks = [MockAutopilot(f"udpout:127.0.0.1:{ports[0] if k < 3 else ports[1]}", sysids=[k], homes={k: homes[k]},
+                           speedup=SPEEDUP, gps_fix_after=READY_AFTER_S, streams_until_asked=True).start()
+             for k in SYSIDS]
+    try:
+        # Vehicles 1 and 2 on the first port, 3 on the second: the first two found by their heartbeats,
+        # the third named with SYSID=URL.
+        code = main(["fly", str(plan), "--connect", f"udpin:127.0.0.1:{ports[0]}",
+                     "--connect", f"3=udpin:127.0.0.1:{ports[1]}", "--timeout", "120", "--quiet"])
+    finally:
+        for mock in mocks:
+            mock.stop()
+    doc = json.loads((plan / "flight.json").read_text())
+    assert code == 0, doc["problems"]
+    assert all(d["finished"] for d in doc["drones"])
+
+
 def test_swapped_system_ids_arm_no_vehicle(plan_dir, tmp_path, capsys) -> None:
     plan = _fresh(plan_dir, tmp_path)
     homes = {k: _launch(plan, k) for k in SYSIDS}

@@ -106,6 +106,26 @@ def test_wait_vehicle_on_a_view_names_the_systems_heard_instead() -> None:
             wait_vehicle(shared.vehicle(8), 8, timeout=1.5)
 
 
+def test_a_link_pool_finds_each_vehicle_on_the_link_that_carries_its_heartbeat() -> None:
+    from bridge.errors import BridgeError
+    from bridge.shared_link import LinkPool
+
+    ports = [_free_udp_port(), _free_udp_port()]
+    mocks = [_senders(port, (k,))[0] for port, k in zip(ports, (1, 2))]
+    urls = [f"udpin:127.0.0.1:{port}" for port in ports]
+    try:
+        with LinkPool(urls) as pool:
+            pool.open_all()
+            pool.register([1, 2, 9])
+            assert pool.vehicle(2, timeout=5.0).url == urls[1]
+            assert pool.vehicle(1, timeout=5.0).url == urls[0]
+            with pytest.raises(BridgeError, match="no heartbeat from system 9 on any of"):
+                pool.vehicle(9, timeout=0.5)
+    finally:
+        for mock in mocks:
+            mock.stop()
+
+
 def test_parse_connects() -> None:
     assert parse_connects(["udpin:0.0.0.0:14550"]) == ({}, ["udpin:0.0.0.0:14550"])
     by, pooled = parse_connects(["1,2=udpin:127.0.0.1:14550", "3=tcp:127.0.0.1:5760", "udpin:127.0.0.1:14551"])
