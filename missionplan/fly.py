@@ -162,10 +162,12 @@ class _DroneFlight:
         """Find the vehicle on its link and learn its flavour; ask for every stream fly reads."""
         rec = self.record
         try:
-            view = self.fleet.pool.vehicle(rec.id, self._connect_s())
+            # Started right after power-on, a vehicle may take a while to send its first heartbeat.
+            wait_s = max(1.0, min(self.fleet.ready_s, self.deadline - time.monotonic()))
+            view = self.fleet.pool.vehicle(rec.id, wait_s)
             self.url = view.url
             self.backend = open_backend("pymavlink", self.url, rec.id, timeouts=Timeouts(item_timeout=0.5, retries=10),
-                                        connect_timeout=self._connect_s(), link=view)
+                                        connect_timeout=wait_s, link=view)
         except BridgeError as err:
             self.problem(f"not found: {err}")
             return False
@@ -477,9 +479,15 @@ def cmd_fly(args: Any) -> int:
     if not args.max_launch_offset >= 0:
         raise BridgeUsageError(f"--max-launch-offset must be a distance in metres (0 or more), "
                                f"got {args.max_launch_offset}")
-    result = fly(Path(args.dir), args.connect, timeout_s=args.timeout, progress=not args.quiet,
-                 time_scale=args.time_scale, telemetry_hz=args.telemetry_hz, upload_with=args.upload_with,
-                 sortie=args.sortie, ready_s=args.ready_timeout, max_launch_offset_m=args.max_launch_offset)
+    try:
+        result = fly(Path(args.dir), args.connect, timeout_s=args.timeout, progress=not args.quiet,
+                     time_scale=args.time_scale, telemetry_hz=args.telemetry_hz, upload_with=args.upload_with,
+                     sortie=args.sortie, ready_s=args.ready_timeout, max_launch_offset_m=args.max_launch_offset)
+    except BridgeUsageError:
+        raise
+    except BridgeError as err:  # a link that cannot be opened: one line, exit 1
+        print(f"missionplan fly: {err}", file=sys.stderr)
+        return 1
     print_flight(result)
     return 0 if result.ok else 1
 
