@@ -10,16 +10,19 @@
   ("does not converge") and the caller falls back to classic A*.
 - `find_goal`: the outward search for the nearest cell the drone sees as unexplored
   (breadth-first along free cells, so "nearest" means by flight, not through walls),
-  skipping goals near another drone's goal (anti-congestion).
+  skipping goals near another drone's goal (anti-congestion). `FlightSearch` runs that
+  breadth-first search one distance ring at a time in numpy and stops as soon as the
+  answer is known, instead of ordering the whole grid on every call; its order (the
+  queue order of a textbook BFS visiting neighbours up, left, right, down) is the order
+  scipy's `breadth_first_order` gives on `zones.grid_graph`, so the goals are the same.
 """
 
 from __future__ import annotations
 
 import heapq
+from collections.abc import Callable, Iterator
 
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import breadth_first_order
 
 from .gridmap import Cell
 
@@ -29,7 +32,7 @@ CONGESTION_RADIUS = 4  # goals within this Chebyshev distance of another drone's
 _NEIGHBOURS = ((-1, 0), (0, 1), (1, 0), (0, -1))
 
 
-def astar(free: np.ndarray, start: Cell, goal: Cell, step_cost: np.ndarray | None = None,
+def astar(free: np.ndarray, start: Cell, goal: Cell, step_cost: np.ndarray | _ExplorativeCost | None = None,
           max_expansions: int | None = None) -> list[Cell] | None:
     """Cheapest 4-connected path from start to goal over `free` cells, both ends included.
 
@@ -75,19 +78,71 @@ def astar(free: np.ndarray, start: Cell, goal: Cell, step_cost: np.ndarray | Non
     return None
 
 
-def explorative_astar(free: np.ndarray, seen_unexplored: np.ndarray, start: Cell, goal: Cell,
-                      max_expansions: int | None = None) -> list[Cell] | None:
-    """A short path that runs over cells the drone sees as unexplored where it can."""
-    step_cost = np.where(seen_unexplored, 1.0, 1.0 + EXPLORED_PENALTY)
+def explorative_astar(free: np.ndarray, seen_unexplored: np.ndarray | Callable[[Cell], bool], start: Cell,
+                      goal: Cell, max_expansions: int | None = None) -> list[Cell] | None:
+    """A short path that runs over cells the drone sees as unexplored where it can.
+
+    `seen_unexplored` is a (rows, cols) mask or a function of a cell: the search reads
+    only the cells it expands, so no whole-grid cost array is built per call.
+    """
+    seen = seen_unexplored if callable(seen_unexplored) else (lambda cell: bool(seen_unexplored[cell]))
     if max_expansions is None:
         # Budget: a few times what plain A* needs on an open map; past it, fall back.
         max_expansions = 8 * (abs(start[0] - goal[0]) + abs(start[1] - goal[1]) + 10) ** 2
-    return astar(free, start, goal, step_cost, max_expansions)
+    return astar(free, start, goal, _ExplorativeCost(seen), max_expansions)
 
 
-def find_goal(graph: csr_matrix, shape: tuple[int, int], start: Cell, seen_unexplored: np.ndarray,
+class _ExplorativeCost:
+    """step_cost[r, c] of Explorative A*, read lazily from a seen-as-unexplored predicate."""
+
+    def __init__(self, seen: Callable[[Cell], bool]) -> None:
+        self.seen = seen
+
+    def __getitem__(self, cell: Cell) -> float:
+        return 1.0 if self.seen(cell) else 1.0 + EXPLORED_PENALTY
+
+
+class FlightSearch:
+    """Breadth-first search along the free cells of one grid, ring by ring, reusable.
+
+    Cells are numbered in a copy of the grid padded by one blocked cell, so neighbours
+    need no bounds checks; a visit stamp per cell (instead of a fresh visited array)
+    makes starting a search O(1) whatever the grid size.
+    """
+
+    def __init__(self, free: np.ndarray) -> None:
+        rows, cols = free.shape
+        self.shape = (rows, cols)
+        self._width = cols + 2
+        padded = np.zeros((rows + 2, cols + 2), dtype=bool)
+        padded[1:-1, 1:-1] = free
+        self._free = padded.ravel()
+        # Ascending index order = up, left, right, down: the order of the CSR rows of grid_graph.
+        self._steps = np.array([-self._width, -1, 1, self._width], dtype=np.int64)
+        self._stamp = np.zeros(self._free.size, dtype=np.int32)
+        self._generation = 0
+
+    def rings(self, start: Cell) -> Iterator[np.ndarray]:
+        """Yield (n, 2) arrays of (row, col): the cells at flight distance 0, 1, 2, ... in BFS queue order."""
+        self._generation += 1
+        stamp, generation, width = self._stamp, self._generation, self._width
+        ring = np.array([(start[0] + 1) * width + start[1] + 1], dtype=np.int64)
+        stamp[ring] = generation
+        while ring.size:
+            yield np.stack(np.divmod(ring, width), axis=1) - 1
+            nxt = (ring[:, None] + self._steps[None, :]).ravel()
+            nxt = nxt[self._free[nxt] & (stamp[nxt] != generation)]
+            if nxt.size > 1:  # keep each cell's first discovery, in discovery order
+                _, first = np.unique(nxt, return_index=True)
+                nxt = nxt[np.sort(first)]
+            stamp[nxt] = generation
+            ring = nxt
+
+
+def find_goal(search: FlightSearch, start: Cell, seen_unexplored: np.ndarray | Callable[[np.ndarray], np.ndarray],
               taken_goals: list[Cell], excluded: set[Cell] | None = None,
-              rivals: np.ndarray | None = None, rival_backlog: np.ndarray | None = None) -> Cell | None:
+              rivals: np.ndarray | None = None, rival_backlog: np.ndarray | None = None,
+              seen_count: int | None = None, seen_cells: np.ndarray | None = None) -> Cell | None:
     """Nearest (by flight along free cells) cell seen as unexplored that nobody else is heading for.
 
     Goals within CONGESTION_RADIUS of a goal in `taken_goals` are skipped; if every
@@ -96,30 +151,64 @@ def find_goal(graph: csr_matrix, shape: tuple[int, int], start: Cell, seen_unexp
     every rival are candidates: a rival needs its Manhattan distance plus its
     `rival_backlog` (steps of work it still has elsewhere). So a drone that has finished
     its own zone helps where it would get there first, and gets None (stay put) where not.
+
+    `seen_unexplored` is a (rows, cols) mask, or a function of (n, 2) cells returning
+    their flags with `seen_count` = how many cells are seen (then with `rivals`,
+    `seen_cells` = those cells as (n, 2), so that the candidates are known up front).
+    The search stops at the first uncongested candidate, or once every candidate has
+    been met.
     """
-    cols = shape[1]
-    order = breadth_first_order(graph, start[0] * cols + start[1], directed=True,
-                                return_predecessors=False)
-    candidates = order[seen_unexplored.ravel()[order]]  # in order of growing distance
-    if excluded:
-        keep = [i for i, idx in enumerate(candidates) if divmod(int(idx), cols) not in excluded]
-        candidates = candidates[keep]
-    if candidates.size == 0:
-        return None
-    cand_rc = np.stack(np.divmod(candidates, cols), axis=1)
+    if callable(seen_unexplored):
+        is_seen, count = seen_unexplored, int(seen_count if seen_count is not None else -1)
+    else:
+        mask = np.asarray(seen_unexplored, dtype=bool)
+        is_seen, count = (lambda cells: mask[cells[:, 0], cells[:, 1]]), int(mask.sum())
+        seen_cells = np.argwhere(mask) if rivals is not None else None
+    rows, cols = search.shape
+    candidates: np.ndarray | None = None  # sorted flat indices of every candidate, when known up front
     if rivals is not None and len(rivals):
-        mine = np.abs(cand_rc - np.asarray(start)).sum(axis=1)
         backlog = np.zeros(len(rivals)) if rival_backlog is None else np.asarray(rival_backlog, dtype=float)
-        theirs = (np.abs(cand_rc[:, None, :] - np.asarray(rivals)[None, :, :]).sum(axis=2) + backlog).min(axis=1)
-        cand_rc = cand_rc[mine <= theirs]
-        if len(cand_rc) == 0:
-            return None
-    if taken_goals:
-        taken = np.array(taken_goals)
-        near = np.abs(cand_rc[:, None, :] - taken[None, :, :]).max(axis=2) <= CONGESTION_RADIUS
-        clear = ~near.any(axis=1)
-        if clear.any():
-            r, c = cand_rc[np.argmax(clear)]
-            return int(r), int(c)
-    r, c = cand_rc[0]
-    return int(r), int(c)
+        cells = np.asarray(seen_cells).reshape(-1, 2)
+        mine = np.abs(cells - np.asarray(start)).sum(axis=1)
+        for rival, extra in zip(np.asarray(rivals), backlog):  # each rival rules out most cells: shrink as we go
+            keep = mine <= np.abs(cells - rival).sum(axis=1) + extra
+            cells, mine = cells[keep], mine[keep]
+        candidates = np.sort(cells[:, 0] * cols + cells[:, 1])
+        count = len(candidates)
+    if excluded and count > 0:
+        gone = [r * cols + c for r, c in excluded]
+        if candidates is not None:
+            candidates = candidates[~np.isin(candidates, gone)]
+            count = len(candidates)
+        else:
+            flags = is_seen(np.array(list(excluded), dtype=np.int64).reshape(-1, 2))
+            count -= int(flags.sum())
+    if count == 0:
+        return None
+    taken = np.array(taken_goals, dtype=np.int64).reshape(-1, 2)
+    nearest: Cell | None = None
+    met = 0
+    for ring in search.rings(start):
+        flags = is_seen(ring)
+        if excluded:
+            flags &= ~np.isin(ring[:, 0] * cols + ring[:, 1], gone)
+        if candidates is not None:
+            flat = ring[:, 0] * cols + ring[:, 1]
+            at = np.minimum(np.searchsorted(candidates, flat), len(candidates) - 1)
+            flags &= candidates[at] == flat
+        if not flags.any():
+            continue
+        found = ring[flags]
+        if nearest is None:
+            nearest = (int(found[0, 0]), int(found[0, 1]))
+        if len(taken):
+            clear = ~(np.abs(found[:, None, :] - taken[None, :, :]).max(axis=2) <= CONGESTION_RADIUS).any(axis=1)
+            if clear.any():
+                r, c = found[np.argmax(clear)]
+                return int(r), int(c)
+        else:
+            return nearest
+        met += len(found)
+        if 0 <= count <= met:
+            break  # every candidate met, all congested
+    return nearest

@@ -27,6 +27,7 @@ ACTION_DELTAS = np.array([[-1, 0], [0, 1], [1, 0], [0, -1]], dtype=np.int64)
 FOOTPRINT_RADIUS = 4  # 9 x 9 cells centred on the drone
 VIEW_RADIUS = 9  # 19 x 19 local view
 PAD = 32  # padding of the internal arrays, so any window up to this radius is one slice
+_VIEW_DR, _VIEW_DC = np.mgrid[-VIEW_RADIUS:VIEW_RADIUS + 1, -VIEW_RADIUS:VIEW_RADIUS + 1]
 
 
 def reachable_targets(gmap: GridMap, starts: list[Cell]) -> np.ndarray:
@@ -132,7 +133,33 @@ class CoverageWorld:
 
     def sees_unexplored(self) -> np.ndarray:
         """(K,) bool: whether each drone's 19 x 19 view holds a cell it sees as unexplored."""
-        return np.array([self.view_unexplored(k).any() for k in range(self.num_drones)])
+        drones = np.arange(self.num_drones)
+        return self.seen_unexplored_at(drones, self.positions[:, 0, None, None] + _VIEW_DR + PAD,
+                                       self.positions[:, 1, None, None] + _VIEW_DC + PAD).any(axis=(1, 2))
+
+    def seen_unexplored_at(self, drones: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """Whether each of `drones` sees padded cells (rows, cols) as unexplored; rows/cols are (n, ...)."""
+        extra = (1,) * (rows.ndim - 1)
+        zone_done = (self.num_drones == 1) | (self.zone_remaining[drones] == 0)
+        own = self._pad_zone[rows, cols] == drones.reshape(-1, *extra)
+        return self._pad_unexplored[rows, cols] & (own | zone_done.reshape(-1, *extra))
+
+    def views(self, drones: np.ndarray | list[int], radius: int = VIEW_RADIUS) -> tuple[np.ndarray, np.ndarray]:
+        """Batched view_unexplored and view_blocked: two (n, 2r+1, 2r+1) bool arrays, one gather each."""
+        drones = np.asarray(drones, dtype=np.int64).reshape(-1)
+        span = np.arange(-radius, radius + 1)
+        centre = self.positions[drones] + PAD
+        rows = centre[:, 0, None, None] + span[None, :, None]
+        cols = centre[:, 1, None, None] + span[None, None, :]
+        unexplored = self.seen_unexplored_at(drones, rows, cols)
+        blocked = self._pad_obstacle[rows, cols]
+        # Other drones are blocked too: every (drone i, other j) pair inside i's view.
+        offsets = self.positions[None, :, :] - self.positions[drones][:, None, :] + radius  # (n, K, 2)
+        in_view = np.all((offsets >= 0) & (offsets <= 2 * radius), axis=2)
+        in_view &= drones[:, None] != np.arange(self.num_drones)[None, :]
+        i, j = np.nonzero(in_view)
+        blocked[i, offsets[i, j, 0], offsets[i, j, 1]] = True
+        return unexplored, blocked
 
     # ---------------------------------------------------------------- windows
     def _window(self, array: np.ndarray, k: int, radius: int) -> np.ndarray:
@@ -160,6 +187,21 @@ class CoverageWorld:
         if self.zone_done(k):
             return self.unexplored
         return self.unexplored & (self.zone_of == k)
+
+    def sees_cells(self, k: int, cells: np.ndarray) -> np.ndarray:
+        """(n,) bool: which of the (n, 2) in-map `cells` drone k sees as unexplored (seen_unexplored_map at them)."""
+        rows, cols = cells[:, 0] + PAD, cells[:, 1] + PAD
+        flags = self._pad_unexplored[rows, cols]
+        return flags if self.zone_done(k) else flags & (self._pad_zone[rows, cols] == k)
+
+    def sees(self, k: int, cell: Cell) -> bool:
+        """Whether drone k sees the in-map `cell` as unexplored (one cell of seen_unexplored_map)."""
+        r, c = cell[0] + PAD, cell[1] + PAD
+        return bool(self._pad_unexplored[r, c]) and (self.zone_done(k) or self._pad_zone[r, c] == k)
+
+    def seen_count(self, k: int) -> int:
+        """How many cells drone k sees as unexplored on the whole map."""
+        return int(self.remaining if self.zone_done(k) else self.zone_remaining[k])
 
     def is_free(self, cell: Cell) -> bool:
         r, c = cell

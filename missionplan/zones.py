@@ -17,6 +17,15 @@ zone is within BALANCE_TOLERANCE of the mean size (an additively weighted Vorono
 partition). With geodesic distance each zone stays connected: the cell before x on the
 shortest path from a centroid is one step nearer to it and at most one step nearer to any
 other, so it belongs to the same zone.
+
+At city scale (measured in docs/scale.md): geodesic Lloyd steps use one multi-source
+breadth-first search per iteration (`nearest_seed`: every cell learns its nearest
+centroid, ties to the lowest index, as argmin over per-centroid distances did) instead
+of one full-grid Dijkstra per drone. Balancing keeps its dense K x U distance matrix
+while K x U <= DENSE_BALANCE_LIMIT (every shipped map, so their zones are unchanged);
+beyond that, where the matrix would not fit, each balancing round is one multi-source
+search in which centroid k starts late by its offset w_k rounded to whole cells, at
+most MAX_BALANCE_PASSES rounds, keeping the most even one.
 """
 
 from __future__ import annotations
@@ -35,6 +44,9 @@ NUM_SAMPLE_POINTS = 2000
 MAX_LLOYD_ITERATIONS = 100
 BALANCE_TOLERANCE = 0.03
 MAX_BALANCE_ITERATIONS = 500
+DENSE_BALANCE_LIMIT = 4_000_000  # K x U entries of the dense balancing matrix
+MAX_BALANCE_PASSES = 40
+BALANCE_PASS_GAIN = 0.3  # fewer, bolder rounds than the dense loop: each is a whole-grid search
 
 
 @dataclass
@@ -70,6 +82,68 @@ def _geodesic_from(graph: csr_matrix, cells: np.ndarray, cols: int) -> np.ndarra
     return shortest_path(graph, method="D", unweighted=True, indices=sources)
 
 
+def _lowest_label_per_cell(cells: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each cell once, with the lowest of its labels."""
+    order = np.lexsort((labels, cells))
+    cells, labels = cells[order], labels[order]
+    first = np.ones(cells.size, dtype=bool)
+    first[1:] = cells[1:] != cells[:-1]
+    return cells[first], labels[first]
+
+
+def nearest_seed(free: np.ndarray, seeds: np.ndarray, start_levels: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Multi-source breadth-first search over the 4-connected free cells.
+
+    Returns (label, dist), both (rows, cols) int32: the index of the nearest seed (ties
+    go to the lowest index) and the hop distance to it; -1 where no seed reaches. With
+    `start_levels`, seed k enters the search only at level start_levels[k] (>= 0), so
+    the label is argmin_k (distance_k + start_levels[k]) - an additively weighted Voronoi -
+    and dist is that sum.
+    Ring by ring in numpy: a cell's label is the lowest label among its neighbours in the
+    previous ring, which is exactly the lowest index among its nearest seeds.
+    """
+    rows, cols = free.shape
+    width = cols + 2
+    padded = np.zeros((rows + 2, width), dtype=bool)
+    padded[1:-1, 1:-1] = free
+    padded = padded.ravel()
+    label = np.full(padded.size, -1, dtype=np.int32)
+    dist = np.full(padded.size, -1, dtype=np.int32)
+    seeds = np.asarray(seeds, dtype=np.int64).reshape(-1, 2)
+    flat = (seeds[:, 0] + 1) * width + seeds[:, 1] + 1
+    levels = np.zeros(len(seeds), dtype=np.int64) if start_levels is None else np.asarray(start_levels, np.int64)
+    steps = np.array([-width, -1, 1, width], dtype=np.int64)
+    entry = np.lexsort((np.arange(len(seeds)), levels))  # by start level, then index
+    ring, ring_label = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int32)
+    waiting, level = 0, 0
+    while True:
+        joining = []
+        while waiting < len(entry) and levels[entry[waiting]] <= level:
+            k = int(entry[waiting])
+            waiting += 1
+            if padded[flat[k]] and label[flat[k]] < 0:
+                joining.append(k)
+        if joining:  # a seed on a cell reached this very level: the lowest label keeps it
+            ring = np.concatenate([ring, flat[joining]])
+            ring_label = np.concatenate([ring_label, np.array(joining, dtype=np.int32)])
+            ring, ring_label = _lowest_label_per_cell(ring, ring_label)
+        if ring.size == 0:
+            if waiting >= len(entry):
+                break
+            level = int(levels[entry[waiting]])  # nothing in flight: jump to the next seed's start
+            continue
+        label[ring], dist[ring] = ring_label, level
+        nxt = (ring[:, None] + steps).ravel()
+        nxt_label = np.repeat(ring_label, 4)
+        fresh = padded[nxt] & (label[nxt] < 0)
+        nxt, nxt_label = nxt[fresh], nxt_label[fresh]
+        ring, ring_label = _lowest_label_per_cell(nxt, nxt_label)
+        level += 1
+    shape = (rows + 2, width)
+    return label.reshape(shape)[1:-1, 1:-1], dist.reshape(shape)[1:-1, 1:-1]
+
+
 def balanced_assignment(distances: np.ndarray, tolerance: float = BALANCE_TOLERANCE) -> np.ndarray:
     """argmin_k (distances[k] + w_k) with offsets w chosen so zone sizes are near equal.
 
@@ -95,6 +169,39 @@ def balanced_assignment(distances: np.ndarray, tolerance: float = BALANCE_TOLERA
     return best
 
 
+def balanced_by_passes(free: np.ndarray, targets: np.ndarray, seeds: np.ndarray,
+                       tolerance: float = BALANCE_TOLERANCE) -> np.ndarray:
+    """balanced_assignment's offsets loop without its K x U matrix: (U,) zone of each target cell.
+
+    Each round is one `nearest_seed` search with seed k starting late by its offset
+    rounded to whole cells; rounds stop within `tolerance` or after MAX_BALANCE_PASSES.
+    """
+    num_zones = len(seeds)
+    label, dist = nearest_seed(free, seeds)
+    assignment = label[targets]
+    reached = dist[targets][assignment >= 0]
+    scale = float(np.median(reached)) if reached.size else 1.0
+    scale = scale or 1.0
+    target = assignment.size / num_zones
+    offsets = np.zeros(num_zones)
+    gain = np.full(num_zones, BALANCE_PASS_GAIN)
+    last_error = np.zeros(num_zones)
+    best, best_spread = assignment, np.inf
+    for _ in range(MAX_BALANCE_PASSES):
+        sizes = np.bincount(assignment[assignment >= 0], minlength=num_zones)
+        error = (sizes - target) / target
+        spread = float(np.abs(error).max())
+        if spread < best_spread:
+            best, best_spread = assignment, spread
+        if spread <= tolerance:
+            break
+        gain[np.sign(error) * np.sign(last_error) < 0] *= 0.5  # overshot: finer steps for that zone
+        offsets += gain * scale * error
+        last_error = error
+        assignment = nearest_seed(free, seeds, np.rint(offsets - offsets.min()))[0][targets]
+    return np.where(best >= 0, best, 0)
+
+
 def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], method: str = DEFAULT_ZONE_METHOD,
                 seed: int = 0, num_points: int = NUM_SAMPLE_POINTS, balance: bool = False) -> Zones:
     """Partition the `targets` cells into len(starts) zones, one per drone."""
@@ -112,19 +219,23 @@ def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], metho
     points = target_cells[picks]
     centroids = np.array(starts, dtype=float)
     cols = targets.shape[1]
-    graph = grid_graph(free) if method == "geodesic" else None
+    # The sparse graph only for the dense balancing of small maps; Lloyd steps search the grid directly.
+    geodesic = method == "geodesic"
+    graph = grid_graph(free) if geodesic and balance and num_zones * len(target_cells) <= DENSE_BALANCE_LIMIT else None
 
-    def distances_to(cells_rc: np.ndarray, centres: np.ndarray) -> np.ndarray:
-        """(K, len(cells_rc)) distance from each centre to each cell."""
-        if graph is None:
-            return np.linalg.norm(cells_rc[None, :, :] - centres[:, None, :], axis=2)
-        field = _geodesic_from(graph, np.rint(centres).astype(np.int64), cols)
-        return field[:, cells_rc[:, 0] * cols + cells_rc[:, 1]]
+    def nearest_centroid(cells_rc: np.ndarray, centres: np.ndarray) -> np.ndarray:
+        """(len(cells_rc),) index of the nearest centre to each cell; ties to the lowest index."""
+        if not geodesic:  # in chunks: a K x U matrix of a whole city would not fit
+            chunk = max(1, 4_000_000 // len(centres))
+            return np.concatenate([np.argmin(np.linalg.norm(part[None, :, :] - centres[:, None, :], axis=2), axis=0)
+                                   for part in np.array_split(cells_rc, max(1, -(-len(cells_rc) // chunk)))])
+        label = nearest_seed(free, np.rint(centres).astype(np.int64))[0][cells_rc[:, 0], cells_rc[:, 1]]
+        return np.where(label >= 0, label, 0)  # reached by no centre: argmin over all-inf gave 0
 
     assignment = None
     iterations = 0
     for iterations in range(1, MAX_LLOYD_ITERATIONS + 1):
-        new_assignment = np.argmin(distances_to(points, centroids), axis=0)
+        new_assignment = nearest_centroid(points, centroids)
         if assignment is not None and np.array_equal(new_assignment, assignment):
             break
         assignment = new_assignment
@@ -133,10 +244,18 @@ def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], metho
             if len(members) == 0:
                 continue  # an empty cluster keeps its centroid
             mean = members.mean(axis=0)
-            if graph is not None:
+            if geodesic:
                 # Geodesic distances need a centroid on a free cell: the member nearest the mean.
                 mean = members[np.argmin(np.linalg.norm(members - mean, axis=1))].astype(float)
             centroids[k] = mean
-    final = distances_to(target_cells, centroids)
-    zone[targets] = balanced_assignment(final) if balance else np.argmin(final, axis=0)
+    seeds = np.rint(centroids).astype(np.int64)
+    if not balance:
+        zone[targets] = nearest_centroid(target_cells, centroids)
+    elif geodesic and graph is None:
+        zone[targets] = balanced_by_passes(free, targets, seeds)
+    elif geodesic:
+        field = _geodesic_from(graph, seeds, cols)
+        zone[targets] = balanced_assignment(field[:, target_cells[:, 0] * cols + target_cells[:, 1]])
+    else:
+        zone[targets] = balanced_assignment(np.linalg.norm(target_cells[None, :, :] - centroids[:, None, :], axis=2))
     return Zones(zone, centroids, iterations, method, balance)
