@@ -28,6 +28,7 @@ from scipy import ndimage
 
 STEADY_LOW, STEADY_HIGH = 0.40, 0.70
 MDU_EVERY_STEP_TARGETS = 20_000  # maps up to this many targets (every shipped one) get MDU* at every step
+MDU_STRIDE_TARGETS = 10_000  # bigger maps: every (U // this)-th steady-state step
 
 
 def move_count(path: np.ndarray) -> int:
@@ -80,12 +81,12 @@ def mean_distance_to_nearest(unexplored: np.ndarray, positions: np.ndarray) -> f
 
 
 def mdu_stride(num_targets: int) -> int:
-    """Every how many steady-state steps MDU* is sampled: 1 (every step) up to MDU_EVERY_STEP_TARGETS targets.
+    """Every how many steady-state steps MDU* is sampled: 1 up to MDU_EVERY_STEP_TARGETS targets, then U // 10,000.
 
     Past that, one distance transform per step would cost more than the planning
     itself; sampling every n-th step changes MDU* by well under 1 % (docs/scale.md).
     """
-    return max(1, num_targets // MDU_EVERY_STEP_TARGETS)
+    return 1 if num_targets <= MDU_EVERY_STEP_TARGETS else max(1, num_targets // MDU_STRIDE_TARGETS)
 
 
 @dataclass

@@ -148,7 +148,7 @@ class Planner:
                              rivals, backlog, seen_count=world.seen_count(k), seen_cells=seen_cells)
             if goal is None:
                 break
-            path = explorative_astar(free, lambda cell: world.sees(k, cell), start, goal) or astar(free, start, goal)
+            path = explorative_astar(free, world.seen_predicate(k), start, goal) or astar(free, start, goal)
             if path is not None:
                 nav.goal, nav.path = goal, path[1:]
                 return True

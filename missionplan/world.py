@@ -11,6 +11,7 @@ drive this same class.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +27,7 @@ ACTION_DELTAS = np.array([[-1, 0], [0, 1], [1, 0], [0, -1]], dtype=np.int64)
 
 FOOTPRINT_RADIUS = 4  # 9 x 9 cells centred on the drone
 VIEW_RADIUS = 9  # 19 x 19 local view
+EXPLORED = -2  # _pad_open_zone of a cell that is not (or no longer) an unexplored target
 PAD = 32  # padding of the internal arrays, so any window up to this radius is one slice
 _VIEW_DR, _VIEW_DC = np.mgrid[-VIEW_RADIUS:VIEW_RADIUS + 1, -VIEW_RADIUS:VIEW_RADIUS + 1]
 
@@ -102,6 +104,9 @@ class CoverageWorld:
         self.positions = np.array(self.starts, dtype=np.int64).reshape(-1, 2)
         self._pad_unexplored = np.zeros((rows + 2 * PAD, cols + 2 * PAD), dtype=bool)
         self._pad_unexplored[PAD:-PAD, PAD:-PAD] = self.reachable
+        # The zone of each unexplored cell, EXPLORED elsewhere: "does drone k see this cell"
+        # is then one gather of one array (the batched views read it for every step).
+        self._pad_open_zone = np.where(self._pad_unexplored, self._pad_zone, EXPLORED).astype(np.int32)
         self.remaining = self.num_targets
         self.zone_remaining = np.bincount(self.zone_of[self.reachable], minlength=self.num_drones)[: self.num_drones]
         self.zone_remaining = self.zone_remaining.astype(np.int64)
@@ -141,8 +146,11 @@ class CoverageWorld:
         """Whether each of `drones` sees padded cells (rows, cols) as unexplored; rows/cols are (n, ...)."""
         extra = (1,) * (rows.ndim - 1)
         zone_done = (self.num_drones == 1) | (self.zone_remaining[drones] == 0)
-        own = self._pad_zone[rows, cols] == drones.reshape(-1, *extra)
-        return self._pad_unexplored[rows, cols] & (own | zone_done.reshape(-1, *extra))
+        open_zone = self._pad_open_zone[rows, cols]
+        seen = open_zone == drones.reshape(-1, *extra)
+        if zone_done.any():
+            seen |= (open_zone != EXPLORED) & zone_done.reshape(-1, *extra)
+        return seen
 
     def views(self, drones: np.ndarray | list[int], radius: int = VIEW_RADIUS) -> tuple[np.ndarray, np.ndarray]:
         """Batched view_unexplored and view_blocked: two (n, 2r+1, 2r+1) bool arrays, one gather each."""
@@ -190,14 +198,15 @@ class CoverageWorld:
 
     def sees_cells(self, k: int, cells: np.ndarray) -> np.ndarray:
         """(n,) bool: which of the (n, 2) in-map `cells` drone k sees as unexplored (seen_unexplored_map at them)."""
-        rows, cols = cells[:, 0] + PAD, cells[:, 1] + PAD
-        flags = self._pad_unexplored[rows, cols]
-        return flags if self.zone_done(k) else flags & (self._pad_zone[rows, cols] == k)
+        open_zone = self._pad_open_zone[cells[:, 0] + PAD, cells[:, 1] + PAD]
+        return open_zone != EXPLORED if self.zone_done(k) else open_zone == k
 
-    def sees(self, k: int, cell: Cell) -> bool:
-        """Whether drone k sees the in-map `cell` as unexplored (one cell of seen_unexplored_map)."""
-        r, c = cell[0] + PAD, cell[1] + PAD
-        return bool(self._pad_unexplored[r, c]) and (self.zone_done(k) or self._pad_zone[r, c] == k)
+    def seen_predicate(self, k: int) -> Callable[[Cell], bool]:
+        """A fast `cell -> bool`: whether drone k sees the in-map cell as unexplored, as of now."""
+        open_zone = self._pad_open_zone
+        if self.zone_done(k):
+            return lambda cell: open_zone[cell[0] + PAD, cell[1] + PAD] != EXPLORED
+        return lambda cell: open_zone[cell[0] + PAD, cell[1] + PAD] == k
 
     def seen_count(self, k: int) -> int:
         """How many cells drone k sees as unexplored on the whole map."""
@@ -259,5 +268,6 @@ class CoverageWorld:
         count = int(zones.size)
         np.subtract.at(self.zone_remaining, zones[zones < self.num_drones], 1)
         window[:] = False  # a view into _pad_unexplored: marks the cells explored
+        self._window(self._pad_open_zone, k, FOOTPRINT_RADIUS)[...] = EXPLORED
         self.remaining -= count
         return count

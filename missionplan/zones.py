@@ -23,7 +23,7 @@ breadth-first search per iteration (`nearest_seed`: every cell learns its neares
 centroid, ties to the lowest index, as argmin over per-centroid distances did) instead
 of one full-grid Dijkstra per drone. Balancing keeps its dense K x U distance matrix
 while K x U <= DENSE_BALANCE_LIMIT (every shipped map, so their zones are unchanged);
-beyond that, where the matrix would not fit, each balancing round is one multi-source
+beyond that, where its 500 rounds would cost more than the plan, each round is one multi-source
 search in which centroid k starts late by its offset w_k rounded to whole cells, at
 most MAX_BALANCE_PASSES rounds, keeping the most even one.
 """
@@ -44,9 +44,9 @@ NUM_SAMPLE_POINTS = 2000
 MAX_LLOYD_ITERATIONS = 100
 BALANCE_TOLERANCE = 0.03
 MAX_BALANCE_ITERATIONS = 500
-DENSE_BALANCE_LIMIT = 4_000_000  # K x U entries of the dense balancing matrix
+DENSE_BALANCE_LIMIT = 250_000  # K x U entries of the dense balancing matrix: shipped maps <= 94k
 MAX_BALANCE_PASSES = 40
-BALANCE_PASS_GAIN = 0.3  # fewer, bolder rounds than the dense loop: each is a whole-grid search
+BALANCE_PASS_GAIN = 0.3
 
 
 @dataclass
@@ -154,9 +154,21 @@ def balanced_assignment(distances: np.ndarray, tolerance: float = BALANCE_TOLERA
     finite = np.where(np.isfinite(distances), distances, np.inf)
     scale = float(np.median(np.min(finite, axis=0)[np.isfinite(np.min(finite, axis=0))]) or 1.0)
     target = num_cells / num_zones
-    best, best_spread = np.argmin(finite, axis=0), np.inf
+    nearest = np.argmin(finite, axis=0)
+    # A cell whose second-nearest centroid is farther than the nearest by more than the
+    # spread of the offsets keeps its nearest: only the cells with a small gap are
+    # re-decided each round (exactly the same argmin, on far fewer columns).
+    two = np.partition(finite, 1, axis=0)[:2] if num_zones > 1 else np.vstack([finite[:1], finite[:1] + np.inf])
+    with np.errstate(invalid="ignore"):
+        gap = np.nan_to_num(two[1] - two[0], nan=np.inf)
+    by_gap = np.argsort(gap, kind="stable")
+    sorted_gap = gap[by_gap]
+    contested_distances = finite[:, by_gap]
+    best, best_spread = nearest, np.inf
     for _ in range(MAX_BALANCE_ITERATIONS):
-        assignment = np.argmin(finite + offsets[:, None], axis=0)
+        count = int(np.searchsorted(sorted_gap, offsets.max() - offsets.min(), side="right"))
+        assignment = nearest.copy()
+        assignment[by_gap[:count]] = np.argmin(contested_distances[:, :count] + offsets[:, None], axis=0)
         sizes = np.bincount(assignment, minlength=num_zones)
         spread = float(np.abs(sizes - target).max() / target)
         if spread < best_spread:
@@ -173,15 +185,16 @@ def balanced_by_passes(free: np.ndarray, targets: np.ndarray, seeds: np.ndarray,
                        tolerance: float = BALANCE_TOLERANCE) -> np.ndarray:
     """balanced_assignment's offsets loop without its K x U matrix: (U,) zone of each target cell.
 
-    Each round is one `nearest_seed` search with seed k starting late by its offset
-    rounded to whole cells; rounds stop within `tolerance` or after MAX_BALANCE_PASSES.
+    Each round is one `nearest_seed` search with seed k starting late by its offset w_k
+    rounded to whole cells. Offsets move like the dense loop's, three times bolder (each
+    round is a whole-grid search, so there are few), halved for a zone that overshoots.
+    Rounds stop within `tolerance` or after MAX_BALANCE_PASSES, keeping the most even split.
     """
     num_zones = len(seeds)
     label, dist = nearest_seed(free, seeds)
     assignment = label[targets]
     reached = dist[targets][assignment >= 0]
-    scale = float(np.median(reached)) if reached.size else 1.0
-    scale = scale or 1.0
+    scale = (float(np.median(reached)) if reached.size else 1.0) or 1.0
     target = assignment.size / num_zones
     offsets = np.zeros(num_zones)
     gain = np.full(num_zones, BALANCE_PASS_GAIN)
@@ -223,21 +236,33 @@ def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], metho
     geodesic = method == "geodesic"
     graph = grid_graph(free) if geodesic and balance and num_zones * len(target_cells) <= DENSE_BALANCE_LIMIT else None
 
+    labels_of: list = [b"", None]  # (centroid cells, their nearest_seed labels) of the last search
+
     def nearest_centroid(cells_rc: np.ndarray, centres: np.ndarray) -> np.ndarray:
         """(len(cells_rc),) index of the nearest centre to each cell; ties to the lowest index."""
         if not geodesic:  # in chunks: a K x U matrix of a whole city would not fit
             chunk = max(1, 4_000_000 // len(centres))
             return np.concatenate([np.argmin(np.linalg.norm(part[None, :, :] - centres[:, None, :], axis=2), axis=0)
                                    for part in np.array_split(cells_rc, max(1, -(-len(cells_rc) // chunk)))])
-        label = nearest_seed(free, np.rint(centres).astype(np.int64))[0][cells_rc[:, 0], cells_rc[:, 1]]
+        seeds = np.rint(centres).astype(np.int64)
+        if labels_of[0] != seeds.tobytes():  # the last Lloyd step's labels serve the final split too
+            labels_of[:] = [seeds.tobytes(), nearest_seed(free, seeds)[0]]
+        label = labels_of[1][cells_rc[:, 0], cells_rc[:, 1]]
         return np.where(label >= 0, label, 0)  # reached by no centre: argmin over all-inf gave 0
 
     assignment = None
     iterations = 0
+    visited: set[bytes] = set()
     for iterations in range(1, MAX_LLOYD_ITERATIONS + 1):
         new_assignment = nearest_centroid(points, centroids)
         if assignment is not None and np.array_equal(new_assignment, assignment):
             break
+        # Snapped (geodesic) centroids can cycle, e.g. two states in turn for ever: stop
+        # when the centroids repeat, rather than at MAX_LLOYD_ITERATIONS.
+        state = centroids.tobytes()
+        if state in visited:
+            break
+        visited.add(state)
         assignment = new_assignment
         for k in range(num_zones):
             members = points[assignment == k]

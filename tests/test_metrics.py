@@ -35,7 +35,7 @@ def test_mdu_on_every_stride_th_steady_step():
     for step in range(7):
         sampler.observe(0.5, np.array([[0, 0], [step % 4, 3]]), unexplored)
     assert len(sampler.mud) == 7 and len(sampler.mdu) == 3  # window steps 0, 3, 6
-    assert mdu_stride(15_714) == 1 and mdu_stride(400_000) == 20
+    assert mdu_stride(15_714) == 1 and mdu_stride(20_001) == 2 and mdu_stride(400_000) == 40
 
 
 def test_run_metrics_by_hand():
