@@ -42,6 +42,8 @@ def astar(free: np.ndarray, start: Cell, goal: Cell, step_cost: np.ndarray | _Ex
     rows, cols = free.shape
     if not (free[start] and free[goal]):
         return None
+    # Python-level reads of a memoryview are several times faster than numpy scalar indexing.
+    free = free.data if free.flags.c_contiguous else free
     goal_r, goal_c = goal
     best_cost = {start: 0.0}
     parent: dict[Cell, Cell] = {}
@@ -105,31 +107,43 @@ class _ExplorativeCost:
 class FlightSearch:
     """Breadth-first search along the free cells of one grid, ring by ring, reusable.
 
-    Cells are numbered in a copy of the grid padded by one blocked cell, so neighbours
-    need no bounds checks; a visit stamp per cell (instead of a fresh visited array)
-    makes starting a search O(1) whatever the grid size.
+    Cells are numbered row-major in the grid padded by `pad` blocked cells on every side
+    (`flat_index`), so neighbours need no bounds checks, and with the world's padding a
+    ring indexes the world's padded arrays directly; a visit stamp per cell (instead of a
+    fresh visited array) makes starting a search O(1) whatever the grid size.
     """
 
-    def __init__(self, free: np.ndarray) -> None:
+    def __init__(self, free: np.ndarray, pad: int = 1) -> None:
         rows, cols = free.shape
         self.shape = (rows, cols)
-        self._width = cols + 2
-        padded = np.zeros((rows + 2, cols + 2), dtype=bool)
-        padded[1:-1, 1:-1] = free
+        self.pad = pad
+        self.width = cols + 2 * pad
+        padded = np.zeros((rows + 2 * pad, self.width), dtype=bool)
+        padded[pad:pad + rows, pad:pad + cols] = free
         self._free = padded.ravel()
         # Ascending index order = up, left, right, down: the order of the CSR rows of grid_graph.
-        self._steps = np.array([-self._width, -1, 1, self._width], dtype=np.int64)
+        self._steps = np.array([-self.width, -1, 1, self.width], dtype=np.int64)
         self._stamp = np.zeros(self._free.size, dtype=np.int32)
         self._generation = 0
 
+    def flat_index(self, cells: np.ndarray) -> np.ndarray:
+        """Padded flat numbers of (n, 2) cells."""
+        cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+        return (cells[:, 0] + self.pad) * self.width + cells[:, 1] + self.pad
+
+    def cells(self, flat: np.ndarray) -> np.ndarray:
+        """(n, 2) cells of padded flat numbers."""
+        rows, cols = np.divmod(flat, self.width)
+        return np.stack([rows, cols], axis=1) - self.pad
+
     def rings(self, start: Cell) -> Iterator[np.ndarray]:
-        """Yield (n, 2) arrays of (row, col): the cells at flight distance 0, 1, 2, ... in BFS queue order."""
+        """Yield padded flat numbers of the cells at flight distance 0, 1, 2, ... in BFS queue order."""
         self._generation += 1
-        stamp, generation, width = self._stamp, self._generation, self._width
-        ring = np.array([(start[0] + 1) * width + start[1] + 1], dtype=np.int64)
+        stamp, generation = self._stamp, self._generation
+        ring = self.flat_index(np.array([start]))
         stamp[ring] = generation
         while ring.size:
-            yield np.stack(np.divmod(ring, width), axis=1) - 1
+            yield ring
             nxt = (ring[:, None] + self._steps[None, :]).ravel()
             nxt = nxt[self._free[nxt] & (stamp[nxt] != generation)]
             if nxt.size > 1:  # keep each cell's first discovery, in discovery order
@@ -152,20 +166,21 @@ def find_goal(search: FlightSearch, start: Cell, seen_unexplored: np.ndarray | C
     `rival_backlog` (steps of work it still has elsewhere). So a drone that has finished
     its own zone helps where it would get there first, and gets None (stay put) where not.
 
-    `seen_unexplored` is a (rows, cols) mask, or a function of (n, 2) cells returning
-    their flags with `seen_count` = how many cells are seen (then with `rivals`,
-    `seen_cells` = those cells as (n, 2), so that the candidates are known up front).
-    The search stops at the first uncongested candidate, or once every candidate has
-    been met.
+    `seen_unexplored` is a (rows, cols) mask, or a function of `search`'s padded flat
+    numbers returning their flags, with `seen_count` = how many cells are seen and (with
+    `rivals`) `seen_cells` = those cells as (n, 2), so that the candidates are known up
+    front. The search stops at the first uncongested candidate, or once every candidate
+    has been met.
     """
     if callable(seen_unexplored):
         is_seen, count = seen_unexplored, int(seen_count if seen_count is not None else -1)
     else:
         mask = np.asarray(seen_unexplored, dtype=bool)
-        is_seen, count = (lambda cells: mask[cells[:, 0], cells[:, 1]]), int(mask.sum())
+        padded = np.zeros(search._free.size, dtype=bool)
+        padded[search.flat_index(np.argwhere(mask))] = True
+        is_seen, count = padded.__getitem__, int(mask.sum())
         seen_cells = np.argwhere(mask) if rivals is not None else None
-    rows, cols = search.shape
-    candidates: np.ndarray | None = None  # sorted flat indices of every candidate, when known up front
+    candidates: np.ndarray | None = None  # sorted flat numbers of every candidate, when known up front
     if rivals is not None and len(rivals):
         backlog = np.zeros(len(rivals)) if rival_backlog is None else np.asarray(rival_backlog, dtype=float)
         cells = np.asarray(seen_cells).reshape(-1, 2)
@@ -173,16 +188,15 @@ def find_goal(search: FlightSearch, start: Cell, seen_unexplored: np.ndarray | C
         for rival, extra in zip(np.asarray(rivals), backlog):  # each rival rules out most cells: shrink as we go
             keep = mine <= np.abs(cells - rival).sum(axis=1) + extra
             cells, mine = cells[keep], mine[keep]
-        candidates = np.sort(cells[:, 0] * cols + cells[:, 1])
+        candidates = np.sort(search.flat_index(cells))
         count = len(candidates)
-    if excluded and count > 0:
-        gone = [r * cols + c for r, c in excluded]
+    gone = search.flat_index(np.array(sorted(excluded or ()), dtype=np.int64))
+    if gone.size and count > 0:
         if candidates is not None:
             candidates = candidates[~np.isin(candidates, gone)]
             count = len(candidates)
         else:
-            flags = is_seen(np.array(list(excluded), dtype=np.int64).reshape(-1, 2))
-            count -= int(flags.sum())
+            count -= int(is_seen(gone).sum())
     if count == 0:
         return None
     taken = np.array(taken_goals, dtype=np.int64).reshape(-1, 2)
@@ -190,24 +204,22 @@ def find_goal(search: FlightSearch, start: Cell, seen_unexplored: np.ndarray | C
     met = 0
     for ring in search.rings(start):
         flags = is_seen(ring)
-        if excluded:
-            flags &= ~np.isin(ring[:, 0] * cols + ring[:, 1], gone)
+        if gone.size:
+            flags &= ~np.isin(ring, gone)
         if candidates is not None:
-            flat = ring[:, 0] * cols + ring[:, 1]
-            at = np.minimum(np.searchsorted(candidates, flat), len(candidates) - 1)
-            flags &= candidates[at] == flat
+            at = np.minimum(np.searchsorted(candidates, ring), len(candidates) - 1)
+            flags &= candidates[at] == ring
         if not flags.any():
             continue
-        found = ring[flags]
+        found = search.cells(ring[flags])
         if nearest is None:
             nearest = (int(found[0, 0]), int(found[0, 1]))
-        if len(taken):
-            clear = ~(np.abs(found[:, None, :] - taken[None, :, :]).max(axis=2) <= CONGESTION_RADIUS).any(axis=1)
-            if clear.any():
-                r, c = found[np.argmax(clear)]
-                return int(r), int(c)
-        else:
+        if not len(taken):
             return nearest
+        clear = ~(np.abs(found[:, None, :] - taken[None, :, :]).max(axis=2) <= CONGESTION_RADIUS).any(axis=1)
+        if clear.any():
+            r, c = found[np.argmax(clear)]
+            return int(r), int(c)
         met += len(found)
         if 0 <= count <= met:
             break  # every candidate met, all congested

@@ -38,7 +38,7 @@ from tqdm import tqdm
 from .gridmap import Cell
 from .metrics import SteadyStateSampler, compute_metrics, mdu_stride
 from .pathfinding import FlightSearch, astar, explorative_astar, find_goal
-from .world import ACTION_DELTAS, HOVER, CoverageWorld
+from .world import ACTION_DELTAS, HOVER, PAD, CoverageWorld
 
 DEADLOCK_STEPS = 3
 MAX_GOAL_TRIES = 4
@@ -112,7 +112,7 @@ class Planner:
         # Far more than any honest detour takes; only a livelock hits it.
         self.stall_limit = stall_limit if stall_limit is not None else 4 * (rows + cols) + 200
         self.free = world.gmap.free
-        self.search = FlightSearch(self.free)
+        self.search = FlightSearch(self.free, pad=PAD)  # numbered like the world's padded arrays
         self._unexplored_cells: tuple[int, np.ndarray] | None = None  # (step, cells) cache
         self.nav = [_Navigation() for _ in range(world.num_drones)]
         self.deadlocks_broken = 0
@@ -123,7 +123,7 @@ class Planner:
         """(n, 2) every unexplored cell; scanned once per step however many drones ask."""
         world = self.world
         if self._unexplored_cells is None or self._unexplored_cells[0] != world.t:
-            self._unexplored_cells = (world.t, np.argwhere(world.unexplored))
+            self._unexplored_cells = (world.t, world.unexplored_cells())
         return self._unexplored_cells[1]
 
     def _plan_path(self, k: int) -> bool:
@@ -144,7 +144,7 @@ class Planner:
             seen_cells = self._unexplored_now()
         excluded: set[Cell] = set()
         for _ in range(MAX_GOAL_TRIES):
-            goal = find_goal(self.search, start, lambda cells: world.sees_cells(k, cells), taken, excluded,
+            goal = find_goal(self.search, start, world.seen_flat(k), taken, excluded,
                              rivals, backlog, seen_count=world.seen_count(k), seen_cells=seen_cells)
             if goal is None:
                 break

@@ -196,17 +196,26 @@ class CoverageWorld:
             return self.unexplored
         return self.unexplored & (self.zone_of == k)
 
-    def sees_cells(self, k: int, cells: np.ndarray) -> np.ndarray:
-        """(n,) bool: which of the (n, 2) in-map `cells` drone k sees as unexplored (seen_unexplored_map at them)."""
-        open_zone = self._pad_open_zone[cells[:, 0] + PAD, cells[:, 1] + PAD]
-        return open_zone != EXPLORED if self.zone_done(k) else open_zone == k
+    def seen_flat(self, k: int) -> Callable[[np.ndarray], np.ndarray]:
+        """`flat -> flags`: whether drone k sees cells as unexplored, given their flat numbers in
+        the padded arrays (row-major, PAD cells of padding: a FlightSearch with pad=PAD)."""
+        open_zone = self._pad_open_zone.ravel()
+        if self.zone_done(k):
+            return lambda flat: open_zone[flat] != EXPLORED
+        return lambda flat: open_zone[flat] == k
 
     def seen_predicate(self, k: int) -> Callable[[Cell], bool]:
         """A fast `cell -> bool`: whether drone k sees the in-map cell as unexplored, as of now."""
-        open_zone = self._pad_open_zone
+        open_zone = self._pad_open_zone.data  # a memoryview: Python-level reads 5x faster than numpy's
         if self.zone_done(k):
             return lambda cell: open_zone[cell[0] + PAD, cell[1] + PAD] != EXPLORED
         return lambda cell: open_zone[cell[0] + PAD, cell[1] + PAD] == k
+
+    def unexplored_cells(self) -> np.ndarray:
+        """(n, 2) every unexplored cell, row-major (a flat scan of the contiguous padded array)."""
+        flat = np.flatnonzero(self._pad_unexplored)
+        rows, cols = np.divmod(flat, self._pad_unexplored.shape[1])
+        return np.stack([rows - PAD, cols - PAD], axis=1)
 
     def seen_count(self, k: int) -> int:
         """How many cells drone k sees as unexplored on the whole map."""

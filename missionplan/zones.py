@@ -82,10 +82,10 @@ def _geodesic_from(graph: csr_matrix, cells: np.ndarray, cols: int) -> np.ndarra
     return shortest_path(graph, method="D", unweighted=True, indices=sources)
 
 
-def _lowest_label_per_cell(cells: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each cell once, with the lowest of its labels."""
-    order = np.lexsort((labels, cells))
-    cells, labels = cells[order], labels[order]
+def _lowest_label_per_cell(cells: np.ndarray, labels: np.ndarray, num_labels: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each cell once, with the lowest of its labels (one sort of cell * num_labels + label)."""
+    keys = np.sort(cells * num_labels + labels)
+    cells, labels = np.divmod(keys, num_labels)
     first = np.ones(cells.size, dtype=bool)
     first[1:] = cells[1:] != cells[:-1]
     return cells[first], labels[first]
@@ -115,7 +115,7 @@ def nearest_seed(free: np.ndarray, seeds: np.ndarray, start_levels: np.ndarray |
     levels = np.zeros(len(seeds), dtype=np.int64) if start_levels is None else np.asarray(start_levels, np.int64)
     steps = np.array([-width, -1, 1, width], dtype=np.int64)
     entry = np.lexsort((np.arange(len(seeds)), levels))  # by start level, then index
-    ring, ring_label = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int32)
+    ring, ring_label = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     waiting, level = 0, 0
     while True:
         joining = []
@@ -126,8 +126,8 @@ def nearest_seed(free: np.ndarray, seeds: np.ndarray, start_levels: np.ndarray |
                 joining.append(k)
         if joining:  # a seed on a cell reached this very level: the lowest label keeps it
             ring = np.concatenate([ring, flat[joining]])
-            ring_label = np.concatenate([ring_label, np.array(joining, dtype=np.int32)])
-            ring, ring_label = _lowest_label_per_cell(ring, ring_label)
+            ring_label = np.concatenate([ring_label, np.array(joining, dtype=np.int64)])
+            ring, ring_label = _lowest_label_per_cell(ring, ring_label, len(seeds))
         if ring.size == 0:
             if waiting >= len(entry):
                 break
@@ -138,7 +138,7 @@ def nearest_seed(free: np.ndarray, seeds: np.ndarray, start_levels: np.ndarray |
         nxt_label = np.repeat(ring_label, 4)
         fresh = padded[nxt] & (label[nxt] < 0)
         nxt, nxt_label = nxt[fresh], nxt_label[fresh]
-        ring, ring_label = _lowest_label_per_cell(nxt, nxt_label)
+        ring, ring_label = _lowest_label_per_cell(nxt, nxt_label, len(seeds))
         level += 1
     shape = (rows + 2, width)
     return label.reshape(shape)[1:-1, 1:-1], dist.reshape(shape)[1:-1, 1:-1]

@@ -82,7 +82,8 @@ def test_flight_search_rings_are_scipys_breadth_first_order():
     for trial in range(20):
         free = rng.random((23, 31)) > 0.3
         start = tuple(int(v) for v in np.argwhere(free)[rng.integers(free.sum())])
-        rings = list(FlightSearch(free).rings(start))
+        search = FlightSearch(free, pad=trial % 3 + 1)
+        rings = [search.cells(r) for r in search.rings(start)]
         ours = np.concatenate([r[:, 0] * free.shape[1] + r[:, 1] for r in rings])
         theirs = breadth_first_order(grid_graph(free), start[0] * free.shape[1] + start[1], directed=True,
                                      return_predecessors=False)
@@ -106,8 +107,12 @@ def test_find_goal_with_rivals_and_a_seen_function():
     assert find_goal(search, start, seen, [(5, 3)], rivals=rival, rival_backlog=np.array([30.0])) == (5, 27)
     seen[5, 2] = False
     assert find_goal(search, start, seen, [], rivals=rival, rival_backlog=np.array([0.0])) is None
-    as_function = find_goal(search, start, lambda cells: seen[cells[:, 0], cells[:, 1]], [], rivals=rival,
-                            rival_backlog=np.array([30.0]), seen_count=int(seen.sum()), seen_cells=np.argwhere(seen))
+    def seen_flat(flat):
+        cells = search.cells(flat)
+        return seen[cells[:, 0], cells[:, 1]]
+
+    as_function = find_goal(search, start, seen_flat, [], rivals=rival, rival_backlog=np.array([30.0]),
+                            seen_count=int(seen.sum()), seen_cells=np.argwhere(seen))
     assert as_function == (5, 27)
-    assert find_goal(search, start, lambda cells: seen[cells[:, 0], cells[:, 1]], [], excluded={(5, 27)},
-                     seen_count=1) is None
+    assert find_goal(search, start, seen_flat, [], excluded={(5, 27)}, seen_count=1) is None
+    assert find_goal(search, start, seen_flat, [], seen_count=1) == (5, 27)
