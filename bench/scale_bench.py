@@ -10,6 +10,10 @@ Run by hand, piecewise if you like:
 
     .venv/bin/python bench/scale_bench.py [--sizes 256,512,1024,2048] [--uavs 6,20,50]
                                           [--policy expert,nn] [--timeout 1800] [--progress]
+                                          [--mdu-check]
+
+--mdu-check also computes MDU* at every steady-state step (slow on big maps) and prints
+how far the sampled MDU* (every mdu_stride(U)-th step, see missionplan/metrics.py) is from it.
 """
 
 from __future__ import annotations
@@ -28,10 +32,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from missionplan import metrics, planner  # noqa: E402
 from missionplan.atomic import atomic_path  # noqa: E402
 from missionplan.gridmap import GridMap  # noqa: E402
 from missionplan.mapgen import CITY_LAUNCH_EDGE_MARGIN, launch_candidates, median_launch_cells  # noqa: E402
-from missionplan.pipeline import POLICIES, plan_map  # noqa: E402
+from missionplan.pipeline import POLICIES, make_policy, plan_map  # noqa: E402
 from missionplan.trainmaps import TARGET, kind_of, random_city  # noqa: E402
 
 SIZES = (256, 512, 1024, 2048)
@@ -57,18 +62,36 @@ def city(size: int) -> GridMap:
     return GridMap(name=gmap.name, obstacle=gmap.obstacle, target=gmap.target, launch=launch, meta={})
 
 
-def run_row(size: int, uavs: int, policy: str, progress: bool) -> dict[str, float | str | bool]:
+def record_every_mdu() -> list[float]:
+    """Make the planner's sampler also compute MDU* at every steady-state step; returns that list."""
+    every: list[float] = []
+
+    class Recording(metrics.SteadyStateSampler):
+        def observe(self, coverage: float, positions: np.ndarray, unexplored: np.ndarray) -> None:
+            if metrics.STEADY_LOW <= coverage <= metrics.STEADY_HIGH:
+                every.append(metrics.mean_distance_to_nearest(unexplored, positions))
+            super().observe(coverage, positions, unexplored)
+
+    planner.SteadyStateSampler = Recording  # type: ignore[misc]
+    return every
+
+
+def run_row(size: int, uavs: int, policy: str, progress: bool, mdu_check: bool = False) -> dict[str, float | str | bool]:
     """Plan one row in this process; what the table prints."""
     gmap = city(size)
+    every = record_every_mdu() if mdu_check else None
+    ready = make_policy(policy)  # loading torch is not planning
     cpu0 = time.process_time()
-    result = plan_map(gmap, uavs, policy=policy, progress=progress)
+    result = plan_map(gmap, uavs, policy=ready, progress=progress)
     cpu = time.process_time() - cpu0
     m, world = result.run.metrics, result.world
     floor = world.num_targets / (9 * uavs)
     return {"targets": world.num_targets, "zones_s": result.zone_seconds, "plan_s": result.run.plan_seconds,
             "cpu_s": cpu, "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
             "mmn_floor": m["MMN"] / floor, "coverage": m["coverage"], "success": result.run.success,
-            "failure": result.run.failure or "", "steps": result.run.steps, "load": os.getloadavg()[0]}
+            "failure": result.run.failure or "", "steps": result.run.steps, "load": os.getloadavg()[0],
+            "mdu": m["MDU"], "mdu_every": float(np.mean(every)) if every else None,
+            "mdu_stride": metrics.mdu_stride(world.num_targets), "window": len(every) if every else None}
 
 
 def main() -> int:
@@ -78,11 +101,13 @@ def main() -> int:
     parser.add_argument("--policy", default=",".join(POLICIES), help=f"comma list of {', '.join(POLICIES)}")
     parser.add_argument("--timeout", type=float, default=1800.0, help="seconds allowed per row")
     parser.add_argument("--progress", action="store_true", help="show each row's progress bar")
+    parser.add_argument("--mdu-check", action="store_true",
+                        help="also compute MDU* at every steady-state step and print how far the sampled one is")
     parser.add_argument("--row", help=argparse.SUPPRESS)  # internal: size,uavs,policy in a child
     args = parser.parse_args()
     if args.row:
         size, uavs, policy = args.row.split(",")
-        print(json.dumps(run_row(int(size), int(uavs), policy, args.progress)))
+        print(json.dumps(run_row(int(size), int(uavs), policy, args.progress, args.mdu_check)))
         return 0
 
     sizes = [int(s) for s in args.sizes.split(",")]
@@ -97,6 +122,7 @@ def main() -> int:
             for policy in args.policy.split(","):
                 command = [sys.executable, __file__, "--row", f"{size},{uavs},{policy}"]
                 command += ["--progress"] if args.progress else []
+                command += ["--mdu-check"] if args.mdu_check else []
                 label = f"{size}x{size:<4} {uavs:>3} {policy:<7}"
                 try:
                     done = subprocess.run(command, stdout=subprocess.PIPE, text=True, timeout=args.timeout)
@@ -112,6 +138,9 @@ def main() -> int:
                        f"{r['cpu_s']:>8.1f} {r['rss_mb']:>8.0f} {r['mmn_floor']:>9.2f} {r['coverage']:>6.1f} "
                        f"{r['steps']:>6} {r['load']:>5.1f}")
                 print(row + ("" if r["success"] else f"  FAILED: {r['failure']}"), flush=True)
+                if r["mdu_every"]:
+                    print(f"{'':>9} MDU* every step {r['mdu_every']:.3f}, every {r['mdu_stride']}th of "
+                          f"{r['window']} steps {r['mdu']:.3f}: {100 * (r['mdu'] / r['mdu_every'] - 1):+.2f} %", flush=True)
     return 0
 
 

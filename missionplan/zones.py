@@ -45,8 +45,10 @@ MAX_LLOYD_ITERATIONS = 100
 BALANCE_TOLERANCE = 0.03
 MAX_BALANCE_ITERATIONS = 500
 DENSE_BALANCE_LIMIT = 250_000  # K x U entries of the dense balancing matrix: shipped maps <= 94k
-MAX_BALANCE_PASSES = 40
+MAX_BALANCE_PASSES = 24
 BALANCE_PASS_GAIN = 0.3
+COARSE_BALANCE_CELLS = 300_000  # past this, balancing rounds run on 2 x 2, 4 x 4 ... blocks
+REFINE_PASSES = 6  # full-resolution rounds after the block rounds
 
 
 @dataclass
@@ -181,37 +183,68 @@ def balanced_assignment(distances: np.ndarray, tolerance: float = BALANCE_TOLERA
     return best
 
 
+def _coarsened(grid: np.ndarray, factor: int) -> np.ndarray:
+    """(ceil(rows / f), ceil(cols / f)) counts of True cells per f x f block."""
+    rows, cols = grid.shape
+    padded = np.zeros((-(-rows // factor) * factor, -(-cols // factor) * factor), dtype=np.int64)
+    padded[:rows, :cols] = grid
+    return padded.reshape(padded.shape[0] // factor, factor, padded.shape[1] // factor, factor).sum(axis=(1, 3))
+
+
+def _offset_rounds(free: np.ndarray, weight: np.ndarray, seeds: np.ndarray, offsets: np.ndarray, gain: float,
+                   rounds: int, tolerance: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """Balancing rounds on one grid; returns (best assignment of the weighted cells, its offsets, its spread)."""
+    num_zones = len(seeds)
+    weighted = weight > 0
+    cell_weight = weight[weighted]
+    label, dist = nearest_seed(free, seeds, np.rint(offsets - offsets.min()))
+    assignment = label[weighted]
+    reached = dist[weighted][assignment >= 0]
+    scale = (float(np.median(reached)) if reached.size else 1.0) or 1.0
+    target = cell_weight.sum() / num_zones
+    offsets = offsets.copy()
+    gains = np.full(num_zones, gain)
+    last_error = np.zeros(num_zones)
+    best, best_offsets, best_spread = assignment, offsets.copy(), np.inf
+    for round_ in range(rounds):
+        sizes = np.bincount(assignment[assignment >= 0], weights=cell_weight[assignment >= 0], minlength=num_zones)
+        error = (sizes - target) / target
+        spread = float(np.abs(error).max())
+        if spread < best_spread:
+            best, best_offsets, best_spread = assignment, offsets.copy(), spread
+        if spread <= tolerance or round_ == rounds - 1:
+            break
+        gains[np.sign(error) * np.sign(last_error) < 0] *= 0.5  # overshot: finer steps for that zone
+        offsets += gains * scale * error
+        last_error = error
+        assignment = nearest_seed(free, seeds, np.rint(offsets - offsets.min()))[0][weighted]
+    return best, best_offsets, best_spread
+
+
 def balanced_by_passes(free: np.ndarray, targets: np.ndarray, seeds: np.ndarray,
                        tolerance: float = BALANCE_TOLERANCE) -> np.ndarray:
     """balanced_assignment's offsets loop without its K x U matrix: (U,) zone of each target cell.
 
     Each round is one `nearest_seed` search with seed k starting late by its offset w_k
     rounded to whole cells. Offsets move like the dense loop's, three times bolder (each
-    round is a whole-grid search, so there are few), halved for a zone that overshoots.
-    Rounds stop within `tolerance` or after MAX_BALANCE_PASSES, keeping the most even split.
+    round is a whole-grid search, so there are few), halved for a zone that overshoots;
+    rounds stop within `tolerance` or after MAX_BALANCE_PASSES, keeping the most even
+    split. On grids past COARSE_BALANCE_CELLS the rounds run on blocks of f x f cells (a
+    block is free when any of its cells is, and weighs its target cells), then at most
+    REFINE_PASSES full-resolution rounds start from the offsets found, times f.
     """
-    num_zones = len(seeds)
-    label, dist = nearest_seed(free, seeds)
-    assignment = label[targets]
-    reached = dist[targets][assignment >= 0]
-    scale = (float(np.median(reached)) if reached.size else 1.0) or 1.0
-    target = assignment.size / num_zones
-    offsets = np.zeros(num_zones)
-    gain = np.full(num_zones, BALANCE_PASS_GAIN)
-    last_error = np.zeros(num_zones)
-    best, best_spread = assignment, np.inf
-    for _ in range(MAX_BALANCE_PASSES):
-        sizes = np.bincount(assignment[assignment >= 0], minlength=num_zones)
-        error = (sizes - target) / target
-        spread = float(np.abs(error).max())
-        if spread < best_spread:
-            best, best_spread = assignment, spread
-        if spread <= tolerance:
-            break
-        gain[np.sign(error) * np.sign(last_error) < 0] *= 0.5  # overshot: finer steps for that zone
-        offsets += gain * scale * error
-        last_error = error
-        assignment = nearest_seed(free, seeds, np.rint(offsets - offsets.min()))[0][targets]
+    seeds = np.asarray(seeds, dtype=np.int64)
+    factor = 1
+    while -(-free.shape[0] // factor) * -(-free.shape[1] // factor) > COARSE_BALANCE_CELLS:
+        factor *= 2
+    offsets = np.zeros(len(seeds))
+    gain = BALANCE_PASS_GAIN
+    if factor > 1:
+        _, offsets, _ = _offset_rounds(_coarsened(free, factor) > 0, _coarsened(targets, factor), seeds // factor,
+                                       offsets, gain, MAX_BALANCE_PASSES, tolerance)
+        offsets, gain = offsets * factor, gain / 2
+    rounds = REFINE_PASSES if factor > 1 else MAX_BALANCE_PASSES
+    best, _, _ = _offset_rounds(free, targets.astype(np.int64), seeds, offsets, gain, rounds, tolerance)
     return np.where(best >= 0, best, 0)
 
 
