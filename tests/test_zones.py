@@ -3,6 +3,7 @@ import pytest
 from scipy import ndimage
 from scipy.sparse.csgraph import shortest_path
 
+from missionplan import zones
 from missionplan.zones import balanced_by_passes, grid_graph, nearest_seed, split_zones
 
 
@@ -74,7 +75,10 @@ def test_nearest_seed_is_argmin_of_per_seed_distances_with_lowest_index_ties():
         assert np.array_equal(dist, np.where(np.isfinite(best), best, -1))
 
 
-def test_balancing_by_passes_evens_zones_and_keeps_them_connected():
+@pytest.mark.parametrize("blocks", [False, True])
+def test_balancing_by_passes_evens_zones_and_keeps_them_connected(blocks, monkeypatch):
+    if blocks:  # the rounds on 2 x 2 blocks that grids past COARSE_BALANCE_CELLS get
+        monkeypatch.setattr(zones, "COARSE_BALANCE_CELLS", 1000)
     free = np.ones((60, 90), dtype=bool)
     free[20:23, 10:80] = False  # a long block
     starts = np.array([[5, 5], [15, 60], [59, 89], [30, 45]])  # plain Voronoi sizes 703 to 2045
