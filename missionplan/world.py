@@ -271,11 +271,15 @@ class CoverageWorld:
 
     def _explore_footprint(self, k: int) -> int:
         window = self._window(self._pad_unexplored, k, FOOTPRINT_RADIUS)
-        if not window.any():
+        if not np.count_nonzero(window):  # far cheaper than any() on a 9 x 9 window
             return 0
         zones = self._window(self._pad_zone, k, FOOTPRINT_RADIUS)[window]
         count = int(zones.size)
-        np.subtract.at(self.zone_remaining, zones[zones < self.num_drones], 1)
+        counted = zones[zones < self.num_drones]
+        if counted.size and counted.min() >= 0:
+            self.zone_remaining -= np.bincount(counted, minlength=self.num_drones)
+        else:  # ufunc.at is slow, but wraps a -1 zone the way it always did
+            np.subtract.at(self.zone_remaining, counted, 1)
         window[:] = False  # a view into _pad_unexplored: marks the cells explored
         self._window(self._pad_open_zone, k, FOOTPRINT_RADIUS)[...] = EXPLORED
         self.remaining -= count
