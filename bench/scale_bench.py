@@ -2,8 +2,9 @@
 
 Each row plans one (size, drones, policy) in a fresh child process, so its peak RSS is its
 own, and prints: zone seconds, plan seconds, zones as a share of the plan time, CPU seconds
-(user + system of the child, zones + plan: compare these when the machine is shared), peak
-RSS, MMN / floor, coverage, and the 1-minute load average when the row finished. Maps are
+(user + system of the child, zones + plan: compare these when the machine is shared), the
+zones' CPU seconds as a share of the plan's, peak RSS, MMN / floor, coverage, steps, and the
+1-minute load average when the row finished. Maps are
 `trainmaps.random_city` with seed = side length, launch cells by mapgen's greedy k-median
 (the first A of them for A drones); generated maps are cached under the temp directory.
 Run by hand, piecewise if you like:
@@ -32,7 +33,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from missionplan import metrics, planner  # noqa: E402
+from missionplan import metrics, pipeline, planner  # noqa: E402
 from missionplan.atomic import atomic_path  # noqa: E402
 from missionplan.gridmap import GridMap  # noqa: E402
 from missionplan.mapgen import CITY_LAUNCH_EDGE_MARGIN, launch_candidates, median_launch_cells  # noqa: E402
@@ -76,18 +77,35 @@ def record_every_mdu() -> list[float]:
     return every
 
 
+def time_zones_cpu() -> list[float]:
+    """Make plan_map's zone split count its CPU seconds into the returned one-item list."""
+    spent = [0.0]
+    split = pipeline.split_zones
+
+    def timed(*args, **kwargs):  # type: ignore[no-untyped-def]
+        began = time.process_time()
+        try:
+            return split(*args, **kwargs)
+        finally:
+            spent[0] += time.process_time() - began
+
+    pipeline.split_zones = timed  # type: ignore[assignment]
+    return spent
+
+
 def run_row(size: int, uavs: int, policy: str, progress: bool, mdu_check: bool = False) -> dict[str, float | str | bool]:
     """Plan one row in this process; what the table prints."""
     gmap = city(size)
     every = record_every_mdu() if mdu_check else None
     ready = make_policy(policy)  # loading torch is not planning
+    zone_cpu = time_zones_cpu()
     cpu0 = time.process_time()
     result = plan_map(gmap, uavs, policy=ready, progress=progress)
     cpu = time.process_time() - cpu0
     m, world = result.run.metrics, result.world
     floor = world.num_targets / (9 * uavs)
     return {"targets": world.num_targets, "zones_s": result.zone_seconds, "plan_s": result.run.plan_seconds,
-            "cpu_s": cpu, "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+            "cpu_s": cpu, "zones_cpu_s": zone_cpu[0], "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
             "mmn_floor": m["MMN"] / floor, "coverage": m["coverage"], "success": result.run.success,
             "failure": result.run.failure or "", "steps": result.run.steps, "load": os.getloadavg()[0],
             "mdu": m["MDU"], "mdu_every": float(np.mean(every)) if every else None,
@@ -114,7 +132,7 @@ def main() -> int:
     for size in sizes:
         city(size)  # generate once here, not inside the timed children
     header = (f"{'size':>9} {'A':>3} {'policy':<7} {'U':>8} {'zones s':>8} {'plan s':>8} {'zones %':>7} "
-              f"{'cpu s':>8} {'peak MB':>8} {'MMN/floor':>9} {'cov %':>6} {'steps':>6} {'load':>5}")
+              f"{'cpu s':>8} {'zones cpu %':>11} {'peak MB':>8} {'MMN/floor':>9} {'cov %':>6} {'steps':>6} {'load':>5}")
     print(header)
     print("-" * len(header), flush=True)
     for size in sizes:
@@ -134,8 +152,9 @@ def main() -> int:
                     continue
                 r = json.loads(done.stdout.strip().splitlines()[-1])
                 share = 100 * r["zones_s"] / max(r["plan_s"], 1e-9)
+                cpu_share = 100 * r["zones_cpu_s"] / max(r["cpu_s"] - r["zones_cpu_s"], 1e-9)
                 row = (f"{label} {r['targets']:>8} {r['zones_s']:>8.2f} {r['plan_s']:>8.2f} {share:>7.1f} "
-                       f"{r['cpu_s']:>8.1f} {r['rss_mb']:>8.0f} {r['mmn_floor']:>9.2f} {r['coverage']:>6.1f} "
+                       f"{r['cpu_s']:>8.1f} {cpu_share:>11.1f} {r['rss_mb']:>8.0f} {r['mmn_floor']:>9.2f} {r['coverage']:>6.1f} "
                        f"{r['steps']:>6} {r['load']:>5.1f}")
                 print(row + ("" if r["success"] else f"  FAILED: {r['failure']}"), flush=True)
                 if r["mdu_every"]:
