@@ -104,3 +104,12 @@ def test_expert_runs_straight_down_a_street_and_never_into_a_wall():
         world.step([action])
     assert moves.count(RIGHT) == 10
     assert HOVER not in moves and DOWN not in moves
+
+
+def test_progress_bar_shows_coverage_and_time_left(capsys):
+    gmap = corridor_map()
+    world = CoverageWorld(gmap, [(4, 2)])
+    run = Planner(world, ExpertPolicy(), progress=True).run()
+    assert run.success
+    shown = capsys.readouterr().err
+    assert "% covered" in shown and "ETA" in shown and "cells" in shown

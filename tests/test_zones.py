@@ -90,3 +90,23 @@ def test_balancing_by_passes_evens_zones_and_keeps_them_connected(blocks, monkey
     assert np.abs(sizes - free.sum() / 4).max() <= 0.05 * free.sum() / 4
     for k in range(4):
         assert ndimage.label(zone == k)[1] == 1  # one piece each
+
+
+def test_lloyd_stops_when_snapped_centroids_cycle(monkeypatch):
+    """Centroids that come back to an earlier state would cycle until MAX_LLOYD_ITERATIONS
+    (the 1024 x 1024 bench city did, in a 2-cycle): Lloyd stops at the repeat instead."""
+    free = np.ones((20, 20), dtype=bool)
+    calls = []
+
+    def alternating(free_cells, seeds, start_levels=None):  # nearest centroid flips every call
+        calls.append(1)
+        label = np.zeros(free_cells.shape, dtype=np.int32)
+        label[:, 10:] = 1
+        if len(calls) % 2 == 0:
+            label[:10, :] = 1 - label[:10, :]
+        return label, np.zeros(free_cells.shape, dtype=np.int32)
+
+    monkeypatch.setattr(zones, "nearest_seed", alternating)
+    z = split_zones(free, free, [(0, 0), (19, 19)], "geodesic", balance=False)
+    assert z.iterations <= 4
+    assert z.iterations < zones.MAX_LLOYD_ITERATIONS
