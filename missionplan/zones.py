@@ -47,7 +47,7 @@ MAX_BALANCE_ITERATIONS = 500
 DENSE_BALANCE_LIMIT = 250_000  # K x U entries of the dense balancing matrix: shipped maps <= 94k
 MAX_BALANCE_PASSES = 24
 BALANCE_PASS_GAIN = 0.3
-COARSE_BALANCE_CELLS = 65_536  # past this (256 x 256), balancing rounds run on 2 x 2 blocks
+COARSE_BALANCE_CELLS = 16_384  # past this (128 x 128), balancing rounds run on 2 x 2 blocks
 REFINE_PASSES = 6  # full-resolution rounds after the block rounds
 
 
