@@ -158,8 +158,9 @@ def main() -> int:
                        f"{r['steps']:>6} {r['load']:>5.1f}")
                 print(row + ("" if r["success"] else f"  FAILED: {r['failure']}"), flush=True)
                 if r["mdu_every"]:
-                    print(f"{'':>9} MDU* every step {r['mdu_every']:.3f}, every {r['mdu_stride']}th of "
-                          f"{r['window']} steps {r['mdu']:.3f}: {100 * (r['mdu'] / r['mdu_every'] - 1):+.2f} %", flush=True)
+                    print(f"{'':>9} MDU* at all {r['window']} steady steps {r['mdu_every']:.3f}, sampled every "
+                          f"{r['mdu_stride']} steps {r['mdu']:.3f}: {100 * (r['mdu'] / r['mdu_every'] - 1):+.2f} %",
+                          flush=True)
     return 0
 
 
