@@ -190,12 +190,6 @@ class CoverageWorld:
         blocked[offsets[inside, 0], offsets[inside, 1]] = True
         return blocked
 
-    def seen_unexplored_map(self, k: int) -> np.ndarray:
-        """The whole-map version of view_unexplored, for the path-finders."""
-        if self.zone_done(k):
-            return self.unexplored
-        return self.unexplored & (self.zone_of == k)
-
     def seen_flat(self, k: int) -> Callable[[np.ndarray], np.ndarray]:
         """`flat -> flags`: whether drone k sees cells as unexplored, given their flat numbers in
         the padded arrays (row-major, PAD cells of padding: a FlightSearch with pad=PAD)."""
