@@ -166,14 +166,23 @@ class ExpertPolicy:
         n = len(drones)
         unexplored, blocked = world.views(drones)
         flat_unexplored = unexplored.reshape(n, -1).astype(np.float32)
-        gain = np.stack([tables.new_weights @ flat_unexplored[i] for i in range(n)]) / 9.0
+        gain = np.empty((n, len(tables.first_action)), dtype=np.float32)
+        for i in range(n):
+            np.matmul(tables.new_weights, flat_unexplored[i], out=gain[i])
+        gain /= 9.0
         prev = world.last_actions[drones, 0]
         score = gain - self.turn_weight * tables.turn_cost[prev + 1]
-        revisits = visited_views(world, drones)[:, tables.cells].sum(axis=2) + tables.self_revisits
+        # One gather for both per-sequence counts: visited cells + 8 x blocked cells along it
+        # (at most 5 + 8 x 5, all small integers, so the float32 sum is exact and splits back).
+        flat_blocked = blocked.reshape(n, -1)
+        eight = np.float32(8.0)  # float32 throughout: the scores must be the very same floats
+        along = (visited_views(world, drones) + eight * flat_blocked)[:, tables.cells].sum(axis=2)
+        blocked_along = np.floor(along / eight)
+        revisits = (along - eight * blocked_along) + tables.self_revisits
         score -= self.revisit_weight * revisits
         distance = flight_distance_field(unexplored, blocked, limit=2 * _VIEW, needed=self._ends).reshape(n, -1)
         score -= self.distance_weight * self.terminal_discount * distance[:, tables.cells[:, -1]]
-        valid = ~blocked.reshape(n, -1)[:, tables.cells].any(axis=2)
+        valid = blocked_along == 0
         score = np.where(valid, score, -np.inf)
         # Sequences are numbered with the first move as the leading base-4 digit, so each
         # action's sequences are one contiguous quarter of the table.

@@ -94,9 +94,12 @@ class PlanRun:
     plan_seconds: float
 
 
+_ACTION_OF_DELTA = {(int(dr), int(dc)): action for action, (dr, dc) in enumerate(ACTION_DELTAS)}
+
+
 def _action_towards(position: np.ndarray, cell: Cell) -> int:
-    matches = np.flatnonzero(np.all(ACTION_DELTAS == np.asarray(cell) - position, axis=1))
-    return int(matches[0]) if matches.size else HOVER
+    """The action that moves from `position` to the neighbouring `cell`; HOVER if it is not one."""
+    return _ACTION_OF_DELTA.get((int(cell[0]) - int(position[0]), int(cell[1]) - int(position[1])), HOVER)
 
 
 class Planner:
