@@ -22,12 +22,12 @@ from typing import Protocol
 from .errors import BridgeError, BridgeUsageError
 from .link import AUTOPILOT_COMPONENT_ID, Link, VehicleInfo, wait_vehicle
 from .mission import Mission, MissionType, WireItem, compare_wire, from_wire, to_wire
-
-MAV_MISSION_UNSUPPORTED = 3
-PLAN_TYPES = (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY)
 from .params import ParamClient, ParamSetting, acceptance_radius_setting, set_param
 from .protocol import MissionClient, MissionTransferError, ProgressFn, Timeouts, UploadUnconfirmed
 from .signing import SigningKey
+
+MAV_MISSION_UNSUPPORTED = 3
+PLAN_TYPES = (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY)
 
 BACKENDS = ("pymavlink", "mavsdk")
 
@@ -247,16 +247,14 @@ def clear_plan(backend: MissionBackend) -> str:
     One MISSION_CLEAR_ALL per list rather than MAV_MISSION_TYPE_ALL, which not every autopilot serves;
     a vehicle without fence or rally support (MAV_MISSION_UNSUPPORTED) has none to clear.
     """
-    from .protocol import MissionTransferError
-
     start = time.monotonic()
     vehicle = backend.vehicle
     cleared: list[str] = []
-    for mtype in (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY):
+    for mtype in PLAN_TYPES:
         try:
             backend.clear(mtype)
         except MissionTransferError as err:
-            if err.result == 3 and mtype != MissionType.MISSION:  # MAV_MISSION_UNSUPPORTED
+            if err.result == MAV_MISSION_UNSUPPORTED and mtype != MissionType.MISSION:
                 continue
             raise
         left = download_plan(backend, [mtype])[0]
