@@ -160,7 +160,12 @@ def read_back_differences(backend: MissionBackend, mission_type: int, wire: list
     exactly that."""
     got = backend.download(mission_type, progress)
     flavour = backend.vehicle.flavour
-    return compare_wire(wire, got, skip_home=flavour.has_home_item(mission_type), flavour=flavour)
+    skip_home = flavour.has_home_item(mission_type)
+    if skip_home and len(wire) <= 1:
+        # A cleared mission: ArduCopter then reports 0 items, or home alone once it has one (SITL).
+        extra = len(got) - 1 if got else 0
+        return [f"the vehicle still holds {extra} mission items after clearing"] if extra > 0 else []
+    return compare_wire(wire, got, skip_home=skip_home, flavour=flavour)
 
 
 def plan_parts(parts: list[Mission]) -> list[Mission]:
@@ -172,9 +177,12 @@ def plan_parts(parts: list[Mission]) -> list[Mission]:
 
 def _send_part(backend: MissionBackend, mtype: MissionType, part: Mission, wire: list[WireItem],
                progress: ProgressFactory | None) -> tuple[bool, bool]:
-    """Upload (or, for an empty fence / rally, clear) one list: (unsupported, unconfirmed)."""
+    """Upload (or, for an empty list, clear) one list: (unsupported, unconfirmed).
+
+    An empty mission is cleared too, not sent as a lone home item: ArduCopter answers such an upload
+    by holding two items (measured on SITL), and MISSION_CLEAR_ALL is what every autopilot serves."""
     try:
-        if not part.items and mtype != MissionType.MISSION:
+        if not part.items:
             backend.clear(mtype)
         else:
             backend.upload(mtype, wire, progress(f"upload {mtype.label}", len(wire)) if progress else None)
