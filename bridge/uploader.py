@@ -17,7 +17,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 from .errors import BridgeError, BridgeUsageError
 from .link import AUTOPILOT_COMPONENT_ID, Link, VehicleInfo, wait_vehicle
@@ -57,8 +57,10 @@ class PymavlinkBackend:
     name = "pymavlink"
 
     def __init__(self, url: str, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID, key: SigningKey | None = None,
-                 timeouts: Timeouts | None = None, connect_timeout: float = 10.0) -> None:
-        self.link = Link(url, key)
+                 timeouts: Timeouts | None = None, connect_timeout: float = 10.0, link: Any = None) -> None:
+        """link: an open link to use instead of opening url (a bridge.shared_link.VehicleLink of a
+        fleet's shared connection); close() then closes only the view."""
+        self.link = link if link is not None else Link(url, key)
         try:
             self.vehicle = wait_vehicle(self.link, sysid, compid, connect_timeout)
         except BaseException:
@@ -94,10 +96,11 @@ class PymavlinkBackend:
 
 def open_backend(backend: str, url: str, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID,
                  key: SigningKey | None = None, timeouts: Timeouts | None = None,
-                 connect_timeout: float = 10.0) -> MissionBackend:
-    """Connect and wait for the vehicle's heartbeat; BridgeError naming the system id on time-out."""
+                 connect_timeout: float = 10.0, link: Any = None) -> MissionBackend:
+    """Connect (or, pymavlink only, use `link`, a shared link's view) and wait for the vehicle's
+    heartbeat; BridgeError naming the system id on time-out."""
     if backend == "pymavlink":
-        return PymavlinkBackend(url, sysid, compid, key, timeouts, connect_timeout)
+        return PymavlinkBackend(url, sysid, compid, key, timeouts, connect_timeout, link)
     if backend == "mavsdk":
         from .mavsdk_backend import MavsdkBackend  # the native library loads only when asked for
 

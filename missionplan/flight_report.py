@@ -38,6 +38,8 @@ COVERAGE_OK = 99.0
 # also absorbs the 1e-7 degree (about 1 cm) resolution of reported positions.
 SLACK_CELLS = 0.25
 CMD_WAYPOINT, CMD_DO_CHANGE_SPEED, CMD_CAM_TRIGG_DIST = 16, 178, 206
+MIN_RATE_SPAN_S = 2.0  # of our time: a vehicle's clock rate is fitted over at least this long a record
+REAL_TIME_TOLERANCE = 0.05  # a clock within 5 % of ours runs in real time
 
 
 @dataclass
@@ -79,7 +81,8 @@ class FlightResult:
 
     @property
     def ok(self) -> bool:
-        return self.coverage >= COVERAGE_OK and not self.problems and bool(self.separation.get("kept"))
+        # kept None: fewer than two drones flew; the drones that did not fly are problems of their own.
+        return self.coverage >= COVERAGE_OK and not self.problems and self.separation.get("kept") is not False
 
 
 # ------------------------------------------------------------------------------------------- geometry
@@ -210,10 +213,25 @@ def coverage(frame: GridFrame, targets: np.ndarray, photos_m: np.ndarray, footpr
     return covered_by_gap(frame, nearest_photo_gap(frame, targets, photos_m), footprint_m, slack_m)
 
 
+def vehicle_rate(samples: np.ndarray) -> float | None:
+    """The vehicle's clock rate: its seconds (time_boot_ms) per second of ours, fitted over the record.
+    A simulator sped up S times reports S (ArduCopter SITL stamps simulated time); a real vehicle 1.
+    None when the record is too short to tell it from our threads' jitter."""
+    if len(samples) < 10 or samples[-1, 0] - samples[0, 0] < MIN_RATE_SPAN_S:
+        return None
+    slope = float(np.polyfit(samples[:, 0] - samples[0, 0], samples[:, 5], 1)[0])
+    return slope if slope > 0 else None
+
+
 def vehicle_clock(samples: np.ndarray) -> np.ndarray:
     """When each sample was taken, on our clock: the vehicle's own time stamps (free of our threads'
-    scheduling jitter) shifted by the smallest arrival delay seen, the usual one-way clock sync."""
-    return samples[:, 5] + float(np.min(samples[:, 0] - samples[:, 5]))
+    scheduling jitter), at the vehicle's clock rate (a sped-up simulator's clock runs faster), shifted
+    by the smallest arrival delay seen, the usual one-way clock sync."""
+    rate = vehicle_rate(samples) or 1.0
+    if abs(rate - 1.0) < REAL_TIME_TOLERANCE:
+        rate = 1.0  # a real-time clock: take its stamps as they are
+    ours = samples[:, 5] / rate
+    return ours + float(np.min(samples[:, 0] - ours))
 
 
 def estimate_time_scale(records: list[DroneRecord]) -> float:
@@ -320,7 +338,10 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
                 first = climbing[0]
                 liftoff[rec.id] = timed[rec.id][first, 0] - samples[first, 3] / samples[first, 6] / scale
         end = rec.t_end if rec.t_end is not None else (samples[-1, 0] if len(samples) else rec.t_start)
-        flight_s = (end - rec.t_start) * scale if rec.t_start is not None and end is not None else 0.0
+        # Flown time in the vehicle's own time: a loaded machine slows a simulator down, so our wall
+        # time times a nominal speed-up would not be what the vehicle flew.
+        rate = vehicle_rate(samples) or scale
+        flight_s = (end - rec.t_start) * rate if rec.t_start is not None and end is not None else 0.0
         rows.append({"id": rec.id, "flight_s": round(flight_s, 2), "finished": rec.finished,
                      "photos": int(len(points)), "photos_placed_on_track": placed,
                      "planned_photos": rec.planned_photos,
@@ -339,7 +360,7 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     problems = [p for rec in records for p in rec.problems]
     problems += [f"uav{rec.id}: mission not finished" for rec in records
                  if rec.started and not rec.finished and not rec.problems]
-    if not separation["kept"] and separation["3d"] is not None:
+    if separation["kept"] is False:
         problems.append(f"uav{separation['pair_3d'][0]} and uav{separation['pair_3d'][1]} came within "
                         f"{separation['3d']} m; the plan promised {separation['planned_3d']} m")
     photo_source = " and ".join(sorted(sources)) or "none"
@@ -371,10 +392,11 @@ def _separation(report: dict[str, Any], records: list[DroneRecord], timed: dict[
     start_spread_s = (max(liftoff.values()) - min(liftoff.values())) * scale if liftoff else 0.0
     tolerance = 2 * acceptance + speed * start_spread_s + speed * scale / telemetry_hz
     planned_3d = promise.get("3d")
-    kept = flown["3d"] is None or planned_3d is None or flown["3d"] >= planned_3d - tolerance
+    # Fewer than two tracks: nothing was measured, so the promise was neither kept nor broken.
+    kept = None if flown["3d"] is None else bool(planned_3d is None or flown["3d"] >= planned_3d - tolerance)
     return {**flown, "planned_horizontal": promise.get("horizontal"), "planned_3d": planned_3d,
             "tolerance": round(float(tolerance), 3), "start_spread_s": round(float(start_spread_s), 3),
-            "kept": bool(kept)}
+            "kept": kept, "tracks": len(timed)}
 
 
 # ------------------------------------------------------------------------------------------- picture
