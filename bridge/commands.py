@@ -71,6 +71,11 @@ def register(subparsers: Any) -> None:
                            "or SYSID=LAT,LON for one; repeatable")
     mock.add_argument("--plan", type=Path, metavar="DIR",
                       help="start each vehicle K at the plannedHomePosition of DIR/uavK.plan")
+    mock.add_argument("--ready-after", type=float, default=0.0, metavar="S",
+                      help="like ArduCopter SITL after power-on: no GPS fix, EKF position, home or arming for S "
+                           "simulated seconds, with its PreArm reasons (SITL: 35-40; default 0)")
+    mock.add_argument("--streams-until-asked", action="store_true",
+                      help="like ArduPilot: send nothing but HEARTBEAT until SET_MESSAGE_INTERVAL asks for a message")
     mock.add_argument("--sitl-like", action="store_true",
                       help="behave like ArduCopter SITL: no camera until CAM1_TYPE is set and the vehicle rebooted, "
                            "img_idx from 1 across flights, ArduCopter's navigation parameters and flight "
@@ -331,8 +336,12 @@ def cmd_mock(args: argparse.Namespace) -> int:
     if args.request_interval is not None and not args.request_interval > 0:
         raise BridgeUsageError(f"--request-interval must be positive, got {args.request_interval}")
     homes = mock_homes(sysids, args.home, args.plan)
+    if args.ready_after < 0:
+        raise BridgeUsageError(f"--ready-after must not be negative, got {args.ready_after}")
     mock = MockAutopilot(args.listen, sysids=sysids, flavour=args.flavour, speedup=args.speedup, faults=faults,
-                         key=key, request_interval=args.request_interval, homes=homes, sitl_like=args.sitl_like)
+                         key=key, request_interval=args.request_interval, homes=homes,
+                         gps_fix_after=args.ready_after, streams_until_asked=args.streams_until_asked,
+                         sitl_like=args.sitl_like)
     ids = ",".join(str(s) for s in sysids)
     if mock.spec.scheme == "serial":
         where, connect = f"serial device {mock.device}", f"the other end of {mock.device}"

@@ -13,17 +13,24 @@ Owns:
   hooks over: it says once (log warning on "bridge.link") that the peer closed the connection,
   reconnects a bounded number of times, and otherwise raises one BridgeError. A serial device that
   vanishes (unplugged) is a BridgeError too; one that does not exist is a BridgeUsageError;
+- several vehicles on one `udpin:` port (a fleet that all sends to one ground-station port): each
+  datagram's sender is remembered per source system, and every packet we send goes to the address of
+  the vehicle it is for (its target_system), not to the last sender; packets for no one in particular
+  (our heartbeat) go to every vehicle heard. Sends are serialised (one lock around pack and write),
+  so several threads may send on one Link (bridge.shared_link reads for them);
 - wait_vehicle: the HEARTBEAT of the requested system (and component) and what it tells: the flavour.
 """
 
 from __future__ import annotations
 
+import errno
 import logging
 import os
 import re
 import socket
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -149,7 +156,8 @@ def is_signed(msg: Any) -> bool:
 
 
 class Link:
-    """One pymavlink connection with our ground-station identity. Used from one thread at a time."""
+    """One pymavlink connection with our ground-station identity. Reads from one thread at a time;
+    sends from any thread (bridge.shared_link shares one Link among several vehicles' threads)."""
 
     def __init__(self, url: str, key: SigningKey | None = None, source_system: int = GCS_SYSTEM_ID,
                  source_component: int = GCS_COMPONENT_ID) -> None:
@@ -172,9 +180,16 @@ class Link:
         if self.spec.scheme == "tcp":
             # pymavlink prints on every read of a closed socket; we notice, and say it once.
             self.conn.handle_eof = self.conn.handle_disconnect = self._peer_closed
-        # Writes may come from two threads (the MAVSDK backend's pump and MAVSDK's own): one at a time.
-        self.write_lock = threading.Lock()
+        # Writes may come from several threads (the MAVSDK backend's pump and MAVSDK's own; fly's drone
+        # threads on a shared link): one packet at a time, and packing (sequence number, signature) too.
+        self.write_lock = threading.RLock()
+        self.addresses: dict[int, Any] = {}  # udpin: where each system id's packets come from
+        self._send_to: int = 0  # udpin: target_system of the packet being written (0: everyone)
+        self._datagrams: deque[tuple[Any, Any]] = deque()  # udpin: parsed, not yet returned (msg, sender)
         raw_write = self.conn.write
+        if self.spec.scheme == "udpin":
+            raw_write = self._udpin_write
+            self.conn.recv_msg = self._udpin_recv_msg  # type: ignore[method-assign]
 
         def locked_write(buf: bytes) -> None:
             with self.write_lock:
@@ -184,12 +199,63 @@ class Link:
         self.mav = self.conn.mav
         self.mav.robust_parsing = True  # bad bytes become BAD_DATA instead of exceptions
         apply_key(self.mav, key)
+        raw_send = self.mav.send
+
+        def routed_send(mavmsg: Any, force_mavlink1: bool = False) -> None:
+            with self.write_lock:
+                self._send_to = int(getattr(mavmsg, "target_system", 0) or 0)
+                try:
+                    raw_send(mavmsg, force_mavlink1=force_mavlink1)
+                finally:
+                    self._send_to = 0
+
+        self.mav.send = routed_send  # every *_send of the dialect goes through here
         self._last_heartbeat = 0.0
         self._boot_epoch: dict[int, float] = {}
         self._boot_ms: dict[int, int] = {}  # the latest time_boot_ms heard from each vehicle
         self._status: dict[int, int] = {}
         self.reboots: dict[int, int] = {}
         self.received = 0
+
+    # -- several vehicles on one udpin port
+    def _udpin_recv_msg(self) -> Any | None:
+        """pymavlink's udpin reader parses one packet per call and keeps the rest in its buffer while
+        the next datagram (maybe another vehicle's) arrives; then who sent what is lost. We parse each
+        datagram whole and remember its sender by the packets' source system."""
+        conn = self.conn
+        if not self._datagrams:
+            try:
+                data, sender = conn.port.recvfrom(65535)
+            except OSError as err:
+                if err.errno in (errno.EAGAIN, errno.EWOULDBLOCK, errno.ECONNREFUSED):
+                    return None
+                raise
+            for msg in self.mav.parse_buffer(data) or []:
+                self._datagrams.append((msg, sender))
+            if not self._datagrams:
+                return None
+        msg, sender = self._datagrams.popleft()
+        if msg.get_type() != "BAD_DATA":
+            src = msg.get_srcSystem()
+            if src not in (0, self.mav.srcSystem):
+                self.addresses[src] = sender
+            conn.clients.add(sender)  # pymavlink's own list, for anything written outside routed_send
+            conn.clients_last_alive[sender] = time.time()
+        return msg
+
+    def _udpin_write(self, buf: bytes) -> None:
+        """To the vehicle the packet is for; to every vehicle heard when it is for no one in particular
+        (or for one we have not heard yet)."""
+        where = self.addresses.get(self._send_to) if self._send_to else None
+        if where is not None:
+            targets = [where]
+        else:
+            targets = list(dict.fromkeys(self.addresses.values())) or list(self.conn.clients)
+        for address in targets:
+            try:
+                self.conn.port.sendto(buf, address)
+            except OSError:
+                pass  # a vehicle that went away (ICMP unreachable): the others still get theirs
 
     # -- sending
     def send(self, msg: Any) -> None:
@@ -205,27 +271,8 @@ class Link:
     def command_long(self, sysid: int, command: int, params: list[float], deadline: float,
                      other: Callable[[Any], Any] | None = None, done: Callable[[], bool] | None = None,
                      tries: int = COMMAND_TRIES, wait_s: float = COMMAND_WAIT_S) -> int | None:
-        """COMMAND_LONG to (sysid, autopilot) with retries, the confirmation counting up; the MAV_RESULT
-        of its COMMAND_ACK, or None without one. Other messages of that vehicle that arrive meanwhile
-        go to `other`, when given. `done` says the command has visibly taken effect: then a lost
-        acknowledgement is not worth a repeat (MAVLink repeats are executed again, and a repeated
-        mission start may restart the mission on some autopilots), and the answer is ACCEPTED."""
-        padded = (list(params) + [0.0] * 7)[:7]
-        for attempt in range(tries):
-            if attempt and done is not None and done():
-                return MAV_RESULT_ACCEPTED
-            self.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, command, attempt, *padded)
-            wait_until = min(time.monotonic() + wait_s, deadline)
-            while (msg := self.recv(wait_until)) is not None:
-                if msg.get_srcSystem() != sysid:
-                    continue
-                if msg.get_type() == "COMMAND_ACK" and int(msg.command) == command:
-                    return int(msg.result)
-                if other is not None:
-                    other(msg)
-            if time.monotonic() >= deadline:
-                break
-        return None
+        """See command_long()."""
+        return command_long(self, sysid, command, params, deadline, other, done, tries, wait_s)
 
     # -- receiving
     def recv(self, deadline: float) -> Any | None:
@@ -362,6 +409,32 @@ class Link:
         self.close()
 
 
+def command_long(link: Any, sysid: int, command: int, params: list[float], deadline: float,
+                 other: Callable[[Any], Any] | None = None, done: Callable[[], bool] | None = None,
+                 tries: int = COMMAND_TRIES, wait_s: float = COMMAND_WAIT_S) -> int | None:
+    """COMMAND_LONG over `link` (a Link, or a bridge.shared_link.VehicleLink) to (sysid, autopilot) with
+    retries, the confirmation counting up; the MAV_RESULT of its COMMAND_ACK, or None without one. Other messages of that vehicle that arrive meanwhile
+    go to `other`, when given. `done` says the command has visibly taken effect: then a lost
+    acknowledgement is not worth a repeat (MAVLink repeats are executed again, and a repeated
+    mission start may restart the mission on some autopilots), and the answer is ACCEPTED."""
+    padded = (list(params) + [0.0] * 7)[:7]
+    for attempt in range(tries):
+        if attempt and done is not None and done():
+            return MAV_RESULT_ACCEPTED
+        link.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, command, attempt, *padded)
+        wait_until = min(time.monotonic() + wait_s, deadline)
+        while (msg := link.recv(wait_until)) is not None:
+            if msg.get_srcSystem() != sysid:
+                continue
+            if msg.get_type() == "COMMAND_ACK" and int(msg.command) == command:
+                return int(msg.result)
+            if other is not None:
+                other(msg)
+        if time.monotonic() >= deadline:
+            break
+    return None
+
+
 def _open_serial(spec: ConnectionSpec, url: str, source_system: int, source_component: int) -> Any:
     """A pymavlink serial connection; a device that is not there is bad input (exit 2), one that
     cannot be opened an operational failure (exit 1, with the usual causes named)."""
@@ -401,6 +474,9 @@ def wait_vehicle(link: Link, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID, t
                                flavour=Flavour.from_autopilot(int(msg.autopilot)), signed=is_signed(msg))
         others.add(src)
     detail = ""
+    heard = getattr(link, "heard_systems", None)  # a shared link's view: what the others on it heard
+    if heard is not None:
+        others |= {src for src in heard() if src != (sysid, compid)}
     if others:
         detail = "; heard only " + ", ".join(f"system {s} component {c}" for s, c in sorted(others))
     elif link.signing_problem():

@@ -102,10 +102,15 @@ class MockAutopilot:
                  key: SigningKey | None = None, request_interval: float | None = None,
                  upload_timeout: float | None = None, homes: dict[int, tuple[float, float, float]] | None = None,
                  cruise_speed: float = 5.0, max_items: int = 10_000,
-                 clock: Callable[[], float] | None = None, gps_fix_after: float = 0.0, sitl_like: bool = False) -> None:
+                 clock: Callable[[], float] | None = None, gps_fix_after: float = 0.0,
+                 streams_until_asked: bool = False, sitl_like: bool = False) -> None:
         """clock: the vehicles' wall clock (seconds since 1970) for signing timestamps; default time.time.
-        sitl_like: each vehicle behaves like ArduCopter SITL (mock_vehicle's module doc): no camera until
-        CAM1_TYPE is set and the vehicle rebooted (configure_camera), ArduCopter's flight."""
+        gps_fix_after: simulated seconds until each vehicle has a GPS fix, EKF, home and lets itself be
+        armed (ArduCopter SITL: 35-40); streams_until_asked: no telemetry but HEARTBEAT until
+        SET_MESSAGE_INTERVAL asks for it (ArduPilot's default). Both together: a SITL-like fleet.
+        sitl_like: each vehicle also behaves like ArduCopter SITL in flight (mock_vehicle's module doc):
+        no camera until CAM1_TYPE is set and the vehicle rebooted (configure_camera), img_idx from 1
+        across flights, ArduCopter's navigation parameters and flight."""
         if str(listen).strip().lower() == "pty":
             self.spec = ConnectionSpec("pty", baud=57600)
         else:
@@ -139,7 +144,8 @@ class MockAutopilot:
             home = (homes or {}).get(sysid, (base_home[0] + 0.0005 * index, base_home[1], base_home[2]))
             options = VehicleOptions(flavour=self.flavour, home=home, request_interval=request_interval,
                                      upload_timeout=upload_timeout, speedup=speedup, cruise_speed=cruise_speed,
-                                     max_items=max_items, gps_fix_after=gps_fix_after, sitl_like=sitl_like)
+                                     max_items=max_items, gps_fix_after=gps_fix_after,
+                                     streams_until_asked=streams_until_asked, sitl_like=sitl_like)
             encoder = mavlink.MAVLink(_Writer(self), srcSystem=sysid, srcComponent=1)
             apply_key(encoder, key, link_id=index, clock=clock)
             self.vehicles[sysid] = MockVehicle(sysid, options, encoder, now)

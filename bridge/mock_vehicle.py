@@ -9,16 +9,19 @@ has a fix), re-requests after 1 s, answers an item it did not ask for with INVAL
 after the upload completed with ERROR, and flies every waypoint to WPNAV_RADIUS (PARAM_SET /
 PARAM_REQUEST_READ), not to param2; COMMAND_LONG arm /
 disarm, mode changes, MAV_CMD_MISSION_START, DO_SET_MISSION_CURRENT and AUTOPILOT_VERSION requests,
-each answered with COMMAND_ACK; HEARTBEAT (quadrotor, ArduPilot or PX4), SYS_STATUS,
-GLOBAL_POSITION_INT (at the rate SET_MESSAGE_INTERVAL asks for), MISSION_CURRENT,
+each answered with COMMAND_ACK; HEARTBEAT (quadrotor, ArduPilot or PX4), SYS_STATUS (with the pre-arm
+check bit), GPS_RAW_INT, EKF_STATUS_REPORT (ArduPilot), HOME_POSITION, GLOBAL_POSITION_INT, MISSION_CURRENT
+(each at the rate SET_MESSAGE_INTERVAL asks for; with streams_until_asked, like ArduPilot, none of them
+before it is asked), STATUSTEXT,
 MISSION_ITEM_REACHED and one CAMERA_FEEDBACK per photo (as ArduPilot sends for each trigger);
+readiness like ArduCopter SITL's (gps_fix_after simulated seconds without a GPS fix, with a waiting
+EKF, no home, a failing pre-arm bit, and arming refused with FAILED and its STATUSTEXT reasons);
 and the reboot fault (forget everything, the flight included, and go silent for a moment).
-The SITL-like mode (VehicleOptions.sitl_like) adds what ArduCopter SITL does and the default mode
-does not: no CAMERA_FEEDBACK until a camera is configured (CAM1_TYPE set, then a reboot:
+The SITL-like mode (VehicleOptions.sitl_like) adds what ArduCopter SITL does in flight: no
+CAMERA_FEEDBACK until a camera is configured (CAM1_TYPE set, then a reboot:
 MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN), img_idx from 1 and counting on across flights until a reboot,
 ArduCopter's navigation parameters (PARAM_REQUEST_READ / PARAM_SET) and its flight
-(bridge.copter_model: acceleration, stops at corners, RTL_ALT climb, slow final descent). In every
-mode time_boot_ms is the vehicle's simulated time, as SITL's is. The flight itself is mock_flight's; the link and the other
+(bridge.copter_model: acceleration, stops at corners, RTL_ALT climb, slow final descent). The flight itself is mock_flight's; the link and the other
 faults are mock's. Everything here runs on the mock's one loop thread.
 """
 
@@ -57,7 +60,19 @@ ARDUPILOT_MODES = {"MANUAL": 0, "AUTO": 3, "GUIDED": 4, "LOITER": 5, "RTL": 6, "
 PX4_MODES = {"MANUAL": 1 << 16, "GUIDED": (4 << 16) | (8 << 24), "LOITER": (4 << 16) | (3 << 24),
              "AUTO": (4 << 16) | (4 << 24), "RTL": (4 << 16) | (5 << 24), "LAND": (4 << 16) | (6 << 24)}
 
-MSG_GLOBAL_POSITION_INT = 33
+MSG_SYS_STATUS, MSG_GPS_RAW_INT, MSG_GLOBAL_POSITION_INT, MSG_MISSION_CURRENT = 1, 24, 33, 42
+MSG_EKF_STATUS_REPORT, MSG_HOME_POSITION = 193, 242
+STREAMS = (MSG_SYS_STATUS, MSG_GPS_RAW_INT, MSG_GLOBAL_POSITION_INT, MSG_MISSION_CURRENT, MSG_EKF_STATUS_REPORT,
+           MSG_HOME_POSITION)
+SENSOR_PREARM_CHECK = 0x1000_0000  # MAV_SYS_STATUS_PREARM_CHECK
+# EKF_STATUS_REPORT flags as ArduCopter SITL reports them: before its GPS is used (attitude, velocity,
+# vertical position, constant-position mode) and after (absolute and relative position, predicted too).
+EKF_FLAGS_WAITING = 1 | 2 | 4 | 32 | 128
+EKF_FLAGS_READY = 1 | 2 | 4 | 8 | 16 | 32 | 64 | 256 | 512
+NOT_READY_TEXTS = ("PreArm: Need Position Estimate", "Arm: Need Alt Estimate", "AHRS: waiting for home")
+MAV_SEVERITY_CRITICAL, MAV_SEVERITY_INFO = 2, 6
+CMD_GET_HOME_POSITION = 410
+PREARM_REPEAT_S = 30.0  # simulated seconds between ArduPilot's reports of a failing pre-arm check
 MIN_STREAM_INTERVAL_S = 0.005  # the loop's tick: a faster stream could not be kept anyway
 
 MISSION_COMMANDS_REJECTED = range(5000, 6000)  # fence and rally commands do not belong in a mission
@@ -74,7 +89,8 @@ class VehicleOptions:
     upload_timeout: float | None = None    # give a stalled upload up after this long (ArduPilot 8 s, PX4 5 s)
     legacy_requests: bool | None = None    # ask with MISSION_REQUEST (#40) like ArduCopter does
     max_items: int = 10_000
-    gps_fix_after: float = 0.0  # simulated seconds from boot until the home is known (SITL: about 35-40)
+    gps_fix_after: float = 0.0  # simulated seconds from boot until GPS fix, EKF, home and arming (SITL: 35-40)
+    streams_until_asked: bool = False  # like ArduPilot: nothing but HEARTBEAT until SET_MESSAGE_INTERVAL
     speedup: float = 1.0
     cruise_speed: float = 5.0
     telemetry_hz: float = 4.0
@@ -142,10 +158,30 @@ class MockVehicle:
         self._load_flight()
         self.reached: list[int] = []
         self._next_heartbeat = now
-        self._next_status = now
-        self._next_position = now
-        self.position_interval = 1.0 / self.options.telemetry_hz  # wall seconds; None: stream off
+        self.intervals: dict[int, float | None] = self._default_intervals()  # wall seconds; None: off
+        self._next_due = {msgid: now for msgid in STREAMS}
         self._photos_sent = 0
+        self._said_waiting = False
+        self._next_prearm_text = PREARM_REPEAT_S  # simulated seconds since boot
+
+    def _default_intervals(self) -> dict[int, float | None]:
+        """Streams before any SET_MESSAGE_INTERVAL: none (streams_until_asked, like ArduPilot whose
+        stream-rate parameters are all 0), or what the mock always sent."""
+        if self.options.streams_until_asked:
+            return {msgid: None for msgid in STREAMS}
+        ardupilot = self.flavour is Flavour.ARDUPILOT
+        return {MSG_SYS_STATUS: 1.0, MSG_GPS_RAW_INT: 1.0, MSG_GLOBAL_POSITION_INT: 1.0 / self.options.telemetry_hz,
+                MSG_MISSION_CURRENT: 1.0, MSG_EKF_STATUS_REPORT: 1.0 if ardupilot else None, MSG_HOME_POSITION: None}
+
+    @property
+    def position_interval(self) -> float | None:
+        """The GLOBAL_POSITION_INT interval in wall seconds (None: off)."""
+        return self.intervals[MSG_GLOBAL_POSITION_INT]
+
+    @property
+    def ready(self) -> bool:
+        """GPS fix, EKF and home: before it, arming is refused with ArduCopter's reasons."""
+        return self.has_fix
 
     @property
     def has_fix(self) -> bool:
@@ -185,7 +221,7 @@ class MockVehicle:
 
     # ------------------------------------------------------------------------------ sending
     def _time_boot_ms(self, now: float) -> int:
-        """Simulated milliseconds since boot, as a sped-up SITL reports them."""
+        # Simulated time, as ArduCopter SITL stamps its messages (a sped-up clock runs faster than ours).
         return max(int((now - self.boot_time) * self.options.speedup * 1000), 0)
 
     def _custom_mode(self) -> int:
@@ -206,9 +242,48 @@ class MockVehicle:
         self.mav.heartbeat_send(MAV_TYPE_QUADROTOR, self.flavour.autopilot, base, self._custom_mode(), status)
 
     def _send_status(self, now: float) -> None:
-        sensors = 0x0020_FFFF
-        self.mav.sys_status_send(sensors, sensors, sensors, 200, 16_000, 1_000, 90, 0, 0, 0, 0, 0, 0)
-        self._send_mission_current()
+        sensors = 0x0020_FFFF | SENSOR_PREARM_CHECK
+        health = sensors if self.ready else sensors & ~SENSOR_PREARM_CHECK
+        self.mav.sys_status_send(sensors, sensors, health, 200, 16_000, 1_000, 90, 0, 0, 0, 0, 0, 0)
+
+    def _send_gps(self, now: float) -> None:
+        s = self.flight.state
+        fix, sats = (3, 12) if self.ready else (1, 0)
+        self.mav.gps_raw_int_send(int(now * 1e6), fix, int(round(s.lat * 1e7)) if self.ready else 0,
+                                  int(round(s.lon * 1e7)) if self.ready else 0,
+                                  int(round((s.home[2] + s.alt) * 1000)) if self.ready else 0,
+                                  80 if self.ready else 9999, 120 if self.ready else 9999,
+                                  int(round(math.hypot(s.vn, s.ve) * 100)), 0, sats)
+
+    def _send_ekf(self, now: float) -> None:
+        flags = EKF_FLAGS_READY if self.ready else EKF_FLAGS_WAITING
+        self.mav.ekf_status_report_send(flags, 0.01, 0.01, 0.01, 0.01, 0.0)
+
+    def _send_home(self) -> bool:
+        """HOME_POSITION, once the home is known (as ArduPilot: not before the EKF has a position)."""
+        if not self.ready:
+            return False
+        lat, lon, alt = self.options.home
+        self.mav.home_position_send(int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)),
+                                    0.0, 0.0, 0.0, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0)
+        return True
+
+    def _send_text(self, text: str, severity: int = MAV_SEVERITY_CRITICAL) -> None:
+        self.mav.statustext_send(severity, text.encode()[:50])
+
+    def _send_stream(self, msgid: int, now: float) -> None:
+        if msgid == MSG_SYS_STATUS:
+            self._send_status(now)
+        elif msgid == MSG_GPS_RAW_INT:
+            self._send_gps(now)
+        elif msgid == MSG_GLOBAL_POSITION_INT:
+            self._send_position(now)
+        elif msgid == MSG_MISSION_CURRENT:
+            self._send_mission_current()
+        elif msgid == MSG_EKF_STATUS_REPORT:
+            self._send_ekf(now)
+        elif msgid == MSG_HOME_POSITION:
+            self._send_home()
 
     def _send_position(self, now: float) -> None:
         s = self.flight.state
@@ -266,12 +341,18 @@ class MockVehicle:
         if now >= self._next_heartbeat:
             self._next_heartbeat = now + 1.0
             self.send_heartbeat()
-        if now >= self._next_status:
-            self._next_status = now + 1.0
-            self._send_status(now)
-        if self.position_interval is not None and now >= self._next_position:
-            self._next_position = now + self.position_interval
-            self._send_position(now)
+        for msgid, interval in self.intervals.items():
+            if interval is not None and now >= self._next_due[msgid]:
+                self._next_due[msgid] = now + interval
+                self._send_stream(msgid, now)
+        if not self.ready and self.flavour is Flavour.ARDUPILOT:
+            if not self._said_waiting:
+                self._said_waiting = True
+                self._send_text(NOT_READY_TEXTS[2], MAV_SEVERITY_INFO)
+            simulated = (now - self.boot_time) * self.options.speedup
+            if simulated >= self._next_prearm_text:  # ArduPilot repeats a failing pre-arm check every 30 s
+                self._next_prearm_text = simulated + PREARM_REPEAT_S
+                self._send_text(NOT_READY_TEXTS[0])
         self._send_camera_feedback(now)
         self._upload_timers(now)
 
@@ -537,6 +618,10 @@ class MockVehicle:
         s = self.flight.state
         if command == 400:  # COMPONENT_ARM_DISARM
             if p[0] >= 0.5:
+                if not self.ready and int(p[1]) != 21196:  # ArduCopter before its EKF uses the GPS
+                    for text in NOT_READY_TEXTS[:2]:
+                        self._send_text(text)
+                    return CMD_FAILED
                 s.armed = True
             else:
                 if not s.on_ground and int(p[1]) != 21196:  # 21196 forces a disarm in flight
@@ -574,6 +659,8 @@ class MockVehicle:
         if command == 21:  # NAV_LAND
             s.mode = "LAND"
             return CMD_ACCEPTED
+        if command == CMD_GET_HOME_POSITION or (command == 512 and int(p[0]) == MSG_HOME_POSITION):
+            return CMD_ACCEPTED if self._send_home() else CMD_FAILED  # no home yet: nothing to send
         if command in (512, 520):  # REQUEST_MESSAGE (AUTOPILOT_VERSION), REQUEST_AUTOPILOT_CAPABILITIES
             if command == 520 or int(p[0]) == 148:
                 self._send_version()
@@ -582,18 +669,20 @@ class MockVehicle:
                 self.send_heartbeat()
                 return CMD_ACCEPTED
             return CMD_UNSUPPORTED
-        if command == 511:  # SET_MESSAGE_INTERVAL: only the position stream's rate can change
-            if int(p[0]) != MSG_GLOBAL_POSITION_INT:
+        if command == 511:  # SET_MESSAGE_INTERVAL
+            msgid = int(p[0])
+            if msgid not in STREAMS or (msgid == MSG_EKF_STATUS_REPORT and self.flavour is not Flavour.ARDUPILOT):
                 return CMD_UNSUPPORTED
             interval_us = p[1]
             if interval_us < 0:
-                self.position_interval = None
-            elif interval_us == 0:
-                self.position_interval = 1.0 / self.options.telemetry_hz
+                self.intervals[msgid] = None
+            elif interval_us == 0:  # the default rate
+                self.intervals[msgid] = 1.0 / self.options.telemetry_hz if msgid == MSG_GLOBAL_POSITION_INT else 1.0
             else:
-                self.position_interval = max(interval_us / 1e6, MIN_STREAM_INTERVAL_S)
-            self._next_position = now
+                self.intervals[msgid] = max(interval_us / 1e6, MIN_STREAM_INTERVAL_S)
+            self._next_due[msgid] = now
             return CMD_ACCEPTED
+
         return CMD_UNSUPPORTED
 
     # -- parameters

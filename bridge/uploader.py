@@ -17,17 +17,17 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 from .errors import BridgeError, BridgeUsageError
 from .link import AUTOPILOT_COMPONENT_ID, Link, VehicleInfo, wait_vehicle
 from .mission import Mission, MissionType, WireItem, compare_wire, from_wire, to_wire
-
-MAV_MISSION_UNSUPPORTED = 3
-PLAN_TYPES = (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY)
 from .params import ParamClient, ParamSetting, acceptance_radius_setting, set_param
 from .protocol import MissionClient, MissionTransferError, ProgressFn, Timeouts, UploadUnconfirmed
 from .signing import SigningKey
+
+MAV_MISSION_UNSUPPORTED = 3
+PLAN_TYPES = (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY)
 
 BACKENDS = ("pymavlink", "mavsdk")
 
@@ -57,8 +57,10 @@ class PymavlinkBackend:
     name = "pymavlink"
 
     def __init__(self, url: str, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID, key: SigningKey | None = None,
-                 timeouts: Timeouts | None = None, connect_timeout: float = 10.0) -> None:
-        self.link = Link(url, key)
+                 timeouts: Timeouts | None = None, connect_timeout: float = 10.0, link: Any = None) -> None:
+        """link: an open link to use instead of opening url (a bridge.shared_link.VehicleLink of a
+        fleet's shared connection); close() then closes only the view."""
+        self.link = link if link is not None else Link(url, key)
         try:
             self.vehicle = wait_vehicle(self.link, sysid, compid, connect_timeout)
         except BaseException:
@@ -94,10 +96,11 @@ class PymavlinkBackend:
 
 def open_backend(backend: str, url: str, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID,
                  key: SigningKey | None = None, timeouts: Timeouts | None = None,
-                 connect_timeout: float = 10.0) -> MissionBackend:
-    """Connect and wait for the vehicle's heartbeat; BridgeError naming the system id on time-out."""
+                 connect_timeout: float = 10.0, link: Any = None) -> MissionBackend:
+    """Connect (or, pymavlink only, use `link`, a shared link's view) and wait for the vehicle's
+    heartbeat; BridgeError naming the system id on time-out."""
     if backend == "pymavlink":
-        return PymavlinkBackend(url, sysid, compid, key, timeouts, connect_timeout)
+        return PymavlinkBackend(url, sysid, compid, key, timeouts, connect_timeout, link)
     if backend == "mavsdk":
         from .mavsdk_backend import MavsdkBackend  # the native library loads only when asked for
 
@@ -160,7 +163,12 @@ def read_back_differences(backend: MissionBackend, mission_type: int, wire: list
     exactly that."""
     got = backend.download(mission_type, progress)
     flavour = backend.vehicle.flavour
-    return compare_wire(wire, got, skip_home=flavour.has_home_item(mission_type), flavour=flavour)
+    skip_home = flavour.has_home_item(mission_type)
+    if skip_home and len(wire) <= 1:
+        # A cleared mission: ArduCopter then reports 0 items, or home alone once it has one (SITL).
+        extra = len(got) - 1 if got else 0
+        return [f"the vehicle still holds {extra} mission items after clearing"] if extra > 0 else []
+    return compare_wire(wire, got, skip_home=skip_home, flavour=flavour)
 
 
 def plan_parts(parts: list[Mission]) -> list[Mission]:
@@ -172,9 +180,12 @@ def plan_parts(parts: list[Mission]) -> list[Mission]:
 
 def _send_part(backend: MissionBackend, mtype: MissionType, part: Mission, wire: list[WireItem],
                progress: ProgressFactory | None) -> tuple[bool, bool]:
-    """Upload (or, for an empty fence / rally, clear) one list: (unsupported, unconfirmed)."""
+    """Upload (or, for an empty list, clear) one list: (unsupported, unconfirmed).
+
+    An empty mission is cleared too, not sent as a lone home item: ArduCopter answers such an upload
+    by holding two items (measured on SITL), and MISSION_CLEAR_ALL is what every autopilot serves."""
     try:
-        if not part.items and mtype != MissionType.MISSION:
+        if not part.items:
             backend.clear(mtype)
         else:
             backend.upload(mtype, wire, progress(f"upload {mtype.label}", len(wire)) if progress else None)
@@ -247,16 +258,14 @@ def clear_plan(backend: MissionBackend) -> str:
     One MISSION_CLEAR_ALL per list rather than MAV_MISSION_TYPE_ALL, which not every autopilot serves;
     a vehicle without fence or rally support (MAV_MISSION_UNSUPPORTED) has none to clear.
     """
-    from .protocol import MissionTransferError
-
     start = time.monotonic()
     vehicle = backend.vehicle
     cleared: list[str] = []
-    for mtype in (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY):
+    for mtype in PLAN_TYPES:
         try:
             backend.clear(mtype)
         except MissionTransferError as err:
-            if err.result == 3 and mtype != MissionType.MISSION:  # MAV_MISSION_UNSUPPORTED
+            if err.result == MAV_MISSION_UNSUPPORTED and mtype != MissionType.MISSION:
                 continue
             raise
         left = download_plan(backend, [mtype])[0]

@@ -91,7 +91,7 @@ def build_grid_map(name: str, area: Polygonal | Sequence[Polygonal], obstacles: 
                    buildings: Sequence[Building], no_fly: Sequence[Polygonal],
                    launch_latlon: Sequence[tuple[float, float]], altitude_m: float, fov_deg: float,
                    rotation_deg: float = 0.0, safety_margin_m: float = 5.0,
-                   max_cells: int = 2_000_000, area_file: str = "area") -> tuple[GridMap, GridFrame]:
+                   max_cells: int = 4_200_000, area_file: str = "area") -> tuple[GridMap, GridFrame]:
     """Rasterise `area` (lon/lat) into a GridMap whose cell is the camera footprint / 9.
 
     `area` may be a list of polygons (their union). `buildings` may also hold bare polygons
@@ -108,8 +108,16 @@ def build_grid_map(name: str, area: Polygonal | Sequence[Polygonal], obstacles: 
     frame = GridFrame.from_area(area, cell, rotation_deg=rotation_deg)
     n_cells = frame.rows * frame.cols
     if n_cells > max_cells:
+        # Cells grow with the altitude, so the count falls with its square; step up until it fits.
+        fits = altitude_m * (n_cells / max_cells) ** 0.5
+        for _ in range(50):
+            bigger = GridFrame.from_area(area, cell_size_m(fits, fov_deg), rotation_deg=rotation_deg)
+            if bigger.rows * bigger.cols <= max_cells:
+                break
+            fits *= 1.01
         raise GeoError(f"{area_file}: the grid would be {frame.rows}x{frame.cols} = {n_cells:,} cells of "
-                       f"{cell:.2f} m (limit {max_cells:,}); fly higher (larger cells) or split the area")
+                       f"{cell:.2f} m (limit {max_cells:,}); fly higher, at {math.ceil(fits)} m or more "
+                       f"(larger cells), or split the area")
     rows, cols = frame.rows, frame.cols
     to_grid = frame.geometry_to_grid
 

@@ -84,26 +84,54 @@ def sequence_tables(depth: int = LOOKAHEAD, gamma: float = GAMMA) -> _SequenceTa
         for prev in range(-1, 4):
             chain = [prev, *sequences[s]]
             turn_cost[prev + 1, s] = sum(gamma ** t * _turn(chain[t], chain[t + 1]) for t in range(depth))
+    # action_scores relies on this order: each first move owns one contiguous quarter.
+    assert np.array_equal(sequences[:, 0], np.arange(num) // (num // 4))
     return _SequenceTables(sequences[:, 0].copy(), cells, new_weights, turn_cost, self_revisits)
 
 
-def flight_distance_field(goals: np.ndarray, blocked: np.ndarray, limit: int) -> np.ndarray:
-    """Steps from every cell to the nearest `goals` cell through unblocked cells (capped at `limit`)."""
+def flight_distance_field(goals: np.ndarray, blocked: np.ndarray, limit: int,
+                          needed: np.ndarray | None = None) -> np.ndarray:
+    """Steps from every cell to the nearest `goals` cell through unblocked cells (capped at `limit`).
+
+    Works on one (rows, cols) grid or a stack (..., rows, cols) of independent grids at
+    once: the expert runs it for every drone of a step in one go. With `needed` (a
+    (rows, cols) mask), the search stops once every needed open cell has its distance:
+    the field is then exact on the needed cells only.
+    """
     dist = np.full(goals.shape, float(limit), dtype=np.float32)
-    frontier = goals & ~blocked
-    reached = frontier.copy()
+    # The frontier lives inside a zero border, so its four shifts are plain slices.
+    padded = np.zeros(goals.shape[:-2] + (goals.shape[-2] + 2, goals.shape[-1] + 2), dtype=bool)
+    frontier = padded[..., 1:-1, 1:-1]
+    open_cells = ~blocked
+    np.logical_and(goals, open_cells, out=frontier)
+    fresh = open_cells ^ frontier  # open cells not reached yet
+    pending = None if needed is None else needed & open_cells
     for step in range(limit):
-        if not frontier.any():
+        if not np.count_nonzero(frontier):  # count_nonzero: far cheaper than any() on small arrays
             break
         dist[frontier] = step
-        grown = np.zeros_like(frontier)
-        grown[1:, :] |= frontier[:-1, :]
-        grown[:-1, :] |= frontier[1:, :]
-        grown[:, 1:] |= frontier[:, :-1]
-        grown[:, :-1] |= frontier[:, 1:]
-        frontier = grown & ~blocked & ~reached
-        reached |= frontier
+        if pending is not None:
+            pending &= fresh
+            if not np.count_nonzero(pending):
+                break
+        grown = padded[..., :-2, 1:-1] | padded[..., 2:, 1:-1]
+        grown |= padded[..., 1:-1, :-2]
+        grown |= padded[..., 1:-1, 2:]
+        grown &= fresh
+        fresh ^= grown
+        frontier[...] = grown
     return dist
+
+
+def visited_views(world: CoverageWorld, drones: np.ndarray) -> np.ndarray:
+    """(n, 361) float32: 1 where drone drones[i] has already flown over that cell of its view."""
+    span = np.arange(-VIEW_RADIUS, VIEW_RADIUS + 1)
+    rows = world.positions[drones, 0, None, None] + span[None, :, None]
+    cols = world.positions[drones, 1, None, None] + span[None, None, :]
+    height, width = world.visits.shape[1:]
+    inside = (rows >= 0) & (rows < height) & (cols >= 0) & (cols < width)
+    flown = world.visits[drones[:, None, None], np.clip(rows, 0, height - 1), np.clip(cols, 0, width - 1)] > 0
+    return (flown & inside).reshape(len(drones), -1).astype(np.float32)
 
 
 class ExpertPolicy:
@@ -115,35 +143,47 @@ class ExpertPolicy:
                  revisit_weight: float = REVISIT_WEIGHT, distance_weight: float = DISTANCE_WEIGHT) -> None:
         self.tables = sequence_tables(depth, gamma)
         self.terminal_discount = gamma ** depth
+        # The view cells where a sequence can end: the only distances the score reads.
+        self._ends = np.zeros(_VIEW * _VIEW, dtype=bool)
+        self._ends[self.tables.cells[:, -1]] = True
+        self._ends = self._ends.reshape(_VIEW, _VIEW)
         self.turn_weight = turn_weight
         self.revisit_weight = revisit_weight
         self.distance_weight = distance_weight
 
     def action_scores(self, world: CoverageWorld, drones: Sequence[int]) -> np.ndarray:
-        """(len(drones), 4) scores, higher is better; -inf for a move that is blocked now."""
-        return np.stack([self._scores_one(world, k) for k in drones]) if drones else np.zeros((0, 4))
+        """(len(drones), 4) scores, higher is better; -inf for a move that is blocked now.
 
-    def _scores_one(self, world: CoverageWorld, k: int) -> np.ndarray:
+        Every asked drone is scored at once: one gather of the views, one flight-distance
+        search over the stack of views, one gather of the tables. Only the gain stays one
+        matrix-vector product per drone, so each drone's sums are the very float32 sums of
+        a single-drone call (a matrix-matrix product may add in another order).
+        """
+        if len(drones) == 0:
+            return np.zeros((0, 4))
         tables = self.tables
-        unexplored = world.view_unexplored(k)
-        blocked = world.view_blocked(k)
-        visited = world.visits[k]
-        r, c = world.positions[k]
-        visited_view = np.zeros((_VIEW, _VIEW), dtype=np.float32)
-        r0, c0 = r - VIEW_RADIUS, c - VIEW_RADIUS
-        rows, cols = visited.shape
-        vr0, vc0 = max(r0, 0), max(c0, 0)
-        vr1, vc1 = min(r0 + _VIEW, rows), min(c0 + _VIEW, cols)
-        visited_view[vr0 - r0: vr1 - r0, vc0 - c0: vc1 - c0] = visited[vr0:vr1, vc0:vc1] > 0
-
-        gain = tables.new_weights @ unexplored.ravel().astype(np.float32) / 9.0
-        prev = int(world.last_actions[k, 0])
+        drones = np.asarray(drones, dtype=np.int64).reshape(-1)
+        n = len(drones)
+        unexplored, blocked = world.views(drones)
+        flat_unexplored = unexplored.reshape(n, -1).astype(np.float32)
+        gain = np.empty((n, len(tables.first_action)), dtype=np.float32)
+        for i in range(n):
+            np.matmul(tables.new_weights, flat_unexplored[i], out=gain[i])
+        gain /= 9.0
+        prev = world.last_actions[drones, 0]
         score = gain - self.turn_weight * tables.turn_cost[prev + 1]
-        score -= self.revisit_weight * (visited_view.ravel()[tables.cells].sum(axis=1) + tables.self_revisits)
-        distance = flight_distance_field(unexplored, blocked, limit=2 * _VIEW)
-        score -= self.distance_weight * self.terminal_discount * distance.ravel()[tables.cells[:, -1]]
-        valid = ~blocked.ravel()[tables.cells].any(axis=1)
+        # One gather for both per-sequence counts: visited cells + 8 x blocked cells along it
+        # (at most 5 + 8 x 5, all small integers, so the float32 sum is exact and splits back).
+        flat_blocked = blocked.reshape(n, -1)
+        eight = np.float32(8.0)  # float32 throughout: the scores must be the very same floats
+        along = (visited_views(world, drones) + eight * flat_blocked)[:, tables.cells].sum(axis=2)
+        blocked_along = np.floor(along / eight)
+        revisits = (along - eight * blocked_along) + tables.self_revisits
+        score -= self.revisit_weight * revisits
+        distance = flight_distance_field(unexplored, blocked, limit=2 * _VIEW, needed=self._ends).reshape(n, -1)
+        score -= self.distance_weight * self.terminal_discount * distance[:, tables.cells[:, -1]]
+        valid = blocked_along == 0
         score = np.where(valid, score, -np.inf)
-        best = np.full(4, -np.inf)
-        np.maximum.at(best, tables.first_action, score)
-        return best
+        # Sequences are numbered with the first move as the leading base-4 digit, so each
+        # action's sequences are one contiguous quarter of the table.
+        return score.reshape(n, 4, -1).max(axis=2).astype(np.float64)

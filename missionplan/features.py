@@ -61,8 +61,6 @@ NUM_SYMMETRIES = 8
 
 # ----------------------------------------------------------------- encoding tables
 _SPAN = np.arange(-VIEW_RADIUS, VIEW_RADIUS + 1)
-# (19, 19) row and column offsets of the view window around the drone.
-_VIEW_DR, _VIEW_DC = np.meshgrid(_SPAN, _SPAN, indexing="ij")
 # Flat indices (into the 361 window cells) kept in the state: all but the centre.
 _VIEW_KEEP = np.delete(np.arange(VIEW_SIDE * VIEW_SIDE), VIEW_SIDE * VIEW_SIDE // 2)
 
@@ -87,26 +85,8 @@ def encode_states(world: CoverageWorld, drones: Sequence[int]) -> np.ndarray:
     drones = np.asarray(drones, dtype=np.int64).reshape(-1)
     n = drones.size
     centre = world.positions[drones] + PAD  # (n, 2) positions in the padded arrays
-    # Zone sight: a drone sees its own zone only, until that zone is done.
-    zone_done = (world.num_drones == 1) | (world.zone_remaining[drones] == 0)  # (n,)
-
-    def sees_unexplored(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        """Gather the seen-as-unexplored flag; rows/cols are (n, ...) padded indices."""
-        extra = (1,) * (rows.ndim - 1)
-        own = world._pad_zone[rows, cols] == drones.reshape(n, *extra)
-        return world._pad_unexplored[rows, cols] & (own | zone_done.reshape(n, *extra))
-
-    # --- view: (n, 19, 19) windows gathered in one fancy index.
-    rows = centre[:, 0, None, None] + _VIEW_DR
-    cols = centre[:, 1, None, None] + _VIEW_DC
-    unexplored = sees_unexplored(rows, cols)
-    blocked = world._pad_obstacle[rows, cols]
-    # Other drones are blocked too: mark every (drone i, other j) pair inside i's view.
-    offsets = world.positions[None, :, :] - world.positions[drones][:, None, :] + VIEW_RADIUS  # (n, K, 2)
-    in_view = np.all((offsets >= 0) & (offsets < VIEW_SIDE), axis=2)
-    in_view &= drones[:, None] != np.arange(world.num_drones)[None, :]
-    i, j = np.nonzero(in_view)
-    blocked[i, offsets[i, j, 0], offsets[i, j, 1]] = True
+    # --- view: (n, 19, 19) windows gathered in one fancy index (zone sight, other drones blocked).
+    unexplored, blocked = world.views(drones)
     view = np.where(blocked, -1.0, unexplored.astype(np.float32)).astype(np.float32)
 
     states = np.zeros((n, STATE_SIZE), dtype=np.float32)
@@ -119,7 +99,7 @@ def encode_states(world: CoverageWorld, drones: Sequence[int]) -> np.ndarray:
     # --- detectors beyond the view.
     band_rows = centre[:, 0, None, None] + _BAND_OFFSETS[None, :, :, 0]  # (n, 4, 380)
     band_cols = centre[:, 1, None, None] + _BAND_OFFSETS[None, :, :, 1]
-    states[:, UNEXPLORED_DETECTOR_SLICE] = sees_unexplored(band_rows, band_cols).any(axis=2)
+    states[:, UNEXPLORED_DETECTOR_SLICE] = world.seen_unexplored_at(drones, band_rows, band_cols).any(axis=2)
     ahead = centre[:, None, :] + _AHEAD_OFFSETS[None, :, :]  # (n, 4, 2)
     states[:, OBSTACLE_DETECTOR_SLICE] = world._pad_obstacle[ahead[..., 0], ahead[..., 1]]
     return states

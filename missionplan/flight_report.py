@@ -44,6 +44,8 @@ COVERAGE_OK = 99.0
 # also absorbs the 1e-7 degree (about 1 cm) resolution of reported positions.
 SLACK_CELLS = 0.25
 CMD_WAYPOINT, CMD_DO_CHANGE_SPEED, CMD_CAM_TRIGG_DIST = 16, 178, 206
+MIN_RATE_SPAN_S = 2.0  # of our time: a vehicle's clock rate is fitted over at least this long a record
+REAL_TIME_TOLERANCE = 0.05  # a clock within 5 % of ours runs in real time
 CMD_TAKEOFF, CMD_LAND = 22, 21
 
 
@@ -87,7 +89,8 @@ class FlightResult:
 
     @property
     def ok(self) -> bool:
-        return self.coverage >= COVERAGE_OK and not self.problems and bool(self.separation.get("kept"))
+        # kept None: fewer than two drones flew; the drones that did not fly are problems of their own.
+        return self.coverage >= COVERAGE_OK and not self.problems and self.separation.get("kept") is not False
 
 
 # ------------------------------------------------------------------------------------------- geometry
@@ -226,12 +229,25 @@ def coverage(frame: GridFrame, targets: np.ndarray, photos_m: np.ndarray, footpr
     return covered_by_gap(frame, nearest_photo_gap(frame, targets, photos_m), footprint_m, slack_m)
 
 
-def vehicle_clock(samples: np.ndarray, scale: float = 1.0) -> np.ndarray:
+def vehicle_rate(samples: np.ndarray) -> float | None:
+    """The vehicle's clock rate: its seconds (time_boot_ms) per second of ours, fitted over the record.
+    A simulator sped up S times reports S (ArduCopter SITL stamps simulated time); a real vehicle 1.
+    None when the record is too short to tell it from our threads' jitter."""
+    if len(samples) < 10 or samples[-1, 0] - samples[0, 0] < MIN_RATE_SPAN_S:
+        return None
+    slope = float(np.polyfit(samples[:, 0] - samples[0, 0], samples[:, 5], 1)[0])
+    return slope if slope > 0 else None
+
+
+def vehicle_clock(samples: np.ndarray) -> np.ndarray:
     """When each sample was taken, on our clock: the vehicle's own time stamps (free of our threads'
-    scheduling jitter; simulated seconds on a simulator sped up `scale` times, hence the division)
-    shifted by the smallest arrival delay seen, the usual one-way clock sync."""
-    own = samples[:, 5] / scale
-    return own + float(np.min(samples[:, 0] - own))
+    scheduling jitter), at the vehicle's clock rate (a sped-up simulator's clock runs faster), shifted
+    by the smallest arrival delay seen, the usual one-way clock sync."""
+    rate = vehicle_rate(samples) or 1.0
+    if abs(rate - 1.0) < REAL_TIME_TOLERANCE:
+        rate = 1.0  # a real-time clock: take its stamps as they are
+    ours = samples[:, 5] / rate
+    return ours + float(np.min(samples[:, 0] - ours))
 
 
 def flown_seconds(rec: DroneRecord, scale: float) -> float:
@@ -373,7 +389,7 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
         samples = np.array(rec.samples) if rec.samples else np.zeros((0, 7))
         tracks_m[rec.id] = to_grid_m(frame, samples[:, 1], samples[:, 2])
         if len(samples):
-            timed[rec.id] = np.column_stack([vehicle_clock(samples, scale), tracks_m[rec.id], samples[:, 3]])
+            timed[rec.id] = np.column_stack([vehicle_clock(samples), tracks_m[rec.id], samples[:, 3]])
             climbing = np.flatnonzero((samples[:, 3] > 0.05) & (samples[:, 6] > 0.1))
             if len(climbing):  # back from the first sample in the climb, at the climb rate it reported
                 first = climbing[0]
@@ -400,7 +416,7 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     problems = [p for rec in records for p in rec.problems]
     problems += [f"uav{rec.id}: mission not finished" for rec in records
                  if rec.started and not rec.finished and not rec.problems]
-    if not separation["kept"] and separation["3d"] is not None:
+    if separation["kept"] is False:
         problems.append(f"uav{separation['pair_3d'][0]} and uav{separation['pair_3d'][1]} came within "
                         f"{separation['3d']} m; the plan promised {separation['planned_3d']} m")
     photo_source = " and ".join(sorted(sources)) or "none"
@@ -432,10 +448,11 @@ def _separation(report: dict[str, Any], records: list[DroneRecord], timed: dict[
     start_spread_s = (max(liftoff.values()) - min(liftoff.values())) * scale if liftoff else 0.0
     tolerance = 2 * acceptance + speed * start_spread_s + speed * scale / telemetry_hz
     planned_3d = promise.get("3d")
-    kept = flown["3d"] is None or planned_3d is None or flown["3d"] >= planned_3d - tolerance
+    # Fewer than two tracks: nothing was measured, so the promise was neither kept nor broken.
+    kept = None if flown["3d"] is None else bool(planned_3d is None or flown["3d"] >= planned_3d - tolerance)
     return {**flown, "planned_horizontal": promise.get("horizontal"), "planned_3d": planned_3d,
             "tolerance": round(float(tolerance), 3), "start_spread_s": round(float(start_spread_s), 3),
-            "kept": bool(kept)}
+            "kept": kept, "tracks": len(timed)}
 
 
 # ------------------------------------------------------------------------------------------- picture

@@ -1,17 +1,25 @@
 """Fly a planned fleet over MAVLink and record it: `missionplan fly DIR --connect URL`.
 
-Owns the ground-station side of a flight. One thread per drone, each with its own link:
+Owns the ground-station side of a flight. One connection per --connect URL, shared by every vehicle
+on it (bridge.shared_link: one udpin port all vehicles send to, a TCP port, a radio); one thread per
+drone on its vehicle's view of that link:
 
-1. upload DIR/uavK.plan to system id K and prove by read-back that the vehicle holds it exactly
+1. ask for every stream fly reads (bridge.readiness: ArduPilot sends nothing until asked) and wait,
+   bounded by --ready-timeout, until the vehicle has a GPS fix, an EKF solution, a home position and
+   passing pre-arm checks, saying what it waits for and what the vehicle says (STATUSTEXT);
+2. upload DIR/uavK.plan to system id K and prove by read-back that the vehicle holds it exactly
    (or, with --upload-with mavsdk, let MAVSDK's QGroundControl importer read the file and upload it,
    and prove the vehicle then holds exactly what our reader makes of the same file);
-2. ask for the position stream at --telemetry-hz (SET_MESSAGE_INTERVAL), set GUIDED (ArduPilot),
-   arm, wait for every other drone to be armed, then MAV_CMD_MISSION_START: all start together,
-   as the plan's separation assumes;
-3. record GLOBAL_POSITION_INT, MISSION_CURRENT, MISSION_ITEM_REACHED and CAMERA_FEEDBACK, with one
+3. site check: the vehicle's home must lie within --max-launch-offset (plus its GPS error) of the
+   plan's plannedHomePosition. Nobody arms until every drone got this far; if any drone fails the
+   site check (a plan for another site, swapped system ids) no drone arms at all;
+4. set GUIDED (ArduPilot), arm (retried while the vehicle says it is still getting ready), wait for
+   every other drone to be armed, then MAV_CMD_MISSION_START: all start together, as the plan's
+   separation assumes. A drone that cannot fly is left disarmed and out of AUTO, and fly says so;
+5. record GLOBAL_POSITION_INT, MISSION_CURRENT, MISSION_ITEM_REACHED and CAMERA_FEEDBACK, with one
    progress bar per drone, until the vehicle has landed and disarmed with its mission complete, or
    it reboots, stops answering, or the time-out passes (each a problem, the others fly on);
-4. after landing, read the mission back once more: the vehicle must still hold what was uploaded.
+6. after landing, read the mission back once more: the vehicle must still hold what was uploaded.
 
 The recordings go to flight_report.judge (coverage from the photo positions, separation, times),
 which writes DIR/flight.json and DIR/flight.png. Also here: start_mock_fleet(), the in-process mock
@@ -21,26 +29,30 @@ autopilots `missionplan demo` and the integration tests fly against.
 from __future__ import annotations
 
 import json
+import sys
 import threading
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from bridge.copter_model import PARAMETERS as COPTER_PARAMETERS
 from bridge.errors import BridgeError, BridgeUsageError
 from bridge.mission import Flavour, to_wire
 from bridge.missionfile import read_mission_file
-from bridge.copter_model import PARAMETERS as COPTER_PARAMETERS
 from bridge.params import ParamClient, read_params
 from bridge.protocol import Timeouts
+from bridge.readiness import DEFAULT_LAUNCH_OFFSET_M, Vehicle, request_streams, site_problem, stream_rates
+from bridge.shared_link import LinkPool
 from bridge.uploader import MissionBackend, open_backend, read_back_differences, set_plan_params, upload_plan
 
 from .flight_report import DroneRecord, FlightResult, judge, sortie_view
 from .sorties import sortie_file
 
-CMD_ARM, CMD_DO_SET_MODE, CMD_MISSION_START, CMD_SET_MESSAGE_INTERVAL = 400, 176, 300, 511
-MSG_GLOBAL_POSITION_INT = 33
+CMD_DO_SET_MODE, CMD_MISSION_START = 176, 300
 MODE_FLAG_ARMED = 128
 MAV_TYPE_GCS = 6
 MISSION_STATE_ACTIVE, MISSION_STATE_COMPLETE = 3, 5
@@ -48,6 +60,7 @@ ARDUPILOT_GUIDED = 4
 SILENCE_S = 5.0        # a vehicle that says nothing for this long has stopped answering
 ON_GROUND_M = 0.3      # relative altitude under which a disarmed vehicle counts as landed
 DEFAULT_TELEMETRY_HZ = 25.0
+DEFAULT_READY_S = 120.0  # a real vehicle's GPS and EKF may take a minute or two after power-on
 UPLOADERS = ("missionplan", "mavsdk")  # who reads the .plan files and uploads them
 
 
@@ -73,43 +86,130 @@ class _StartGate:
                 self._all_in.wait_for(lambda: self._waiting_for <= 0, timeout=wait_s)
 
 
-class _DroneFlight:
-    """One drone's thread: upload, start, follow. What it learns goes into `record`."""
+class _ArmGate:
+    """Nobody arms before every drone has checked in here (ready, uploaded, site checked, or failed).
+    A drone that failed the site check vetoes arming for all: a wrong site or swapped system ids is
+    a fleet problem, and the fleet starts together or not at all."""
 
-    def __init__(self, url: str, record: DroneRecord, plan_path: Path, deadline: float, telemetry_hz: float,
-                 gate: _StartGate, stop: threading.Event, bar: Any, upload_with: str = "missionplan") -> None:
-        self.url, self.record, self.plan_path, self.deadline = url, record, plan_path, deadline
+    def __init__(self, parties: int) -> None:
+        self._waiting_for = parties
+        self.vetoes: list[str] = []
+        self._all_in = threading.Condition()
+
+    def check_in(self, wait_s: float, veto: str = "") -> list[str]:
+        """Check in (waiting up to wait_s for the others); the vetoes heard, [] when arming may go on."""
+        with self._all_in:
+            self._waiting_for -= 1
+            if veto:
+                self.vetoes.append(veto)
+            if self._waiting_for <= 0:
+                self._all_in.notify_all()
+            elif wait_s > 0:
+                self._all_in.wait_for(lambda: self._waiting_for <= 0, timeout=wait_s)
+            return list(self.vetoes)
+
+
+@dataclass
+class _FleetStart:
+    """What the drones' threads share: the links, both gates, the stop flag, how to say things."""
+
+    pool: LinkPool
+    arm_gate: _ArmGate
+    gate: _StartGate
+    stop: threading.Event
+    ready_s: float = DEFAULT_READY_S
+    max_offset_m: float = DEFAULT_LAUNCH_OFFSET_M
+    say: Callable[[str], None] = lambda text: None
+
+
+class _DroneFlight:
+    """One drone's thread: readiness, upload, site check, arm, start, follow. What it learns goes into
+    `record`."""
+
+    def __init__(self, fleet: _FleetStart, record: DroneRecord, plan_path: Path, deadline: float,
+                 telemetry_hz: float, bar: Any, upload_with: str = "missionplan") -> None:
+        self.fleet, self.record, self.plan_path, self.deadline = fleet, record, plan_path, deadline
         self.upload_with = upload_with
-        self.telemetry_hz, self.gate, self.stop, self.bar = telemetry_hz, gate, stop, bar
+        self.telemetry_hz, self.gate, self.stop, self.bar = telemetry_hz, fleet.gate, fleet.stop, bar
         self.backend: MissionBackend | None = None
+        self.vehicle: Vehicle | None = None
+        self.url = ""
         self.armed, self.rel_alt, self.last_reached = True, 0.0, -1  # as last reported
-        self.checked_in = False  # at the start gate
+        self.checked_in = self.arm_checked_in = False  # at the start gate, at the arm gate
+        self.recording = False  # from the mission start on: what came before is not this flight
+        self.planned_home: tuple[float, ...] | None = None
 
     def problem(self, text: str) -> None:
         self.record.problems.append(f"uav{self.record.id}: {text}")
 
     def run(self) -> None:
         try:
-            if self._upload() and self._start():
+            if self._connect() and self._ready() and self._upload() and self._site_and_arm() and self._start():
                 self._follow()
                 if self.record.finished:
                     self._check_still_held()
         except Exception as err:  # noqa: BLE001 - one drone's failure must not hide the others'
             self.problem(f"{type(err).__name__}: {err}")
         finally:
+            if not self.arm_checked_in:  # failed before the arm gate: the others need not wait for us
+                self.fleet.arm_gate.check_in(0.0)
             if not self.checked_in:  # failed before the start: let the others go without us
                 self.gate.check_in(0.0)
+            if not self.record.started and self.vehicle is not None:
+                self._leave_safe()
             if self.backend is not None:
                 self.backend.close()
+
+    def _connect(self) -> bool:
+        """Find the vehicle on its link and learn its flavour; ask for every stream fly reads."""
+        rec = self.record
+        try:
+            # Started right after power-on, a vehicle may take a while to send its first heartbeat.
+            wait_s = max(1.0, min(self.fleet.ready_s, self.deadline - time.monotonic()))
+            view = self.fleet.pool.vehicle(rec.id, wait_s)
+            self.url = view.url
+            self.backend = open_backend("pymavlink", self.url, rec.id, timeouts=Timeouts(item_timeout=0.5, retries=10),
+                                        connect_timeout=wait_s, link=view)
+        except BridgeError as err:
+            self.problem(f"not found: {err}")
+            return False
+        self.vehicle = Vehicle(view, self.backend.vehicle, self.fleet.say, also=self._take_if_started)
+        refused = request_streams(view, rec.id, stream_rates(self.telemetry_hz), self.deadline,
+                                  other=self.vehicle.take)
+        if refused:
+            rec.notes.append(f"streams not accepted (SET_MESSAGE_INTERVAL): {', '.join(refused)}; "
+                             "the vehicle's own rates")
+        return True
+
+    def _ready(self) -> bool:
+        """Bounded wait for GPS, EKF, home and pre-arm checks (bridge.readiness)."""
+        assert self.vehicle is not None
+        missing = self.vehicle.wait_ready(min(self.deadline, time.monotonic() + self.fleet.ready_s))
+        if missing:
+            reasons = self.vehicle.state.reasons()
+            self.problem(f"not ready to fly within {self.fleet.ready_s:g} s: still waiting for {', '.join(missing)}"
+                         + (f"; the vehicle said: {reasons}" if reasons else ""))
+            return False
+        return True
+
+    def _leave_safe(self) -> None:
+        """A vehicle that will not fly: disarmed and out of AUTO, and say how it was left."""
+        assert self.vehicle is not None
+        try:
+            how = self.vehicle.make_safe(time.monotonic() + 5.0)
+        except BridgeError as err:
+            how = f"could not be made safe: {err}"
+        self.record.notes.append(how)
+        self.fleet.say(f"uav{self.record.id}: {how}")
 
     def _upload(self) -> bool:
         rec = self.record
         try:
             plan = read_mission_file(self.plan_path)
+            self.planned_home = plan.mission.home
             if self.upload_with == "mavsdk":
                 self._upload_by_mavsdk()
-            self.backend = open_backend("pymavlink", self.url, rec.id, timeouts=Timeouts(item_timeout=0.5, retries=10),
-                                        connect_timeout=self._connect_s())
+            assert self.backend is not None
             rec.wire = to_wire(plan.mission, self.backend.vehicle.flavour)
             if self.upload_with == "mavsdk":
                 # What MAVSDK made of the file must be exactly what our reader makes of it.
@@ -140,21 +240,40 @@ class _DroneFlight:
         finally:
             mavsdk.close()
 
+    def _site_and_arm(self) -> bool:
+        """Site check, then the arm gate (nobody arms while a drone is still getting ready, none if
+        any failed the site check), then GUIDED (ArduPilot) and arming, retried while not ready."""
+        assert self.vehicle is not None and self.backend is not None
+        rec, sysid = self.record, self.record.id
+        home = self.planned_home
+        wrong_site = site_problem(self.vehicle.state, (home[0], home[1]) if home is not None else None,
+                                  self.fleet.max_offset_m)
+        if wrong_site:
+            self.problem(f"site check failed: {wrong_site}")
+        self.arm_checked_in = True
+        vetoes = self.fleet.arm_gate.check_in(self.deadline - time.monotonic(),
+                                              veto=f"uav{sysid} failed the site check" if wrong_site else "")
+        if vetoes:
+            if not wrong_site:
+                self.problem(f"not armed: {'; '.join(vetoes)} (no drone arms when one is at the wrong site)")
+            return False
+        link = self.backend.link
+        if self.backend.vehicle.flavour is Flavour.ARDUPILOT:  # arms in GUIDED, starts AUTO by MISSION_START
+            link.command_long(sysid, CMD_DO_SET_MODE, [1.0, float(ARDUPILOT_GUIDED)], self.deadline,
+                              other=self.vehicle.take)
+        armed, why = self.vehicle.arm(min(self.deadline, time.monotonic() + self.fleet.ready_s))
+        if not armed:
+            self.problem(why)
+            return False
+        return True
+
     def _start(self) -> bool:
         rec, link, sysid = self.record, self.backend.link, self.record.id
-        interval_us = 1e6 / self.telemetry_hz
-        if link.command_long(sysid, CMD_SET_MESSAGE_INTERVAL, [MSG_GLOBAL_POSITION_INT, interval_us], self.deadline) != 0:
-            rec.notes.append(f"position stream rate of {self.telemetry_hz:g} Hz not accepted: the vehicle's own rate")
-        if self.backend.vehicle.flavour is Flavour.ARDUPILOT:
-            link.command_long(sysid, CMD_DO_SET_MODE, [1.0, float(ARDUPILOT_GUIDED)], self.deadline)  # arms in GUIDED
-        result = link.command_long(sysid, CMD_ARM, [1.0], self.deadline)
-        if result != 0:
-            self.problem(_refused("arming", result))
-            return False
         self.checked_in = True
         self.gate.check_in(self.deadline - time.monotonic())
         # The first positions may come before the acknowledgement: keep them.
-        result = link.command_long(sysid, CMD_MISSION_START, [0.0, 0.0], self.deadline, other=self._take,
+        self.recording = True
+        result = link.command_long(sysid, CMD_MISSION_START, [0.0, 0.0], self.deadline, other=self.vehicle.take,
                           done=lambda: rec.mission_state == MISSION_STATE_ACTIVE)
         if result != 0:
             self.problem(_refused("mission start", result))
@@ -184,7 +303,7 @@ class _DroneFlight:
             if link.reboots.get(sysid, 0) > reboots:
                 self.problem(f"rebooted in flight at item {rec.current} of {last_seq} (mission lost)")
                 return
-            self._take(msg)
+            self.vehicle.take(msg)  # readiness state and STATUSTEXT, then _take records it
             complete = rec.mission_state == MISSION_STATE_COMPLETE or self.last_reached >= last_seq
             if not self.armed and complete and self.rel_alt < ON_GROUND_M:
                 rec.finished, rec.t_end = True, rec.last_heard
@@ -192,6 +311,10 @@ class _DroneFlight:
                     self.bar.n = self.bar.total
                     self.bar.refresh()
                 return
+
+    def _take_if_started(self, msg: Any) -> None:
+        if self.recording:
+            self._take(msg)
 
     def _take(self, msg: Any) -> None:
         """Record one message of our vehicle."""
@@ -240,11 +363,15 @@ def flight_view(plan_dir: Path, report: dict[str, Any], sortie: int) -> dict[str
     return sortie_view(report, sortie, missions)
 
 
-def fly(plan_dir: Path, connect: str, timeout_s: float = 600.0, progress: bool = True,
+def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, progress: bool = True,
         time_scale: float | None = None, telemetry_hz: float = DEFAULT_TELEMETRY_HZ,
-        upload_with: str = "missionplan", sortie: int = 1, photos_from_track: bool = False) -> FlightResult:
-    """Upload, verify, arm, start and follow every drone of plan_dir at once; write flight.json/.png.
+        upload_with: str = "missionplan", sortie: int = 1, ready_s: float = DEFAULT_READY_S,
+        max_launch_offset_m: float = DEFAULT_LAUNCH_OFFSET_M, photos_from_track: bool = False) -> FlightResult:
+    """Wait until ready, upload, verify, site-check, arm, start and follow every drone of plan_dir at
+    once; write flight.json/.png.
 
+    connect: one URL or several (each URL, or SYSID=URL; bridge.shared_link.parse_connects): one
+    connection per URL, shared by the vehicles on it.
     sortie=J flies battery sortie J (uavK-sJ.plan, J >= 2) of every drone that has one, judged on the
     targets that sortie's plan photographs.
 
@@ -259,6 +386,7 @@ def fly(plan_dir: Path, connect: str, timeout_s: float = 600.0, progress: bool =
     report = json.loads((plan_dir / "report.json").read_text())
     if "georeference" not in report or "drones" not in report:
         raise BridgeUsageError(f"{plan_dir / 'report.json'}: not a georeferenced plan (no missions to fly)")
+    pool = LinkPool([connect] if isinstance(connect, str) else list(connect))  # bad URLs: exit 2, before anything
     if sortie < 1:
         raise BridgeUsageError(f"--sortie must be 1 or more, got {sortie}")
     files = {int(d["id"]): plan_dir / sortie_file(int(d["id"]), sortie) for d in report["drones"]}
@@ -273,25 +401,34 @@ def fly(plan_dir: Path, connect: str, timeout_s: float = 600.0, progress: bool =
         if not plans[rec.id].exists():
             rec.problems.append(f"uav{rec.id}: {plans[rec.id]} is missing")
     runnable = [rec for rec in records if plans[rec.id].exists()]
-    gate, stop = _StartGate(len(runnable)), threading.Event()
     bars: dict[int, Any] = {}
+    say: Callable[[str], None] = lambda text: None  # noqa: E731
     if progress:
         from tqdm import tqdm
 
         bars = {rec.id: tqdm(total=1, desc=f"uav{rec.id}", position=pos, unit="item", leave=True)
                 for pos, rec in enumerate(runnable)}
-    threads = [threading.Thread(target=_DroneFlight(connect, rec, plans[rec.id], deadline, telemetry_hz, gate, stop,
-                                                    bars.get(rec.id), upload_with).run, name=f"fly-uav{rec.id}", daemon=True)
-               for rec in runnable]
-    for thread in threads:
-        thread.start()
+        say = lambda text: tqdm.write(text, file=sys.stderr)  # noqa: E731 - above the bars, not through them
     try:
+        pool.open_all()
+        pool.register(rec.id for rec in runnable)
+        fleet = _FleetStart(pool, _ArmGate(len(runnable)), _StartGate(len(runnable)), threading.Event(),
+                            ready_s=ready_s, max_offset_m=max_launch_offset_m, say=say)
+        threads = [threading.Thread(target=_DroneFlight(fleet, rec, plans[rec.id], deadline, telemetry_hz,
+                                                        bars.get(rec.id), upload_with).run,
+                                    name=f"fly-uav{rec.id}", daemon=True)
+                   for rec in runnable]
         for thread in threads:
-            thread.join(max(0.0, deadline - time.monotonic()) + 5.0)
+            thread.start()
+        try:
+            for thread in threads:
+                thread.join(max(0.0, deadline - time.monotonic()) + 5.0)
+        finally:
+            fleet.stop.set()
+            for thread in threads:
+                thread.join(2.0)
     finally:
-        stop.set()
-        for thread in threads:
-            thread.join(2.0)
+        pool.close()
         for bar in bars.values():
             bar.close()
     return judge(plan_dir, report, records, time_scale, wall_s=time.monotonic() - start, telemetry_hz=telemetry_hz,
@@ -299,11 +436,12 @@ def fly(plan_dir: Path, connect: str, timeout_s: float = 600.0, progress: bool =
 
 
 def start_mock_fleet(plan_dir: Path, speedup: float, flavour: str = "ardupilot", faults: Any = None,
-                     sitl_like: bool = True, cameras: bool = True) -> Any:
+                     sitl_like: bool = True, cameras: bool = True, **options: Any) -> Any:
     """In-process mock autopilots on 127.0.0.1, one per uavK.plan of plan_dir (system id K, home at
     its launch point). Returns the started MockAutopilot; fly against mock.client_url, then mock.stop().
     sitl_like: they fly like ArduCopter SITL (the plan's timeline); cameras: each has its camera
-    configured (CAM1_TYPE and a reboot, as a team does once), else it reports no photos."""
+    configured (CAM1_TYPE and a reboot, as a team does once), else it reports no photos; options go
+    to MockAutopilot (gps_fix_after, streams_until_asked: SITL-like readiness and streams; homes)."""
     from bridge.mock import MockAutopilot
 
     homes: dict[int, tuple[float, float, float]] = {}
@@ -315,8 +453,9 @@ def start_mock_fleet(plan_dir: Path, speedup: float, flavour: str = "ardupilot",
             homes[int(path.stem[3:])] = (float(home[0]), float(home[1]), float(home[2]))
     if not homes:
         raise BridgeUsageError(f"{plan_dir}: no uavK.plan files to fly")
+    homes = {**homes, **options.pop("homes", {})}
     mock = MockAutopilot("udpin:127.0.0.1:0", sysids=sorted(homes), flavour=flavour, speedup=speedup,
-                         faults=faults, homes=homes, sitl_like=sitl_like)
+                         faults=faults, homes=homes, sitl_like=sitl_like, **options)
     mock.start()
     if sitl_like and cameras:
         for sysid in homes:
@@ -330,9 +469,13 @@ def print_flight(result: FlightResult) -> None:
     sep = result.separation
     print(f"flown coverage {result.coverage:.2f} % of {result.targets} target cells "
           f"(photos from {result.photo_source}); {len(result.drones)} drones, {result.wall_s:.1f} s wall")
-    print(f"closest approach {sep['horizontal']} m horizontal / {sep['3d']} m 3-D; "
-          f"the plan promised {sep['planned_3d']} m 3-D (tolerance {sep['tolerance']} m): "
-          f"{'kept' if sep['kept'] else 'BROKEN'}")
+    if sep["kept"] is None:
+        print(f"separation not measured: {sep.get('tracks', 0)} drone(s) flew, it takes two"
+              + (f" (the plan promised {sep['planned_3d']} m 3-D)" if sep["planned_3d"] is not None else ""))
+    else:
+        print(f"closest approach {sep['horizontal']} m horizontal / {sep['3d']} m 3-D; "
+              f"the plan promised {sep['planned_3d']} m 3-D (tolerance {sep['tolerance']} m): "
+              f"{'kept' if sep['kept'] else 'BROKEN'}")
     for d in result.drones:
         state = "finished" if d["finished"] else "NOT finished"
         held = {True: "holds the uploaded mission", False: "LOST its mission", None: "mission not re-read"}
@@ -340,7 +483,8 @@ def print_flight(result: FlightResult) -> None:
         vehicle = (f"; {retimed:.1f} s with the vehicle's parameters"
                    if retimed is not None and abs(retimed - d["planned_flight_s"]) >= 0.05 else "")
         print(f"  uav{d['id']}: {state}, {d['flight_s']:.1f} s flown (planned {d['planned_flight_s']:.1f} s{vehicle}), "
-              f"{d['photos']} photos, {held[d['held_after_flight']]}")
+              f"{d['photos']} photos, {held[d['held_after_flight']]}"
+              + "".join(f"; {note}" for note in d.get("notes", []) if note.startswith("left ")))
     for problem in result.problems:
         print(f"  problem: {problem}")
     print(f"wrote {result.json_path} and {result.png_path}")
@@ -353,20 +497,41 @@ def cmd_fly(args: Any) -> int:
         raise BridgeUsageError(f"--telemetry-hz must be positive, got {args.telemetry_hz}")
     if not (Path(args.dir) / "report.json").is_file():
         raise BridgeUsageError(f"{args.dir}: no report.json (run `missionplan plan --out {args.dir}` first)")
-    result = fly(Path(args.dir), args.connect, timeout_s=args.timeout, progress=not args.quiet,
-                 time_scale=args.time_scale, telemetry_hz=args.telemetry_hz, upload_with=args.upload_with,
-                 sortie=args.sortie, photos_from_track=args.photos_from_track)
+    if args.ready_timeout <= 0:
+        raise BridgeUsageError(f"--ready-timeout must be positive, got {args.ready_timeout}")
+    if not args.max_launch_offset >= 0:
+        raise BridgeUsageError(f"--max-launch-offset must be a distance in metres (0 or more), "
+                               f"got {args.max_launch_offset}")
+    try:
+        result = fly(Path(args.dir), args.connect, timeout_s=args.timeout, progress=not args.quiet,
+                     time_scale=args.time_scale, telemetry_hz=args.telemetry_hz, upload_with=args.upload_with,
+                     sortie=args.sortie, ready_s=args.ready_timeout, max_launch_offset_m=args.max_launch_offset,
+                     photos_from_track=args.photos_from_track)
+    except BridgeUsageError:
+        raise
+    except BridgeError as err:  # a link that cannot be opened: one line, exit 1
+        print(f"missionplan fly: {err}", file=sys.stderr)
+        return 1
     print_flight(result)
     return 0 if result.ok else 1
 
 
 def register(subparsers: Any) -> None:
-    """Add `fly DIR --connect URL [--timeout S] [--telemetry-hz HZ] [--time-scale X] [--upload-with W] [--quiet]`."""
+    """Add `fly DIR --connect URL [--connect ...] [--ready-timeout S] [--max-launch-offset M] [--timeout S]
+    [--telemetry-hz HZ] [--time-scale X] [--upload-with W] [--sortie J] [--quiet]`."""
     p = subparsers.add_parser("fly", help="upload a planned fleet, fly it over MAVLink and judge the flight "
                                           "(flight.json, flight.png)")
     p.add_argument("dir", help="plan folder written by `missionplan plan` (report.json, uavK.plan)")
-    p.add_argument("--connect", required=True,
-                   help="pymavlink URL of the link the vehicles share, e.g. udpout:127.0.0.1:14550")
+    p.add_argument("--connect", required=True, action="append",
+                   help="pymavlink URL of a link the vehicles share, e.g. udpin:0.0.0.0:14550 (every vehicle sends "
+                        "there), tcp:127.0.0.1:5760 or /dev/ttyUSB0,57600; repeat it for vehicles on several links "
+                        "(each found on its link by its heartbeat), or give SYSID=URL (1,2=URL) to say which")
+    p.add_argument("--ready-timeout", type=float, default=DEFAULT_READY_S,
+                   help=f"wait this many seconds at most for each vehicle's GPS fix, EKF, home position and pre-arm "
+                        f"checks (default {DEFAULT_READY_S:g})")
+    p.add_argument("--max-launch-offset", type=float, default=DEFAULT_LAUNCH_OFFSET_M, metavar="M",
+                   help=f"refuse to arm any vehicle when one's home is more than M metres plus its reported GPS "
+                        f"error from its plan's launch point (default {DEFAULT_LAUNCH_OFFSET_M:g})")
     p.add_argument("--timeout", type=float, default=600.0, help="give up after this many seconds (default 600)")
     p.add_argument("--telemetry-hz", type=float, default=DEFAULT_TELEMETRY_HZ,
                    help=f"position stream rate to ask each vehicle for (default {DEFAULT_TELEMETRY_HZ:g})")

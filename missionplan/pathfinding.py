@@ -10,16 +10,19 @@
   ("does not converge") and the caller falls back to classic A*.
 - `find_goal`: the outward search for the nearest cell the drone sees as unexplored
   (breadth-first along free cells, so "nearest" means by flight, not through walls),
-  skipping goals near another drone's goal (anti-congestion).
+  skipping goals near another drone's goal (anti-congestion). `FlightSearch` runs that
+  breadth-first search one distance ring at a time in numpy and stops as soon as the
+  answer is known, instead of ordering the whole grid on every call; its order (the
+  queue order of a textbook BFS visiting neighbours up, left, right, down) is the order
+  scipy's `breadth_first_order` gives on `zones.grid_graph`, so the goals are the same.
 """
 
 from __future__ import annotations
 
 import heapq
+from collections.abc import Callable, Iterator
 
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import breadth_first_order
 
 from .gridmap import Cell
 
@@ -29,7 +32,7 @@ CONGESTION_RADIUS = 4  # goals within this Chebyshev distance of another drone's
 _NEIGHBOURS = ((-1, 0), (0, 1), (1, 0), (0, -1))
 
 
-def astar(free: np.ndarray, start: Cell, goal: Cell, step_cost: np.ndarray | None = None,
+def astar(free: np.ndarray, start: Cell, goal: Cell, step_cost: np.ndarray | _ExplorativeCost | None = None,
           max_expansions: int | None = None) -> list[Cell] | None:
     """Cheapest 4-connected path from start to goal over `free` cells, both ends included.
 
@@ -39,6 +42,8 @@ def astar(free: np.ndarray, start: Cell, goal: Cell, step_cost: np.ndarray | Non
     rows, cols = free.shape
     if not (free[start] and free[goal]):
         return None
+    # Python-level reads of a memoryview are several times faster than numpy scalar indexing.
+    free = free.data if free.flags.c_contiguous else free
     goal_r, goal_c = goal
     best_cost = {start: 0.0}
     parent: dict[Cell, Cell] = {}
@@ -46,6 +51,10 @@ def astar(free: np.ndarray, start: Cell, goal: Cell, step_cost: np.ndarray | Non
     frontier: list[tuple[float, float, Cell]] = [(abs(start[0] - goal_r) + abs(start[1] - goal_c), 0.0, start)]
     closed: set[Cell] = set()
     budget = max_expansions if max_expansions is not None else rows * cols
+    # Explorative costs straight from the predicate: the hot loop skips a method call per neighbour.
+    seen = step_cost.seen if isinstance(step_cost, _ExplorativeCost) else None
+    explored_cost = 1.0 + EXPLORED_PENALTY
+    unknown = float("inf")
     while frontier:
         _, neg_g, node = heapq.heappop(frontier)
         if node in closed:
@@ -67,27 +76,94 @@ def astar(free: np.ndarray, start: Cell, goal: Cell, step_cost: np.ndarray | Non
             if not (0 <= nr < rows and 0 <= nc < cols) or not free[nr, nc]:
                 continue
             nxt = (nr, nc)
-            cost = g + (1.0 if step_cost is None else float(step_cost[nr, nc]))
-            if cost < best_cost.get(nxt, np.inf):
+            if seen is not None:
+                cost = g + (1.0 if seen(nxt) else explored_cost)
+            else:
+                cost = g + (1.0 if step_cost is None else float(step_cost[nr, nc]))
+            if cost < best_cost.get(nxt, unknown):
                 best_cost[nxt] = cost
                 parent[nxt] = node
                 heapq.heappush(frontier, (cost + abs(nr - goal_r) + abs(nc - goal_c), -cost, nxt))
     return None
 
 
-def explorative_astar(free: np.ndarray, seen_unexplored: np.ndarray, start: Cell, goal: Cell,
-                      max_expansions: int | None = None) -> list[Cell] | None:
-    """A short path that runs over cells the drone sees as unexplored where it can."""
-    step_cost = np.where(seen_unexplored, 1.0, 1.0 + EXPLORED_PENALTY)
+def explorative_astar(free: np.ndarray, seen_unexplored: np.ndarray | Callable[[Cell], bool], start: Cell,
+                      goal: Cell, max_expansions: int | None = None) -> list[Cell] | None:
+    """A short path that runs over cells the drone sees as unexplored where it can.
+
+    `seen_unexplored` is a (rows, cols) mask or a function of a cell: the search reads
+    only the cells it expands, so no whole-grid cost array is built per call.
+    """
+    seen = seen_unexplored if callable(seen_unexplored) else (lambda cell: bool(seen_unexplored[cell]))
     if max_expansions is None:
         # Budget: a few times what plain A* needs on an open map; past it, fall back.
         max_expansions = 8 * (abs(start[0] - goal[0]) + abs(start[1] - goal[1]) + 10) ** 2
-    return astar(free, start, goal, step_cost, max_expansions)
+    return astar(free, start, goal, _ExplorativeCost(seen), max_expansions)
 
 
-def find_goal(graph: csr_matrix, shape: tuple[int, int], start: Cell, seen_unexplored: np.ndarray,
+class _ExplorativeCost:
+    """step_cost[r, c] of Explorative A*, read lazily from a seen-as-unexplored predicate."""
+
+    def __init__(self, seen: Callable[[Cell], bool]) -> None:
+        self.seen = seen
+
+    def __getitem__(self, cell: Cell) -> float:
+        return 1.0 if self.seen(cell) else 1.0 + EXPLORED_PENALTY
+
+
+class FlightSearch:
+    """Breadth-first search along the free cells of one grid, ring by ring, reusable.
+
+    Cells are numbered row-major in the grid padded by `pad` blocked cells on every side
+    (`flat_index`), so neighbours need no bounds checks, and with the world's padding a
+    ring indexes the world's padded arrays directly; a visit stamp per cell (instead of a
+    fresh visited array) makes starting a search O(1) whatever the grid size.
+    """
+
+    def __init__(self, free: np.ndarray, pad: int = 1) -> None:
+        rows, cols = free.shape
+        self.shape = (rows, cols)
+        self.pad = pad
+        self.width = cols + 2 * pad
+        padded = np.zeros((rows + 2 * pad, self.width), dtype=bool)
+        padded[pad:pad + rows, pad:pad + cols] = free
+        self._free = padded.ravel()
+        # Ascending index order = up, left, right, down: the order of the CSR rows of grid_graph.
+        self._steps = np.array([-self.width, -1, 1, self.width], dtype=np.int64)
+        self._stamp = np.zeros(self._free.size, dtype=np.int32)
+        self._generation = 0
+
+    def flat_index(self, cells: np.ndarray) -> np.ndarray:
+        """Padded flat numbers of (n, 2) cells."""
+        cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+        return (cells[:, 0] + self.pad) * self.width + cells[:, 1] + self.pad
+
+    def cells(self, flat: np.ndarray) -> np.ndarray:
+        """(n, 2) cells of padded flat numbers."""
+        rows, cols = np.divmod(flat, self.width)
+        return np.stack([rows, cols], axis=1) - self.pad
+
+    def rings(self, start: Cell) -> Iterator[np.ndarray]:
+        """Yield padded flat numbers of the cells at flight distance 0, 1, 2, ... in BFS queue order."""
+        self._generation += 1
+        stamp, generation = self._stamp, self._generation
+        ring = self.flat_index(np.array([start]))
+        stamp[ring] = generation
+        while ring.size:
+            yield ring
+            nxt = (ring[:, None] + self._steps[None, :]).ravel()
+            nxt = nxt[self._free[nxt] & (stamp[nxt] != generation)]
+            if nxt.size > 1:  # keep each cell's first discovery, in discovery order
+                _, first = np.unique(nxt, return_index=True)
+                nxt = nxt[np.sort(first)]
+            stamp[nxt] = generation
+            ring = nxt
+
+
+def find_goal(search: FlightSearch, start: Cell, seen_unexplored: np.ndarray | Callable[[np.ndarray], np.ndarray],
               taken_goals: list[Cell], excluded: set[Cell] | None = None,
-              rivals: np.ndarray | None = None, rival_backlog: np.ndarray | None = None) -> Cell | None:
+              rivals: np.ndarray | None = None, rival_backlog: np.ndarray | None = None,
+              seen_count: int | None = None, seen_cells: np.ndarray | None = None) -> Cell | None:
     """Nearest (by flight along free cells) cell seen as unexplored that nobody else is heading for.
 
     Goals within CONGESTION_RADIUS of a goal in `taken_goals` are skipped; if every
@@ -96,30 +172,62 @@ def find_goal(graph: csr_matrix, shape: tuple[int, int], start: Cell, seen_unexp
     every rival are candidates: a rival needs its Manhattan distance plus its
     `rival_backlog` (steps of work it still has elsewhere). So a drone that has finished
     its own zone helps where it would get there first, and gets None (stay put) where not.
+
+    `seen_unexplored` is a (rows, cols) mask, or a function of `search`'s padded flat
+    numbers returning their flags, with `seen_count` = how many cells are seen and (with
+    `rivals`) `seen_cells` = those cells as (n, 2), so that the candidates are known up
+    front. The search stops at the first uncongested candidate, or once every candidate
+    has been met.
     """
-    cols = shape[1]
-    order = breadth_first_order(graph, start[0] * cols + start[1], directed=True,
-                                return_predecessors=False)
-    candidates = order[seen_unexplored.ravel()[order]]  # in order of growing distance
-    if excluded:
-        keep = [i for i, idx in enumerate(candidates) if divmod(int(idx), cols) not in excluded]
-        candidates = candidates[keep]
-    if candidates.size == 0:
-        return None
-    cand_rc = np.stack(np.divmod(candidates, cols), axis=1)
+    if callable(seen_unexplored):
+        is_seen, count = seen_unexplored, int(seen_count if seen_count is not None else -1)
+    else:
+        mask = np.asarray(seen_unexplored, dtype=bool)
+        padded = np.zeros(search._free.size, dtype=bool)
+        padded[search.flat_index(np.argwhere(mask))] = True
+        is_seen, count = padded.__getitem__, int(mask.sum())
+        seen_cells = np.argwhere(mask) if rivals is not None else None
+    candidates: np.ndarray | None = None  # sorted flat numbers of every candidate, when known up front
     if rivals is not None and len(rivals):
-        mine = np.abs(cand_rc - np.asarray(start)).sum(axis=1)
         backlog = np.zeros(len(rivals)) if rival_backlog is None else np.asarray(rival_backlog, dtype=float)
-        theirs = (np.abs(cand_rc[:, None, :] - np.asarray(rivals)[None, :, :]).sum(axis=2) + backlog).min(axis=1)
-        cand_rc = cand_rc[mine <= theirs]
-        if len(cand_rc) == 0:
-            return None
-    if taken_goals:
-        taken = np.array(taken_goals)
-        near = np.abs(cand_rc[:, None, :] - taken[None, :, :]).max(axis=2) <= CONGESTION_RADIUS
-        clear = ~near.any(axis=1)
+        cells = np.asarray(seen_cells).reshape(-1, 2)
+        mine = np.abs(cells - np.asarray(start)).sum(axis=1)
+        for rival, extra in zip(np.asarray(rivals), backlog):  # each rival rules out most cells: shrink as we go
+            keep = mine <= np.abs(cells - rival).sum(axis=1) + extra
+            cells, mine = cells[keep], mine[keep]
+        candidates = np.sort(search.flat_index(cells))
+        count = len(candidates)
+    gone = search.flat_index(np.array(sorted(excluded or ()), dtype=np.int64))
+    if gone.size and count > 0:
+        if candidates is not None:
+            candidates = candidates[~np.isin(candidates, gone)]
+            count = len(candidates)
+        else:
+            count -= int(is_seen(gone).sum())
+    if count == 0:
+        return None
+    taken = np.array(taken_goals, dtype=np.int64).reshape(-1, 2)
+    nearest: Cell | None = None
+    met = 0
+    for ring in search.rings(start):
+        flags = is_seen(ring)
+        if gone.size:
+            flags &= ~np.isin(ring, gone)
+        if candidates is not None:
+            at = np.minimum(np.searchsorted(candidates, ring), len(candidates) - 1)
+            flags &= candidates[at] == ring
+        if not flags.any():
+            continue
+        found = search.cells(ring[flags])
+        if nearest is None:
+            nearest = (int(found[0, 0]), int(found[0, 1]))
+        if not len(taken):
+            return nearest
+        clear = ~(np.abs(found[:, None, :] - taken[None, :, :]).max(axis=2) <= CONGESTION_RADIUS).any(axis=1)
         if clear.any():
-            r, c = cand_rc[np.argmax(clear)]
+            r, c = found[np.argmax(clear)]
             return int(r), int(c)
-    r, c = cand_rc[0]
-    return int(r), int(c)
+        met += len(found)
+        if 0 <= count <= met:
+            break  # every candidate met, all congested
+    return nearest

@@ -36,10 +36,9 @@ import numpy as np
 from tqdm import tqdm
 
 from .gridmap import Cell
-from .metrics import SteadyStateSampler, compute_metrics
-from .pathfinding import astar, explorative_astar, find_goal
-from .world import ACTION_DELTAS, HOVER, CoverageWorld
-from .zones import grid_graph
+from .metrics import SteadyStateSampler, compute_metrics, mdu_stride
+from .pathfinding import FlightSearch, astar, explorative_astar, find_goal
+from .world import ACTION_DELTAS, HOVER, PAD, CoverageWorld
 
 DEADLOCK_STEPS = 3
 MAX_GOAL_TRIES = 4
@@ -95,9 +94,12 @@ class PlanRun:
     plan_seconds: float
 
 
+_ACTION_OF_DELTA = {(int(dr), int(dc)): action for action, (dr, dc) in enumerate(ACTION_DELTAS)}
+
+
 def _action_towards(position: np.ndarray, cell: Cell) -> int:
-    matches = np.flatnonzero(np.all(ACTION_DELTAS == np.asarray(cell) - position, axis=1))
-    return int(matches[0]) if matches.size else HOVER
+    """The action that moves from `position` to the neighbouring `cell`; HOVER if it is not one."""
+    return _ACTION_OF_DELTA.get((int(cell[0]) - int(position[0]), int(cell[1]) - int(position[1])), HOVER)
 
 
 class Planner:
@@ -113,16 +115,23 @@ class Planner:
         # Far more than any honest detour takes; only a livelock hits it.
         self.stall_limit = stall_limit if stall_limit is not None else 4 * (rows + cols) + 200
         self.free = world.gmap.free
-        self.graph = grid_graph(self.free)
+        self.search = FlightSearch(self.free, pad=PAD)  # numbered like the world's padded arrays
+        self._unexplored_cells: tuple[int, np.ndarray] | None = None  # (step, cells) cache
         self.nav = [_Navigation() for _ in range(world.num_drones)]
         self.deadlocks_broken = 0
         self._by_policy = np.zeros(world.num_drones, dtype=bool)
 
     # ----------------------------------------------------------- path-finding
+    def _unexplored_now(self) -> np.ndarray:
+        """(n, 2) every unexplored cell; scanned once per step however many drones ask."""
+        world = self.world
+        if self._unexplored_cells is None or self._unexplored_cells[0] != world.t:
+            self._unexplored_cells = (world.t, world.unexplored_cells())
+        return self._unexplored_cells[1]
+
     def _plan_path(self, k: int) -> bool:
         world, nav = self.world, self.nav[k]
         start = tuple(int(v) for v in world.positions[k])
-        seen = world.seen_unexplored_map(k)
         taken = [n.goal for i, n in enumerate(self.nav) if i != k and n.goal is not None]
         free = self.free
         if nav.avoid_drones:
@@ -131,16 +140,18 @@ class Planner:
             nav.avoid_drones = False
         # A drone done with its own zone helps only where it would arrive before the
         # others, counting the work each still has in its own zone.
-        rivals = backlog = None
+        rivals = backlog = seen_cells = None
         if world.zone_done(k) and world.num_drones > 1:
             rivals = np.delete(world.positions, k, axis=0)
             backlog = np.delete(world.zone_remaining, k) / CELLS_PER_MOVE
+            seen_cells = self._unexplored_now()
         excluded: set[Cell] = set()
         for _ in range(MAX_GOAL_TRIES):
-            goal = find_goal(self.graph, free.shape, start, seen, taken, excluded, rivals, backlog)
+            goal = find_goal(self.search, start, world.seen_flat(k), taken, excluded,
+                             rivals, backlog, seen_count=world.seen_count(k), seen_cells=seen_cells)
             if goal is None:
                 break
-            path = explorative_astar(free, seen, start, goal) or astar(free, start, goal)
+            path = explorative_astar(free, world.seen_predicate(k), start, goal) or astar(free, start, goal)
             if path is not None:
                 nav.goal, nav.path = goal, path[1:]
                 return True
@@ -290,12 +301,15 @@ class Planner:
         path_log = [world.positions.copy()]
         cells_log: list[np.ndarray] = []
         decision_log: list[tuple[int, int, int]] = []
-        sampler = SteadyStateSampler()
+        sampler = SteadyStateSampler(stride=mdu_stride(world.num_targets))
         hover_steps = 0
         stalled_for = 0
         failure = None
+        # Coverage reached and the time left at the recent rate (tqdm's smoothed ETA).
         bar = tqdm(total=world.num_targets, initial=world.num_targets - world.remaining, unit="cell",
-                   desc="planning", disable=not self.progress, leave=False)
+                   desc="planning", disable=not self.progress, leave=False, mininterval=0.5,
+                   bar_format="{desc}: {percentage:5.1f} % covered |{bar}| {n:,}/{total:,} cells "
+                              "[{elapsed} elapsed, ETA {remaining}]")
         while not world.done:
             actions, by_policy, by_finder, idle = self._choose_actions()
             for k in range(num):

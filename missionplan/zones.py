@@ -17,6 +17,15 @@ zone is within BALANCE_TOLERANCE of the mean size (an additively weighted Vorono
 partition). With geodesic distance each zone stays connected: the cell before x on the
 shortest path from a centroid is one step nearer to it and at most one step nearer to any
 other, so it belongs to the same zone.
+
+At city scale (measured in docs/scale.md): geodesic Lloyd steps use one multi-source
+breadth-first search per iteration (`nearest_seed`: every cell learns its nearest
+centroid, ties to the lowest index, as argmin over per-centroid distances did) instead
+of one full-grid Dijkstra per drone. Balancing keeps its dense K x U distance matrix
+while K x U <= DENSE_BALANCE_LIMIT (every shipped map, so their zones are unchanged);
+beyond that, where its 500 rounds would cost more than the plan, each round is one multi-source
+search in which centroid k starts late by its offset w_k rounded to whole cells, at
+most MAX_BALANCE_PASSES rounds, keeping the most even one.
 """
 
 from __future__ import annotations
@@ -35,6 +44,11 @@ NUM_SAMPLE_POINTS = 2000
 MAX_LLOYD_ITERATIONS = 100
 BALANCE_TOLERANCE = 0.03
 MAX_BALANCE_ITERATIONS = 500
+DENSE_BALANCE_LIMIT = 250_000  # K x U entries of the dense balancing matrix: shipped maps <= 94k
+MAX_BALANCE_PASSES = 24
+BALANCE_PASS_GAIN = 0.3
+COARSE_BALANCE_CELLS = 16_384  # past this (128 x 128), balancing rounds run on 2 x 2 blocks
+REFINE_PASSES = 6  # full-resolution rounds after the block rounds
 
 
 @dataclass
@@ -70,6 +84,68 @@ def _geodesic_from(graph: csr_matrix, cells: np.ndarray, cols: int) -> np.ndarra
     return shortest_path(graph, method="D", unweighted=True, indices=sources)
 
 
+def _lowest_label_per_cell(cells: np.ndarray, labels: np.ndarray, num_labels: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each cell once, with the lowest of its labels (one sort of cell * num_labels + label)."""
+    keys = np.sort(cells * num_labels + labels)
+    cells, labels = np.divmod(keys, num_labels)
+    first = np.ones(cells.size, dtype=bool)
+    first[1:] = cells[1:] != cells[:-1]
+    return cells[first], labels[first]
+
+
+def nearest_seed(free: np.ndarray, seeds: np.ndarray, start_levels: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Multi-source breadth-first search over the 4-connected free cells.
+
+    Returns (label, dist), both (rows, cols) int32: the index of the nearest seed (ties
+    go to the lowest index) and the hop distance to it; -1 where no seed reaches. With
+    `start_levels`, seed k enters the search only at level start_levels[k] (>= 0), so
+    the label is argmin_k (distance_k + start_levels[k]) - an additively weighted Voronoi -
+    and dist is that sum.
+    Ring by ring in numpy: a cell's label is the lowest label among its neighbours in the
+    previous ring, which is exactly the lowest index among its nearest seeds.
+    """
+    rows, cols = free.shape
+    width = cols + 2
+    padded = np.zeros((rows + 2, width), dtype=bool)
+    padded[1:-1, 1:-1] = free
+    padded = padded.ravel()
+    label = np.full(padded.size, -1, dtype=np.int32)
+    dist = np.full(padded.size, -1, dtype=np.int32)
+    seeds = np.asarray(seeds, dtype=np.int64).reshape(-1, 2)
+    flat = (seeds[:, 0] + 1) * width + seeds[:, 1] + 1
+    levels = np.zeros(len(seeds), dtype=np.int64) if start_levels is None else np.asarray(start_levels, np.int64)
+    steps = np.array([-width, -1, 1, width], dtype=np.int64)
+    entry = np.lexsort((np.arange(len(seeds)), levels))  # by start level, then index
+    ring, ring_label = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    waiting, level = 0, 0
+    while True:
+        joining = []
+        while waiting < len(entry) and levels[entry[waiting]] <= level:
+            k = int(entry[waiting])
+            waiting += 1
+            if padded[flat[k]] and label[flat[k]] < 0:
+                joining.append(k)
+        if joining:  # a seed on a cell reached this very level: the lowest label keeps it
+            ring = np.concatenate([ring, flat[joining]])
+            ring_label = np.concatenate([ring_label, np.array(joining, dtype=np.int64)])
+            ring, ring_label = _lowest_label_per_cell(ring, ring_label, len(seeds))
+        if ring.size == 0:
+            if waiting >= len(entry):
+                break
+            level = int(levels[entry[waiting]])  # nothing in flight: jump to the next seed's start
+            continue
+        label[ring], dist[ring] = ring_label, level
+        nxt = (ring[:, None] + steps).ravel()
+        nxt_label = np.repeat(ring_label, 4)
+        fresh = padded[nxt] & (label[nxt] < 0)
+        nxt, nxt_label = nxt[fresh], nxt_label[fresh]
+        ring, ring_label = _lowest_label_per_cell(nxt, nxt_label, len(seeds))
+        level += 1
+    shape = (rows + 2, width)
+    return label.reshape(shape)[1:-1, 1:-1], dist.reshape(shape)[1:-1, 1:-1]
+
+
 def balanced_assignment(distances: np.ndarray, tolerance: float = BALANCE_TOLERANCE,
                         shares: np.ndarray | None = None) -> np.ndarray:
     """argmin_k (distances[k] + w_k) with offsets w chosen so zone sizes are near equal, or near
@@ -82,9 +158,21 @@ def balanced_assignment(distances: np.ndarray, tolerance: float = BALANCE_TOLERA
     finite = np.where(np.isfinite(distances), distances, np.inf)
     scale = float(np.median(np.min(finite, axis=0)[np.isfinite(np.min(finite, axis=0))]) or 1.0)
     target = num_cells / num_zones if shares is None else num_cells * np.asarray(shares, dtype=float)
-    best, best_spread = np.argmin(finite, axis=0), np.inf
+    nearest = np.argmin(finite, axis=0)
+    # A cell whose second-nearest centroid is farther than the nearest by more than the
+    # spread of the offsets keeps its nearest: only the cells with a small gap are
+    # re-decided each round (exactly the same argmin, on far fewer columns).
+    two = np.partition(finite, 1, axis=0)[:2] if num_zones > 1 else np.vstack([finite[:1], finite[:1] + np.inf])
+    with np.errstate(invalid="ignore"):
+        gap = np.nan_to_num(two[1] - two[0], nan=np.inf)
+    by_gap = np.argsort(gap, kind="stable")
+    sorted_gap = gap[by_gap]
+    contested_distances = finite[:, by_gap]
+    best, best_spread = nearest, np.inf
     for _ in range(MAX_BALANCE_ITERATIONS):
-        assignment = np.argmin(finite + offsets[:, None], axis=0)
+        count = int(np.searchsorted(sorted_gap, offsets.max() - offsets.min(), side="right"))
+        assignment = nearest.copy()
+        assignment[by_gap[:count]] = np.argmin(contested_distances[:, :count] + offsets[:, None], axis=0)
         sizes = np.bincount(assignment, minlength=num_zones)
         spread = float((np.abs(sizes - target) / target).max())
         if spread < best_spread:
@@ -95,6 +183,72 @@ def balanced_assignment(distances: np.ndarray, tolerance: float = BALANCE_TOLERA
         # without oscillating because sizes change smoothly with the offsets.
         offsets += 0.1 * scale * (sizes - target) / target
     return best
+
+
+def _coarsened(grid: np.ndarray, factor: int) -> np.ndarray:
+    """(ceil(rows / f), ceil(cols / f)) counts of True cells per f x f block."""
+    rows, cols = grid.shape
+    padded = np.zeros((-(-rows // factor) * factor, -(-cols // factor) * factor), dtype=np.int64)
+    padded[:rows, :cols] = grid
+    return padded.reshape(padded.shape[0] // factor, factor, padded.shape[1] // factor, factor).sum(axis=(1, 3))
+
+
+def _offset_rounds(free: np.ndarray, weight: np.ndarray, seeds: np.ndarray, offsets: np.ndarray, gain: float,
+                   rounds: int, tolerance: float, shares: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, float]:
+    """Balancing rounds on one grid; returns (best assignment of the weighted cells, its offsets, its spread)."""
+    num_zones = len(seeds)
+    weighted = weight > 0
+    cell_weight = weight[weighted]
+    label, dist = nearest_seed(free, seeds, np.rint(offsets - offsets.min()))
+    assignment = label[weighted]
+    reached = dist[weighted][assignment >= 0]
+    scale = (float(np.median(reached)) if reached.size else 1.0) or 1.0
+    target = cell_weight.sum() / num_zones if shares is None else cell_weight.sum() * np.asarray(shares, float)
+    offsets = offsets.copy()
+    gains = np.full(num_zones, gain)
+    last_error = np.zeros(num_zones)
+    best, best_offsets, best_spread = assignment, offsets.copy(), np.inf
+    for round_ in range(rounds):
+        sizes = np.bincount(assignment[assignment >= 0], weights=cell_weight[assignment >= 0], minlength=num_zones)
+        error = (sizes - target) / target
+        spread = float(np.abs(error).max())
+        if spread < best_spread:
+            best, best_offsets, best_spread = assignment, offsets.copy(), spread
+        if spread <= tolerance or round_ == rounds - 1:
+            break
+        gains[np.sign(error) * np.sign(last_error) < 0] *= 0.5  # overshot: finer steps for that zone
+        offsets += gains * scale * error
+        last_error = error
+        assignment = nearest_seed(free, seeds, np.rint(offsets - offsets.min()))[0][weighted]
+    return best, best_offsets, best_spread
+
+
+def balanced_by_passes(free: np.ndarray, targets: np.ndarray, seeds: np.ndarray,
+                       tolerance: float = BALANCE_TOLERANCE, shares: np.ndarray | None = None) -> np.ndarray:
+    """balanced_assignment's offsets loop without its K x U matrix: (U,) zone of each target cell.
+
+    Each round is one `nearest_seed` search with seed k starting late by its offset w_k
+    rounded to whole cells. Offsets move like the dense loop's, three times bolder (each
+    round is a whole-grid search, so there are few), halved for a zone that overshoots;
+    rounds stop within `tolerance` or after MAX_BALANCE_PASSES, keeping the most even
+    split. On grids past COARSE_BALANCE_CELLS the rounds run on blocks of 2 x 2 cells (a
+    block is free when any of its cells is, and weighs its target cells), then at most
+    REFINE_PASSES full-resolution rounds start from the offsets found, times 2.
+    """
+    seeds = np.asarray(seeds, dtype=np.int64)
+    factor = 1
+    if free.size > COARSE_BALANCE_CELLS:
+        factor = 2  # 4 x 4 blocks were measured to merge streets across thin blocks: 3x less even
+    offsets = np.zeros(len(seeds))
+    gain = BALANCE_PASS_GAIN
+    if factor > 1:
+        _, offsets, _ = _offset_rounds(_coarsened(free, factor) > 0, _coarsened(targets, factor), seeds // factor,
+                                       offsets, gain, MAX_BALANCE_PASSES, tolerance, shares)
+        offsets, gain = offsets * factor, gain / 2
+    rounds = REFINE_PASSES if factor > 1 else MAX_BALANCE_PASSES
+    best, _, _ = _offset_rounds(free, targets.astype(np.int64), seeds, offsets, gain, rounds, tolerance, shares)
+    return np.where(best >= 0, best, 0)
 
 
 def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], method: str = DEFAULT_ZONE_METHOD,
@@ -116,31 +270,56 @@ def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], metho
     points = target_cells[picks]
     centroids = np.array(starts, dtype=float)
     cols = targets.shape[1]
-    graph = grid_graph(free) if method == "geodesic" else None
+    # The sparse graph only for the dense balancing of small maps; Lloyd steps search the grid directly.
+    geodesic = method == "geodesic"
+    graph = grid_graph(free) if geodesic and balance and num_zones * len(target_cells) <= DENSE_BALANCE_LIMIT else None
 
-    def distances_to(cells_rc: np.ndarray, centres: np.ndarray) -> np.ndarray:
-        """(K, len(cells_rc)) distance from each centre to each cell."""
-        if graph is None:
-            return np.linalg.norm(cells_rc[None, :, :] - centres[:, None, :], axis=2)
-        field = _geodesic_from(graph, np.rint(centres).astype(np.int64), cols)
-        return field[:, cells_rc[:, 0] * cols + cells_rc[:, 1]]
+    labels_of: list = [b"", None]  # (centroid cells, their nearest_seed labels) of the last search
+
+    def nearest_centroid(cells_rc: np.ndarray, centres: np.ndarray) -> np.ndarray:
+        """(len(cells_rc),) index of the nearest centre to each cell; ties to the lowest index."""
+        if not geodesic:  # in chunks: a K x U matrix of a whole city would not fit
+            chunk = max(1, 4_000_000 // len(centres))
+            return np.concatenate([np.argmin(np.linalg.norm(part[None, :, :] - centres[:, None, :], axis=2), axis=0)
+                                   for part in np.array_split(cells_rc, max(1, -(-len(cells_rc) // chunk)))])
+        seeds = np.rint(centres).astype(np.int64)
+        if labels_of[0] != seeds.tobytes():  # the last Lloyd step's labels serve the final split too
+            labels_of[:] = [seeds.tobytes(), nearest_seed(free, seeds)[0]]
+        label = labels_of[1][cells_rc[:, 0], cells_rc[:, 1]]
+        return np.where(label >= 0, label, 0)  # reached by no centre: argmin over all-inf gave 0
 
     assignment = None
     iterations = 0
+    visited: set[bytes] = set()
     for iterations in range(1, MAX_LLOYD_ITERATIONS + 1):
-        new_assignment = np.argmin(distances_to(points, centroids), axis=0)
+        new_assignment = nearest_centroid(points, centroids)
         if assignment is not None and np.array_equal(new_assignment, assignment):
             break
+        # Snapped (geodesic) centroids can cycle, e.g. two states in turn for ever: stop
+        # when the centroids repeat, rather than at MAX_LLOYD_ITERATIONS.
+        state = centroids.tobytes()
+        if state in visited:
+            break
+        visited.add(state)
         assignment = new_assignment
         for k in range(num_zones):
             members = points[assignment == k]
             if len(members) == 0:
                 continue  # an empty cluster keeps its centroid
             mean = members.mean(axis=0)
-            if graph is not None:
+            if geodesic:
                 # Geodesic distances need a centroid on a free cell: the member nearest the mean.
                 mean = members[np.argmin(np.linalg.norm(members - mean, axis=1))].astype(float)
             centroids[k] = mean
-    final = distances_to(target_cells, centroids)
-    zone[targets] = balanced_assignment(final, shares=shares) if balance else np.argmin(final, axis=0)
+    seeds = np.rint(centroids).astype(np.int64)
+    if not balance:
+        zone[targets] = nearest_centroid(target_cells, centroids)
+    elif geodesic and graph is None:
+        zone[targets] = balanced_by_passes(free, targets, seeds, shares=shares)
+    elif geodesic:
+        field = _geodesic_from(graph, seeds, cols)
+        zone[targets] = balanced_assignment(field[:, target_cells[:, 0] * cols + target_cells[:, 1]], shares=shares)
+    else:
+        zone[targets] = balanced_assignment(np.linalg.norm(target_cells[None, :, :] - centroids[:, None, :], axis=2),
+                                            shares=shares)
     return Zones(zone, centroids, iterations, method, balance)

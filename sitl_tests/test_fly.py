@@ -36,8 +36,10 @@ def planned(tmp_path_factory: pytest.TempPathFactory):
     def plan(name: str, uavs: int) -> Path:
         if (name, uavs) not in made:
             out = tmp_path_factory.mktemp(f"{name}-{uavs}")
+            # --endurance 0: each drone flies its whole route in one go (ArduCopter's timeline makes
+            # grid-city's longer than the default battery; sorties are tests/test_field_safety.py's).
             assert main(["plan", "--map", name, "--uavs", str(uavs), "--policy", "nn", "--out", str(out),
-                         "--quiet"]) == 0
+                         "--endurance", "0", "--quiet"]) == 0
             made[name, uavs] = out
         copy = tmp_path_factory.mktemp(f"{name}-{uavs}-flight")
         for path in made[name, uavs].iterdir():
@@ -125,7 +127,7 @@ def test_lost_packets_slow_the_flight_down_but_not_the_verdict(planned):
 def test_a_vehicle_that_reboots_in_flight_is_reported_and_the_others_finish(planned):
     plan_dir = planned("leonardo", 3)
     result, mock = _fly(plan_dir, "leonardo", reboot=(2, 8))
-    assert mock.vehicle(2).reboots == 1
+    assert mock.vehicle(2).reboots == 2  # once to configure its camera (start_mock_fleet), once in flight
     assert len(result.problems) == 1 and "uav2" in result.problems[0] and "rebooted" in result.problems[0]
     assert not result.ok
     by_id = {d["id"]: d for d in result.drones}

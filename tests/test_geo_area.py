@@ -1,6 +1,7 @@
 """build_grid_map: rasterising areas, obstacles and buildings into a GridMap."""
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -174,3 +175,15 @@ def test_vienna_osm_pbf_grid():
     same, _ = build_grid_map("vienna-osm", halves, [], blds, [], [VIENNA_STREET], altitude_for_cell(2.0), FOV)
     assert same.shape == gmap.shape and (same.obstacle == gmap.obstacle).mean() > 0.999
     assert gmap.target[gmap.launch[0]]
+
+
+def test_too_many_cells_names_an_altitude_that_fits():
+    area = shapely.box(7.650, 45.060, 7.652, 45.062)
+    alt = altitude_for_cell(5.0)
+    with pytest.raises(GeoError, match=r"fly higher, at (\d+) m or more") as error:
+        build_grid_map("e", area, [], [], [], [], alt, FOV, max_cells=100)
+    higher = float(re.search(r"at (\d+) m", str(error.value)).group(1))
+    gmap, _ = build_grid_map("e", area, [], [], [], [], higher, FOV, max_cells=100)
+    assert gmap.shape[0] * gmap.shape[1] <= 100
+    with pytest.raises(GeoError, match="fly higher"):  # and not much lower than needed
+        build_grid_map("e", area, [], [], [], [], 0.9 * higher, FOV, max_cells=100)

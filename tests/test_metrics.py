@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from missionplan.metrics import (SteadyStateSampler, compute_metrics, mean_distance_to_nearest,
+from missionplan.metrics import (SteadyStateSampler, compute_metrics, mdu_stride, mean_distance_to_nearest,
                                  mean_pairwise_distance, move_count, turn_sum)
 
 
@@ -20,9 +20,22 @@ def test_turns_weighted_half_for_90_and_one_for_180():
 
 def test_pairwise_and_nearest_distances():
     assert mean_pairwise_distance(np.array([[0, 0], [3, 4], [0, 4]])) == pytest.approx((5 + 4 + 3) / 3)
-    cells = np.array([[0, 0], [0, 10], [5, 5]])
+    cells = np.zeros((6, 11), dtype=bool)
+    cells[0, 0] = cells[0, 10] = cells[5, 5] = True
     drones = np.array([[0, 1], [0, 7]])
     assert mean_distance_to_nearest(cells, drones) == pytest.approx((1 + 3 + np.hypot(5, 2)) / 3)
+    # A drone outside the cells' grid still counts; no cell gives 0.
+    assert mean_distance_to_nearest(cells[:1, :1], np.array([[3, -4]])) == pytest.approx(5.0)
+    assert mean_distance_to_nearest(np.zeros((2, 2), dtype=bool), drones) == 0.0
+
+
+def test_mdu_on_every_stride_th_steady_step():
+    sampler = SteadyStateSampler(stride=3)
+    unexplored = np.ones((4, 4), dtype=bool)
+    for step in range(7):
+        sampler.observe(0.5, np.array([[0, 0], [step % 4, 3]]), unexplored)
+    assert len(sampler.mud) == 7 and len(sampler.mdu) == 3  # window steps 0, 3, 6
+    assert mdu_stride(15_714) == 1 and mdu_stride(20_001) == 2 and mdu_stride(400_000) == 40
 
 
 def test_run_metrics_by_hand():

@@ -1,7 +1,7 @@
 import numpy as np
-from scipy.sparse.csgraph import shortest_path
+from scipy.sparse.csgraph import breadth_first_order, shortest_path
 
-from missionplan.pathfinding import CONGESTION_RADIUS, astar, explorative_astar, find_goal
+from missionplan.pathfinding import CONGESTION_RADIUS, FlightSearch, astar, explorative_astar, find_goal
 from missionplan.zones import grid_graph
 
 
@@ -60,16 +60,59 @@ def test_find_goal_nearest_by_flight_and_anti_congestion():
     seen = np.zeros_like(free)
     seen[0, 4] = True  # 4 cells away as the crow flies, 20 moves around the wall
     seen[8, 1] = True  # 9 cells away, 9 moves
-    graph = grid_graph(free)
-    assert find_goal(graph, free.shape, (0, 0), seen, []) == (8, 1)
+    search = FlightSearch(free)
+    assert find_goal(search, (0, 0), seen, []) == (8, 1)
     start = (8, 10)
     seen2 = np.zeros_like(free)
     seen2[8, 12] = True
     seen2[8, 19] = True
-    assert find_goal(graph, free.shape, start, seen2, []) == (8, 12)
+    assert find_goal(search, start, seen2, []) == (8, 12)
     # Another drone already heads for (8, 13): (8, 12) is too close, take the next one.
-    assert find_goal(graph, free.shape, start, seen2, [(8, 13)]) == (8, 19)
+    assert find_goal(search, start, seen2, [(8, 13)]) == (8, 19)
     assert abs(19 - 13) > CONGESTION_RADIUS
     # Every candidate congested: still returns the nearest rather than nothing.
-    assert find_goal(graph, free.shape, start, seen2, [(8, 12), (8, 19)]) == (8, 12)
-    assert find_goal(graph, free.shape, start, np.zeros_like(free), []) is None
+    assert find_goal(search, start, seen2, [(8, 12), (8, 19)]) == (8, 12)
+    assert find_goal(search, start, np.zeros_like(free), []) is None
+
+
+def test_flight_search_rings_are_scipys_breadth_first_order():
+    """The ring-by-ring search meets cells in exactly the order of scipy's BFS on grid_graph,
+    so the goals find_goal picks are the ones the whole-grid search picked."""
+    rng = np.random.default_rng(3)
+    for trial in range(20):
+        free = rng.random((23, 31)) > 0.3
+        start = tuple(int(v) for v in np.argwhere(free)[rng.integers(free.sum())])
+        search = FlightSearch(free, pad=trial % 3 + 1)
+        rings = [search.cells(r) for r in search.rings(start)]
+        ours = np.concatenate([r[:, 0] * free.shape[1] + r[:, 1] for r in rings])
+        theirs = breadth_first_order(grid_graph(free), start[0] * free.shape[1] + start[1], directed=True,
+                                     return_predecessors=False)
+        assert np.array_equal(ours, theirs)
+        # Ring i holds exactly the cells at flight distance i.
+        dist = shortest_path(grid_graph(free), unweighted=True, indices=[ours[0]])[0]
+        for i, ring in enumerate(rings):
+            assert (dist[ring[:, 0] * free.shape[1] + ring[:, 1]] == i).all()
+
+
+def test_find_goal_with_rivals_and_a_seen_function():
+    """A drone helps only where it arrives first; the function form gives the mask form's answers."""
+    free = np.ones((10, 30), dtype=bool)
+    seen = np.zeros_like(free)
+    seen[5, 2] = seen[5, 27] = True
+    search = FlightSearch(free)
+    start = (5, 10)
+    rival = np.array([[5, 25]])
+    assert find_goal(search, start, seen, [], rivals=rival, rival_backlog=np.array([0.0])) == (5, 2)
+    # The rival is busy for 30 more steps, so (5, 27) is ours too; (5, 2) is congested by a goal at (5, 3).
+    assert find_goal(search, start, seen, [(5, 3)], rivals=rival, rival_backlog=np.array([30.0])) == (5, 27)
+    seen[5, 2] = False
+    assert find_goal(search, start, seen, [], rivals=rival, rival_backlog=np.array([0.0])) is None
+    def seen_flat(flat):
+        cells = search.cells(flat)
+        return seen[cells[:, 0], cells[:, 1]]
+
+    as_function = find_goal(search, start, seen_flat, [], rivals=rival, rival_backlog=np.array([30.0]),
+                            seen_count=int(seen.sum()), seen_cells=np.argwhere(seen))
+    assert as_function == (5, 27)
+    assert find_goal(search, start, seen_flat, [], excluded={(5, 27)}, seen_count=1) is None
+    assert find_goal(search, start, seen_flat, [], seen_count=1) == (5, 27)

@@ -104,3 +104,30 @@ def test_expert_runs_straight_down_a_street_and_never_into_a_wall():
         world.step([action])
     assert moves.count(RIGHT) == 10
     assert HOVER not in moves and DOWN not in moves
+
+
+def test_progress_bar_shows_coverage_and_time_left(capsys):
+    gmap = corridor_map()
+    world = CoverageWorld(gmap, [(4, 2)])
+    run = Planner(world, ExpertPolicy(), progress=True).run()
+    assert run.success
+    shown = capsys.readouterr().err
+    assert "% covered" in shown and "ETA" in shown and "cells" in shown
+
+
+def test_expert_scores_a_batch_as_it_scores_each_drone_alone():
+    """Batching the drones of a step must not mix their views, visits or memories."""
+    obstacle = np.zeros((40, 50), dtype=bool)
+    obstacle[10:14, 5:45] = True
+    gmap = GridMap("batch", obstacle, ~obstacle, [])
+    zone = np.where(np.arange(50)[None, :] < 25, 0, 1) * np.ones((40, 1), dtype=np.int64)
+    zone[20:, :] += 2
+    world = CoverageWorld(gmap, [(2, 2), (2, 47), (30, 3), (30, 46)], zone)
+    expert = ExpertPolicy()
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        world.step(rng.integers(-1, 4, size=4))
+    together = expert.action_scores(world, [0, 1, 2, 3])
+    alone = np.vstack([expert.action_scores(world, [k]) for k in range(4)])
+    assert np.array_equal(together, alone)
+    assert np.isfinite(together).any(axis=1).all()

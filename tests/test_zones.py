@@ -1,7 +1,10 @@
 import numpy as np
 import pytest
+from scipy import ndimage
+from scipy.sparse.csgraph import shortest_path
 
-from missionplan.zones import split_zones
+from missionplan import zones
+from missionplan.zones import balanced_by_passes, grid_graph, nearest_seed, split_zones
 
 
 def two_banks(rows=40, cols=60):
@@ -52,3 +55,58 @@ def test_unknown_method():
     free = np.ones((4, 4), dtype=bool)
     with pytest.raises(ValueError, match="unknown zone method"):
         split_zones(free, free, [(0, 0), (3, 3)], "manhattan")
+
+
+def test_nearest_seed_is_argmin_of_per_seed_distances_with_lowest_index_ties():
+    """One multi-source search gives what K single-source searches and an argmin gave."""
+    rng = np.random.default_rng(5)
+    for trial in range(10):
+        free = rng.random((25, 33)) > 0.25
+        cells = np.argwhere(free)
+        seeds = cells[rng.choice(len(cells), size=5)]
+        seeds[4] = seeds[1]  # a shared cell: the lower index keeps it
+        levels = rng.integers(0, 6, size=5) if trial % 2 else np.zeros(5, dtype=np.int64)
+        label, dist = nearest_seed(free, seeds, levels)
+        field = shortest_path(grid_graph(free), unweighted=True, indices=seeds[:, 0] * 33 + seeds[:, 1])
+        weighted = field + levels[:, None]
+        best = weighted.min(axis=0).reshape(free.shape)
+        expected = np.where(np.isfinite(best), np.argmin(weighted, axis=0).reshape(free.shape), -1)
+        assert np.array_equal(label, expected)
+        assert np.array_equal(dist, np.where(np.isfinite(best), best, -1))
+
+
+@pytest.mark.parametrize("blocks", [False, True])
+def test_balancing_by_passes_evens_zones_and_keeps_them_connected(blocks, monkeypatch):
+    if blocks:  # the rounds on 2 x 2 blocks that grids past COARSE_BALANCE_CELLS get
+        monkeypatch.setattr(zones, "COARSE_BALANCE_CELLS", 1000)
+    free = np.ones((60, 90), dtype=bool)
+    free[20:23, 10:80] = False  # a long block
+    starts = np.array([[5, 5], [15, 60], [59, 89], [30, 45]])  # plain Voronoi sizes 703 to 2045
+    zone = np.full(free.shape, -1)
+    zone[free] = balanced_by_passes(free, free, starts)
+    sizes = np.bincount(zone[free], minlength=4)
+    plain = np.bincount(nearest_seed(free, starts)[0][free], minlength=4)
+    assert np.ptp(sizes) < np.ptp(plain)  # more even than the plain Voronoi
+    assert np.abs(sizes - free.sum() / 4).max() <= 0.05 * free.sum() / 4
+    for k in range(4):
+        assert ndimage.label(zone == k)[1] == 1  # one piece each
+
+
+def test_lloyd_stops_when_snapped_centroids_cycle(monkeypatch):
+    """Centroids that come back to an earlier state would cycle until MAX_LLOYD_ITERATIONS
+    (the 1024 x 1024 bench city did, in a 2-cycle): Lloyd stops at the repeat instead."""
+    free = np.ones((20, 20), dtype=bool)
+    calls = []
+
+    def alternating(free_cells, seeds, start_levels=None):  # nearest centroid flips every call
+        calls.append(1)
+        label = np.zeros(free_cells.shape, dtype=np.int32)
+        label[:, 10:] = 1
+        if len(calls) % 2 == 0:
+            label[:10, :] = 1 - label[:10, :]
+        return label, np.zeros(free_cells.shape, dtype=np.int32)
+
+    monkeypatch.setattr(zones, "nearest_seed", alternating)
+    z = split_zones(free, free, [(0, 0), (19, 19)], "geodesic", balance=False)
+    assert z.iterations <= 4
+    assert z.iterations < zones.MAX_LLOYD_ITERATIONS

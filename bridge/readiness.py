@@ -1,0 +1,285 @@
+"""Before a vehicle flies: its telemetry streams, its readiness, its launch site, arming, a safe stop.
+
+Owns, for one vehicle on a link (a Link or a bridge.shared_link.VehicleLink):
+- request_streams: ArduPilot sends nothing beyond HEARTBEAT until asked (all MAVn_* stream rates are
+  0), so every message the ground station reads is asked for by MAV_CMD_SET_MESSAGE_INTERVAL:
+  SYS_STATUS, GPS_RAW_INT, EKF_STATUS_REPORT, HOME_POSITION (readiness), GLOBAL_POSITION_INT and
+  MISSION_CURRENT (following the flight). MISSION_ITEM_REACHED, STATUSTEXT and CAMERA_FEEDBACK are
+  events, sent without asking;
+- VehicleState: what those messages say (GPS fix, EKF flags, home, pre-arm checks, armed, mode) and
+  the vehicle's own STATUSTEXT reasons;
+- wait_ready: until the vehicle has a 3-D GPS fix, a home position, (ArduPilot) an EKF with attitude,
+  velocity and absolute position, and (when it reports them) passing pre-arm checks; bounded, with
+  a line each time what it waits for changes. ArduCopter SITL needs 35-40 simulated seconds;
+- launch_offset_m / site_problem: how far the vehicle's home is from the plan's launch point
+  (plannedHomePosition): a plan for another site, or two vehicles with swapped system ids;
+- arm: COMPONENT_ARM_DISARM, retried while the vehicle refuses with TEMPORARILY_REJECTED or FAILED
+  (ArduPilot's answer while a pre-arm check still fails), with the reasons it gave;
+- make_safe: a vehicle that will not fly is left disarmed and out of AUTO, and we say how it was left.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from .link import VehicleInfo
+from .mission import Flavour
+
+CMD_ARM, CMD_DO_SET_MODE, CMD_SET_MESSAGE_INTERVAL, CMD_REQUEST_MESSAGE = 400, 176, 511, 512
+MSG_SYS_STATUS, MSG_GPS_RAW_INT, MSG_GLOBAL_POSITION_INT, MSG_MISSION_CURRENT = 1, 24, 33, 42
+MSG_EKF_STATUS_REPORT, MSG_HOME_POSITION = 193, 242
+MAV_RESULT_ACCEPTED, MAV_RESULT_TEMPORARILY_REJECTED, MAV_RESULT_FAILED = 0, 1, 4
+MODE_FLAG_ARMED = 128
+GPS_FIX_3D = 3
+SENSOR_PREARM_CHECK = 0x1000_0000  # MAV_SYS_STATUS_PREARM_CHECK: set in health when pre-arm checks pass
+# EKF_STATUS_REPORT flags an ArduPilot EKF needs before it can fly a mission: attitude, horizontal
+# and vertical velocity, absolute horizontal and vertical position; and not in constant-position
+# mode (no GPS yet) nor uninitialised.
+EKF_NEEDED = 1 | 2 | 4 | 16 | 32
+EKF_BAD = 128 | 1024
+ARDUPILOT_MODE_NAMES = {0: "STABILIZE", 2: "ALT_HOLD", 3: "AUTO", 4: "GUIDED", 5: "LOITER", 6: "RTL", 9: "LAND"}
+ARDUPILOT_AUTO, ARDUPILOT_LOITER = 3, 5
+PX4_AUTO_MAIN, PX4_LOITER_SUB, PX4_MISSION_SUB = 4, 3, 4
+EARTH_RADIUS_M = 6_378_137.0
+DEFAULT_LAUNCH_OFFSET_M = 5.0  # plus the GPS's own horizontal error
+ARM_RETRY_S = 1.0
+HOME_ASK_S = 2.0   # re-ask for HOME_POSITION this often while it is unknown
+READY_RATES_HZ = {MSG_SYS_STATUS: 1.0, MSG_GPS_RAW_INT: 1.0, MSG_EKF_STATUS_REPORT: 1.0, MSG_HOME_POSITION: 0.5,
+                  MSG_MISSION_CURRENT: 2.0}
+STREAM_NAMES = {MSG_SYS_STATUS: "SYS_STATUS", MSG_GPS_RAW_INT: "GPS_RAW_INT", MSG_GLOBAL_POSITION_INT:
+                "GLOBAL_POSITION_INT", MSG_MISSION_CURRENT: "MISSION_CURRENT",
+                MSG_EKF_STATUS_REPORT: "EKF_STATUS_REPORT", MSG_HOME_POSITION: "HOME_POSITION"}
+TEXTS_KEPT = 20
+
+Say = Callable[[str], None]
+
+
+def stream_rates(telemetry_hz: float) -> dict[int, float]:
+    """Every stream fly reads, in Hz: readiness and progress at low rates, positions at telemetry_hz."""
+    return {**READY_RATES_HZ, MSG_GLOBAL_POSITION_INT: float(telemetry_hz)}
+
+
+def request_streams(link: Any, sysid: int, rates_hz: dict[int, float], deadline: float,
+                    other: Callable[[Any], Any] | None = None) -> list[str]:
+    """SET_MESSAGE_INTERVAL for each message id; the names of the streams the vehicle did not accept.
+    The vehicle's other messages meanwhile go to `other` (the first of each stream among them)."""
+    refused: list[str] = []
+    for msgid, hz in rates_hz.items():
+        result = link.command_long(sysid, CMD_SET_MESSAGE_INTERVAL, [float(msgid), 1e6 / hz], deadline, other=other)
+        if result != MAV_RESULT_ACCEPTED:
+            refused.append(STREAM_NAMES.get(msgid, str(msgid)))
+    return refused
+
+
+@dataclass
+class VehicleState:
+    """What one vehicle's telemetry says about its readiness (None: not heard yet)."""
+
+    flavour: Flavour
+    fix_type: int | None = None
+    satellites: int | None = None
+    h_acc_m: float | None = None      # GPS horizontal accuracy, when the receiver reports one
+    ekf_flags: int | None = None
+    home: tuple[float, float, float] | None = None  # lat, lon, alt AMSL (m)
+    prearm_ok: bool | None = None     # None: the vehicle does not report its pre-arm checks
+    armed: bool | None = None
+    custom_mode: int | None = None
+    base_mode: int = 0
+    texts: list[str] = field(default_factory=list)  # STATUSTEXT, oldest first
+    new_texts: list[str] = field(default_factory=list)  # not yet said
+
+    def take(self, msg: Any) -> None:
+        kind = msg.get_type()
+        if kind == "GPS_RAW_INT":
+            self.fix_type, self.satellites = int(msg.fix_type), int(msg.satellites_visible)
+            h_acc = int(getattr(msg, "h_acc", 0) or 0)  # mm; 0 when not reported
+            self.h_acc_m = h_acc / 1000.0 if h_acc > 0 else None
+        elif kind == "EKF_STATUS_REPORT":
+            self.ekf_flags = int(msg.flags)
+        elif kind == "HOME_POSITION":
+            if msg.latitude or msg.longitude:
+                self.home = (msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1000.0)
+        elif kind == "SYS_STATUS":
+            if msg.onboard_control_sensors_present & SENSOR_PREARM_CHECK:
+                self.prearm_ok = bool(msg.onboard_control_sensors_health & SENSOR_PREARM_CHECK)
+        elif kind == "HEARTBEAT" and msg.type != 6:
+            self.base_mode = int(msg.base_mode)
+            self.armed = bool(msg.base_mode & MODE_FLAG_ARMED)
+            self.custom_mode = int(msg.custom_mode)
+        elif kind == "STATUSTEXT":
+            text = str(msg.text).rstrip("\x00").strip()
+            if text:
+                self.texts = (self.texts + [text])[-TEXTS_KEPT:]
+                self.new_texts.append(text)
+
+    @property
+    def ekf_ok(self) -> bool:
+        flags = self.ekf_flags
+        return flags is not None and flags & EKF_NEEDED == EKF_NEEDED and not flags & EKF_BAD
+
+    def missing(self) -> list[str]:
+        """What the vehicle still lacks before it can fly, in words ([] when ready)."""
+        out: list[str] = []
+        if self.fix_type is None:
+            out.append("GPS (no GPS_RAW_INT yet)")
+        elif self.fix_type < GPS_FIX_3D:
+            out.append(f"a 3-D GPS fix (fix type {self.fix_type}, {self.satellites} satellites)")
+        if self.flavour is Flavour.ARDUPILOT and not self.ekf_ok:
+            out.append("the EKF (no EKF_STATUS_REPORT yet)" if self.ekf_flags is None
+                       else f"the EKF (flags 0x{self.ekf_flags:04x})")
+        if self.home is None:
+            out.append("a home position")
+        if self.prearm_ok is False:
+            out.append("its pre-arm checks")
+        return out
+
+    def reasons(self, last: int = 3) -> str:
+        """The vehicle's latest distinct STATUSTEXT lines, for a message."""
+        seen: list[str] = []
+        for text in reversed(self.texts):
+            if text not in seen:
+                seen.append(text)
+            if len(seen) == last:
+                break
+        return "; ".join(reversed(seen))
+
+    def mode_name(self) -> str:
+        if self.custom_mode is None:
+            return "an unknown mode"
+        if self.flavour is Flavour.ARDUPILOT:
+            return ARDUPILOT_MODE_NAMES.get(self.custom_mode, f"mode {self.custom_mode}")
+        main, sub = (self.custom_mode >> 16) & 0xFF, (self.custom_mode >> 24) & 0xFF
+        if main == PX4_AUTO_MAIN:
+            return {PX4_LOITER_SUB: "HOLD", PX4_MISSION_SUB: "MISSION"}.get(sub, f"AUTO sub-mode {sub}")
+        return f"mode {main}.{sub}"
+
+    @property
+    def in_auto(self) -> bool:
+        if self.custom_mode is None:
+            return False
+        if self.flavour is Flavour.ARDUPILOT:
+            return self.custom_mode == ARDUPILOT_AUTO
+        return (self.custom_mode >> 16) & 0xFF == PX4_AUTO_MAIN and (self.custom_mode >> 24) & 0xFF == PX4_MISSION_SUB
+
+
+class Vehicle:
+    """Readiness, arming and the safe stop of one vehicle. `take` may be chained to record telemetry
+    that arrives meanwhile (fly keeps the first positions)."""
+
+    def __init__(self, link: Any, info: VehicleInfo, say: Say | None = None,
+                 also: Callable[[Any], None] | None = None) -> None:
+        self.link, self.info = link, info
+        self.sysid = info.sysid
+        self.state = VehicleState(info.flavour)
+        self.say = say or (lambda text: None)
+        self.also = also
+
+    def take(self, msg: Any) -> None:
+        if msg.get_srcSystem() != self.sysid:
+            return
+        self.state.take(msg)
+        for text in self.state.new_texts:
+            self.say(f"uav{self.sysid} says: {text}")
+        self.state.new_texts.clear()
+        if self.also is not None:
+            self.also(msg)
+
+    def _pump(self, until: float) -> None:
+        while (msg := self.link.recv(until)) is not None:
+            self.take(msg)
+
+    def _ask_home(self) -> None:
+        self.link.mav.command_long_send(self.sysid, self.info.compid, CMD_REQUEST_MESSAGE, 0,
+                                        float(MSG_HOME_POSITION), 0, 0, 0, 0, 0, 0)
+
+    def wait_ready(self, deadline: float) -> list[str]:
+        """Until ready or deadline: [] when ready, else what is still missing. Says what it waits for
+        each time that changes."""
+        said: list[str] | None = None
+        next_ask = 0.0
+        start = time.monotonic()
+        while True:
+            missing = self.state.missing()
+            if missing != said:
+                said = missing
+                if missing:
+                    self.say(f"uav{self.sysid}: waiting for {', '.join(missing)}")
+            if not missing:
+                self.say(f"uav{self.sysid}: ready after {time.monotonic() - start:.1f} s")
+                return []
+            now = time.monotonic()
+            if now >= deadline:
+                return missing
+            if self.state.home is None and now >= next_ask:
+                self._ask_home()  # a vehicle that streams no HOME_POSITION sends it when asked
+                next_ask = now + HOME_ASK_S
+            self._pump(min(deadline, now + 0.25))
+
+    def arm(self, deadline: float) -> tuple[bool, str]:
+        """Arm, retrying while the vehicle says it is not ready yet (TEMPORARILY_REJECTED / FAILED, or
+        no answer); (armed, why not)."""
+        last: int | None = None
+        tries = 0
+        while True:
+            tries += 1
+            result = self.link.command_long(self.sysid, CMD_ARM, [1.0], deadline, other=self.take)
+            if result == MAV_RESULT_ACCEPTED:
+                return True, ""
+            last = result
+            if result not in (None, MAV_RESULT_TEMPORARILY_REJECTED, MAV_RESULT_FAILED):
+                break  # DENIED / UNSUPPORTED: asking again will not help
+            if time.monotonic() + ARM_RETRY_S >= deadline:
+                break
+            self._pump(time.monotonic() + ARM_RETRY_S)
+        what = "not acknowledged" if last is None else f"refused (MAV_RESULT {last})"
+        reasons = self.state.reasons()
+        return False, f"arming {what} after {tries} tries" + (f"; the vehicle said: {reasons}" if reasons else "")
+
+    def make_safe(self, deadline: float) -> str:
+        """Disarm if armed, leave AUTO if in it; how the vehicle was left, as its last heartbeat says."""
+        if self.state.armed:
+            self.link.command_long(self.sysid, CMD_ARM, [0.0], deadline, other=self.take)
+        if self.state.in_auto:
+            if self.info.flavour is Flavour.ARDUPILOT:
+                params = [1.0, float(ARDUPILOT_LOITER)]
+            else:
+                params = [1.0, float(PX4_AUTO_MAIN), float(PX4_LOITER_SUB)]
+            self.link.command_long(self.sysid, CMD_DO_SET_MODE, params, deadline, other=self.take)
+        # The heartbeat after the commands says what really holds.
+        until = min(deadline, time.monotonic() + 1.5)
+        while (msg := self.link.recv(until)) is not None:
+            self.take(msg)
+            if msg.get_type() == "HEARTBEAT":
+                break
+        armed = {True: "ARMED", False: "disarmed", None: "in an unknown arming state"}[self.state.armed]
+        return f"left {armed} in {self.state.mode_name()}, not flown"
+
+
+def launch_offset_m(home: tuple[float, float], planned: tuple[float, float]) -> float:
+    """Great-circle distance in metres between the vehicle's home and the plan's launch point."""
+    lat1, lon1, lat2, lon2 = map(math.radians, (home[0], home[1], planned[0], planned[1]))
+    a = math.sin((lat2 - lat1) / 2) ** 2 + math.cos(lat1) * math.cos(lat2) * math.sin((lon2 - lon1) / 2) ** 2
+    return 2 * EARTH_RADIUS_M * math.asin(min(1.0, math.sqrt(a)))
+
+
+def site_problem(state: VehicleState, planned: tuple[float, float] | None, max_offset_m: float) -> str:
+    """'' when the vehicle's home is within max_offset_m (plus its GPS's reported error) of the plan's
+    launch point; else one phrase naming the distance."""
+    if planned is None:
+        return ""
+    if state.home is None:
+        return "no home position to compare with the plan's launch point"
+    gps_error = state.h_acc_m or 0.0
+    allowed = max_offset_m + gps_error
+    offset = launch_offset_m(state.home[:2], planned)
+    if offset <= allowed:
+        return ""
+    far = f"{offset / 1000:.1f} km" if offset >= 10_000 else f"{offset:.1f} m"
+    return (f"its home ({state.home[0]:.6f}, {state.home[1]:.6f}) is {far} from the plan's launch point "
+            f"({planned[0]:.6f}, {planned[1]:.6f}); allowed {max_offset_m:g} m"
+            + (f" + {gps_error:.1f} m GPS error" if gps_error else "")
+            + ": a plan for another site, or swapped system ids?")
