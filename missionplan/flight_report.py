@@ -239,11 +239,12 @@ def vehicle_rate(samples: np.ndarray) -> float | None:
     return slope if slope > 0 else None
 
 
-def vehicle_clock(samples: np.ndarray) -> np.ndarray:
+def vehicle_clock(samples: np.ndarray, scale: float = 1.0) -> np.ndarray:
     """When each sample was taken, on our clock: the vehicle's own time stamps (free of our threads'
     scheduling jitter), at the vehicle's clock rate (a sped-up simulator's clock runs faster), shifted
-    by the smallest arrival delay seen, the usual one-way clock sync."""
-    rate = vehicle_rate(samples) or 1.0
+    by the smallest arrival delay seen, the usual one-way clock sync. A record too short to fit the
+    rate (a short flight at a high speed-up) runs at `scale`, the fleet's time scale."""
+    rate = vehicle_rate(samples) or scale
     if abs(rate - 1.0) < REAL_TIME_TOLERANCE:
         rate = 1.0  # a real-time clock: take its stamps as they are
     ours = samples[:, 5] / rate
@@ -389,7 +390,7 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
         samples = np.array(rec.samples) if rec.samples else np.zeros((0, 7))
         tracks_m[rec.id] = to_grid_m(frame, samples[:, 1], samples[:, 2])
         if len(samples):
-            timed[rec.id] = np.column_stack([vehicle_clock(samples), tracks_m[rec.id], samples[:, 3]])
+            timed[rec.id] = np.column_stack([vehicle_clock(samples, scale), tracks_m[rec.id], samples[:, 3]])
             climbing = np.flatnonzero((samples[:, 3] > 0.05) & (samples[:, 6] > 0.1))
             if len(climbing):  # back from the first sample in the climb, at the climb rate it reported
                 first = climbing[0]

@@ -209,6 +209,17 @@ def test_vehicle_clock_shifts_by_the_smallest_arrival_delay() -> None:
     np.testing.assert_allclose(fr.vehicle_clock(samples), boot + 500.02, atol=1e-9)
 
 
+def test_a_record_too_short_to_fit_the_rate_runs_at_the_fleets_time_scale() -> None:
+    # 1.6 s of our time at 50x (a short flight): too short to fit the clock's rate. Taken as real time,
+    # its take-off landed 80 s of our time early and the fleet's start spread read 3872 s.
+    boot = np.arange(0.0, 80.0, 1.0)
+    samples = np.zeros((len(boot), 6))
+    samples[:, 0] = 700.0 + boot / 50.0 + 0.01
+    samples[:, 5] = boot
+    assert fr.vehicle_rate(samples) is None
+    np.testing.assert_allclose(fr.vehicle_clock(samples, 50.0), 700.0 + boot / 50.0 + 0.01, atol=1e-9)
+
+
 def test_flown_seconds_are_the_vehicles_own_from_start_to_end() -> None:
     # A loaded machine: SITL asked for 10x ran at about 6x; the vehicle's clock says 120 s were flown.
     rec = DroneRecord(id=1, t_start=100.0, t_end=120.0)
