@@ -243,7 +243,7 @@ def configure_camera_and_wait_ready(vehicle: ArduCopter, timeout: float = 240.0)
     """What a team does once before flying: CAM1_TYPE = 1 (a relay-triggered camera; without one
     ArduCopter sends no CAMERA_FEEDBACK) and a reboot for it to take effect; then wait, with a bound,
     until the vehicle arms (its EKF has a GPS fix after ~35-40 simulated seconds), and disarm.
-    Until `fly` waits for readiness itself (issue 12, the other half), the tests do it here."""
+    (`fly` waits for readiness itself too; waiting here keeps the flight's own wait short.)"""
     from bridge.link import Link, wait_vehicle
     from bridge.params import ParamClient
 
