@@ -1,71 +1,186 @@
-"""Plan, upload and fly shipped maps against in-process mock autopilots; print one row per flight.
+"""Plan, upload and fly shipped maps and Turin street plans against mock autopilots and ArduCopter SITL;
+print one row per flight.
 
-Run by hand: `.venv/bin/python bench/fly_bench.py [--maps leonardo,grid-city] [--uavs 3,5,6] [--policy nn]`.
+Run by hand: `.venv/bin/python bench/fly_bench.py [--maps leonardo,grid-city] [--uavs 3,5,6]
+[--streets block,cenisia] [--sitl] [--policy nn]`.
 Each row: the flown coverage (our rule, and the stricter whole-cell rule), the closest approach of two
-drones against the plan's promise, simulated flight time against the plan's, photos, and wall time
-of the flight (upload, verify, fly, judge) at the speed-up used.
+drones against the plan's promise, flight time (the longest drone's, on the vehicles' own clock:
+simulated seconds) against the plan's, the worst drone's gap between flown and planned time, photos,
+and wall time of the flight (upload, verify, fly, judge).
+
+Mock rows fly the whole fleet at once against in-process SITL-like mock autopilots (ArduCopter's flight
+model, cameras configured). SITL rows (`--sitl`, needs ../shared/sitl/arducopter) fly each drone on its
+own ArduCopter SITL at 10x, one after the other (its camera configured once: CAM1_TYPE = 1 and a reboot),
+then judge the drones together with their recordings aligned at their mission starts, as the plan's
+separation assumes they start: coverage from all drones' CAMERA_FEEDBACK, the flown closest approach
+against the promise. Street plans read the Turin map in place from ../shared/maps.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import copy
 import io
 import json
+import shutil
 import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "sitl_tests"))
 
+import missionplan.fly as fly_module  # noqa: E402
 from missionplan.cli import main  # noqa: E402
-from missionplan.fly import fly, start_mock_fleet  # noqa: E402
+from missionplan.flight_report import judge  # noqa: E402
+from missionplan.fly import fly, flight_view, start_mock_fleet  # noqa: E402
 
 SPEEDUP = {"leonardo": 2.0}  # a 20 x 10 m arena; the street maps are hundreds of metres: 50x
 DEFAULT_SPEEDUP = 50.0
 TELEMETRY_HZ = 50.0
+SITL_TELEMETRY_HZ = 10.0  # wall Hz at 10x: one position per simulated second
+OSM = ROOT.parent / "shared" / "maps" / "turin_cenisia_osm_buildings.geojson"
+# Street plans at 20 m over Turin's Cenisia district (README): a block for one drone and for three, the
+# district for four.
+STREETS: dict[str, tuple[list[list[float]], list[str]]] = {
+    "block": ([[7.652188, 45.069850], [7.654088, 45.069850], [7.654088, 45.068250], [7.652188, 45.068250]],
+              ["45.069450,7.652588"]),
+    # The same block for three drones, launched from street points of the one-drone plan: close neighbours.
+    "block3": ([[7.652188, 45.069850], [7.654088, 45.069850], [7.654088, 45.068250], [7.652188, 45.068250]],
+               ["45.069441,7.652592", "45.068404,7.653226", "45.069302,7.653053"]),
+    "cenisia": ([[7.65189, 45.06563], [7.65861, 45.06563], [7.65861, 45.07000], [7.65189, 45.07000]],
+                ["45.069450,7.652588", "45.069513,7.657924", "45.066065,7.652668", "45.066127,7.658004"]),
+}
+HEADER = (f"{'vehicle':<16}{'plan':<11}{'A':>3}{'targets':>9}{'cover %':>9}{'whole %':>9}{'sep 3d m':>10}"
+          f"{'promised':>10}{'tol m':>7}{'flight s':>10}{'planned':>9}{'worst':>8}{'photos':>8}{'wall s':>8}")
+
+
+def _plan(out: Path, name: str, uavs: int, policy: str) -> bool:
+    if name in STREETS:
+        corners, launches = STREETS[name]
+        area = out / "area.geojson"
+        out.mkdir(parents=True, exist_ok=True)
+        area.write_text(json.dumps({"type": "Feature", "properties": {"name": name},
+                                    "geometry": {"type": "Polygon", "coordinates": [corners + corners[:1]]}}))
+        argv = ["plan", "--area", str(area), "--osm", str(OSM), "--altitude", "20", "--fov", "84",
+                "--policy", policy, "--out", str(out / "plan"), "--quiet"]
+        for launch in launches[:uavs]:
+            argv += ["--launch", launch]
+    else:
+        argv = ["plan", "--map", name, "--uavs", str(uavs), "--policy", policy, "--out", str(out / "plan"), "--quiet"]
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):  # the table only
+        return main(argv) == 0
+
+
+def _row(vehicle: str, name: str, uavs: int, plan_dir: Path, problems: list[str], wall: float) -> str:
+    doc = json.loads((plan_dir / "flight.json").read_text())
+    sep = doc["min_separation_m"]
+    drones = doc["drones"]
+    flight = max(d["flight_s"] for d in drones)
+    planned = max(d["planned_flight_s"] for d in drones)
+    worst = max(abs(d["flight_s"] - d["planned_flight_s"]) / max(d["flight_s"], 1e-9) for d in drones)
+    photos = sum(d["photos"] for d in drones)
+
+    def metres(value: Any) -> str:
+        return f"{value:.2f}" if value is not None else "-"
+
+    sorties = max(len(d.get("sorties") or [1]) for d in json.loads((plan_dir / "report.json").read_text())["drones"])
+    note = "" if sorties == 1 else f"  (sortie 1 of {sorties})"
+    note += "" if not problems else "  " + "; ".join(problems)
+    return (f"{vehicle:<16}{name:<11}{uavs:>3}{doc['targets']:>9}{doc['coverage']:>9.2f}"
+            f"{doc['coverage_other_rules']['whole_cell']:>9.2f}{metres(sep['3d']):>10}{metres(sep['planned_3d']):>10}"
+            f"{sep['tolerance']:>7.2f}{flight:>10.1f}{planned:>9.1f}{100 * worst:>7.1f}%{photos:>8}{wall:>8.1f}{note}")
+
+
+def mock_row(name: str, uavs: int, plan_dir: Path) -> str:
+    speedup = SPEEDUP.get(name, DEFAULT_SPEEDUP)
+    mock = start_mock_fleet(plan_dir, speedup)
+    start = time.monotonic()
+    try:
+        result = fly(plan_dir, mock.client_url, timeout_s=1800, progress=False, time_scale=speedup,
+                     telemetry_hz=TELEMETRY_HZ)
+    finally:
+        mock.stop()
+    return _row(f"mock {speedup:g}x", name, uavs, plan_dir, result.problems, time.monotonic() - start)
+
+
+def _shifted(rec: Any, by: float) -> Any:
+    """The record with every time on our clock moved by `by` (the vehicle's own stamps unchanged)."""
+    out = copy.deepcopy(rec)
+    out.samples = [(s[0] + by, *s[1:]) for s in rec.samples]
+    out.reached = [(t + by, seq) for t, seq in rec.reached]
+    out.camera = {k: (v[0] + by, *v[1:]) for k, v in rec.camera.items()}
+    out.t_start = None if rec.t_start is None else rec.t_start + by
+    out.t_end = None if rec.t_end is None else rec.t_end + by
+    out.last_heard += by
+    return out
+
+
+def sitl_row(name: str, uavs: int, plan_dir: Path) -> str:
+    from arducopter import ArduCopter, configure_camera_and_wait_ready
+
+    from bridge.missionfile import read_mission_file
+
+    report = json.loads((plan_dir / "report.json").read_text())
+    records: list[Any] = []
+    wall = 0.0
+    for drone in report["drones"]:
+        # A plan folder with this drone alone; its recordings are kept for the judgement together.
+        single = plan_dir.parent / f"single-{drone['id']}"
+        shutil.copytree(plan_dir, single, dirs_exist_ok=True)
+        (single / "report.json").write_text(json.dumps({**report, "drones": [drone]}))
+        kept: list[Any] = []
+        original = fly_module.judge
+
+        def keep(*args: Any, **kwargs: Any) -> Any:
+            kept.extend(args[2])
+            return original(*args, **kwargs)
+
+        home = read_mission_file(single / f"uav{drone['id']}.plan").mission.home
+        fly_module.judge = keep
+        try:
+            with ArduCopter(sysid=drone["id"], home=(home[0], home[1], 240.0, 0.0)) as vehicle:
+                configure_camera_and_wait_ready(vehicle)
+                start = time.monotonic()
+                fly(single, vehicle.url, timeout_s=1800, progress=False, time_scale=vehicle.speedup,
+                    telemetry_hz=SITL_TELEMETRY_HZ)
+                wall += time.monotonic() - start
+        finally:
+            fly_module.judge = original
+        records.append(_shifted(kept[0], -kept[0].t_start if kept[0].t_start is not None else 0.0))
+    # Judged as fly judges sortie 1 of the whole fleet (a long plan flies in battery sorties).
+    view = flight_view(plan_dir, report, 1)
+    result = judge(plan_dir, view, records, 10.0, wall_s=wall, telemetry_hz=SITL_TELEMETRY_HZ)
+    return _row("ArduCopter SITL", name, uavs, plan_dir, result.problems, wall)
 
 
 def main_bench() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--maps", default="leonardo,grid-city,old-town,river-city")
-    parser.add_argument("--uavs", default="3,5,6")
+    parser.add_argument("--maps", default="leonardo,grid-city,old-town,river-city", help="shipped maps ('' for none)")
+    parser.add_argument("--uavs", default="3,5,6", help="drones per shipped map")
+    parser.add_argument("--streets", default="block,block3,cenisia", help=f"street plans ({', '.join(STREETS)}; '' for none)")
+    parser.add_argument("--sitl", action="store_true", help="also fly the street plans on ArduCopter SITL")
     parser.add_argument("--policy", default="nn", choices=("nn", "expert"))
     args = parser.parse_args()
-    header = (f"{'map':<11}{'A':>3}{'targets':>9}{'cover %':>9}{'whole %':>9}{'sep 3d m':>10}{'promised':>10}"
-              f"{'tol m':>7}{'flight s':>10}{'planned':>9}{'photos':>8}{'wall s':>8}{'speed-up':>9}")
-    print(header)
-    print("-" * len(header))
-    for name in args.maps.split(","):
-        for uavs in (int(u) for u in args.uavs.split(",")):
-            with tempfile.TemporaryDirectory() as tmp:
-                out = Path(tmp)
-                with contextlib.redirect_stdout(io.StringIO()):  # the table only
-                    status = main(["plan", "--map", name, "--uavs", str(uavs), "--policy", args.policy,
-                                   "--out", str(out), "--quiet"])
-                if status != 0:
-                    print(f"{name:<11}{uavs:>3}  plan failed")
-                    continue
-                speedup = SPEEDUP.get(name, DEFAULT_SPEEDUP)
-                mock = start_mock_fleet(out, speedup)
-                start = time.monotonic()
-                try:
-                    result = fly(out, mock.client_url, timeout_s=900, progress=False, time_scale=speedup,
-                                 telemetry_hz=TELEMETRY_HZ)
-                finally:
-                    mock.stop()
-                wall = time.monotonic() - start
-                doc = json.loads((out / "flight.json").read_text())
-                sep = doc["min_separation_m"]
-                flight = max(d["flight_s"] for d in doc["drones"])
-                planned = max(d["planned_flight_s"] for d in doc["drones"])
-                photos = sum(d["photos"] for d in doc["drones"])
-                note = "" if not result.problems else "  " + "; ".join(result.problems)
-                print(f"{name:<11}{uavs:>3}{doc['targets']:>9}{doc['coverage']:>9.2f}"
-                      f"{doc['coverage_other_rules']['whole_cell']:>9.2f}{sep['3d']:>10.2f}{sep['planned_3d']:>10.2f}"
-                      f"{sep['tolerance']:>7.2f}{flight:>10.1f}{planned:>9.1f}{photos:>8}{wall:>8.1f}{speedup:>8g}x"
-                      f"{note}", flush=True)
+    print(HEADER)
+    print("-" * len(HEADER))
+    jobs = [(name, int(u)) for name in filter(None, args.maps.split(",")) for u in args.uavs.split(",")]
+    jobs += [(name, len(STREETS[name][1])) for name in filter(None, args.streets.split(","))]
+    for name, uavs in jobs:
+        with tempfile.TemporaryDirectory() as tmp:
+            if not _plan(Path(tmp), name, uavs, args.policy):
+                print(f"{'':<16}{name:<11}{uavs:>3}  plan failed")
+                continue
+            plan_dir = Path(tmp) / "plan"
+            print(mock_row(name, uavs, plan_dir), flush=True)
+            if args.sitl and name in STREETS:
+                fresh = Path(tmp) / "sitl-plan"
+                shutil.copytree(plan_dir, fresh)
+                print(sitl_row(name, uavs, fresh), flush=True)
 
 
 if __name__ == "__main__":

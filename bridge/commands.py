@@ -76,6 +76,10 @@ def register(subparsers: Any) -> None:
                            "simulated seconds, with its PreArm reasons (SITL: 35-40; default 0)")
     mock.add_argument("--streams-until-asked", action="store_true",
                       help="like ArduPilot: send nothing but HEARTBEAT until SET_MESSAGE_INTERVAL asks for a message")
+    mock.add_argument("--sitl-like", action="store_true",
+                      help="behave like ArduCopter SITL: no camera until CAM1_TYPE is set and the vehicle rebooted, "
+                           "img_idx from 1 across flights, ArduCopter's navigation parameters and flight "
+                           "(docs/flight-timeline.md)")
     mock.add_argument("--seed", type=int, default=None, help="seed of the fault injection")
     mock.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
     mock.set_defaults(handler=cmd_mock)
@@ -336,7 +340,8 @@ def cmd_mock(args: argparse.Namespace) -> int:
         raise BridgeUsageError(f"--ready-after must not be negative, got {args.ready_after}")
     mock = MockAutopilot(args.listen, sysids=sysids, flavour=args.flavour, speedup=args.speedup, faults=faults,
                          key=key, request_interval=args.request_interval, homes=homes,
-                         gps_fix_after=args.ready_after, streams_until_asked=args.streams_until_asked)
+                         gps_fix_after=args.ready_after, streams_until_asked=args.streams_until_asked,
+                         sitl_like=args.sitl_like)
     ids = ",".join(str(s) for s in sysids)
     if mock.spec.scheme == "serial":
         where, connect = f"serial device {mock.device}", f"the other end of {mock.device}"

@@ -3,7 +3,11 @@
 Owns the flight of one vehicle in simulated time: takeoff climb, straight legs at the cruise speed
 (DO_CHANGE_SPEED changes it), the acceptance radius and hold time of waypoints, DO_JUMP, camera
 triggering by distance (DO_SET_CAM_TRIGG_DIST: photos counted, their positions and altitudes kept), land and
-return-to-launch, and the flown track. No MAVLink here: the vehicle (mock_vehicle) feeds it the
+return-to-launch, and the flown track. With `copter` (bridge.copter_model.CopterParams: the
+SITL-like mode) it flies as ArduCopter does instead, on the very model the planner's timeline uses:
+spool-up and a climb with acceleration, every leg from rest to rest with WPNAV_ACCEL, RTL's climb to
+RTL_ALT, its return at RTL_SPEED / WPNAV_SPEED and loiter, the slow last LAND_ALT_LOW metres of the
+landing, and a touchdown pause before disarming. No MAVLink here: the vehicle (mock_vehicle) feeds it the
 stored wire items and publishes the events it returns (current item changed, item reached).
 Positions use a local flat-earth approximation around home, good to centimetres over a city.
 """
@@ -11,8 +15,13 @@ Positions use a local flat-earth approximation around home, good to centimetres 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import numpy as np
+
+from . import copter_model as cm
+from .copter_model import CopterParams
 from .mission import (
     CMD_DO_CHANGE_SPEED,
     CMD_DO_JUMP,
@@ -66,7 +75,13 @@ class FlightSim:
     """Advances a FlightState through a mission in simulated seconds."""
 
     def __init__(self, home: tuple[float, float, float], cruise_speed: float = 5.0, climb_rate: float = 2.5,
-                 land_rate: float = 1.5, default_acceptance: float = 1.0, track_interval: float = 1.0) -> None:
+                 land_rate: float = 1.5, default_acceptance: float = 1.0, track_interval: float = 1.0,
+                 copter: CopterParams | None = None) -> None:
+        self.copter = copter  # None: straight legs at the cruise speed; else ArduCopter's flight (copter_model)
+        self._motions: list[cm.Motion] = []
+        self._motion_t = 0.0
+        self._motions_key: tuple[object, ...] | None = None
+        self._entries = 0
         self.cruise_speed = cruise_speed
         self.climb_rate = climb_rate
         self.land_rate = land_rate
@@ -158,6 +173,15 @@ class FlightSim:
         s = self.state
         if s.mode == "AUTO":
             return self._step_mission(dt, events)
+        if s.mode in ("RTL", "LAND") and self.copter is not None:
+            here = self._here()
+            motions = (lambda: cm.rtl(here, (0.0, 0.0, 0.0), self.copter)) if s.mode == "RTL" else \
+                (lambda: cm.landing(here, 0.0, self.copter))
+            used, done = self._run_motions((s.mode,), motions, dt)
+            if done:
+                self._touchdown(events)
+                return dt
+            return used
         if s.mode == "RTL":
             return self._fly_home_and_land(dt, events)
         if s.mode == "LAND":
@@ -195,6 +219,7 @@ class FlightSim:
         cmd = item.command
         if not self._entered:
             self._entered = True
+            self._entries += 1
             self._hold_left = float(item.param1) if cmd == 16 and item.param1 > 0 else 0.0
             if cmd == CMD_DO_CHANGE_SPEED:
                 if item.param2 > 0:
@@ -223,6 +248,8 @@ class FlightSim:
             if cmd not in NAV_COMMANDS_WITH_POSITION and cmd not in (CMD_NAV_RETURN_TO_LAUNCH,):
                 self._advance_item(events, reached=False)  # other DO_ / condition commands: nothing to fly
                 return 0.0
+        if self.copter is not None:
+            return self._step_copter_item(item, dt, events)
         if cmd == CMD_NAV_TAKEOFF:
             target_alt = self._target_of(item)[2]
             used, done = self._climb_to(target_alt, dt)
@@ -351,3 +378,87 @@ class FlightSim:
         if not arrived:
             return used
         return used + self._descend(dt - used, events)
+
+    # ------------------------------------------------------------------------------- SITL-like flight
+    def _here(self) -> tuple[float, float, float]:
+        north, east = self._to_local(self.state.lat, self.state.lon)
+        return north, east, self.state.alt
+
+    def _run_motions(self, key: tuple[object, ...], build: Callable[[], list[cm.Motion]],
+                     dt: float) -> tuple[float, bool]:
+        """Fly the motions `build` makes (made once per key: an item entered, a mode set) for up to dt
+        seconds: (seconds used, all flown)."""
+        if self._motions_key != key:
+            self._motions_key, self._motions, self._motion_t = key, build(), 0.0
+        used = 0.0
+        while self._motions and used < dt - 1e-12:
+            motion = self._motions[0]
+            step = min(motion.duration - self._motion_t, dt - used)
+            self._move_along(motion, self._motion_t, self._motion_t + step, step)
+            self._motion_t += step
+            used += step
+            if self._motion_t >= motion.duration - 1e-9:
+                self._motions.pop(0)
+                self._motion_t = 0.0
+        return used, not self._motions
+
+    def _move_along(self, motion: cm.Motion, t0: float, t1: float, step: float) -> None:
+        s = self.state
+        (n0, e0, a0), (n1, e1, a1) = motion.position(np.array([t0, t1]))
+        s.lat, s.lon = self._to_global(float(n1), float(e1))
+        s.alt = float(a1)
+        dn, de, du = float(n1 - n0), float(e1 - e0), float(a1 - a0)
+        if step > 0:
+            s.vn, s.ve, s.vz = dn / step, de / step, -du / step
+        horizontal = math.hypot(dn, de)
+        s.distance += horizontal
+        if horizontal > 0:
+            s.heading = math.degrees(math.atan2(de, dn)) % 360
+        self._count_photos(horizontal, (float(n0), float(e0), float(a0)), (dn, de, du))
+
+    def _step_copter_item(self, item: WireItem, dt: float, events: list[FlightEvent]) -> float:
+        """One positional mission item flown as ArduCopter does (copter_model)."""
+        s, p = self.state, self.copter
+        assert p is not None
+        key = ("AUTO", self._entries)
+        here = self._here()
+        cmd = item.command
+        if cmd == CMD_NAV_TAKEOFF:
+            target_alt = self._target_of(item)[2]
+            build = (lambda: cm.takeoff(here, target_alt - here[2], p)) if s.on_ground else \
+                (lambda: [cm.Motion(here, (here[0], here[1], target_alt), p.speed_up, p.accel_z, kind="takeoff")])
+            used, done = self._run_motions(key, build, dt)
+            if done:
+                self._advance_item(events, reached=True)
+            return used
+        if cmd == CMD_NAV_RETURN_TO_LAUNCH:
+            used, done = self._run_motions(key, lambda: cm.rtl(here, (0.0, 0.0, 0.0), p), dt)
+            if done:
+                self._touchdown(events)
+                self._advance_item(events, reached=True)
+                return dt
+            return used
+        lat, lon, alt = self._target_of(item)
+        north, east = self._to_local(lat, lon)
+        if cmd == CMD_NAV_LAND:
+            used, done = self._run_motions(
+                key, lambda: [cm.leg(here, (north, east, here[2]), s.speed, p), *cm.landing((north, east, here[2]), 0.0, p)],
+                dt)
+            if done:
+                self._touchdown(events)
+                self._advance_item(events, reached=True)
+                self._finish_mission(events)
+                return dt
+            return used
+        # waypoint (and loiter commands, flown as waypoints): from rest to rest, then the hold time
+        used, done = self._run_motions(key, lambda: [cm.leg(here, (north, east, alt), s.speed, p)], dt)
+        if not done:
+            return used
+        if self._hold_left > 0:
+            hold = min(self._hold_left, dt - used)
+            self._hold_left -= hold
+            used += hold
+            if self._hold_left > 1e-9:
+                return used
+        self._advance_item(events, reached=True)
+        return used

@@ -16,7 +16,12 @@ before it is asked), STATUSTEXT,
 MISSION_ITEM_REACHED and one CAMERA_FEEDBACK per photo (as ArduPilot sends for each trigger);
 readiness like ArduCopter SITL's (gps_fix_after simulated seconds without a GPS fix, with a waiting
 EKF, no home, a failing pre-arm bit, and arming refused with FAILED and its STATUSTEXT reasons);
-and the reboot fault (forget everything, the flight included, and go silent for a moment). The flight itself is mock_flight's; the link and the other
+and the reboot fault (forget everything, the flight included, and go silent for a moment).
+The SITL-like mode (VehicleOptions.sitl_like) adds what ArduCopter SITL does in flight: no
+CAMERA_FEEDBACK until a camera is configured (CAM1_TYPE set, then a reboot:
+MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN), img_idx from 1 and counting on across flights until a reboot,
+ArduCopter's navigation parameters (PARAM_REQUEST_READ / PARAM_SET) and its flight
+(bridge.copter_model: acceleration, stops at corners, RTL_ALT climb, slow final descent). The flight itself is mock_flight's; the link and the other
 faults are mock's. Everything here runs on the mock's one loop thread.
 """
 
@@ -26,6 +31,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import Any
 
+from .copter_model import CopterParams
 from .mission import (
     CMD_RALLY_POINT,
     FRAME_GLOBAL,
@@ -88,6 +94,7 @@ class VehicleOptions:
     speedup: float = 1.0
     cruise_speed: float = 5.0
     telemetry_hz: float = 4.0
+    sitl_like: bool = False  # ArduCopter SITL's camera, image index, parameters and flight (see the module doc)
 
     def resolved(self) -> VehicleOptions:
         ardupilot = self.flavour is Flavour.ARDUPILOT
@@ -125,6 +132,10 @@ class MockVehicle:
         self.stray_item_acks = 0        # ERROR answers to items that came after an upload completed
         # Parameters survive a reboot, like ArduPilot's EEPROM. Only the one the bridge sets is known.
         self.params: dict[str, float] = {"WPNAV_RADIUS": 200.0} if self.flavour is Flavour.ARDUPILOT else {}
+        if self.options.sitl_like:
+            self.params.update({**CopterParams().as_params(), "CAM1_TYPE": 0.0})
+        self.camera = True  # sends CAMERA_FEEDBACK; SITL-like: only when CAM1_TYPE was set at boot
+        self._reboot_pending = False  # a reboot command acknowledged: reboot once the ack is out
         self._boot(now)
 
     # ------------------------------------------------------------------------------ lifecycle
@@ -139,7 +150,9 @@ class MockVehicle:
             self.stores[MissionType.MISSION] = [self._home_item()]
         self.upload: _Upload | None = None
         self.last_completed: tuple[int, int, tuple[int, int]] | None = None  # type, count, peer
-        self.flight = FlightSim(home, cruise_speed=self.options.cruise_speed)
+        self.camera = not self.options.sitl_like or self.params.get("CAM1_TYPE", 0.0) != 0.0
+        copter = CopterParams.from_params(self.params) if self.options.sitl_like else None
+        self.flight = FlightSim(home, cruise_speed=self.options.cruise_speed, copter=copter)
         if "WPNAV_RADIUS" in self.params:  # ArduCopter turns within WPNAV_RADIUS of every waypoint
             self.flight.default_acceptance = max(self.params["WPNAV_RADIUS"], 5.0) / 100.0
         self._load_flight()
@@ -284,10 +297,14 @@ class MockVehicle:
         """One CAMERA_FEEDBACK per photo taken since the last call, with where it was taken."""
         points = self.flight.state.photo_points
         home_alt = self.flight.state.home[2]
+        if not self.camera:  # no camera configured: ArduCopter sends nothing
+            self._photos_sent = len(points)
+            return
+        first = 1 if self.options.sitl_like else 0  # ArduPilot's img_idx starts at 1 after a boot
         while self._photos_sent < len(points):
             lat, lon, alt = points[self._photos_sent]
             self._photos_sent += 1
-            self.mav.camera_feedback_send(int(now * 1e6), self.sysid, 0, (self._photos_sent - 1) % 65536,
+            self.mav.camera_feedback_send(int(now * 1e6), self.sysid, 0, (self._photos_sent - 1 + first) % 65536,
                                           int(round(lat * 1e7)), int(round(lon * 1e7)), home_alt + alt, alt,
                                           0.0, 0.0, self.flight.state.heading, 0.0, 0, self._photos_sent)
 
@@ -593,6 +610,9 @@ class MockVehicle:
         p = [float(getattr(msg, f"param{i}", 0.0) or 0.0) for i in range(1, 8)]
         result = self._command(command, p, now)
         self.mav.command_ack_send(command, result, 0, 0, peer[0], peer[1])
+        if self._reboot_pending:
+            self._reboot_pending = False
+            self.reboot(now)
 
     def _command(self, command: int, p: list[float], now: float) -> int:
         s = self.flight.state
@@ -623,6 +643,13 @@ class MockVehicle:
             last = int(p[1]) if p[1] > 0 else None
             self._publish(self.flight.start_mission(first, last))
             self.send_heartbeat()
+            return CMD_ACCEPTED
+        if command == 246 and self.options.sitl_like:  # PREFLIGHT_REBOOT_SHUTDOWN: param1 = 1 reboots
+            if int(p[0]) != 1:
+                return CMD_UNSUPPORTED
+            if s.armed:
+                return CMD_DENIED
+            self._reboot_pending = True  # after the acknowledgement has gone out
             return CMD_ACCEPTED
         if command == 224:  # DO_SET_MISSION_CURRENT
             return CMD_ACCEPTED if self._set_current(int(p[0])) else CMD_DENIED
@@ -676,6 +703,8 @@ class MockVehicle:
         self.params[name] = value  # stored as given, out of range or not (ArduCopter SITL does the same)
         if name == "WPNAV_RADIUS":
             self.flight.default_acceptance = max(value, 5.0) / 100.0  # AC_WPNav flies at least 5 cm
+        if self.flight.copter is not None:  # navigation parameters take effect at once (CAM1_TYPE at boot)
+            self.flight.copter = CopterParams.from_params(self.params)
         self._send_param(name, peer)
 
     def _send_version(self) -> None:

@@ -84,6 +84,22 @@ class ParamClient:
         return got
 
 
+def read_params(client: ParamClient, names: list[str], tries: int = 2, wait_s: float = 0.5,
+                give_up_after: int = 2) -> dict[str, float]:
+    """The values the vehicle reports for `names` (those it answers for). A vehicle that answers none
+    of the first `give_up_after` names does not have them: stop there, so the wait stays short."""
+    values: dict[str, float] = {}
+    misses = 0
+    for name in names:
+        try:
+            values[name] = client.get(name, tries=tries, wait_s=wait_s)
+        except BridgeError:
+            misses += 1
+            if not values and misses >= give_up_after:
+                break
+    return values
+
+
 def set_param(client: ParamClient, name: str, value: float) -> tuple[float | None, float]:
     """(the value before, or None if it could not be read; the value the vehicle reports now)."""
     try:

@@ -2,7 +2,8 @@
 
 Plans the shipped Leonardo map for 5 drones with the shipped network (the same code as
 `missionplan plan`, which prints the plan metrics), starts one in-process mock autopilot per drone
-on 127.0.0.1, and flies the missions against them with `fly` at a speed-up, which prints the
+on 127.0.0.1 (SITL-like: ArduCopter's flight, each camera configured as a team does, CAM1_TYPE and a
+reboot, so the judge has the vehicles' own photo reports), and flies the missions against them with `fly` at a speed-up, which prints the
 flown coverage, the closest approach against the plan's promise, and each vehicle's flight.
 Nothing leaves the machine. Exit 0 only when the flight is judged good (fly's rule).
 """

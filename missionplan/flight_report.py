@@ -3,8 +3,12 @@
 No MAVLink here: fly.py records (DroneRecord), this module judges what was recorded.
 - Photo positions: every CAMERA_FEEDBACK the vehicle sent (where each photo was really taken); a
   photo whose report was lost on the link (a gap in img_idx) is placed on the recorded track between
-  its neighbours, in proportion to its index. A vehicle that sends no CAMERA_FEEDBACK at all gets a
-  photo every trigger distance along the recorded track of its survey (said so in flight.json).
+  its neighbours, in proportion to its index. Photos are counted from the first img_idx this flight
+  reported: ArduPilot's index starts at 1 and keeps counting across flights until a reboot, so the
+  indices below it belong to earlier flights. A vehicle that sends no CAMERA_FEEDBACK has no photos
+  as evidence: that is a problem of the flight (no camera configured, or no feedback), unless the
+  user asked for photos from the track (`fly --photos-from-track`): then a photo every trigger
+  distance along the recorded track of its survey, said so in flight.json.
 - Coverage: a target cell counts as photographed when the square footprint of one photo holds the
   cell, short of at most a quarter cell on a side (SLACK_CELLS): the grid world's and the corrector's
   rule (whole cell in the footprint) with the slack a real vehicle needs, since it may turn a
@@ -30,7 +34,9 @@ from geo.frame import GridFrame
 
 from .atomic import write_text_atomic
 from .gridmap import GridMap
-from .timeline import closest_approach
+from bridge.copter_model import CopterParams
+
+from .timeline import FlightModel, closest_approach, planned_seconds
 
 COVERAGE_OK = 99.0
 # How much of a cell's side may fall outside the photo that counts for it: a quarter cell, the
@@ -40,6 +46,7 @@ SLACK_CELLS = 0.25
 CMD_WAYPOINT, CMD_DO_CHANGE_SPEED, CMD_CAM_TRIGG_DIST = 16, 178, 206
 MIN_RATE_SPAN_S = 2.0  # of our time: a vehicle's clock rate is fitted over at least this long a record
 REAL_TIME_TOLERANCE = 0.05  # a clock within 5 % of ours runs in real time
+CMD_TAKEOFF, CMD_LAND = 22, 21
 
 
 @dataclass
@@ -60,6 +67,7 @@ class DroneRecord:
     # arrival time, lat, lon, up m, ground speed m/s, the vehicle's time since boot s, climb rate m/s
     samples: list[tuple[float, float, float, float, float, float, float]] = field(default_factory=list)
     camera: dict[int, tuple[float, float, float, float]] = field(default_factory=dict)  # img_idx -> t, lat, lon, up
+    params: dict[str, float] = field(default_factory=dict)  # ArduCopter navigation parameters the vehicle reported
     t_start: float | None = None
     t_end: float | None = None
     last_heard: float = 0.0
@@ -143,8 +151,12 @@ def _arc_on_track(track: np.ndarray, arc: np.ndarray, points: np.ndarray, arrive
     return arc[seg] + frac[rows, nearest] * np.sqrt(length2[rows, nearest])
 
 
-def photo_positions(frame: GridFrame, rec: DroneRecord, trigger_m: float) -> tuple[np.ndarray, int, str]:
-    """(photos (n, 2) grid metres, how many were placed on the track rather than reported, source)."""
+def photo_positions(frame: GridFrame, rec: DroneRecord, trigger_m: float,
+                    from_track: bool = False) -> tuple[np.ndarray, int, str]:
+    """(photos (n, 2) grid metres, how many were placed on the track rather than reported, source).
+
+    source: "camera" (CAMERA_FEEDBACK), "track" (none reported and from_track: a photo every
+    trigger distance along the flown survey) or "none"."""
     if not rec.samples:
         return np.zeros((0, 2)), 0, "none"
     samples = np.array(rec.samples)
@@ -157,15 +169,19 @@ def photo_positions(frame: GridFrame, rec: DroneRecord, trigger_m: float) -> tup
         arrived = np.searchsorted(samples[:, 0], [v[0] for _, v in known], side="right")
         s_known = np.maximum.accumulate(_arc_on_track(track, arc, reported, arrived))
         total = max(rec.captures, int(idx[-1]) + 1)
-        every = np.arange(total, dtype=float)
+        # From the first index this flight reported: the ones below it are earlier flights' photos
+        # (ArduPilot counts on until a reboot), not photos lost on the link.
+        every = np.arange(int(idx[0]), total, dtype=float)
         # Lost reports: in proportion to the index between known neighbours, trigger_m per photo past the ends.
         s_all = np.interp(every, idx, s_known)
         s_all = np.where(every < idx[0], s_known[0] - (idx[0] - every) * trigger_m, s_all)
         s_all = np.where(every > idx[-1], s_known[-1] + (every - idx[-1]) * trigger_m, s_all)
         positions = _point_at(track, arc, np.clip(s_all, 0.0, arc[-1]))
-        positions[idx.astype(int)] = reported
-        return positions, total - len(known), "camera"
-    # No camera reports: a photo every trigger_m along the survey part of the recorded track.
+        positions[idx.astype(int) - int(idx[0])] = reported
+        return positions, len(every) - len(known), "camera"
+    if not from_track:
+        return np.zeros((0, 2)), 0, "none"
+    # No camera reports, and the user asked for it: a photo every trigger_m along the survey part of the track.
     first, last = _survey_window(rec.wire)
     reached = {seq: t for t, seq in reversed(rec.reached)}
     t0 = reached.get(first, samples[0, 0]) if first is not None else samples[0, 0]
@@ -223,15 +239,50 @@ def vehicle_rate(samples: np.ndarray) -> float | None:
     return slope if slope > 0 else None
 
 
-def vehicle_clock(samples: np.ndarray) -> np.ndarray:
+def vehicle_clock(samples: np.ndarray, scale: float = 1.0) -> np.ndarray:
     """When each sample was taken, on our clock: the vehicle's own time stamps (free of our threads'
     scheduling jitter), at the vehicle's clock rate (a sped-up simulator's clock runs faster), shifted
-    by the smallest arrival delay seen, the usual one-way clock sync."""
-    rate = vehicle_rate(samples) or 1.0
+    by the smallest arrival delay seen, the usual one-way clock sync. A record too short to fit the
+    rate (a short flight at a high speed-up) runs at `scale`, the fleet's time scale."""
+    rate = vehicle_rate(samples) or scale
     if abs(rate - 1.0) < REAL_TIME_TOLERANCE:
         rate = 1.0  # a real-time clock: take its stamps as they are
     ours = samples[:, 5] / rate
     return ours + float(np.min(samples[:, 0] - ours))
+
+
+def flown_seconds(rec: DroneRecord, scale: float) -> float:
+    """How long the flight took on the vehicle's own clock (simulated seconds on a simulator: a loaded
+    machine slows the wall clock's pace, not the vehicle's), from the mission start to the end we saw.
+    Without two samples in that window, or across a reboot, our clock times the scale."""
+    end = rec.t_end if rec.t_end is not None else (rec.samples[-1][0] if rec.samples else rec.t_start)
+    if rec.t_start is None or end is None:
+        return 0.0
+    samples = np.array(rec.samples) if rec.samples else np.zeros((0, 7))
+    inside = samples[(samples[:, 0] >= rec.t_start) & (samples[:, 0] <= end)] if len(samples) else samples
+    if len(inside) >= 2 and np.all(np.diff(inside[:, 5]) >= 0):
+        return float(inside[-1, 5] - inside[0, 5])
+    return float((end - rec.t_start) * scale)
+
+
+def retimed_with_vehicle_params(frame: GridFrame, rec: DroneRecord) -> float | None:
+    """The uploaded mission's planned duration (the timeline) with the navigation parameters the
+    vehicle reported instead of ArduCopter's defaults `plan` assumed; None without any."""
+    if not rec.params or not rec.wire:
+        return None
+    items = list(rec.wire)
+    start = next((i for i, it in enumerate(items) if it.command == CMD_TAKEOFF), None)
+    if start is None:
+        return None
+    takeoff = items[start]
+    waypoints = [it for it in items[start + 1:] if it.command == CMD_WAYPOINT]
+    copter = CopterParams.from_params(rec.params)
+    speed = next((float(it.param2) for it in items if it.command == CMD_DO_CHANGE_SPEED and it.param2 > 0),
+                 copter.wp_speed)
+    launch = to_grid_m(frame, [takeoff.x / 1e7], [takeoff.y / 1e7])[0]
+    route = to_grid_m(frame, [w.x / 1e7 for w in waypoints], [w.y / 1e7 for w in waypoints])
+    end = "land" if items[-1].command == CMD_LAND else "rtl"
+    return planned_seconds(launch, route, float(takeoff.z), end, FlightModel(speed, 0.0, copter))
 
 
 def estimate_time_scale(records: list[DroneRecord]) -> float:
@@ -314,8 +365,11 @@ def sortie_view(report: dict[str, Any], sortie: int, missions: dict[int, dict[in
 
 # ------------------------------------------------------------------------------------------- judging
 def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], time_scale: float | None,
-          wall_s: float, telemetry_hz: float) -> FlightResult:
-    """Everything flight.json says, from the recordings; writes flight.json and flight.png."""
+          wall_s: float, telemetry_hz: float, photos_from_track: bool = False) -> FlightResult:
+    """Everything flight.json says, from the recordings; writes flight.json and flight.png.
+
+    photos_from_track: a vehicle that reported no photo (no CAMERA_FEEDBACK) gets one every trigger
+    distance along its flown survey; without it, that vehicle's flight is a problem."""
     frame = frame_of(report)
     geo = report["georeference"]
     footprint, trigger = float(geo["footprint_m"]), float(geo.get("trigger_distance_m") or 0.0)
@@ -325,27 +379,30 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     photos, tracks_m, timed, rows, sources = [], {}, {}, [], set()
     liftoff: dict[int, float] = {}  # when each vehicle left the ground, on our clock
     for rec in records:
-        points, placed, source = photo_positions(frame, rec, trigger)
+        points, placed, source = photo_positions(frame, rec, trigger, from_track=photos_from_track)
         photos.append(points)
         if source != "none":
             sources.add(source)
+        elif rec.started and rec.samples:
+            rec.problems.append(f"uav{rec.id}: the vehicle reported no photo (no CAMERA_FEEDBACK): nothing shows its "
+                                "camera took any (configure it, e.g. ArduPilot CAM1_TYPE and a reboot, or pass "
+                                "--photos-from-track to count a photo every trigger distance along the track)")
         samples = np.array(rec.samples) if rec.samples else np.zeros((0, 7))
         tracks_m[rec.id] = to_grid_m(frame, samples[:, 1], samples[:, 2])
         if len(samples):
-            timed[rec.id] = np.column_stack([vehicle_clock(samples), tracks_m[rec.id], samples[:, 3]])
+            timed[rec.id] = np.column_stack([vehicle_clock(samples, scale), tracks_m[rec.id], samples[:, 3]])
             climbing = np.flatnonzero((samples[:, 3] > 0.05) & (samples[:, 6] > 0.1))
             if len(climbing):  # back from the first sample in the climb, at the climb rate it reported
                 first = climbing[0]
                 liftoff[rec.id] = timed[rec.id][first, 0] - samples[first, 3] / samples[first, 6] / scale
-        end = rec.t_end if rec.t_end is not None else (samples[-1, 0] if len(samples) else rec.t_start)
-        # Flown time in the vehicle's own time: a loaded machine slows a simulator down, so our wall
-        # time times a nominal speed-up would not be what the vehicle flew.
-        rate = vehicle_rate(samples) or scale
-        flight_s = (end - rec.t_start) * rate if rec.t_start is not None and end is not None else 0.0
+        flight_s = flown_seconds(rec, scale)
         rows.append({"id": rec.id, "flight_s": round(flight_s, 2), "finished": rec.finished,
                      "photos": int(len(points)), "photos_placed_on_track": placed,
                      "planned_photos": rec.planned_photos,
                      "planned_flight_s": float(planned.get(rec.id, {}).get("flight_s", 0.0)),
+                     "planned_flight_s_vehicle": (None if (retimed := retimed_with_vehicle_params(frame, rec)) is None
+                                                  else round(retimed, 1)),
+                     "vehicle_params": rec.params,
                      "uploaded": rec.uploaded, "held_after_flight": rec.held_after_flight,
                      "samples": len(samples), "items_reached": len({seq for _, seq in rec.reached}),
                      "notes": rec.notes})
@@ -427,7 +484,8 @@ def draw_flight(path: Path, report: dict[str, Any], frame: GridFrame, targets: n
     ax.set_xlim(-0.5, cols - 0.5)
     ax.set_ylim(rows - 0.5, -0.5)
     ax.set_title(f"flown coverage {coverage_pct:.2f} % (green photographed, red missed)")
-    ax.legend(loc="upper right", fontsize=7)
+    if ax.get_legend_handles_labels()[0]:  # no flown track, no legend (matplotlib warns about an empty one)
+        ax.legend(loc="upper right", fontsize=7)
     ids = sorted(flight_s)
     bx.bar([f"uav{i}" for i in ids], [flight_s[i] for i in ids], color=[colours(k % 10) for k in range(len(ids))])
     bx.set_ylabel("flight time (s, simulated)")

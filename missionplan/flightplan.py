@@ -28,7 +28,7 @@ from .pipeline import PlanResult
 from .safety import SafetySettings
 from .separation import Layering, SeparationError, choose_layers, closest_over_sorties, position_at
 from .sorties import Sortie, sortie_file, split_sorties
-from .timeline import FlightModel, closest_approach, planned_track
+from .timeline import ASSUMES, FlightModel, closest_approach, planned_track
 from .world import FOOTPRINT_RADIUS
 
 
@@ -57,8 +57,7 @@ class FlightPlans:
         """report.json's `separation`: the closest approach of two drones if all fly as planned; with
         safety settings, the minimum it guarantees and how."""
         approach = closest_over_sorties(self.sortie_tracks)
-        doc = {**approach, "assumes": "the drones of a sortie start together; straight legs at the cruise speed, "
-               "waypoints reached at their acceptance radius; climb 2.5 m/s, descent 1.5 m/s",
+        doc = {**approach, "assumes": ASSUMES,
                "sorties": [closest_approach(tracks) for tracks in self.sortie_tracks]}
         if self.safety is not None and self.layering is not None:
             doc.update({"required_m": self.safety.min_separation_m, "method": self.layering.method,

@@ -39,9 +39,11 @@ from typing import Any
 
 import numpy as np
 
+from bridge.copter_model import PARAMETERS as COPTER_PARAMETERS
 from bridge.errors import BridgeError, BridgeUsageError
 from bridge.mission import Flavour, to_wire
 from bridge.missionfile import read_mission_file
+from bridge.params import ParamClient, read_params
 from bridge.protocol import Timeouts
 from bridge.readiness import DEFAULT_LAUNCH_OFFSET_M, Vehicle, request_streams, site_problem, stream_rates
 from bridge.shared_link import LinkPool
@@ -219,6 +221,8 @@ class _DroneFlight:
             else:
                 upload_plan(self.backend, plan.parts(), verify=True)
             rec.uploaded = True
+            if self.backend.vehicle.flavour is Flavour.ARDUPILOT:  # what the vehicle will fly with: re-times the plan
+                rec.params = read_params(ParamClient(self.backend.link, self.backend.vehicle), list(COPTER_PARAMETERS))
             return True
         except (BridgeError, OSError) as err:
             self.problem(f"upload failed: {err}")
@@ -349,10 +353,20 @@ class _DroneFlight:
             self.problem("holds another mission after the flight: " + "; ".join(differences))
 
 
+def flight_view(plan_dir: Path, report: dict[str, Any], sortie: int) -> dict[str, Any]:
+    """report.json as a flight of `sortie` is judged (flight_report.sortie_view): with several sorties,
+    every sortie's planned photos (read from its files) decide which cells are this one's duty."""
+    count = max(len(d.get("sorties") or [1]) for d in report["drones"])
+    missions = {j: {int(d["id"]): read_mission_file(path).mission.items for d in report["drones"]
+                    if (path := plan_dir / sortie_file(int(d["id"]), j)).is_file()}
+                for j in range(1, count + 1)} if count > 1 else {}
+    return sortie_view(report, sortie, missions)
+
+
 def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, progress: bool = True,
         time_scale: float | None = None, telemetry_hz: float = DEFAULT_TELEMETRY_HZ,
         upload_with: str = "missionplan", sortie: int = 1, ready_s: float = DEFAULT_READY_S,
-        max_launch_offset_m: float = DEFAULT_LAUNCH_OFFSET_M) -> FlightResult:
+        max_launch_offset_m: float = DEFAULT_LAUNCH_OFFSET_M, photos_from_track: bool = False) -> FlightResult:
     """Wait until ready, upload, verify, site-check, arm, start and follow every drone of plan_dir at
     once; write flight.json/.png.
 
@@ -360,6 +374,10 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     connection per URL, shared by the vehicles on it.
     sortie=J flies battery sortie J (uavK-sJ.plan, J >= 2) of every drone that has one, judged on the
     targets that sortie's plan photographs.
+
+    photos_from_track: count a photo every trigger distance along the track of a vehicle that reports
+    none (no CAMERA_FEEDBACK); without it such a flight is judged a failure (flight_report.judge).
+
     upload_with="mavsdk": MAVSDK's QGroundControl importer reads each .plan and MAVSDK uploads it;
     the read-back must then equal what our own reader makes of the same file."""
     if upload_with not in UPLOADERS:
@@ -372,12 +390,7 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     if sortie < 1:
         raise BridgeUsageError(f"--sortie must be 1 or more, got {sortie}")
     files = {int(d["id"]): plan_dir / sortie_file(int(d["id"]), sortie) for d in report["drones"]}
-    # With several sorties, every sortie's planned photos decide which cells are this one's duty.
-    count = max(len(d.get("sorties") or [1]) for d in report["drones"])
-    missions = {j: {int(d["id"]): read_mission_file(path).mission.items for d in report["drones"]
-                    if (path := plan_dir / sortie_file(int(d["id"]), j)).is_file()}
-                for j in range(1, count + 1)} if count > 1 else {}
-    report = sortie_view(report, sortie, missions)
+    report = flight_view(plan_dir, report, sortie)
     if not report["drones"]:
         raise BridgeUsageError(f"{plan_dir}: no drone has a sortie {sortie}")
     records = [DroneRecord(id=int(d["id"]), planned_photos=int(d.get("photos", 0))) for d in report["drones"]]
@@ -418,14 +431,17 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
         pool.close()
         for bar in bars.values():
             bar.close()
-    return judge(plan_dir, report, records, time_scale, wall_s=time.monotonic() - start, telemetry_hz=telemetry_hz)
+    return judge(plan_dir, report, records, time_scale, wall_s=time.monotonic() - start, telemetry_hz=telemetry_hz,
+                 photos_from_track=photos_from_track)
 
 
 def start_mock_fleet(plan_dir: Path, speedup: float, flavour: str = "ardupilot", faults: Any = None,
-                     **options: Any) -> Any:
+                     sitl_like: bool = True, cameras: bool = True, **options: Any) -> Any:
     """In-process mock autopilots on 127.0.0.1, one per uavK.plan of plan_dir (system id K, home at
     its launch point). Returns the started MockAutopilot; fly against mock.client_url, then mock.stop().
-    options go to MockAutopilot (gps_fix_after, streams_until_asked: a SITL-like fleet; homes)."""
+    sitl_like: they fly like ArduCopter SITL (the plan's timeline); cameras: each has its camera
+    configured (CAM1_TYPE and a reboot, as a team does once), else it reports no photos; options go
+    to MockAutopilot (gps_fix_after, streams_until_asked: SITL-like readiness and streams; homes)."""
     from bridge.mock import MockAutopilot
 
     homes: dict[int, tuple[float, float, float]] = {}
@@ -439,8 +455,12 @@ def start_mock_fleet(plan_dir: Path, speedup: float, flavour: str = "ardupilot",
         raise BridgeUsageError(f"{plan_dir}: no uavK.plan files to fly")
     homes = {**homes, **options.pop("homes", {})}
     mock = MockAutopilot("udpin:127.0.0.1:0", sysids=sorted(homes), flavour=flavour, speedup=speedup,
-                         faults=faults, homes=homes, **options)
-    return mock.start()
+                         faults=faults, homes=homes, sitl_like=sitl_like, **options)
+    mock.start()
+    if sitl_like and cameras:
+        for sysid in homes:
+            mock.configure_camera(sysid)
+    return mock
 
 
 # ------------------------------------------------------------------------------------------- CLI
@@ -459,7 +479,10 @@ def print_flight(result: FlightResult) -> None:
     for d in result.drones:
         state = "finished" if d["finished"] else "NOT finished"
         held = {True: "holds the uploaded mission", False: "LOST its mission", None: "mission not re-read"}
-        print(f"  uav{d['id']}: {state}, {d['flight_s']:.1f} s flown (planned {d['planned_flight_s']:.1f} s), "
+        retimed = d.get("planned_flight_s_vehicle")
+        vehicle = (f"; {retimed:.1f} s with the vehicle's parameters"
+                   if retimed is not None and abs(retimed - d["planned_flight_s"]) >= 0.05 else "")
+        print(f"  uav{d['id']}: {state}, {d['flight_s']:.1f} s flown (planned {d['planned_flight_s']:.1f} s{vehicle}), "
               f"{d['photos']} photos, {held[d['held_after_flight']]}"
               + "".join(f"; {note}" for note in d.get("notes", []) if note.startswith("left ")))
     for problem in result.problems:
@@ -482,7 +505,8 @@ def cmd_fly(args: Any) -> int:
     try:
         result = fly(Path(args.dir), args.connect, timeout_s=args.timeout, progress=not args.quiet,
                      time_scale=args.time_scale, telemetry_hz=args.telemetry_hz, upload_with=args.upload_with,
-                     sortie=args.sortie, ready_s=args.ready_timeout, max_launch_offset_m=args.max_launch_offset)
+                     sortie=args.sortie, ready_s=args.ready_timeout, max_launch_offset_m=args.max_launch_offset,
+                     photos_from_track=args.photos_from_track)
     except BridgeUsageError:
         raise
     except BridgeError as err:  # a link that cannot be opened: one line, exit 1
@@ -519,5 +543,8 @@ def register(subparsers: Any) -> None:
                         "MAVSDK's QGroundControl importer and MissionRaw (checked against ours by read-back)")
     p.add_argument("--sortie", type=int, default=1, metavar="J",
                    help="battery sortie to fly: 1 (uavK.plan, default) or J (uavK-sJ.plan, drones that have one)")
+    p.add_argument("--photos-from-track", action="store_true",
+                   help="a vehicle that reports no photos (no CAMERA_FEEDBACK: no camera configured) gets one every "
+                        "trigger distance along its flown track; without this flag such a flight fails")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(handler=cmd_fly)

@@ -10,8 +10,10 @@ The transit out and the way home do not cross buildings: `home_m(point)` gives t
 caller measures it along free cells, flightplan routes them the same way); by default a straight
 line. The cut is greedy along the route: as many points as fit, where the points are the route's
 waypoints plus every `step_m` along its axis-aligned legs (grid cell centres, so a cut never falls
-where a drone could not be routed from). Times are the timeline's (missionplan.timeline) with every
-leg flown in full: the acceptance radius only ever shortens a leg, so the estimate is an upper bound.
+where a drone could not be routed from). Times are the timeline's ArduCopter model
+(bridge.copter_model: spool-up and climb, legs from rest to rest, RTL with its loiter and slow final
+descent), with a stop at every cut point too: the sortie flies fewer stops, so the estimate is an
+upper bound of its planned time.
 
 Metres in the grid frame throughout (row axis, column axis), as the timeline uses.
 """
@@ -22,6 +24,8 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+
+from bridge import copter_model as cm
 
 from .gridmap import MapError
 from .timeline import FlightModel
@@ -61,11 +65,16 @@ class Sortie:
     end: str  # "rtl" for every sortie but the last; the plan's end action for the last
 
 
-def _flight_s(start_home_m: float, survey_m: float, end_home_m: float, altitude: float, end: str,
+def _flight_s(start_home_m: float, survey_s: float, end_home_m: float, altitude: float, end: str,
               model: FlightModel) -> float:
-    """Upper bound of one sortie's duration: climb, transit out, survey, way home (RTL), descent."""
-    horizontal = start_home_m + survey_m + (end_home_m if end == "rtl" else 0.0)
-    return altitude / model.climb_rate_m_s + horizontal / model.speed_m_s + altitude / model.land_rate_m_s
+    """Upper bound of one sortie's duration: take-off, transit out (one leg), `survey_s` seconds of
+    survey, the way home and the landing (RTL) or the landing (LAND)."""
+    p = model.copter
+    t = cm.total_time(cm.takeoff((0.0, 0.0, 0.0), altitude, p))
+    t += cm.leg((0.0, 0.0, altitude), (start_home_m, 0.0, altitude), model.speed_m_s, p).duration
+    if end == "rtl":
+        return t + survey_s + cm.total_time(cm.rtl((end_home_m, 0.0, altitude), (0.0, 0.0, 0.0), p))
+    return t + survey_s + cm.total_time(cm.landing((0.0, 0.0, altitude), 0.0, p))
 
 
 def _densify(route: np.ndarray, step_m: float | None) -> tuple[np.ndarray, np.ndarray]:
@@ -107,7 +116,9 @@ def split_sorties(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: flo
     points, own = _densify(route, step_m)
     home = np.array([distance(p) for p in points])
     legs = np.concatenate([[0.0], np.hypot(*np.diff(points, axis=0).T)]) if len(points) > 1 else np.zeros(1)
-    along = np.cumsum(legs)  # survey distance from the route's start to each point
+    # Survey seconds from the route's start to each point, every point a stop (an upper bound).
+    along = np.cumsum([cm.leg((0.0, 0.0, 0.0), (float(d), 0.0, 0.0), model.speed_m_s, model.copter).duration
+                       for d in legs])
 
     def too_short(i: int) -> MapError:
         need = _flight_s(home[i], 0.0, home[i], altitude_m, "rtl", model)

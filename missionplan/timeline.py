@@ -1,60 +1,77 @@
 """Where every drone is when: planned missions as timed 3-D tracks, and the closest approach of two tracks.
 
-The plan's separation promise comes from here. All drones start their missions together and fly
-them the way a multicopter autopilot does (and the mock autopilot models): climb straight up at the
-launch point, fly straight 3-D legs at the cruise speed, take a waypoint as reached once inside its
-acceptance radius and head for the next from there, and at the end fly home at the survey altitude
-and descend (RTL) or descend where the track ends (LAND). `closest_approach` measures any set of timed
-tracks, planned or flown, on one time base, so plan and flight are judged by the same ruler.
+The plan's separation promise and planned times come from here. All drones start their missions
+together and fly them the way ArduCopter does (bridge.copter_model, measured on ArduCopter SITL; the
+mock autopilot's SITL-like mode flies the same model): spool up and climb at the launch point, fly
+every leg from rest to rest at the cruise speed with the copter's acceleration, and at the end
+return (RTL: climb to RTL_ALT, home at RTL_SPEED, loiter, land) or land where the track ends (LAND),
+the last LAND_ALT_LOW metres at LAND_SPEED. `plan` uses ArduCopter's documented defaults; `fly`
+re-times each plan with the parameters its vehicle reports. `closest_approach` measures any set of
+timed tracks, planned or flown, on one time base, so plan and flight are judged by the same ruler.
 
 Positions are in one local metric frame (the grid frame in metres: row axis, column axis, up).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-# Vertical rates the timeline assumes (ArduCopter's WPNAV_SPEED_UP 2.5 m/s; a gentle 1.5 m/s descent).
-CLIMB_RATE_M_S = 2.5
-LAND_RATE_M_S = 1.5
+from bridge import copter_model as cm
+from bridge.copter_model import CopterParams
+
+ASSUMES = ("all missions start together; ArduCopter's flight (bridge.copter_model): spool-up and climb at "
+           "WPNAV_SPEED_UP, legs from rest to rest at the cruise speed with WPNAV_ACCEL, RTL at RTL_ALT and "
+           "RTL_SPEED then RTL_LOIT_TIME, descent at WPNAV_SPEED_DN, the last LAND_ALT_LOW at LAND_SPEED")
 
 
 @dataclass(frozen=True)
 class FlightModel:
     speed_m_s: float
     acceptance_m: float
-    climb_rate_m_s: float = CLIMB_RATE_M_S
-    land_rate_m_s: float = LAND_RATE_M_S
+    copter: CopterParams = field(default_factory=CopterParams)
+
+    @property
+    def climb_rate_m_s(self) -> float:
+        return self.copter.speed_up
+
+    @property
+    def land_rate_m_s(self) -> float:
+        """The slowest descent rate (LAND_SPEED): altitude over it bounds the landing's duration."""
+        return min(self.copter.land_speed, self.copter.descent_speed)
+
+
+def planned_motions(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: float, end: str,
+                    model: FlightModel) -> list[cm.Motion]:
+    """The phases of one drone's planned flight (bridge.copter_model.Motion), in order."""
+    ground = (float(launch_m[0]), float(launch_m[1]), 0.0)
+    motions = cm.takeoff(ground, altitude_m, model.copter)
+    here = motions[-1].end
+    for waypoint in np.asarray(waypoints_m, dtype=float).reshape(-1, 2):
+        target = (float(waypoint[0]), float(waypoint[1]), float(altitude_m))
+        if np.hypot(target[0] - here[0], target[1] - here[1]) > 1e-9:
+            motions.append(cm.leg(here, target, model.speed_m_s, model.copter))
+        here = target
+    if end == "rtl":
+        motions += cm.rtl(here, ground, model.copter)
+    else:
+        motions += cm.landing(here, 0.0, model.copter)
+    return motions
 
 
 def planned_track(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: float, end: str,
                   model: FlightModel) -> np.ndarray:
-    """(n, 4) array of (t, row_m, col_m, up_m) corners of one drone's planned flight; linear in between."""
-    here = np.array([launch_m[0], launch_m[1], 0.0])
-    t = 0.0
-    corners = [(t, *here)]
+    """(n, 4) array of (t, row_m, col_m, up_m) of one drone's planned flight, linear in between (rows
+    every corner and every half second inside a move, so the interpolation follows the speed profile)."""
+    return cm.sample(planned_motions(launch_m, waypoints_m, altitude_m, end, model))
 
-    def go(target: np.ndarray, speed: float, radius: float) -> None:
-        nonlocal here, t
-        gap = target - here
-        dist = float(np.linalg.norm(gap))
-        travel = max(dist - radius, 0.0)
-        if travel <= 0.0:
-            return
-        here = here + gap * (travel / dist)
-        t += travel / speed
-        corners.append((t, *here))
 
-    go(np.array([launch_m[0], launch_m[1], altitude_m]), model.climb_rate_m_s, 0.0)
-    for waypoint in np.asarray(waypoints_m, dtype=float).reshape(-1, 2):
-        go(np.array([waypoint[0], waypoint[1], altitude_m]), model.speed_m_s, model.acceptance_m)
-    if end == "rtl":
-        go(np.array([launch_m[0], launch_m[1], here[2]]), model.speed_m_s, 0.0)
-    go(np.array([here[0], here[1], 0.0]), model.land_rate_m_s, 0.0)
-    return np.array(corners, dtype=float)
+def planned_seconds(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: float, end: str,
+                    model: FlightModel) -> float:
+    """How long that flight takes (the last row of planned_track)."""
+    return cm.total_time(planned_motions(launch_m, waypoints_m, altitude_m, end, model))
 
 
 def closest_approach(tracks: dict[int, np.ndarray], step_s: float = 0.02) -> dict[str, Any]:

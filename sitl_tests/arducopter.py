@@ -233,3 +233,31 @@ def arducopter():
     finally:
         for vehicle in started:
             vehicle.stop()
+
+
+CMD_ARM, CMD_DO_SET_MODE, CMD_REBOOT = 400, 176, 246
+ARDUPILOT_GUIDED = 4
+
+
+def configure_camera_and_wait_ready(vehicle: ArduCopter, timeout: float = 240.0) -> None:
+    """What a team does once before flying: CAM1_TYPE = 1 (a relay-triggered camera; without one
+    ArduCopter sends no CAMERA_FEEDBACK) and a reboot for it to take effect; then wait, with a bound,
+    until the vehicle arms (its EKF has a GPS fix after ~35-40 simulated seconds), and disarm.
+    (`fly` waits for readiness itself too; waiting here keeps the flight's own wait short.)"""
+    from bridge.link import Link, wait_vehicle
+    from bridge.params import ParamClient
+
+    deadline = time.monotonic() + timeout
+    with Link(vehicle.gcs_url) as link:
+        info = wait_vehicle(link, vehicle.sysid, timeout=30.0)
+        ParamClient(link, info).set("CAM1_TYPE", 1.0)
+        link.command_long(vehicle.sysid, CMD_REBOOT, [1.0], deadline)
+        time.sleep(2.0)  # the reboot: the vehicle goes quiet, then boots with its clock restarted
+        wait_vehicle(link, vehicle.sysid, timeout=30.0)
+        while time.monotonic() < deadline:
+            link.command_long(vehicle.sysid, CMD_DO_SET_MODE, [1.0, float(ARDUPILOT_GUIDED)], deadline)
+            if link.command_long(vehicle.sysid, CMD_ARM, [1.0], deadline) == 0:
+                link.command_long(vehicle.sysid, CMD_ARM, [0.0], deadline)
+                return
+            time.sleep(1.0)
+    raise RuntimeError(f"ArduCopter SITL system {vehicle.sysid} did not become ready to arm within {timeout:g} s")

@@ -28,7 +28,9 @@ def shipped_plans(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     out: dict[str, Path] = {}
     for name, uavs in (("leonardo", 5), ("old-town", 1)):
         folder = tmp_path_factory.mktemp(f"{name}-{uavs}")
-        assert main(["plan", "--map", name, "--uavs", str(uavs), "--out", str(folder), "--quiet"]) == 0
+        # --endurance 0: one mission however long (old-town's would be cut into battery sorties).
+        assert main(["plan", "--map", name, "--uavs", str(uavs), "--out", str(folder), "--endurance", "0",
+                     "--quiet"]) == 0
         out[name] = folder / "uav1.plan"
     return out
 

@@ -121,14 +121,30 @@ def test_lost_camera_reports_are_placed_on_the_track(frame: GridFrame) -> None:
     np.testing.assert_allclose(positions, truth, atol=0.005)  # every photo within 5 mm, the placed ones too
 
 
-def test_lost_first_camera_report(frame: GridFrame) -> None:
+def test_photos_are_counted_from_the_first_index_this_flight_reported(frame: GridFrame) -> None:
+    # ArduPilot's img_idx starts at 1 and keeps counting across flights until a reboot: this flight's
+    # first photo is index 584. Indices 0..583 are earlier flights' photos, not lost reports.
+    rec = _straight_record(frame)
+    base = 584
+    for k in (0, 1, 3, 4):  # photo 2 (index 586) lost on the link
+        s = float(_photo_s(k))
+        lat, lon = _latlon(frame, [[ROW_M, s]])
+        rec.camera[base + k] = (1000.0 + s / SPEED, float(lat[0]), float(lon[0]), 20.0)
+    rec.captures = base + 5  # completed_captures counts from the boot too
+    positions, placed, source = fr.photo_positions(frame, rec, TRIGGER)
+    assert (source, placed, len(positions)) == ("camera", 1, 5)  # was 589 photos, 585 of them invented
+    truth = np.column_stack([np.full(5, ROW_M), _photo_s(np.arange(5))])
+    np.testing.assert_allclose(positions, truth, atol=0.005)
+
+
+def test_a_lost_first_report_is_not_invented(frame: GridFrame) -> None:
+    # Indistinguishable from a counter carried over from an earlier flight: only what was reported counts.
     rec = _straight_record(frame)
     for k in (2, 3, 4):
         _report(frame, rec, k)
     positions, placed, source = fr.photo_positions(frame, rec, TRIGGER)
-    assert (source, placed, len(positions)) == ("camera", 2, 5)
-    truth = np.column_stack([np.full(5, ROW_M), _photo_s(np.arange(5))])
-    np.testing.assert_allclose(positions, truth, atol=0.005)
+    assert (source, placed, len(positions)) == ("camera", 0, 3)
+    np.testing.assert_allclose(positions, np.column_stack([np.full(3, ROW_M), _photo_s(np.arange(2, 5))]), atol=0.005)
 
 
 def test_lost_camera_reports_are_placed_in_proportion_when_reports_arrive_late(frame: GridFrame) -> None:
@@ -154,7 +170,7 @@ def _wire(seq: int, command: int, param1: float = 0.0) -> WireItem:
                     param3=0.0, param4=0.0, x=0, y=0, z=0.0, mission_type=0)
 
 
-def test_without_camera_reports_a_photo_every_trigger_distance_along_the_survey(frame: GridFrame) -> None:
+def test_without_camera_reports_photos_only_when_asked_every_trigger_distance_along_the_survey(frame: GridFrame) -> None:
     # Mission: home, takeoff, trigger on, WP 3 (survey start), WP 4, WP 5 (survey end), trigger off, RTL.
     rec = DroneRecord(id=2)
     rec.wire = [_wire(0, 16), _wire(1, 22), _wire(2, 206, TRIGGER), _wire(3, 16), _wire(4, 16), _wire(5, 16),
@@ -166,7 +182,10 @@ def test_without_camera_reports_a_photo_every_trigger_distance_along_the_survey(
     lat, lon = _latlon(frame, path)
     rec.samples = [(50.0 + ti, la, lo, 20.0, 2.0, ti) for ti, la, lo in zip(t, lat, lon)]
     rec.reached = [(52.0, 1), (55.0, 3), (59.0, 4), (65.0, 5), (65.01, 5), (70.0, 7)]  # 5 duplicated on the link
-    positions, placed, source = fr.photo_positions(frame, rec, TRIGGER)
+    # Photos the vehicle never reported are no evidence: none, unless the user asks for them explicitly.
+    assert fr.photo_positions(frame, rec, TRIGGER)[1:] == (0, "none")
+    assert len(fr.photo_positions(frame, rec, TRIGGER)[0]) == 0
+    positions, placed, source = fr.photo_positions(frame, rec, TRIGGER, from_track=True)
     assert source == "track"
     # The survey is 20 m long (10 m along the columns, 10 m down the rows): photos at 0, 3, ..., 18 m.
     s = np.arange(0.0, 20.0 + 1e-9, TRIGGER)
@@ -188,6 +207,26 @@ def test_vehicle_clock_shifts_by_the_smallest_arrival_delay() -> None:
     samples[:, 0] = 500.0 + boot + delays
     samples[:, 5] = boot
     np.testing.assert_allclose(fr.vehicle_clock(samples), boot + 500.02, atol=1e-9)
+
+
+def test_a_record_too_short_to_fit_the_rate_runs_at_the_fleets_time_scale() -> None:
+    # 1.6 s of our time at 50x (a short flight): too short to fit the clock's rate. Taken as real time,
+    # its take-off landed 80 s of our time early and the fleet's start spread read 3872 s.
+    boot = np.arange(0.0, 80.0, 1.0)
+    samples = np.zeros((len(boot), 6))
+    samples[:, 0] = 700.0 + boot / 50.0 + 0.01
+    samples[:, 5] = boot
+    assert fr.vehicle_rate(samples) is None
+    np.testing.assert_allclose(fr.vehicle_clock(samples, 50.0), 700.0 + boot / 50.0 + 0.01, atol=1e-9)
+
+
+def test_flown_seconds_are_the_vehicles_own_from_start_to_end() -> None:
+    # A loaded machine: SITL asked for 10x ran at about 6x; the vehicle's clock says 120 s were flown.
+    rec = DroneRecord(id=1, t_start=100.0, t_end=120.0)
+    rec.samples = [(100.0 + k * 0.5, 45.0, 7.0, 10.0, 5.0, 30.0 + k * 3.0, 0.0) for k in range(-2, 43)]
+    assert fr.flown_seconds(rec, 10.0) == pytest.approx(120.0)  # not 20 s wall x 10
+    # Too few samples: our clock times the scale.
+    assert fr.flown_seconds(DroneRecord(id=2, t_start=0.0, t_end=20.0), 10.0) == pytest.approx(200.0)
 
 
 def _flown_at(scale: float, start_lat: float = 45.07, n: int = 12, speed: float = 5.0,

@@ -10,7 +10,30 @@ from pymavlink import mavwp
 from bridge.mission import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND, CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF,
                             CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT)
 from bridge.missionfile import read_mission_file
+from bridge import copter_model as cm
 from missionplan.cli import main
+from missionplan.flight_report import frame_of, to_grid_m
+from missionplan.timeline import FlightModel, planned_seconds
+
+
+def _timeline_of_file(out: Path, report: dict, sysid: int) -> float:
+    """The timeline's duration of uavK.plan as written (waypoints read back from the file)."""
+    mission = read_mission_file(out / f"uav{sysid}.plan").mission
+    frame = frame_of(report)
+    points = [(it.x, it.y) for it in mission.items if it.command == CMD_NAV_WAYPOINT]
+    waypoints = to_grid_m(frame, [p[0] for p in points], [p[1] for p in points])
+    launch = to_grid_m(frame, [mission.home[0]], [mission.home[1]])[0]
+    speed = next(it.param2 for it in mission.items if it.command == 178)
+    end = "land" if mission.items[-1].command == CMD_NAV_LAND else "rtl"
+    return planned_seconds(launch, waypoints, mission.items[0].z, end,
+                           FlightModel(speed, report["georeference"]["footprint_m"] / 36))
+
+
+def _lower_bound(altitude: float, length_m: float, speed: float) -> float:
+    """Every term a floor: spool-up, climb at full rate, legs at full speed, the last metres of the
+    landing at LAND_SPEED, touchdown."""
+    return (cm.TAKEOFF_SPOOL_S + altitude / 2.5 + (length_m - 2 * altitude) / speed + min(altitude, 10.0) / 0.5
+            + cm.TOUCHDOWN_S)
 
 
 @pytest.fixture(scope="module")
@@ -30,11 +53,9 @@ def test_every_drone_gets_plan_waypoints_and_a_report_entry(leonardo_run):
     for drone in report["drones"]:
         for key in ("cells", "waypoints", "length_m", "flight_s", "photos"):
             assert drone[key] > 0
-        # The timeline: climb at 2.5 m/s, legs at 5 m/s (each cut short by up to the acceptance radius), 1.5 m/s down.
-        altitude = drone["altitude_m"]
-        expected = altitude / 2.5 + (drone["length_m"] - 2 * altitude) / 5.0 + altitude / 1.5
-        acceptance = report["georeference"]["footprint_m"] / 36
-        assert drone["flight_s"] == pytest.approx(expected, abs=0.06 + drone["waypoints"] * acceptance / 5.0)
+        # The timeline (ArduCopter's flight) of the mission as written, and longer than distance over speed.
+        assert drone["flight_s"] == pytest.approx(_timeline_of_file(out, report, drone["id"]), abs=0.06)
+        assert drone["flight_s"] > _lower_bound(drone["altitude_m"], drone["length_m"], 5.0)
     separation = report["separation"]
     assert separation["3d"] >= separation["horizontal"] > 0 and len(separation["pair_3d"]) == 2
 
@@ -113,9 +134,8 @@ def test_land_and_altitude_step_options(tmp_path):
     assert altitudes == pytest.approx([1.2, 1.7, 2.2])
     report = json.loads((out / "report.json").read_text())
     first = report["drones"][0]
-    expected = 1.2 / 2.5 + (first["length_m"] - 2 * 1.2) / 2.0 + 1.2 / 1.5  # climb, legs at --speed 2, descent
-    acceptance = report["georeference"]["footprint_m"] / 36
-    assert first["flight_s"] == pytest.approx(expected, abs=0.06 + first["waypoints"] * acceptance / 2.0)
+    assert first["flight_s"] == pytest.approx(_timeline_of_file(out, report, 1), abs=0.06)  # legs at --speed 2
+    assert first["flight_s"] > _lower_bound(1.2, first["length_m"], 2.0)
 
 
 @pytest.mark.parametrize("args, message", [

@@ -7,64 +7,112 @@ import math
 import numpy as np
 import pytest
 
-from missionplan.timeline import CLIMB_RATE_M_S, LAND_RATE_M_S, FlightModel, closest_approach, planned_track
+from bridge import copter_model as cm
+from bridge.copter_model import CopterParams, Motion
+from missionplan.timeline import FlightModel, closest_approach, planned_seconds, planned_track
 
 LAUNCH = np.array([10.0, 20.0])
 # Two waypoints due "south" of the launch point along the row axis: a straight survey line.
 WAYPOINTS = np.array([[40.0, 20.0], [90.0, 20.0]])
 ALT = 15.0
 MODEL = FlightModel(speed_m_s=5.0, acceptance_m=1.0)
+# ArduCopter's defaults: WPNAV_SPEED_UP 2.5 m/s, WPNAV_ACCEL_Z 1 m/s/s, WPNAV_ACCEL 2.5 m/s/s,
+# WPNAV_SPEED 10 m/s (RTL's way home), WPNAV_SPEED_DN 1.5 m/s to LAND_ALT_LOW 10 m, then LAND_SPEED 0.5 m/s.
+TAKEOFF = cm.TAKEOFF_SPOOL_S + 15.0 / 2.5 + 2.5 / 1.0       # spool-up, then 15 m up: 6 s cruising + 2.5 s of ramps
+LEG1, LEG2 = 30.0 / 5.0 + 5.0 / 2.5, 50.0 / 5.0 + 5.0 / 2.5  # rest to rest: distance / speed + speed / accel
+HOME = cm.RTL_START_S + 80.0 / 10.0 + 10.0 / 2.5             # at WPNAV_SPEED, not the mission's 5 m/s
+LOITER = 5.0 + cm.RTL_SETTLE_S                                # RTL_LOIT_TIME
+# 15 -> 10 m: up to 1.5 m/s at 1 m/s/s (1.5 s, 1.125 m), down to 0.5 m/s (1 s, 1 m), 2.875 m at 1.5 m/s.
+DESCENT = 1.5 + 1.0 + 2.875 / 1.5
+LAND = 10.0 / 0.5 + cm.TOUCHDOWN_S                            # the last 10 m at 0.5 m/s, then disarm
 
 
-def _expected_corners(end: str) -> list[tuple[float, float, float, float]]:
-    t = ALT / CLIMB_RATE_M_S                                       # climb at the launch point
-    corners = [(0.0, 10.0, 20.0, 0.0), (t, 10.0, 20.0, ALT)]
-    t += (30.0 - 1.0) / 5.0                                         # leg 1: 30 m, reached 1 m early
-    corners.append((t, 39.0, 20.0, ALT))
-    t += (51.0 - 1.0) / 5.0                                         # leg 2: from 39 to 90, reached 1 m early
-    corners.append((t, 89.0, 20.0, ALT))
-    if end == "rtl":
-        t += 79.0 / 5.0                                             # home at the survey altitude
-        corners.append((t, 10.0, 20.0, ALT))
-    t += ALT / LAND_RATE_M_S                                        # descent where the track ends
-    corners.append((t, corners[-1][1], corners[-1][2], 0.0))
-    return corners
+def _at(track: np.ndarray, t: float) -> np.ndarray:
+    return np.array([np.interp(t, track[:, 0], track[:, k]) for k in (1, 2, 3)])
 
 
-def test_planned_track_rtl_corners() -> None:
+def test_rtl_flight_spelled_out() -> None:
     track = planned_track(LAUNCH, WAYPOINTS, ALT, "rtl", MODEL)
-    assert track.shape == (6, 4)
-    np.testing.assert_allclose(track, np.array(_expected_corners("rtl")), atol=1e-9)
-    # Spelled out: 6 s climb, 5.8 s and 10 s legs, 15.8 s home, 10 s descent.
-    np.testing.assert_allclose(track[:, 0], [0.0, 6.0, 11.8, 21.8, 37.6, 47.6], atol=1e-9)
-    # Ends on the ground at the launch point.
+    marks = np.cumsum([TAKEOFF, LEG1, LEG2, HOME, LOITER, DESCENT, LAND])
+    assert track[-1, 0] == pytest.approx(marks[-1], abs=1e-9)
+    assert planned_seconds(LAUNCH, WAYPOINTS, ALT, "rtl", MODEL) == pytest.approx(marks[-1], abs=1e-9)
+    np.testing.assert_allclose(_at(track, cm.TAKEOFF_SPOOL_S), [10.0, 20.0, 0.0], atol=1e-9)  # still on the ground
+    np.testing.assert_allclose(_at(track, marks[0]), [10.0, 20.0, ALT], atol=1e-9)
+    np.testing.assert_allclose(_at(track, marks[1]), [40.0, 20.0, ALT], atol=1e-9)  # the waypoint itself
+    np.testing.assert_allclose(_at(track, marks[2]), [90.0, 20.0, ALT], atol=1e-9)
+    np.testing.assert_allclose(_at(track, marks[3]), [10.0, 20.0, ALT], atol=1e-9)  # above home, at 15 m >= RTL_ALT
+    np.testing.assert_allclose(_at(track, marks[4]), [10.0, 20.0, ALT], atol=1e-9)  # after the loiter
+    np.testing.assert_allclose(_at(track, marks[5]), [10.0, 20.0, 10.0], atol=1e-9)
     np.testing.assert_allclose(track[-1, 1:], [10.0, 20.0, 0.0], atol=1e-9)
+    # The last 10 m take 20 s: at 0.5 m/s, one metre every 2 s.
+    np.testing.assert_allclose(_at(track, marks[5] + 2.0)[2], 9.0, atol=1e-9)
+    # Half way along the 30 m leg (rest to rest, symmetric): at 15 m.
+    np.testing.assert_allclose(_at(track, marks[0] + LEG1 / 2)[0], 25.0, atol=0.05)
 
 
-def test_planned_track_land_has_no_return_leg() -> None:
+def test_land_flight_has_no_return_leg_and_lands_on_the_last_waypoint() -> None:
     track = planned_track(LAUNCH, WAYPOINTS, ALT, "land", MODEL)
-    assert track.shape == (5, 4)
-    np.testing.assert_allclose(track, np.array(_expected_corners("land")), atol=1e-9)
-    # Lands where the last leg ended: one acceptance radius short of the last waypoint.
-    np.testing.assert_allclose(track[-1], [31.8, 89.0, 20.0, 0.0], atol=1e-9)
+    assert track[-1, 0] == pytest.approx(TAKEOFF + LEG1 + LEG2 + DESCENT + LAND, abs=1e-9)
+    np.testing.assert_allclose(track[-1, 1:], [90.0, 20.0, 0.0], atol=1e-9)
     rtl = planned_track(LAUNCH, WAYPOINTS, ALT, "rtl", MODEL)
-    np.testing.assert_allclose(track[:4], rtl[:4], atol=1e-12)  # the same flight up to the last waypoint
+    cut = TAKEOFF + LEG1 + LEG2
+    np.testing.assert_allclose(track[track[:, 0] <= cut], rtl[rtl[:, 0] <= cut], atol=1e-12)  # the same until then
 
 
-def test_acceptance_radius_shortens_each_leg_by_exactly_the_radius() -> None:
-    for radius in (0.0, 0.5, 2.0):
-        track = planned_track(LAUNCH, WAYPOINTS, ALT, "land", FlightModel(5.0, radius))
-        legs = np.diff(track[1:4, 0]) * 5.0
-        # Leg 1 is 30 m from the launch point; leg 2 starts `radius` before waypoint 1 and is 50 + radius long.
-        np.testing.assert_allclose(legs, [30.0 - radius, 50.0 + radius - radius], atol=1e-9)
-        np.testing.assert_allclose(track[3, 1:3], [90.0 - radius, 20.0], atol=1e-9)
+def test_rtl_climbs_to_rtl_alt_first_and_less_near_home() -> None:
+    low = planned_track(LAUNCH, WAYPOINTS, 8.0, "rtl", MODEL)
+    t_last = cm.TAKEOFF_SPOOL_S + Motion((0, 0, 0), (0, 0, 8.0), 2.5, 1.0).duration + LEG1 + LEG2
+    climb = Motion((0, 0, 8.0), (0, 0, 15.0), 2.5, 1.0).duration
+    np.testing.assert_allclose(_at(low, t_last + cm.RTL_START_S + climb), [90.0, 20.0, 15.0], atol=1e-9)  # straight up
+    assert low[:, 3].max() == pytest.approx(15.0)
+    # 2 m from home the cone (RTL_CONE_SLOPE 3) allows 6 m, but ArduCopter climbs at least 2.5 m: 10.5 m.
+    near = planned_track(np.array([0.0, 0.0]), np.array([[2.0, 0.0]]), 8.0, "rtl", MODEL)
+    assert near[:, 3].max() == pytest.approx(8.0 + cm.RTL_ABS_MIN_CLIMB_M)
+    # Above RTL_ALT it returns at its own altitude: never a descent before the landing.
+    high = planned_track(LAUNCH, WAYPOINTS, 30.0, "rtl", MODEL)
+    assert high[:, 3].max() == pytest.approx(30.0)
 
 
-def test_custom_rates_and_diagonal_leg() -> None:
-    model = FlightModel(speed_m_s=2.0, acceptance_m=0.0, climb_rate_m_s=4.0, land_rate_m_s=2.0)
-    track = planned_track(np.array([0.0, 0.0]), np.array([[30.0, 40.0]]), 8.0, "rtl", model)
-    np.testing.assert_allclose(track[:, 0], [0.0, 2.0, 27.0, 52.0, 56.0], atol=1e-9)
-    np.testing.assert_allclose(track[2, 1:], [30.0, 40.0, 8.0], atol=1e-9)
+def test_the_vehicles_parameters_change_the_timeline() -> None:
+    params = CopterParams.from_params({"WPNAV_SPEED_UP": 500.0, "WPNAV_ACCEL": 500.0, "RTL_SPEED": 500.0,
+                                       "RTL_LOIT_TIME": 0.0, "LAND_SPEED": 100.0, "LAND_ALT_LOW": 500.0,
+                                       "WPNAV_SPEED_DN": 250.0, "WPNAV_ACCEL_Z": 250.0})
+    assert (params.speed_up, params.wp_accel, params.return_speed, params.rtl_loiter_s) == (5.0, 5.0, 5.0, 0.0)
+    assert (params.land_speed, params.land_alt_low, params.descent_speed) == (1.0, 5.0, 2.5)
+    assert params.wp_speed == 10.0  # not given: the default
+    assert CopterParams.from_params(params.as_params()) == params
+    model = FlightModel(5.0, 1.0, params)
+    expected = (cm.TAKEOFF_SPOOL_S + 15.0 / 5.0 + 5.0 / 2.5 + 30.0 / 5.0 + 5.0 / 5.0 + 50.0 / 5.0 + 5.0 / 5.0
+                + cm.RTL_START_S + 80.0 / 5.0 + 5.0 / 5.0 + cm.RTL_SETTLE_S
+                + Motion((0, 0, 15.0), (0, 0, 5.0), 2.5, 2.5, v1=1.0).duration + 5.0 / 1.0 + cm.TOUCHDOWN_S)
+    assert planned_seconds(LAUNCH, WAYPOINTS, ALT, "rtl", model) == pytest.approx(expected, abs=1e-9)
+    assert planned_seconds(LAUNCH, WAYPOINTS, ALT, "rtl", model) < planned_seconds(LAUNCH, WAYPOINTS, ALT, "rtl", MODEL)
+
+
+def test_many_short_legs_take_far_longer_than_distance_over_speed() -> None:
+    # A 20 x 10 m zigzag of 2 m legs: each leg is 2 * sqrt(2 / 2.5) s from rest to rest, not 0.4 s.
+    zigzag = np.array([[2.0 * (k // 2 + k % 2), 2.0 * (k // 2)] for k in range(1, 21)])
+    legs = np.hypot(*np.diff(np.vstack([[0.0, 0.0], zigzag]), axis=0).T)
+    survey = sum(Motion((0, 0, 0), (d, 0, 0), 5.0, 2.5).duration for d in legs)
+    assert survey == pytest.approx(20 * 2.0 * math.sqrt(2.0 / 2.5))
+    assert survey > 4 * legs.sum() / 5.0
+
+
+def test_motion_profile_respects_speed_and_acceleration() -> None:
+    for distance, speed in ((0.5, 5.0), (4.0, 5.0), (30.0, 5.0), (200.0, 10.0)):
+        m = Motion((0.0, 0.0, 0.0), (distance, 0.0, 0.0), speed, 2.5)
+        t = np.linspace(0.0, m.duration, 2001)
+        s = m.travelled(t)
+        v = np.diff(s) / np.diff(t)
+        assert s[0] == 0.0 and s[-1] == pytest.approx(distance)
+        assert np.all(np.diff(s) >= -1e-12) and v.max() <= speed + 1e-6
+        assert np.abs(np.diff(v) / np.diff(t)[1:]).max() <= 2.5 + 1e-3
+        assert v[0] < 0.1 and v[-1] < 0.1  # from rest to rest
+    # With an entry and an exit speed (the landing's switch to LAND_SPEED), and a wait.
+    m = Motion((0.0, 0.0, 15.0), (0.0, 0.0, 10.0), 1.5, 1.0, v1=0.5)
+    assert m.duration == pytest.approx(DESCENT)
+    assert cm.wait((1.0, 2.0, 3.0), 4.0).duration == 4.0
+    np.testing.assert_allclose(cm.wait((1.0, 2.0, 3.0), 4.0).position(2.0), [[1.0, 2.0, 3.0]])
 
 
 # ------------------------------------------------------------------------------------------- closest approach
