@@ -22,7 +22,7 @@ from geo.frame import GridFrame
 from .atomic import write_text_atomic
 from .corrector import MARGIN_CELLS, CorrectedPath, correct_path
 from .geofence import Fence, drone_fence
-from .gridmap import GridMap
+from .gridmap import GridMap, MapError
 from .missions import DroneMission, MissionSettings, build_mission
 from .pipeline import PlanResult
 from .safety import SafetySettings
@@ -30,6 +30,8 @@ from .separation import Layering, SeparationError, choose_layers, closest_over_s
 from .sorties import Sortie, sortie_file, split_sorties
 from .timeline import ASSUMES, FlightModel, closest_approach, planned_track
 from .world import FOOTPRINT_RADIUS
+
+SORTIE_FIT_TRIES = 6  # re-cuts of a drone's sorties when one came out over the budget on the timeline
 
 
 @dataclass
@@ -200,11 +202,28 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
     homing = [_Homing(result.gmap.free, result.starts[k], base.obstacle, margin_cells, cell) if safety is not None
               else None for k in range(uavs)]
 
+    def split_one(k: int, altitude: float) -> list[Sortie]:
+        """Drone k's sorties, each proven within the budget on the timeline itself: the splitter times
+        the way out and home as straight legs, but they go round obstacles, so a sortie that came out
+        over the budget is cut again with a budget shrunk by the excess (a bounded number of times)."""
+        target = budget
+        for _ in range(SORTIE_FIT_TRIES):
+            sorties = split_sorties(launches[k], routes[k], altitude, settings.end, model, target, f"uav{k + 1}",
+                                    home_m=homing[k].home_m if homing[k] else None,
+                                    step_m=cell if homing[k] else None)
+            if budget is None:
+                return sorties
+            worst = max(float(planned_track(launches[k], flown(k, s), altitude, s.end, model)[-1, 0])
+                        for s in sorties)
+            if worst <= budget:
+                return sorties
+            target *= 0.98 * budget / worst
+        raise MapError(f"uav{k + 1}: could not cut its route into sorties of at most {budget:.0f} s "
+                       f"(one still takes {worst:.0f} s): raise --endurance or lower --reserve")
+
     def split(step: float) -> list[list[Sortie]]:
         layered = replace(settings, altitude_step_m=step)
-        return [split_sorties(launches[k], routes[k], layered.altitude_of(k), settings.end, model, budget, f"uav{k + 1}",
-                              home_m=homing[k].home_m if homing[k] else None, step_m=cell if homing[k] else None)
-                for k in range(uavs)]
+        return [split_one(k, layered.altitude_of(k)) for k in range(uavs)]
 
     def legs(k: int, sortie: Sortie) -> tuple[np.ndarray, np.ndarray]:
         """(the way out, the way home) of a sortie, metres; empty where the flight needs none."""

@@ -101,6 +101,35 @@ def _merge(points: np.ndarray, own: np.ndarray) -> np.ndarray:
     return points[keep]
 
 
+def _survey_timer(points: np.ndarray, own: np.ndarray, model: FlightModel) -> Callable[[int, int], float]:
+    """survey_s(i, j): seconds to fly points[i] -> points[j] along the route, stopping (rest to rest)
+    at the route's own waypoints and at both ends, as the copter flies a sortie cut there. The cut
+    points inserted by `_densify` lie on straight legs and are no stops in between."""
+    def leg_s(length: float) -> float:
+        if length <= 0.0:
+            return 0.0
+        return cm.leg((0.0, 0.0, 0.0), (float(length), 0.0, 0.0), model.speed_m_s, model.copter).duration
+
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))]) if len(points) > 1 \
+        else np.zeros(len(points))
+    own_at = np.flatnonzero(own)
+    # Seconds from the first own waypoint to each own waypoint, one rest-to-rest leg at a time.
+    own_s = np.concatenate([[0.0], np.cumsum([leg_s(b - a) for a, b in zip(arc[own_at][:-1], arc[own_at][1:])])])
+    rank = np.cumsum(own) - 1  # index into own_at of the last own waypoint at or before each point
+
+    def survey_s(i: int, j: int) -> float:
+        if j <= i:
+            return 0.0
+        after_i = rank[i] + (0 if own[i] else 1)  # first own waypoint at or after i
+        before_j = rank[j]  # last own waypoint at or before j
+        if after_i > before_j:  # both on one straight leg
+            return leg_s(arc[j] - arc[i])
+        return (leg_s(arc[own_at[after_i]] - arc[i]) + float(own_s[before_j] - own_s[after_i])
+                + leg_s(arc[j] - arc[own_at[before_j]]))
+
+    return survey_s
+
+
 def split_sorties(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: float, end: str,
                   model: FlightModel, budget_s: float | None, name: str = "drone",
                   home_m: Callable[[np.ndarray], float] | None = None, step_m: float | None = None) -> list[Sortie]:
@@ -115,10 +144,7 @@ def split_sorties(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: flo
     distance = home_m if home_m is not None else (lambda p: float(np.hypot(*(np.asarray(p) - launch))))
     points, own = _densify(route, step_m)
     home = np.array([distance(p) for p in points])
-    legs = np.concatenate([[0.0], np.hypot(*np.diff(points, axis=0).T)]) if len(points) > 1 else np.zeros(1)
-    # Survey seconds from the route's start to each point, every point a stop (an upper bound).
-    along = np.cumsum([cm.leg((0.0, 0.0, 0.0), (float(d), 0.0, 0.0), model.speed_m_s, model.copter).duration
-                       for d in legs])
+    survey_s = _survey_timer(points, own, model)
 
     def too_short(i: int) -> MapError:
         need = _flight_s(home[i], 0.0, home[i], altitude_m, "rtl", model)
@@ -136,11 +162,11 @@ def split_sorties(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: flo
         else:
             # Times grow along the route: the farthest point that still fits ends the sortie.
             j = first
-            while j < last and _flight_s(home[first], along[j + 1] - along[first], home[j + 1], altitude_m,
+            while j < last and _flight_s(home[first], survey_s(first, j + 1), home[j + 1], altitude_m,
                                          end if j + 1 == last else "rtl", model) <= budget_s:
                 j += 1
             # Not where the next sortie could not even fly its first step and come back: stop earlier.
-            while first < j < last and _flight_s(home[j], along[j + 1] - along[j], home[j + 1], altitude_m,
+            while first < j < last and _flight_s(home[j], survey_s(j, j + 1), home[j + 1], altitude_m,
                                                  end if j + 1 == last else "rtl", model) > budget_s:
                 j -= 1
             if j == first:
