@@ -373,3 +373,26 @@ def test_a_fence_round_a_ragged_zone_stays_small_and_holds_every_point():
     polygon = shapely.Polygon(fence.polygon_m)
     assert polygon.contains(shapely.MultiPoint(points)) and polygon.contains(shapely.MultiPoint(cells * 2.0))
     assert fence.max_altitude_m == 25.0
+
+
+TURIN_OSM = Path(__file__).resolve().parents[2] / "shared" / "maps" / "turin_cenisia_osm_buildings.geojson"
+TURIN_AREA = Path(__file__).resolve().parents[1] / "examples" / "turin-cenisia-area.geojson"
+
+
+@pytest.mark.skipif(not TURIN_OSM.is_file(), reason=f"{TURIN_OSM} is absent (../shared/maps)")
+def test_real_city_sorties_fit_the_battery_and_short_flights_stay_whole(tmp_path):
+    """Turin: the way out and home go round buildings, which the splitter's straight transit legs
+    underrate; every sortie must still fit on the timeline. And 11-13 minute flights under the
+    default 20 minute battery are not cut at all (the splitter once counted a stop every cell)."""
+    common = ["--area", str(TURIN_AREA), "--osm", str(TURIN_OSM), "--altitude", "20", "--fov", "84",
+              "--launch", "45.069450,7.652588", "--launch", "45.069513,7.657924"]
+    assert main(["plan", *common, "--endurance", "10", "--out", str(tmp_path / "short"), "--quiet"]) == 0
+    report = json.loads((tmp_path / "short" / "report.json").read_text())
+    flights = [s["flight_s"] for d in report["drones"] for s in d["sorties"]]
+    assert len(flights) > 2 and max(flights) <= 10 * 60 * 0.8 + 1e-6
+
+    assert main(["plan", *common, "--launch", "45.066065,7.652668", "--launch", "45.066127,7.658004",
+                 "--out", str(tmp_path / "whole"), "--quiet"]) == 0
+    report = json.loads((tmp_path / "whole" / "report.json").read_text())
+    assert [len(d["sorties"]) for d in report["drones"]] == [1, 1, 1, 1]
+    assert all(d["sorties"][0]["flight_s"] < 20 * 60 * 0.8 for d in report["drones"])
