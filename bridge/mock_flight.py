@@ -277,6 +277,11 @@ class FlightSim:
         used, arrived = self._fly_to(lat, lon, alt, dt, radius)
         if not arrived:
             return used
+        return self._hold_then_advance(events, used, dt)
+
+    def _hold_then_advance(self, events: list[FlightEvent], used: float, dt: float) -> float:
+        """At a waypoint: spend what is left of its hold time (param1) within this tick, then take the
+        next item; the seconds of `dt` used."""
         if self._hold_left > 0:
             hold = min(self._hold_left, dt - used)
             self._hold_left -= hold
@@ -454,11 +459,4 @@ class FlightSim:
         used, done = self._run_motions(key, lambda: [cm.leg(here, (north, east, alt), s.speed, p)], dt)
         if not done:
             return used
-        if self._hold_left > 0:
-            hold = min(self._hold_left, dt - used)
-            self._hold_left -= hold
-            used += hold
-            if self._hold_left > 1e-9:
-                return used
-        self._advance_item(events, reached=True)
-        return used
+        return self._hold_then_advance(events, used, dt)
