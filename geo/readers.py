@@ -246,12 +246,8 @@ def _check_geojson_rings(geom: dict[str, Any], where: str) -> None:
     for rings in polygons:
         for k, ring in enumerate(rings):
             label = "outer ring" if k == 0 else f"hole {k}"
-            if not isinstance(ring, list) or not all(
-                    isinstance(p, list) and 2 <= len(p) <= 3 and all(_is_number(v) for v in p) for p in ring):
-                raise GeoError(f"{where}: {kind} {label}: positions are not [lon, lat] number pairs")
-            for p in ring:
-                if not all(math.isfinite(v) for v in p):
-                    raise GeoError(f"{where}: {kind} {label}: position {p} is not finite numbers")
+            _check_positions(ring, f"{where}: {kind} {label}: positions are not [lon, lat] number pairs",
+                             f"{where}: {kind} {label}: position")
             if ring and ring[0] != ring[-1]:
                 raise GeoError(f"{where}: {kind} {label} is not closed (its first and last positions differ); "
                                f"GeoJSON rings repeat the first position at the end")
@@ -374,16 +370,22 @@ def _read_kml(path: Path) -> list[Feature]:
     return out
 
 
+def _check_positions(points: Any, not_numbers: str, position: str) -> None:
+    """GeoError unless `points` is a list of 2- or 3-number lists, all finite (GeoJSON rings and
+    .plan polygons alike): `not_numbers` is the message for the shape, `position` prefixes a bad one."""
+    if not isinstance(points, list) or not all(
+            isinstance(p, list) and 2 <= len(p) <= 3 and all(_is_number(v) for v in p) for p in points):
+        raise GeoError(not_numbers)
+    for p in points:
+        if not all(math.isfinite(v) for v in p):
+            raise GeoError(f"{position} {p} is not finite numbers")
+
+
 # ---- QGroundControl .plan ------------------------------------------------------------
 
 def _latlon_points(points: Any, where: str, what: str) -> list[tuple[float, float]]:
     """.plan [lat, lon] (or [lat, lon, alt]) number lists -> (lon, lat) tuples, all finite."""
-    if not isinstance(points, list) or not all(
-            isinstance(p, list) and 2 <= len(p) <= 3 and all(_is_number(v) for v in p) for p in points):
-        raise GeoError(f"{where}: {what} points are not [lat, lon] number pairs")
-    for p in points:
-        if not all(math.isfinite(v) for v in p):
-            raise GeoError(f"{where}: {what} point {p} is not finite numbers")
+    _check_positions(points, f"{where}: {what} points are not [lat, lon] number pairs", f"{where}: {what} point")
     return [(float(p[1]), float(p[0])) for p in points]  # .plan stores [lat, lon]
 
 
