@@ -84,13 +84,64 @@ def _geodesic_from(graph: csr_matrix, cells: np.ndarray, cols: int) -> np.ndarra
     return shortest_path(graph, method="D", unweighted=True, indices=sources)
 
 
-def _lowest_label_per_cell(cells: np.ndarray, labels: np.ndarray, num_labels: int) -> tuple[np.ndarray, np.ndarray]:
-    """Each cell once, with the lowest of its labels (one sort of cell * num_labels + label)."""
-    keys = np.sort(cells * num_labels + labels)
-    cells, labels = np.divmod(keys, num_labels)
-    first = np.ones(cells.size, dtype=bool)
-    first[1:] = cells[1:] != cells[:-1]
-    return cells[first], labels[first]
+def _padded_free(free: np.ndarray) -> np.ndarray:
+    """free with a blocked border, flattened: a cell's four neighbours are at -w, -1, +1, +w."""
+    padded = np.zeros((free.shape[0] + 2, free.shape[1] + 2), dtype=bool)
+    padded[1:-1, 1:-1] = free
+    return padded.ravel()
+
+
+def _padded_index(cells: np.ndarray, width: int) -> np.ndarray:
+    """Flat indices of (row, col) cells in a grid padded by one cell of `width` columns."""
+    cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+    return (cells[:, 0] + 1) * width + cells[:, 1] + 1
+
+
+def _search(padded_free: np.ndarray, width: int, sources: np.ndarray, levels: np.ndarray, with_dist: bool = True
+            ) -> tuple[np.ndarray, np.ndarray | None]:
+    """nearest_seed on the flat padded grid: (label, dist) per padded cell, label len(sources) where unreached;
+    dist None unless `with_dist`."""
+    num_seeds = len(sources)
+    open_ = padded_free.copy()  # free and not yet met by any ring
+    label = np.full(open_.size, num_seeds, dtype=np.int32)  # above every seed index: unreached
+    dist = np.full(open_.size, -1, dtype=np.int32) if with_dist else None
+    slot = np.empty(open_.size, dtype=np.int64)  # which copy of a cell its scatter kept
+    steps = np.array([[-width], [-1], [1], [width]], dtype=np.int64)
+    entry = np.lexsort((np.arange(num_seeds), levels))  # by start level, then index
+    ring = np.zeros(0, dtype=np.int64)
+    waiting, level = 0, 0
+    while True:
+        while waiting < num_seeds and levels[entry[waiting]] <= level:
+            k = int(entry[waiting])
+            cell = int(sources[k])
+            waiting += 1
+            if open_[cell]:  # a free cell no ring has met: the seed starts a ring there
+                open_[cell], label[cell] = False, k
+                ring = np.append(ring, cell)
+                if dist is not None:
+                    dist[cell] = level
+            elif (ring == cell).any():  # met by this very ring: the lower label keeps it
+                label[cell] = min(int(label[cell]), k)
+        if ring.size == 0:
+            if waiting >= num_seeds:
+                break
+            level = int(levels[entry[waiting]])  # nothing in flight: jump to the next seed's start
+            continue
+        # The four neighbours of every ring cell as a (4, n) block (fast in numpy; (n, 4) is not).
+        nxt = (steps + ring).ravel()
+        nxt_label = np.empty((4, ring.size), dtype=np.int32)
+        nxt_label[:] = label.take(ring)
+        keep = np.flatnonzero(open_.take(nxt))
+        nxt, nxt_label = nxt.take(keep), nxt_label.ravel().take(keep)
+        np.minimum.at(label, nxt, nxt_label)  # the lowest label among a cell's ring neighbours
+        open_[nxt] = False
+        order = np.arange(nxt.size)
+        slot[nxt] = order  # one copy of each cell wins the scatter: that copy is the ring's
+        ring = nxt.compress(slot.take(nxt) == order)
+        level += 1
+        if dist is not None:
+            dist[ring] = level
+    return label, dist
 
 
 def nearest_seed(free: np.ndarray, seeds: np.ndarray, start_levels: np.ndarray | None = None
@@ -103,46 +154,16 @@ def nearest_seed(free: np.ndarray, seeds: np.ndarray, start_levels: np.ndarray |
     the label is argmin_k (distance_k + start_levels[k]) - an additively weighted Voronoi -
     and dist is that sum.
     Ring by ring in numpy: a cell's label is the lowest label among its neighbours in the
-    previous ring, which is exactly the lowest index among its nearest seeds.
+    previous ring (one `np.minimum.at`), which is exactly the lowest index among its
+    nearest seeds. No sort: a ring's cells are made unique by letting each cell's scatter
+    keep one of its copies.
     """
     rows, cols = free.shape
-    width = cols + 2
-    padded = np.zeros((rows + 2, width), dtype=bool)
-    padded[1:-1, 1:-1] = free
-    padded = padded.ravel()
-    label = np.full(padded.size, -1, dtype=np.int32)
-    dist = np.full(padded.size, -1, dtype=np.int32)
     seeds = np.asarray(seeds, dtype=np.int64).reshape(-1, 2)
-    flat = (seeds[:, 0] + 1) * width + seeds[:, 1] + 1
     levels = np.zeros(len(seeds), dtype=np.int64) if start_levels is None else np.asarray(start_levels, np.int64)
-    steps = np.array([-width, -1, 1, width], dtype=np.int64)
-    entry = np.lexsort((np.arange(len(seeds)), levels))  # by start level, then index
-    ring, ring_label = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    waiting, level = 0, 0
-    while True:
-        joining = []
-        while waiting < len(entry) and levels[entry[waiting]] <= level:
-            k = int(entry[waiting])
-            waiting += 1
-            if padded[flat[k]] and label[flat[k]] < 0:
-                joining.append(k)
-        if joining:  # a seed on a cell reached this very level: the lowest label keeps it
-            ring = np.concatenate([ring, flat[joining]])
-            ring_label = np.concatenate([ring_label, np.array(joining, dtype=np.int64)])
-            ring, ring_label = _lowest_label_per_cell(ring, ring_label, len(seeds))
-        if ring.size == 0:
-            if waiting >= len(entry):
-                break
-            level = int(levels[entry[waiting]])  # nothing in flight: jump to the next seed's start
-            continue
-        label[ring], dist[ring] = ring_label, level
-        nxt = (ring[:, None] + steps).ravel()
-        nxt_label = np.repeat(ring_label, 4)
-        fresh = padded[nxt] & (label[nxt] < 0)
-        nxt, nxt_label = nxt[fresh], nxt_label[fresh]
-        ring, ring_label = _lowest_label_per_cell(nxt, nxt_label, len(seeds))
-        level += 1
-    shape = (rows + 2, width)
+    label, dist = _search(_padded_free(free), cols + 2, _padded_index(seeds, cols + 2), levels)
+    label[label == len(seeds)] = -1
+    shape = (rows + 2, cols + 2)
     return label.reshape(shape)[1:-1, 1:-1], dist.reshape(shape)[1:-1, 1:-1]
 
 
@@ -198,11 +219,21 @@ def _offset_rounds(free: np.ndarray, weight: np.ndarray, seeds: np.ndarray, offs
                    ) -> tuple[np.ndarray, np.ndarray, float]:
     """Balancing rounds on one grid; returns (best assignment of the weighted cells, its offsets, its spread)."""
     num_zones = len(seeds)
-    weighted = weight > 0
-    cell_weight = weight[weighted]
-    label, dist = nearest_seed(free, seeds, np.rint(offsets - offsets.min()))
-    assignment = label[weighted]
-    reached = dist[weighted][assignment >= 0]
+    width = free.shape[1] + 2
+    padded_free = _padded_free(free)  # made once, searched every round
+    sources = _padded_index(seeds, width)
+    weighted = np.argwhere(weight > 0)
+    cell_weight = weight[weight > 0]
+    at = _padded_index(weighted, width)  # the weighted cells, row-major, in the padded grid
+
+    def assign(offsets_now: np.ndarray, with_dist: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+        levels = np.rint(offsets_now - offsets_now.min()).astype(np.int64)
+        label, dist = _search(padded_free, width, sources, levels, with_dist)
+        assignment = label.take(at)
+        return np.where(assignment < num_zones, assignment, -1), None if dist is None else dist.take(at)
+
+    assignment, dist = assign(offsets, with_dist=True)  # the first round's distances set the offsets' scale
+    reached = dist[assignment >= 0]
     scale = (float(np.median(reached)) if reached.size else 1.0) or 1.0
     target = cell_weight.sum() / num_zones if shares is None else cell_weight.sum() * np.asarray(shares, float)
     offsets = offsets.copy()
@@ -220,7 +251,7 @@ def _offset_rounds(free: np.ndarray, weight: np.ndarray, seeds: np.ndarray, offs
         gains[np.sign(error) * np.sign(last_error) < 0] *= 0.5  # overshot: finer steps for that zone
         offsets += gains * scale * error
         last_error = error
-        assignment = nearest_seed(free, seeds, np.rint(offsets - offsets.min()))[0][weighted]
+        assignment = assign(offsets)[0]
     return best, best_offsets, best_spread
 
 
@@ -249,6 +280,31 @@ def balanced_by_passes(free: np.ndarray, targets: np.ndarray, seeds: np.ndarray,
     rounds = REFINE_PASSES if factor > 1 else MAX_BALANCE_PASSES
     best, _, _ = _offset_rounds(free, targets.astype(np.int64), seeds, offsets, gain, rounds, tolerance, shares)
     return np.where(best >= 0, best, 0)
+
+
+def _lloyd_centroids(points: np.ndarray, assignment: np.ndarray, centroids: np.ndarray, snap: bool) -> np.ndarray:
+    """One Lloyd update: each cluster's mean (snapped: the member nearest it, first in `points` on a tie);
+    an empty cluster keeps its centroid.
+
+    All clusters at once; the same numbers as a loop over clusters: the coordinates are
+    integers, so their float64 sums are exact in any order, and each member's distance
+    is computed by the same formula.
+    """
+    num_zones = len(centroids)
+    counts = np.bincount(assignment, minlength=num_zones)
+    sums = np.stack([np.bincount(assignment, weights=points[:, axis], minlength=num_zones) for axis in (0, 1)], axis=1)
+    filled = counts > 0
+    means = centroids.copy()
+    means[filled] = sums[filled] / counts[filled, None]
+    if not snap:
+        return means
+    # Geodesic distances need a centroid on a free cell: the member nearest the mean.
+    gap = np.linalg.norm(points - means[assignment], axis=1)
+    order = np.lexsort((np.arange(len(points)), gap, assignment))  # per cluster: nearest, then first
+    first = order[np.r_[True, assignment[order][1:] != assignment[order][:-1]]]
+    snapped = centroids.copy()
+    snapped[assignment[first]] = points[first]
+    return snapped
 
 
 def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], method: str = DEFAULT_ZONE_METHOD,
@@ -302,15 +358,7 @@ def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], metho
             break
         visited.add(state)
         assignment = new_assignment
-        for k in range(num_zones):
-            members = points[assignment == k]
-            if len(members) == 0:
-                continue  # an empty cluster keeps its centroid
-            mean = members.mean(axis=0)
-            if geodesic:
-                # Geodesic distances need a centroid on a free cell: the member nearest the mean.
-                mean = members[np.argmin(np.linalg.norm(members - mean, axis=1))].astype(float)
-            centroids[k] = mean
+        centroids = _lloyd_centroids(points, assignment, centroids, geodesic)
     seeds = np.rint(centroids).astype(np.int64)
     if not balance:
         zone[targets] = nearest_centroid(target_cells, centroids)
