@@ -75,6 +75,41 @@ def test_nearest_seed_is_argmin_of_per_seed_distances_with_lowest_index_ties():
         assert np.array_equal(dist, np.where(np.isfinite(best), best, -1))
 
 
+def test_nearest_seed_ring_with_many_ties_and_late_seeds_on_reached_cells():
+    """Open grids tie everywhere; seeds sharing cells or joining on cells an earlier ring met."""
+    free = np.ones((30, 30), dtype=bool)
+    seeds = np.array([[0, 0], [0, 29], [29, 0], [29, 29], [15, 15], [15, 15], [3, 3], [5, 0]])
+    # seed 5 shares seed 4's cell; seed 6 starts on a cell seed 0 met at level 6; seed 7 on
+    # a cell seed 0's ring meets at its very start level
+    levels = np.array([0, 0, 0, 0, 4, 4, 9, 5])
+    label, dist = nearest_seed(free, seeds, levels)
+    field = shortest_path(grid_graph(free), unweighted=True, indices=seeds[:, 0] * 30 + seeds[:, 1])
+    weighted = field + levels[:, None]
+    assert np.array_equal(label.ravel(), np.argmin(weighted, axis=0))
+    assert np.array_equal(dist.ravel(), weighted.min(axis=0))
+
+
+def test_lloyd_update_of_all_clusters_matches_one_cluster_at_a_time():
+    """The vectorised update gives the numbers of the per-cluster loop it replaced (means,
+    the member nearest the mean with ties to the first, empty clusters kept)."""
+    rng = np.random.default_rng(3)
+    for trial in range(50):
+        points = rng.integers(0, 12, size=(int(rng.integers(1, 60)), 2))  # a small box: many ties
+        centroids = rng.random((6, 2)) * 12
+        assignment = rng.integers(0, 6 if trial % 2 else 3, size=len(points))  # clusters 3-5 empty half the time
+        for snap in (False, True):
+            expected = centroids.copy()
+            for k in range(6):
+                members = points[assignment == k]
+                if len(members) == 0:
+                    continue
+                mean = members.mean(axis=0)
+                if snap:
+                    mean = members[np.argmin(np.linalg.norm(members - mean, axis=1))].astype(float)
+                expected[k] = mean
+            assert np.array_equal(zones._lloyd_centroids(points, assignment, centroids, snap), expected)
+
+
 @pytest.mark.parametrize("blocks", [False, True])
 def test_balancing_by_passes_evens_zones_and_keeps_them_connected(blocks, monkeypatch):
     if blocks:  # the rounds on 2 x 2 blocks that grids past COARSE_BALANCE_CELLS get
