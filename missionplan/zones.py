@@ -25,7 +25,8 @@ of one full-grid Dijkstra per drone. Balancing keeps its dense K x U distance ma
 while K x U <= DENSE_BALANCE_LIMIT (every shipped map, so their zones are unchanged);
 beyond that, where its 500 rounds would cost more than the plan, each round is one multi-source
 search in which centroid k starts late by its offset w_k rounded to whole cells, at
-most MAX_BALANCE_PASSES rounds, keeping the most even one.
+most MAX_BALANCE_PASSES rounds, keeping the most even one. The search runs ring by ring in
+numpy without sorting (`_search`); Lloyd's update moves all centroids at once.
 """
 
 from __future__ import annotations
