@@ -132,6 +132,73 @@ def session(url: str, sysid: int) -> dict[str, Any]:
     return out
 
 
+# A mission whose first waypoint is 2.2 km north of HOME, and a fence that leaves HOME out.
+FAR = [w(0, 3, 22, x=LAT + 200_000, y=LON, z=10.0), w(1, 3, 16, x=LAT + 200_500, y=LON, z=10.0), w(2, 2, 20)]
+NEAR = [w(0, 3, 22, x=LAT, y=LON, z=10.0), w(1, 3, 16, x=LAT + 500, y=LON, z=10.0), w(2, 2, 20)]
+AWAY_FENCE = [w(i, 0, 5001, p1=4.0, x=LAT + 1000 + (i // 2) * 2000, y=LON + (i % 2 ^ i // 2) * 2000, mission_type=1)
+              for i in range(4)]
+
+
+def wait_home(link: Link, sysid: int, seconds: float) -> Any:
+    """The vehicle's HOME_POSITION (asked for with MAV_CMD_REQUEST_MESSAGE every second), or None."""
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        link.mav.command_long_send(sysid, 1, 512, 0, 242, 0, 0, 0, 0, 0, 0)
+        msg = _wait(link, sysid, lambda m: m.get_type() == "HOME_POSITION", 1.0)
+        if msg is not None:
+            return msg
+    return None
+
+
+def _texts(link: Link, sysid: int, seconds: float) -> list[str]:
+    out = []
+    deadline = time.monotonic() + seconds
+    while (msg := link.recv(deadline)) is not None:
+        if msg.get_srcSystem() == sysid and msg.get_type() == "STATUSTEXT":
+            out.append(str(msg.text).rstrip("\t\x00 "))
+    return out
+
+
+def _start(link: Link, sysid: int, ready_s: float) -> tuple[int | None, list[str]]:
+    """MISSION_START, repeated while the vehicle is not ready yet (TEMPORARILY_REJECTED) up to ready_s:
+    (its final MAV_RESULT, the STATUSTEXT lines that came with it)."""
+    deadline = time.monotonic() + ready_s
+    while True:
+        texts: list[str] = []
+        link.mav.command_long_send(sysid, 1, 300, 0, 0, 0, 0, 0, 0, 0, 0)
+        until = time.monotonic() + 2.0
+        result = None
+        while (msg := link.recv(until)) is not None:
+            if msg.get_srcSystem() != sysid:
+                continue
+            if msg.get_type() == "STATUSTEXT":
+                texts.append(str(msg.text).rstrip("\t\x00 "))
+            elif msg.get_type() == "COMMAND_ACK" and int(msg.command) == 300:
+                result = int(msg.result)
+                texts += _texts(link, sysid, 0.5)
+                break
+        if result != 1 or time.monotonic() > deadline:
+            return result, texts
+        time.sleep(2.0)
+
+
+def start_session(url: str, sysid: int, ready_s: float = 90.0) -> dict[str, Any]:
+    """Mission starts PX4 must refuse, and why: a first waypoint 2.2 km away; a fence without the
+    vehicle's home. The vehicle is left disarmed (nothing here is started)."""
+    out: dict[str, Any] = {}
+    with PymavlinkBackend(url, sysid, timeouts=Timeouts(), connect_timeout=20) as backend:
+        link = backend.link
+        out["home known"] = wait_home(link, sysid, ready_s) is not None
+        backend.upload(MissionType.MISSION, FAR)
+        _texts(link, sysid, 3.0)  # PX4 SIH drops STATUSTEXT in its first seconds: let it settle
+        out["far: start"] = _start(link, sysid, ready_s)
+        backend.upload(MissionType.MISSION, NEAR)
+        backend.upload(MissionType.FENCE, AWAY_FENCE)
+        out["fence upload texts"] = [t for t in _texts(link, sysid, 1.0) if "eofence" in t]
+        out["fence without home: start"] = _start(link, sysid, ready_s)
+    return out
+
+
 if __name__ == "__main__":  # by hand: python sitl_tests/px4_session.py URL SYSID
     import json
     import sys
