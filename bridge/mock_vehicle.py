@@ -436,8 +436,10 @@ class MockVehicle:
         """The MAV_MISSION_RESULT an item earns: ACCEPTED or why not."""
         frame, command = item.frame, item.command
         if self.flavour is Flavour.PX4:
-            return item_result(item)  # PX4's frame / command matrix, measured on SIH
-        if item.mission_type == MissionType.FENCE:
+            result = item_result(item)  # PX4's frame / command matrix, measured on SIH
+            if result != ACCEPTED:
+                return result
+        elif item.mission_type == MissionType.FENCE:
             if command not in FENCE_COMMANDS:
                 return UNSUPPORTED
         elif item.mission_type == MissionType.RALLY:
