@@ -43,7 +43,8 @@ from .mission import (
     encode_xy,
 )
 from .mock_flight import FlightEvent, FlightSim
-from .px4 import GEOFENCE_WITHOUT_HOME, MIS_DIST_1WP_DEFAULT, START_DENIED, item_result, px4_stored, start_refusals
+from .px4 import (GEOFENCE_WITHOUT_HOME, MIS_DIST_1WP_DEFAULT, START_DENIED, fence_problems, item_result, px4_stored,
+                  start_refusals)
 
 # MAV_MISSION_RESULT values the vehicle answers with.
 ACCEPTED, ERROR, UNSUPPORTED_FRAME, UNSUPPORTED, NO_SPACE = 0, 1, 2, 3, 4
@@ -517,8 +518,8 @@ class MockVehicle:
             self._load_flight()
         self._ack(peer, mission_type, ACCEPTED)
         self._send_mission_current()
-        if (mission_type == MissionType.FENCE and self.flavour is Flavour.PX4 and stored
-                and start_refusals([], stored, self.options.home[:2], 0.0)):
+        if mission_type == MissionType.FENCE and self.flavour is Flavour.PX4 and fence_problems(
+                stored, self.options.home[:2]):
             self._send_text(GEOFENCE_WITHOUT_HOME)  # as PX4 says it right after such a fence upload
 
     def _stored(self, item: WireItem) -> WireItem:
@@ -530,12 +531,14 @@ class MockVehicle:
         return px4_stored(item) if self.flavour is Flavour.PX4 else item
 
     def start_refusals(self) -> list[str]:
-        """PX4's feasibility problems with the stored mission and fence (bridge.px4), from this
-        vehicle's home; empty for other flavours and for a mission PX4 would start."""
+        """Why PX4 would refuse to start the stored mission (bridge.px4), from this vehicle's home;
+        empty for other flavours and for a mission PX4 would start."""
         if self.flavour is not Flavour.PX4:
             return []
-        return start_refusals(self.stores[MissionType.MISSION], self.stores[MissionType.FENCE],
-                              self.options.home[:2], self.params.get("MIS_DIST_1WP", MIS_DIST_1WP_DEFAULT))
+        if not self.ready:  # measured on SIH: until "Ready for takeoff!" every start is "No valid mission"
+            return ["no home position yet"]
+        return start_refusals(self.stores[MissionType.MISSION], self.options.home[:2],
+                              self.params.get("MIS_DIST_1WP", MIS_DIST_1WP_DEFAULT))
 
     def _on_gcs_ack(self, msg: Any, peer: tuple[int, int], now: float) -> None:
         up = self.upload

@@ -5,10 +5,13 @@ Owns PX4's rules, as data and pure functions, for the mock's PX4 flavour and for
   matrix: positional NAV_* commands only in a global frame, everything else only in frame 2);
 - px4_stored: what PX4 hands back on download (frames 3 -> 6 and 0 -> 5, NAV_WAYPOINT's pass
   radius dropped, fence items not auto-continued and without altitude);
-- start_refusals: PX4's mission feasibility checks that refuse a start with "Mission start denied!
-  No valid mission" - the vehicle's home must lie inside the inclusion geofence (and outside
-  exclusions), and the first positional item within MIS_DIST_1WP (900 m) of the vehicle. These
-  were the causes of issue 16's refusals; each problem is PX4's own console / STATUSTEXT line.
+- start_refusals: PX4's mission feasibility check that refuses a start with "Mission start denied!
+  No valid mission" when the first positional item is MIS_DIST_1WP (900 m) or more from the
+  vehicle's home - the cause of issue 16's refusals (a vehicle started elsewhere, e.g. at SIH's
+  default home in Montreal). PX4 gives the same answer to any start before it is ready;
+- fence_problems: a geofence that leaves the vehicle's home out ("Geofence invalid, doesn't contain
+  Home position"): PX4 then ignores it and still starts the mission, unfenced.
+Each problem is PX4's own console / STATUSTEXT line.
 Everything here was measured (sitl_tests/px4_session.py, docs/px4-missions.md).
 
 Pure Python, no MAVLink library: the mock and the uploader both use it.
@@ -167,13 +170,17 @@ def first_position(mission: list[WireItem]) -> tuple[float, float] | None:
     return None
 
 
-def start_refusals(mission: list[WireItem], fence: list[WireItem], home: tuple[float, float],
+def fence_problems(fence: list[WireItem], home: tuple[float, float]) -> list[str]:
+    """PX4's line when the fence leaves the vehicle's home out: it then takes the fence as invalid
+    (and, measured on SIH, still starts the mission: the flight is unfenced)."""
+    return [GEOFENCE_WITHOUT_HOME] if fence and not home_in_fence(fence, *home) else []
+
+
+def start_refusals(mission: list[WireItem], home: tuple[float, float],
                    dist_1wp: float = MIS_DIST_1WP_DEFAULT) -> list[str]:
-    """PX4's reasons (its own lines) for refusing to start `mission` with this fence on a vehicle whose
-    home is `home` (lat, lon); empty when PX4 would start it."""
+    """PX4's reasons (its own lines) for refusing to start `mission` on a vehicle whose home is `home`
+    (lat, lon): the first waypoint MIS_DIST_1WP or more away; empty when PX4 would start it."""
     problems = []
-    if fence and not home_in_fence(fence, *home):
-        problems.append(GEOFENCE_WITHOUT_HOME)
     first = first_position(mission)
     if first is not None and dist_1wp > 0:
         distance = distance_m(first[0], first[1], *home)

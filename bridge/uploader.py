@@ -10,7 +10,8 @@ Owns:
   item by the flavour's rule (ArduPilot's item 0 is its home and is skipped). It succeeds only when
   the vehicle holds exactly what was sent. It also sets the parameters the vehicle needs to fly the
   plan as written (bridge.params: WPNAV_RADIUS on ArduCopter), unless told not to. A PX4 vehicle is
-  first asked for its home: a plan PX4 would refuse to start from there (bridge.px4) is not uploaded.
+  first asked for its home: a plan PX4 would refuse to start from there, or fly without its
+  geofence (bridge.px4), is not uploaded.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from .errors import BridgeError, BridgeUsageError
 from .link import AUTOPILOT_COMPONENT_ID, Link, VehicleInfo, wait_vehicle
 from .mission import Flavour, Mission, MissionType, WireItem, compare_wire, from_wire, to_wire
 from .params import ParamClient, ParamSetting, acceptance_radius_setting, set_param
-from .px4 import MIS_DIST_1WP_DEFAULT, START_DENIED, start_refusals
+from .px4 import MIS_DIST_1WP_DEFAULT, START_DENIED, fence_problems, start_refusals
 from .protocol import MissionClient, MissionTransferError, ProgressFn, Timeouts, UploadUnconfirmed
 from .signing import SigningKey
 
@@ -231,9 +232,10 @@ def vehicle_home(link: Any, sysid: int, seconds: float = HOME_WAIT_S) -> tuple[f
 
 
 def px4_start_problems(backend: MissionBackend, parts: list[Mission]) -> str | None:
-    """Why a PX4 vehicle would refuse to start this plan from where it is (bridge.px4.start_refusals:
-    its home outside the plan's geofence, the first waypoint MIS_DIST_1WP or more away), as one
-    phrase; None when it would start it, or when the vehicle's home is not known (no link, no fix)."""
+    """What a PX4 vehicle would do wrong with this plan from where it is (bridge.px4: refuse to start
+    it, the first waypoint being MIS_DIST_1WP or more away; ignore its geofence, which leaves the
+    vehicle's home out), as one phrase; None when all is well, or when the vehicle's home is not
+    known (no link, no fix)."""
     link = getattr(backend, "link", None)
     if link is None or backend.vehicle.flavour is not Flavour.PX4:
         return None
@@ -245,12 +247,16 @@ def px4_start_problems(backend: MissionBackend, parts: list[Mission]) -> str | N
     except BridgeError:
         limit = MIS_DIST_1WP_DEFAULT
     mission, fence = (to_wire(p, Flavour.PX4) for p in parts[:2])
-    problems = start_refusals(mission, fence, home, limit)
-    if not problems:
+    refusals, unfenced = start_refusals(mission, home, limit), fence_problems(fence, home)
+    if not refusals and not unfenced:
         return None
-    return (f"vehicle {backend.vehicle.sysid} (px4) would refuse to start this mission (\"{START_DENIED}\"): "
-            f"{'; '.join(problems)}, from its home {home[0]:.7f}, {home[1]:.7f}; put it at the plan's launch "
-            "point, or plan from where it stands (docs/px4-missions.md)")
+    what = []
+    if refusals:
+        what.append(f"would refuse to start this mission (\"{START_DENIED}\"): {'; '.join(refusals)}")
+    if unfenced:
+        what.append(f"would fly it without its geofence (\"{unfenced[0]}\")")
+    return (f"vehicle {backend.vehicle.sysid} (px4) {' and '.join(what)}, from its home {home[0]:.7f}, "
+            f"{home[1]:.7f}; put it at the plan's launch point, or plan from where it stands (docs/px4-missions.md)")
 
 
 def upload_plan(backend: MissionBackend, parts: list[Mission], verify: bool = True,

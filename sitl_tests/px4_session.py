@@ -86,7 +86,7 @@ def raw_upload(link: Link, sysid: int, items: list[WireItem], mission_type: int 
         if is_ack(msg):
             return first.get_type(), int(msg.type)
         link.mav.mission_item_int_send(sysid, 1, **items[int(msg.seq)].fields())
-        msg = _wait(link, sysid, lambda m: is_request(m) or is_ack(m), 2.0)
+        msg = _wait(link, sysid, lambda m: is_request(m) or is_ack(m), 3.0)
     return first.get_type(), None
 
 
@@ -94,7 +94,7 @@ def _list_answered(link: Link, sysid: int, component: int) -> bool:
     """Whether MISSION_REQUEST_LIST to this component draws a MISSION_COUNT (the download is then
     closed with an ACK: PX4 refuses uploads with ERROR while a download is open)."""
     link.mav.mission_request_list_send(sysid, component, 0)
-    answered = _wait(link, sysid, lambda m: m.get_type() == "MISSION_COUNT", 1.0) is not None
+    answered = _wait(link, sysid, lambda m: m.get_type() == "MISSION_COUNT", 2.0) is not None
     link.mav.mission_ack_send(sysid, 1, 0, 0)
     return answered
 
@@ -108,6 +108,7 @@ def session(url: str, sysid: int) -> dict[str, Any]:
     out: dict[str, Any] = {}
     with PymavlinkBackend(url, sysid, timeouts=Timeouts(), connect_timeout=20) as backend:
         link = backend.link
+        out["home known"] = wait_home(link, sysid, 30.0) is not None  # PX4 is up: its mission store too
         good = [w(0, 3, 22, x=LAT, y=LON, z=10.0), w(1, 3, 16, x=LAT + 50, y=LON, z=10.0)]
         out["first request"], out["first ack"] = raw_upload(link, sysid, good)
         out["second request"], out["second ack"] = raw_upload(link, sysid, good)
@@ -134,7 +135,7 @@ def session(url: str, sysid: int) -> dict[str, Any]:
 
 # A mission whose first waypoint is 2.2 km north of HOME, and a fence that leaves HOME out.
 FAR = [w(0, 3, 22, x=LAT + 200_000, y=LON, z=10.0), w(1, 3, 16, x=LAT + 200_500, y=LON, z=10.0), w(2, 2, 20)]
-NEAR = [w(0, 3, 22, x=LAT, y=LON, z=10.0), w(1, 3, 16, x=LAT + 500, y=LON, z=10.0), w(2, 2, 20)]
+NEAR = [w(0, 3, 22, x=LAT, y=LON, z=10.0), w(1, 3, 16, x=LAT + 500, y=LON, z=10.0), w(2, 2, 20)]  # 55 m
 AWAY_FENCE = [w(i, 0, 5001, p1=4.0, x=LAT + 1000 + (i // 2) * 2000, y=LON + (i % 2 ^ i // 2) * 2000, mission_type=1)
               for i in range(4)]
 
@@ -148,6 +149,20 @@ def wait_home(link: Link, sysid: int, seconds: float) -> Any:
         if msg is not None:
             return msg
     return None
+
+
+PREARM_CHECK = 0x1000_0000  # MAV_SYS_STATUS_PREARM_CHECK: in SYS_STATUS health once arming checks pass
+
+
+def wait_ready(link: Link, sysid: int, seconds: float) -> bool:
+    """Until SYS_STATUS says the pre-arm checks pass ("Ready for takeoff!"). Before that PX4 answers
+    MISSION_START with DENIED and "Mission start denied! No valid mission" even for a valid mission."""
+    deadline = time.monotonic() + seconds
+    while (msg := link.recv(deadline)) is not None:
+        if (msg.get_srcSystem() == sysid and msg.get_type() == "SYS_STATUS"
+                and msg.onboard_control_sensors_health & PREARM_CHECK):
+            return True
+    return False
 
 
 def _texts(link: Link, sysid: int, seconds: float) -> list[str]:
@@ -183,19 +198,20 @@ def _start(link: Link, sysid: int, ready_s: float) -> tuple[int | None, list[str
 
 
 def start_session(url: str, sysid: int, ready_s: float = 90.0) -> dict[str, Any]:
-    """Mission starts PX4 must refuse, and why: a first waypoint 2.2 km away; a fence without the
-    vehicle's home. The vehicle is left disarmed (nothing here is started)."""
+    """Once PX4 is ready: the start of a mission whose first waypoint is 2.2 km away (refused, and
+    why), and what PX4 says of a fence without the vehicle's home. Nothing is started."""
     out: dict[str, Any] = {}
     with PymavlinkBackend(url, sysid, timeouts=Timeouts(), connect_timeout=20) as backend:
         link = backend.link
         out["home known"] = wait_home(link, sysid, ready_s) is not None
+        out["ready"] = wait_ready(link, sysid, ready_s)
         backend.upload(MissionType.MISSION, FAR)
         _texts(link, sysid, 3.0)  # PX4 SIH drops STATUSTEXT in its first seconds: let it settle
         out["far: start"] = _start(link, sysid, ready_s)
-        backend.upload(MissionType.MISSION, NEAR)
         backend.upload(MissionType.FENCE, AWAY_FENCE)
         out["fence upload texts"] = [t for t in _texts(link, sysid, 1.0) if "eofence" in t]
-        out["fence without home: start"] = _start(link, sysid, ready_s)
+        # (With that fence PX4 still starts a near mission - it arms and flies, unfenced - measured by
+        # hand: docs/px4-missions.md. The mock does not fly by itself, so it is not part of the session.)
     return out
 
 

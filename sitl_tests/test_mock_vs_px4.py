@@ -6,8 +6,8 @@ MISSION_REQUEST_LIST by target component, every frame and a list of commands in 
 MISSION_ACK of each single-item upload), a rejected upload that must keep the previous mission, a
 count of 0, a mission with every item kind we write plus odd values, a fence and rally points
 downloaded field by field (frames 3 -> 6 and 0 -> 5, `current`, PX4's float32 yaw); and the mission
-starts PX4 refuses ("Mission start denied! No valid mission": a first waypoint 2.2 km away, a fence
-that leaves home out, with the geofence STATUSTEXT). Skips when ../shared/px4/bin/px4 is absent.
+start PX4 refuses once ready ("Mission start denied! No valid mission": a first waypoint 2.2 km away)
+and the STATUSTEXT of a fence that leaves home out. Skips when ../shared/px4/bin/px4 is absent.
 """
 
 from __future__ import annotations

@@ -15,8 +15,8 @@ from bridge.mission import Flavour, Mission, MissionItem, MissionType, WireItem,
 from bridge.missionfile import FirmwareMismatch, PlanFile, check_firmware, read_plan, write_plan, write_waypoints
 from bridge.mock import MockAutopilot
 from bridge.protocol import Timeouts
-from bridge.px4 import (GEOFENCE_WITHOUT_HOME, START_DENIED, home_in_fence, item_result, px4_stored, px4_yaw,
-                        start_refusals)
+from bridge.px4 import (GEOFENCE_WITHOUT_HOME, START_DENIED, fence_problems, home_in_fence, item_result, px4_stored,
+                        px4_yaw, start_refusals)
 from bridge.uploader import PymavlinkBackend, upload_plan
 from missionplan.cli import main
 
@@ -64,16 +64,17 @@ def test_px4_stored_form_and_verify_accept_exactly_what_px4_changes() -> None:
     assert (fence.frame, fence.z, fence.autocontinue) == (5, 0.0, 0)
 
 
-def test_start_refusals_are_pxs_home_in_fence_and_first_waypoint_distance() -> None:
+def test_start_refusals_are_the_first_waypoint_distance_and_the_fence_must_hold_home() -> None:
     near = to_wire(_near_mission(), Flavour.PX4)
-    assert start_refusals(near, [], HOME[:2]) == []
-    far = start_refusals(near, [], (HOME[0] + 0.02, HOME[1]))  # 2.2 km south of the mission
+    assert start_refusals(near, HOME[:2]) == []
+    far = start_refusals(near, (HOME[0] + 0.02, HOME[1]))  # 2.2 km south of the mission
     assert len(far) == 1 and far[0].startswith("First waypoint too far away: 22") and far[0].endswith("m, 900 max")
-    assert start_refusals(near, [], (HOME[0] + 0.02, HOME[1]), dist_1wp=0) == []  # 0 turns the check off
+    assert start_refusals(near, (HOME[0] + 0.02, HOME[1]), dist_1wp=0) == []  # 0 turns the check off
     square = [_w(0, 5001, mission_type=1, param1=4, x=454640000 + dx, y=91890000 + dy)
               for dx, dy in ((0, 0), (0, 3000), (3000, 3000), (3000, 0))]
     assert home_in_fence(square, *HOME[:2]) and not home_in_fence(square, HOME[0] + 0.001, HOME[1])
-    assert start_refusals(near, square, (HOME[0] + 0.001, HOME[1])) == [GEOFENCE_WITHOUT_HOME]
+    assert fence_problems(square, (HOME[0] + 0.001, HOME[1])) == [GEOFENCE_WITHOUT_HOME]
+    assert fence_problems(square, HOME[:2]) == [] and fence_problems([], (0.0, 0.0)) == []
     excluded = [_w(0, 5004, mission_type=1, param1=50.0)]  # an exclusion circle round home
     assert not home_in_fence(excluded, *HOME[:2])
 
@@ -133,7 +134,7 @@ def test_mock_px4_says_when_a_fence_leaves_its_home_out() -> None:
                 if msg.get_type() == "STATUSTEXT":
                     texts.append(str(msg.text))
             assert GEOFENCE_WITHOUT_HOME in texts
-            assert mock.vehicle(3).start_refusals() == [GEOFENCE_WITHOUT_HOME]
+            assert mock.vehicle(3).start_refusals() == []  # PX4 still starts the mission (unfenced)
 
 
 # --------------------------------------------------------------------- firmwareType and --autopilot
@@ -186,7 +187,8 @@ def test_plan_autopilot_px4_writes_firmware_12_and_no_waypoints(tmp_path: Path) 
     # Every item of the PX4 plan is one PX4 accepts, and its launch lies inside its fence.
     wire = to_wire(px4.mission, Flavour.PX4)
     assert [item_result(it) for it in wire] == [0] * len(wire)
-    assert start_refusals(wire, to_wire(px4.fence, Flavour.PX4), px4.mission.home[:2]) == []
+    assert start_refusals(wire, px4.mission.home[:2]) == []
+    assert fence_problems(to_wire(px4.fence, Flavour.PX4), px4.mission.home[:2]) == []
     # Re-planning for PX4 where ArduPilot files were removes the stale .waypoints.
     assert main(["plan", "--map", "leonardo", "--uavs", "2", "--out", str(tmp_path / "a"), "--quiet",
                  "--autopilot", "px4"]) == 0
