@@ -543,6 +543,12 @@ class MockVehicle:
     def _on_gcs_ack(self, msg: Any, peer: tuple[int, int], now: float) -> None:
         up = self.upload
         if up is not None and up.peer == peer and int(getattr(msg, "mission_type", 0)) == up.mission_type:
+            if self.flavour is Flavour.PX4 and int(msg.type) not in (ACCEPTED, OPERATION_CANCELLED):
+                # PX4 (mavlink_mission.cpp): an error answer to its request means "ask the other way":
+                # MAVSDK refuses the legacy MISSION_REQUEST, and PX4 asks again with MISSION_REQUEST_INT.
+                self._int_mode = not self._int_mode
+                self._request(up, now)
+                return
             if int(msg.type) != ACCEPTED:
                 self.upload = None  # the ground station cancelled: keep the old mission
                 self.uploads_failed += 1
