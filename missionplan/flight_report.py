@@ -1,7 +1,8 @@
 """Judging a flown fleet from its recordings: coverage, separation, times, problems; flight.json and flight.png.
 
 No MAVLink here: fly.py records (DroneRecord), this module judges what was recorded.
-- Photo positions: every CAMERA_FEEDBACK the vehicle sent (where each photo was really taken); a
+- Photo positions: every CAMERA_FEEDBACK (ArduPilot) or CAMERA_IMAGE_CAPTURED (PX4's camera_feedback
+  module, or a MAVLink camera) the vehicle sent (where each photo was really taken); a
   photo whose report was lost on the link (a gap in img_idx) is placed on the recorded track between
   its neighbours, in proportion to its index. Photos are counted from the first img_idx this flight
   reported: ArduPilot's index starts at 1 and keeps counting across flights until a reboot, so the
@@ -384,9 +385,10 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
         if source != "none":
             sources.add(source)
         elif rec.started and rec.samples:
-            rec.problems.append(f"uav{rec.id}: the vehicle reported no photo (no CAMERA_FEEDBACK): nothing shows its "
-                                "camera took any (configure it, e.g. ArduPilot CAM1_TYPE and a reboot, or pass "
-                                "--photos-from-track to count a photo every trigger distance along the track)")
+            rec.problems.append(f"uav{rec.id}: the vehicle reported no photo (no CAMERA_FEEDBACK, no "
+                                "CAMERA_IMAGE_CAPTURED): nothing shows its camera took any (configure it, e.g. "
+                                "ArduPilot CAM1_TYPE or PX4 TRIG_MODE 4, and a reboot, or pass --photos-from-track "
+                                "to count a photo every trigger distance along the track)")
         samples = np.array(rec.samples) if rec.samples else np.zeros((0, 7))
         tracks_m[rec.id] = to_grid_m(frame, samples[:, 1], samples[:, 2])
         if len(samples):

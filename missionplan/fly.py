@@ -45,7 +45,8 @@ from bridge.mission import Flavour, to_wire
 from bridge.missionfile import read_mission_file
 from bridge.params import ParamClient, read_params
 from bridge.protocol import Timeouts
-from bridge.readiness import DEFAULT_LAUNCH_OFFSET_M, Vehicle, request_streams, site_problem, stream_rates
+from bridge.readiness import (DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_MISSION_SUB, Vehicle, request_streams,
+                              site_problem, stream_rates)
 from bridge.shared_link import LinkPool
 from bridge.uploader import MissionBackend, open_backend, read_back_differences, set_plan_params, upload_plan
 
@@ -53,6 +54,8 @@ from .flight_report import DroneRecord, FlightResult, judge, sortie_view
 from .sorties import sortie_file
 
 CMD_DO_SET_MODE, CMD_MISSION_START = 176, 300
+CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_LAND = 20, 21
+CAPTURE_OK = 1  # CAMERA_IMAGE_CAPTURED capture_result: 1 success
 MODE_FLAG_ARMED = 128
 MAV_TYPE_GCS = 6
 MISSION_STATE_ACTIVE, MISSION_STATE_COMPLETE = 3, 5
@@ -138,6 +141,7 @@ class _DroneFlight:
         self.checked_in = self.arm_checked_in = False  # at the start gate, at the arm gate
         self.recording = False  # from the mission start on: what came before is not this flight
         self.planned_home: tuple[float, ...] | None = None
+        self.camera_component: int | None = None  # who sends this vehicle's CAMERA_IMAGE_CAPTURED: the first heard
 
     def problem(self, text: str) -> None:
         self.record.problems.append(f"uav{self.record.id}: {text}")
@@ -174,8 +178,8 @@ class _DroneFlight:
             self.problem(f"not found: {err}")
             return False
         self.vehicle = Vehicle(view, self.backend.vehicle, self.fleet.say, also=self._take_if_started)
-        refused = request_streams(view, rec.id, stream_rates(self.telemetry_hz), self.deadline,
-                                  other=self.vehicle.take)
+        refused = request_streams(view, rec.id, stream_rates(self.telemetry_hz, self.backend.vehicle.flavour),
+                                  self.deadline, other=self.vehicle.take)
         if refused:
             rec.notes.append(f"streams not accepted (SET_MESSAGE_INTERVAL): {', '.join(refused)}; "
                              "the vehicle's own rates")
@@ -275,6 +279,13 @@ class _DroneFlight:
         self.recording = True
         result = link.command_long(sysid, CMD_MISSION_START, [0.0, 0.0], self.deadline, other=self.vehicle.take,
                           done=lambda: rec.mission_state == MISSION_STATE_ACTIVE)
+        if result != 0 and self.backend.vehicle.flavour is Flavour.PX4:
+            # PX4 also starts a mission in its AUTO.MISSION mode (from the current item, 0 after an upload).
+            mode = link.command_long(sysid, CMD_DO_SET_MODE, [1.0, float(PX4_AUTO_MAIN), float(PX4_MISSION_SUB)],
+                                     self.deadline, other=self.vehicle.take)
+            if mode == 0:
+                rec.notes.append(f"{_refused('MISSION_START', result)}; started in AUTO.MISSION mode")
+                result = 0
         if result != 0:
             self.problem(_refused("mission start", result))
             return False
@@ -304,13 +315,22 @@ class _DroneFlight:
                 self.problem(f"rebooted in flight at item {rec.current} of {last_seq} (mission lost)")
                 return
             self.vehicle.take(msg)  # readiness state and STATUSTEXT, then _take records it
-            complete = rec.mission_state == MISSION_STATE_COMPLETE or self.last_reached >= last_seq
-            if not self.armed and complete and self.rel_alt < ON_GROUND_M:
+            complete = (rec.mission_state == MISSION_STATE_COMPLETE or self.last_reached >= last_seq
+                        or self._at_final_return(last_seq))
+            on_ground = self.vehicle.state.on_ground  # PX4's landed state: its altitude drifts on the ground
+            if not self.armed and complete and (on_ground if on_ground is not None else self.rel_alt < ON_GROUND_M):
                 rec.finished, rec.t_end = True, rec.last_heard
                 if self.bar is not None:
                     self.bar.n = self.bar.total
                     self.bar.refresh()
                 return
+
+    def _at_final_return(self, last_seq: int) -> bool:
+        """At the mission's last item, an RTL or a LAND: PX4 reports no MISSION_ITEM_REACHED for it
+        (nor a mission_state), it lands and disarms there."""
+        rec = self.record
+        return (rec.current >= last_seq and 0 <= last_seq < len(rec.wire)
+                and int(rec.wire[last_seq].command) in (CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_LAND))
 
     def _take_if_started(self, msg: Any) -> None:
         if self.recording:
@@ -339,6 +359,16 @@ class _DroneFlight:
         elif kind == "CAMERA_FEEDBACK":
             rec.camera.setdefault(int(msg.img_idx), (t, msg.lat / 1e7, msg.lng / 1e7, float(msg.alt_rel)))
             rec.captures = max(rec.captures, int(msg.completed_captures), int(msg.img_idx) + 1)
+        elif kind == "CAMERA_IMAGE_CAPTURED":
+            # PX4's photo report (its camera_feedback module, one per trigger, image_index from 0 after
+            # boot), or a MAVLink camera's: from one component only, their indices are separate counts.
+            if self.camera_component is None:
+                self.camera_component = msg.get_srcComponent()
+            index = int(msg.image_index)
+            if msg.get_srcComponent() == self.camera_component and index >= 0:
+                if int(msg.capture_result) == CAPTURE_OK:
+                    rec.camera.setdefault(index, (t, msg.lat / 1e7, msg.lon / 1e7, self.rel_alt))
+                rec.captures = max(rec.captures, index + 1)
 
     def _check_still_held(self) -> None:
         """After landing: does the vehicle still hold exactly the mission that was uploaded?"""
