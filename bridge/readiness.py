@@ -82,7 +82,7 @@ def stream_rates(telemetry_hz: float, flavour: Flavour = Flavour.ARDUPILOT) -> d
     rates = {**READY_RATES_HZ, MSG_GLOBAL_POSITION_INT: float(telemetry_hz)}
     if flavour is Flavour.PX4:
         del rates[MSG_EKF_STATUS_REPORT]
-        rates[MSG_EXTENDED_SYS_STATE] = 1.0
+        rates[MSG_EXTENDED_SYS_STATE] = 2.0
     return rates
 
 

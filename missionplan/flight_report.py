@@ -36,6 +36,7 @@ from geo.frame import GridFrame
 from .atomic import write_text_atomic
 from .gridmap import GridMap
 from bridge.copter_model import CopterParams
+from bridge.px4_model import Px4Params
 
 from .timeline import FlightModel, closest_approach, planned_seconds
 
@@ -68,7 +69,8 @@ class DroneRecord:
     # arrival time, lat, lon, up m, ground speed m/s, the vehicle's time since boot s, climb rate m/s
     samples: list[tuple[float, float, float, float, float, float, float]] = field(default_factory=list)
     camera: dict[int, tuple[float, float, float, float]] = field(default_factory=dict)  # img_idx -> t, lat, lon, up
-    params: dict[str, float] = field(default_factory=dict)  # ArduCopter navigation parameters the vehicle reported
+    params: dict[str, float] = field(default_factory=dict)  # navigation parameters the vehicle reported
+    flavour: str = ""  # the autopilot's conventions (bridge.mission.Flavour value): which flight model times it
     t_start: float | None = None
     t_end: float | None = None
     last_heard: float = 0.0
@@ -278,12 +280,13 @@ def retimed_with_vehicle_params(frame: GridFrame, rec: DroneRecord) -> float | N
     takeoff = items[start]
     waypoints = [it for it in items[start + 1:] if it.command == CMD_WAYPOINT]
     copter = CopterParams.from_params(rec.params)
+    px4 = Px4Params.from_params(rec.params) if rec.flavour == "px4" else None
     speed = next((float(it.param2) for it in items if it.command == CMD_DO_CHANGE_SPEED and it.param2 > 0),
-                 copter.wp_speed)
+                 copter.wp_speed if px4 is None else px4.xy_cruise)
     launch = to_grid_m(frame, [takeoff.x / 1e7], [takeoff.y / 1e7])[0]
     route = to_grid_m(frame, [w.x / 1e7 for w in waypoints], [w.y / 1e7 for w in waypoints])
     end = "land" if items[-1].command == CMD_LAND else "rtl"
-    return planned_seconds(launch, route, float(takeoff.z), end, FlightModel(speed, 0.0, copter))
+    return planned_seconds(launch, route, float(takeoff.z), end, FlightModel(speed, 0.0, copter, px4))
 
 
 def estimate_time_scale(records: list[DroneRecord]) -> float:

@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from bridge.copter_model import PARAMETERS as COPTER_PARAMETERS
+from bridge.px4_model import FLOAT_PARAMETERS as PX4_PARAMETERS
 from bridge.errors import BridgeError, BridgeUsageError
 from bridge.mission import Flavour, to_wire
 from bridge.missionfile import read_mission_file
@@ -225,8 +226,11 @@ class _DroneFlight:
             else:
                 upload_plan(self.backend, plan.parts(), verify=True)
             rec.uploaded = True
-            if self.backend.vehicle.flavour is Flavour.ARDUPILOT:  # what the vehicle will fly with: re-times the plan
-                rec.params = read_params(ParamClient(self.backend.link, self.backend.vehicle), list(COPTER_PARAMETERS))
+            rec.flavour = self.backend.vehicle.flavour.value
+            names = {Flavour.ARDUPILOT: list(COPTER_PARAMETERS), Flavour.PX4: PX4_PARAMETERS}
+            if self.backend.vehicle.flavour in names:  # what it will fly with: re-times the plan (its autopilot's model)
+                rec.params = read_params(ParamClient(self.backend.link, self.backend.vehicle),
+                                         names[self.backend.vehicle.flavour])
             return True
         except (BridgeError, OSError) as err:
             self.problem(f"upload failed: {err}")
