@@ -44,6 +44,7 @@ from .mission import (
     encode_xy,
 )
 from .mock_flight import FlightEvent, FlightSim
+from .px4 import GEOFENCE_WITHOUT_HOME, MIS_DIST_1WP_DEFAULT, START_DENIED, item_result, px4_stored, start_refusals
 
 # MAV_MISSION_RESULT values the vehicle answers with.
 ACCEPTED, ERROR, UNSUPPORTED_FRAME, UNSUPPORTED, NO_SPACE = 0, 1, 2, 3, 4
@@ -138,6 +139,8 @@ class MockVehicle:
         self.stray_item_acks = 0        # ERROR answers to items that came after an upload completed
         # Parameters survive a reboot, like ArduPilot's EEPROM. Only the one the bridge sets is known.
         self.params: dict[str, float] = {"WPNAV_RADIUS": 200.0} if self.flavour is Flavour.ARDUPILOT else {}
+        if self.flavour is Flavour.PX4:
+            self.params["MIS_DIST_1WP"] = MIS_DIST_1WP_DEFAULT  # its mission feasibility check (bridge.px4)
         if self.options.sitl_like and self.flavour is Flavour.PX4:
             self.params.update({**Px4Params().as_params(), PX4_CAMERA_PARAM: 0.0})
         elif self.options.sitl_like:
@@ -160,6 +163,8 @@ class MockVehicle:
         if self.flavour.has_home_item(MissionType.MISSION):
             self.stores[MissionType.MISSION] = [self._home_item()]
         self.upload: _Upload | None = None
+        # PX4 asks with the legacy MISSION_REQUEST until the ground station has used an *_INT message.
+        self._int_mode = False
         self.last_completed: tuple[int, int, tuple[int, int]] | None = None  # type, count, peer
         camera_param = PX4_CAMERA_PARAM if self.flavour is Flavour.PX4 else ARDUPILOT_CAMERA_PARAM
         self.camera = not self.options.sitl_like or self.params.get(camera_param, 0.0) > 0.0
@@ -446,7 +451,7 @@ class MockVehicle:
 
     def _request(self, up: _Upload, now: float) -> None:
         seq = len(up.received)
-        if self.options.legacy_requests:
+        if self.options.legacy_requests or (self.flavour is Flavour.PX4 and not self._int_mode):
             self.mav.mission_request_send(up.peer[0], up.peer[1], seq, up.mission_type)
         else:
             self.mav.mission_request_int_send(up.peer[0], up.peer[1], seq, up.mission_type)
@@ -477,7 +482,11 @@ class MockVehicle:
     def _check_item(self, item: WireItem) -> int:
         """The MAV_MISSION_RESULT an item earns: ACCEPTED or why not."""
         frame, command = item.frame, item.command
-        if item.mission_type == MissionType.FENCE:
+        if self.flavour is Flavour.PX4:
+            result = item_result(item)  # PX4's frame / command matrix, measured on SIH
+            if result != ACCEPTED:
+                return result
+        elif item.mission_type == MissionType.FENCE:
             if command not in FENCE_COMMANDS:
                 return UNSUPPORTED
         elif item.mission_type == MissionType.RALLY:
@@ -497,6 +506,7 @@ class MockVehicle:
         return ACCEPTED
 
     def _on_item(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        self._int_mode = msg.get_type() == "MISSION_ITEM_INT"
         item = WireItem.from_message(msg)
         up = self.upload
         if up is None or up.peer != peer or up.mission_type != item.mission_type:
@@ -554,11 +564,25 @@ class MockVehicle:
             self._load_flight()
         self._ack(peer, mission_type, ACCEPTED)
         self._send_mission_current()
+        if (mission_type == MissionType.FENCE and self.flavour is Flavour.PX4 and stored
+                and start_refusals([], stored, self.options.home[:2], 0.0)):
+            self._send_text(GEOFENCE_WITHOUT_HOME)  # as PX4 says it right after such a fence upload
 
     def _stored(self, item: WireItem) -> WireItem:
         # ArduPilot keeps what its storage has room for (bridge.mission.ardupilot_stored, measured on
-        # ArduCopter SITL: no NAV_WAYPOINT param2, frame 0 for DO_* ...); PX4 keeps what it got.
-        return ardupilot_stored(item) if self.flavour is Flavour.ARDUPILOT else item
+        # ArduCopter SITL: no NAV_WAYPOINT param2, frame 0 for DO_* ...); PX4 what bridge.px4.px4_stored
+        # says (frames 3 -> 6, 0 -> 5, no pass radius; measured on PX4 SIH); others keep what they got.
+        if self.flavour is Flavour.ARDUPILOT:
+            return ardupilot_stored(item)
+        return px4_stored(item) if self.flavour is Flavour.PX4 else item
+
+    def start_refusals(self) -> list[str]:
+        """PX4's feasibility problems with the stored mission and fence (bridge.px4), from this
+        vehicle's home; empty for other flavours and for a mission PX4 would start."""
+        if self.flavour is not Flavour.PX4:
+            return []
+        return start_refusals(self.stores[MissionType.MISSION], self.stores[MissionType.FENCE],
+                              self.options.home[:2], self.params.get("MIS_DIST_1WP", MIS_DIST_1WP_DEFAULT))
 
     def _on_gcs_ack(self, msg: Any, peer: tuple[int, int], now: float) -> None:
         up = self.upload
@@ -582,12 +606,15 @@ class MockVehicle:
             self._ack(peer, mission_type, UNSUPPORTED)
             return
         seq = int(msg.seq)
+        self._int_mode = msg.get_type() == "MISSION_REQUEST_INT"
         if not 0 <= seq < len(store):
             self._ack(peer, mission_type, INVALID_SEQUENCE)
             return
         stored = self._home_item() if seq == 0 and self.flavour.has_home_item(mission_type) else store[seq]
-        # ArduPilot marks no item current in a download; PX4 marks the one it is at.
-        current = seq == self.flight.state.current and mission_type == 0 and self.flavour is not Flavour.ARDUPILOT
+        # ArduPilot marks no item current in a download; PX4 marks the one it is at (and item 0 of its
+        # fence and rally lists).
+        current = self.flavour is not Flavour.ARDUPILOT and seq == (self.flight.state.current if mission_type == 0
+                                                                     else 0 if self.flavour is Flavour.PX4 else -1)
         item = replace(stored, seq=seq, current=int(current))
         if msg.get_type() == "MISSION_REQUEST":  # legacy request: legacy float item
             x = item.x / 1e7 if item.frame in GLOBAL_FRAMES else float(item.x)
@@ -685,6 +712,9 @@ class MockVehicle:
             return CMD_ACCEPTED if ok else CMD_DENIED
         if command == 300:  # MISSION_START
             if len(self.stores[MissionType.MISSION]) <= self.first_mission_seq:
+                return CMD_DENIED
+            if self.start_refusals():  # PX4's mission feasibility checks (bridge.px4)
+                self._send_text(START_DENIED)
                 return CMD_DENIED
             if not s.armed:
                 return CMD_DENIED

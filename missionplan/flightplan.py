@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from bridge.mission import Flavour
 from bridge.missionfile import PlanFile, write_mission_file
 from geo.frame import GridFrame
 
@@ -345,18 +346,26 @@ def tracks_geojson(result: PlanResult, frame: GridFrame, plans: FlightPlans) -> 
     return {"type": "FeatureCollection", "features": features}
 
 
-def write_flight_files(out: Path, result: PlanResult, frame: GridFrame, plans: FlightPlans) -> list[Path]:
-    """Write every sortie's uavK[-sJ].plan and .waypoints, and tracks.geojson, into `out`; returns the paths."""
+def write_flight_files(out: Path, result: PlanResult, frame: GridFrame, plans: FlightPlans,
+                       autopilot: Flavour = Flavour.ARDUPILOT) -> list[Path]:
+    """Write every sortie's uavK[-sJ].plan and .waypoints, and tracks.geojson, into `out`; returns the paths.
+
+    `autopilot` is the target (`plan --autopilot`): each .plan carries its QGroundControl firmwareType
+    (ArduPilot 3, PX4 12), which `upload` and `fly` check against the vehicle. The items are the same
+    for both (PX4 SIH accepts and starts them; docs/px4-missions.md). PX4 gets no .waypoints: QGC WPL
+    110's line 0 is home only by ArduPilot's convention (QGroundControl on PX4 reads it as a first
+    waypoint at 0 m AMSL), and the format cannot say which autopilot it was written for."""
     written = []
+    suffixes = (".plan", ".waypoints") if autopilot is Flavour.ARDUPILOT else (".plan",)
     for k, missions in enumerate(plans.sorties):
         fence = plans.fences[k] if plans.fences else None
         for j, drone in enumerate(missions):
             plan_file = PlanFile(mission=drone.mission, cruise_speed=plans.settings.speed_m_s,
-                                 hover_speed=plans.settings.speed_m_s)
+                                 hover_speed=plans.settings.speed_m_s, firmware=autopilot)
             if fence is not None:
                 plan_file.fence = fence.mission()
                 plan_file.fence_max_altitude = fence.max_altitude_m
-            for suffix in (".plan", ".waypoints"):
+            for suffix in suffixes:
                 path = out / sortie_file(drone.sysid, j + 1, suffix)
                 write_mission_file(path, plan_file)
                 written.append(path)

@@ -43,7 +43,7 @@ from bridge.copter_model import PARAMETERS as COPTER_PARAMETERS
 from bridge.px4_model import FLOAT_PARAMETERS as PX4_PARAMETERS
 from bridge.errors import BridgeError, BridgeUsageError
 from bridge.mission import Flavour, to_wire
-from bridge.missionfile import read_mission_file
+from bridge.missionfile import check_firmware, read_mission_file
 from bridge.params import ParamClient, read_params
 from bridge.protocol import Timeouts
 from bridge.readiness import (DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_MISSION_SUB, Vehicle, request_streams,
@@ -211,6 +211,7 @@ class _DroneFlight:
         rec = self.record
         try:
             plan = read_mission_file(self.plan_path)
+            check_firmware(plan, self.plan_path, self.backend.vehicle.flavour if self.backend else None, rec.id)
             self.planned_home = plan.mission.home
             if self.upload_with == "mavsdk":
                 self._upload_by_mavsdk()
