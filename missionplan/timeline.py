@@ -31,12 +31,26 @@ ASSUMES = ("all missions start together; ArduCopter's flight (bridge.copter_mode
            "RTL_SPEED then RTL_LOIT_TIME, descent at WPNAV_SPEED_DN, the last LAND_ALT_LOW at LAND_SPEED")
 
 
+PX4_ASSUMES = ("all missions start together; PX4's flight (bridge.px4_model): spool-up and climb at MPC_TKO_SPEED, "
+               "a turn of the nose at MPC_YAWRAUTO_MAX before each leg, legs from rest to rest at the cruise speed "
+               "with MPC_ACC_HOR, RTL, descent at MPC_Z_V_AUTO_DN then MPC_LAND_SPEED below MPC_LAND_ALT2")
+
+
 @dataclass(frozen=True)
 class FlightModel:
     speed_m_s: float
     acceptance_m: float
     copter: CopterParams = field(default_factory=CopterParams)
     px4: Px4Params | None = None  # set: the flight is timed as PX4 flies it (bridge.px4_model)
+
+    @classmethod
+    def for_autopilot(cls, autopilot: str, speed_m_s: float, acceptance_m: float) -> FlightModel:
+        """The default model of `plan --autopilot` (ArduCopter's or PX4's documented defaults)."""
+        return cls(speed_m_s, acceptance_m, px4=Px4Params() if autopilot == "px4" else None)
+
+    @property
+    def assumes(self) -> str:
+        return PX4_ASSUMES if self.px4 is not None else ASSUMES
 
     @property
     def climb_rate_m_s(self) -> float:

@@ -103,7 +103,8 @@ def milan_plan(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("milan")
     area = out / "block.geojson"
     area.write_text(json.dumps({"type": "Polygon", "coordinates": [AREA]}))
-    args = ["plan", "--area", str(area), "--altitude", "20", "--fov", "84", "--out", str(out / "plan"), "--quiet"]
+    args = ["plan", "--area", str(area), "--altitude", "20", "--fov", "84", "--out", str(out / "plan"), "--quiet",
+            "--autopilot", "px4"]
     for point in LAUNCHES:
         args += ["--launch", point]
     assert main(args) == 0
