@@ -7,17 +7,21 @@ drone on its vehicle's view of that link:
 1. ask for every stream fly reads (bridge.readiness: ArduPilot sends nothing until asked) and wait,
    bounded by --ready-timeout, until the vehicle has a GPS fix, an EKF solution, a home position and
    passing pre-arm checks, saying what it waits for and what the vehicle says (STATUSTEXT);
-2. upload DIR/uavK.plan to system id K and prove by read-back that the vehicle holds it exactly
+2. site check: the vehicle's home must lie within --max-launch-offset (plus its GPS error) of the
+   plan's plannedHomePosition; if any drone fails it (a plan for another site, swapped system ids)
+   nothing is uploaded to that one and no drone arms at all;
+3. upload DIR/uavK.plan to system id K and prove by read-back that the vehicle holds it exactly
    (or, with --upload-with mavsdk, let MAVSDK's QGroundControl importer read the file and upload it,
-   and prove the vehicle then holds exactly what our reader makes of the same file);
-3. site check: the vehicle's home must lie within --max-launch-offset (plus its GPS error) of the
-   plan's plannedHomePosition. Nobody arms until every drone got this far; if any drone fails the
-   site check (a plan for another site, swapped system ids) no drone arms at all;
-4. set GUIDED (ArduPilot), arm (retried while the vehicle says it is still getting ready), wait for
+   and prove the vehicle then holds exactly what our reader makes of the same file). Nobody arms
+   until every drone got this far;
+4. set GUIDED (ArduPilot; PX4 arms in its own HOLD and starts by MISSION_START, or AUTO.MISSION if
+   that is refused), arm (retried while the vehicle says it is still getting ready), wait for
    every other drone to be armed, then MAV_CMD_MISSION_START: all start together, as the plan's
    separation assumes. A drone that cannot fly is left disarmed and out of AUTO, and fly says so;
-5. record GLOBAL_POSITION_INT, MISSION_CURRENT, MISSION_ITEM_REACHED and CAMERA_FEEDBACK, with one
-   progress bar per drone, until the vehicle has landed and disarmed with its mission complete, or
+5. record GLOBAL_POSITION_INT, MISSION_CURRENT, MISSION_ITEM_REACHED and the photo reports
+   (ArduPilot's CAMERA_FEEDBACK, PX4's CAMERA_IMAGE_CAPTURED), with one progress bar per drone, until
+   the vehicle has landed (PX4: its EXTENDED_SYS_STATE landed state) and disarmed with its mission
+   complete (PX4: at its final RTL / LAND item, which it never reports as reached), or
    it reboots, stops answering, or the time-out passes (each a problem, the others fly on);
 6. after landing, read the mission back once more: the vehicle must still hold what was uploaded.
 
@@ -141,7 +145,6 @@ class _DroneFlight:
         self.armed, self.rel_alt, self.last_reached = True, 0.0, -1  # as last reported
         self.checked_in = self.arm_checked_in = False  # at the start gate, at the arm gate
         self.recording = False  # from the mission start on: what came before is not this flight
-        self.planned_home: tuple[float, ...] | None = None
         self.camera_component: int | None = None  # who sends this vehicle's CAMERA_IMAGE_CAPTURED: the first heard
 
     def problem(self, text: str) -> None:
@@ -149,7 +152,7 @@ class _DroneFlight:
 
     def run(self) -> None:
         try:
-            if self._connect() and self._ready() and self._upload() and self._site_and_arm() and self._start():
+            if self._connect() and self._ready() and self._site() and self._upload() and self._arm() and self._start():
                 self._follow()
                 if self.record.finished:
                     self._check_still_held()
@@ -212,7 +215,6 @@ class _DroneFlight:
         try:
             plan = read_mission_file(self.plan_path)
             check_firmware(plan, self.plan_path, self.backend.vehicle.flavour if self.backend else None, rec.id)
-            self.planned_home = plan.mission.home
             if self.upload_with == "mavsdk":
                 self._upload_by_mavsdk()
             assert self.backend is not None
@@ -249,22 +251,34 @@ class _DroneFlight:
         finally:
             mavsdk.close()
 
-    def _site_and_arm(self) -> bool:
-        """Site check, then the arm gate (nobody arms while a drone is still getting ready, none if
-        any failed the site check), then GUIDED (ArduPilot) and arming, retried while not ready."""
-        assert self.vehicle is not None and self.backend is not None
-        rec, sysid = self.record, self.record.id
-        home = self.planned_home
+    def _site(self) -> bool:
+        """The site check, before anything is uploaded: the vehicle's home against its plan's launch
+        point. A vehicle at the wrong site vetoes arming for the whole fleet at the arm gate at once
+        (nothing is uploaded to it: PX4 would refuse a mission that starts that far away anyway)."""
+        assert self.vehicle is not None
+        try:
+            home = read_mission_file(self.plan_path).mission.home
+        except (BridgeError, OSError) as err:
+            self.problem(f"upload failed: {err}")
+            return False
         wrong_site = site_problem(self.vehicle.state, (home[0], home[1]) if home is not None else None,
                                   self.fleet.max_offset_m)
-        if wrong_site:
-            self.problem(f"site check failed: {wrong_site}")
+        if not wrong_site:
+            return True
+        self.problem(f"site check failed: {wrong_site}")
         self.arm_checked_in = True
-        vetoes = self.fleet.arm_gate.check_in(self.deadline - time.monotonic(),
-                                              veto=f"uav{sysid} failed the site check" if wrong_site else "")
+        self.fleet.arm_gate.check_in(0.0, veto=f"uav{self.record.id} failed the site check")
+        return False
+
+    def _arm(self) -> bool:
+        """The arm gate (nobody arms while a drone is still getting ready, none if any failed the site
+        check), then GUIDED (ArduPilot) and arming, retried while not ready."""
+        assert self.vehicle is not None and self.backend is not None
+        sysid = self.record.id
+        self.arm_checked_in = True
+        vetoes = self.fleet.arm_gate.check_in(self.deadline - time.monotonic())
         if vetoes:
-            if not wrong_site:
-                self.problem(f"not armed: {'; '.join(vetoes)} (no drone arms when one is at the wrong site)")
+            self.problem(f"not armed: {'; '.join(vetoes)} (no drone arms when one is at the wrong site)")
             return False
         link = self.backend.link
         if self.backend.vehicle.flavour is Flavour.ARDUPILOT:  # arms in GUIDED, starts AUTO by MISSION_START
