@@ -439,8 +439,9 @@ class FlightSim:
 
     def _leg_motions(self, here: tuple[float, float, float], target: tuple[float, float, float]) -> list[cm.Motion]:
         assert self.copter is not None
-        if self.px4 is not None:  # PX4 turns its nose to the leg first
-            return px4_model.legs(here, [target], self.state.speed, self.px4, self.state.heading)[0]
+        if self.px4 is not None:  # PX4 turns its nose to the leg first (the first leg: as the plan assumes)
+            heading = self.state.heading if self.state.distance > 0 else None
+            return px4_model.legs(here, [target], self.state.speed, self.px4, heading)[0]
         return [cm.leg(here, target, self.state.speed, self.copter)]
 
     def _rtl_motions(self, here: tuple[float, float, float]) -> list[cm.Motion]:

@@ -36,7 +36,10 @@ PX4_TAKEOFF_SETTLE_S = 1.8   # take-off altitude -> first waypoint reached (the 
 PX4_TURN_FACTOR = 1.4        # a turn of A degrees at a waypoint costs A / MPC_YAWRAUTO_MAX * this, s
 PX4_RTL_START_S = 7.6        # last waypoint reached -> RTL moving home or descending ("RTL: land at destination")
 PX4_TOUCHDOWN_S = 4.0        # at the ground by the model -> disarmed (crawl, land detector, COM_DISARM_LAND)
-START_HEADING_DEG = 0.0      # SIH starts facing north
+FIRST_TURN_DEG = 90.0        # the first leg's turn: the heading at take-off is not the plan's to know
+                             # (SIH faces north, a real vehicle where it was put): a uniform one averages 90
+NEAR_M = 0.5                 # a waypoint this close is reached where the vehicle is: no turn, no leg (inside
+                             # any acceptance radius PX4 uses; the vehicle's own rounding of positions)
 
 
 @dataclass(frozen=True)
@@ -103,16 +106,17 @@ def takeoff(ground: tuple[float, float, float], altitude: float, p: Px4Params) -
 
 
 def legs(start: tuple[float, float, float], targets: list[tuple[float, float, float]], speed: float,
-         p: Px4Params, heading: float = START_HEADING_DEG) -> tuple[list[Motion], float]:
-    """Each leg from rest to rest after turning to it; (motions, the heading at the end)."""
+         p: Px4Params, heading: float | None = None) -> tuple[list[Motion], float | None]:
+    """Each leg from rest to rest after turning to it; (motions, the heading at the end). `heading`
+    None: not known yet (before the first leg), the turn counts FIRST_TURN_DEG."""
     out: list[Motion] = []
     here = start
     for target in targets:
-        if math.dist(here[:2], target[:2]) <= 1e-9:
-            here = target
-            continue
+        if math.dist(here[:2], target[:2]) <= NEAR_M:
+            continue  # within the acceptance radius already: reached
         new = heading_deg(here, target)
-        turn = turn_deg(heading, new) / max(p.yaw_rate, 1e-6) * PX4_TURN_FACTOR
+        angle = FIRST_TURN_DEG if heading is None else turn_deg(heading, new)
+        turn = angle / max(p.yaw_rate, 1e-6) * PX4_TURN_FACTOR
         if turn > 1e-9:
             out.append(cm.wait(here, turn, "turn"))
         out.append(Motion(here, target, max(speed, 0.1), p.acc_hor, kind="leg"))

@@ -76,10 +76,14 @@ def test_the_px4_model_turns_before_a_leg_and_lands_in_three_bands() -> None:
     up = pm.takeoff((0.0, 0.0, 0.0), 20.0, p)
     assert cm.total_time(up) == pytest.approx(pm.PX4_SPOOL_S + 20.0 / 1.5 + 1.5 / 4.0 + pm.PX4_TAKEOFF_SETTLE_S,
                                               abs=0.01)
-    straight, heading = pm.legs((0.0, 0.0, 20.0), [(50.0, 0.0, 20.0)], 5.0, p)
+    straight, heading = pm.legs((0.0, 0.0, 20.0), [(50.0, 0.0, 20.0)], 5.0, p, heading=0.0)
     turned, _ = pm.legs((50.0, 0.0, 20.0), [(50.0, 50.0, 20.0)], 5.0, p, heading)
     assert [m.kind for m in straight] == ["leg"] and [m.kind for m in turned] == ["turn", "leg"]
     assert turned[0].duration == pytest.approx(90.0 / 45.0 * pm.PX4_TURN_FACTOR)
+    # The first leg (heading unknown to the plan) counts an average turn; a waypoint within half a
+    # metre is reached where the vehicle is.
+    first, _ = pm.legs((0.0, 0.0, 20.0), [(0.2, 0.1, 20.0), (0.0, 50.0, 20.0)], 5.0, p)
+    assert [m.kind for m in first] == ["turn", "leg"] and first[0].duration == turned[0].duration
     down = pm.landing((0.0, 0.0, 20.0), 0.0, p)
     assert [m.kind for m in down] == ["descent", "descent", "land", "touchdown"]
     assert [round(m.distance, 6) for m in down[:3]] == [10.0, 5.0, 5.0]
@@ -140,7 +144,7 @@ def test_fly_judges_a_px4_fleet_by_its_camera_image_captured_reports(milan_plan,
         assert row["finished"] and row["photos"] == taken and row["photos_placed_on_track"] == 0, row
         # Re-timed with the PX4 parameters the vehicle reported, by the PX4 model the mock flies.
         assert "MPC_XY_CRUISE" in row["vehicle_params"]
-        assert row["flight_s"] == pytest.approx(row["planned_flight_s_vehicle"], rel=0.08), row
+        assert row["flight_s"] == pytest.approx(row["planned_flight_s_vehicle"], rel=0.05), row
         assert not any("streams not accepted" in note for note in row["notes"]), row["notes"]
 
 
