@@ -32,6 +32,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from .copter_model import CopterParams
+from .px4_model import Px4Params
 from .mission import (
     CMD_RALLY_POINT,
     FRAME_GLOBAL,
@@ -63,15 +64,20 @@ PX4_MODES = {"MANUAL": 1 << 16, "GUIDED": (4 << 16) | (8 << 24), "LOITER": (4 <<
              "AUTO": (4 << 16) | (4 << 24), "RTL": (4 << 16) | (5 << 24), "LAND": (4 << 16) | (6 << 24)}
 
 MSG_SYS_STATUS, MSG_GPS_RAW_INT, MSG_GLOBAL_POSITION_INT, MSG_MISSION_CURRENT = 1, 24, 33, 42
-MSG_EKF_STATUS_REPORT, MSG_HOME_POSITION = 193, 242
+MSG_EKF_STATUS_REPORT, MSG_HOME_POSITION, MSG_EXTENDED_SYS_STATE = 193, 242, 245
 STREAMS = (MSG_SYS_STATUS, MSG_GPS_RAW_INT, MSG_GLOBAL_POSITION_INT, MSG_MISSION_CURRENT, MSG_EKF_STATUS_REPORT,
-           MSG_HOME_POSITION)
+           MSG_HOME_POSITION, MSG_EXTENDED_SYS_STATE)
+MAV_LANDED_STATE_ON_GROUND, MAV_LANDED_STATE_IN_AIR = 1, 2
 SENSOR_PREARM_CHECK = 0x1000_0000  # MAV_SYS_STATUS_PREARM_CHECK
 # EKF_STATUS_REPORT flags as ArduCopter SITL reports them: before its GPS is used (attitude, velocity,
 # vertical position, constant-position mode) and after (absolute and relative position, predicted too).
 EKF_FLAGS_WAITING = 1 | 2 | 4 | 32 | 128
 EKF_FLAGS_READY = 1 | 2 | 4 | 8 | 16 | 32 | 64 | 256 | 512
 NOT_READY_TEXTS = ("PreArm: Need Position Estimate", "Arm: Need Alt Estimate", "AHRS: waiting for home")
+# PX4 SIH's answer to arming before "Ready for takeoff!": TEMPORARILY_REJECTED and these (the first
+# is 51 characters: PX4 sends it as two STATUSTEXT chunks with one id).
+PX4_NOT_READY_TEXTS = ("Arming denied: Resolve system health failures first", "Preflight Fail: horizontal velocity unstable")
+PX4_CAMERA_PARAM, ARDUPILOT_CAMERA_PARAM = "TRIG_MODE", "CAM1_TYPE"  # read at boot: the camera reports only then
 MAV_SEVERITY_CRITICAL, MAV_SEVERITY_INFO = 2, 6
 CMD_GET_HOME_POSITION = 410
 PREARM_REPEAT_S = 30.0  # simulated seconds between ArduPilot's reports of a failing pre-arm check
@@ -136,9 +142,14 @@ class MockVehicle:
         self.params: dict[str, float] = {"WPNAV_RADIUS": 200.0} if self.flavour is Flavour.ARDUPILOT else {}
         if self.flavour is Flavour.PX4:
             self.params["MIS_DIST_1WP"] = MIS_DIST_1WP_DEFAULT  # its mission feasibility check (bridge.px4)
-        if self.options.sitl_like:
-            self.params.update({**CopterParams().as_params(), "CAM1_TYPE": 0.0})
-        self.camera = True  # sends CAMERA_FEEDBACK; SITL-like: only when CAM1_TYPE was set at boot
+        if self.options.sitl_like and self.flavour is Flavour.PX4:
+            self.params.update({**Px4Params().as_params(), PX4_CAMERA_PARAM: 0.0})
+        elif self.options.sitl_like:
+            self.params.update({**CopterParams().as_params(), ARDUPILOT_CAMERA_PARAM: 0.0})
+        # Sends CAMERA_FEEDBACK (PX4: CAMERA_IMAGE_CAPTURED); SITL-like: only when the camera parameter
+        # (CAM1_TYPE, PX4's TRIG_MODE) was set at boot.
+        self.camera = True
+        self._text_id = 0  # PX4's STATUSTEXT id for chunked texts
         self._reboot_pending = False  # a reboot command acknowledged: reboot once the ack is out
         self._boot(now)
 
@@ -156,9 +167,11 @@ class MockVehicle:
         # PX4 asks with the legacy MISSION_REQUEST until the ground station has used an *_INT message.
         self._int_mode = False
         self.last_completed: tuple[int, int, tuple[int, int]] | None = None  # type, count, peer
-        self.camera = not self.options.sitl_like or self.params.get("CAM1_TYPE", 0.0) != 0.0
+        camera_param = PX4_CAMERA_PARAM if self.flavour is Flavour.PX4 else ARDUPILOT_CAMERA_PARAM
+        self.camera = not self.options.sitl_like or self.params.get(camera_param, 0.0) > 0.0
         copter = CopterParams.from_params(self.params) if self.options.sitl_like else None
-        self.flight = FlightSim(home, cruise_speed=self.options.cruise_speed, copter=copter)
+        px4 = Px4Params.from_params(self.params) if self.options.sitl_like and self.flavour is Flavour.PX4 else None
+        self.flight = FlightSim(home, cruise_speed=self.options.cruise_speed, copter=copter, px4=px4)
         if "WPNAV_RADIUS" in self.params:  # ArduCopter turns within WPNAV_RADIUS of every waypoint
             self.flight.default_acceptance = max(self.params["WPNAV_RADIUS"], 5.0) / 100.0
         self._load_flight()
@@ -167,6 +180,7 @@ class MockVehicle:
         self.intervals: dict[int, float | None] = self._default_intervals()  # wall seconds; None: off
         self._next_due = {msgid: now for msgid in STREAMS}
         self._photos_sent = 0
+        self._landed_sent = MAV_LANDED_STATE_ON_GROUND
         self._said_waiting = False
         self._next_prearm_text = PREARM_REPEAT_S  # simulated seconds since boot
 
@@ -177,7 +191,8 @@ class MockVehicle:
             return {msgid: None for msgid in STREAMS}
         ardupilot = self.flavour is Flavour.ARDUPILOT
         return {MSG_SYS_STATUS: 1.0, MSG_GPS_RAW_INT: 1.0, MSG_GLOBAL_POSITION_INT: 1.0 / self.options.telemetry_hz,
-                MSG_MISSION_CURRENT: 1.0, MSG_EKF_STATUS_REPORT: 1.0 if ardupilot else None, MSG_HOME_POSITION: None}
+                MSG_MISSION_CURRENT: 1.0, MSG_EKF_STATUS_REPORT: 1.0 if ardupilot else None, MSG_HOME_POSITION: None,
+                MSG_EXTENDED_SYS_STATE: None if ardupilot else 1.0}
 
     @property
     def position_interval(self) -> float | None:
@@ -275,7 +290,22 @@ class MockVehicle:
         return True
 
     def _send_text(self, text: str, severity: int = MAV_SEVERITY_CRITICAL) -> None:
-        self.mav.statustext_send(severity, text.encode()[:50])
+        if self.flavour is not Flavour.PX4 or len(text) <= 50:
+            self.mav.statustext_send(severity, text.encode()[:50])
+            return
+        self._text_id = self._text_id % 65535 + 1  # PX4: a long text in 50-character chunks, one id
+        for chunk, start in enumerate(range(0, len(text), 50)):
+            self.mav.statustext_send(severity, text[start:start + 50].encode(), self._text_id, chunk)
+
+    def _landed_state(self) -> int:
+        s = self.flight.state
+        on_ground = s.on_ground and not (s.armed and s.mode == "AUTO" and not s.mission_done)
+        return MAV_LANDED_STATE_ON_GROUND if on_ground else MAV_LANDED_STATE_IN_AIR
+
+    def _send_landed_state(self) -> None:
+        """EXTENDED_SYS_STATE, as PX4 streams it: on the ground or in the air."""
+        self._landed_sent = self._landed_state()
+        self.mav.extended_sys_state_send(0, self._landed_sent)
 
     def _send_stream(self, msgid: int, now: float) -> None:
         if msgid == MSG_SYS_STATUS:
@@ -290,6 +320,8 @@ class MockVehicle:
             self._send_ekf(now)
         elif msgid == MSG_HOME_POSITION:
             self._send_home()
+        elif msgid == MSG_EXTENDED_SYS_STATE:
+            self._send_landed_state()
 
     def _send_position(self, now: float) -> None:
         s = self.flight.state
@@ -306,6 +338,9 @@ class MockVehicle:
         if not self.camera:  # no camera configured: ArduCopter sends nothing
             self._photos_sent = len(points)
             return
+        if self.flavour is Flavour.PX4:
+            self._send_image_captured(now, points, home_alt)
+            return
         first = 1 if self.options.sitl_like else 0  # ArduPilot's img_idx starts at 1 after a boot
         while self._photos_sent < len(points):
             lat, lon, alt = points[self._photos_sent]
@@ -313,6 +348,16 @@ class MockVehicle:
             self.mav.camera_feedback_send(int(now * 1e6), self.sysid, 0, (self._photos_sent - 1 + first) % 65536,
                                           int(round(lat * 1e7)), int(round(lon * 1e7)), home_alt + alt, alt,
                                           0.0, 0.0, self.flight.state.heading, 0.0, 0, self._photos_sent)
+
+    def _send_image_captured(self, now: float, points: list[tuple[float, float, float]], home_alt: float) -> None:
+        """PX4 (camera_trigger + camera_feedback): one CAMERA_IMAGE_CAPTURED per photo on the GCS link,
+        image_index from 0 after boot (counting on across flights), capture_result 1, no CAMERA_FEEDBACK."""
+        while self._photos_sent < len(points):
+            lat, lon, alt = points[self._photos_sent]
+            self.mav.camera_image_captured_send(self._time_boot_ms(now), int(now * 1e6), 1, int(round(lat * 1e7)),
+                                                int(round(lon * 1e7)), int(round((home_alt + alt) * 1000)),
+                                                int(round(alt * 1000)), [1.0, 0.0, 0.0, 0.0], self._photos_sent, 1, b"")
+            self._photos_sent += 1
 
     def _send_mission_current(self, seq: int | None = None) -> None:
         s = self.flight.state
@@ -359,6 +404,8 @@ class MockVehicle:
             if simulated >= self._next_prearm_text:  # ArduPilot repeats a failing pre-arm check every 30 s
                 self._next_prearm_text = simulated + PREARM_REPEAT_S
                 self._send_text(NOT_READY_TEXTS[0])
+        if self.intervals.get(MSG_EXTENDED_SYS_STATE) is not None and self._landed_state() != self._landed_sent:
+            self._send_landed_state()  # at once, not a stream interval late (a sped-up mock's second is long)
         self._send_camera_feedback(now)
         self._upload_timers(now)
 
@@ -654,6 +701,10 @@ class MockVehicle:
         s = self.flight.state
         if command == 400:  # COMPONENT_ARM_DISARM
             if p[0] >= 0.5:
+                if not self.ready and int(p[1]) != 21196 and self.flavour is Flavour.PX4:
+                    for text in PX4_NOT_READY_TEXTS:  # PX4 before "Ready for takeoff!"
+                        self._send_text(text)
+                    return CMD_TEMPORARILY_REJECTED
                 if not self.ready and int(p[1]) != 21196:  # ArduCopter before its EKF uses the GPS
                     for text in NOT_READY_TEXTS[:2]:
                         self._send_text(text)

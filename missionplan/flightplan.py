@@ -29,7 +29,7 @@ from .pipeline import PlanResult
 from .safety import SafetySettings
 from .separation import Layering, SeparationError, choose_layers, closest_over_sorties, position_at
 from .sorties import Sortie, sortie_file, split_sorties
-from .timeline import ASSUMES, FlightModel, closest_approach, planned_track
+from .timeline import ASSUMES, PX4_ASSUMES, FlightModel, closest_approach, planned_track
 from .world import FOOTPRINT_RADIUS
 
 SORTIE_FIT_TRIES = 6  # re-cuts of a drone's sorties when one came out over the budget on the timeline
@@ -60,7 +60,7 @@ class FlightPlans:
         """report.json's `separation`: the closest approach of two drones if all fly as planned; with
         safety settings, the minimum it guarantees and how."""
         approach = closest_over_sorties(self.sortie_tracks)
-        doc = {**approach, "assumes": ASSUMES,
+        doc = {**approach, "assumes": PX4_ASSUMES if self.settings.autopilot == "px4" else ASSUMES,
                "sorties": [closest_approach(tracks) for tracks in self.sortie_tracks]}
         if self.safety is not None and self.layering is not None:
             doc.update({"required_m": self.safety.min_separation_m, "method": self.layering.method,
@@ -183,7 +183,7 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
     targets = result.world.reachable if base is result.gmap else base.target
     cell = frame.cell_m
     corrected, latlons, launches, routes = [], [], [], []
-    model = FlightModel(speed_m_s=settings.speed_m_s, acceptance_m=settings.acceptance_m)
+    model = FlightModel.for_autopilot(settings.autopilot, settings.speed_m_s, settings.acceptance_m)
     # Not touching an obstacle square within a box buffer of `margin` cells keeps the segment at least
     # that far from it (Chebyshev distance <= Euclidean).
     margin_cells = MARGIN_CELLS if safety is None else max(MARGIN_CELLS, safety.clearance_m / cell)
