@@ -7,7 +7,14 @@ does what ArduCopter SITL does: it stores items as bridge.mission.ardupilot_stor
 keeps only param1, DO_* come back in frame 0, ...), keeps its home as item 0 (0, 0, 0 until its GPS
 has a fix), re-requests after 1 s, answers an item it did not ask for with INVALID_SEQUENCE and one
 after the upload completed with ERROR, and flies every waypoint to WPNAV_RADIUS (PARAM_SET /
-PARAM_REQUEST_READ), not to param2; COMMAND_LONG arm /
+PARAM_REQUEST_READ), not to param2. The PX4 flavour does what PX4 SIH does with missions (bridge.px4,
+measured; sitl_tests/test_mock_vs_px4.py keeps it honest): PX4's frame / command matrix and result
+codes, its stored form (3 -> 6, 0 -> 5, no pass radius, float32-radian yaws), the `current` flag on
+its active item and on item 0 of fence and rally, the legacy MISSION_REQUEST until the ground
+station speaks *_INT (an error answer flips it), and a MISSION_START refused with "Mission start
+denied! No valid mission" before its GPS fix or when the first waypoint is MIS_DIST_1WP or more
+from its home; a fence without its home draws "Geofence invalid, doesn't contain Home position".
+COMMAND_LONG arm /
 disarm, mode changes, MAV_CMD_MISSION_START, DO_SET_MISSION_CURRENT and AUTOPILOT_VERSION requests,
 each answered with COMMAND_ACK; HEARTBEAT (quadrotor, ArduPilot or PX4), SYS_STATUS (with the pre-arm
 check bit), GPS_RAW_INT, EKF_STATUS_REPORT (ArduPilot), HOME_POSITION, GLOBAL_POSITION_INT, MISSION_CURRENT
