@@ -194,3 +194,18 @@ def test_plan_autopilot_px4_writes_firmware_12_and_no_waypoints(tmp_path: Path) 
                  "--autopilot", "px4"]) == 0
     assert not (tmp_path / "a" / "uav1.waypoints").exists()
     write_waypoints(tmp_path / "x.waypoints", px4.mission)  # still writable by hand for a PX4 plan
+
+
+def test_fly_refuses_a_plan_written_for_ardupilot_on_px4_vehicles(tmp_path: Path) -> None:
+    from missionplan.fly import fly, start_mock_fleet
+
+    plan_dir = tmp_path / "a"
+    assert main(["plan", "--map", "leonardo", "--uavs", "1", "--out", str(plan_dir), "--quiet"]) == 0  # ArduPilot
+    mock = start_mock_fleet(plan_dir, 10.0, flavour="px4")
+    try:
+        result = fly(plan_dir, mock.client_url, timeout_s=30.0, progress=False, time_scale=10.0)
+    finally:
+        mock.stop()
+    assert not result.ok and mock.vehicle(1).uploads_completed == 0 and not mock.vehicle(1).flight.state.armed
+    assert any("written for ArduPilot (firmwareType 3), but vehicle 1 is PX4" in p for p in result.problems), \
+        result.problems
