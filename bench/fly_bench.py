@@ -2,7 +2,7 @@
 print one row per flight.
 
 Run by hand: `.venv/bin/python bench/fly_bench.py [--maps leonardo,grid-city] [--uavs 3,5,6]
-[--streets block,cenisia] [--sitl] [--policy nn]`.
+[--streets block,cenisia] [--sitl] [--px4 milan3,block3] [--policy nn]`.
 Each row: the flown coverage (our rule, and the stricter whole-cell rule), the closest approach of two
 drones against the plan's promise, flight time (the longest drone's, on the vehicles' own clock:
 simulated seconds) against the plan's, the worst drone's gap between flown and planned time, photos,
@@ -14,6 +14,12 @@ own ArduCopter SITL at 10x, one after the other (its camera configured once: CAM
 then judge the drones together with their recordings aligned at their mission starts, as the plan's
 separation assumes they start: coverage from all drones' CAMERA_FEEDBACK, the flown closest approach
 against the promise. Street plans read the Turin map in place from ../shared/maps.
+
+PX4 rows (`--px4 PLANS`, needs ../shared/px4/bin/px4): each plan made with `plan --autopilot px4`
+(report.json timed by PX4's flight model), flown by the PX4 flavour of the mock (PX4's flight model,
+CAMERA_IMAGE_CAPTURED) and by the whole fleet at once on PX4 SIH (real time, instances 0-2, every GCS
+link into one udpin port, TRIG_MODE 4 at boot, fly started right after boot; at most 3 drones: SIH
+runs in real time and the machine has 2 cores). Coverage from the vehicles' CAMERA_IMAGE_CAPTURED.
 """
 
 from __future__ import annotations
@@ -55,23 +61,30 @@ STREETS: dict[str, tuple[list[list[float]], list[str]]] = {
     "cenisia": ([[7.65189, 45.06563], [7.65861, 45.06563], [7.65861, 45.07000], [7.65189, 45.07000]],
                 ["45.069450,7.652588", "45.069513,7.657924", "45.066065,7.652668", "45.066127,7.658004"]),
 }
+# Plain areas (no buildings map) for the PX4 rows: the fleet test's Milan block.
+AREAS: dict[str, tuple[list[list[float]], list[str]]] = {
+    "milan3": ([[9.1890, 45.4640], [9.1905, 45.4640], [9.1905, 45.4648], [9.1890, 45.4648]],
+               ["45.4641,9.1891", "45.4641,9.1898", "45.4641,9.1904"]),
+}
+PX4_MAX_VEHICLES = 3
 HEADER = (f"{'vehicle':<16}{'plan':<11}{'A':>3}{'targets':>9}{'cover %':>9}{'whole %':>9}{'sep 3d m':>10}"
           f"{'promised':>10}{'tol m':>7}{'flight s':>10}{'planned':>9}{'worst':>8}{'photos':>8}{'wall s':>8}")
 
 
-def _plan(out: Path, name: str, uavs: int, policy: str) -> bool:
-    if name in STREETS:
-        corners, launches = STREETS[name]
+def _plan(out: Path, name: str, uavs: int, policy: str, autopilot: str = "ardupilot") -> bool:
+    if name in STREETS or name in AREAS:
+        corners, launches = STREETS[name] if name in STREETS else AREAS[name]
         area = out / "area.geojson"
         out.mkdir(parents=True, exist_ok=True)
         area.write_text(json.dumps({"type": "Feature", "properties": {"name": name},
                                     "geometry": {"type": "Polygon", "coordinates": [corners + corners[:1]]}}))
-        argv = ["plan", "--area", str(area), "--osm", str(OSM), "--altitude", "20", "--fov", "84",
-                "--policy", policy, "--out", str(out / "plan"), "--quiet"]
+        argv = ["plan", "--area", str(area), *(["--osm", str(OSM)] if name in STREETS else []), "--altitude", "20",
+                "--fov", "84", "--policy", policy, "--out", str(out / "plan"), "--quiet"]
         for launch in launches[:uavs]:
             argv += ["--launch", launch]
     else:
         argv = ["plan", "--map", name, "--uavs", str(uavs), "--policy", policy, "--out", str(out / "plan"), "--quiet"]
+    argv += ["--autopilot", autopilot]
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):  # the table only
         return main(argv) == 0
 
@@ -96,16 +109,39 @@ def _row(vehicle: str, name: str, uavs: int, plan_dir: Path, problems: list[str]
             f"{sep['tolerance']:>7.2f}{flight:>10.1f}{planned:>9.1f}{100 * worst:>7.1f}%{photos:>8}{wall:>8.1f}{note}")
 
 
-def mock_row(name: str, uavs: int, plan_dir: Path) -> str:
+def mock_row(name: str, uavs: int, plan_dir: Path, flavour: str = "ardupilot") -> str:
     speedup = SPEEDUP.get(name, DEFAULT_SPEEDUP)
-    mock = start_mock_fleet(plan_dir, speedup)
+    mock = start_mock_fleet(plan_dir, speedup, flavour=flavour)
     start = time.monotonic()
     try:
         result = fly(plan_dir, mock.client_url, timeout_s=1800, progress=False, time_scale=speedup,
                      telemetry_hz=TELEMETRY_HZ)
     finally:
         mock.stop()
-    return _row(f"mock {speedup:g}x", name, uavs, plan_dir, result.problems, time.monotonic() - start)
+    vehicle = f"mock {speedup:g}x" + (" px4" if flavour == "px4" else "")
+    return _row(vehicle, name, uavs, plan_dir, result.problems, time.monotonic() - start)
+
+
+def px4_row(name: str, uavs: int, plan_dir: Path) -> str:
+    """The whole fleet at once on PX4 SIH, as sitl_tests/test_fleet_px4.py flies it."""
+    from px4 import GCS_URL, PX4
+
+    from bridge.missionfile import read_mission_file
+
+    if uavs > PX4_MAX_VEHICLES:
+        return f"{'PX4 SIH':<16}{name:<11}{uavs:>3}  skipped: more than {PX4_MAX_VEHICLES} PX4 SIH at a time"
+    vehicles: list[Any] = []
+    try:
+        for sysid in range(1, uavs + 1):
+            lat, lon, _ = read_mission_file(plan_dir / f"uav{sysid}.plan").mission.home
+            vehicles.append(PX4(instance=sysid - 1, home=(lat, lon, 120.0), params={"TRIG_MODE": 4}).start())
+        start = time.monotonic()
+        result = fly(plan_dir, GCS_URL, timeout_s=1800, progress=False, telemetry_hz=SITL_TELEMETRY_HZ)
+        wall = time.monotonic() - start  # includes the wait for readiness after boot (~35 s)
+    finally:
+        for vehicle in vehicles:
+            vehicle.stop()
+    return _row("PX4 SIH", name, uavs, plan_dir, result.problems, wall)
 
 
 def _shifted(rec: Any, by: float) -> Any:
@@ -164,6 +200,8 @@ def main_bench() -> None:
     parser.add_argument("--uavs", default="3,5,6", help="drones per shipped map")
     parser.add_argument("--streets", default="block,block3,cenisia", help=f"street plans ({', '.join(STREETS)}; '' for none)")
     parser.add_argument("--sitl", action="store_true", help="also fly the street plans on ArduCopter SITL")
+    parser.add_argument("--px4", default="", help=f"plans to fly for PX4 on the PX4 mock and PX4 SIH "
+                                                   f"({', '.join([*AREAS, *STREETS])}; at most {PX4_MAX_VEHICLES} drones)")
     parser.add_argument("--policy", default="nn", choices=("nn", "expert"))
     args = parser.parse_args()
     print(HEADER)
@@ -181,6 +219,17 @@ def main_bench() -> None:
                 fresh = Path(tmp) / "sitl-plan"
                 shutil.copytree(plan_dir, fresh)
                 print(sitl_row(name, uavs, fresh), flush=True)
+    for name in filter(None, args.px4.split(",")):
+        uavs = len((STREETS.get(name) or AREAS[name])[1])
+        with tempfile.TemporaryDirectory() as tmp:
+            if not _plan(Path(tmp), name, uavs, args.policy, autopilot="px4"):
+                print(f"{'':<16}{name:<11}{uavs:>3}  plan failed")
+                continue
+            plan_dir = Path(tmp) / "plan"
+            print(mock_row(name, uavs, plan_dir, flavour="px4"), flush=True)
+            fresh = Path(tmp) / "px4-plan"
+            shutil.copytree(plan_dir, fresh)
+            print(px4_row(name, uavs, fresh), flush=True)
 
 
 if __name__ == "__main__":

@@ -1,8 +1,8 @@
 """Mission upload speed: items per second to the in-process mock autopilot on 127.0.0.1, and to real
-ArduCopter SITL.
+ArduCopter SITL and PX4 SIH.
 
 Run by hand: `.venv/bin/python bench/upload_bench.py [--sizes 100,1000] [--losses 0,0.2] [--backends pymavlink,mavsdk]
-[--sitl-sizes 100,1000]`.
+[--sitl-sizes 100,1000] [--px4-sizes 100,1000] [--px4-backends pymavlink,mavsdk]`.
 For each backend, mission size and loss (the same in both directions, plus 5 % duplicates and 5 %
 reordering when the loss is not 0) it uploads once and reads back once, and prints a table of
 seconds and items per second. The mock re-requests a missing item after 10 ms and the ground
@@ -11,7 +11,9 @@ dominated by waiting). The ArduCopter rows upload with our pymavlink backend and
 timing (1.5 s item time-out), next to the ArduPilot-flavoured mock with the same timing, to a fresh
 SITL instance (../shared/sitl/arducopter, --speedup 10,
 sitl_tests/arducopter.py) over TCP, read back, verify by the ArduPilot rule, and count the
-INVALID_SEQUENCE acks it sent (the upload must not race its re-requests: 0 expected).
+INVALID_SEQUENCE acks it sent (the upload must not race its re-requests: 0 expected). The PX4 SIH
+rows (../shared/px4, sitl_tests/px4.py, an instance from 10-29, real time) use the same real-world
+timing over PX4's offboard UDP link, and verify by PX4's rule (bridge.px4.px4_stored).
 No assertions: this is a measurement, not a test.
 """
 
@@ -85,6 +87,32 @@ def measure_ardupilot(size: int, sitl: bool) -> dict[str, object]:
             "ok": ok}
 
 
+def measure_px4(size: int, backend: str) -> dict[str, object]:
+    """One upload and read-back with real-world timing to a fresh PX4 SIH (../shared/px4, v1.15.4;
+    sitl_tests/px4.py, an instance from 10-29, its offboard UDP link), verified by PX4's rule."""
+    from px4 import PX4  # sitl_tests/px4.py: own temp folder and session, logging off, killed at exit
+
+    home = (45.07, 7.68, 240.0)
+    mission = survey(size)
+    mission.items[0] = MissionItem(22, 3, x=home[0], y=home[1], z=30.0)  # PX4 refuses a take-off at 0, 0
+    with contextlib.ExitStack() as stack:
+        vehicle = stack.enter_context(PX4(home=home, instances=range(10, 30)))
+        b = stack.enter_context(open_backend(backend, vehicle.offboard_url, vehicle.sysid, timeouts=Timeouts(),
+                                             connect_timeout=20))
+        wire = to_wire(mission, b.vehicle.flavour)
+        start = time.perf_counter()
+        try:
+            b.upload(0, wire)
+        except MissionTransferError as err:
+            return {"refused": str(err)}
+        upload_s = time.perf_counter() - start
+        start = time.perf_counter()
+        got = b.download(0)
+        read_s = time.perf_counter() - start
+        ok = not compare_wire(wire, got, skip_home=False, flavour=Flavour.PX4)
+    return {"upload_s": upload_s, "read_s": read_s, "reader": getattr(b, "read_back_by", backend), "ok": ok}
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default="100,1000")
@@ -92,6 +120,8 @@ def main() -> int:
     parser.add_argument("--backends", default="pymavlink,mavsdk")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--sitl-sizes", default="100,649,1000", help="ArduCopter SITL rows ('' for none)")
+    parser.add_argument("--px4-sizes", default="100,1000", help="PX4 SIH rows ('' for none)")
+    parser.add_argument("--px4-backends", default="pymavlink", help="backends for the PX4 SIH rows")
     args = parser.parse_args()
     sizes = [int(s) for s in args.sizes.split(",")]
     losses = [float(s) for s in args.losses.split(",")]
@@ -106,6 +136,9 @@ def main() -> int:
     for size in [int(s) for s in args.sitl_sizes.split(",") if s.strip()]:
         _row("mock (ardupilot)", "pymavlink", size, 0.0, measure_ardupilot(size, sitl=False))
         _row("ArduCopter SITL", "pymavlink", size, 0.0, measure_ardupilot(size, sitl=True))
+    for backend in args.px4_backends.split(","):
+        for size in [int(s) for s in args.px4_sizes.split(",") if s.strip()]:
+            _row("PX4 SIH", backend, size, 0.0, measure_px4(size, backend))
     return 0
 
 

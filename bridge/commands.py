@@ -168,7 +168,7 @@ class _Bars:
 # ----------------------------------------------------------------------------------------- handlers
 
 def cmd_upload(args: argparse.Namespace) -> int:
-    from .missionfile import read_mission_file
+    from .missionfile import check_firmware, read_mission_file
     from .uploader import open_backend, upload_plan
 
     opts = _checked(args)
@@ -182,8 +182,11 @@ def cmd_upload(args: argparse.Namespace) -> int:
     try:
         backend = open_backend(args.backend, opts["url"], opts["sysid"], opts["compid"], opts["key"],
                                opts["timeouts"], opts["connect_timeout"])
+        check_firmware(plan, args.file, backend.vehicle.flavour, opts["sysid"])  # learned from its HEARTBEAT
         report = upload_plan(backend, plan.parts(), verify=not args.no_verify, progress=bars,
                              set_params=not args.keep_params)
+    except BridgeUsageError:
+        raise  # a file for the other autopilot: bad input, exit 2
     except BridgeError as err:
         bars.close()
         return _fail("upload", err)

@@ -9,7 +9,8 @@ Owns:
   the mission (an upload sends a placeholder there, a download returns the real home), PX4 does not;
   DO_JUMP targets are counted with home as item 0 on ArduPilot and without it on PX4.
 - The read-back rule per flavour: stored_form / ardupilot_stored say what a vehicle may legally
-  change in what it stores (measured on ArduCopter SITL); compare_wire is the item-by-item check.
+  change in what it stores (measured on ArduCopter SITL; PX4's in bridge.px4, measured on PX4 SIH);
+  compare_wire is the item-by-item check.
 
 Model convention for DO_JUMP: param1 is the 1-based number of the target in Mission.items (the same
 number as QGroundControl's doJumpId for plain missions and as the line number in a .waypoints file).
@@ -275,7 +276,8 @@ def from_wire(items: list[WireItem], flavour: Flavour, mission_type: int = Missi
 # Measured on ArduCopter 4.7-dev SITL (docs/autopilots.md has the table and how): it keeps only
 # what its storage format has room for and hands the rest back as fixed values. Verify accepts, field
 # by field, either the value sent or the value ArduPilot's storage turns it into; nothing else.
-# PX4 and other autopilots: the value sent (deprecated *_INT frames read as their plain number).
+# PX4 (measured on PX4 SIH v1.15.4): bridge.px4.px4_stored. Other autopilots: the value sent
+# (deprecated *_INT frames read as their plain number).
 
 # Commands that carry a position (x, y, z). Everything else in a mission (DO_*, CONDITION_*, RTL,
 # camera, gimbal) is non-positional: ArduPilot returns it in frame 0 with x = y = z = 0.
@@ -343,6 +345,10 @@ def stored_form(item: WireItem, flavour: Flavour) -> WireItem:
     """What a vehicle of this flavour may legally hold instead of `item` (besides `item` itself)."""
     if flavour is Flavour.ARDUPILOT:
         return ardupilot_stored(item)
+    if flavour is Flavour.PX4:
+        from .px4 import px4_stored  # px4 builds on this module
+
+        return px4_stored(item)
     return replace(item, frame=normalize_frame(item.frame))
 
 

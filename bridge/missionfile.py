@@ -29,7 +29,7 @@ from typing import Any
 # A leaf utility with no planner imports: bridge still knows nothing about grids.
 from missionplan.atomic import write_text_atomic
 
-from .errors import BridgeUsageError
+from .errors import BridgeError, BridgeUsageError
 from .mission import (
     CMD_DO_JUMP,
     CMD_FENCE_CIRCLE_EXCLUSION,
@@ -78,6 +78,28 @@ class PlanFile:
     def parts(self) -> list[Mission]:
         """The mission, then the fence and rally lists that have items."""
         return [self.mission] + [m for m in (self.fence, self.rally) if m.items]
+
+
+class FirmwareMismatch(BridgeUsageError, BridgeError):
+    """A .plan written for one autopilot, about to go to the other: bad input (exit 2 for `upload`),
+    and a BridgeError too, so that a fleet flight fails that vehicle like any other upload failure."""
+
+
+AUTOPILOT_NAMES = {Flavour.ARDUPILOT: "ArduPilot", Flavour.PX4: "PX4"}
+
+
+def check_firmware(plan: PlanFile, path: str | os.PathLike[str], flavour: Flavour | None,
+                   sysid: int | None = None) -> None:
+    """FirmwareMismatch when `plan` says (its .plan firmwareType) it was written for ArduPilot and the
+    vehicle is PX4, or the other way round. A file that names no autopilot (a .waypoints, a generic
+    firmwareType) and a vehicle of another flavour are not checked."""
+    written = plan.firmware
+    if written not in AUTOPILOT_NAMES or flavour not in AUTOPILOT_NAMES or written is flavour:
+        return
+    vehicle = "the vehicle" if sysid is None else f"vehicle {sysid}"
+    raise FirmwareMismatch(f"{path}: written for {AUTOPILOT_NAMES[written]} (firmwareType {written.autopilot}), but "
+                           f"{vehicle} is {AUTOPILOT_NAMES[flavour]}: plan it again with `missionplan plan "
+                           f"--autopilot {flavour.value}` (docs/px4-missions.md)")
 
 
 # ---------------------------------------------------------------------------------------------- I/O

@@ -479,10 +479,14 @@ class MockAutopilot:
             vehicle.reboot_offline = offline
 
     def configure_camera(self, sysid: int, offline: float = 0.05) -> None:
-        """What a team does once on a real vehicle: CAM1_TYPE = 1 and a reboot (it takes effect at boot)."""
+        """What a team does once on a real vehicle: CAM1_TYPE = 1 (PX4: TRIG_MODE = 4, distance-triggered
+        by the mission) and a reboot (it takes effect at boot)."""
         with self._lock:
             vehicle = self.vehicles[sysid]
-            vehicle.params["CAM1_TYPE"] = 1.0
+            if vehicle.flavour is Flavour.PX4:
+                vehicle.params["TRIG_MODE"] = 4.0
+            else:
+                vehicle.params["CAM1_TYPE"] = 1.0
             vehicle.reboot(time.monotonic(), offline)
 
     def wait_until(self, predicate: Any, timeout: float) -> bool:

@@ -7,7 +7,9 @@ return-to-launch, and the flown track. With `copter` (bridge.copter_model.Copter
 SITL-like mode) it flies as ArduCopter does instead, on the very model the planner's timeline uses:
 spool-up and a climb with acceleration, every leg from rest to rest with WPNAV_ACCEL, RTL's climb to
 RTL_ALT, its return at RTL_SPEED / WPNAV_SPEED and loiter, the slow last LAND_ALT_LOW metres of the
-landing, and a touchdown pause before disarming. No MAVLink here: the vehicle (mock_vehicle) feeds it the
+landing, and a touchdown pause before disarming. With `px4` (bridge.px4_model.Px4Params, the PX4
+flavour's SITL-like mode) it flies as PX4 SIH does: take-off at MPC_TKO_SPEED, a turn of the nose
+before every leg, PX4's RTL and its three landing speeds. No MAVLink here: the vehicle (mock_vehicle) feeds it the
 stored wire items and publishes the events it returns (current item changed, item reached).
 Positions use a local flat-earth approximation around home, good to centimetres over a city.
 """
@@ -21,7 +23,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import copter_model as cm
+from . import px4_model
 from .copter_model import CopterParams
+from .px4_model import Px4Params
 from .mission import (
     CMD_DO_CHANGE_SPEED,
     CMD_DO_JUMP,
@@ -76,8 +80,9 @@ class FlightSim:
 
     def __init__(self, home: tuple[float, float, float], cruise_speed: float = 5.0, climb_rate: float = 2.5,
                  land_rate: float = 1.5, default_acceptance: float = 1.0, track_interval: float = 1.0,
-                 copter: CopterParams | None = None) -> None:
+                 copter: CopterParams | None = None, px4: Px4Params | None = None) -> None:
         self.copter = copter  # None: straight legs at the cruise speed; else ArduCopter's flight (copter_model)
+        self.px4 = px4  # with copter: PX4's flight instead (px4_model)
         self._motions: list[cm.Motion] = []
         self._motion_t = 0.0
         self._motions_key: tuple[object, ...] | None = None
@@ -175,8 +180,8 @@ class FlightSim:
             return self._step_mission(dt, events)
         if s.mode in ("RTL", "LAND") and self.copter is not None:
             here = self._here()
-            motions = (lambda: cm.rtl(here, (0.0, 0.0, 0.0), self.copter)) if s.mode == "RTL" else \
-                (lambda: cm.landing(here, 0.0, self.copter))
+            motions = (lambda: self._rtl_motions(here)) if s.mode == "RTL" else \
+                (lambda: self._landing_motions(here))
             used, done = self._run_motions((s.mode,), motions, dt)
             if done:
                 self._touchdown(events)
@@ -421,23 +426,51 @@ class FlightSim:
             s.heading = math.degrees(math.atan2(de, dn)) % 360
         self._count_photos(horizontal, (float(n0), float(e0), float(a0)), (dn, de, du))
 
-    def _step_copter_item(self, item: WireItem, dt: float, events: list[FlightEvent]) -> float:
-        """One positional mission item flown as ArduCopter does (copter_model)."""
-        s, p = self.state, self.copter
+    # The motions of the model flown: ArduCopter's (copter_model) or PX4's (px4_model).
+    def _takeoff_motions(self, here: tuple[float, float, float], target_alt: float) -> list[cm.Motion]:
+        p, q = self.copter, self.px4
         assert p is not None
+        top = (here[0], here[1], target_alt)
+        if q is not None:
+            return px4_model.takeoff(here, target_alt - here[2], q) if self.state.on_ground else \
+                [cm.Motion(here, top, q.z_auto_up, q.acc_up, kind="takeoff")]
+        return cm.takeoff(here, target_alt - here[2], p) if self.state.on_ground else \
+            [cm.Motion(here, top, p.speed_up, p.accel_z, kind="takeoff")]
+
+    def _leg_motions(self, here: tuple[float, float, float], target: tuple[float, float, float]) -> list[cm.Motion]:
+        assert self.copter is not None
+        if self.px4 is not None:  # PX4 turns its nose to the leg first (the first leg: as the plan assumes)
+            heading = self.state.heading if self.state.distance > 0 else None
+            return px4_model.legs(here, [target], self.state.speed, self.px4, heading)[0]
+        return [cm.leg(here, target, self.state.speed, self.copter)]
+
+    def _rtl_motions(self, here: tuple[float, float, float]) -> list[cm.Motion]:
+        assert self.copter is not None
+        if self.px4 is not None:
+            return px4_model.rtl(here, (0.0, 0.0, 0.0), self.px4)
+        return cm.rtl(here, (0.0, 0.0, 0.0), self.copter)
+
+    def _landing_motions(self, here: tuple[float, float, float]) -> list[cm.Motion]:
+        assert self.copter is not None
+        if self.px4 is not None:
+            return px4_model.landing(here, 0.0, self.px4)
+        return cm.landing(here, 0.0, self.copter)
+
+    def _step_copter_item(self, item: WireItem, dt: float, events: list[FlightEvent]) -> float:
+        """One positional mission item flown as ArduCopter (copter_model) or PX4 (px4_model) does."""
+        s = self.state
+        assert self.copter is not None
         key = ("AUTO", self._entries)
         here = self._here()
         cmd = item.command
         if cmd == CMD_NAV_TAKEOFF:
             target_alt = self._target_of(item)[2]
-            build = (lambda: cm.takeoff(here, target_alt - here[2], p)) if s.on_ground else \
-                (lambda: [cm.Motion(here, (here[0], here[1], target_alt), p.speed_up, p.accel_z, kind="takeoff")])
-            used, done = self._run_motions(key, build, dt)
+            used, done = self._run_motions(key, lambda: self._takeoff_motions(here, target_alt), dt)
             if done:
                 self._advance_item(events, reached=True)
             return used
         if cmd == CMD_NAV_RETURN_TO_LAUNCH:
-            used, done = self._run_motions(key, lambda: cm.rtl(here, (0.0, 0.0, 0.0), p), dt)
+            used, done = self._run_motions(key, lambda: self._rtl_motions(here), dt)
             if done:
                 self._touchdown(events)
                 self._advance_item(events, reached=True)
@@ -447,8 +480,8 @@ class FlightSim:
         north, east = self._to_local(lat, lon)
         if cmd == CMD_NAV_LAND:
             used, done = self._run_motions(
-                key, lambda: [cm.leg(here, (north, east, here[2]), s.speed, p), *cm.landing((north, east, here[2]), 0.0, p)],
-                dt)
+                key, lambda: [*self._leg_motions(here, (north, east, here[2])),
+                              *self._landing_motions((north, east, here[2]))], dt)
             if done:
                 self._touchdown(events)
                 self._advance_item(events, reached=True)
@@ -456,7 +489,7 @@ class FlightSim:
                 return dt
             return used
         # waypoint (and loiter commands, flown as waypoints): from rest to rest, then the hold time
-        used, done = self._run_motions(key, lambda: [cm.leg(here, (north, east, alt), s.speed, p)], dt)
+        used, done = self._run_motions(key, lambda: self._leg_motions(here, (north, east, alt)), dt)
         if not done:
             return used
         return self._hold_then_advance(events, used, dt)

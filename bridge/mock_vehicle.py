@@ -7,7 +7,14 @@ does what ArduCopter SITL does: it stores items as bridge.mission.ardupilot_stor
 keeps only param1, DO_* come back in frame 0, ...), keeps its home as item 0 (0, 0, 0 until its GPS
 has a fix), re-requests after 1 s, answers an item it did not ask for with INVALID_SEQUENCE and one
 after the upload completed with ERROR, and flies every waypoint to WPNAV_RADIUS (PARAM_SET /
-PARAM_REQUEST_READ), not to param2; COMMAND_LONG arm /
+PARAM_REQUEST_READ), not to param2. The PX4 flavour does what PX4 SIH does with missions (bridge.px4,
+measured; sitl_tests/test_mock_vs_px4.py keeps it honest): PX4's frame / command matrix and result
+codes, its stored form (3 -> 6, 0 -> 5, no pass radius, float32-radian yaws), the `current` flag on
+its active item and on item 0 of fence and rally, the legacy MISSION_REQUEST until the ground
+station speaks *_INT (an error answer flips it), and a MISSION_START refused with "Mission start
+denied! No valid mission" before its GPS fix or when the first waypoint is MIS_DIST_1WP or more
+from its home; a fence without its home draws "Geofence invalid, doesn't contain Home position".
+COMMAND_LONG arm /
 disarm, mode changes, MAV_CMD_MISSION_START, DO_SET_MISSION_CURRENT and AUTOPILOT_VERSION requests,
 each answered with COMMAND_ACK; HEARTBEAT (quadrotor, ArduPilot or PX4), SYS_STATUS (with the pre-arm
 check bit), GPS_RAW_INT, EKF_STATUS_REPORT (ArduPilot), HOME_POSITION, GLOBAL_POSITION_INT, MISSION_CURRENT
@@ -32,6 +39,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from .copter_model import CopterParams
+from .px4_model import Px4Params
 from .mission import (
     CMD_RALLY_POINT,
     FRAME_GLOBAL,
@@ -43,6 +51,8 @@ from .mission import (
     encode_xy,
 )
 from .mock_flight import FlightEvent, FlightSim
+from .px4 import (GEOFENCE_WITHOUT_HOME, MIS_DIST_1WP_DEFAULT, START_DENIED, fence_problems, item_result, px4_stored,
+                  start_refusals)
 
 # MAV_MISSION_RESULT values the vehicle answers with.
 ACCEPTED, ERROR, UNSUPPORTED_FRAME, UNSUPPORTED, NO_SPACE = 0, 1, 2, 3, 4
@@ -61,15 +71,20 @@ PX4_MODES = {"MANUAL": 1 << 16, "GUIDED": (4 << 16) | (8 << 24), "LOITER": (4 <<
              "AUTO": (4 << 16) | (4 << 24), "RTL": (4 << 16) | (5 << 24), "LAND": (4 << 16) | (6 << 24)}
 
 MSG_SYS_STATUS, MSG_GPS_RAW_INT, MSG_GLOBAL_POSITION_INT, MSG_MISSION_CURRENT = 1, 24, 33, 42
-MSG_EKF_STATUS_REPORT, MSG_HOME_POSITION = 193, 242
+MSG_EKF_STATUS_REPORT, MSG_HOME_POSITION, MSG_EXTENDED_SYS_STATE = 193, 242, 245
 STREAMS = (MSG_SYS_STATUS, MSG_GPS_RAW_INT, MSG_GLOBAL_POSITION_INT, MSG_MISSION_CURRENT, MSG_EKF_STATUS_REPORT,
-           MSG_HOME_POSITION)
+           MSG_HOME_POSITION, MSG_EXTENDED_SYS_STATE)
+MAV_LANDED_STATE_ON_GROUND, MAV_LANDED_STATE_IN_AIR = 1, 2
 SENSOR_PREARM_CHECK = 0x1000_0000  # MAV_SYS_STATUS_PREARM_CHECK
 # EKF_STATUS_REPORT flags as ArduCopter SITL reports them: before its GPS is used (attitude, velocity,
 # vertical position, constant-position mode) and after (absolute and relative position, predicted too).
 EKF_FLAGS_WAITING = 1 | 2 | 4 | 32 | 128
 EKF_FLAGS_READY = 1 | 2 | 4 | 8 | 16 | 32 | 64 | 256 | 512
 NOT_READY_TEXTS = ("PreArm: Need Position Estimate", "Arm: Need Alt Estimate", "AHRS: waiting for home")
+# PX4 SIH's answer to arming before "Ready for takeoff!": TEMPORARILY_REJECTED and these (the first
+# is 51 characters: PX4 sends it as two STATUSTEXT chunks with one id).
+PX4_NOT_READY_TEXTS = ("Arming denied: Resolve system health failures first", "Preflight Fail: horizontal velocity unstable")
+PX4_CAMERA_PARAM, ARDUPILOT_CAMERA_PARAM = "TRIG_MODE", "CAM1_TYPE"  # read at boot: the camera reports only then
 MAV_SEVERITY_CRITICAL, MAV_SEVERITY_INFO = 2, 6
 CMD_GET_HOME_POSITION = 410
 PREARM_REPEAT_S = 30.0  # simulated seconds between ArduPilot's reports of a failing pre-arm check
@@ -132,9 +147,16 @@ class MockVehicle:
         self.stray_item_acks = 0        # ERROR answers to items that came after an upload completed
         # Parameters survive a reboot, like ArduPilot's EEPROM. Only the one the bridge sets is known.
         self.params: dict[str, float] = {"WPNAV_RADIUS": 200.0} if self.flavour is Flavour.ARDUPILOT else {}
-        if self.options.sitl_like:
-            self.params.update({**CopterParams().as_params(), "CAM1_TYPE": 0.0})
-        self.camera = True  # sends CAMERA_FEEDBACK; SITL-like: only when CAM1_TYPE was set at boot
+        if self.flavour is Flavour.PX4:
+            self.params["MIS_DIST_1WP"] = MIS_DIST_1WP_DEFAULT  # its mission feasibility check (bridge.px4)
+        if self.options.sitl_like and self.flavour is Flavour.PX4:
+            self.params.update({**Px4Params().as_params(), PX4_CAMERA_PARAM: 0.0})
+        elif self.options.sitl_like:
+            self.params.update({**CopterParams().as_params(), ARDUPILOT_CAMERA_PARAM: 0.0})
+        # Sends CAMERA_FEEDBACK (PX4: CAMERA_IMAGE_CAPTURED); SITL-like: only when the camera parameter
+        # (CAM1_TYPE, PX4's TRIG_MODE) was set at boot.
+        self.camera = True
+        self._text_id = 0  # PX4's STATUSTEXT id for chunked texts
         self._reboot_pending = False  # a reboot command acknowledged: reboot once the ack is out
         self._boot(now)
 
@@ -149,10 +171,14 @@ class MockVehicle:
         if self.flavour.has_home_item(MissionType.MISSION):
             self.stores[MissionType.MISSION] = [self._home_item()]
         self.upload: _Upload | None = None
+        # PX4 asks with the legacy MISSION_REQUEST until the ground station has used an *_INT message.
+        self._int_mode = False
         self.last_completed: tuple[int, int, tuple[int, int]] | None = None  # type, count, peer
-        self.camera = not self.options.sitl_like or self.params.get("CAM1_TYPE", 0.0) != 0.0
+        camera_param = PX4_CAMERA_PARAM if self.flavour is Flavour.PX4 else ARDUPILOT_CAMERA_PARAM
+        self.camera = not self.options.sitl_like or self.params.get(camera_param, 0.0) > 0.0
         copter = CopterParams.from_params(self.params) if self.options.sitl_like else None
-        self.flight = FlightSim(home, cruise_speed=self.options.cruise_speed, copter=copter)
+        px4 = Px4Params.from_params(self.params) if self.options.sitl_like and self.flavour is Flavour.PX4 else None
+        self.flight = FlightSim(home, cruise_speed=self.options.cruise_speed, copter=copter, px4=px4)
         if "WPNAV_RADIUS" in self.params:  # ArduCopter turns within WPNAV_RADIUS of every waypoint
             self.flight.default_acceptance = max(self.params["WPNAV_RADIUS"], 5.0) / 100.0
         self._load_flight()
@@ -161,6 +187,7 @@ class MockVehicle:
         self.intervals: dict[int, float | None] = self._default_intervals()  # wall seconds; None: off
         self._next_due = {msgid: now for msgid in STREAMS}
         self._photos_sent = 0
+        self._landed_sent = MAV_LANDED_STATE_ON_GROUND
         self._said_waiting = False
         self._next_prearm_text = PREARM_REPEAT_S  # simulated seconds since boot
 
@@ -171,7 +198,8 @@ class MockVehicle:
             return {msgid: None for msgid in STREAMS}
         ardupilot = self.flavour is Flavour.ARDUPILOT
         return {MSG_SYS_STATUS: 1.0, MSG_GPS_RAW_INT: 1.0, MSG_GLOBAL_POSITION_INT: 1.0 / self.options.telemetry_hz,
-                MSG_MISSION_CURRENT: 1.0, MSG_EKF_STATUS_REPORT: 1.0 if ardupilot else None, MSG_HOME_POSITION: None}
+                MSG_MISSION_CURRENT: 1.0, MSG_EKF_STATUS_REPORT: 1.0 if ardupilot else None, MSG_HOME_POSITION: None,
+                MSG_EXTENDED_SYS_STATE: None if ardupilot else 1.0}
 
     @property
     def position_interval(self) -> float | None:
@@ -269,7 +297,22 @@ class MockVehicle:
         return True
 
     def _send_text(self, text: str, severity: int = MAV_SEVERITY_CRITICAL) -> None:
-        self.mav.statustext_send(severity, text.encode()[:50])
+        if self.flavour is not Flavour.PX4 or len(text) <= 50:
+            self.mav.statustext_send(severity, text.encode()[:50])
+            return
+        self._text_id = self._text_id % 65535 + 1  # PX4: a long text in 50-character chunks, one id
+        for chunk, start in enumerate(range(0, len(text), 50)):
+            self.mav.statustext_send(severity, text[start:start + 50].encode(), self._text_id, chunk)
+
+    def _landed_state(self) -> int:
+        s = self.flight.state
+        on_ground = s.on_ground and not (s.armed and s.mode == "AUTO" and not s.mission_done)
+        return MAV_LANDED_STATE_ON_GROUND if on_ground else MAV_LANDED_STATE_IN_AIR
+
+    def _send_landed_state(self) -> None:
+        """EXTENDED_SYS_STATE, as PX4 streams it: on the ground or in the air."""
+        self._landed_sent = self._landed_state()
+        self.mav.extended_sys_state_send(0, self._landed_sent)
 
     def _send_stream(self, msgid: int, now: float) -> None:
         if msgid == MSG_SYS_STATUS:
@@ -284,6 +327,8 @@ class MockVehicle:
             self._send_ekf(now)
         elif msgid == MSG_HOME_POSITION:
             self._send_home()
+        elif msgid == MSG_EXTENDED_SYS_STATE:
+            self._send_landed_state()
 
     def _send_position(self, now: float) -> None:
         s = self.flight.state
@@ -300,6 +345,9 @@ class MockVehicle:
         if not self.camera:  # no camera configured: ArduCopter sends nothing
             self._photos_sent = len(points)
             return
+        if self.flavour is Flavour.PX4:
+            self._send_image_captured(now, points, home_alt)
+            return
         first = 1 if self.options.sitl_like else 0  # ArduPilot's img_idx starts at 1 after a boot
         while self._photos_sent < len(points):
             lat, lon, alt = points[self._photos_sent]
@@ -307,6 +355,16 @@ class MockVehicle:
             self.mav.camera_feedback_send(int(now * 1e6), self.sysid, 0, (self._photos_sent - 1 + first) % 65536,
                                           int(round(lat * 1e7)), int(round(lon * 1e7)), home_alt + alt, alt,
                                           0.0, 0.0, self.flight.state.heading, 0.0, 0, self._photos_sent)
+
+    def _send_image_captured(self, now: float, points: list[tuple[float, float, float]], home_alt: float) -> None:
+        """PX4 (camera_trigger + camera_feedback): one CAMERA_IMAGE_CAPTURED per photo on the GCS link,
+        image_index from 0 after boot (counting on across flights), capture_result 1, no CAMERA_FEEDBACK."""
+        while self._photos_sent < len(points):
+            lat, lon, alt = points[self._photos_sent]
+            self.mav.camera_image_captured_send(self._time_boot_ms(now), int(now * 1e6), 1, int(round(lat * 1e7)),
+                                                int(round(lon * 1e7)), int(round((home_alt + alt) * 1000)),
+                                                int(round(alt * 1000)), [1.0, 0.0, 0.0, 0.0], self._photos_sent, 1, b"")
+            self._photos_sent += 1
 
     def _send_mission_current(self, seq: int | None = None) -> None:
         s = self.flight.state
@@ -353,6 +411,8 @@ class MockVehicle:
             if simulated >= self._next_prearm_text:  # ArduPilot repeats a failing pre-arm check every 30 s
                 self._next_prearm_text = simulated + PREARM_REPEAT_S
                 self._send_text(NOT_READY_TEXTS[0])
+        if self.intervals.get(MSG_EXTENDED_SYS_STATE) is not None and self._landed_state() != self._landed_sent:
+            self._send_landed_state()  # at once, not a stream interval late (a sped-up mock's second is long)
         self._send_camera_feedback(now)
         self._upload_timers(now)
 
@@ -399,7 +459,7 @@ class MockVehicle:
 
     def _request(self, up: _Upload, now: float) -> None:
         seq = len(up.received)
-        if self.options.legacy_requests:
+        if self.options.legacy_requests or (self.flavour is Flavour.PX4 and not self._int_mode):
             self.mav.mission_request_send(up.peer[0], up.peer[1], seq, up.mission_type)
         else:
             self.mav.mission_request_int_send(up.peer[0], up.peer[1], seq, up.mission_type)
@@ -430,7 +490,11 @@ class MockVehicle:
     def _check_item(self, item: WireItem) -> int:
         """The MAV_MISSION_RESULT an item earns: ACCEPTED or why not."""
         frame, command = item.frame, item.command
-        if item.mission_type == MissionType.FENCE:
+        if self.flavour is Flavour.PX4:
+            result = item_result(item)  # PX4's frame / command matrix, measured on SIH
+            if result != ACCEPTED:
+                return result
+        elif item.mission_type == MissionType.FENCE:
             if command not in FENCE_COMMANDS:
                 return UNSUPPORTED
         elif item.mission_type == MissionType.RALLY:
@@ -450,6 +514,7 @@ class MockVehicle:
         return ACCEPTED
 
     def _on_item(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        self._int_mode = msg.get_type() == "MISSION_ITEM_INT"
         item = WireItem.from_message(msg)
         up = self.upload
         if up is None or up.peer != peer or up.mission_type != item.mission_type:
@@ -507,15 +572,37 @@ class MockVehicle:
             self._load_flight()
         self._ack(peer, mission_type, ACCEPTED)
         self._send_mission_current()
+        if mission_type == MissionType.FENCE and self.flavour is Flavour.PX4 and fence_problems(
+                stored, self.options.home[:2]):
+            self._send_text(GEOFENCE_WITHOUT_HOME)  # as PX4 says it right after such a fence upload
 
     def _stored(self, item: WireItem) -> WireItem:
         # ArduPilot keeps what its storage has room for (bridge.mission.ardupilot_stored, measured on
-        # ArduCopter SITL: no NAV_WAYPOINT param2, frame 0 for DO_* ...); PX4 keeps what it got.
-        return ardupilot_stored(item) if self.flavour is Flavour.ARDUPILOT else item
+        # ArduCopter SITL: no NAV_WAYPOINT param2, frame 0 for DO_* ...); PX4 what bridge.px4.px4_stored
+        # says (frames 3 -> 6, 0 -> 5, no pass radius; measured on PX4 SIH); others keep what they got.
+        if self.flavour is Flavour.ARDUPILOT:
+            return ardupilot_stored(item)
+        return px4_stored(item) if self.flavour is Flavour.PX4 else item
+
+    def start_refusals(self) -> list[str]:
+        """Why PX4 would refuse to start the stored mission (bridge.px4), from this vehicle's home;
+        empty for other flavours and for a mission PX4 would start."""
+        if self.flavour is not Flavour.PX4:
+            return []
+        if not self.ready:  # measured on SIH: until "Ready for takeoff!" every start is "No valid mission"
+            return ["no home position yet"]
+        return start_refusals(self.stores[MissionType.MISSION], self.options.home[:2],
+                              self.params.get("MIS_DIST_1WP", MIS_DIST_1WP_DEFAULT))
 
     def _on_gcs_ack(self, msg: Any, peer: tuple[int, int], now: float) -> None:
         up = self.upload
         if up is not None and up.peer == peer and int(getattr(msg, "mission_type", 0)) == up.mission_type:
+            if self.flavour is Flavour.PX4 and int(msg.type) not in (ACCEPTED, OPERATION_CANCELLED):
+                # PX4 (mavlink_mission.cpp): an error answer to its request means "ask the other way":
+                # MAVSDK refuses the legacy MISSION_REQUEST, and PX4 asks again with MISSION_REQUEST_INT.
+                self._int_mode = not self._int_mode
+                self._request(up, now)
+                return
             if int(msg.type) != ACCEPTED:
                 self.upload = None  # the ground station cancelled: keep the old mission
                 self.uploads_failed += 1
@@ -535,12 +622,15 @@ class MockVehicle:
             self._ack(peer, mission_type, UNSUPPORTED)
             return
         seq = int(msg.seq)
+        self._int_mode = msg.get_type() == "MISSION_REQUEST_INT"
         if not 0 <= seq < len(store):
             self._ack(peer, mission_type, INVALID_SEQUENCE)
             return
         stored = self._home_item() if seq == 0 and self.flavour.has_home_item(mission_type) else store[seq]
-        # ArduPilot marks no item current in a download; PX4 marks the one it is at.
-        current = seq == self.flight.state.current and mission_type == 0 and self.flavour is not Flavour.ARDUPILOT
+        # ArduPilot marks no item current in a download; PX4 marks the one it is at (and item 0 of its
+        # fence and rally lists).
+        current = self.flavour is not Flavour.ARDUPILOT and seq == (self.flight.state.current if mission_type == 0
+                                                                     else 0 if self.flavour is Flavour.PX4 else -1)
         item = replace(stored, seq=seq, current=int(current))
         if msg.get_type() == "MISSION_REQUEST":  # legacy request: legacy float item
             x = item.x / 1e7 if item.frame in GLOBAL_FRAMES else float(item.x)
@@ -618,6 +708,10 @@ class MockVehicle:
         s = self.flight.state
         if command == 400:  # COMPONENT_ARM_DISARM
             if p[0] >= 0.5:
+                if not self.ready and int(p[1]) != 21196 and self.flavour is Flavour.PX4:
+                    for text in PX4_NOT_READY_TEXTS:  # PX4 before "Ready for takeoff!"
+                        self._send_text(text)
+                    return CMD_TEMPORARILY_REJECTED
                 if not self.ready and int(p[1]) != 21196:  # ArduCopter before its EKF uses the GPS
                     for text in NOT_READY_TEXTS[:2]:
                         self._send_text(text)
@@ -634,6 +728,9 @@ class MockVehicle:
             return CMD_ACCEPTED if ok else CMD_DENIED
         if command == 300:  # MISSION_START
             if len(self.stores[MissionType.MISSION]) <= self.first_mission_seq:
+                return CMD_DENIED
+            if self.start_refusals():  # PX4's mission feasibility checks (bridge.px4)
+                self._send_text(START_DENIED)
                 return CMD_DENIED
             if not s.armed:
                 return CMD_DENIED

@@ -16,6 +16,15 @@ Owns, for one vehicle on a link (a Link or a bridge.shared_link.VehicleLink):
 - arm: COMPONENT_ARM_DISARM, retried while the vehicle refuses with TEMPORARILY_REJECTED or FAILED
   (ArduPilot's answer while a pre-arm check still fails), with the reasons it gave;
 - make_safe: a vehicle that will not fly is left disarmed and out of AUTO, and we say how it was left.
+
+PX4 (learned from the HEARTBEAT's autopilot field): its modes are custom modes with a main mode in
+bits 16-23 and a sub mode in bits 24-31 of custom_mode (AUTO = 4 with LOITER 3 ("HOLD"), MISSION 4,
+TAKEOFF 2, RTL 5, LAND 6); DO_SET_MODE takes base mode 1 (custom), param2 the main and param3 the
+sub mode (px4_mode). It sends EXTENDED_SYS_STATE (landed state) and a home position from boot on, long
+before it can fly: it refuses arming with TEMPORARILY_REJECTED and a STATUSTEXT ("Preflight Fail:
+...") until its estimator has settled ("Ready for takeoff!", tens of seconds after boot), so arming
+is retried. Its long STATUSTEXTs come in 50-character chunks (MAVLink 2 `id` / `chunk_seq`), joined
+here before they are said.
 """
 
 from __future__ import annotations
@@ -31,7 +40,7 @@ from .mission import Flavour
 
 CMD_ARM, CMD_DO_SET_MODE, CMD_SET_MESSAGE_INTERVAL, CMD_REQUEST_MESSAGE = 400, 176, 511, 512
 MSG_SYS_STATUS, MSG_GPS_RAW_INT, MSG_GLOBAL_POSITION_INT, MSG_MISSION_CURRENT = 1, 24, 33, 42
-MSG_EKF_STATUS_REPORT, MSG_HOME_POSITION = 193, 242
+MSG_EKF_STATUS_REPORT, MSG_HOME_POSITION, MSG_EXTENDED_SYS_STATE = 193, 242, 245
 MAV_RESULT_ACCEPTED, MAV_RESULT_TEMPORARILY_REJECTED, MAV_RESULT_FAILED = 0, 1, 4
 MODE_FLAG_ARMED = 128
 GPS_FIX_3D = 3
@@ -44,6 +53,13 @@ EKF_BAD = 128 | 1024
 ARDUPILOT_MODE_NAMES = {0: "STABILIZE", 2: "ALT_HOLD", 3: "AUTO", 4: "GUIDED", 5: "LOITER", 6: "RTL", 9: "LAND"}
 ARDUPILOT_AUTO, ARDUPILOT_LOITER = 3, 5
 PX4_AUTO_MAIN, PX4_LOITER_SUB, PX4_MISSION_SUB = 4, 3, 4
+PX4_TAKEOFF_SUB, PX4_RTL_SUB, PX4_LAND_SUB = 2, 5, 6
+PX4_MAIN_NAMES = {1: "MANUAL", 2: "ALTCTL", 3: "POSCTL", 5: "ACRO", 6: "OFFBOARD", 7: "STABILIZED"}
+PX4_AUTO_NAMES = {PX4_TAKEOFF_SUB: "TAKEOFF", PX4_LOITER_SUB: "HOLD", PX4_MISSION_SUB: "MISSION",
+                  PX4_RTL_SUB: "RTL", PX4_LAND_SUB: "LAND"}
+MAV_LANDED_STATE_ON_GROUND = 1
+STATUSTEXT_CHUNK = 50  # characters in one STATUSTEXT: a full one may be continued (same id, next chunk_seq)
+CHUNK_WAIT_S = 1.0     # a started text waits this long for its next chunk
 EARTH_RADIUS_M = 6_378_137.0
 DEFAULT_LAUNCH_OFFSET_M = 5.0  # plus the GPS's own horizontal error
 ARM_RETRY_S = 1.0
@@ -52,15 +68,27 @@ READY_RATES_HZ = {MSG_SYS_STATUS: 1.0, MSG_GPS_RAW_INT: 1.0, MSG_EKF_STATUS_REPO
                   MSG_MISSION_CURRENT: 2.0}
 STREAM_NAMES = {MSG_SYS_STATUS: "SYS_STATUS", MSG_GPS_RAW_INT: "GPS_RAW_INT", MSG_GLOBAL_POSITION_INT:
                 "GLOBAL_POSITION_INT", MSG_MISSION_CURRENT: "MISSION_CURRENT",
-                MSG_EKF_STATUS_REPORT: "EKF_STATUS_REPORT", MSG_HOME_POSITION: "HOME_POSITION"}
+                MSG_EKF_STATUS_REPORT: "EKF_STATUS_REPORT", MSG_HOME_POSITION: "HOME_POSITION",
+                MSG_EXTENDED_SYS_STATE: "EXTENDED_SYS_STATE"}
 TEXTS_KEPT = 20
 
 Say = Callable[[str], None]
 
 
-def stream_rates(telemetry_hz: float) -> dict[int, float]:
-    """Every stream fly reads, in Hz: readiness and progress at low rates, positions at telemetry_hz."""
-    return {**READY_RATES_HZ, MSG_GLOBAL_POSITION_INT: float(telemetry_hz)}
+def stream_rates(telemetry_hz: float, flavour: Flavour = Flavour.ARDUPILOT) -> dict[int, float]:
+    """Every stream fly reads, in Hz: readiness and progress at low rates, positions at telemetry_hz;
+    on PX4 also EXTENDED_SYS_STATE (its landed state: PX4's relative altitude drifts by decimetres
+    on the ground) and no EKF_STATUS_REPORT (an ArduPilot message)."""
+    rates = {**READY_RATES_HZ, MSG_GLOBAL_POSITION_INT: float(telemetry_hz)}
+    if flavour is Flavour.PX4:
+        del rates[MSG_EKF_STATUS_REPORT]
+        rates[MSG_EXTENDED_SYS_STATE] = 2.0
+    return rates
+
+
+def px4_mode(main: int, sub: int = 0) -> int:
+    """A PX4 custom_mode from its main and sub mode."""
+    return (main << 16) | (sub << 24)
 
 
 def request_streams(link: Any, sysid: int, rates_hz: dict[int, float], deadline: float,
@@ -89,8 +117,10 @@ class VehicleState:
     armed: bool | None = None
     custom_mode: int | None = None
     base_mode: int = 0
+    landed_state: int | None = None   # EXTENDED_SYS_STATE (PX4): 1 on the ground, 2 in the air, 3 taking off, 4 landing
     texts: list[str] = field(default_factory=list)  # STATUSTEXT, oldest first
     new_texts: list[str] = field(default_factory=list)  # not yet said
+    _chunks: tuple[int, str, float] | None = None  # a STATUSTEXT waiting for its next chunk: id, text, since
 
     def take(self, msg: Any) -> None:
         kind = msg.get_type()
@@ -110,11 +140,35 @@ class VehicleState:
             self.base_mode = int(msg.base_mode)
             self.armed = bool(msg.base_mode & MODE_FLAG_ARMED)
             self.custom_mode = int(msg.custom_mode)
-        elif kind == "STATUSTEXT":
-            text = str(msg.text).rstrip("\x00").strip()
-            if text:
-                self.texts = (self.texts + [text])[-TEXTS_KEPT:]
-                self.new_texts.append(text)
+        elif kind == "EXTENDED_SYS_STATE":
+            self.landed_state = int(msg.landed_state)
+        if kind == "STATUSTEXT":
+            self._statustext(msg)
+        elif self._chunks is not None and time.monotonic() - self._chunks[2] > CHUNK_WAIT_S:
+            self._said(self._chunks[1])  # its next chunk never came
+            self._chunks = None
+
+    def _statustext(self, msg: Any) -> None:
+        """One STATUSTEXT, or one chunk of a long one: chunks with the same id (not 0) are joined."""
+        raw = str(msg.text).rstrip("\x00")
+        text_id, chunk = int(getattr(msg, "id", 0) or 0), int(getattr(msg, "chunk_seq", 0) or 0)
+        if self._chunks is not None:
+            pending_id, pending, _ = self._chunks
+            self._chunks = None
+            if text_id == pending_id and chunk > 0:
+                raw = pending + raw
+            else:
+                self._said(pending)
+        if text_id and len(raw) % STATUSTEXT_CHUNK == 0 and raw:  # full: more may follow
+            self._chunks = (text_id, raw, time.monotonic())
+            return
+        self._said(raw)
+
+    def _said(self, raw: str) -> None:
+        text = raw.strip()
+        if text:
+            self.texts = (self.texts + [text])[-TEXTS_KEPT:]
+            self.new_texts.append(text)
 
     @property
     def ekf_ok(self) -> bool:
@@ -154,8 +208,13 @@ class VehicleState:
             return ARDUPILOT_MODE_NAMES.get(self.custom_mode, f"mode {self.custom_mode}")
         main, sub = (self.custom_mode >> 16) & 0xFF, (self.custom_mode >> 24) & 0xFF
         if main == PX4_AUTO_MAIN:
-            return {PX4_LOITER_SUB: "HOLD", PX4_MISSION_SUB: "MISSION"}.get(sub, f"AUTO sub-mode {sub}")
-        return f"mode {main}.{sub}"
+            return PX4_AUTO_NAMES.get(sub, f"AUTO sub-mode {sub}")
+        return PX4_MAIN_NAMES.get(main, f"mode {main}.{sub}")
+
+    @property
+    def on_ground(self) -> bool | None:
+        """What the vehicle's landed state says (None: it does not report one)."""
+        return None if self.landed_state in (None, 0) else self.landed_state == MAV_LANDED_STATE_ON_GROUND
 
     @property
     def in_auto(self) -> bool:

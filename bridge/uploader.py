@@ -9,7 +9,9 @@ Owns:
   upload each (clear the fence / rally when the file has none), read each back and compare item by
   item by the flavour's rule (ArduPilot's item 0 is its home and is skipped). It succeeds only when
   the vehicle holds exactly what was sent. It also sets the parameters the vehicle needs to fly the
-  plan as written (bridge.params: WPNAV_RADIUS on ArduCopter), unless told not to.
+  plan as written (bridge.params: WPNAV_RADIUS on ArduCopter), unless told not to. A PX4 vehicle is
+  first asked for its home: a plan PX4 would refuse to start from there, or fly without its
+  geofence (bridge.px4), is not uploaded.
 """
 
 from __future__ import annotations
@@ -21,12 +23,14 @@ from typing import Any, Protocol
 
 from .errors import BridgeError, BridgeUsageError
 from .link import AUTOPILOT_COMPONENT_ID, Link, VehicleInfo, wait_vehicle
-from .mission import Mission, MissionType, WireItem, compare_wire, from_wire, to_wire
+from .mission import Flavour, Mission, MissionType, WireItem, compare_wire, from_wire, to_wire
 from .params import ParamClient, ParamSetting, acceptance_radius_setting, set_param
+from .px4 import MIS_DIST_1WP_DEFAULT, START_DENIED, fence_problems, start_refusals
 from .protocol import MissionClient, MissionTransferError, ProgressFn, Timeouts, UploadUnconfirmed
 from .signing import SigningKey
 
 MAV_MISSION_UNSUPPORTED = 3
+MAV_CMD_REQUEST_MESSAGE, MSG_HOME_POSITION = 512, 242
 PLAN_TYPES = (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY)
 
 BACKENDS = ("pymavlink", "mavsdk")
@@ -208,6 +212,53 @@ def set_plan_params(backend: MissionBackend, mission: Mission) -> list[str]:
     return [setting.describe(old)]
 
 
+HOME_WAIT_S = 2.0  # how long upload waits for a PX4 vehicle's HOME_POSITION before skipping the start check
+
+
+def vehicle_home(link: Any, sysid: int, seconds: float = HOME_WAIT_S) -> tuple[float, float] | None:
+    """The vehicle's home (lat, lon), asked for with MAV_CMD_REQUEST_MESSAGE(HOME_POSITION); None
+    when it has none yet or does not answer within `seconds`."""
+    deadline = time.monotonic() + seconds
+    asked = 0.0
+    while time.monotonic() < deadline:
+        if time.monotonic() - asked >= 0.5:
+            link.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, MAV_CMD_REQUEST_MESSAGE, 0,
+                                       MSG_HOME_POSITION, 0, 0, 0, 0, 0, 0)
+            asked = time.monotonic()
+        msg = link.recv(min(deadline, asked + 0.5))
+        if msg is not None and msg.get_srcSystem() == sysid and msg.get_type() == "HOME_POSITION":
+            return msg.latitude / 1e7, msg.longitude / 1e7
+    return None
+
+
+def px4_start_problems(backend: MissionBackend, parts: list[Mission]) -> str | None:
+    """What a PX4 vehicle would do wrong with this plan from where it is (bridge.px4: refuse to start
+    it, the first waypoint being MIS_DIST_1WP or more away; ignore its geofence, which leaves the
+    vehicle's home out), as one phrase; None when all is well, or when the vehicle's home is not
+    known (no link, no fix)."""
+    link = getattr(backend, "link", None)
+    if link is None or backend.vehicle.flavour is not Flavour.PX4:
+        return None
+    home = vehicle_home(link, backend.vehicle.sysid)
+    if home is None:
+        return None
+    try:
+        limit = ParamClient(link, backend.vehicle).get("MIS_DIST_1WP", tries=2, wait_s=0.5)
+    except BridgeError:
+        limit = MIS_DIST_1WP_DEFAULT
+    mission, fence = (to_wire(p, Flavour.PX4) for p in parts[:2])
+    refusals, unfenced = start_refusals(mission, home, limit), fence_problems(fence, home)
+    if not refusals and not unfenced:
+        return None
+    what = []
+    if refusals:
+        what.append(f"would refuse to start this mission (\"{START_DENIED}\"): {'; '.join(refusals)}")
+    if unfenced:
+        what.append(f"would fly it without its geofence (\"{unfenced[0]}\")")
+    return (f"vehicle {backend.vehicle.sysid} (px4) {' and '.join(what)}, from its home {home[0]:.7f}, "
+            f"{home[1]:.7f}; put it at the plan's launch point, or plan from where it stands (docs/px4-missions.md)")
+
+
 def upload_plan(backend: MissionBackend, parts: list[Mission], verify: bool = True,
                 progress: ProgressFactory | None = None, set_params: bool = True) -> UploadReport:
     """Upload mission, fence and rally (an absent or empty fence / rally list is cleared on the vehicle)
@@ -218,6 +269,11 @@ def upload_plan(backend: MissionBackend, parts: list[Mission], verify: bool = Tr
     vehicle = backend.vehicle
     report = UploadReport(sysid=vehicle.sysid, flavour=vehicle.flavour.value, backend=backend.name)
     parts = plan_parts(parts)
+    # PX4 decides whether a mission can start when it gets it, from where it is: a plan for another
+    # site would verify and then be refused at MISSION_START with no reason given (issue 16).
+    refusal = px4_start_problems(backend, parts)
+    if refusal is not None:
+        raise BridgeError(refusal)
     if set_params:
         report.params = set_plan_params(backend, parts[0])
     for part in parts:

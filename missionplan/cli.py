@@ -109,6 +109,9 @@ def _build_parser() -> argparse.ArgumentParser:
                            f"{DEFAULT_ENDURANCE_MIN:g}; 0: no limit)")
     plan.add_argument("--reserve", type=float, default=DEFAULT_RESERVE, metavar="F",
                       help=f"fraction of the endurance kept for landing (default {DEFAULT_RESERVE:g})")
+    plan.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
+                      help="the vehicles' autopilot: the .plan firmwareType that upload / fly check (default "
+                           "ardupilot; px4 writes no .waypoints, see docs/px4-missions.md)")
     plan.add_argument("--out", required=True, type=Path, help="output folder (created if missing)")
     plan.add_argument("--policy", default=DEFAULT_POLICY, choices=POLICIES,
                       help="who decides moves in view of targets: the neural network (nn) or the expert it imitates")
@@ -209,7 +212,9 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 
         report["georeference"] = {**frame.to_meta(), "altitude_m": settings.altitude_m,
                                   "footprint_m": settings.footprint_m, "trigger_distance_m": settings.trigger_distance_m}
-        written = write_flight_files(args.out, result, frame, plans)
+        from bridge.mission import Flavour
+
+        written = write_flight_files(args.out, result, frame, plans, Flavour(args.autopilot))
         sortie_starts = plans.sortie_starts
     osm = args.area is not None and args.osm is not None
     report["coverage"] = coverage_report(

@@ -1,7 +1,8 @@
 """Judging a flown fleet from its recordings: coverage, separation, times, problems; flight.json and flight.png.
 
 No MAVLink here: fly.py records (DroneRecord), this module judges what was recorded.
-- Photo positions: every CAMERA_FEEDBACK the vehicle sent (where each photo was really taken); a
+- Photo positions: every CAMERA_FEEDBACK (ArduPilot) or CAMERA_IMAGE_CAPTURED (PX4's camera_feedback
+  module, or a MAVLink camera) the vehicle sent (where each photo was really taken); a
   photo whose report was lost on the link (a gap in img_idx) is placed on the recorded track between
   its neighbours, in proportion to its index. Photos are counted from the first img_idx this flight
   reported: ArduPilot's index starts at 1 and keeps counting across flights until a reboot, so the
@@ -35,6 +36,7 @@ from geo.frame import GridFrame
 from .atomic import write_text_atomic
 from .gridmap import GridMap
 from bridge.copter_model import CopterParams
+from bridge.px4_model import Px4Params
 
 from .timeline import FlightModel, closest_approach, planned_seconds
 
@@ -67,7 +69,8 @@ class DroneRecord:
     # arrival time, lat, lon, up m, ground speed m/s, the vehicle's time since boot s, climb rate m/s
     samples: list[tuple[float, float, float, float, float, float, float]] = field(default_factory=list)
     camera: dict[int, tuple[float, float, float, float]] = field(default_factory=dict)  # img_idx -> t, lat, lon, up
-    params: dict[str, float] = field(default_factory=dict)  # ArduCopter navigation parameters the vehicle reported
+    params: dict[str, float] = field(default_factory=dict)  # navigation parameters the vehicle reported
+    flavour: str = ""  # the autopilot's conventions (bridge.mission.Flavour value): which flight model times it
     t_start: float | None = None
     t_end: float | None = None
     last_heard: float = 0.0
@@ -277,12 +280,13 @@ def retimed_with_vehicle_params(frame: GridFrame, rec: DroneRecord) -> float | N
     takeoff = items[start]
     waypoints = [it for it in items[start + 1:] if it.command == CMD_WAYPOINT]
     copter = CopterParams.from_params(rec.params)
+    px4 = Px4Params.from_params(rec.params) if rec.flavour == "px4" else None
     speed = next((float(it.param2) for it in items if it.command == CMD_DO_CHANGE_SPEED and it.param2 > 0),
-                 copter.wp_speed)
+                 copter.wp_speed if px4 is None else px4.xy_cruise)
     launch = to_grid_m(frame, [takeoff.x / 1e7], [takeoff.y / 1e7])[0]
     route = to_grid_m(frame, [w.x / 1e7 for w in waypoints], [w.y / 1e7 for w in waypoints])
     end = "land" if items[-1].command == CMD_LAND else "rtl"
-    return planned_seconds(launch, route, float(takeoff.z), end, FlightModel(speed, 0.0, copter))
+    return planned_seconds(launch, route, float(takeoff.z), end, FlightModel(speed, 0.0, copter, px4))
 
 
 def estimate_time_scale(records: list[DroneRecord]) -> float:
@@ -384,9 +388,10 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
         if source != "none":
             sources.add(source)
         elif rec.started and rec.samples:
-            rec.problems.append(f"uav{rec.id}: the vehicle reported no photo (no CAMERA_FEEDBACK): nothing shows its "
-                                "camera took any (configure it, e.g. ArduPilot CAM1_TYPE and a reboot, or pass "
-                                "--photos-from-track to count a photo every trigger distance along the track)")
+            rec.problems.append(f"uav{rec.id}: the vehicle reported no photo (no CAMERA_FEEDBACK, no "
+                                "CAMERA_IMAGE_CAPTURED): nothing shows its camera took any (configure it, e.g. "
+                                "ArduPilot CAM1_TYPE or PX4 TRIG_MODE 4, and a reboot, or pass --photos-from-track "
+                                "to count a photo every trigger distance along the track)")
         samples = np.array(rec.samples) if rec.samples else np.zeros((0, 7))
         tracks_m[rec.id] = to_grid_m(frame, samples[:, 1], samples[:, 2])
         if len(samples):

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from bridge.mission import Flavour
 from bridge.missionfile import PlanFile, write_mission_file
 from geo.frame import GridFrame
 
@@ -28,7 +29,7 @@ from .pipeline import PlanResult
 from .safety import SafetySettings
 from .separation import Layering, SeparationError, choose_layers, closest_over_sorties, position_at
 from .sorties import Sortie, sortie_file, split_sorties
-from .timeline import ASSUMES, FlightModel, closest_approach, planned_track
+from .timeline import ASSUMES, PX4_ASSUMES, FlightModel, closest_approach, planned_track
 from .world import FOOTPRINT_RADIUS
 
 SORTIE_FIT_TRIES = 6  # re-cuts of a drone's sorties when one came out over the budget on the timeline
@@ -59,7 +60,7 @@ class FlightPlans:
         """report.json's `separation`: the closest approach of two drones if all fly as planned; with
         safety settings, the minimum it guarantees and how."""
         approach = closest_over_sorties(self.sortie_tracks)
-        doc = {**approach, "assumes": ASSUMES,
+        doc = {**approach, "assumes": PX4_ASSUMES if self.settings.autopilot == "px4" else ASSUMES,
                "sorties": [closest_approach(tracks) for tracks in self.sortie_tracks]}
         if self.safety is not None and self.layering is not None:
             doc.update({"required_m": self.safety.min_separation_m, "method": self.layering.method,
@@ -182,7 +183,7 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
     targets = result.world.reachable if base is result.gmap else base.target
     cell = frame.cell_m
     corrected, latlons, launches, routes = [], [], [], []
-    model = FlightModel(speed_m_s=settings.speed_m_s, acceptance_m=settings.acceptance_m)
+    model = FlightModel.for_autopilot(settings.autopilot, settings.speed_m_s, settings.acceptance_m)
     # Not touching an obstacle square within a box buffer of `margin` cells keeps the segment at least
     # that far from it (Chebyshev distance <= Euclidean).
     margin_cells = MARGIN_CELLS if safety is None else max(MARGIN_CELLS, safety.clearance_m / cell)
@@ -345,18 +346,26 @@ def tracks_geojson(result: PlanResult, frame: GridFrame, plans: FlightPlans) -> 
     return {"type": "FeatureCollection", "features": features}
 
 
-def write_flight_files(out: Path, result: PlanResult, frame: GridFrame, plans: FlightPlans) -> list[Path]:
-    """Write every sortie's uavK[-sJ].plan and .waypoints, and tracks.geojson, into `out`; returns the paths."""
+def write_flight_files(out: Path, result: PlanResult, frame: GridFrame, plans: FlightPlans,
+                       autopilot: Flavour = Flavour.ARDUPILOT) -> list[Path]:
+    """Write every sortie's uavK[-sJ].plan and .waypoints, and tracks.geojson, into `out`; returns the paths.
+
+    `autopilot` is the target (`plan --autopilot`): each .plan carries its QGroundControl firmwareType
+    (ArduPilot 3, PX4 12), which `upload` and `fly` check against the vehicle. The items are the same
+    for both (PX4 SIH accepts and starts them; docs/px4-missions.md). PX4 gets no .waypoints: QGC WPL
+    110's line 0 is home only by ArduPilot's convention (QGroundControl on PX4 reads it as a first
+    waypoint at 0 m AMSL), and the format cannot say which autopilot it was written for."""
     written = []
+    suffixes = (".plan", ".waypoints") if autopilot is Flavour.ARDUPILOT else (".plan",)
     for k, missions in enumerate(plans.sorties):
         fence = plans.fences[k] if plans.fences else None
         for j, drone in enumerate(missions):
             plan_file = PlanFile(mission=drone.mission, cruise_speed=plans.settings.speed_m_s,
-                                 hover_speed=plans.settings.speed_m_s)
+                                 hover_speed=plans.settings.speed_m_s, firmware=autopilot)
             if fence is not None:
                 plan_file.fence = fence.mission()
                 plan_file.fence_max_altitude = fence.max_altitude_m
-            for suffix in (".plan", ".waypoints"):
+            for suffix in suffixes:
                 path = out / sortie_file(drone.sysid, j + 1, suffix)
                 write_mission_file(path, plan_file)
                 written.append(path)

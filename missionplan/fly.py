@@ -7,17 +7,21 @@ drone on its vehicle's view of that link:
 1. ask for every stream fly reads (bridge.readiness: ArduPilot sends nothing until asked) and wait,
    bounded by --ready-timeout, until the vehicle has a GPS fix, an EKF solution, a home position and
    passing pre-arm checks, saying what it waits for and what the vehicle says (STATUSTEXT);
-2. upload DIR/uavK.plan to system id K and prove by read-back that the vehicle holds it exactly
+2. site check: the vehicle's home must lie within --max-launch-offset (plus its GPS error) of the
+   plan's plannedHomePosition; if any drone fails it (a plan for another site, swapped system ids)
+   nothing is uploaded to that one and no drone arms at all;
+3. upload DIR/uavK.plan to system id K and prove by read-back that the vehicle holds it exactly
    (or, with --upload-with mavsdk, let MAVSDK's QGroundControl importer read the file and upload it,
-   and prove the vehicle then holds exactly what our reader makes of the same file);
-3. site check: the vehicle's home must lie within --max-launch-offset (plus its GPS error) of the
-   plan's plannedHomePosition. Nobody arms until every drone got this far; if any drone fails the
-   site check (a plan for another site, swapped system ids) no drone arms at all;
-4. set GUIDED (ArduPilot), arm (retried while the vehicle says it is still getting ready), wait for
+   and prove the vehicle then holds exactly what our reader makes of the same file). Nobody arms
+   until every drone got this far;
+4. set GUIDED (ArduPilot; PX4 arms in its own HOLD and starts by MISSION_START, or AUTO.MISSION if
+   that is refused), arm (retried while the vehicle says it is still getting ready), wait for
    every other drone to be armed, then MAV_CMD_MISSION_START: all start together, as the plan's
    separation assumes. A drone that cannot fly is left disarmed and out of AUTO, and fly says so;
-5. record GLOBAL_POSITION_INT, MISSION_CURRENT, MISSION_ITEM_REACHED and CAMERA_FEEDBACK, with one
-   progress bar per drone, until the vehicle has landed and disarmed with its mission complete, or
+5. record GLOBAL_POSITION_INT, MISSION_CURRENT, MISSION_ITEM_REACHED and the photo reports
+   (ArduPilot's CAMERA_FEEDBACK, PX4's CAMERA_IMAGE_CAPTURED), with one progress bar per drone, until
+   the vehicle has landed (PX4: its EXTENDED_SYS_STATE landed state) and disarmed with its mission
+   complete (PX4: at its final RTL / LAND item, which it never reports as reached), or
    it reboots, stops answering, or the time-out passes (each a problem, the others fly on);
 6. after landing, read the mission back once more: the vehicle must still hold what was uploaded.
 
@@ -40,12 +44,14 @@ from typing import Any
 import numpy as np
 
 from bridge.copter_model import PARAMETERS as COPTER_PARAMETERS
+from bridge.px4_model import FLOAT_PARAMETERS as PX4_PARAMETERS
 from bridge.errors import BridgeError, BridgeUsageError
 from bridge.mission import Flavour, to_wire
-from bridge.missionfile import read_mission_file
+from bridge.missionfile import check_firmware, read_mission_file
 from bridge.params import ParamClient, read_params
 from bridge.protocol import Timeouts
-from bridge.readiness import DEFAULT_LAUNCH_OFFSET_M, Vehicle, request_streams, site_problem, stream_rates
+from bridge.readiness import (DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_MISSION_SUB, Vehicle, request_streams,
+                              site_problem, stream_rates)
 from bridge.shared_link import LinkPool
 from bridge.uploader import MissionBackend, open_backend, read_back_differences, set_plan_params, upload_plan
 
@@ -53,6 +59,8 @@ from .flight_report import DroneRecord, FlightResult, judge, sortie_view
 from .sorties import sortie_file
 
 CMD_DO_SET_MODE, CMD_MISSION_START = 176, 300
+CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_LAND = 20, 21
+CAPTURE_OK = 1  # CAMERA_IMAGE_CAPTURED capture_result: 1 success
 MODE_FLAG_ARMED = 128
 MAV_TYPE_GCS = 6
 MISSION_STATE_ACTIVE, MISSION_STATE_COMPLETE = 3, 5
@@ -137,14 +145,14 @@ class _DroneFlight:
         self.armed, self.rel_alt, self.last_reached = True, 0.0, -1  # as last reported
         self.checked_in = self.arm_checked_in = False  # at the start gate, at the arm gate
         self.recording = False  # from the mission start on: what came before is not this flight
-        self.planned_home: tuple[float, ...] | None = None
+        self.camera_component: int | None = None  # who sends this vehicle's CAMERA_IMAGE_CAPTURED: the first heard
 
     def problem(self, text: str) -> None:
         self.record.problems.append(f"uav{self.record.id}: {text}")
 
     def run(self) -> None:
         try:
-            if self._connect() and self._ready() and self._upload() and self._site_and_arm() and self._start():
+            if self._connect() and self._ready() and self._site() and self._upload() and self._arm() and self._start():
                 self._follow()
                 if self.record.finished:
                     self._check_still_held()
@@ -174,8 +182,8 @@ class _DroneFlight:
             self.problem(f"not found: {err}")
             return False
         self.vehicle = Vehicle(view, self.backend.vehicle, self.fleet.say, also=self._take_if_started)
-        refused = request_streams(view, rec.id, stream_rates(self.telemetry_hz), self.deadline,
-                                  other=self.vehicle.take)
+        refused = request_streams(view, rec.id, stream_rates(self.telemetry_hz, self.backend.vehicle.flavour),
+                                  self.deadline, other=self.vehicle.take)
         if refused:
             rec.notes.append(f"streams not accepted (SET_MESSAGE_INTERVAL): {', '.join(refused)}; "
                              "the vehicle's own rates")
@@ -206,7 +214,7 @@ class _DroneFlight:
         rec = self.record
         try:
             plan = read_mission_file(self.plan_path)
-            self.planned_home = plan.mission.home
+            check_firmware(plan, self.plan_path, self.backend.vehicle.flavour if self.backend else None, rec.id)
             if self.upload_with == "mavsdk":
                 self._upload_by_mavsdk()
             assert self.backend is not None
@@ -221,8 +229,11 @@ class _DroneFlight:
             else:
                 upload_plan(self.backend, plan.parts(), verify=True)
             rec.uploaded = True
-            if self.backend.vehicle.flavour is Flavour.ARDUPILOT:  # what the vehicle will fly with: re-times the plan
-                rec.params = read_params(ParamClient(self.backend.link, self.backend.vehicle), list(COPTER_PARAMETERS))
+            rec.flavour = self.backend.vehicle.flavour.value
+            names = {Flavour.ARDUPILOT: list(COPTER_PARAMETERS), Flavour.PX4: PX4_PARAMETERS}
+            if self.backend.vehicle.flavour in names:  # what it will fly with: re-times the plan (its autopilot's model)
+                rec.params = read_params(ParamClient(self.backend.link, self.backend.vehicle),
+                                         names[self.backend.vehicle.flavour])
             return True
         except (BridgeError, OSError) as err:
             self.problem(f"upload failed: {err}")
@@ -240,22 +251,34 @@ class _DroneFlight:
         finally:
             mavsdk.close()
 
-    def _site_and_arm(self) -> bool:
-        """Site check, then the arm gate (nobody arms while a drone is still getting ready, none if
-        any failed the site check), then GUIDED (ArduPilot) and arming, retried while not ready."""
-        assert self.vehicle is not None and self.backend is not None
-        rec, sysid = self.record, self.record.id
-        home = self.planned_home
+    def _site(self) -> bool:
+        """The site check, before anything is uploaded: the vehicle's home against its plan's launch
+        point. A vehicle at the wrong site vetoes arming for the whole fleet at the arm gate at once
+        (nothing is uploaded to it: PX4 would refuse a mission that starts that far away anyway)."""
+        assert self.vehicle is not None
+        try:
+            home = read_mission_file(self.plan_path).mission.home
+        except (BridgeError, OSError) as err:
+            self.problem(f"upload failed: {err}")
+            return False
         wrong_site = site_problem(self.vehicle.state, (home[0], home[1]) if home is not None else None,
                                   self.fleet.max_offset_m)
-        if wrong_site:
-            self.problem(f"site check failed: {wrong_site}")
+        if not wrong_site:
+            return True
+        self.problem(f"site check failed: {wrong_site}")
         self.arm_checked_in = True
-        vetoes = self.fleet.arm_gate.check_in(self.deadline - time.monotonic(),
-                                              veto=f"uav{sysid} failed the site check" if wrong_site else "")
+        self.fleet.arm_gate.check_in(0.0, veto=f"uav{self.record.id} failed the site check")
+        return False
+
+    def _arm(self) -> bool:
+        """The arm gate (nobody arms while a drone is still getting ready, none if any failed the site
+        check), then GUIDED (ArduPilot) and arming, retried while not ready."""
+        assert self.vehicle is not None and self.backend is not None
+        sysid = self.record.id
+        self.arm_checked_in = True
+        vetoes = self.fleet.arm_gate.check_in(self.deadline - time.monotonic())
         if vetoes:
-            if not wrong_site:
-                self.problem(f"not armed: {'; '.join(vetoes)} (no drone arms when one is at the wrong site)")
+            self.problem(f"not armed: {'; '.join(vetoes)} (no drone arms when one is at the wrong site)")
             return False
         link = self.backend.link
         if self.backend.vehicle.flavour is Flavour.ARDUPILOT:  # arms in GUIDED, starts AUTO by MISSION_START
@@ -275,6 +298,13 @@ class _DroneFlight:
         self.recording = True
         result = link.command_long(sysid, CMD_MISSION_START, [0.0, 0.0], self.deadline, other=self.vehicle.take,
                           done=lambda: rec.mission_state == MISSION_STATE_ACTIVE)
+        if result != 0 and self.backend.vehicle.flavour is Flavour.PX4:
+            # PX4 also starts a mission in its AUTO.MISSION mode (from the current item, 0 after an upload).
+            mode = link.command_long(sysid, CMD_DO_SET_MODE, [1.0, float(PX4_AUTO_MAIN), float(PX4_MISSION_SUB)],
+                                     self.deadline, other=self.vehicle.take)
+            if mode == 0:
+                rec.notes.append(f"{_refused('MISSION_START', result)}; started in AUTO.MISSION mode")
+                result = 0
         if result != 0:
             self.problem(_refused("mission start", result))
             return False
@@ -304,13 +334,22 @@ class _DroneFlight:
                 self.problem(f"rebooted in flight at item {rec.current} of {last_seq} (mission lost)")
                 return
             self.vehicle.take(msg)  # readiness state and STATUSTEXT, then _take records it
-            complete = rec.mission_state == MISSION_STATE_COMPLETE or self.last_reached >= last_seq
-            if not self.armed and complete and self.rel_alt < ON_GROUND_M:
+            complete = (rec.mission_state == MISSION_STATE_COMPLETE or self.last_reached >= last_seq
+                        or self._at_final_return(last_seq))
+            on_ground = self.vehicle.state.on_ground  # PX4's landed state: its altitude drifts on the ground
+            if not self.armed and complete and (on_ground if on_ground is not None else self.rel_alt < ON_GROUND_M):
                 rec.finished, rec.t_end = True, rec.last_heard
                 if self.bar is not None:
                     self.bar.n = self.bar.total
                     self.bar.refresh()
                 return
+
+    def _at_final_return(self, last_seq: int) -> bool:
+        """At the mission's last item, an RTL or a LAND: PX4 reports no MISSION_ITEM_REACHED for it
+        (nor a mission_state), it lands and disarms there."""
+        rec = self.record
+        return (rec.current >= last_seq and 0 <= last_seq < len(rec.wire)
+                and int(rec.wire[last_seq].command) in (CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_LAND))
 
     def _take_if_started(self, msg: Any) -> None:
         if self.recording:
@@ -339,6 +378,16 @@ class _DroneFlight:
         elif kind == "CAMERA_FEEDBACK":
             rec.camera.setdefault(int(msg.img_idx), (t, msg.lat / 1e7, msg.lng / 1e7, float(msg.alt_rel)))
             rec.captures = max(rec.captures, int(msg.completed_captures), int(msg.img_idx) + 1)
+        elif kind == "CAMERA_IMAGE_CAPTURED":
+            # PX4's photo report (its camera_feedback module, one per trigger, image_index from 0 after
+            # boot), or a MAVLink camera's: from one component only, their indices are separate counts.
+            if self.camera_component is None:
+                self.camera_component = msg.get_srcComponent()
+            index = int(msg.image_index)
+            if msg.get_srcComponent() == self.camera_component and index >= 0:
+                if int(msg.capture_result) == CAPTURE_OK:
+                    rec.camera.setdefault(index, (t, msg.lat / 1e7, msg.lon / 1e7, self.rel_alt))
+                rec.captures = max(rec.captures, index + 1)
 
     def _check_still_held(self) -> None:
         """After landing: does the vehicle still hold exactly the mission that was uploaded?"""

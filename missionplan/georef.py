@@ -122,4 +122,5 @@ def mission_settings(gmap: GridMap, args: argparse.Namespace) -> MissionSettings
     if not altitude > 0:
         raise GeoError(f"map {gmap.name}: no flight altitude (altitude_m) in its metadata")
     return MissionSettings(altitude_m=altitude, footprint_m=9 * float(gmap.meta["cell_m"]), speed_m_s=args.speed,
-                           overlap=args.overlap, end=args.end, altitude_step_m=args.altitude_step)
+                           overlap=args.overlap, end=args.end, altitude_step_m=args.altitude_step,
+                           autopilot=getattr(args, "autopilot", "ardupilot"))

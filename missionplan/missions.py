@@ -47,6 +47,7 @@ class MissionSettings:
     overlap: float = DEFAULT_OVERLAP
     end: str = "rtl"
     altitude_step_m: float = 0.0
+    autopilot: str = "ardupilot"  # `plan --autopilot`: whose flight the timeline times (px4: bridge.px4_model)
 
     @property
     def acceptance_m(self) -> float:

@@ -6,7 +6,9 @@ mock autopilot's SITL-like mode flies the same model): spool up and climb at the
 every leg from rest to rest at the cruise speed with the copter's acceleration, and at the end
 return (RTL: climb to RTL_ALT, home at RTL_SPEED, loiter, land) or land where the track ends (LAND),
 the last LAND_ALT_LOW metres at LAND_SPEED. `plan` uses ArduCopter's documented defaults; `fly`
-re-times each plan with the parameters its vehicle reports. `closest_approach` measures any set of
+re-times each plan with the parameters its vehicle reports. A FlightModel with `px4` set times the
+flight as PX4 flies it instead (bridge.px4_model: take-off at MPC_TKO_SPEED, a turn of the nose at
+every corner, RTL and PX4's three landing speeds), for plans made for PX4 and PX4 vehicles. `closest_approach` measures any set of
 timed tracks, planned or flown, on one time base, so plan and flight are judged by the same ruler.
 
 Positions are in one local metric frame (the grid frame in metres: row axis, column axis, up).
@@ -20,11 +22,18 @@ from typing import Any
 import numpy as np
 
 from bridge import copter_model as cm
+from bridge import px4_model
 from bridge.copter_model import CopterParams
+from bridge.px4_model import Px4Params
 
 ASSUMES = ("all missions start together; ArduCopter's flight (bridge.copter_model): spool-up and climb at "
            "WPNAV_SPEED_UP, legs from rest to rest at the cruise speed with WPNAV_ACCEL, RTL at RTL_ALT and "
            "RTL_SPEED then RTL_LOIT_TIME, descent at WPNAV_SPEED_DN, the last LAND_ALT_LOW at LAND_SPEED")
+
+
+PX4_ASSUMES = ("all missions start together; PX4's flight (bridge.px4_model): spool-up and climb at MPC_TKO_SPEED, "
+               "a turn of the nose at MPC_YAWRAUTO_MAX before each leg, legs from rest to rest at the cruise speed "
+               "with MPC_ACC_HOR, RTL, descent at MPC_Z_V_AUTO_DN then MPC_LAND_SPEED below MPC_LAND_ALT2")
 
 
 @dataclass(frozen=True)
@@ -32,14 +41,26 @@ class FlightModel:
     speed_m_s: float
     acceptance_m: float
     copter: CopterParams = field(default_factory=CopterParams)
+    px4: Px4Params | None = None  # set: the flight is timed as PX4 flies it (bridge.px4_model)
+
+    @classmethod
+    def for_autopilot(cls, autopilot: str, speed_m_s: float, acceptance_m: float) -> FlightModel:
+        """The default model of `plan --autopilot` (ArduCopter's or PX4's documented defaults)."""
+        return cls(speed_m_s, acceptance_m, px4=Px4Params() if autopilot == "px4" else None)
+
+    @property
+    def assumes(self) -> str:
+        return PX4_ASSUMES if self.px4 is not None else ASSUMES
 
     @property
     def climb_rate_m_s(self) -> float:
-        return self.copter.speed_up
+        return self.px4.tko_speed if self.px4 is not None else self.copter.speed_up
 
     @property
     def land_rate_m_s(self) -> float:
         """The slowest descent rate (LAND_SPEED): altitude over it bounds the landing's duration."""
+        if self.px4 is not None:
+            return min(self.px4.land_speed, self.px4.z_auto_dn)
         return min(self.copter.land_speed, self.copter.descent_speed)
 
 
@@ -47,6 +68,9 @@ def planned_motions(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: f
                     model: FlightModel) -> list[cm.Motion]:
     """The phases of one drone's planned flight (bridge.copter_model.Motion), in order."""
     ground = (float(launch_m[0]), float(launch_m[1]), 0.0)
+    if model.px4 is not None:
+        targets = [(float(w[0]), float(w[1]), float(altitude_m)) for w in np.asarray(waypoints_m, dtype=float).reshape(-1, 2)]
+        return px4_model.flight(ground, altitude_m, targets, end, model.speed_m_s, model.px4)
     motions = cm.takeoff(ground, altitude_m, model.copter)
     here = motions[-1].end
     for waypoint in np.asarray(waypoints_m, dtype=float).reshape(-1, 2):

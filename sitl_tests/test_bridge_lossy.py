@@ -12,7 +12,7 @@ from bridge.uploader import open_backend, upload_plan
 
 
 def survey(n: int) -> Mission:
-    items = [MissionItem(22, 3, z=30.0), MissionItem(206, 2, param1=8.0)]
+    items = [MissionItem(22, 3, x=45.07, y=7.68, z=30.0), MissionItem(206, 2, param1=8.0)]  # not at 0, 0 (PX4)
     items += [MissionItem(16, 3, param2=1.0, x=45.07 + (i // 20) * 2e-4, y=7.68 + (i % 20) * 1e-4, z=30.0)
               for i in range(n - 4)]
     items += [MissionItem(206, 2, param1=0.0), MissionItem(20, 2)]

@@ -20,7 +20,7 @@ FAST = Timeouts(item_timeout=0.15, retries=3)
 
 
 def survey(n: int, alt: float) -> Mission:
-    items = [MissionItem(22, 3, z=alt)] + [MissionItem(16, 3, x=45.07 + i * 1e-4, y=7.68, z=alt) for i in range(n)]
+    items = [MissionItem(22, 3, x=45.07, y=7.68, z=alt)] + [MissionItem(16, 3, x=45.07 + i * 1e-4, y=7.68, z=alt) for i in range(n)]
     return Mission(items, home=(45.07, 7.68, 240.0))
 
 

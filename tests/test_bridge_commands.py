@@ -13,7 +13,7 @@ import pytest
 
 from bridge import BridgeUsageError
 from bridge.commands import register
-from bridge.mission import Mission, MissionItem
+from bridge.mission import Flavour, Mission, MissionItem
 from bridge.missionfile import PlanFile, read_plan, write_plan, write_waypoints
 from bridge.mock import MockAutopilot
 
@@ -26,7 +26,7 @@ def run(argv: list[str]) -> int:
 
 
 def _mission(n: int = 12) -> Mission:
-    items = [MissionItem(22, 3, z=25.0)]
+    items = [MissionItem(22, 3, x=45.07, y=7.68, z=25.0)]
     items += [MissionItem(16, 3, param2=1.0, param4=math.nan, x=45.07 + i * 1e-4, y=7.68, z=25.0) for i in range(n)]
     return Mission(items + [MissionItem(20, 2)], home=(45.07, 7.68, 240.0))
 
@@ -121,7 +121,7 @@ def test_mock_command_serves_until_its_duration(tmp_path: Path, capsys: pytest.C
     thread.start()
     try:
         plan_path = tmp_path / "m.plan"
-        write_plan(plan_path, PlanFile(mission=_mission()))
+        write_plan(plan_path, PlanFile(mission=_mission(), firmware=Flavour.PX4))
         time.sleep(0.3)
         assert run(["upload", str(plan_path), "--sysid", "5", "--connect", f"udpout:127.0.0.1:{port}"] + FAST) == 0
         assert "vehicle 5 (px4, pymavlink)" in capsys.readouterr().out

@@ -19,7 +19,7 @@ FAST = Timeouts(item_timeout=0.2, retries=4)
 
 
 def mission(n: int, lat: float = 45.07, alt: float = 30.0) -> Mission:
-    items = [MissionItem(22, 3, z=alt)]
+    items = [MissionItem(22, 3, x=lat, y=7.68, z=alt)]  # PX4 refuses to start a take-off at 0, 0 (5000 km away)
     items += [MissionItem(16, 3, param2=1.5, x=lat + i * 1e-4, y=7.68 + (i % 7) * 1e-4, z=alt + i % 3)
               for i in range(n - 2)]
     items.append(MissionItem(20, 2))
@@ -47,8 +47,8 @@ def test_upload_and_read_back(flavour: str) -> None:
 
 
 def test_fence_rally_clear_and_set_current() -> None:
-    fence = Mission([MissionItem(5001, 0, param1=3, x=45.0, y=7.0), MissionItem(5001, 0, param1=3, x=45.1, y=7.0),
-                     MissionItem(5001, 0, param1=3, x=45.1, y=7.1)], MissionType.FENCE)
+    fence = Mission([MissionItem(5001, 0, param1=3, x=45.0, y=7.6), MissionItem(5001, 0, param1=3, x=45.1, y=7.6),
+                     MissionItem(5001, 0, param1=3, x=45.1, y=7.8)], MissionType.FENCE)  # round the mock's home
     rally = Mission([MissionItem(5100, 3, x=45.05, y=7.05, z=25)], MissionType.RALLY)
     with mock(flavour="px4") as m, PymavlinkBackend(m.client_url, 1, timeouts=FAST, connect_timeout=3) as b:
         report = upload_plan(b, [mission(10), fence, rally])
@@ -96,7 +96,7 @@ def test_result_codes_become_clear_messages() -> None:
             (mission(30), 4, "no space for this many items"),
             (Mission([MissionItem(16, 99, x=1, y=1)]), 2, "coordinate frame the vehicle does not support"),
             (Mission([MissionItem(16, 3, x=95.0, y=7.0)]), 10, "invalid x / latitude"),
-            (Mission([MissionItem(5100, 3, x=45.0, y=7.0)]), 3, "command or mission type the vehicle does not support"),
+            (Mission([MissionItem(999, 3, x=45.0, y=7.0)]), 3, "command or mission type the vehicle does not support"),
         ]
         for bad, code, text in cases:
             with pytest.raises(MissionTransferError) as err:

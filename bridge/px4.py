@@ -1,0 +1,189 @@
+"""What PX4 (v1.15.4, measured on PX4 SIH) accepts in a mission and when it refuses to start one.
+
+Owns PX4's rules, as data and pure functions, for the mock's PX4 flavour and for `upload`:
+- item_result: the MAV_MISSION_RESULT PX4 answers a mission item with (its frame and command
+  matrix: positional NAV_* commands only in a global frame, everything else only in frame 2);
+- px4_stored: what PX4 hands back on download (frames 3 -> 6 and 0 -> 5, NAV_WAYPOINT's pass
+  radius dropped, fence items not auto-continued and without altitude);
+- start_refusals: PX4's mission feasibility check that refuses a start with "Mission start denied!
+  No valid mission" when the first positional item is MIS_DIST_1WP (900 m) or more from the
+  vehicle's home - the cause of issue 16's refusals (a vehicle started elsewhere, e.g. at SIH's
+  default home in Montreal). PX4 gives the same answer to any start before it is ready;
+- fence_problems: a geofence that leaves the vehicle's home out ("Geofence invalid, doesn't contain
+  Home position"): PX4 then ignores it and still starts the mission, unfenced.
+Each problem is PX4's own console / STATUSTEXT line.
+Everything here was measured (sitl_tests/px4_session.py, docs/px4-missions.md).
+
+Pure Python, no MAVLink library: the mock and the uploader both use it.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from dataclasses import replace
+
+from .mission import (
+    CMD_FENCE_CIRCLE_EXCLUSION,
+    CMD_FENCE_CIRCLE_INCLUSION,
+    CMD_FENCE_POLYGON_VERTEX_EXCLUSION,
+    CMD_FENCE_POLYGON_VERTEX_INCLUSION,
+    CMD_NAV_WAYPOINT,
+    CMD_RALLY_POINT,
+    FRAME_GLOBAL,
+    FRAME_GLOBAL_INT,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_GLOBAL_RELATIVE_ALT_INT,
+    FRAME_MISSION,
+    MissionType,
+    WireItem,
+)
+
+# MAV_MISSION_RESULT
+ACCEPTED, ERROR, UNSUPPORTED_FRAME, UNSUPPORTED = 0, 1, 2, 3
+
+PX4_GLOBAL_FRAMES = frozenset({FRAME_GLOBAL, FRAME_GLOBAL_RELATIVE_ALT, FRAME_GLOBAL_INT, FRAME_GLOBAL_RELATIVE_ALT_INT})
+# Commands PX4 takes in a global frame (a position): WAYPOINT, LOITER_UNLIM, LOITER_TIME, LAND, TAKEOFF,
+# LOITER_TO_ALT, DO_SET_ROI_LOCATION, DO_SET_ROI.
+GLOBAL_COMMANDS = frozenset({16, 17, 19, 21, 22, 31, 195, 201})
+# Commands PX4 takes in frame 2 (MAV_FRAME_MISSION): RTL, NAV_DELAY, CONDITION_DELAY, DO_JUMP, DO_CHANGE_SPEED,
+# DO_LAND_START, DO_SET_ROI, DO_DIGICAM_CONTROL, DO_MOUNT_CONTROL, DO_SET_CAM_TRIGG_DIST, DO_SET_CAM_TRIGG_INTERVAL,
+# DO_GIMBAL_MANAGER_PITCHYAW, IMAGE_START / STOP_CAPTURE, DO_VTOL_TRANSITION.
+MISSION_FRAME_COMMANDS = frozenset({20, 93, 112, 177, 178, 189, 201, 203, 205, 206, 214, 1000, 2000, 2001, 3000})
+YAW_COMMANDS = frozenset({16, 17, 19, 21, 22})  # param4 is a yaw PX4 keeps in radians
+FENCE_COMMANDS = frozenset({CMD_FENCE_POLYGON_VERTEX_INCLUSION, CMD_FENCE_POLYGON_VERTEX_EXCLUSION,
+                            CMD_FENCE_CIRCLE_INCLUSION, CMD_FENCE_CIRCLE_EXCLUSION})
+_INT_FRAMES = {FRAME_GLOBAL: FRAME_GLOBAL_INT, FRAME_GLOBAL_RELATIVE_ALT: FRAME_GLOBAL_RELATIVE_ALT_INT}
+
+MIS_DIST_1WP_DEFAULT = 900.0  # metres: PX4's default limit from the vehicle to the first waypoint
+EARTH_RADIUS_M = 6371000.0    # PX4's CONSTANTS_RADIUS_OF_EARTH
+
+# PX4's own words (seen on SIH: STATUSTEXT for the first and last, the console for the distance).
+GEOFENCE_WITHOUT_HOME = "Geofence invalid, doesn't contain Home position"
+START_DENIED = "Mission start denied! No valid mission"
+
+
+def item_result(item: WireItem) -> int:
+    """The MISSION_ACK type PX4 answers this item with (ACCEPTED or why not)."""
+    frame, command = item.frame, item.command
+    if frame != FRAME_MISSION and frame not in PX4_GLOBAL_FRAMES:
+        return UNSUPPORTED_FRAME  # LOCAL_NED, TERRAIN_ALT(_INT), ...
+    if item.mission_type == MissionType.MISSION and command == CMD_RALLY_POINT and frame != FRAME_MISSION:
+        return ERROR
+    if item.mission_type == MissionType.FENCE:
+        return ACCEPTED if command in FENCE_COMMANDS and frame != FRAME_MISSION else UNSUPPORTED
+    if item.mission_type == MissionType.RALLY:
+        return ACCEPTED if command == CMD_RALLY_POINT and frame != FRAME_MISSION else UNSUPPORTED
+    allowed = MISSION_FRAME_COMMANDS if frame == FRAME_MISSION else GLOBAL_COMMANDS
+    return ACCEPTED if command in allowed else UNSUPPORTED
+
+
+def _f32(value: float) -> float:
+    return struct.unpack("<f", struct.pack("<f", value))[0]
+
+
+_PI_F = _f32(math.pi)
+_DEG_TO_RAD_F, _RAD_TO_DEG_F = _f32(_PI_F / 180.0), _f32(180.0 / _PI_F)
+_TWO_PI_F = _f32(2.0 * math.pi)
+
+
+def px4_yaw(degrees: float) -> float:
+    """A yaw param as PX4 hands it back: kept in float32 radians wrapped to [0, 2 pi), then degrees
+    again (7 -> 6.9999995, -90 -> 270; NaN stays NaN)."""
+    if not math.isfinite(degrees):
+        return degrees
+    radians = _f32(_f32(degrees) * _DEG_TO_RAD_F)
+    radians = _f32(math.fmod(radians, _TWO_PI_F))
+    if radians < 0:
+        radians = _f32(radians + _TWO_PI_F)
+    return _f32(radians * _RAD_TO_DEG_F)
+
+
+def px4_stored(item: WireItem) -> WireItem:
+    """The item as PX4 returns it on download (its seq, current flag and mission_type kept)."""
+    frame = _INT_FRAMES.get(item.frame, item.frame)
+    if item.mission_type == MissionType.FENCE:
+        return replace(item, frame=frame, z=0.0, autocontinue=0)
+    if item.mission_type == MissionType.MISSION and item.command in YAW_COMMANDS:
+        param3 = 0.0 if item.command == CMD_NAV_WAYPOINT else item.param3  # no pass radius on PX4
+        return replace(item, frame=frame, param3=param3, param4=px4_yaw(item.param4))
+    return replace(item, frame=frame)
+
+
+def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
+    """Great-circle distance in metres (PX4's get_distance_to_next_waypoint: haversine)."""
+    p1, p2 = math.radians(lat1), math.radians(lat2)
+    dp, dl = p2 - p1, math.radians(lon2 - lon1)
+    a = math.sin(dp / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dl / 2) ** 2
+    return 2 * EARTH_RADIUS_M * math.atan2(math.sqrt(a), math.sqrt(max(1 - a, 0.0)))
+
+
+def _in_polygon(lat: float, lon: float, ring: list[tuple[float, float]]) -> bool:
+    """Even-odd rule on (lat, lon) as plane coordinates, as PX4's geofence does."""
+    inside = False
+    j = len(ring) - 1
+    for i, (yi, xi) in enumerate(ring):
+        yj, xj = ring[j]
+        if (yi > lat) != (yj > lat) and lon < (xj - xi) * (lat - yi) / (yj - yi) + xi:
+            inside = not inside
+        j = i
+    return inside
+
+
+def _fence_shapes(fence: list[WireItem]) -> list[tuple[int, object]]:
+    """(command, shape): polygons as [(lat, lon), ...], circles as (lat, lon, radius)."""
+    shapes: list[tuple[int, object]] = []
+    i = 0
+    while i < len(fence):
+        item = fence[i]
+        if item.command in (CMD_FENCE_POLYGON_VERTEX_INCLUSION, CMD_FENCE_POLYGON_VERTEX_EXCLUSION):
+            count = max(int(round(item.param1)), 1)
+            shapes.append((item.command, [(v.x / 1e7, v.y / 1e7) for v in fence[i:i + count]]))
+            i += count
+        else:
+            shapes.append((item.command, (item.x / 1e7, item.y / 1e7, item.param1)))
+            i += 1
+    return shapes
+
+
+def home_in_fence(fence: list[WireItem], lat: float, lon: float) -> bool:
+    """Whether (lat, lon) is inside some inclusion area (when there is one) and outside every exclusion."""
+    included: bool | None = None
+    for command, shape in _fence_shapes(fence):
+        if command in (CMD_FENCE_CIRCLE_INCLUSION, CMD_FENCE_CIRCLE_EXCLUSION):
+            clat, clon, radius = shape  # type: ignore[misc]
+            inside = distance_m(lat, lon, clat, clon) <= radius
+        else:
+            inside = _in_polygon(lat, lon, shape)  # type: ignore[arg-type]
+        if command in (CMD_FENCE_POLYGON_VERTEX_INCLUSION, CMD_FENCE_CIRCLE_INCLUSION):
+            included = bool(included) or inside
+        elif inside:
+            return False
+    return included is not False
+
+
+def first_position(mission: list[WireItem]) -> tuple[float, float] | None:
+    """Latitude and longitude of the first mission item with a position (PX4's "first waypoint")."""
+    for item in sorted(mission, key=lambda it: it.seq):
+        if item.frame in PX4_GLOBAL_FRAMES and item.command in GLOBAL_COMMANDS:
+            return item.x / 1e7, item.y / 1e7
+    return None
+
+
+def fence_problems(fence: list[WireItem], home: tuple[float, float]) -> list[str]:
+    """PX4's line when the fence leaves the vehicle's home out: it then takes the fence as invalid
+    (and, measured on SIH, still starts the mission: the flight is unfenced)."""
+    return [GEOFENCE_WITHOUT_HOME] if fence and not home_in_fence(fence, *home) else []
+
+
+def start_refusals(mission: list[WireItem], home: tuple[float, float],
+                   dist_1wp: float = MIS_DIST_1WP_DEFAULT) -> list[str]:
+    """PX4's reasons (its own lines) for refusing to start `mission` on a vehicle whose home is `home`
+    (lat, lon): the first waypoint MIS_DIST_1WP or more away; empty when PX4 would start it."""
+    problems = []
+    first = first_position(mission)
+    if first is not None and dist_1wp > 0:
+        distance = distance_m(first[0], first[1], *home)
+        if distance >= dist_1wp:
+            problems.append(f"First waypoint too far away: {int(distance)}m, {int(dist_1wp)} max")
+    return problems

@@ -1,0 +1,320 @@
+"""Real PX4 SIH for the tests: start instances, set boot parameters, stop them whatever happens.
+
+PX4 v1.15.4 SITL with its built-in physics (SIH, airframe 10040) lives beside the repository in
+`../shared/px4/` (read in place, never copied; its README says how it was built). One vehicle is
+`../shared/px4/run-sih.sh I`, run in its own session (`start_new_session=True`) so that teardown
+kills its whole process group, with PX4_WORKDIR a fresh `tempfile.mkdtemp()` folder (parameters,
+mission storage; removed at teardown) and its home from PX4_HOME_LAT / PX4_HOME_LON (integers in
+1e-7 degrees: a decimal is silently wrong) and SIH_LOC_H0 (PX4_HOME_ALT is passed too, but this
+build's start-up script reads only the first two).
+
+The module commands. PX4's start-up script calls `px4-param`, `px4-dataman`, ... found on PATH
+(PX4 puts its own `bin/` there). In ../shared/px4/bin those are plain 3-byte files, not links to
+`px4`, so the script fails ("px4-param: Permission denied", then "no autostart file found"). Each
+vehicle therefore gets, in its own temp folder, a `bin/` of symbolic links `px4-NAME -> ../shared/
+px4/bin/px4` put first on PATH (links, not copies). The same links are the PX4 client (`px4-param
+--instance I set ...`, see `client()`).
+
+Boot parameters. The start-up script sources `px4-rc.params` through PATH after the airframe's
+defaults and before any module starts (PX4's hook for per-instance parameters), so the same `bin/`
+holds one that sets `params`: SDLOG_MODE = -1 always (logging off: the logger is never started,
+no .ulg is written; otherwise about 12 MB per minute), plus what the test asks, e.g. TRIG_MODE,
+which starts camera_trigger / camera_feedback only at boot. Parameters are also saved in the
+workdir: `restart(params)` stops the vehicle and starts it again with the same workdir.
+
+Instances and ports. Instance I is system id I + 1 and takes /tmp/px4_lock-I (a flock) and UDP
+18570+I (GCS link), 14580+I (offboard link), 14280+I, 13030+I, 19450+I; it sends its GCS link to
+127.0.0.1:14550 (fixed, every instance: a fleet reaches one ground-station port, `GCS_URL`) and its
+offboard link to 127.0.0.1:14540+I (`offboard_url`; 14549 for every I > 9). An instance is used
+only when its lock is free and all those ports (and 14540+I) were free a moment ago. This helper's
+tests use instances 0-9 (`FIRST_INSTANCE`, `LAST_INSTANCE`); pass `instances=range(10, 30)` for
+others. PX4 SIH runs in real time: at most three at a time on a 2-core machine.
+
+`px4_or_skip()` skips a test with a reason when ../shared/px4/bin/px4 is absent; the `px4` pytest
+fixture is a factory of vehicles stopped at teardown even when the test fails.
+"""
+
+from __future__ import annotations
+
+import errno
+import fcntl
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import tempfile
+import time
+from collections.abc import Iterable
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+PX4_DIR = REPO.parent / "shared" / "px4"
+BINARY = PX4_DIR / "bin" / "px4"
+RUN_SIH = PX4_DIR / "run-sih.sh"
+GCS_PORT = 14550
+GCS_URL = f"udpin:127.0.0.1:{GCS_PORT}"  # every instance's GCS link sends here
+FIRST_INSTANCE, LAST_INSTANCE = 0, 9
+DEFAULT_HOME = (45.4641, 9.1891, 120.0)
+BOOT_PARAMS: dict[str, float] = {"SDLOG_MODE": -1}  # logging off, always
+STARTED_MARKER = b"Startup script returned successfully"
+FAILED_MARKERS = (b"Startup script returned with return value", b"already running", b"ERROR [init]")
+
+
+def px4_or_skip() -> Path:
+    """The PX4 binary, or skip the calling test saying why."""
+    if not (BINARY.is_file() and os.access(BINARY, os.X_OK) and RUN_SIH.is_file()):
+        pytest.skip(f"PX4 SIH not found at {BINARY} (see ../shared/px4/README.md)")
+    return BINARY
+
+
+def e7(degrees: float) -> int:
+    """Degrees as PX4's integer 1e-7 degrees (rounded, not truncated)."""
+    return int(round(degrees * 1e7))
+
+
+def _udp_free(port: int) -> bool:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        try:
+            sock.bind(("0.0.0.0", port))
+        except OSError:
+            return False
+    return True
+
+
+def instance_ports(instance: int) -> tuple[int, ...]:
+    """Every UDP port instance I binds, and the offboard port it sends to (we listen there)."""
+    return (18570 + instance, 14580 + instance, 14280 + instance, 13030 + instance, 19450 + instance,
+            offboard_port(instance))
+
+
+def offboard_port(instance: int) -> int:
+    """Where instance I's offboard link sends (PX4's px4-rc.mavlink: 14549 for every I > 9)."""
+    return 14540 + instance if instance <= 9 else 14549
+
+
+def _lock_free(instance: int) -> bool:
+    """Whether /tmp/px4_lock-I is not held by a running PX4 (it flocks it; the file outlives it)."""
+    path = Path(f"/tmp/px4_lock-{instance}")
+    if not path.exists():
+        return True
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError as exc:
+        return exc.errno not in (errno.EWOULDBLOCK, errno.EAGAIN)
+    else:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return True
+    finally:
+        os.close(fd)
+
+
+def instance_free(instance: int) -> bool:
+    """Whether instance I's lock and every port it would use are free now."""
+    return _lock_free(instance) and all(_udp_free(p) for p in instance_ports(instance))
+
+
+def free_instance(instances: Iterable[int] = range(FIRST_INSTANCE, LAST_INSTANCE + 1),
+                  skip: set[int] | None = None) -> int:
+    """The first instance number of `instances` not in `skip` whose lock and ports are free."""
+    skip = skip or set()
+    for instance in instances:
+        if instance not in skip and instance_free(instance):
+            return instance
+    raise RuntimeError(f"no free PX4 instance number in {list(instances)} (skipping {sorted(skip)})")
+
+
+def _module_links(bin_dir: Path) -> None:
+    """bin_dir/px4-NAME -> ../shared/px4/bin/px4 for every module command the build names."""
+    bin_dir.mkdir(parents=True, exist_ok=True)
+    for entry in sorted((PX4_DIR / "bin").iterdir()):
+        if entry.name.startswith("px4-") and not entry.name.endswith(".sh"):
+            (bin_dir / entry.name).symlink_to(BINARY)
+
+
+class PX4:
+    """One PX4 SIH process. Use as a context manager, or start() / stop().
+
+    `instance` None picks a free one of `instances`. `home` is (lat, lon, alt AMSL m). `params`
+    are set at boot, before any module starts (SDLOG_MODE = -1 is always among them)."""
+
+    def __init__(self, instance: int | None = None, home: tuple[float, float, float] = DEFAULT_HOME,
+                 params: dict[str, float] | None = None,
+                 instances: Iterable[int] = range(FIRST_INSTANCE, LAST_INSTANCE + 1)) -> None:
+        self.wanted = instance
+        self.instances = list(instances)
+        self.instance = -1 if instance is None else instance
+        self.home = home
+        self.params: dict[str, float] = {**BOOT_PARAMS, **(params or {})}
+        self.folder: Path | None = None  # ours: bin/ (links, px4-rc.params), work/ (PX4_WORKDIR), px4.log
+        self.proc: subprocess.Popen[bytes] | None = None
+
+    @property
+    def sysid(self) -> int:
+        return self.instance + 1
+
+    @property
+    def workdir(self) -> Path:
+        assert self.folder is not None, "not started"
+        return self.folder / "work"
+
+    @property
+    def bin_dir(self) -> Path:
+        assert self.folder is not None, "not started"
+        return self.folder / "bin"
+
+    @property
+    def gcs_url(self) -> str:
+        """Where a ground station hears it: the one port every instance sends to."""
+        return GCS_URL
+
+    @property
+    def offboard_url(self) -> str:
+        """This vehicle's own port (its offboard link sends there): for a test that must not hold 14550."""
+        return f"udpin:127.0.0.1:{offboard_port(self.instance)}"
+
+    def env(self) -> dict[str, str]:
+        lat, lon, alt = self.home
+        env = dict(os.environ)
+        env.update({"PX4_WORKDIR": str(self.workdir), "PX4_HOME_LAT": str(e7(lat)), "PX4_HOME_LON": str(e7(lon)),
+                    "PX4_HOME_ALT": f"{alt:g}", "PATH": f"{self.bin_dir}{os.pathsep}{env.get('PATH', '')}"})
+        return env
+
+    def _write_boot_params(self) -> None:
+        """px4-rc.params on PATH: sourced by the start-up script before the modules start."""
+        lines = ["#!/bin/sh", "# written by sitl_tests/px4.py: this vehicle's boot parameters"]
+        lines += [f"param set SIH_LOC_H0 {self.home[2]:g}"]
+        lines += [f"param set {name} {value:g}" for name, value in self.params.items()]
+        (self.bin_dir / "px4-rc.params").write_text("\n".join(lines) + "\n")
+
+    def start(self, attempts: int = 3, boot_wait: float = 30.0) -> PX4:
+        """Start on a free instance; return once its start-up script has finished (a HEARTBEAT
+        follows within a second; readiness to fly takes tens of seconds more, and `fly` waits for it)."""
+        px4_or_skip()
+        tried: set[int] = set()
+        for _ in range(attempts):
+            if self.wanted is None:
+                self.instance = free_instance(self.instances, skip=tried)
+            elif not instance_free(self.wanted):
+                raise RuntimeError(f"PX4 instance {self.wanted} is taken (its lock or one of its ports)")
+            tried.add(self.instance)
+            self.folder = Path(tempfile.mkdtemp(prefix=f"px4-{self.instance}-"))
+            self.workdir.mkdir()
+            _module_links(self.bin_dir)
+            if self._launch(boot_wait):
+                return self
+            self.stop()
+            if self.wanted is not None:
+                break
+        raise RuntimeError(f"PX4 SIH did not start (instances tried {sorted(tried)})")
+
+    def _launch(self, boot_wait: float) -> bool:
+        self._write_boot_params()
+        log = open(self.folder / "px4.log", "ab")  # noqa: SIM115 (closed with the process)
+        self.proc = subprocess.Popen([str(RUN_SIH), str(self.instance)], cwd=self.workdir, env=self.env(),
+                                     stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                     start_new_session=True)
+        log.close()
+        return self._wait_started(boot_wait)
+
+    def restart(self, params: dict[str, float] | None = None, boot_wait: float = 30.0) -> PX4:
+        """Stop and start again on the same instance and workdir (parameters and mission kept),
+        with `params` added to the boot parameters: for modules that read them only at boot."""
+        assert self.folder is not None, "not started"
+        self.params.update(params or {})
+        if self.proc is not None and self.proc.poll() is None:
+            self.client("param", "save")  # PX4 saves changes after a delay: not lost to the kill
+        self._kill()
+        (self.folder / "px4.log").write_bytes(b"")
+        if not self._launch(boot_wait):
+            raise RuntimeError(f"PX4 instance {self.instance} did not restart:\n{self.log_text()[-2000:]}")
+        return self
+
+    def _wait_started(self, timeout: float) -> bool:
+        assert self.proc is not None
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            text = self.log_bytes()
+            if STARTED_MARKER in text:
+                return True
+            if self.proc.poll() is not None or any(m in text for m in FAILED_MARKERS):
+                return False
+            time.sleep(0.1)
+        return False
+
+    def log_bytes(self) -> bytes:
+        try:
+            return (self.folder / "px4.log").read_bytes() if self.folder else b""
+        except OSError:
+            return b""
+
+    def log_text(self) -> str:
+        return self.log_bytes().decode("utf-8", "replace")
+
+    def client(self, *args: str, timeout: float = 10.0) -> str:
+        """Run a PX4 console command on this instance (`client("param", "show", "TRIG_MODE")`)."""
+        command = [str(self.bin_dir / f"px4-{args[0]}"), "--instance", str(self.instance), *args[1:]]
+        done = subprocess.run(command, cwd=self.workdir, env=self.env(), capture_output=True, timeout=timeout,
+                              check=False)
+        return (done.stdout + done.stderr).decode("utf-8", "replace")
+
+    def log_files(self) -> list[Path]:
+        """The .ulg files PX4 wrote (none, with logging off)."""
+        return sorted(self.workdir.rglob("*.ulg")) if self.folder else []
+
+    def _kill(self) -> None:
+        """Kill the whole process group: SIGTERM, then SIGKILL."""
+        proc, self.proc = self.proc, None
+        if proc is None:
+            return
+        if proc.poll() is None:
+            for sig, wait in ((signal.SIGTERM, 3.0), (signal.SIGKILL, 3.0)):
+                try:
+                    os.killpg(proc.pid, sig)
+                except ProcessLookupError:
+                    break
+                try:
+                    proc.wait(wait)
+                    break
+                except subprocess.TimeoutExpired:
+                    continue
+        else:
+            proc.wait()
+
+    def stop(self) -> None:
+        """Kill the process group, then remove its folder."""
+        self._kill()
+        if self.folder is not None:
+            shutil.rmtree(self.folder, ignore_errors=True)
+            self.folder = None
+
+    def __enter__(self) -> PX4:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+
+@pytest.fixture()
+def px4():
+    """A factory: px4(instance=..., home=..., params=...) starts a vehicle (its start-up script done),
+    stopped and its folder removed at teardown, even when the test fails."""
+    started: list[PX4] = []
+
+    def start(**kwargs: object) -> PX4:
+        vehicle = PX4(**kwargs)  # type: ignore[arg-type]
+        started.append(vehicle)
+        return vehicle.start()
+
+    px4_or_skip()
+    try:
+        yield start
+    finally:
+        for vehicle in started:
+            vehicle.stop()
