@@ -44,12 +44,12 @@ from typing import Any
 import numpy as np
 
 from bridge.copter_model import PARAMETERS as COPTER_PARAMETERS
-from bridge.px4_model import FLOAT_PARAMETERS as PX4_PARAMETERS
 from bridge.errors import BridgeError, BridgeUsageError
 from bridge.mission import Flavour, to_wire
 from bridge.missionfile import check_firmware, read_mission_file
 from bridge.params import ParamClient, read_params
 from bridge.protocol import Timeouts
+from bridge.px4_model import FLOAT_PARAMETERS as PX4_PARAMETERS
 from bridge.readiness import (DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_MISSION_SUB, Vehicle, request_streams,
                               site_problem, stream_rates)
 from bridge.shared_link import LinkPool
