@@ -7,7 +7,8 @@ One job per module:
 * `geo.frame`   - `GridFrame`: the grid laid in the area's UTM zone, grid <-> lat/lon, map meta.
 * `geo.readers` - area / obstacle / no-fly polygons from GeoJSON, KML, QGroundControl .plan;
                   building footprints (+ heights) from OSM .osm / .osm.pbf or GeoJSON.
-* `geo.area`    - `build_grid_map`: rasterise area, obstacles, buildings, no-fly into a GridMap.
+* `geo.area`    - `build_grid_map`: rasterise area, obstacles, buildings, no-fly into an `AreaRaster`
+                  (plain arrays, wrapped into a GridMap by the planner).
 
 Grid coordinates are float (row, col) whose integer values are cell centres; row 0 is the top
 (north, before rotation) row; `rotation_deg` turns the grid clockwise from north.

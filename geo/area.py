@@ -1,4 +1,4 @@
-"""Rasterise a real-world area into a planning `GridMap` (SPEC section 7).
+"""Rasterise a real-world area into an `AreaRaster` (SPEC section 7): the planner wraps it into its GridMap.
 
 Rules (cell = camera footprint / 9, grid laid by `GridFrame.from_area`):
 
@@ -19,12 +19,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import shapely
 from shapely.geometry import MultiPolygon, Polygon
-
-from missionplan.gridmap import GridMap
 
 from .camera import cell_size_m
 from .errors import GeoError
@@ -32,6 +31,24 @@ from .frame import GridFrame
 from .readers import Building
 
 Polygonal = Polygon | MultiPolygon
+
+
+@dataclass
+class AreaRaster:
+    """The rasterised area: boolean (rows, cols) `obstacle` and `target`, launch cells, georeference meta.
+
+    Plain arrays, so geo needs nothing from the planner; missionplan makes its GridMap from these fields.
+    """
+
+    name: str
+    obstacle: np.ndarray
+    target: np.ndarray
+    launch: list[tuple[int, int]]
+    meta: dict[str, str]
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.obstacle.shape  # type: ignore[return-value]
 
 
 def _window(geom: shapely.Geometry, rows: int, cols: int) -> tuple[int, int, int, int] | None:
@@ -91,12 +108,12 @@ def build_grid_map(name: str, area: Polygonal | Sequence[Polygonal], obstacles: 
                    buildings: Sequence[Building], no_fly: Sequence[Polygonal],
                    launch_latlon: Sequence[tuple[float, float]], altitude_m: float, fov_deg: float,
                    rotation_deg: float = 0.0, safety_margin_m: float = 5.0,
-                   max_cells: int = 4_200_000, area_file: str = "area") -> tuple[GridMap, GridFrame]:
-    """Rasterise `area` (lon/lat) into a GridMap whose cell is the camera footprint / 9.
+                   max_cells: int = 4_200_000, area_file: str = "area") -> tuple[AreaRaster, GridFrame]:
+    """Rasterise `area` (lon/lat) into an AreaRaster whose cell is the camera footprint / 9.
 
     `area` may be a list of polygons (their union). `buildings` may also hold bare polygons
     (height unknown -> obstacle). `area_file` names
-    the area in error messages. Returns the map (its meta carries the georeference) and frame.
+    the area in error messages. Returns the raster (its meta carries the georeference) and frame.
     """
     cell = cell_size_m(altitude_m, fov_deg)
     if isinstance(area, (list, tuple)):  # e.g. straight from read_polygons: one area of several parts
@@ -141,7 +158,7 @@ def build_grid_map(name: str, area: Polygonal | Sequence[Polygonal], obstacles: 
     meta = frame.to_meta()
     meta.update({"altitude_m": repr(float(altitude_m)), "fov_deg": repr(float(fov_deg)),
                  "cell_m": repr(float(cell)), "safety_margin_m": repr(float(safety_margin_m))})
-    return GridMap(name=name, obstacle=obstacle, target=target, launch=launch, meta=meta), frame
+    return AreaRaster(name=name, obstacle=obstacle, target=target, launch=launch, meta=meta), frame
 
 
 def _launch_cells(frame: GridFrame, area: Polygonal, obstacles: Sequence[Polygonal],

@@ -88,8 +88,9 @@ def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, Unk
     launch = [parse_latlon(text) for text in args.launch]
 
     def build(blds: list[Building]) -> tuple[GridMap, GridFrame]:
-        return build_grid_map(args.area.stem, area, [], blds, no_fly, launch, args.altitude, camera.fov_deg,
-                              rotation_deg=args.rotation, area_file=str(args.area))
+        raster, frame = build_grid_map(args.area.stem, area, [], blds, no_fly, launch, args.altitude,
+                                       camera.fov_deg, rotation_deg=args.rotation, area_file=str(args.area))
+        return GridMap(raster.name, raster.obstacle, raster.target, raster.launch, raster.meta), frame
 
     gmap, frame = build(buildings)
 
