@@ -34,7 +34,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from missionplan import metrics, pipeline, planner  # noqa: E402
-from missionplan.atomic import atomic_path  # noqa: E402
+from bridge.atomic import atomic_path  # noqa: E402
 from missionplan.gridmap import GridMap  # noqa: E402
 from missionplan.mapgen import CITY_LAUNCH_EDGE_MARGIN, launch_candidates, median_launch_cells  # noqa: E402
 from missionplan.pipeline import POLICIES, make_policy, plan_map  # noqa: E402

@@ -3,6 +3,8 @@
 Knows missions (lists of MAVLink mission items), not grids: nothing here imports the planner.
 Modules, one job each:
   errors        BridgeUsageError (bad input, exit 2) and BridgeError (operational failure, exit 1)
+  atomic        atomic file output (temp file, then rename), shared with missionplan: bridge is the
+                lowest layer that writes files
   mission       the mission model (MissionItem, Mission), wire items, flavour rules, comparison
   missionfile   QGroundControl .plan and QGC WPL 110 .waypoints readers and writers
   signing       MAVLink 2 signing keys: loading and applying them, never printing them

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 # A leaf utility with no planner imports: bridge still knows nothing about grids.
-from missionplan.atomic import write_text_atomic
+from .atomic import write_text_atomic
 
 from .errors import BridgeError, BridgeUsageError
 from .mission import (
@@ -105,7 +105,7 @@ def check_firmware(plan: PlanFile, path: str | os.PathLike[str], flavour: Flavou
 # ---------------------------------------------------------------------------------------------- I/O
 
 def _write_atomic(path: Path, text: str) -> None:
-    """Temp file beside the target then rename (missionplan.atomic): a reader never sees half a file."""
+    """Temp file beside the target then rename (bridge.atomic): a reader never sees half a file."""
     if not path.parent.is_dir():
         raise BridgeUsageError(f"{path}: folder {path.parent} does not exist")
     write_text_atomic(path, text)

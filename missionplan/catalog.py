@@ -6,7 +6,8 @@ from pathlib import Path
 
 from .gridmap import GridMap, MapError, load_map
 
-MAPS_DIR = Path(__file__).resolve().parent.parent / "maps"
+# The repository root: one folder up per dot in this module's name, so the line holds wherever it sits.
+MAPS_DIR = Path(__file__).resolve().parents[__name__.count(".")] / "maps"
 
 
 def shipped_map_names() -> list[str]:

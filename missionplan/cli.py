@@ -19,7 +19,7 @@ from bridge import BridgeUsageError
 from geo.errors import GeoError
 from bridge.commands import register as register_bridge_commands
 
-from .atomic import probe_writable
+from bridge.atomic import probe_writable
 from .catalog import load_shipped, shipped_map_names
 from .fleet_demo import register as register_demo_command
 from .fly import register as register_fly_command
@@ -283,7 +283,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 def _cmd_train(args: argparse.Namespace) -> int:
     import json
 
-    from .atomic import write_text_atomic
+    from bridge.atomic import write_text_atomic
     from .network import save_weights
     from .training import DEFAULT_MAPS, train_policy
 

@@ -33,7 +33,7 @@ from scipy.spatial import cKDTree
 
 from geo.frame import GridFrame
 
-from .atomic import write_text_atomic
+from bridge.atomic import write_text_atomic
 from .gridmap import GridMap
 from bridge.copter_model import CopterParams
 from bridge.px4_model import Px4Params

@@ -20,12 +20,12 @@ from bridge.mission import Flavour
 from bridge.missionfile import PlanFile, write_mission_file
 from geo.frame import GridFrame
 
-from .atomic import write_text_atomic
+from bridge.atomic import write_text_atomic
 from .corrector import MARGIN_CELLS, CorrectedPath, correct_path
 from .geofence import Fence, drone_fence
 from .gridmap import GridMap, MapError
 from .missions import DroneMission, MissionSettings, build_mission
-from .pipeline import PlanResult
+from .planresult import PlanResult
 from .safety import SafetySettings
 from .separation import Layering, SeparationError, choose_layers, closest_over_sorties, position_at
 from .sorties import Sortie, sortie_file, split_sorties

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_text_atomic
+from bridge.atomic import write_text_atomic
 
 OBSTACLE_CHAR = "#"
 TARGET_CHAR = "."

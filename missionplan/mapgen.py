@@ -589,4 +589,6 @@ def write_shipped(folder: str | Path) -> None:
 
 
 if __name__ == "__main__":
-    write_shipped(Path(__file__).resolve().parent.parent / "maps")
+    from .catalog import MAPS_DIR  # one place knows where the shipped maps live
+
+    write_shipped(MAPS_DIR)

@@ -19,7 +19,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from .atomic import atomic_path
+from bridge.atomic import atomic_path
 from .features import STATE_SIZE, encode_states
 from .world import CoverageWorld
 

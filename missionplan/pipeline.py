@@ -7,35 +7,19 @@ swappable piece chosen by name (zone method, policy).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .expert import ExpertPolicy
 from .gridmap import Cell, GridMap, MapError
-from .planner import Planner, PlanRun, Policy
+from .planner import Planner, Policy
+from .planresult import PlanResult
 from .world import CoverageWorld, check_starts, reachable_targets
-from .zones import DEFAULT_ZONE_METHOD, ZONE_METHODS, Zones, split_zones
+from .zones import DEFAULT_ZONE_METHOD, ZONE_METHODS, split_zones
 
 POLICIES = ("nn", "expert")
 DEFAULT_POLICY = "expert"
-
-
-@dataclass
-class PlanResult:
-    gmap: GridMap
-    starts: list[Cell]
-    policy: str
-    zones: Zones
-    world: CoverageWorld
-    run: PlanRun
-    zone_seconds: float
-
-    @property
-    def unreachable(self) -> np.ndarray:
-        """(n, 2) target cells no drone can reach (set to explored and reported)."""
-        return self.world.unreachable_cells
 
 
 def make_policy(name: str, weights: str | Path | None = None) -> Policy:

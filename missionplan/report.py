@@ -16,8 +16,8 @@ import os
 from pathlib import Path
 from typing import Any
 
-from .atomic import write_text_atomic
-from .pipeline import PlanResult
+from bridge.atomic import write_text_atomic
+from .planresult import PlanResult
 
 
 def build_report(result: PlanResult, seed: int) -> dict[str, Any]:

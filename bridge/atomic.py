@@ -2,6 +2,7 @@
 
 A reader never sees a half-written file and a failed write leaves nothing behind. The
 temp file gets the permissions a plain open() would give (mkstemp makes 0600 files).
+Lives in bridge, the lowest layer that writes files, so that bridge and missionplan share it.
 """
 
 from __future__ import annotations
