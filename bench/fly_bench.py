@@ -40,10 +40,10 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "sitl_tests"))
 
-import missionplan.fly as fly_module  # noqa: E402
+import missionplan.flight.fly as fly_module  # noqa: E402
 from missionplan.cli import main  # noqa: E402
-from missionplan.flight_report import judge  # noqa: E402
-from missionplan.fly import fly, flight_view, start_mock_fleet  # noqa: E402
+from missionplan.flight.flight_report import judge  # noqa: E402
+from missionplan.flight.fly import fly, flight_view, start_mock_fleet  # noqa: E402
 
 SPEEDUP = {"leonardo": 2.0}  # a 20 x 10 m arena; the street maps are hundreds of metres: 50x
 DEFAULT_SPEEDUP = 50.0

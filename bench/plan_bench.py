@@ -16,9 +16,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from missionplan.catalog import load_shipped, shipped_map_names  # noqa: E402
+from missionplan.maps.catalog import load_shipped, shipped_map_names  # noqa: E402
 from missionplan.pipeline import POLICIES, plan_map  # noqa: E402
-from missionplan.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS  # noqa: E402
+from missionplan.grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS  # noqa: E402
 
 # Thesis Tables 5.1-5.4, for 3, 4, 5, 6 UAVs: (MMN, TE %, MNT %, MUD, MDU).
 THESIS = {

@@ -14,7 +14,7 @@ Run by hand, piecewise if you like:
                                           [--mdu-check]
 
 --mdu-check also computes MDU* at every steady-state step (slow on big maps) and prints
-how far the sampled MDU* (every mdu_stride(U)-th step, see missionplan/metrics.py) is from it.
+how far the sampled MDU* (every mdu_stride(U)-th step, see missionplan/grid/metrics.py) is from it.
 """
 
 from __future__ import annotations
@@ -33,12 +33,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from missionplan import metrics, pipeline, planner  # noqa: E402
+from missionplan.grid import metrics, planner  # noqa: E402
+from missionplan import pipeline  # noqa: E402
 from bridge.atomic import atomic_path  # noqa: E402
-from missionplan.gridmap import GridMap  # noqa: E402
-from missionplan.mapgen import CITY_LAUNCH_EDGE_MARGIN, launch_candidates, median_launch_cells  # noqa: E402
+from missionplan.maps.gridmap import GridMap  # noqa: E402
+from missionplan.maps.mapgen import CITY_LAUNCH_EDGE_MARGIN, launch_candidates, median_launch_cells  # noqa: E402
 from missionplan.pipeline import POLICIES, make_policy, plan_map  # noqa: E402
-from missionplan.trainmaps import TARGET, kind_of, random_city  # noqa: E402
+from missionplan.learn.trainmaps import TARGET, kind_of, random_city  # noqa: E402
 
 SIZES = (256, 512, 1024, 2048)
 UAVS = (6, 20, 50)

@@ -1,6 +1,6 @@
 """How ArduCopter flies a mission, in time: its navigation parameters and the timed motion of each phase.
 
-Owns the one kinematic model that both the planner's timeline (missionplan.timeline: planned times,
+Owns the one kinematic model that both the planner's timeline (missionplan.mission.timeline: planned times,
 report.json, the separation promise) and the mock autopilot's SITL-like flight (mock_flight) use, so
 that plan, mock and judge agree. Measured against ArduCopter 4.7 SITL flying 20 m street plans
 (docs/flight-timeline.md):

@@ -20,16 +20,16 @@ from geo.errors import GeoError
 from bridge.commands import register as register_bridge_commands
 
 from bridge.atomic import probe_writable
-from .catalog import load_shipped, shipped_map_names
-from .fleet_demo import register as register_demo_command
-from .fly import register as register_fly_command
-from .gridmap import MapError
+from .flight.fleet_demo import register as register_demo_command
+from .flight.fly import register as register_fly_command
+from .grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
+from .maps.catalog import load_shipped, shipped_map_names
+from .maps.gridmap import MapError
+from .mission.missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
+from .mission.safety import DEFAULT_CLEARANCE_M
+from .mission.separation import DEFAULT_MAX_ALTITUDE_M
+from .mission.sorties import DEFAULT_ENDURANCE_MIN, DEFAULT_RESERVE
 from .pipeline import DEFAULT_POLICY, POLICIES, launch_cells, make_policy
-from .missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
-from .safety import DEFAULT_CLEARANCE_M
-from .separation import DEFAULT_MAX_ALTITUDE_M
-from .sorties import DEFAULT_ENDURANCE_MIN, DEFAULT_RESERVE
-from .zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 
 EXIT_USAGE = 2
 EXIT_FAILED = 1
@@ -129,8 +129,8 @@ def _build_parser() -> argparse.ArgumentParser:
     train.add_argument("--workers", type=int, default=2, help="processes playing the expert demonstrations")
     train.add_argument("--quiet", action="store_true", help="no progress bars")
     register_bridge_commands(sub)  # upload, download, mock (bridge/commands.py)
-    register_fly_command(sub)  # fly (missionplan/fly.py)
-    register_demo_command(sub, _cmd_plan, parser)  # demo = plan + mock fleet + fly (missionplan/fleet_demo.py)
+    register_fly_command(sub)  # fly (missionplan/flight/fly.py)
+    register_demo_command(sub, _cmd_plan, parser)  # demo = plan + mock fleet + fly (missionplan/flight/fleet_demo.py)
     return parser
 
 
@@ -162,14 +162,14 @@ def _cell_mask(shape: tuple[int, int], cells: list[list[int]]) -> Any:
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
-    from .plot import draw_plan  # matplotlib only when a picture is drawn
-    from .report import build_report, write_report
+    from .mission.plot import draw_plan  # matplotlib only when a picture is drawn
+    from .mission.report import build_report, write_report
 
-    from .coverage_check import coverage_report
-    from .georef import UnknownHeights, load_area_checked, mission_settings, shipped_frame
     from .fieldplan import plan_field
-    from .outputs import remove_stale_outputs
-    from .safety import safety_settings
+    from .mission.coverage_check import coverage_report
+    from .mission.georef import UnknownHeights, load_area_checked, mission_settings, shipped_frame
+    from .mission.outputs import remove_stale_outputs
+    from .mission.safety import safety_settings
 
     # Everything that can be wrong with the input fails here, before any folder is made.
     unknown = UnknownHeights(0, 0, None, None)
@@ -187,7 +187,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     settings = mission_settings(gmap, args) if frame is not None else None
     safety = safety_settings(gmap, args, settings.altitude_m) if settings is not None else None
     if safety is not None:  # a launch point inside the clearance band fails here, before any folder
-        from .clearance import flight_map
+        from .mission.clearance import flight_map
 
         flight_map(gmap, safety.clearance_m, args.uavs)
     policy = make_policy(args.policy, args.weights)
@@ -208,7 +208,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     field.fill_report(report, gmap, frame)
     written, sortie_starts = [], None
     if plans is not None and frame is not None and settings is not None:
-        from .flightplan import write_flight_files
+        from .mission.flightplan import write_flight_files
 
         report["georeference"] = {**frame.to_meta(), "altitude_m": settings.altitude_m,
                                   "footprint_m": settings.footprint_m, "trigger_distance_m": settings.trigger_distance_m}
@@ -284,8 +284,8 @@ def _cmd_train(args: argparse.Namespace) -> int:
     import json
 
     from bridge.atomic import write_text_atomic
-    from .network import save_weights
-    from .training import DEFAULT_MAPS, train_policy
+    from .learn.network import save_weights
+    from .learn.training import DEFAULT_MAPS, train_policy
 
     if args.maps is not None and args.maps < 4:
         raise MapError(f"--maps must be at least 4, got {args.maps}")

@@ -18,12 +18,12 @@ import numpy as np
 
 from geo.frame import GridFrame
 
-from .clearance import band_coverage, flight_map, photograph_band
-from .gridmap import GridMap
-from .missions import MissionSettings
+from .maps.gridmap import GridMap
+from .mission.clearance import band_coverage, flight_map, photograph_band
+from .mission.missions import MissionSettings
+from .mission.safety import SafetySettings
+from .mission.sorties import sortie_shares
 from .pipeline import PlanResult, plan_map
-from .safety import SafetySettings
-from .sorties import sortie_shares
 
 REBALANCE_ROUNDS = 1  # each is a whole re-plan (Turin, 2 drones, 10 min: a second round gained nothing)
 
@@ -62,7 +62,7 @@ def plan_field(gmap: GridMap, uavs: int, frame: GridFrame | None, settings: Miss
             result.run.paths, done.band_counts["band_moves_added"] = photograph_band(
                 result.run.paths, plan_gmap, gmap, band, result.zones.zone)
         if frame is not None and settings is not None and result.run.success:
-            from .flightplan import make_flight_plans
+            from .mission.flightplan import make_flight_plans
 
             done.plans = make_flight_plans(result, frame, settings, safety, base=gmap)
         return done

@@ -11,12 +11,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .expert import ExpertPolicy
-from .gridmap import Cell, GridMap, MapError
-from .planner import Planner, Policy
-from .planresult import PlanResult
-from .world import CoverageWorld, check_starts, reachable_targets
-from .zones import DEFAULT_ZONE_METHOD, ZONE_METHODS, split_zones
+from .grid.expert import ExpertPolicy
+from .grid.planner import Planner, Policy
+from .grid.planresult import PlanResult
+from .grid.world import CoverageWorld, check_starts, reachable_targets
+from .grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS, split_zones
+from .maps.gridmap import Cell, GridMap, MapError
 
 POLICIES = ("nn", "expert")
 DEFAULT_POLICY = "expert"
@@ -27,7 +27,7 @@ def make_policy(name: str, weights: str | Path | None = None) -> Policy:
     if name == "expert":
         return ExpertPolicy()
     if name == "nn":
-        from .network import SHIPPED_WEIGHTS, NeuralPolicy, load_weights  # torch only when the network is used
+        from .learn.network import SHIPPED_WEIGHTS, NeuralPolicy, load_weights  # torch only when the network is used
 
         try:
             return NeuralPolicy(load_weights(weights if weights is not None else SHIPPED_WEIGHTS))

@@ -17,7 +17,7 @@ from arducopter import arducopter, configure_camera_and_wait_ready  # noqa: F401
 
 from bridge.missionfile import read_mission_file
 from missionplan.cli import main
-from missionplan.fly import fly
+from missionplan.flight.fly import fly
 
 REPO = Path(__file__).resolve().parent.parent
 OSM = REPO.parent / "shared" / "maps" / "turin_cenisia_osm_buildings.geojson"

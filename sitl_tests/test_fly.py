@@ -18,9 +18,9 @@ import pytest
 from bridge.mission import to_wire
 from bridge.missionfile import read_mission_file
 from bridge.mock import LinkFaults
-from missionplan import flight_report as fr
+from missionplan.flight import flight_report as fr
 from missionplan.cli import main
-from missionplan.fly import fly, start_mock_fleet
+from missionplan.flight.fly import fly, start_mock_fleet
 
 # Leonardo is a 20 x 10 m arena flown at 5 m/s: 2x; grid-city is 190 x 130 m of streets: 50x.
 SPEEDUP = {"leonardo": 2.0, "grid-city": 50.0}
@@ -225,7 +225,7 @@ def test_a_second_flight_counts_only_its_own_photos(planned):
 
 
 def test_flight_png_without_any_track_draws_no_empty_legend(planned, recwarn):
-    from missionplan.flight_report import draw_flight, frame_of, target_cells
+    from missionplan.flight.flight_report import draw_flight, frame_of, target_cells
 
     plan_dir = planned("leonardo", 3)
     report = json.loads((plan_dir / "report.json").read_text())

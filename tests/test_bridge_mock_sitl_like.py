@@ -20,7 +20,7 @@ from bridge.mock_flight import EARTH_RADIUS, FlightSim
 from bridge.params import ParamClient
 from bridge.protocol import Timeouts
 from bridge.uploader import open_backend, upload_plan
-from missionplan.timeline import FlightModel, planned_track
+from missionplan.mission.timeline import FlightModel, planned_track
 
 HOME = (45.0, 7.0, 200.0)
 M_PER_DEG_LAT = math.radians(1.0) * EARTH_RADIUS

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from missionplan.catalog import load_shipped
-from missionplan.corrector import chebyshev_to_segment, correct_path, path_length, total_turning
+from missionplan.maps.catalog import load_shipped
+from missionplan.mission.corrector import chebyshev_to_segment, correct_path, path_length, total_turning
 from missionplan.pipeline import plan_map
 
 R = 4

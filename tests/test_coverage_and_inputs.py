@@ -17,9 +17,9 @@ import pytest
 
 from geo.readers import read_buildings
 from missionplan.cli import attach_negative_values, main
-from missionplan.world import reachable_targets
-from missionplan.coverage_check import coverage_report
-from missionplan.gridmap import GridMap
+from missionplan.grid.world import reachable_targets
+from missionplan.mission.coverage_check import coverage_report
+from missionplan.maps.gridmap import GridMap
 
 MAPS = Path(__file__).resolve().parents[1].parent / "shared" / "maps"
 VIENNA_PBF = MAPS / "vienna_rabenhof.osm.pbf"
@@ -293,7 +293,7 @@ def test_old_grids_stay_exit_0_with_warnings(tmp_path):
     # Warnings never change the exit code: 0 is "the plan covers what is reachable".
     gmap = _grid(20)
     path = tmp_path / "yard.map"
-    from missionplan.gridmap import save_map
+    from missionplan.maps.gridmap import save_map
 
     gmap.launch = [(1, 1), (18, 18)]
     save_map(gmap, path)

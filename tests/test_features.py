@@ -3,7 +3,7 @@ import itertools
 import numpy as np
 import pytest
 
-from missionplan.features import (
+from missionplan.learn.features import (
     DETECTOR_RANGE,
     NUM_SYMMETRIES,
     STATE_SIZE,
@@ -16,8 +16,8 @@ from missionplan.features import (
     transform_grid,
     transform_states,
 )
-from missionplan.gridmap import GridMap
-from missionplan.world import ACTION_DELTAS, DOWN, HOVER, LEFT, RIGHT, UP, VIEW_RADIUS, CoverageWorld
+from missionplan.maps.gridmap import GridMap
+from missionplan.grid.world import ACTION_DELTAS, DOWN, HOVER, LEFT, RIGHT, UP, VIEW_RADIUS, CoverageWorld
 
 MEMORY = 360  # first memory value
 UNEXPLORED_DET = 368  # first "unexplored further along" detector

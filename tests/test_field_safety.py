@@ -11,9 +11,9 @@ from bridge.mission import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_FENCE_POLYGON_VERTEX_
                             CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, MissionType)
 from bridge.missionfile import read_mission_file
 from missionplan.cli import main
-from missionplan.flight_report import frame_of, to_grid_m
-from missionplan.sorties import split_sorties
-from missionplan.timeline import FlightModel, closest_approach, planned_track
+from missionplan.flight.flight_report import frame_of, to_grid_m
+from missionplan.mission.sorties import split_sorties
+from missionplan.mission.timeline import FlightModel, closest_approach, planned_track
 
 
 def _plan(out: Path, *args: str) -> int:
@@ -117,7 +117,7 @@ def test_split_sorties_keeps_every_sortie_within_the_budget_and_resumes_where_it
 
 
 def test_a_budget_too_short_for_the_transit_is_refused():
-    from missionplan.gridmap import MapError
+    from missionplan.maps.gridmap import MapError
 
     model = FlightModel(speed_m_s=5.0, acceptance_m=0.5)
     with pytest.raises(MapError, match="uav2: a sortie cannot fly out"):
@@ -162,7 +162,7 @@ def test_each_sortie_keeps_the_separation_started_together(leonardo_sorties):
 
 
 def test_fly_flies_a_later_sortie_against_the_mock(leonardo_sorties):
-    from missionplan.fly import fly, start_mock_fleet
+    from missionplan.flight.fly import fly, start_mock_fleet
 
     out, _ = leonardo_sorties
     mock = start_mock_fleet(out, speedup=2.0)
@@ -282,7 +282,7 @@ def test_reported_clearance_is_a_true_lower_bound_against_the_buffered_buildings
 
 
 def test_clearance_band_is_exact_for_cell_centres():
-    from missionplan.clearance import clearance_band
+    from missionplan.mission.clearance import clearance_band
 
     obstacle = np.zeros((9, 9), dtype=bool)
     obstacle[4, 4] = True
@@ -301,8 +301,8 @@ def test_a_launch_point_inside_the_clearance_band_is_refused(tmp_path, capsys):
 
 
 def test_band_targets_are_photographed_by_detours_that_stay_outside_the_band():
-    from missionplan.clearance import clearance_band, flight_map, footprint_union, photograph_band
-    from missionplan.gridmap import GridMap
+    from missionplan.mission.clearance import clearance_band, flight_map, footprint_union, photograph_band
+    from missionplan.maps.gridmap import GridMap
 
     # A 30 x 30 open square with a wall; a 3 m clearance on 1 m cells bands three cells round the wall.
     obstacle = np.zeros((30, 30), dtype=bool)
@@ -325,7 +325,7 @@ def test_band_targets_are_photographed_by_detours_that_stay_outside_the_band():
 
 # --------------------------------------------------------------------------------- zones and sorties
 def test_balanced_zones_follow_the_shares_asked():
-    from missionplan.zones import split_zones
+    from missionplan.grid.zones import split_zones
 
     targets = np.ones((40, 40), dtype=bool)
     zones = split_zones(targets, targets, [(5, 5), (34, 34)], balance=True, shares=np.array([0.65, 0.35]))
@@ -337,7 +337,7 @@ def test_balanced_zones_follow_the_shares_asked():
 
 
 def test_sortie_shares_give_the_slower_drone_fewer_cells_and_none_without_sorties():
-    from missionplan.sorties import sortie_shares
+    from missionplan.mission.sorties import sortie_shares
 
     # Same cells, but drone 2 needs 1.5 x the time (its sorties transit far): it gets 40 %.
     shares = sortie_shares(np.array([100, 100]), np.array([1000.0, 1500.0]), np.array([3, 4]))
@@ -347,7 +347,7 @@ def test_sortie_shares_give_the_slower_drone_fewer_cells_and_none_without_sortie
 
 
 def test_an_older_report_without_a_file_list_names_its_drones_files(tmp_path):
-    from missionplan.outputs import remove_stale_outputs
+    from missionplan.mission.outputs import remove_stale_outputs
 
     (tmp_path / "report.json").write_text(json.dumps({"drones": [{"id": 1}, {"id": 3}]}))
     for name in ("uav1.plan", "uav3.plan", "uav3.waypoints", "tracks.geojson", "mine.plan"):
@@ -362,7 +362,7 @@ def test_an_older_report_without_a_file_list_names_its_drones_files(tmp_path):
 
 def test_a_fence_round_a_ragged_zone_stays_small_and_holds_every_point():
     from geo.frame import GridFrame
-    from missionplan.geofence import MAX_VERTICES, drone_fence
+    from missionplan.mission.geofence import MAX_VERTICES, drone_fence
 
     frame = GridFrame.at(45.0, 7.0, 2.0, 100, 100)
     rng = np.random.default_rng(1)

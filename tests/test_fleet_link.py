@@ -14,7 +14,7 @@ from bridge.mission import Flavour
 from bridge.mock import MockAutopilot
 from bridge.readiness import Vehicle, VehicleState, launch_offset_m, request_streams, site_problem, stream_rates
 from bridge.shared_link import SharedLink, parse_connects
-from missionplan import flight_report as fr
+from missionplan.flight import flight_report as fr
 
 MILAN = (45.4643, 9.1895, 120.0)
 

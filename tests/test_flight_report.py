@@ -1,4 +1,4 @@
-"""missionplan.flight_report: coverage rule, photo positions from CAMERA_FEEDBACK (and without it),
+"""missionplan.flight.flight_report: coverage rule, photo positions from CAMERA_FEEDBACK (and without it),
 the vehicle clock and the time-scale estimate, on synthetic recordings in a small GridFrame."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import pytest
 
 from bridge.mission import WireItem
 from geo.frame import GridFrame
-from missionplan import flight_report as fr
-from missionplan.flight_report import DroneRecord
+from missionplan.flight import flight_report as fr
+from missionplan.flight.flight_report import DroneRecord
 
 CELL = 4.0
 EARTH = 6_378_137.0

@@ -12,8 +12,8 @@ from bridge.mission import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND, CMD_NAV_RET
 from bridge.missionfile import read_mission_file
 from bridge import copter_model as cm
 from missionplan.cli import main
-from missionplan.flight_report import frame_of, to_grid_m
-from missionplan.timeline import FlightModel, planned_seconds
+from missionplan.flight.flight_report import frame_of, to_grid_m
+from missionplan.mission.timeline import FlightModel, planned_seconds
 
 
 def _timeline_of_file(out: Path, report: dict, sysid: int) -> float:
@@ -218,10 +218,10 @@ def test_area_file_of_the_wrong_type_is_named(tmp_path, capsys):
 
 
 def test_plan_files_read_back_to_exactly_the_built_missions(tmp_path):
-    from missionplan.catalog import load_shipped
-    from missionplan.flightplan import make_flight_plans, write_flight_files
-    from missionplan.georef import shipped_frame
-    from missionplan.missions import MissionSettings
+    from missionplan.maps.catalog import load_shipped
+    from missionplan.mission.flightplan import make_flight_plans, write_flight_files
+    from missionplan.mission.georef import shipped_frame
+    from missionplan.mission.missions import MissionSettings
     from missionplan.pipeline import plan_map
 
     gmap = load_shipped("leonardo")

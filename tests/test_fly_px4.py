@@ -21,8 +21,8 @@ from bridge.mission import Flavour
 from bridge.readiness import (MSG_EKF_STATUS_REPORT, MSG_EXTENDED_SYS_STATE, VehicleState, px4_mode,
                               stream_rates)
 from missionplan.cli import main
-from missionplan.fly import fly, start_mock_fleet
-from missionplan.timeline import FlightModel, planned_seconds
+from missionplan.flight.fly import fly, start_mock_fleet
+from missionplan.mission.timeline import FlightModel, planned_seconds
 
 SPEEDUP = 10.0
 AREA = [[9.1890, 45.4640], [9.1905, 45.4640], [9.1905, 45.4648], [9.1890, 45.4648], [9.1890, 45.4640]]

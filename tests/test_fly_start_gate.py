@@ -5,7 +5,7 @@ from __future__ import annotations
 import threading
 import time
 
-from missionplan.fly import _StartGate
+from missionplan.flight.fly import _StartGate
 
 
 def _ready(gate: _StartGate, released: list[float]) -> threading.Thread:

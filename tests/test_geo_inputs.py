@@ -11,7 +11,7 @@ from shapely.geometry import Polygon
 
 from geo.errors import GeoError
 from geo.readers import read_area, read_buildings, read_features, read_polygons
-from missionplan.gridmap import MapError, load_map
+from missionplan.maps.gridmap import MapError, load_map
 
 OUTER = [[7.650, 45.060], [7.660, 45.060], [7.660, 45.070], [7.650, 45.070], [7.650, 45.060]]
 

@@ -1,6 +1,6 @@
 import pytest
 
-from missionplan.gridmap import GridMap, MapError, format_map, load_map, parse_map, save_map
+from missionplan.maps.gridmap import GridMap, MapError, format_map, load_map, parse_map, save_map
 
 TEXT = """# a hand-written map
 name: tiny

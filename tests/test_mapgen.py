@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from missionplan.gridmap import GridMap, format_map, load_map
-from missionplan.mapgen import LAUNCH_COUNT, SHIPPED, georeference, parse_rect
+from missionplan.maps.gridmap import GridMap, format_map, load_map
+from missionplan.maps.mapgen import LAUNCH_COUNT, SHIPPED, georeference, parse_rect
 
 MAPS_DIR = Path(__file__).resolve().parent.parent / "maps"
 
@@ -40,10 +40,10 @@ def test_every_expected_map_has_a_generator():
 @pytest.mark.parametrize("name", NAMES)
 def test_shipped_file_matches_its_generator(name):
     path = MAPS_DIR / f"{name}.map"
-    assert path.is_file(), f"{path} is missing: run `python -m missionplan.mapgen`"
+    assert path.is_file(), f"{path} is missing: run `python -m missionplan.maps.mapgen`"
     assert format_map(load_map(path)) == format_map(georeference(generated(name))), \
-        f"{path} is stale: run `python -m missionplan.mapgen`"
-    assert "python -m missionplan.mapgen" in path.read_text(encoding="utf-8").splitlines()[0]
+        f"{path} is stale: run `python -m missionplan.maps.mapgen`"
+    assert "python -m missionplan.maps.mapgen" in path.read_text(encoding="utf-8").splitlines()[0]
 
 
 @pytest.mark.parametrize("name", NAMES)

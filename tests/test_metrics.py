@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from missionplan.metrics import (SteadyStateSampler, compute_metrics, mdu_stride, mean_distance_to_nearest,
+from missionplan.grid.metrics import (SteadyStateSampler, compute_metrics, mdu_stride, mean_distance_to_nearest,
                                  mean_pairwise_distance, move_count, turn_sum)
 
 

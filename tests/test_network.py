@@ -4,15 +4,15 @@ import numpy as np
 import pytest
 import torch
 
-from missionplan.dataset import build_dataset
-from missionplan.demos import play_single
-from missionplan.expert import ExpertPolicy
-from missionplan.features import STATE_SIZE, encode_states, transform_actions, transform_states
-from missionplan.network import (SHIPPED_WEIGHTS, NeuralPolicy, PolicyNet, count_parameters, load_weights,
+from missionplan.learn.dataset import build_dataset
+from missionplan.learn.demos import play_single
+from missionplan.grid.expert import ExpertPolicy
+from missionplan.learn.features import STATE_SIZE, encode_states, transform_actions, transform_states
+from missionplan.learn.network import (SHIPPED_WEIGHTS, NeuralPolicy, PolicyNet, count_parameters, load_weights,
                                  save_weights)
-from missionplan.trainmaps import training_maps
-from missionplan.training import fit
-from missionplan.world import CoverageWorld
+from missionplan.learn.trainmaps import training_maps
+from missionplan.learn.training import fit
+from missionplan.grid.world import CoverageWorld
 
 
 def test_feature_length_and_parameter_count():

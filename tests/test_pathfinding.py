@@ -1,8 +1,8 @@
 import numpy as np
 from scipy.sparse.csgraph import breadth_first_order, shortest_path
 
-from missionplan.pathfinding import CONGESTION_RADIUS, FlightSearch, astar, explorative_astar, find_goal
-from missionplan.zones import grid_graph
+from missionplan.grid.pathfinding import CONGESTION_RADIUS, FlightSearch, astar, explorative_astar, find_goal
+from missionplan.grid.zones import grid_graph
 
 
 def maze(seed=3, size=31):

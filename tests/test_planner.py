@@ -2,10 +2,10 @@
 
 import numpy as np
 
-from missionplan.expert import ExpertPolicy, sequence_tables
-from missionplan.gridmap import GridMap
-from missionplan.planner import Planner
-from missionplan.world import DOWN, HOVER, RIGHT, UP, CoverageWorld
+from missionplan.grid.expert import ExpertPolicy, sequence_tables
+from missionplan.maps.gridmap import GridMap
+from missionplan.grid.planner import Planner
+from missionplan.grid.world import DOWN, HOVER, RIGHT, UP, CoverageWorld
 from replay_check import replay
 
 

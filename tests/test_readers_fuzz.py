@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 
 from geo.errors import GeoError
 from geo.readers import read_area, read_buildings, read_features, read_osm_buildings, read_polygons
-from missionplan.gridmap import MapError, load_map, parse_map
+from missionplan.maps.gridmap import MapError, load_map, parse_map
 
 FUZZ = settings(max_examples=int(os.environ.get("MISSIONPLAN_FUZZ_EXAMPLES", "150")), deadline=None, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])

@@ -8,9 +8,9 @@ import json
 
 import pytest
 
-from missionplan.catalog import load_shipped, shipped_map_names
+from missionplan.maps.catalog import load_shipped, shipped_map_names
 from missionplan.pipeline import plan_map
-from missionplan.report import build_report
+from missionplan.mission.report import build_report
 from replay_check import replay
 
 SHIPPED = ["leonardo", "grid-city", "old-town", "river-city"]

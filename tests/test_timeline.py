@@ -1,4 +1,4 @@
-"""missionplan.timeline: planned missions as timed 3-D tracks, and the closest approach of timed tracks."""
+"""missionplan.mission.timeline: planned missions as timed 3-D tracks, and the closest approach of timed tracks."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 
 from bridge import copter_model as cm
 from bridge.copter_model import CopterParams, Motion
-from missionplan.timeline import FlightModel, closest_approach, planned_seconds, planned_track
+from missionplan.mission.timeline import FlightModel, closest_approach, planned_seconds, planned_track
 
 LAUNCH = np.array([10.0, 20.0])
 # Two waypoints due "south" of the launch point along the row axis: a straight survey line.

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from missionplan.gridmap import GridMap
-from missionplan.mapgen import MIN_STREET_WIDTH
-from missionplan.trainmaps import MIN_TARGETS, SHIPPED_SEEDS, random_city, training_maps
+from missionplan.maps.gridmap import GridMap
+from missionplan.maps.mapgen import MIN_STREET_WIDTH
+from missionplan.learn.trainmaps import MIN_TARGETS, SHIPPED_SEEDS, random_city, training_maps
 
 COUNT = 12
 

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from missionplan.gridmap import GridMap, MapError
-from missionplan.world import DOWN, HOVER, LEFT, RIGHT, UP, CoverageWorld, reachable_targets
+from missionplan.maps.gridmap import GridMap, MapError
+from missionplan.grid.world import DOWN, HOVER, LEFT, RIGHT, UP, CoverageWorld, reachable_targets
 
 
 def open_map(rows=20, cols=30, launch=((10, 10), (10, 11))):

@@ -3,8 +3,8 @@ import pytest
 from scipy import ndimage
 from scipy.sparse.csgraph import shortest_path
 
-from missionplan import zones
-from missionplan.zones import balanced_by_passes, grid_graph, nearest_seed, split_zones
+from missionplan.grid import zones
+from missionplan.grid.zones import balanced_by_passes, grid_graph, nearest_seed, split_zones
 
 
 def two_banks(rows=40, cols=60):

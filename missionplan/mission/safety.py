@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 from dataclasses import dataclass
 
-from .gridmap import GridMap, MapError
+from ..maps.gridmap import GridMap, MapError
 from .separation import DEFAULT_MAX_ALTITUDE_M, DEFAULT_MIN_SEPARATION_M
 from .sorties import DEFAULT_ENDURANCE_MIN, DEFAULT_RESERVE
 

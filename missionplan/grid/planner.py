@@ -35,7 +35,7 @@ from typing import Protocol, Sequence
 import numpy as np
 from tqdm import tqdm
 
-from .gridmap import Cell
+from ..maps.gridmap import Cell
 from .metrics import SteadyStateSampler, compute_metrics, mdu_stride
 from .pathfinding import FlightSearch, astar, explorative_astar, find_goal
 from .world import ACTION_DELTAS, HOVER, PAD, CoverageWorld

@@ -22,8 +22,8 @@ import dataclasses
 import numpy as np
 from scipy import ndimage
 
-from .gridmap import GridMap, MapError
-from .world import FOOTPRINT_RADIUS
+from ..grid.world import FOOTPRINT_RADIUS
+from ..maps.gridmap import GridMap, MapError
 
 
 def band_structure(clearance_cells: float) -> np.ndarray:

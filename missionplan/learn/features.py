@@ -38,7 +38,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .world import ACTION_DELTAS, HOVER, PAD, VIEW_RADIUS, CoverageWorld
+from ..grid.world import ACTION_DELTAS, HOVER, PAD, VIEW_RADIUS, CoverageWorld
 
 VIEW_SIDE = 2 * VIEW_RADIUS + 1  # 19
 VIEW_CELLS = VIEW_SIDE * VIEW_SIDE - 1  # 360: the centre (the drone itself) is left out

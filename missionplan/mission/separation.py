@@ -1,6 +1,6 @@
 """Separation by construction: the altitude layers that keep every two drones --min-separation apart.
 
-The guarantee is measured on the timeline `fly` judges a flight against (missionplan.timeline: all
+The guarantee is measured on the timeline `fly` judges a flight against (missionplan.mission.timeline: all
 drones of a sortie start together, climb at their launch points, fly straight legs at the cruise
 speed, return and descend), over the whole flight: take-off, survey, return and landing. Sortie J
 of every drone is one flight (`fly --sortie J` starts them together), so each sortie is measured
@@ -22,7 +22,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .gridmap import MapError
+from ..maps.gridmap import MapError
 from .timeline import closest_approach
 
 DEFAULT_MIN_SEPARATION_M = 5.0

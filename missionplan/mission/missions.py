@@ -90,7 +90,7 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
 
     `waypoints_latlon` (n, 2) are the corrected waypoints; `waypoints_m` the same points in
     a local metric frame and `launch_m` the launch point there, for lengths and photo counts.
-    `flight_s` is the planned duration (missionplan.timeline); without it, length over cruise speed.
+    `flight_s` is the planned duration (missionplan.mission.timeline); without it, length over cruise speed.
     """
     altitude = settings.altitude_of(drone)
     end = settings.end if end is None else end

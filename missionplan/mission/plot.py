@@ -12,7 +12,7 @@ import numpy as np  # noqa: E402
 from matplotlib.colors import ListedColormap  # noqa: E402
 
 from bridge.atomic import atomic_path  # noqa: E402
-from .planresult import PlanResult  # noqa: E402
+from ..grid.planresult import PlanResult  # noqa: E402
 
 TRACK_COLOURS = plt.get_cmap("tab10").colors
 

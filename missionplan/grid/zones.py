@@ -37,7 +37,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import shortest_path
 
-from .gridmap import Cell
+from ..maps.gridmap import Cell
 
 ZONE_METHODS = ("geodesic", "euclidean")
 DEFAULT_ZONE_METHOD = "geodesic"

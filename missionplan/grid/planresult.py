@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .gridmap import Cell, GridMap
+from ..maps.gridmap import Cell, GridMap
 from .planner import PlanRun
 from .world import CoverageWorld
 from .zones import Zones

@@ -23,11 +23,11 @@ from typing import Sequence
 import numpy as np
 from tqdm import tqdm
 
-from .expert import ExpertPolicy
+from ..grid.expert import ExpertPolicy
+from ..grid.planner import Planner, Policy
+from ..grid.world import CoverageWorld
+from ..maps.gridmap import GridMap
 from .features import STATE_SIZE, encode_states
-from .gridmap import GridMap
-from .planner import Planner, Policy
-from .world import CoverageWorld
 
 
 @dataclass

@@ -18,7 +18,7 @@ from geo.errors import GeoError
 from geo.frame import GridFrame
 from geo.readers import Building, read_area, read_buildings, read_polygons
 
-from .gridmap import GridMap
+from ..maps.gridmap import GridMap
 from .missions import MissionSettings
 
 

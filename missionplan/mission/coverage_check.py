@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
+from ..grid.world import reachable_targets
+from ..maps.gridmap import Cell, GridMap
 from .clearance import clearance_band
-from .gridmap import Cell, GridMap
-from .world import reachable_targets
 
 UNREACHABLE_WARN_FRACTION = 0.05  # warn when more than this share of all targets is unreachable
 SMALL_SHARE_FRACTION = 0.2  # warn about a drone whose share is under this fraction of the mean

@@ -27,7 +27,7 @@ import numpy as np
 
 from bridge import copter_model as cm
 
-from .gridmap import MapError
+from ..maps.gridmap import MapError
 from .timeline import FlightModel
 
 DEFAULT_ENDURANCE_MIN = 20.0

@@ -24,7 +24,7 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
-from .gridmap import Cell
+from ..maps.gridmap import Cell
 
 EXPLORED_PENALTY = 0.5
 CONGESTION_RADIUS = 4  # goals within this Chebyshev distance of another drone's goal are skipped

@@ -7,7 +7,7 @@ drone, and `NeuralPolicy.action_scores` runs one forward pass per step for all t
 that ask.
 
 Weights file: a torch `state_dict` saved with `torch.save` (about 430 kB). The shipped
-one is `missionplan/weights/policy.pt`; `missionplan train` writes the same format.
+one is `missionplan/learn/weights/policy.pt`; `missionplan train` writes the same format.
 """
 
 from __future__ import annotations
@@ -20,8 +20,8 @@ import torch
 from torch import nn
 
 from bridge.atomic import atomic_path
+from ..grid.world import CoverageWorld
 from .features import STATE_SIZE, encode_states
-from .world import CoverageWorld
 
 HIDDEN_UNITS = 280
 NUM_ACTIONS = 4

@@ -21,7 +21,7 @@ all-free 3 x 3 square (streets at least `MIN_STREET_WIDTH` wide); there are at l
 `MIN_TARGETS` targets. Free cells that are not targets are parks (reachable, flown over)
 or walled-in courtyards (unreachable pockets).
 
-`python -m missionplan.trainmaps preview.png [seed] [count]` draws some of them.
+`python -m missionplan.learn.trainmaps preview.png [seed] [count]` draws some of them.
 """
 
 from __future__ import annotations
@@ -32,13 +32,13 @@ from collections.abc import Callable
 import numpy as np
 from scipy import ndimage
 
-from . import mapgen
-from .gridmap import Cell, GridMap
-from .mapgen import (FREE, MIN_STREET_WIDTH, OBSTACLE, TARGET, Rect, bent_polyline, clear_street_specks,
-                     clear_thin_walls, drop_unreachable_targets, enforce_min_street_width, fill_rect,
-                     gaps_between, jittered_lattice, lattice_edges, launch_candidates, main_component,
-                     merge_with_neighbour, paint_lane_network, paint_polyline, paint_squares, street_intervals)
-from .world import FOOTPRINT_RADIUS
+from ..maps import mapgen
+from ..maps.gridmap import Cell, GridMap
+from ..maps.mapgen import (FREE, MIN_STREET_WIDTH, OBSTACLE, TARGET, Rect, bent_polyline, clear_street_specks,
+                           clear_thin_walls, drop_unreachable_targets, enforce_min_street_width, fill_rect,
+                           gaps_between, jittered_lattice, lattice_edges, launch_candidates, main_component,
+                           merge_with_neighbour, paint_lane_network, paint_polyline, paint_squares, street_intervals)
+from ..grid.world import FOOTPRINT_RADIUS
 
 MIN_TARGETS = 200
 MIN_TARGET_FRACTION = 0.15  # below this most of the painted city was cut off: paint another
@@ -433,7 +433,7 @@ def random_city(rng: np.random.Generator, shape: tuple[int, int], *, name: str =
     clear_thin_walls(kind)
     clear_street_specks(kind)
     towers(kind, rng, int(rng.choice(4, p=(0.45, 0.3, 0.15, 0.1))))
-    meta = {"title": f"Random {style} city", "cell_m": CELL_M, "generator": "missionplan.trainmaps.random_city",
+    meta = {"title": f"Random {style} city", "cell_m": CELL_M, "generator": "missionplan.learn.trainmaps.random_city",
             "style": style, "streets": ",".join(map(str, sorted(set(WIDTH_SETS[width_set])))),
             "extras": ",".join(extras) or "none"}
     return finish(name, kind, rng, meta)
@@ -476,7 +476,7 @@ def city_crop(rng: np.random.Generator, source: str, *, name: str) -> GridMap:
     if best is None or best_targets < MIN_TARGETS:
         raise ValueError(f"no window of {source} seed {seed} holds {MIN_TARGETS} reachable targets")
     kind, turn = turned(best, rng)
-    meta = {"title": f"Crop of {source} (seed {seed})", "cell_m": CELL_M, "generator": "missionplan.mapgen",
+    meta = {"title": f"Crop of {source} (seed {seed})", "cell_m": CELL_M, "generator": "missionplan.maps.mapgen",
             "source": source, "seed": str(seed), "window": window, "turn": turn}
     return finish(name, kind, rng, meta)
 
@@ -573,7 +573,7 @@ def draw_preview(maps: list[GridMap], path: str) -> None:
 
 if __name__ == "__main__":
     if len(sys.argv) < 2:
-        sys.exit("usage: python -m missionplan.trainmaps PREVIEW.png [SEED] [COUNT]")
+        sys.exit("usage: python -m missionplan.learn.trainmaps PREVIEW.png [SEED] [COUNT]")
     preview_seed = int(sys.argv[2]) if len(sys.argv) > 2 else 0
     preview_count = int(sys.argv[3]) if len(sys.argv) > 3 else 12
     draw_preview(training_maps(preview_seed, preview_count), sys.argv[1])

@@ -2,9 +2,9 @@
 
 `train_policy` is the whole job behind `missionplan train`:
 
-1. demonstrations: the expert covers the training maps alone (missionplan.trainmaps),
-   every decision recorded (missionplan.demos);
-2. dataset: x8 augmentation, cleaning, 75 / 15 / 10 split (missionplan.dataset);
+1. demonstrations: the expert covers the training maps alone (missionplan.learn.trainmaps),
+   every decision recorded (missionplan.learn.demos);
+2. dataset: x8 augmentation, cleaning, 75 / 15 / 10 split (missionplan.learn.dataset);
 3. fit: mini-batch Adam on the categorical cross-entropy, early stopping on the
    validation loss (the best epoch's weights are kept);
 4. DAgger (beyond the thesis): the trained network covers the same maps, the expert labels
@@ -27,14 +27,14 @@ import torch
 from torch import nn
 from tqdm import tqdm
 
+from ..grid.expert import ExpertPolicy
+from ..grid.planner import Planner, Policy
+from ..grid.world import CoverageWorld
+from ..maps.gridmap import GridMap
 from .dataset import Dataset, Split, build_dataset
 from .demos import Demonstrations, collect
-from .expert import ExpertPolicy
-from .gridmap import GridMap
 from .network import NeuralPolicy, PolicyNet, count_parameters
-from .planner import Planner, Policy
 from .trainmaps import training_maps
-from .world import CoverageWorld
 
 DEFAULT_SEED = 0
 DEFAULT_MAPS = 60

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from bridge.atomic import write_text_atomic
-from .planresult import PlanResult
+from ..grid.planresult import PlanResult
 
 
 def build_report(result: PlanResult, seed: int) -> dict[str, Any]:

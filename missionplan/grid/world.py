@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from .gridmap import Cell, GridMap, MapError
+from ..maps.gridmap import Cell, GridMap, MapError
 
 # Actions in the order the network's outputs use: Up, Right, Down, Left.
 UP, RIGHT, DOWN, LEFT = 0, 1, 2, 3

@@ -21,16 +21,16 @@ from bridge.missionfile import PlanFile, write_mission_file
 from geo.frame import GridFrame
 
 from bridge.atomic import write_text_atomic
+from ..grid.planresult import PlanResult
+from ..grid.world import FOOTPRINT_RADIUS
+from ..maps.gridmap import GridMap, MapError
 from .corrector import MARGIN_CELLS, CorrectedPath, correct_path
 from .geofence import Fence, drone_fence
-from .gridmap import GridMap, MapError
 from .missions import DroneMission, MissionSettings, build_mission
-from .planresult import PlanResult
 from .safety import SafetySettings
 from .separation import Layering, SeparationError, choose_layers, closest_over_sorties, position_at
 from .sorties import Sortie, sortie_file, split_sorties
 from .timeline import ASSUMES, PX4_ASSUMES, FlightModel, closest_approach, planned_track
-from .world import FOOTPRINT_RADIUS
 
 SORTIE_FIT_TRIES = 6  # re-cuts of a drone's sorties when one came out over the budget on the timeline
 
@@ -70,7 +70,7 @@ class FlightPlans:
 
     def clearance(self, gmap: GridMap, frame: GridFrame) -> dict[str, Any]:
         """report.json's `clearance`: each drone's smallest horizontal distance from an obstacle cell over
-        all its sorties (missionplan.clearance) on `gmap` (the map as given, without the clearance band),
+        all its sorties (missionplan.mission.clearance) on `gmap` (the map as given, without the clearance band),
         the asked margin, and where the closest track is."""
         from .clearance import obstacle_shape, track_clearance
 
@@ -176,7 +176,7 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
     With `safety`: routes longer than the endurance become sorties, the altitude layers are chosen so
     the separation holds (SeparationError names the pair and the place otherwise), each drone gets a
     geofence. Without it: one mission per drone at the altitudes of `settings`, nothing enforced.
-    `base`: the map as given when the planner flew it with a clearance band (missionplan.clearance): the
+    `base`: the map as given when the planner flew it with a clearance band (missionplan.mission.clearance): the
     corrector keeps the clearance from its obstacles and every target the grid path photographed."""
     paths = result.run.paths
     base = result.gmap if base is None else base

@@ -26,7 +26,7 @@ def cmd_demo(args: argparse.Namespace, plan_command: Any, plan_parser: argparse.
     from .fly import fly, print_flight, start_mock_fleet
 
     if args.speedup <= 0:
-        from .gridmap import MapError
+        from ..maps.gridmap import MapError
 
         raise MapError(f"--speedup must be positive, got {args.speedup}")
     quiet = args.quiet or not sys.stderr.isatty()

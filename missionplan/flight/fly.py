@@ -55,8 +55,8 @@ from bridge.readiness import (DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_MISSIO
 from bridge.shared_link import LinkPool
 from bridge.uploader import MissionBackend, open_backend, read_back_differences, set_plan_params, upload_plan
 
+from ..mission.sorties import sortie_file
 from .flight_report import DroneRecord, FlightResult, judge, sortie_view
-from .sorties import sortie_file
 
 CMD_DO_SET_MODE, CMD_MISSION_START = 176, 300
 CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_LAND = 20, 21

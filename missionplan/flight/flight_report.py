@@ -34,11 +34,11 @@ from scipy.spatial import cKDTree
 from geo.frame import GridFrame
 
 from bridge.atomic import write_text_atomic
-from .gridmap import GridMap
+from ..maps.gridmap import GridMap
 from bridge.copter_model import CopterParams
 from bridge.px4_model import Px4Params
 
-from .timeline import FlightModel, closest_approach, planned_seconds
+from ..mission.timeline import FlightModel, closest_approach, planned_seconds
 
 COVERAGE_OK = 99.0
 # How much of a cell's side may fall outside the photo that counts for it: a quarter cell, the

@@ -1,0 +1,11 @@
+"""missionplan.maps: the map type and .map format, the shipped maps, their generator.
+
+The maps: the GridMap type and its .map file format, the generated shipped maps, the catalog of maps/.
+
+May import: nothing else from missionplan (the lowest stage); bridge.atomic for atomic writes.
+Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_layers.py).
+
+  catalog         The shipped maps: the `*.map` files in the repository's top-level `maps/` folder.
+  gridmap         The occupancy-grid map and its plain-text file format.
+  mapgen          Generators of the maps that ship with missionplan (`maps/*.map`).
+"""

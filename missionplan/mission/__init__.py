@@ -1,0 +1,33 @@
+"""missionplan.mission: georeferenced missions and the plan's files (.plan, report.json, plan.png).
+
+Georeferenced missions from a grid plan: georeference, corrector, clearance, sorties, altitude
+separation, geofence, timeline, the .plan / .waypoints / geojson files, report.json, plan.png.
+
+May import: missionplan.learn, .grid, .maps; geo; bridge (the mission model, files, copter model).
+Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_layers.py).
+
+  clearance       Clearance from obstacles: the band drones may not fly in, and how far each track
+                  really stays out.
+  corrector       Trajectory corrector: a drone's cell path -> a few waypoints a real drone flies well
+                  (SPEC section 8).
+  coverage_check  Coverage honesty: what a plan covers of ALL the targets, and warnings when that is
+                  much less.
+  flightplan      Grid plan -> smoothed tracks -> missions -> files (`uavK.plan`, `uavK.waypoints`,
+                  `tracks.geojson`).
+  geofence        Each drone's geofence: an inclusion polygon around its whole flight, and a ceiling.
+  georef          Georeferenced inputs for `missionplan plan`: an area file, or a shipped map's own
+                  georeference.
+  missions        From a smoothed track to one MAVLink mission per drone (SPEC section 9).
+  outputs         A plan folder's own files: which ones a previous `plan` wrote there, so a re-plan
+                  leaves none stale.
+  plot            plan.png: zones, every drone's track in its own colour, and how coverage grew.
+  report          report.json: the machine-readable record of a plan, enough to replay and check it.
+  safety          The field-safety settings of a georeferenced plan, from the command line and the map:
+                  one checked value object.
+  separation      Separation by construction: the altitude layers that keep every two drones
+                  --min-separation apart.
+  sorties         Battery sorties: one drone's survey route cut into flights that each fit its
+                  endurance.
+  timeline        Where every drone is when: planned missions as timed 3-D tracks, and the closest
+                  approach of two tracks.
+"""
