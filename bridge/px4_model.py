@@ -99,6 +99,11 @@ def turn_deg(h0: float, h1: float) -> float:
     return abs((h1 - h0 + 180.0) % 360.0 - 180.0)
 
 
+def turn_s(angle_deg: float, p: Px4Params) -> float:
+    """Seconds PX4 spends turning its nose by angle_deg before a leg."""
+    return angle_deg / max(p.yaw_rate, 1e-6) * PX4_TURN_FACTOR
+
+
 def takeoff(ground: tuple[float, float, float], altitude: float, p: Px4Params) -> list[Motion]:
     top = (ground[0], ground[1], ground[2] + altitude)
     return [cm.wait(ground, PX4_SPOOL_S, "spool"), Motion(ground, top, p.tko_speed, p.acc_up, kind="takeoff"),
@@ -116,7 +121,7 @@ def legs(start: tuple[float, float, float], targets: list[tuple[float, float, fl
             continue  # within the acceptance radius already: reached
         new = heading_deg(here, target)
         angle = FIRST_TURN_DEG if heading is None else turn_deg(heading, new)
-        turn = angle / max(p.yaw_rate, 1e-6) * PX4_TURN_FACTOR
+        turn = turn_s(angle, p)
         if turn > 1e-9:
             out.append(cm.wait(here, turn, "turn"))
         out.append(Motion(here, target, max(speed, 0.1), p.acc_hor, kind="leg"))

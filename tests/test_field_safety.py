@@ -116,6 +116,22 @@ def test_split_sorties_keeps_every_sortie_within_the_budget_and_resumes_where_it
     assert total == pytest.approx(float(np.hypot(*np.diff(route, axis=0).T).sum()))
 
 
+def test_split_sorties_on_px4_counts_its_turns_and_fits_the_px4_timeline_uncut():
+    """PX4 turns its nose before every leg: a splitter that timed sorties as ArduCopter flies would
+    cut sorties that the PX4 timeline puts over the budget (flightplan then had to re-cut them with a
+    shrunk budget: more sorties). Timed with PX4's model, every sortie fits as cut, and uses the budget."""
+    model = FlightModel.for_autopilot("px4", speed_m_s=5.0, acceptance_m=0.5)
+    launch = np.array([0.0, 0.0])
+    # A street-like zigzag: 60 legs of 20-40 m, a right-angle turn at each waypoint.
+    route = np.array([[20.0 * (k // 2), 40.0 * (k % 4 in (1, 2))] for k in range(60)])
+    budget = 420.0
+    sorties = split_sorties(launch, route, 20.0, "rtl", model, budget, step_m=10.0)
+    times = [float(planned_track(launch, s.waypoints_m, 20.0, s.end, model)[-1, 0]) for s in sorties]
+    assert len(sorties) >= 3
+    assert max(times) <= budget
+    assert min(times[:-1]) >= 0.8 * budget  # no sortie but the last cut much shorter than it could be
+
+
 def test_a_budget_too_short_for_the_transit_is_refused():
     from missionplan.maps.gridmap import MapError
 

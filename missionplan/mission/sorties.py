@@ -10,10 +10,12 @@ The transit out and the way home do not cross buildings: `home_m(point)` gives t
 caller measures it along free cells, flightplan routes them the same way); by default a straight
 line. The cut is greedy along the route: as many points as fit, where the points are the route's
 waypoints plus every `step_m` along its axis-aligned legs (grid cell centres, so a cut never falls
-where a drone could not be routed from). Times are the timeline's ArduCopter model
-(bridge.copter_model: spool-up and climb, legs from rest to rest, RTL with its loiter and slow final
-descent), with a stop at every cut point too: the sortie flies fewer stops, so the estimate is an
-upper bound of its planned time.
+where a drone could not be routed from). Times are the timeline's model of the plan's autopilot
+(bridge.copter_model for ArduCopter: spool-up and climb, legs from rest to rest, RTL with its loiter
+and slow final descent; bridge.px4_model for PX4: the same plus a turn of the nose before every leg,
+PX4's RTL and landing), with a stop at every cut point too, and on PX4 a half turn where a sortie's
+survey starts: the sortie flies fewer stops and smaller turns, so the estimate is an upper bound of
+its planned time.
 
 Metres in the grid frame throughout (row axis, column axis), as the timeline uses.
 """
@@ -26,6 +28,7 @@ from typing import Callable
 import numpy as np
 
 from bridge import copter_model as cm
+from bridge import px4_model
 
 from ..maps.gridmap import MapError
 from .timeline import FlightModel
@@ -69,12 +72,29 @@ def _flight_s(start_home_m: float, survey_s: float, end_home_m: float, altitude:
               model: FlightModel) -> float:
     """Upper bound of one sortie's duration: take-off, transit out (one leg), `survey_s` seconds of
     survey, the way home and the landing (RTL) or the landing (LAND)."""
+    if model.px4 is not None:
+        return _px4_flight_s(start_home_m, survey_s, end_home_m, altitude, end, model)
     p = model.copter
     t = cm.total_time(cm.takeoff((0.0, 0.0, 0.0), altitude, p))
     t += cm.leg((0.0, 0.0, altitude), (start_home_m, 0.0, altitude), model.speed_m_s, p).duration
     if end == "rtl":
         return t + survey_s + cm.total_time(cm.rtl((end_home_m, 0.0, altitude), (0.0, 0.0, 0.0), p))
     return t + survey_s + cm.total_time(cm.landing((0.0, 0.0, altitude), 0.0, p))
+
+
+def _px4_flight_s(start_home_m: float, survey_s: float, end_home_m: float, altitude: float, end: str,
+                  model: FlightModel) -> float:
+    """_flight_s as PX4 flies: its take-off, the transit with its first turn, a half turn onto the
+    survey (its direction is not known here), PX4's RTL or landing."""
+    p = model.px4
+    assert p is not None
+    top = (0.0, 0.0, altitude)
+    t = cm.total_time(px4_model.takeoff((0.0, 0.0, 0.0), altitude, p))
+    t += cm.total_time(px4_model.legs(top, [(start_home_m, 0.0, altitude)], model.speed_m_s, p)[0])
+    t += px4_model.turn_s(180.0, p)
+    if end == "rtl":
+        return t + survey_s + cm.total_time(px4_model.rtl((end_home_m, 0.0, altitude), (0.0, 0.0, 0.0), p))
+    return t + survey_s + cm.total_time(px4_model.landing((0.0, 0.0, altitude), 0.0, p))
 
 
 def _densify(route: np.ndarray, step_m: float | None) -> tuple[np.ndarray, np.ndarray]:
@@ -104,17 +124,23 @@ def _merge(points: np.ndarray, own: np.ndarray) -> np.ndarray:
 def _survey_timer(points: np.ndarray, own: np.ndarray, model: FlightModel) -> Callable[[int, int], float]:
     """survey_s(i, j): seconds to fly points[i] -> points[j] along the route, stopping (rest to rest)
     at the route's own waypoints and at both ends, as the copter flies a sortie cut there. The cut
-    points inserted by `_densify` lie on straight legs and are no stops in between."""
+    points inserted by `_densify` lie on straight legs and are no stops in between. On PX4 every own
+    waypoint passed also costs its turn (the turn onto the first leg is _flight_s's)."""
     def leg_s(length: float) -> float:
         if length <= 0.0:
             return 0.0
+        if model.px4 is not None:
+            return cm.Motion((0.0, 0.0, 0.0), (float(length), 0.0, 0.0), max(model.speed_m_s, 0.1),
+                             model.px4.acc_hor, kind="leg").duration
         return cm.leg((0.0, 0.0, 0.0), (float(length), 0.0, 0.0), model.speed_m_s, model.copter).duration
 
     arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))]) if len(points) > 1 \
         else np.zeros(len(points))
     own_at = np.flatnonzero(own)
-    # Seconds from the first own waypoint to each own waypoint, one rest-to-rest leg at a time.
-    own_s = np.concatenate([[0.0], np.cumsum([leg_s(b - a) for a, b in zip(arc[own_at][:-1], arc[own_at][1:])])])
+    turn = _turns_s(points[own_at], model)  # turn[m]: seconds turning at own waypoint m onto the next leg
+    # Seconds from the first own waypoint to each own waypoint, one rest-to-rest leg (and its turn) at a time.
+    own_s = np.concatenate([[0.0], np.cumsum([leg_s(b - a) + (turn[m] if m > 0 else 0.0) for m, (a, b)
+                                              in enumerate(zip(arc[own_at][:-1], arc[own_at][1:]))])])
     rank = np.cumsum(own) - 1  # index into own_at of the last own waypoint at or before each point
 
     def survey_s(i: int, j: int) -> float:
@@ -124,10 +150,24 @@ def _survey_timer(points: np.ndarray, own: np.ndarray, model: FlightModel) -> Ca
         before_j = rank[j]  # last own waypoint at or before j
         if after_i > before_j:  # both on one straight leg
             return leg_s(arc[j] - arc[i])
+        tail = arc[j] - arc[own_at[before_j]]
         return (leg_s(arc[own_at[after_i]] - arc[i]) + float(own_s[before_j] - own_s[after_i])
-                + leg_s(arc[j] - arc[own_at[before_j]]))
+                + leg_s(tail) + (turn[before_j] if tail > 0.0 else 0.0))
 
     return survey_s
+
+
+def _turns_s(waypoints: np.ndarray, model: FlightModel) -> np.ndarray:
+    """Seconds turning at each waypoint onto the leg after it: zero on ArduCopter (the timeline has no
+    turn); on PX4 the angle between the legs in and out at MPC_YAWRAUTO_MAX, the first and last none."""
+    turns = np.zeros(len(waypoints))
+    if model.px4 is None or len(waypoints) < 3:
+        return turns
+    legs = np.diff(waypoints, axis=0)
+    heading = np.degrees(np.arctan2(legs[:, 1], legs[:, 0]))
+    angle = np.abs((np.diff(heading) + 180.0) % 360.0 - 180.0)
+    turns[1:-1] = [px4_model.turn_s(float(a), model.px4) for a in angle]
+    return turns
 
 
 def split_sorties(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: float, end: str,
