@@ -110,6 +110,12 @@ def takeoff(ground: tuple[float, float, float], altitude: float, p: Px4Params) -
             cm.wait(top, PX4_TAKEOFF_SETTLE_S, "settle")]
 
 
+def leg(here: tuple[float, float, float], target: tuple[float, float, float], speed: float,
+        p: Px4Params) -> Motion:
+    """One straight leg from rest to rest (the turn before it is legs()'s)."""
+    return Motion(here, target, max(speed, 0.1), p.acc_hor, kind="leg")
+
+
 def legs(start: tuple[float, float, float], targets: list[tuple[float, float, float]], speed: float,
          p: Px4Params, heading: float | None = None) -> tuple[list[Motion], float | None]:
     """Each leg from rest to rest after turning to it; (motions, the heading at the end). `heading`
@@ -124,7 +130,7 @@ def legs(start: tuple[float, float, float], targets: list[tuple[float, float, fl
         turn = turn_s(angle, p)
         if turn > 1e-9:
             out.append(cm.wait(here, turn, "turn"))
-        out.append(Motion(here, target, max(speed, 0.1), p.acc_hor, kind="leg"))
+        out.append(leg(here, target, speed, p))
         here, heading = target, new
     return out, heading
 

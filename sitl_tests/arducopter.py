@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import signal
 import socket
 import subprocess
 import tempfile
@@ -33,6 +32,7 @@ import time
 from pathlib import Path
 
 import pytest
+from loopback import stop_process_group
 
 REPO = Path(__file__).resolve().parent.parent
 SITL_DIR = REPO.parent / "shared" / "sitl"
@@ -193,19 +193,7 @@ class ArduCopter:
         proc, self.proc = self.proc, None
         if proc is None:
             return
-        if proc.poll() is None:
-            for sig, wait in ((signal.SIGTERM, 3.0), (signal.SIGKILL, 3.0)):
-                try:
-                    os.killpg(proc.pid, sig)
-                except ProcessLookupError:
-                    break
-                try:
-                    proc.wait(wait)
-                    break
-                except subprocess.TimeoutExpired:
-                    continue
-        else:
-            proc.wait()
+        stop_process_group(proc)
         if self.workdir is not None:
             shutil.rmtree(self.workdir, ignore_errors=True)
 

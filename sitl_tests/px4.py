@@ -40,7 +40,6 @@ import errno
 import fcntl
 import os
 import shutil
-import signal
 import socket
 import subprocess
 import tempfile
@@ -49,6 +48,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 import pytest
+from loopback import stop_process_group
 
 REPO = Path(__file__).resolve().parent.parent
 PX4_DIR = REPO.parent / "shared" / "px4"
@@ -271,21 +271,8 @@ class PX4:
     def _kill(self) -> None:
         """Kill the whole process group: SIGTERM, then SIGKILL."""
         proc, self.proc = self.proc, None
-        if proc is None:
-            return
-        if proc.poll() is None:
-            for sig, wait in ((signal.SIGTERM, 3.0), (signal.SIGKILL, 3.0)):
-                try:
-                    os.killpg(proc.pid, sig)
-                except ProcessLookupError:
-                    break
-                try:
-                    proc.wait(wait)
-                    break
-                except subprocess.TimeoutExpired:
-                    continue
-        else:
-            proc.wait()
+        if proc is not None:
+            stop_process_group(proc)
 
     def stop(self) -> None:
         """Kill the process group, then remove its folder."""

@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 
 from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
-from loopback import free_udp_port
+from loopback import armed_ever, free_udp_port
 
 from bridge.link import wait_vehicle
 from bridge.missionfile import read_mission_file
@@ -37,7 +37,6 @@ OTHER_LAUNCHES = ("45.0657,7.6520", "45.0657,7.6527", "45.0657,7.6533")  # Turin
 FLY_TIMEOUT_S = 420.0
 TELEMETRY_HZ = 10.0
 CMD_PREFLIGHT_REBOOT = 246
-MODE_FLAG_ARMED = 128
 
 
 def _plan(tmp_path: Path, name: str, ring: list[list[float]], launches: tuple[str, ...]) -> Path:
@@ -73,20 +72,6 @@ def _configure_camera(url: str) -> None:
             view = shared.vehicle(sysid)
             result = view.command_long(sysid, CMD_PREFLIGHT_REBOOT, [1.0], time.monotonic() + 10.0)
             assert result == 0, f"vehicle {sysid} refused the reboot (MAV_RESULT {result})"
-
-
-def _armed_ever(url: str, seconds: float) -> set[int]:
-    """System ids whose HEARTBEAT says armed at any time within `seconds` (a listener on the port)."""
-    armed: set[int] = set()
-    with SharedLink(url) as shared:
-        views = {sysid: shared.vehicle(sysid) for sysid in SYSIDS}
-        deadline = time.monotonic() + seconds
-        while time.monotonic() < deadline:
-            for sysid, view in views.items():
-                msg = view.recv(time.monotonic() + 0.05)
-                if msg is not None and msg.get_type() == "HEARTBEAT" and msg.base_mode & MODE_FLAG_ARMED:
-                    armed.add(sysid)
-    return armed
 
 
 def test_three_vehicles_on_one_udpin_port_fly_the_plan(arducopter, tmp_path, capsys) -> None:  # noqa: F811
@@ -134,4 +119,4 @@ def test_a_plan_for_another_site_arms_no_vehicle(arducopter, tmp_path, capsys) -
     site = [p for p in doc["problems"] if "site check failed" in p]
     assert len(site) == 3 and all(" km from the plan's launch point" in p for p in site), doc["problems"]
     assert "left disarmed" in out, out
-    assert _armed_ever(url, 3.0) == set()  # and none armed after fly gave up either
+    assert armed_ever(url, SYSIDS, 3.0) == set()  # and none armed after fly gave up either

@@ -17,13 +17,12 @@ Skipped with a reason when ../shared/px4/bin/px4 is absent.
 from __future__ import annotations
 
 import json
-import time
 from pathlib import Path
 
+from loopback import armed_ever
 from px4 import GCS_URL, px4, px4_or_skip  # noqa: F401  (the fixture)
 
 from bridge.missionfile import read_mission_file
-from bridge.shared_link import SharedLink
 from missionplan.cli import main
 
 SYSIDS = (1, 2, 3)
@@ -35,7 +34,6 @@ OTHER_LAUNCHES = ("45.0657,7.6520", "45.0657,7.6527", "45.0657,7.6533")  # Turin
 CAMERA = {"TRIG_MODE": 4, "TRIG_INTERFACE": 3}  # boot parameters: the camera modules start only at boot
 FLY_TIMEOUT_S = 480.0
 TELEMETRY_HZ = 10.0
-MODE_FLAG_ARMED = 128
 HOME_ALT_M = 120.0
 
 
@@ -60,20 +58,6 @@ def _fleet(px4, homes_from: Path) -> None:  # noqa: F811
     """Instances 0-2 (system ids 1-3), each at its plan's launch point, camera set at boot."""
     for sysid in SYSIDS:
         px4(instance=sysid - 1, home=_home(homes_from, sysid), params=CAMERA)
-
-
-def _armed_ever(url: str, seconds: float) -> set[int]:
-    """System ids whose HEARTBEAT says armed at any time within `seconds` (a listener on the port)."""
-    armed: set[int] = set()
-    with SharedLink(url) as shared:
-        views = {sysid: shared.vehicle(sysid) for sysid in SYSIDS}
-        deadline = time.monotonic() + seconds
-        while time.monotonic() < deadline:
-            for sysid, view in views.items():
-                msg = view.recv(time.monotonic() + 0.05)
-                if msg is not None and msg.get_type() == "HEARTBEAT" and msg.base_mode & MODE_FLAG_ARMED:
-                    armed.add(sysid)
-    return armed
 
 
 def test_three_px4_vehicles_on_one_udpin_port_fly_the_plan(px4, tmp_path, capsys) -> None:  # noqa: F811
@@ -114,4 +98,4 @@ def test_a_plan_for_another_site_arms_no_px4_vehicle(px4, tmp_path, capsys) -> N
     site = [p for p in doc["problems"] if "site check failed" in p]
     assert len(site) == 3 and all(" km from the plan's launch point" in p for p in site), doc["problems"]
     assert "left disarmed" in out, out
-    assert _armed_ever(GCS_URL, 3.0) == set()  # and none armed after fly gave up either
+    assert armed_ever(GCS_URL, SYSIDS, 3.0) == set()  # and none armed after fly gave up either

@@ -11,6 +11,7 @@ arming; and flew a plan for another site.
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -39,14 +40,6 @@ def plan_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return base / "plan"
 
 
-def _fresh(plan_dir: Path, tmp_path: Path) -> Path:
-    out = tmp_path / "plan"
-    out.mkdir()
-    for path in plan_dir.iterdir():
-        (out / path.name).write_bytes(path.read_bytes())
-    return out
-
-
 def _launch(plan_dir: Path, sysid: int) -> tuple[float, float, float]:
     lat, lon, alt = read_mission_file(plan_dir / f"uav{sysid}.plan").mission.home
     return float(lat), float(lon), float(alt)
@@ -58,7 +51,7 @@ def _fleet(port: int, homes: dict[int, tuple[float, float, float]]) -> list[Mock
 
 
 def test_a_fleet_on_one_udpin_port_waits_until_ready_and_flies(plan_dir, tmp_path, capsys) -> None:
-    plan = _fresh(plan_dir, tmp_path)
+    plan = Path(shutil.copytree(plan_dir, tmp_path / "plan"))
     port = free_udp_port()
     mocks = _fleet(port, {k: _launch(plan, k) for k in SYSIDS})
     try:
@@ -78,7 +71,7 @@ def test_a_fleet_on_one_udpin_port_waits_until_ready_and_flies(plan_dir, tmp_pat
 
 
 def test_a_fleet_on_several_ports_each_vehicle_found_by_its_heartbeat(plan_dir, tmp_path, capsys) -> None:
-    plan = _fresh(plan_dir, tmp_path)
+    plan = Path(shutil.copytree(plan_dir, tmp_path / "plan"))
     ports = [free_udp_port(), free_udp_port()]
     homes = {k: _launch(plan, k) for k in SYSIDS}
     mocks = [MockAutopilot(f"udpout:127.0.0.1:{ports[0] if k < 3 else ports[1]}", sysids=[k], homes={k: homes[k]},
@@ -98,7 +91,7 @@ def test_a_fleet_on_several_ports_each_vehicle_found_by_its_heartbeat(plan_dir, 
 
 
 def test_swapped_system_ids_arm_no_vehicle(plan_dir, tmp_path, capsys) -> None:
-    plan = _fresh(plan_dir, tmp_path)
+    plan = Path(shutil.copytree(plan_dir, tmp_path / "plan"))
     homes = {k: _launch(plan, k) for k in SYSIDS}
     homes[1], homes[2] = homes[2], homes[1]  # vehicles 1 and 2 stand at each other's launch points
     port = free_udp_port()
@@ -124,7 +117,7 @@ def test_swapped_system_ids_arm_no_vehicle(plan_dir, tmp_path, capsys) -> None:
 
 
 def test_a_vehicle_that_never_gets_ready_is_named_with_its_reasons(plan_dir, tmp_path, capsys) -> None:
-    plan = _fresh(plan_dir, tmp_path)
+    plan = Path(shutil.copytree(plan_dir, tmp_path / "plan"))
     port = free_udp_port()
     # Never ready; 2 s of wall time are 60 simulated seconds, in which ArduPilot repeats its PreArm reason.
     mock = MockAutopilot(f"udpout:127.0.0.1:{port}", sysids=list(SYSIDS),

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -115,14 +116,6 @@ def milan_plan(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out / "plan"
 
 
-def _copy(plan: Path, tmp_path: Path) -> Path:
-    copy = tmp_path / "plan"
-    copy.mkdir()
-    for path in plan.iterdir():
-        copy.joinpath(path.name).write_bytes(path.read_bytes())
-    return copy
-
-
 def _fly_px4_mocks(plan_dir: Path, cameras: bool = True, photos_from_track: bool = False, **options: object):
     mock = start_mock_fleet(plan_dir, SPEEDUP, flavour="px4", cameras=cameras, **options)
     try:
@@ -134,7 +127,7 @@ def _fly_px4_mocks(plan_dir: Path, cameras: bool = True, photos_from_track: bool
 
 
 def test_fly_judges_a_px4_fleet_by_its_camera_image_captured_reports(milan_plan, tmp_path) -> None:
-    plan_dir = _copy(milan_plan, tmp_path)
+    plan_dir = Path(shutil.copytree(milan_plan, tmp_path / "plan"))
     # Not ready for 20 simulated seconds: arming is refused TEMPORARILY_REJECTED, fly retries.
     result, doc, mock = _fly_px4_mocks(plan_dir, gps_fix_after=20.0, streams_until_asked=True)
     assert result.ok, doc["problems"]
@@ -149,7 +142,7 @@ def test_fly_judges_a_px4_fleet_by_its_camera_image_captured_reports(milan_plan,
 
 
 def test_a_px4_fleet_without_trig_mode_reports_no_photo(milan_plan, tmp_path) -> None:
-    plan_dir = _copy(milan_plan, tmp_path)
+    plan_dir = Path(shutil.copytree(milan_plan, tmp_path / "plan"))
     result, doc, _ = _fly_px4_mocks(plan_dir, cameras=False)
     assert not result.ok and doc["photos_from"] == "none"
     assert all("no CAMERA_IMAGE_CAPTURED" in p and "TRIG_MODE" in p for p in doc["problems"]), doc["problems"]

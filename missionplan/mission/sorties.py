@@ -130,8 +130,7 @@ def _survey_timer(points: np.ndarray, own: np.ndarray, model: FlightModel) -> Ca
         if length <= 0.0:
             return 0.0
         if model.px4 is not None:
-            return cm.Motion((0.0, 0.0, 0.0), (float(length), 0.0, 0.0), max(model.speed_m_s, 0.1),
-                             model.px4.acc_hor, kind="leg").duration
+            return px4_model.leg((0.0, 0.0, 0.0), (float(length), 0.0, 0.0), model.speed_m_s, model.px4).duration
         return cm.leg((0.0, 0.0, 0.0), (float(length), 0.0, 0.0), model.speed_m_s, model.copter).duration
 
     arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))]) if len(points) > 1 \
@@ -163,10 +162,9 @@ def _turns_s(waypoints: np.ndarray, model: FlightModel) -> np.ndarray:
     turns = np.zeros(len(waypoints))
     if model.px4 is None or len(waypoints) < 3:
         return turns
-    legs = np.diff(waypoints, axis=0)
-    heading = np.degrees(np.arctan2(legs[:, 1], legs[:, 0]))
-    angle = np.abs((np.diff(heading) + 180.0) % 360.0 - 180.0)
-    turns[1:-1] = [px4_model.turn_s(float(a), model.px4) for a in angle]
+    points = [(float(x), float(y), 0.0) for x, y in waypoints]
+    heading = [px4_model.heading_deg(a, b) for a, b in zip(points[:-1], points[1:])]
+    turns[1:-1] = [px4_model.turn_s(px4_model.turn_deg(h0, h1), model.px4) for h0, h1 in zip(heading[:-1], heading[1:])]
     return turns
 
 
