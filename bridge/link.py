@@ -55,6 +55,11 @@ AUTOPILOT_COMPONENT_ID = 1
 MAV_TYPE_GCS = 6
 MAV_STATE_BOOT = 1
 REBOOT_JUMP = 0.25  # seconds; more than a late packet's delay, less than any reboot
+# The messages whose time_boot_ms is when they were sent (a sample of a stream), so a clock that starts
+# again in them means a reboot. Others carry the time of what they report (PX4: a setpoint's or a
+# photo's time, SCALED_PRESSURE 0.17 s late on SIH), which may be seconds old: PX4 SIH was once taken
+# for rebooted at its mission start.
+CLOCK_MESSAGES = frozenset({"GLOBAL_POSITION_INT", "ATTITUDE", "LOCAL_POSITION_NED", "SYSTEM_TIME"})
 COMMAND_TRIES = 5    # COMMAND_LONG sends before giving up
 COMMAND_WAIT_S = 0.5  # for its COMMAND_ACK, each time
 MAV_RESULT_ACCEPTED = 0
@@ -312,6 +317,8 @@ class Link:
             if booting and self._status.get(sysid, MAV_STATE_BOOT) != MAV_STATE_BOOT:
                 self.reboots[sysid] = self.reboots.get(sysid, 0) + 1
             self._status[sysid] = int(msg.system_status)
+            return
+        if msg.get_type() not in CLOCK_MESSAGES:
             return
         boot_ms = getattr(msg, "time_boot_ms", None)
         if boot_ms is None:

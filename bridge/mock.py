@@ -103,14 +103,16 @@ class MockAutopilot:
                  upload_timeout: float | None = None, homes: dict[int, tuple[float, float, float]] | None = None,
                  cruise_speed: float = 5.0, max_items: int = 10_000,
                  clock: Callable[[], float] | None = None, gps_fix_after: float = 0.0,
-                 streams_until_asked: bool = False, sitl_like: bool = False) -> None:
+                 streams_until_asked: bool = False, sitl_like: bool = False,
+                 mission_check_s: float | None = None) -> None:
         """clock: the vehicles' wall clock (seconds since 1970) for signing timestamps; default time.time.
         gps_fix_after: simulated seconds until each vehicle has a GPS fix, EKF, home and lets itself be
         armed (ArduCopter SITL: 35-40); streams_until_asked: no telemetry but HEARTBEAT until
         SET_MESSAGE_INTERVAL asks for it (ArduPilot's default). Both together: a SITL-like fleet.
         sitl_like: each vehicle also behaves like ArduCopter SITL in flight (mock_vehicle's module doc):
         no camera until CAM1_TYPE is set and the vehicle rebooted (configure_camera), img_idx from 1
-        across flights, ArduCopter's navigation parameters and flight."""
+        across flights, ArduCopter's navigation parameters and flight. mission_check_s (PX4): simulated
+        seconds after a mission upload during which MISSION_START is DENIED ("No valid mission")."""
         if str(listen).strip().lower() == "pty":
             self.spec = ConnectionSpec("pty", baud=57600)
         else:
@@ -145,7 +147,8 @@ class MockAutopilot:
             options = VehicleOptions(flavour=self.flavour, home=home, request_interval=request_interval,
                                      upload_timeout=upload_timeout, speedup=speedup, cruise_speed=cruise_speed,
                                      max_items=max_items, gps_fix_after=gps_fix_after,
-                                     streams_until_asked=streams_until_asked, sitl_like=sitl_like)
+                                     streams_until_asked=streams_until_asked, sitl_like=sitl_like,
+                                     mission_check_s=mission_check_s)
             encoder = mavlink.MAVLink(_Writer(self), srcSystem=sysid, srcComponent=1)
             apply_key(encoder, key, link_id=index, clock=clock)
             self.vehicles[sysid] = MockVehicle(sysid, options, encoder, now)

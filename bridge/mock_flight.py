@@ -394,6 +394,11 @@ class FlightSim:
         north, east = self._to_local(self.state.lat, self.state.lon)
         return north, east, self.state.alt
 
+    @property
+    def motion_kind(self) -> str | None:
+        """The kind (copter_model.Motion.kind) of the flight-model motion flown now; None between motions."""
+        return self._motions[0].kind if self._motions else None
+
     def _run_motions(self, key: tuple[object, ...], build: Callable[[], list[cm.Motion]],
                      dt: float) -> tuple[float, bool]:
         """Fly the motions `build` makes (made once per key: an item entered, a mode set) for up to dt

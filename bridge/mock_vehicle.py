@@ -52,7 +52,7 @@ from .mission import (
 )
 from .mock_flight import FlightEvent, FlightSim
 from .px4 import (GEOFENCE_WITHOUT_HOME, MIS_DIST_1WP_DEFAULT, START_DENIED, fence_problems, item_result, px4_stored,
-                  start_refusals)
+                  reported_reached, start_refusals)
 
 # MAV_MISSION_RESULT values the vehicle answers with.
 ACCEPTED, ERROR, UNSUPPORTED_FRAME, UNSUPPORTED, NO_SPACE = 0, 1, 2, 3, 4
@@ -74,7 +74,12 @@ MSG_SYS_STATUS, MSG_GPS_RAW_INT, MSG_GLOBAL_POSITION_INT, MSG_MISSION_CURRENT = 
 MSG_EKF_STATUS_REPORT, MSG_HOME_POSITION, MSG_EXTENDED_SYS_STATE = 193, 242, 245
 STREAMS = (MSG_SYS_STATUS, MSG_GPS_RAW_INT, MSG_GLOBAL_POSITION_INT, MSG_MISSION_CURRENT, MSG_EKF_STATUS_REPORT,
            MSG_HOME_POSITION, MSG_EXTENDED_SYS_STATE)
-MAV_LANDED_STATE_ON_GROUND, MAV_LANDED_STATE_IN_AIR = 1, 2
+MAV_LANDED_STATE_ON_GROUND, MAV_LANDED_STATE_IN_AIR, MAV_LANDED_STATE_TAKEOFF, MAV_LANDED_STATE_LANDING = 1, 2, 3, 4
+# Flight-model motions (copter_model.Motion.kind) during which PX4 reports taking off, and landing
+# (SIH: taking off from "Takeoff detected" to the take-off altitude; landing from "RTL: land at
+# destination" until "Landing detected").
+TAKING_OFF_KINDS = frozenset({"spool", "takeoff", "settle"})
+LANDING_KINDS = frozenset({"descent", "land", "touchdown"})
 SENSOR_PREARM_CHECK = 0x1000_0000  # MAV_SYS_STATUS_PREARM_CHECK
 # EKF_STATUS_REPORT flags as ArduCopter SITL reports them: before its GPS is used (attitude, velocity,
 # vertical position, constant-position mode) and after (absolute and relative position, predicted too).
@@ -84,6 +89,10 @@ NOT_READY_TEXTS = ("PreArm: Need Position Estimate", "Arm: Need Alt Estimate", "
 # PX4 SIH's answer to arming before "Ready for takeoff!": TEMPORARILY_REJECTED and these (the first
 # is 51 characters: PX4 sends it as two STATUSTEXT chunks with one id).
 PX4_NOT_READY_TEXTS = ("Arming denied: Resolve system health failures first", "Preflight Fail: horizontal velocity unstable")
+# PX4 SIH refused a MISSION_START sent right after the upload with "No valid mission" (1 vehicle in 12):
+# it takes the new mission after its own checks. How long is not visible on the link; half a second here.
+PX4_MISSION_CHECK_S = 0.5
+PX4_MISSION_MODE_REFUSED = "Switching to Mission is currently not available"  # AUTO.MISSION asked meanwhile
 PX4_CAMERA_PARAM, ARDUPILOT_CAMERA_PARAM = "TRIG_MODE", "CAM1_TYPE"  # read at boot: the camera reports only then
 MAV_SEVERITY_CRITICAL, MAV_SEVERITY_INFO = 2, 6
 CMD_GET_HOME_POSITION = 410
@@ -110,13 +119,19 @@ class VehicleOptions:
     cruise_speed: float = 5.0
     telemetry_hz: float = 4.0
     sitl_like: bool = False  # ArduCopter SITL's camera, image index, parameters and flight (see the module doc)
+    # PX4: simulated seconds after a mission upload until PX4 has checked it (its navigator's feasibility
+    # check, then commander's health checks): a MISSION_START before then is DENIED, "No valid mission".
+    # None: PX4_MISSION_CHECK_S when sitl_like, else 0.
+    mission_check_s: float | None = None
 
     def resolved(self) -> VehicleOptions:
         ardupilot = self.flavour is Flavour.ARDUPILOT
         return replace(self,
                        request_interval=self.request_interval or (1.0 if ardupilot else 0.25),
                        upload_timeout=self.upload_timeout or (8.0 if ardupilot else 5.0),
-                       legacy_requests=ardupilot if self.legacy_requests is None else self.legacy_requests)
+                       legacy_requests=ardupilot if self.legacy_requests is None else self.legacy_requests,
+                       mission_check_s=(self.mission_check_s if self.mission_check_s is not None
+                                        else PX4_MISSION_CHECK_S if self.sitl_like and not ardupilot else 0.0))
 
 
 @dataclass
@@ -139,6 +154,7 @@ class MockVehicle:
         self.mav = encoder  # pymavlink MAVLink with srcSystem=sysid, srcComponent=1, writing to the mock's link
         self.reboots = 0
         self.uploads_completed = 0
+        self.mission_checked_at = 0.0  # PX4: MISSION_START is refused before then (VehicleOptions.mission_check_s)
         self.uploads_failed = 0
         self.reboot_after_items: int | None = None
         self.reboot_offline = 0.3
@@ -306,11 +322,16 @@ class MockVehicle:
 
     def _landed_state(self) -> int:
         s = self.flight.state
+        kind = self.flight.motion_kind if s.armed else None
+        if kind in TAKING_OFF_KINDS:
+            return MAV_LANDED_STATE_TAKEOFF
+        if kind in LANDING_KINDS:
+            return MAV_LANDED_STATE_LANDING
         on_ground = s.on_ground and not (s.armed and s.mode == "AUTO" and not s.mission_done)
         return MAV_LANDED_STATE_ON_GROUND if on_ground else MAV_LANDED_STATE_IN_AIR
 
     def _send_landed_state(self) -> None:
-        """EXTENDED_SYS_STATE, as PX4 streams it: on the ground or in the air."""
+        """EXTENDED_SYS_STATE, as PX4 streams it: on the ground, taking off, in the air or landing."""
         self._landed_sent = self._landed_state()
         self.mav.extended_sys_state_send(0, self._landed_sent)
 
@@ -422,7 +443,11 @@ class MockVehicle:
                 self._send_mission_current(event.seq)  # each change, even several in one step
             elif event.kind == "reached":
                 self.reached.append(event.seq)
-                self.mav.mission_item_reached_send(event.seq)
+                seq: int | None = event.seq
+                if self.flavour is Flavour.PX4:  # PX4's own way of reporting it (bridge.px4.reported_reached)
+                    seq = reported_reached([int(item.command) for item in self.flight.items], event.seq)
+                if seq is not None:
+                    self.mav.mission_item_reached_send(seq)
             elif event.kind in ("landed", "done"):
                 self._send_mission_current()
                 self.send_heartbeat()
@@ -481,7 +506,7 @@ class MockVehicle:
             return
         if count == 0:
             self.upload = None
-            self._commit(mission_type, [], peer)
+            self._commit(mission_type, [], peer, now)
             return
         # A new (or repeated) count starts the requests over from item 0.
         self.upload = _Upload(mission_type, count, peer, [], last_sent=now, last_progress=now)
@@ -552,11 +577,11 @@ class MockVehicle:
             return
         if len(up.received) == up.count:
             self.upload = None
-            self._commit(up.mission_type, up.received, peer)
+            self._commit(up.mission_type, up.received, peer, now)
         else:
             self._request(up, now)
 
-    def _commit(self, mission_type: int, items: list[WireItem], peer: tuple[int, int]) -> None:
+    def _commit(self, mission_type: int, items: list[WireItem], peer: tuple[int, int], now: float) -> None:
         """The upload completed: the new list replaces the old one."""
         stored = [self._stored(replace(it, current=0)) for it in items]
         if self.flavour.has_home_item(mission_type):
@@ -566,6 +591,7 @@ class MockVehicle:
         self.uploads_completed += 1
         self.last_completed = (mission_type, len(items), peer)
         if mission_type == MissionType.MISSION:
+            self.mission_checked_at = now + (self.options.mission_check_s or 0.0) / self.options.speedup
             s = self.flight.state
             s.current = self.first_mission_seq
             s.mission_done = False
@@ -671,9 +697,9 @@ class MockVehicle:
 
     # -- commands
     def _on_set_mode(self, msg: Any, peer: tuple[int, int], now: float) -> None:
-        self._apply_mode(int(msg.custom_mode), None)
+        self._apply_mode(int(msg.custom_mode), None, now)
 
-    def _apply_mode(self, custom: int, px4_sub: int | None) -> bool:
+    def _apply_mode(self, custom: int, px4_sub: int | None, now: float) -> bool:
         if self.flavour is Flavour.ARDUPILOT:
             names = {v: k for k, v in ARDUPILOT_MODES.items()}
             name = names.get(custom)
@@ -687,6 +713,9 @@ class MockVehicle:
         s = self.flight.state
         if name == "AUTO":
             if len(self.stores[MissionType.MISSION]) <= self.first_mission_seq:
+                return False
+            if self.flavour is Flavour.PX4 and now < self.mission_checked_at:  # not checked yet
+                self._send_text(PX4_MISSION_MODE_REFUSED)
                 return False
             s.mode = "AUTO"
             s.mission_done = False
@@ -724,12 +753,12 @@ class MockVehicle:
             self.send_heartbeat()
             return CMD_ACCEPTED
         if command == 176:  # DO_SET_MODE
-            ok = self._apply_mode(int(p[1]), int(p[2]) if self.flavour is not Flavour.ARDUPILOT else None)
+            ok = self._apply_mode(int(p[1]), int(p[2]) if self.flavour is not Flavour.ARDUPILOT else None, now)
             return CMD_ACCEPTED if ok else CMD_DENIED
         if command == 300:  # MISSION_START
             if len(self.stores[MissionType.MISSION]) <= self.first_mission_seq:
                 return CMD_DENIED
-            if self.start_refusals():  # PX4's mission feasibility checks (bridge.px4)
+            if self.start_refusals() or now < self.mission_checked_at:  # PX4's mission checks (bridge.px4)
                 self._send_text(START_DENIED)
                 return CMD_DENIED
             if not s.armed:

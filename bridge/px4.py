@@ -10,7 +10,10 @@ Owns PX4's rules, as data and pure functions, for the mock's PX4 flavour and for
   vehicle's home - the cause of issue 16's refusals (a vehicle started elsewhere, e.g. at SIH's
   default home in Montreal). PX4 gives the same answer to any start before it is ready;
 - fence_problems: a geofence that leaves the vehicle's home out ("Geofence invalid, doesn't contain
-  Home position"): PX4 then ignores it and still starts the mission, unfenced.
+  Home position"): PX4 then ignores it and still starts the mission, unfenced;
+- reported_reached / reached_item / reported_items: which MISSION_ITEM_REACHED PX4 sends when it
+  reaches an item (none for a take-off or a final RTL; a waypoint's report usually carries the seq of
+  the DO_ items right after it), and back from a report to the item it is about.
 Each problem is PX4's own console / STATUSTEXT line.
 Everything here was measured (sitl_tests/px4_session.py, docs/px4-missions.md).
 
@@ -187,3 +190,37 @@ def start_refusals(mission: list[WireItem], home: tuple[float, float],
         if distance >= dist_1wp:
             problems.append(f"First waypoint too far away: {int(distance)}m, {int(dist_1wp)} max")
     return problems
+
+
+CMD_NAV_TAKEOFF, CMD_NAV_RETURN_TO_LAUNCH = 22, 20
+NAV_LAST = 95  # MAV_CMD_NAV_LAST: commands up to it are navigation items, DO_ / CONDITION_ ones after it
+UNREPORTED = frozenset({CMD_NAV_TAKEOFF, CMD_NAV_RETURN_TO_LAUNCH})
+
+
+def reported_reached(commands: list[int], seq: int) -> int | None:
+    """The seq of the MISSION_ITEM_REACHED PX4 sends when it reaches mission item `seq` (`commands`:
+    the mission's commands by seq), or None when it sends none. Measured on SIH v1.15.4 flying our
+    missions (sitl_tests/test_fleet_px4.py): nothing for the NAV_TAKEOFF nor for the final RTL (it
+    lands and disarms without one); a waypoint is reported only after PX4 has run the DO_ items that
+    follow it, with the last of their seqs (waypoint 3, DO_SET_CAM_TRIGG_DIST 4: "reached 4")."""
+    if not 0 <= seq < len(commands) or commands[seq] in UNREPORTED:
+        return None
+    while seq + 1 < len(commands) and commands[seq + 1] > NAV_LAST:
+        seq += 1
+    return seq
+
+
+def reached_item(commands: list[int], reported: int) -> int:
+    """The navigation item a MISSION_ITEM_REACHED with seq `reported` is about: the last one at or before
+    it. PX4 sends either the waypoint's own seq or, once it has run the DO_ items after it, the last of
+    theirs (SIH: waypoint 11 of the fleet test came once as "reached 11" then "reached 12", usually as 12)."""
+    seq = min(reported, len(commands) - 1)
+    while seq > 0 and commands[seq] > NAV_LAST:
+        seq -= 1
+    return seq
+
+
+def reported_items(commands: list[int]) -> list[int]:
+    """The navigation items PX4 reports reaching when it flies a whole mission (`commands` by seq), in
+    order: every one but the NAV_TAKEOFF and the final RTL."""
+    return [k for k, command in enumerate(commands) if command <= NAV_LAST and command not in UNREPORTED]

@@ -9,12 +9,15 @@ Owns, for one vehicle on a link (a Link or a bridge.shared_link.VehicleLink):
 - VehicleState: what those messages say (GPS fix, EKF flags, home, pre-arm checks, armed, mode) and
   the vehicle's own STATUSTEXT reasons;
 - wait_ready: until the vehicle has a 3-D GPS fix, a home position, (ArduPilot) an EKF with attitude,
-  velocity and absolute position, and (when it reports them) passing pre-arm checks; bounded, with
-  a line each time what it waits for changes. ArduCopter SITL needs 35-40 simulated seconds;
+  velocity and absolute position, (when it reports them) passing pre-arm checks, and a position
+  estimate that stands still (STEADY_M over STEADY_WINDOW_S: PX4 takes off towards the position it
+  had at the start); bounded, with a line each time what it waits for changes. ArduCopter SITL needs
+  35-40 simulated seconds;
 - launch_offset_m / site_problem: how far the vehicle's home is from the plan's launch point
   (plannedHomePosition): a plan for another site, or two vehicles with swapped system ids;
 - arm: COMPONENT_ARM_DISARM, retried while the vehicle refuses with TEMPORARILY_REJECTED or FAILED
-  (ArduPilot's answer while a pre-arm check still fails), with the reasons it gave;
+  (ArduPilot's answer while a pre-arm check still fails), with the reasons it gave; each try once the
+  vertical velocity estimate is at rest (wait_still: PX4 otherwise believes it is already flying);
 - make_safe: a vehicle that will not fly is left disarmed and out of AUTO, and we say how it was left.
 
 PX4 (learned from the HEARTBEAT's autopilot field): its modes are custom modes with a main mode in
@@ -31,6 +34,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -71,6 +75,23 @@ STREAM_NAMES = {MSG_SYS_STATUS: "SYS_STATUS", MSG_GPS_RAW_INT: "GPS_RAW_INT", MS
                 MSG_EKF_STATUS_REPORT: "EKF_STATUS_REPORT", MSG_HOME_POSITION: "HOME_POSITION",
                 MSG_EXTENDED_SYS_STATE: "EXTENDED_SYS_STATE"}
 TEXTS_KEPT = 20
+# A vehicle is ready only once its position estimate stands still on the ground: moved at most STEADY_M
+# over the last STEADY_WINDOW_S of its own clock. Why: PX4 takes off towards where it believed it was at
+# the mission start, and its trajectory generator waits while the vehicle is more than MPC_XY_ERR_MAX
+# (2 m) from it. Right after "Ready for takeoff!" PX4's global position may still converge by metres
+# (SIH: 0.9-2.5 m within 6 s); if it moves 2 m while the vehicle is on the ground, the vehicle, which
+# cannot slide over the ground, sits armed and tilted for minutes (SIH: 220 s) before it climbs. A
+# settled estimate wanders less than 0.8 m in 5 s (SIH's GPS noise).
+STEADY_WINDOW_S = 5.0
+STEADY_M = 1.0
+# Arm only while the vertical velocity estimate is at rest (or after QUIET_WAIT_S anyway). Why: at the
+# start PX4 asks its land detector whether the vehicle already flies; an estimate moving faster than
+# LNDMC_Z_VEL_MAX (0.25 m/s) says yes, and PX4 then flies the take-off as a plain climb, without its
+# take-off ramp (SIH: first waypoint after 11.7 s instead of 18.5 s), and may report a take-off that did
+# not happen. On SIH that estimate wanders by up to 0.9 m/s on the ground, slowly (tenths per second),
+# more the longer after boot: above 0.25 m/s in 0 % of samples before 42 s, 27 % at 46-60 s, 61 % later.
+QUIET_CLIMB_M_S = 0.1
+QUIET_WAIT_S = 15.0
 
 Say = Callable[[str], None]
 
@@ -120,6 +141,10 @@ class VehicleState:
     landed_state: int | None = None   # EXTENDED_SYS_STATE (PX4): 1 on the ground, 2 in the air, 3 taking off, 4 landing
     texts: list[str] = field(default_factory=list)  # STATUSTEXT, oldest first
     new_texts: list[str] = field(default_factory=list)  # not yet said
+    texts_total: int = 0  # how many STATUSTEXT lines have come, all told (texts keeps the last few)
+    # GLOBAL_POSITION_INT of the last STEADY_WINDOW_S and one before: vehicle seconds, lat, lon
+    positions: deque[tuple[float, float, float]] = field(default_factory=deque)
+    climb_m_s: float | None = None  # the latest vertical velocity estimate (up), GLOBAL_POSITION_INT
     _chunks: tuple[int, str, float] | None = None  # a STATUSTEXT waiting for its next chunk: id, text, since
 
     def take(self, msg: Any) -> None:
@@ -142,11 +167,31 @@ class VehicleState:
             self.custom_mode = int(msg.custom_mode)
         elif kind == "EXTENDED_SYS_STATE":
             self.landed_state = int(msg.landed_state)
+        elif kind == "GLOBAL_POSITION_INT":
+            self._position(msg.time_boot_ms / 1000.0, msg.lat / 1e7, msg.lon / 1e7)
+            self.climb_m_s = -msg.vz / 100.0
         if kind == "STATUSTEXT":
             self._statustext(msg)
         elif self._chunks is not None and time.monotonic() - self._chunks[2] > CHUNK_WAIT_S:
             self._said(self._chunks[1])  # its next chunk never came
             self._chunks = None
+
+    def _position(self, t: float, lat: float, lon: float) -> None:
+        if lat == 0.0 and lon == 0.0:
+            return  # no estimate yet (ArduPilot sends zeros until its EKF has an origin)
+        if self.positions and t < self.positions[-1][0]:
+            self.positions.clear()  # the vehicle's clock restarted: a reboot
+        self.positions.append((t, lat, lon))
+        while len(self.positions) > 1 and self.positions[1][0] <= t - STEADY_WINDOW_S:
+            self.positions.popleft()  # the oldest kept is the last one at least a window old
+
+    def position_wander_m(self) -> float | None:
+        """How far the position estimate moved over the last STEADY_WINDOW_S: the farthest of those
+        positions from the newest (None: not reported for that long yet)."""
+        if not self.positions or self.positions[-1][0] - self.positions[0][0] < STEADY_WINDOW_S:
+            return None
+        _, lat, lon = self.positions[-1]
+        return max(ground_distance_m((lat, lon), (a, b)) for _, a, b in self.positions)
 
     def _statustext(self, msg: Any) -> None:
         """One STATUSTEXT, or one chunk of a long one: chunks with the same id (not 0) are joined."""
@@ -168,6 +213,7 @@ class VehicleState:
         text = raw.strip()
         if text:
             self.texts = (self.texts + [text])[-TEXTS_KEPT:]
+            self.texts_total += 1
             self.new_texts.append(text)
 
     @property
@@ -189,6 +235,11 @@ class VehicleState:
             out.append("a home position")
         if self.prearm_ok is False:
             out.append("its pre-arm checks")
+        wander = self.position_wander_m()
+        if wander is None:
+            out.append(f"a position estimate ({STEADY_WINDOW_S:g} s of GLOBAL_POSITION_INT)")
+        elif wander > STEADY_M:
+            out.append(f"a steady position estimate (moving more than {STEADY_M:g} m in {STEADY_WINDOW_S:g} s)")
         return out
 
     def reasons(self, last: int = 3) -> str:
@@ -247,7 +298,8 @@ class Vehicle:
         if self.also is not None:
             self.also(msg)
 
-    def _pump(self, until: float) -> None:
+    def listen(self, until: float) -> None:
+        """Take the vehicle's messages until then."""
         while (msg := self.link.recv(until)) is not None:
             self.take(msg)
 
@@ -276,15 +328,31 @@ class Vehicle:
             if self.state.home is None and now >= next_ask:
                 self._ask_home()  # a vehicle that streams no HOME_POSITION sends it when asked
                 next_ask = now + HOME_ASK_S
-            self._pump(min(deadline, now + 0.25))
+            self.listen(min(deadline, now + 0.25))
+
+    def wait_still(self, deadline: float) -> bool:
+        """Until the vertical velocity estimate is at rest (QUIET_CLIMB_M_S), at most QUIET_WAIT_S or
+        to the deadline; whether it was (a vehicle that reports none counts as at rest)."""
+        until = min(deadline, time.monotonic() + QUIET_WAIT_S)
+        said = False
+        while self.state.climb_m_s is not None and abs(self.state.climb_m_s) > QUIET_CLIMB_M_S:
+            if not said:
+                said = True
+                self.say(f"uav{self.sysid}: waiting for its vertical velocity estimate to settle "
+                         f"({self.state.climb_m_s:+.2f} m/s on the ground) before arming")
+            if time.monotonic() >= until:
+                return False
+            self.listen(min(until, time.monotonic() + 0.1))
+        return True
 
     def arm(self, deadline: float) -> tuple[bool, str]:
         """Arm, retrying while the vehicle says it is not ready yet (TEMPORARILY_REJECTED / FAILED, or
-        no answer); (armed, why not)."""
+        no answer), each time once its vertical velocity estimate is at rest (wait_still); (armed, why not)."""
         last: int | None = None
         tries = 0
         while True:
             tries += 1
+            self.wait_still(deadline)
             result = self.link.command_long(self.sysid, CMD_ARM, [1.0], deadline, other=self.take)
             if result == MAV_RESULT_ACCEPTED:
                 return True, ""
@@ -293,7 +361,7 @@ class Vehicle:
                 break  # DENIED / UNSUPPORTED: asking again will not help
             if time.monotonic() + ARM_RETRY_S >= deadline:
                 break
-            self._pump(time.monotonic() + ARM_RETRY_S)
+            self.listen(time.monotonic() + ARM_RETRY_S)
         what = "not acknowledged" if last is None else f"refused (MAV_RESULT {last})"
         reasons = self.state.reasons()
         return False, f"arming {what} after {tries} tries" + (f"; the vehicle said: {reasons}" if reasons else "")
@@ -320,7 +388,12 @@ class Vehicle:
 
 def launch_offset_m(home: tuple[float, float], planned: tuple[float, float]) -> float:
     """Great-circle distance in metres between the vehicle's home and the plan's launch point."""
-    lat1, lon1, lat2, lon2 = map(math.radians, (home[0], home[1], planned[0], planned[1]))
+    return ground_distance_m(home, planned)
+
+
+def ground_distance_m(p: tuple[float, float], q: tuple[float, float]) -> float:
+    """Great-circle distance in metres between two (lat, lon) in degrees."""
+    lat1, lon1, lat2, lon2 = map(math.radians, (p[0], p[1], q[0], q[1]))
     a = math.sin((lat2 - lat1) / 2) ** 2 + math.cos(lat1) * math.cos(lat2) * math.sin((lon2 - lon1) / 2) ** 2
     return 2 * EARTH_RADIUS_M * math.asin(min(1.0, math.sqrt(a)))
 

@@ -9,8 +9,9 @@ with CAMERA_IMAGE_CAPTURED on the GCS link. `fly` starts right after boot: no sl
 each vehicle itself (PX4 refuses arming, TEMPORARILY_REJECTED, until "Ready for takeoff!").
 
 Required: every drone finishes; flown coverage >= 99 % from the vehicles' own CAMERA_IMAGE_CAPTURED;
-flown time (the vehicles' own clock) within 15 % of the plan; the separation promise kept. And with
-a plan for another site: fly exits non-zero and no vehicle arms.
+flown time (the vehicles' own clock) within 15 % of the plan, with every phase (take-off, survey,
+return, landing: flight.json `phases`) measured and none far over its plan; the separation promise
+kept. And with a plan for another site: fly exits non-zero and no vehicle arms.
 Skipped with a reason when ../shared/px4/bin/px4 is absent.
 """
 
@@ -23,7 +24,10 @@ from loopback import armed_ever
 from px4 import GCS_URL, px4, px4_or_skip  # noqa: F401  (the fixture)
 
 from bridge.missionfile import read_mission_file
+from bridge.px4 import reported_items
 from missionplan.cli import main
+from missionplan.flight.phases import (PX4_LANDED_STATES, PX4_LANDED_STATES_QUICK, landed_states,
+                                      reached_navigation_items, slow_phase)
 
 SYSIDS = (1, 2, 3)
 # The same 120 x 90 m Milan block as the ArduCopter fleet test: about 90 s planned per drone.
@@ -81,8 +85,16 @@ def test_three_px4_vehicles_on_one_udpin_port_fly_the_plan(px4, tmp_path, capsys
     sep = doc["min_separation_m"]
     assert sep["kept"] is True and sep["3d"] >= sep["planned_3d"] - sep["tolerance"], sep
     assert code == 0, (out, doc["problems"])
+    phases = {k: rows[k]["phases"] for k in SYSIDS}  # where the time went, flown and planned
     for k in SYSIDS:  # flown in the vehicle's own time, within 15 % of the plan
-        assert abs(rows[k]["flight_s"] - planned[k]) <= 0.15 * planned[k], summary
+        assert abs(rows[k]["flight_s"] - planned[k]) <= 0.15 * planned[k], (summary, phases)
+        # The landed states the mock's PX4 flavour reports too (tests/test_fly_px4.py), so all four phases
+        # are measured; and none took minutes (a take-off started while the position estimate still moved).
+        assert landed_states(rows[k]) in (PX4_LANDED_STATES, PX4_LANDED_STATES_QUICK), rows[k]["events"]
+        commands = [int(item.command) for item in read_mission_file(plan_dir / f"uav{k}.plan").mission.items]
+        # As the mock's PX4 reports them (tests/test_fly_px4.py): none for the take-off and the final RTL.
+        assert reached_navigation_items(rows[k], commands) == reported_items(commands), rows[k]["events"]
+        assert all(p["flown_s"] is not None for p in phases[k]) and not slow_phase(phases[k]), phases
 
 
 def test_a_plan_for_another_site_arms_no_px4_vehicle(px4, tmp_path, capsys) -> None:  # noqa: F811

@@ -198,3 +198,25 @@ def test_vehicle_clock_of_a_sped_up_simulator_is_brought_to_ours() -> None:
     samples[:, 5] = 5.0 + 10.0 * (ours - 100.0)  # the vehicle's clock runs 10x (SITL --speedup 10)
     assert fr.vehicle_rate(samples) == pytest.approx(10.0, rel=1e-3)
     np.testing.assert_allclose(fr.vehicle_clock(samples), ours + 0.02, atol=0.005)
+
+
+def test_only_a_streams_clock_starting_again_is_a_reboot() -> None:
+    # PX4 sends messages whose time_boot_ms is the time of what they report (a setpoint, a photo),
+    # seconds old: those must not look like a clock that started again. GLOBAL_POSITION_INT's does.
+    from types import SimpleNamespace
+
+    from bridge.link import Link
+
+    link = Link.__new__(Link)  # the boot tracking alone, without a connection
+    link._boot_epoch, link._boot_ms, link._status, link.reboots = {}, {}, {}, {}
+
+    def message(kind: str, boot_ms: int) -> SimpleNamespace:
+        return SimpleNamespace(get_type=lambda: kind, get_srcSystem=lambda: 1, time_boot_ms=boot_ms)
+
+    link._track_boot(message("GLOBAL_POSITION_INT", 43_000))
+    link._track_boot(message("POSITION_TARGET_GLOBAL_INT", 37_000))  # a setpoint from 6 s ago
+    link._track_boot(message("CAMERA_IMAGE_CAPTURED", 40_000))
+    assert link.reboots == {}
+    time.sleep(0.3)
+    link._track_boot(message("GLOBAL_POSITION_INT", 100))  # its clock started again: a reboot
+    assert link.reboots == {1: 1}

@@ -19,10 +19,13 @@ import pytest
 from bridge import copter_model as cm
 from bridge import px4_model as pm
 from bridge.mission import Flavour
+from bridge.missionfile import read_mission_file
+from bridge.px4 import reported_items
 from bridge.readiness import (MSG_EKF_STATUS_REPORT, MSG_EXTENDED_SYS_STATE, VehicleState, px4_mode,
                               stream_rates)
 from missionplan.cli import main
 from missionplan.flight.fly import fly, start_mock_fleet
+from missionplan.flight.phases import PX4_LANDED_STATES, landed_states, reached_items, reached_navigation_items
 from missionplan.mission.timeline import FlightModel, planned_seconds
 
 SPEEDUP = 10.0
@@ -139,6 +142,16 @@ def test_fly_judges_a_px4_fleet_by_its_camera_image_captured_reports(milan_plan,
         assert "MPC_XY_CRUISE" in row["vehicle_params"]
         assert row["flight_s"] == pytest.approx(row["planned_flight_s_vehicle"], rel=0.05), row
         assert not any("streams not accepted" in note for note in row["notes"]), row["notes"]
+        # Where the time went: PX4's landed states bound the four phases, each as the PX4 model plans it.
+        # sitl_tests/test_fleet_px4.py asserts the same sequence of landed states from PX4 SIH.
+        assert landed_states(row) == PX4_LANDED_STATES, row["events"]
+        # As PX4 reports them: the DO_ items' seq after a waypoint, nothing for the take-off and the RTL.
+        assert reached_items(row)[:2] == [4, 6], row["events"]
+        commands = [int(item.command) for item in read_mission_file(plan_dir / f"uav{row['id']}.plan").mission.items]
+        assert reached_navigation_items(row, commands) == reported_items(commands), row["events"]
+        assert [p["phase"] for p in row["phases"]] == ["take-off", "survey", "return", "landing"]
+        for phase in row["phases"]:
+            assert phase["flown_s"] == pytest.approx(phase["planned_s"], rel=0.05, abs=1.0), row["phases"]
 
 
 def test_a_px4_fleet_without_trig_mode_reports_no_photo(milan_plan, tmp_path) -> None:
@@ -147,3 +160,15 @@ def test_a_px4_fleet_without_trig_mode_reports_no_photo(milan_plan, tmp_path) ->
     assert not result.ok and doc["photos_from"] == "none"
     assert all("no CAMERA_IMAGE_CAPTURED" in p and "TRIG_MODE" in p for p in doc["problems"]), doc["problems"]
     assert all(row["finished"] for row in doc["drones"])
+
+
+def test_a_px4_start_refused_while_px4_checks_the_new_mission_is_retried(milan_plan, tmp_path) -> None:
+    # PX4 SIH refused a MISSION_START sent right after the upload ("No valid mission"): it takes a new
+    # mission only after its own checks. Here they take 20 simulated seconds (2 s at 10x): fly retries.
+    plan_dir = Path(shutil.copytree(milan_plan, tmp_path / "plan"))
+    result, doc, _ = _fly_px4_mocks(plan_dir, mission_check_s=20.0)
+    assert result.ok, doc["problems"]
+    for row in doc["drones"]:
+        assert row["finished"], row
+        retried = [note for note in row["notes"] if note.startswith("MISSION_START accepted after ")]
+        assert retried and "No valid mission" in retried[0], row["notes"]

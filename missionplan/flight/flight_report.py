@@ -18,6 +18,9 @@ No MAVLink here: fly.py records (DroneRecord), this module judges what was recor
 - Separation: the closest approach of any two recorded tracks (timeline.closest_approach), against
   what the plan promised (report.json `separation`), with a tolerance for what telemetry cannot pin down:
   two acceptance radii, the spread of the mission start times, and one telemetry interval of flight.
+- Times: flight_s on the vehicle's own clock, next to the plan (and the plan re-timed with the
+  vehicle's parameters, mission_motions); per drone its phases and events (phases.py: where the
+  time went).
 - flight.png: the grid with covered and missed targets, the flown tracks, and flight time per drone.
 """
 
@@ -31,14 +34,14 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
+from bridge.atomic import write_text_atomic
+from bridge.copter_model import CopterParams, Motion, total_time
+from bridge.px4_model import Px4Params
 from geo.frame import GridFrame
 
-from bridge.atomic import write_text_atomic
 from ..maps.gridmap import GridMap
-from bridge.copter_model import CopterParams
-from bridge.px4_model import Px4Params
-
-from ..mission.timeline import FlightModel, closest_approach, planned_seconds
+from ..mission.timeline import FlightModel, closest_approach, planned_motions
+from .phases import event_rows, phase_rows
 
 COVERAGE_OK = 99.0
 # How much of a cell's side may fall outside the photo that counts for it: a quarter cell, the
@@ -66,6 +69,8 @@ class DroneRecord:
     captures: int = 0  # photos the camera says it took (completed_captures / highest img_idx + 1)
     wire: list[Any] = field(default_factory=list)  # the mission as uploaded (bridge.mission.WireItem)
     reached: list[tuple[float, int]] = field(default_factory=list)  # arrival time, seq
+    landed: list[tuple[float, int]] = field(default_factory=list)  # EXTENDED_SYS_STATE landed state, at each change
+    events: list[tuple[float, str]] = field(default_factory=list)  # mode, arming, landed state, STATUSTEXT
     # arrival time, lat, lon, up m, ground speed m/s, the vehicle's time since boot s, climb rate m/s
     samples: list[tuple[float, float, float, float, float, float, float]] = field(default_factory=list)
     camera: dict[int, tuple[float, float, float, float]] = field(default_factory=dict)  # img_idx -> t, lat, lon, up
@@ -186,9 +191,9 @@ def photo_positions(frame: GridFrame, rec: DroneRecord, trigger_m: float,
         return np.zeros((0, 2)), 0, "none"
     # No camera reports, and the user asked for it: a photo every trigger_m along the survey part of the track.
     first, last = _survey_window(rec.wire)
-    reached = {seq: t for t, seq in reversed(rec.reached)}
-    t0 = reached.get(first, samples[0, 0]) if first is not None else samples[0, 0]
-    t1 = max((t for t, seq in rec.reached if seq == last), default=samples[-1, 0])
+    # The first report at or after each seq: PX4 reports a waypoint with the seq of the DO_ items after it.
+    t0 = min((t for t, seq in rec.reached if first is not None and seq >= first), default=samples[0, 0])
+    t1 = min((t for t, seq in rec.reached if last is not None and seq >= last), default=samples[-1, 0])
     part = samples[(samples[:, 0] >= t0) & (samples[:, 0] <= t1)]
     if len(part) == 0 or trigger_m <= 0:
         return np.zeros((0, 2)), 0, "track"
@@ -268,11 +273,10 @@ def flown_seconds(rec: DroneRecord, scale: float) -> float:
     return float((end - rec.t_start) * scale)
 
 
-def retimed_with_vehicle_params(frame: GridFrame, rec: DroneRecord) -> float | None:
-    """The uploaded mission's planned duration (the timeline) with the navigation parameters the
-    vehicle reported instead of ArduCopter's defaults `plan` assumed; None without any."""
-    if not rec.params or not rec.wire:
-        return None
+def mission_motions(frame: GridFrame, rec: DroneRecord) -> list[Motion] | None:
+    """The uploaded mission as the flight model flies it (PX4's model when the vehicle is PX4), with
+    the navigation parameters the vehicle reported (the model's defaults for those it did not).
+    None when the mission has no take-off to start from."""
     items = list(rec.wire)
     start = next((i for i, it in enumerate(items) if it.command == CMD_TAKEOFF), None)
     if start is None:
@@ -286,7 +290,16 @@ def retimed_with_vehicle_params(frame: GridFrame, rec: DroneRecord) -> float | N
     launch = to_grid_m(frame, [takeoff.x / 1e7], [takeoff.y / 1e7])[0]
     route = to_grid_m(frame, [w.x / 1e7 for w in waypoints], [w.y / 1e7 for w in waypoints])
     end = "land" if items[-1].command == CMD_LAND else "rtl"
-    return planned_seconds(launch, route, float(takeoff.z), end, FlightModel(speed, 0.0, copter, px4))
+    return planned_motions(launch, route, float(takeoff.z), end, FlightModel(speed, 0.0, copter, px4))
+
+
+def retimed_with_vehicle_params(frame: GridFrame, rec: DroneRecord) -> float | None:
+    """The uploaded mission's planned duration (the timeline) with the navigation parameters the
+    vehicle reported instead of the defaults `plan` assumed; None without any."""
+    if not rec.params:
+        return None
+    motions = mission_motions(frame, rec)
+    return None if motions is None else total_time(motions)
 
 
 def estimate_time_scale(records: list[DroneRecord]) -> float:
@@ -410,7 +423,8 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
                      "vehicle_params": rec.params,
                      "uploaded": rec.uploaded, "held_after_flight": rec.held_after_flight,
                      "samples": len(samples), "items_reached": len({seq for _, seq in rec.reached}),
-                     "notes": rec.notes})
+                     "phases": phase_rows(rec, mission_motions(frame, rec), scale),
+                     "events": event_rows(rec, scale), "notes": rec.notes})
     all_photos = np.vstack(photos) if photos else np.zeros((0, 2))
     slack = frame.cell_m * SLACK_CELLS
     gap = nearest_photo_gap(frame, targets, all_photos)  # once; each rule is a threshold on it

@@ -57,6 +57,7 @@ from bridge.uploader import MissionBackend, open_backend, read_back_differences,
 
 from ..mission.sorties import sortie_file
 from .flight_report import DroneRecord, FlightResult, judge, sortie_view
+from .phases import slow_phase
 
 CMD_DO_SET_MODE, CMD_MISSION_START = 176, 300
 CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_LAND = 20, 21
@@ -64,8 +65,12 @@ CAPTURE_OK = 1  # CAMERA_IMAGE_CAPTURED capture_result: 1 success
 MODE_FLAG_ARMED = 128
 MAV_TYPE_GCS = 6
 MISSION_STATE_ACTIVE, MISSION_STATE_COMPLETE = 3, 5
+LANDED_STATE_NAMES = {1: "on ground", 2: "in air", 3: "taking off", 4: "landing"}  # EXTENDED_SYS_STATE
 ARDUPILOT_GUIDED = 4
 SILENCE_S = 5.0        # a vehicle that says nothing for this long has stopped answering
+MAV_RESULT_TEMPORARILY_REJECTED, MAV_RESULT_DENIED = 1, 2
+PX4_START_RETRY_S = 5.0   # MISSION_START retried this long while PX4 checks a new mission (see _mission_start)
+START_RETRY_WAIT_S = 0.5
 ON_GROUND_M = 0.3      # relative altitude under which a disarmed vehicle counts as landed
 DEFAULT_TELEMETRY_HZ = 25.0
 DEFAULT_READY_S = 120.0  # a real vehicle's GPS and EKF may take a minute or two after power-on
@@ -146,6 +151,7 @@ class _DroneFlight:
         self.checked_in = self.arm_checked_in = False  # at the start gate, at the arm gate
         self.recording = False  # from the mission start on: what came before is not this flight
         self.camera_component: int | None = None  # who sends this vehicle's CAMERA_IMAGE_CAPTURED: the first heard
+        self.said = (None, None, None, 0)  # mode, armed, landed state, STATUSTEXT count already in record.events
 
     def problem(self, text: str) -> None:
         self.record.problems.append(f"uav{self.record.id}: {text}")
@@ -294,10 +300,11 @@ class _DroneFlight:
         rec, link, sysid = self.record, self.backend.link, self.record.id
         self.checked_in = True
         self.gate.check_in(self.deadline - time.monotonic())
-        # The first positions may come before the acknowledgement: keep them.
+        # The first positions may come before the acknowledgement: keep them (and what the vehicle says
+        # from now on, not before).
+        self.said = (None, None, None, self.vehicle.state.texts_total)
         self.recording = True
-        result = link.command_long(sysid, CMD_MISSION_START, [0.0, 0.0], self.deadline, other=self.vehicle.take,
-                          done=lambda: rec.mission_state == MISSION_STATE_ACTIVE)
+        result = self._mission_start()
         if result != 0 and self.backend.vehicle.flavour is Flavour.PX4:
             # PX4 also starts a mission in its AUTO.MISSION mode (from the current item, 0 after an upload).
             mode = link.command_long(sysid, CMD_DO_SET_MODE, [1.0, float(PX4_AUTO_MAIN), float(PX4_MISSION_SUB)],
@@ -313,6 +320,29 @@ class _DroneFlight:
         if self.bar is not None:
             self.bar.reset(total=max(len(rec.wire) - 1, 1))
         return True
+
+    def _mission_start(self) -> int | None:
+        """MAV_CMD_MISSION_START; its MAV_RESULT. PX4 takes a new mission only after its own checks (its
+        navigator's, then commander's), so a start right after the upload may be DENIED ("Mission start
+        denied! No valid mission") for a moment: retried for PX4_START_RETRY_S, within which PX4 does not
+        yet disarm an armed vehicle that has not taken off (COM_DISARM_PRFLT, 10 s)."""
+        assert self.vehicle is not None and self.backend is not None
+        rec, link, sysid = self.record, self.backend.link, self.record.id
+        px4 = self.backend.vehicle.flavour is Flavour.PX4
+        until = min(self.deadline, time.monotonic() + (PX4_START_RETRY_S if px4 else 0.0))
+        tries = 0
+        while True:
+            tries += 1
+            result = link.command_long(sysid, CMD_MISSION_START, [0.0, 0.0], self.deadline, other=self.vehicle.take,
+                                       done=lambda: rec.mission_state == MISSION_STATE_ACTIVE)
+            if result not in (MAV_RESULT_DENIED, MAV_RESULT_TEMPORARILY_REJECTED) or \
+                    time.monotonic() + START_RETRY_WAIT_S >= until:
+                break
+            self.vehicle.listen(time.monotonic() + START_RETRY_WAIT_S)
+        if tries > 1 and result == 0:
+            rec.notes.append(f"MISSION_START accepted after {tries} tries (the vehicle had not yet taken the "
+                             f"new mission: {self.vehicle.state.reasons(1)})")
+        return result
 
     def _follow(self) -> None:
         rec, link, sysid = self.record, self.backend.link, self.record.id
@@ -360,6 +390,8 @@ class _DroneFlight:
         rec = self.record
         t = rec.last_heard = time.monotonic()
         kind = msg.get_type()
+        if kind in ("HEARTBEAT", "EXTENDED_SYS_STATE", "STATUSTEXT"):
+            self._note_changes(t)
         if kind == "GLOBAL_POSITION_INT":
             self.rel_alt = msg.relative_alt / 1000.0
             rec.samples.append((t, msg.lat / 1e7, msg.lon / 1e7, self.rel_alt, float(np.hypot(msg.vx, msg.vy)) / 100.0,
@@ -373,7 +405,8 @@ class _DroneFlight:
                 self.bar.n = min(max(rec.current, self.bar.n), self.bar.total)
                 self.bar.refresh()
         elif kind == "MISSION_ITEM_REACHED":
-            rec.reached.append((t, int(msg.seq)))
+            if not rec.reached or rec.reached[-1][1] != int(msg.seq):  # PX4 repeats its last one every second
+                rec.reached.append((t, int(msg.seq)))
             self.last_reached = max(self.last_reached, int(msg.seq))
         elif kind == "CAMERA_FEEDBACK":
             rec.camera.setdefault(int(msg.img_idx), (t, msg.lat / 1e7, msg.lng / 1e7, float(msg.alt_rel)))
@@ -388,6 +421,24 @@ class _DroneFlight:
                 if int(msg.capture_result) == CAPTURE_OK:
                     rec.camera.setdefault(index, (t, msg.lat / 1e7, msg.lon / 1e7, self.rel_alt))
                 rec.captures = max(rec.captures, index + 1)
+
+    def _note_changes(self, t: float) -> None:
+        """Mode, arming and landed-state changes and new STATUSTEXT lines into record.events (where the
+        flight's time went: flight.json's phases and events)."""
+        assert self.vehicle is not None
+        state, rec = self.vehicle.state, self.record
+        mode, armed, landed, texts = self.said
+        if state.custom_mode is not None and state.mode_name() != mode:
+            rec.events.append((t, f"mode {state.mode_name()}"))
+        if state.armed is not None and state.armed != armed:
+            rec.events.append((t, "armed" if state.armed else "disarmed"))
+        if state.landed_state is not None and state.landed_state != landed:
+            rec.landed.append((t, state.landed_state))
+            rec.events.append((t, f"landed state {LANDED_STATE_NAMES.get(state.landed_state, state.landed_state)}"))
+        fresh = min(state.texts_total - texts, len(state.texts))
+        rec.events.extend((t, f"says: {text}") for text in state.texts[len(state.texts) - fresh:])
+        self.said = (state.mode_name() if state.custom_mode is not None else None, state.armed,
+                     state.landed_state, state.texts_total)
 
     def _check_still_held(self) -> None:
         """After landing: does the vehicle still hold exactly the mission that was uploaded?"""
@@ -533,7 +584,8 @@ def print_flight(result: FlightResult) -> None:
                    if retimed is not None and abs(retimed - d["planned_flight_s"]) >= 0.05 else "")
         print(f"  uav{d['id']}: {state}, {d['flight_s']:.1f} s flown (planned {d['planned_flight_s']:.1f} s{vehicle}), "
               f"{d['photos']} photos, {held[d['held_after_flight']]}"
-              + "".join(f"; {note}" for note in d.get("notes", []) if note.startswith("left ")))
+              + "".join(f"; {note}" for note in d.get("notes", []) if note.startswith("left "))
+              + (f"; {slow}" if (slow := slow_phase(d.get("phases") or [])) else ""))
     for problem in result.problems:
         print(f"  problem: {problem}")
     print(f"wrote {result.json_path} and {result.png_path}")
