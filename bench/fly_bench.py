@@ -2,7 +2,7 @@
 print one row per flight.
 
 Run by hand: `.venv/bin/python bench/fly_bench.py [--maps leonardo,grid-city] [--uavs 3,5,6]
-[--streets block,cenisia] [--sitl] [--px4 milan3,block3] [--policy nn]`.
+[--streets block,cenisia] [--sitl] [--px4 milan3,block3] [--policy nn] [--keep DIR]`.
 Each row: the flown coverage (our rule, and the stricter whole-cell rule), the closest approach of two
 drones against the plan's promise, flight time (the longest drone's, on the vehicles' own clock:
 simulated seconds) against the plan's, the worst drone's gap between flown and planned time, photos,
@@ -203,6 +203,9 @@ def main_bench() -> None:
     parser.add_argument("--px4", default="", help=f"plans to fly for PX4 on the PX4 mock and PX4 SIH "
                                                    f"({', '.join([*AREAS, *STREETS])}; at most {PX4_MAX_VEHICLES} drones)")
     parser.add_argument("--policy", default="nn", choices=("nn", "expert"))
+    parser.add_argument("--keep", default="", metavar="DIR",
+                        help="copy every SITL / PX4 SIH flight's folder (flight.json with its phases, flight.png) "
+                             "into DIR/NAME-VEHICLE, to see where a row's time went")
     args = parser.parse_args()
     print(HEADER)
     print("-" * len(HEADER))
@@ -219,6 +222,7 @@ def main_bench() -> None:
                 fresh = Path(tmp) / "sitl-plan"
                 shutil.copytree(plan_dir, fresh)
                 print(sitl_row(name, uavs, fresh), flush=True)
+                _keep(args.keep, fresh, f"{name}-sitl")
     for name in filter(None, args.px4.split(",")):
         uavs = len((STREETS.get(name) or AREAS[name])[1])
         with tempfile.TemporaryDirectory() as tmp:
@@ -230,6 +234,12 @@ def main_bench() -> None:
             fresh = Path(tmp) / "px4-plan"
             shutil.copytree(plan_dir, fresh)
             print(px4_row(name, uavs, fresh), flush=True)
+            _keep(args.keep, fresh, f"{name}-px4")
+
+
+def _keep(keep: str, flown: Path, name: str) -> None:
+    if keep:
+        shutil.copytree(flown, Path(keep) / name, dirs_exist_ok=True)
 
 
 if __name__ == "__main__":

@@ -52,6 +52,11 @@ CMD_WAYPOINT, CMD_DO_CHANGE_SPEED, CMD_CAM_TRIGG_DIST = 16, 178, 206
 MIN_RATE_SPAN_S = 2.0  # of our time: a vehicle's clock rate is fitted over at least this long a record
 REAL_TIME_TOLERANCE = 0.05  # a clock within 5 % of ours runs in real time
 CMD_TAKEOFF, CMD_LAND = 22, 21
+# A vehicle has left the ground at the first sample this high (at most half its take-off altitude) and
+# climbing this fast. PX4's estimate on the ground wanders by up to 0.8 m and 0.9 m/s (SIH): lower
+# thresholds took that for lift-offs, 9 s before the real ones, and so widened the separation tolerance
+# (start spread times speed) to 46 m.
+LIFTOFF_M, LIFTOFF_CLIMB_M_S = 1.5, 0.5
 
 
 @dataclass
@@ -273,6 +278,23 @@ def flown_seconds(rec: DroneRecord, scale: float) -> float:
     return float((end - rec.t_start) * scale)
 
 
+def takeoff_altitude(rec: DroneRecord) -> float:
+    """The altitude of the uploaded mission's NAV_TAKEOFF (inf without one)."""
+    return next((float(it.z) for it in rec.wire if it.command == CMD_TAKEOFF), float("inf"))
+
+
+def lifted_off_at(rec: DroneRecord, samples: np.ndarray, clock: np.ndarray, scale: float) -> float | None:
+    """When the vehicle left the ground, on our clock (`clock`: each sample's time, flight_report.vehicle_clock):
+    back from the first sample in the climb (LIFTOFF_M, LIFTOFF_CLIMB_M_S) at the climb rate it reported.
+    None if it never climbed."""
+    above = min(LIFTOFF_M, 0.5 * takeoff_altitude(rec))
+    climbing = np.flatnonzero((samples[:, 3] > above) & (samples[:, 6] > LIFTOFF_CLIMB_M_S))
+    if not len(climbing):
+        return None
+    first = climbing[0]
+    return float(clock[first] - samples[first, 3] / samples[first, 6] / scale)
+
+
 def mission_motions(frame: GridFrame, rec: DroneRecord) -> list[Motion] | None:
     """The uploaded mission as the flight model flies it (PX4's model when the vehicle is PX4), with
     the navigation parameters the vehicle reported (the model's defaults for those it did not).
@@ -409,10 +431,9 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
         tracks_m[rec.id] = to_grid_m(frame, samples[:, 1], samples[:, 2])
         if len(samples):
             timed[rec.id] = np.column_stack([vehicle_clock(samples, scale), tracks_m[rec.id], samples[:, 3]])
-            climbing = np.flatnonzero((samples[:, 3] > 0.05) & (samples[:, 6] > 0.1))
-            if len(climbing):  # back from the first sample in the climb, at the climb rate it reported
-                first = climbing[0]
-                liftoff[rec.id] = timed[rec.id][first, 0] - samples[first, 3] / samples[first, 6] / scale
+            lifted = lifted_off_at(rec, samples, timed[rec.id][:, 0], scale)
+            if lifted is not None:
+                liftoff[rec.id] = lifted
         flight_s = flown_seconds(rec, scale)
         rows.append({"id": rec.id, "flight_s": round(flight_s, 2), "finished": rec.finished,
                      "photos": int(len(points)), "photos_placed_on_track": placed,
