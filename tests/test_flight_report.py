@@ -269,10 +269,12 @@ def test_lift_off_is_not_taken_from_an_estimate_wandering_on_the_ground() -> Non
     up = np.where(t < 10.0, 0.8 * np.abs(np.sin(t)), 1.5 * (t - 10.0))
     climb = np.where(t < 10.0, 0.9 * np.cos(t), 1.5)
     samples = np.column_stack([t, np.full_like(t, 45.0), np.full_like(t, 7.0), up, np.zeros_like(t), t, climb])
-    assert fr.lifted_off_at(rec, samples, t, 1.0) == pytest.approx(10.0, abs=0.05)
-    # A low flight (the demo's 1.2 m layer) still lifts off, at half its altitude.
+    assert fr.liftoff_height([rec]) == fr.LIFTOFF_M
+    assert fr.lifted_off_at(samples, t, 1.0, fr.liftoff_height([rec])) == pytest.approx(10.0, abs=0.05)
+    # A fleet with a low flight (the demo's 1.2 m layer): every drone counts from half that altitude.
     low = DroneRecord(id=2, wire=[WireItem(seq=0, frame=3, command=22, current=0, autocontinue=1, param1=0.0,
                                            param2=0.0, param3=0.0, param4=0.0, x=0, y=0, z=1.2, mission_type=0)])
     flat = np.column_stack([t, np.full_like(t, 45.0), np.full_like(t, 7.0), np.clip(1.5 * (t - 10.0), 0, 1.2),
                             np.zeros_like(t), t, np.where((t > 10.0) & (t < 10.8), 1.5, 0.0)])
-    assert fr.lifted_off_at(low, flat, t, 1.0) == pytest.approx(10.0, abs=0.1)
+    assert fr.liftoff_height([rec, low]) == pytest.approx(0.6)
+    assert fr.lifted_off_at(flat, t, 1.0, fr.liftoff_height([rec, low])) == pytest.approx(10.0, abs=0.1)

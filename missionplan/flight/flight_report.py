@@ -52,7 +52,8 @@ CMD_WAYPOINT, CMD_DO_CHANGE_SPEED, CMD_CAM_TRIGG_DIST = 16, 178, 206
 MIN_RATE_SPAN_S = 2.0  # of our time: a vehicle's clock rate is fitted over at least this long a record
 REAL_TIME_TOLERANCE = 0.05  # a clock within 5 % of ours runs in real time
 CMD_TAKEOFF, CMD_LAND = 22, 21
-# A vehicle has left the ground at the first sample this high (at most half its take-off altitude) and
+# A vehicle has left the ground at the first sample this high (at most half the fleet's lowest take-off
+# altitude: liftoff_height) and
 # climbing this fast. PX4's estimate on the ground wanders by up to 0.8 m and 0.9 m/s (SIH): lower
 # thresholds took that for lift-offs, 9 s before the real ones, and so widened the separation tolerance
 # (start spread times speed) to 46 m.
@@ -283,11 +284,17 @@ def takeoff_altitude(rec: DroneRecord) -> float:
     return next((float(it.z) for it in rec.wire if it.command == CMD_TAKEOFF), float("inf"))
 
 
-def lifted_off_at(rec: DroneRecord, samples: np.ndarray, clock: np.ndarray, scale: float) -> float | None:
+def liftoff_height(records: list[DroneRecord]) -> float:
+    """The height at which every drone of a fleet counts as climbing: LIFTOFF_M, at most half the lowest
+    take-off altitude. One for all: the back-extrapolation from it errs alike for drones that climb
+    alike, so their start spread stays true."""
+    return min([LIFTOFF_M] + [0.5 * takeoff_altitude(rec) for rec in records])
+
+
+def lifted_off_at(samples: np.ndarray, clock: np.ndarray, scale: float, above: float) -> float | None:
     """When the vehicle left the ground, on our clock (`clock`: each sample's time, flight_report.vehicle_clock):
-    back from the first sample in the climb (LIFTOFF_M, LIFTOFF_CLIMB_M_S) at the climb rate it reported.
-    None if it never climbed."""
-    above = min(LIFTOFF_M, 0.5 * takeoff_altitude(rec))
+    back from the first sample higher than `above` (liftoff_height) climbing faster than LIFTOFF_CLIMB_M_S,
+    at the climb rate it reported. None if it never climbed."""
     climbing = np.flatnonzero((samples[:, 3] > above) & (samples[:, 6] > LIFTOFF_CLIMB_M_S))
     if not len(climbing):
         return None
@@ -417,6 +424,7 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     targets = target_cells(report)
     photos, tracks_m, timed, rows, sources = [], {}, {}, [], set()
     liftoff: dict[int, float] = {}  # when each vehicle left the ground, on our clock
+    liftoff_above = liftoff_height(records)
     for rec in records:
         points, placed, source = photo_positions(frame, rec, trigger, from_track=photos_from_track)
         photos.append(points)
@@ -431,7 +439,7 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
         tracks_m[rec.id] = to_grid_m(frame, samples[:, 1], samples[:, 2])
         if len(samples):
             timed[rec.id] = np.column_stack([vehicle_clock(samples, scale), tracks_m[rec.id], samples[:, 3]])
-            lifted = lifted_off_at(rec, samples, timed[rec.id][:, 0], scale)
+            lifted = lifted_off_at(samples, timed[rec.id][:, 0], scale, liftoff_above)
             if lifted is not None:
                 liftoff[rec.id] = lifted
         flight_s = flown_seconds(rec, scale)
