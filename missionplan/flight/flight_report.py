@@ -41,7 +41,7 @@ from geo.frame import GridFrame
 
 from ..maps.gridmap import GridMap
 from ..mission.timeline import FlightModel, closest_approach, planned_motions
-from .phases import event_rows, phase_rows
+from .phases import event_rows, on_vehicle_clock, phase_rows
 
 COVERAGE_OK = 99.0
 # How much of a cell's side may fall outside the photo that counts for it: a quarter cell, the
@@ -272,11 +272,7 @@ def flown_seconds(rec: DroneRecord, scale: float) -> float:
     end = rec.t_end if rec.t_end is not None else (rec.samples[-1][0] if rec.samples else rec.t_start)
     if rec.t_start is None or end is None:
         return 0.0
-    samples = np.array(rec.samples) if rec.samples else np.zeros((0, 7))
-    inside = samples[(samples[:, 0] >= rec.t_start) & (samples[:, 0] <= end)] if len(samples) else samples
-    if len(inside) >= 2 and np.all(np.diff(inside[:, 5]) >= 0):
-        return float(inside[-1, 5] - inside[0, 5])
-    return float((end - rec.t_start) * scale)
+    return float(on_vehicle_clock(rec, [end], scale)[0])
 
 
 def takeoff_altitude(rec: DroneRecord) -> float:
@@ -320,15 +316,6 @@ def mission_motions(frame: GridFrame, rec: DroneRecord) -> list[Motion] | None:
     route = to_grid_m(frame, [w.x / 1e7 for w in waypoints], [w.y / 1e7 for w in waypoints])
     end = "land" if items[-1].command == CMD_LAND else "rtl"
     return planned_motions(launch, route, float(takeoff.z), end, FlightModel(speed, 0.0, copter, px4))
-
-
-def retimed_with_vehicle_params(frame: GridFrame, rec: DroneRecord) -> float | None:
-    """The uploaded mission's planned duration (the timeline) with the navigation parameters the
-    vehicle reported instead of the defaults `plan` assumed; None without any."""
-    if not rec.params:
-        return None
-    motions = mission_motions(frame, rec)
-    return None if motions is None else total_time(motions)
 
 
 def estimate_time_scale(records: list[DroneRecord]) -> float:
@@ -443,16 +430,18 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
             if lifted is not None:
                 liftoff[rec.id] = lifted
         flight_s = flown_seconds(rec, scale)
+        motions = mission_motions(frame, rec)
+        # The plan re-timed with the navigation parameters the vehicle reported (None without any).
+        retimed = total_time(motions) if rec.params and motions is not None else None
         rows.append({"id": rec.id, "flight_s": round(flight_s, 2), "finished": rec.finished,
                      "photos": int(len(points)), "photos_placed_on_track": placed,
                      "planned_photos": rec.planned_photos,
                      "planned_flight_s": float(planned.get(rec.id, {}).get("flight_s", 0.0)),
-                     "planned_flight_s_vehicle": (None if (retimed := retimed_with_vehicle_params(frame, rec)) is None
-                                                  else round(retimed, 1)),
+                     "planned_flight_s_vehicle": None if retimed is None else round(retimed, 1),
                      "vehicle_params": rec.params,
                      "uploaded": rec.uploaded, "held_after_flight": rec.held_after_flight,
                      "samples": len(samples), "items_reached": len({seq for _, seq in rec.reached}),
-                     "phases": phase_rows(rec, mission_motions(frame, rec), scale),
+                     "phases": phase_rows(rec, motions, scale),
                      "events": event_rows(rec, scale), "notes": rec.notes})
     all_photos = np.vstack(photos) if photos else np.zeros((0, 2))
     slack = frame.cell_m * SLACK_CELLS

@@ -68,7 +68,7 @@ def flown_bounds(rec: DroneRecord) -> list[float | None]:
 
 def on_vehicle_clock(rec: DroneRecord, times: list[float], scale: float) -> np.ndarray:
     """Our clock's times -> seconds since the mission start on the vehicle's clock (its time_boot_ms
-    in the samples, as flight_report.flown_seconds counts), or our clock times `scale` without a record."""
+    in the samples: flight_report.flown_seconds is this at the end), or our clock times `scale` without a record."""
     samples = np.array(rec.samples) if rec.samples else np.zeros((0, 7))
     start = rec.t_start if rec.t_start is not None else 0.0
     end = max(times) if times else start
