@@ -27,7 +27,7 @@ def make_policy(name: str, weights: str | Path | None = None) -> Policy:
     if name == "expert":
         return ExpertPolicy()
     if name == "nn":
-        from .learn.network import SHIPPED_WEIGHTS, NeuralPolicy, load_weights  # torch only when the network is used
+        from .learn.network import SHIPPED_WEIGHTS, NeuralPolicy, load_weights  # numpy only; loaded when asked for
 
         try:
             return NeuralPolicy(load_weights(weights if weights is not None else SHIPPED_WEIGHTS))

@@ -1,60 +1,140 @@
-"""The neural policy: network shape, weights file, dataset cleaning and split, fitting, demonstrations."""
+"""The neural policy: network shape, weights file, numpy inference against torch, dataset cleaning and split,
+fitting, demonstrations.
+
+Planning runs the network in numpy (missionplan.learn.network); training builds it in torch
+(missionplan.learn.training). The tests that need torch skip without it; `make test` installs it.
+"""
+
+import zipfile
 
 import numpy as np
 import pytest
-import torch
 
 from missionplan.learn.dataset import build_dataset
-from missionplan.learn.demos import play_single
+from missionplan.learn.demos import _play_job, play_single
 from missionplan.grid.expert import ExpertPolicy
 from missionplan.learn.features import STATE_SIZE, encode_states, transform_actions, transform_states
-from missionplan.learn.network import (SHIPPED_WEIGHTS, NeuralPolicy, PolicyNet, count_parameters, load_weights,
-                                 save_weights)
+from missionplan.learn.network import (SHIPPED_WEIGHTS, WEIGHT_SHAPES, NeuralPolicy, PolicyWeights, load_weights,
+                                       save_weights)
 from missionplan.learn.trainmaps import training_maps
-from missionplan.learn.training import fit
 from missionplan.grid.world import CoverageWorld
+from missionplan.maps.catalog import load_shipped
+from missionplan.pipeline import plan_map
+
+try:
+    import torch
+except ModuleNotFoundError:
+    torch = None
+needs_torch = pytest.mark.skipif(torch is None, reason="PyTorch is not installed (pip install 'missionplan[train]'; "
+                                                       "make test installs it)")
+
+
+def _random_weights(seed: int) -> PolicyWeights:
+    rng = np.random.default_rng(seed)
+    return PolicyWeights.from_arrays({name: rng.normal(0, 0.1, shape).astype(np.float32)
+                                      for name, shape in WEIGHT_SHAPES.items()})
+
+
+def _random_states(n: int, seed: int) -> np.ndarray:
+    return np.random.default_rng(seed).integers(-1, 2, size=(n, STATE_SIZE)).astype(np.float32)
 
 
 def test_feature_length_and_parameter_count():
     assert STATE_SIZE == 376
+    shipped = load_weights()
+    assert shipped.parameter_count() == 106_684
+    assert [a.shape for a in shipped.arrays().values()] == [(280, 376), (280,), (4, 280), (4,)]
+    assert all(a.dtype == np.float32 for a in shipped.arrays().values())
+
+
+@needs_torch
+def test_the_torch_network_has_the_same_shape():
+    from missionplan.learn.training import PolicyNet, count_parameters
+
     net = PolicyNet()
     assert count_parameters(net) == 106_684
-    assert [tuple(p.shape) for p in net.parameters()] == [(280, 376), (280,), (4, 280), (4,)]
+    assert {name: tuple(t.shape) for name, t in net.state_dict().items()} == WEIGHT_SHAPES
 
 
 def test_probabilities_are_a_softmax_over_four_actions():
-    torch.manual_seed(0)
-    states = np.random.default_rng(0).integers(-1, 2, size=(7, STATE_SIZE)).astype(np.float32)
-    probabilities = PolicyNet().probabilities(states)
-    assert probabilities.shape == (7, 4)
-    assert np.allclose(probabilities.sum(axis=1), 1.0, atol=1e-6)
+    for weights in (_random_weights(0), load_weights()):
+        probabilities = weights.probabilities(_random_states(7, 0))
+        assert probabilities.shape == (7, 4)
+        assert np.all(probabilities >= 0)
+        assert np.allclose(probabilities.sum(axis=1), 1.0, atol=1e-6)
+
+
+@needs_torch
+def test_numpy_inference_equals_torch_on_the_shipped_weights():
+    from missionplan.learn.training import PolicyNet, to_weights
+
+    torch.set_num_threads(1)
+    shipped = load_weights()
+    net = PolicyNet()
+    net.load_state_dict({name: torch.from_numpy(array) for name, array in shipped.arrays().items()})
+    # to_weights hands the torch network back bit for bit
+    assert all(np.array_equal(a, b) for a, b in zip(to_weights(net).arrays().values(), shipped.arrays().values()))
+    # A large random batch, and every batch a real plan asks for (Leonardo, 5 drones: 1 to 5 rows a step).
+    batches = [_random_states(4000, 3)] + _states_asked(load_shipped("leonardo"), 5)
+    assert len(batches) > 100
+    for states in batches:
+        expected = net.probabilities(states)
+        assert np.abs(shipped.probabilities(states) - expected).max() <= 1e-6
+        assert np.array_equal(shipped.probabilities(states).argmax(axis=1), expected.argmax(axis=1))
+
+
+def _states_asked(gmap, uavs: int) -> list[np.ndarray]:
+    """The encoded states of every step's batch the network is asked about in a plan."""
+    asked: list[np.ndarray] = []
+
+    class Recording(NeuralPolicy):
+        def action_scores(self, world, drones):
+            if drones:
+                asked.append(encode_states(world, drones))
+            return super().action_scores(world, drones)
+
+    assert plan_map(gmap, uavs, policy=Recording()).run.success
+    return asked
 
 
 def test_weights_round_trip(tmp_path):
-    torch.manual_seed(1)
-    net = PolicyNet()
-    path = tmp_path / "w.pt"
-    save_weights(net, path)
-    states = np.random.default_rng(1).integers(-1, 2, size=(5, STATE_SIZE)).astype(np.float32)
-    assert np.array_equal(load_weights(path).probabilities(states), net.probabilities(states))
-    assert [p.name for p in tmp_path.iterdir()] == ["w.pt"]  # no temp file left behind
+    weights = _random_weights(1)
+    path = tmp_path / "w.pt"  # any name: the format is .npz whatever the file is called
+    save_weights(weights, path)
+    loaded = load_weights(path)
+    assert all(np.array_equal(a, b) for a, b in zip(loaded.arrays().values(), weights.arrays().values()))
+    states = _random_states(5, 1)
+    assert np.array_equal(loaded.probabilities(states), weights.probabilities(states))
+    assert [p.name for p in tmp_path.iterdir()] == ["w.pt"]  # no temp file left behind, no ".npz" appended
+    with np.load(path, allow_pickle=False) as archive:  # plain numpy reads it, no pickle
+        assert sorted(archive.files) == sorted(WEIGHT_SHAPES)
 
 
 def test_a_file_that_is_not_weights_gives_one_line(tmp_path):
     bad = tmp_path / "bad.pt"
-    bad.write_text("not a torch file")
-    with pytest.raises(ValueError, match=r"bad\.pt: not a missionplan policy weights file") as error:
-        load_weights(bad)
-    assert "\n" not in str(error.value)
+    bad.write_text("not a weights file")
+    wrong_arrays = tmp_path / "wrong.npz"
+    np.savez(wrong_arrays, hidden=np.zeros((280, 376), np.float32))
+    wrong_shape = tmp_path / "shape.npz"
+    np.savez(wrong_shape, **{**_random_weights(2).arrays(), "output.bias": np.zeros(5, np.float32)})
+    pickled = tmp_path / "pickled.npz"  # an object array needs pickle, which is never loaded
+    np.savez(pickled, **{**_random_weights(2).arrays(), "output.bias": np.array([print], dtype=object)})
+    for path in (bad, wrong_arrays, wrong_shape, pickled):
+        with pytest.raises(ValueError, match=rf"{path.stem}\.\w+: not a missionplan policy weights file") as error:
+            load_weights(path)
+        assert "\n" not in str(error.value)
     with pytest.raises(ValueError, match="no such weights file"):
         load_weights(tmp_path / "missing.pt")
 
 
 def test_shipped_weights_load_and_drive_a_batch():
-    assert SHIPPED_WEIGHTS.is_file()
-    world = CoverageWorld(training_maps(3, 1)[0], [training_maps(3, 1)[0].launch[0]])
+    assert SHIPPED_WEIGHTS.is_file() and SHIPPED_WEIGHTS.name == "policy.npz"
+    assert zipfile.is_zipfile(SHIPPED_WEIGHTS)
+    gmap = training_maps(3, 1)[0]
+    world = CoverageWorld(gmap, [gmap.launch[0]])
     scores = NeuralPolicy().action_scores(world, [0])
     assert scores.shape == (1, 4) and np.all(np.isfinite(scores))
+    assert NeuralPolicy().action_scores(world, []).shape == (0, 4)
 
 
 def _pairs(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -97,7 +177,10 @@ def test_dataset_keeps_the_majority_label():
     assert found == [0]
 
 
+@needs_torch
 def test_fit_learns_a_rule_and_is_repeatable():
+    from missionplan.learn.training import fit, to_weights
+
     rng = np.random.default_rng(2)
     states = rng.integers(-1, 2, size=(3000, STATE_SIZE)).astype(np.int8)
     # A rule that survives the x8 augmentation: go where the one "unexplored further" detector is on.
@@ -109,8 +192,11 @@ def test_fit_learns_a_rule_and_is_repeatable():
     second = fit(data, seed=5, progress=False, max_epochs=6)
     for a, b in zip(first.net.state_dict().values(), second.net.state_dict().values()):
         assert torch.equal(a, b)
-    predicted = first.net.probabilities(data.test.states.astype(np.float32)).argmax(axis=1)
+    test_states = data.test.states.astype(np.float32)
+    predicted = first.net.probabilities(test_states).argmax(axis=1)
     assert (predicted == data.test.actions).mean() > 0.8
+    # what training hands to planning decides as the torch network does
+    assert np.array_equal(to_weights(first.net).probabilities(test_states).argmax(axis=1), predicted)
 
 
 def test_demonstrations_record_the_expert_choice_for_every_asked_state():
@@ -125,3 +211,14 @@ def test_demonstrations_record_the_expert_choice_for_every_asked_state():
     assert demos.actions[0] == np.argmax(expert.action_scores(world, [0])[0])
     assert set(np.unique(demos.actions)) <= {0, 1, 2, 3}
     assert np.array_equal(transform_actions(np.array([0, 1, 2, 3]), 0), [0, 1, 2, 3])
+
+
+def test_dagger_worker_lets_the_network_drive_and_the_expert_label():
+    gmap = training_maps(7, 1)[0]
+    expert_only, _ = play_single(gmap)
+    demos, run = _play_job((gmap, load_weights(), 0.0))  # the network alone drives; no torch needed
+    assert run.success and len(demos) > 50
+    # the network drove elsewhere than the expert would, and the expert labelled what it saw there
+    assert demos.states.tobytes() != expert_only.states.tobytes()
+    world = CoverageWorld(gmap, [gmap.launch[0]])
+    assert demos.actions[0] == np.argmax(ExpertPolicy().action_scores(world, [0])[0])

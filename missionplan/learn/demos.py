@@ -11,7 +11,8 @@ imitation never shows it.
 
 Runs are independent per map, so they are spread over worker processes; each map's run
 is deterministic, and results come back in map order, so the data do not depend on how
-many workers there were.
+many workers there were. The network drives with the numpy `PolicyWeights` planning uses,
+so the workers need no PyTorch.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from ..grid.planner import Planner, Policy
 from ..grid.world import CoverageWorld
 from ..maps.gridmap import GridMap
 from .features import STATE_SIZE, encode_states
+from .network import NeuralPolicy, PolicyWeights
 
 
 @dataclass
@@ -104,24 +106,16 @@ def play_single(gmap: GridMap, driver: Policy | None = None,
     return demos, CoverageRun(moves=int(run.metrics["MMN"]), floor=world.num_targets / 9, success=run.success)
 
 
-def _play_job(job: tuple[GridMap, dict | None, float]) -> tuple[Demonstrations, CoverageRun]:
+def _play_job(job: tuple[GridMap, PolicyWeights | None, float]) -> tuple[Demonstrations, CoverageRun]:
     gmap, weights, expert_share = job
-    driver = None
-    if weights is not None:
-        import torch  # only DAgger workers need the network
-
-        from .network import NeuralPolicy, PolicyNet
-
-        torch.set_num_threads(1)  # one worker per core already
-        net = PolicyNet()
-        net.load_state_dict(weights)
-        driver = NeuralPolicy(net)
+    driver = NeuralPolicy(weights) if weights is not None else None  # DAgger: the network drives
     return play_single(gmap, driver, expert_share)
 
 
-def collect(maps: Sequence[GridMap], weights: dict | None = None, workers: int = 2, expert_share: float = 0.0,
-            progress: bool = True, desc: str = "demonstrations") -> tuple[Demonstrations, list[CoverageRun]]:
-    """Play every map once: the expert drives, or (DAgger) the network with `weights` (a state_dict)
+def collect(maps: Sequence[GridMap], weights: PolicyWeights | None = None, workers: int = 2,
+            expert_share: float = 0.0, progress: bool = True,
+            desc: str = "demonstrations") -> tuple[Demonstrations, list[CoverageRun]]:
+    """Play every map once: the expert drives, or (DAgger) the network with `weights`
     drives and the expert takes over a random `expert_share` of the decisions."""
     jobs = [(gmap, weights, expert_share) for gmap in maps]
     results: list[tuple[Demonstrations, CoverageRun]] = []

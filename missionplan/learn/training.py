@@ -14,6 +14,11 @@
 
 Everything is seeded, and torch runs single-threaded per process, so the same seed gives
 the same weights.
+
+This module owns the torch side of the network: `PolicyNet`, the trainable 376 -> 280 -> 4
+module, and `to_weights`, which hands a trained one over as the numpy `PolicyWeights` that
+planning runs and `save_weights` writes (missionplan.learn.network). PyTorch is needed here
+and nowhere else, so it is an extra: `pip install 'missionplan[train]'`.
 """
 
 from __future__ import annotations
@@ -23,17 +28,26 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
-import torch
-from torch import nn
 from tqdm import tqdm
+
+from ..maps.gridmap import GridMap, MapError
+
+try:
+    import torch
+    from torch import nn
+except ModuleNotFoundError as missing:
+    if missing.name != "torch":
+        raise
+    # MapError: the CLI prints it as one line and exits 2, as for any other unusable request.
+    raise MapError("training needs PyTorch, which is not installed: pip install 'missionplan[train]'") from None
 
 from ..grid.expert import ExpertPolicy
 from ..grid.planner import Planner, Policy
 from ..grid.world import CoverageWorld
-from ..maps.gridmap import GridMap
 from .dataset import Dataset, Split, build_dataset
 from .demos import Demonstrations, collect
-from .network import NeuralPolicy, PolicyNet, count_parameters
+from .features import STATE_SIZE
+from .network import HIDDEN_UNITS, NUM_ACTIONS, NeuralPolicy, PolicyWeights
 from .trainmaps import training_maps
 
 DEFAULT_SEED = 0
@@ -45,6 +59,40 @@ LEARNING_RATE = 2e-3
 MAX_EPOCHS = 40
 PATIENCE = 4  # epochs without a better validation loss before stopping
 DAGGER_EXPERT_SHARE = 0.5  # DAgger's beta: the expert still takes half of the decisions
+DROPOUT = 0.2
+
+
+class PolicyNet(nn.Module):
+    """376 -> 280 ReLU (dropout) -> 4 logits; softmax is applied by the loss or by `probabilities`.
+
+    The layer names are the weights file's array names (hidden.weight, ...): see `to_weights`.
+    """
+
+    def __init__(self, dropout: float = DROPOUT) -> None:
+        super().__init__()
+        self.hidden = nn.Linear(STATE_SIZE, HIDDEN_UNITS)
+        self.dropout = nn.Dropout(dropout)
+        self.output = nn.Linear(HIDDEN_UNITS, NUM_ACTIONS)
+
+    def forward(self, states: torch.Tensor) -> torch.Tensor:
+        return self.output(self.dropout(torch.relu(self.hidden(states))))
+
+    def probabilities(self, states: np.ndarray) -> np.ndarray:
+        """(n, 4) softmax outputs for a batch of encoded states, in inference mode."""
+        self.eval()
+        with torch.inference_mode():
+            logits = self(torch.from_numpy(np.ascontiguousarray(states, dtype=np.float32)))
+            return torch.softmax(logits, dim=1).numpy()
+
+
+def count_parameters(net: nn.Module) -> int:
+    return sum(p.numel() for p in net.parameters() if p.requires_grad)
+
+
+def to_weights(net: PolicyNet) -> PolicyWeights:
+    """The trained network's weights as planning uses and saves them (copies, bit for bit)."""
+    return PolicyWeights.from_arrays({name: tensor.detach().cpu().numpy().copy()
+                                      for name, tensor in net.state_dict().items()})
 
 
 @dataclass
@@ -136,8 +184,8 @@ def _accuracy_report(net: PolicyNet, dataset: Dataset) -> dict[str, Any]:
 
 def train_policy(seed: int = DEFAULT_SEED, num_maps: int = DEFAULT_MAPS, dagger: bool = True,
                  workers: int = 2, progress: bool = True,
-                 log: Callable[[str], None] = print) -> tuple[PolicyNet, dict[str, Any]]:
-    """The whole training job; returns the network to ship and a JSON-able report."""
+                 log: Callable[[str], None] = print) -> tuple[PolicyWeights, dict[str, Any]]:
+    """The whole training job; returns the weights to ship (`save_weights` writes them) and a JSON-able report."""
     torch.set_num_threads(1)  # repeatable: the same seed gives the same weights on any machine
     maps = training_maps(seed, num_maps)
     eval_maps = training_maps(seed + EVAL_SEED_OFFSET, EVAL_MAPS)
@@ -163,9 +211,8 @@ def train_policy(seed: int = DEFAULT_SEED, num_maps: int = DEFAULT_MAPS, dagger:
     }
     chosen, chosen_dataset = first.net, dataset
     if dagger:
-        weights = {k: v.clone() for k, v in first.net.state_dict().items()}
         began = time.perf_counter()
-        extra, _ = collect(maps, weights=weights, workers=workers, expert_share=DAGGER_EXPERT_SHARE,
+        extra, _ = collect(maps, weights=to_weights(first.net), workers=workers, expert_share=DAGGER_EXPERT_SHARE,
                            progress=progress, desc="DAgger (network drives)")
         dagger_collect_s = time.perf_counter() - began
         merged = Demonstrations.concatenate([demos, extra])
@@ -176,8 +223,8 @@ def train_policy(seed: int = DEFAULT_SEED, num_maps: int = DEFAULT_MAPS, dagger:
             f"retrained in {second.seconds:.1f} s, test accuracy {second_report['test_accuracy']:.2f} %")
 
         expert_eval = coverage_moves(eval_maps, ExpertPolicy)
-        first_eval = coverage_moves(eval_maps, lambda: NeuralPolicy(first.net))
-        second_eval = coverage_moves(eval_maps, lambda: NeuralPolicy(second.net))
+        first_eval = coverage_moves(eval_maps, lambda: NeuralPolicy(to_weights(first.net)))
+        second_eval = coverage_moves(eval_maps, lambda: NeuralPolicy(to_weights(second.net)))
         means = {name: round(float(np.mean(values)), 3) for name, values in
                  (("expert", expert_eval), ("nn", first_eval), ("nn_dagger", second_eval))}
         keep = means["nn_dagger"] < means["nn"]
@@ -192,4 +239,4 @@ def train_policy(seed: int = DEFAULT_SEED, num_maps: int = DEFAULT_MAPS, dagger:
         report["dagger"]["expert_share"] = DAGGER_EXPERT_SHARE
     report["final"] = _accuracy_report(chosen, chosen_dataset)
     report["final"]["samples"] = chosen_dataset.stats
-    return chosen, report
+    return to_weights(chosen), report

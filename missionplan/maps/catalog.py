@@ -1,4 +1,8 @@
-"""The shipped maps: the `*.map` files in the repository's top-level `maps/` folder."""
+"""The shipped maps: the `*.map` files in the repository's top-level `maps/` folder.
+
+A built wheel carries the same files as package data, `missionplan/maps/shipped/` (pyproject.toml
+maps that package to the `maps/` folder), so an installed missionplan finds them too.
+"""
 
 from __future__ import annotations
 
@@ -6,8 +10,12 @@ from pathlib import Path
 
 from .gridmap import GridMap, MapError, load_map
 
+_INSTALLED_DIR = Path(__file__).resolve().parent / "shipped"
 # The repository root: one folder up per dot in this module's name, so the line holds wherever it sits.
-MAPS_DIR = Path(__file__).resolve().parents[__name__.count(".")] / "maps"
+_SOURCE_DIR = Path(__file__).resolve().parents[__name__.count(".")] / "maps"
+# The installed package's copy when there is one (a wheel install); else the source tree's maps/
+# (a checkout, or an editable install: setuptools' editable mode does not resolve the nested mapping).
+MAPS_DIR = _INSTALLED_DIR if _INSTALLED_DIR.is_dir() else _SOURCE_DIR
 
 
 def shipped_map_names() -> list[str]:
