@@ -32,7 +32,7 @@ import time
 from pathlib import Path
 
 import pytest
-from loopback import stop_process_group
+from loopback import stop_process_group, wait_until
 
 REPO = Path(__file__).resolve().parent.parent
 SITL_DIR = REPO.parent / "shared" / "sitl"
@@ -41,6 +41,7 @@ DEFAULTS = SITL_DIR / "copter.parm"
 SPEEDUP = 10  # stable on 2 shared cores (the SITL README)
 FIRST_INSTANCE = 20  # stay clear of the usual 0..9 a person would start by hand
 MAX_INSTANCE = 120
+CMD_REQUEST_MESSAGE, MSG_SYSTEM_TIME = 512, 2
 
 
 def sitl_or_skip() -> Path:
@@ -95,14 +96,37 @@ def wait_mission_ready(link: object, sysid: int, timeout: float = 30.0) -> None:
     wait_vehicle(link, sysid, timeout=timeout)  # type: ignore[arg-type]
     while time.monotonic() < deadline:
         link.mav.mission_request_list_send(sysid, 1, 0)  # type: ignore[attr-defined]
-        wait_until = min(time.monotonic() + 0.2, deadline)
-        while (msg := link.recv(wait_until)) is not None:  # type: ignore[attr-defined]
-            if msg.get_srcSystem() == sysid and msg.get_type() == "MISSION_COUNT":
-                if int(msg.count) >= 1:
-                    return
-                break
-        time.sleep(0.05)
+        ask_again = min(time.monotonic() + 0.2, deadline)  # listen this long for the answer, then ask again
+        while (msg := link.recv(ask_again)) is not None:  # type: ignore[attr-defined]
+            if msg.get_srcSystem() == sysid and msg.get_type() == "MISSION_COUNT" and int(msg.count) >= 1:
+                return
     raise RuntimeError(f"ArduCopter SITL system {sysid} did not load its mission store within {timeout:g} s")
+
+
+def boot_ms(link: object, sysid: int, deadline: float) -> int | None:
+    """The vehicle's time_boot_ms, asked for now (MAV_CMD_REQUEST_MESSAGE SYSTEM_TIME): None when it
+    does not answer by the deadline (rebooting)."""
+    link.mav.command_long_send(sysid, 1, CMD_REQUEST_MESSAGE, 0, MSG_SYSTEM_TIME, 0, 0, 0, 0, 0, 0)  # type: ignore
+    while (msg := link.recv(deadline)) is not None:  # type: ignore[attr-defined]
+        if msg.get_srcSystem() == sysid and msg.get_type() == "SYSTEM_TIME":
+            return int(msg.time_boot_ms)
+    return None
+
+
+def reboot_and_wait(link: object, sysid: int, timeout: float = 60.0) -> None:
+    """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, then until the vehicle answers from its new boot (its clock
+    started again): a parameter that acts only after a reboot (CAM1_TYPE) acts from then on."""
+    deadline = time.monotonic() + timeout
+    before = boot_ms(link, sysid, min(deadline, time.monotonic() + 5.0))
+    if before is None:
+        raise RuntimeError(f"ArduCopter SITL system {sysid} did not say its clock before the reboot")
+    if link.command_long(sysid, CMD_REBOOT, [1.0], deadline) != 0:  # type: ignore[attr-defined]
+        raise RuntimeError(f"ArduCopter SITL system {sysid} refused the reboot")
+    while time.monotonic() < deadline:
+        now_ms = boot_ms(link, sysid, min(deadline, time.monotonic() + 0.5))
+        if now_ms is not None and now_ms < before:
+            return
+    raise RuntimeError(f"ArduCopter SITL system {sysid} did not come back from its reboot within {timeout:g} s")
 
 
 class ArduCopter:
@@ -172,15 +196,15 @@ class ArduCopter:
     def _wait_bound(self, timeout: float) -> bool:
         """Until SITL says it listens (tcp) or has started (udpclient); False if it died first."""
         assert self.proc is not None and self.workdir is not None
-        deadline = time.monotonic() + timeout
+        proc = self.proc
         marker = b"SERIAL0 on TCP port" if self.serial0.startswith("tcp") else b"Starting sketch"
-        while time.monotonic() < deadline:
-            if self.proc.poll() is not None:
-                return False
+
+        def outcome() -> str | None:
             if marker in self.log_bytes():
-                return True
-            time.sleep(0.05)
-        return False
+                return "bound"
+            return "died" if proc.poll() is not None else None
+
+        return wait_until(outcome, timeout) == "bound"
 
     def log_bytes(self) -> bytes:
         try:
@@ -225,6 +249,7 @@ def arducopter():
 
 CMD_ARM, CMD_DO_SET_MODE, CMD_REBOOT = 400, 176, 246
 ARDUPILOT_GUIDED = 4
+ARM_RETRY_S = 1.0
 
 
 def configure_camera_and_wait_ready(vehicle: ArduCopter, timeout: float = 240.0) -> None:
@@ -239,13 +264,13 @@ def configure_camera_and_wait_ready(vehicle: ArduCopter, timeout: float = 240.0)
     with Link(vehicle.gcs_url) as link:
         info = wait_vehicle(link, vehicle.sysid, timeout=30.0)
         ParamClient(link, info).set("CAM1_TYPE", 1.0)
-        link.command_long(vehicle.sysid, CMD_REBOOT, [1.0], deadline)
-        time.sleep(2.0)  # the reboot: the vehicle goes quiet, then boots with its clock restarted
-        wait_vehicle(link, vehicle.sysid, timeout=30.0)
+        reboot_and_wait(link, vehicle.sysid, timeout=min(60.0, timeout))
         while time.monotonic() < deadline:
             link.command_long(vehicle.sysid, CMD_DO_SET_MODE, [1.0, float(ARDUPILOT_GUIDED)], deadline)
             if link.command_long(vehicle.sysid, CMD_ARM, [1.0], deadline) == 0:
                 link.command_long(vehicle.sysid, CMD_ARM, [0.0], deadline)
                 return
-            time.sleep(1.0)
+            retry_at = min(deadline, time.monotonic() + ARM_RETRY_S)  # not ready yet: listen, then ask again
+            while link.recv(retry_at) is not None:
+                pass
     raise RuntimeError(f"ArduCopter SITL system {vehicle.sysid} did not become ready to arm within {timeout:g} s")

@@ -1,13 +1,16 @@
 """Loopback helpers for the integration tests (a module of its own: `conftest` names collide
 between tests/ and sitl_tests/, so nothing should import from a conftest): free ports, stopping a
-simulator's process group, and a listener that tells which vehicles armed."""
+simulator's process group, a bounded poll, and a listener that tells which vehicles armed."""
 
 import os
 import signal
 import socket
 import subprocess
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from typing import TypeVar
+
+T = TypeVar("T")
 
 
 def free_udp_port() -> int:
@@ -15,6 +18,28 @@ def free_udp_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
         sock.bind(("127.0.0.1", 0))
         return int(sock.getsockname()[1])
+
+
+def udp_port_free(port: int, host: str = "127.0.0.1") -> bool:
+    """Whether nobody has bound UDP `port` on `host` (a peer started elsewhere has, once it listens)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        try:
+            sock.bind((host, port))
+        except OSError:
+            return False
+    return True
+
+
+def wait_until(condition: Callable[[], T], timeout: float, interval: float = 0.05) -> T | None:
+    """Poll `condition` until it returns something truthy (returned) or `timeout` s pass (None). For
+    events that arrive with no message to block on: a line in a simulator's log, a peer library's list
+    of systems. The tests' one sleep: between polls, bounded, never to let time pass for its own sake."""
+    deadline = time.monotonic() + timeout
+    while True:
+        result = condition()
+        if result or time.monotonic() >= deadline:
+            return result or None
+        time.sleep(min(interval, max(0.0, deadline - time.monotonic())))
 
 
 def stop_process_group(proc: "subprocess.Popen[bytes]") -> None:

@@ -22,13 +22,16 @@ no .ulg is written; otherwise about 12 MB per minute), plus what the test asks, 
 which starts camera_trigger / camera_feedback only at boot. Parameters are also saved in the
 workdir: `restart(params)` stops the vehicle and starts it again with the same workdir.
 
-Instances and ports. Instance I is system id I + 1 and takes /tmp/px4_lock-I (a flock) and UDP
-18570+I (GCS link), 14580+I (offboard link), 14280+I, 13030+I, 19450+I; it sends its GCS link to
-127.0.0.1:14550 (fixed, every instance: a fleet reaches one ground-station port, `GCS_URL`) and its
-offboard link to 127.0.0.1:14540+I (`offboard_url`; 14549 for every I > 9). An instance is used
-only when its lock is free and all those ports (and 14540+I) were free a moment ago. This helper's
-tests use instances 0-9 (`FIRST_INSTANCE`, `LAST_INSTANCE`); pass `instances=range(10, 30)` for
-others. PX4 SIH runs in real time: at most three at a time on a 2-core machine.
+Instances and ports, picked free at run time. Instance I takes /tmp/px4_lock-I (a flock) and binds UDP
+18570+I (GCS link), 14580+I (offboard link), 14280+I, 13030+I, 19450+I; an instance is used only when
+its lock is free and all those ports were free a moment ago (the search starts at a number spread by
+our pid, so two test runs probe different numbers first). Where it SENDS is ours to choose: the same
+`bin/` holds our own `px4-rc.mavlink` (PX4's, read from ../shared/px4/etc at run time, with the GCS
+link given `-o GCS_PORT` and the offboard link's remote port set), so every vehicle sends its GCS link
+to `gcs_port` (default: a free port of its own; a fleet passes one shared port, as radios into one
+ground station) and its offboard link to a free port of its own (`offboard_url`). Its system id is
+`sysid` (default I + 1), set at boot through MAV_SYS_ID. PX4 SIH runs in real time: at most three at a
+time on a 2-core machine.
 
 `px4_or_skip()` skips a test with a reason when ../shared/px4/bin/px4 is absent; the `px4` pytest
 fixture is a factory of vehicles stopped at teardown even when the test fails.
@@ -44,23 +47,25 @@ import socket
 import subprocess
 import tempfile
 import time
-from collections.abc import Iterable
 from pathlib import Path
 
 import pytest
-from loopback import stop_process_group
+from loopback import free_udp_port, stop_process_group, wait_until
 
 REPO = Path(__file__).resolve().parent.parent
 PX4_DIR = REPO.parent / "shared" / "px4"
 BINARY = PX4_DIR / "bin" / "px4"
 RUN_SIH = PX4_DIR / "run-sih.sh"
-GCS_PORT = 14550
-GCS_URL = f"udpin:127.0.0.1:{GCS_PORT}"  # every instance's GCS link sends here
-FIRST_INSTANCE, LAST_INSTANCE = 0, 9
+MAVLINK_SCRIPT = PX4_DIR / "etc" / "init.d-posix" / "px4-rc.mavlink"
+FIRST_INSTANCE, INSTANCE_SPAN = 10, 100  # numbers 10..109: clear of the 0, 1, 2 a person starts by hand
 DEFAULT_HOME = (45.4641, 9.1891, 120.0)
 BOOT_PARAMS: dict[str, float] = {"SDLOG_MODE": -1}  # logging off, always
 STARTED_MARKER = b"Startup script returned successfully"
 FAILED_MARKERS = (b"Startup script returned with return value", b"already running", b"ERROR [init]")
+# The lines of PX4's px4-rc.mavlink that choose where its GCS and offboard links send.
+GCS_LINK_START = "mavlink start -x -u $udp_gcs_port_local -r 4000000 -f\n"
+OFFBOARD_REMOTE = "udp_offboard_port_remote=$((14540+px4_instance))\n"
+OFFBOARD_REMOTE_ABOVE_9 = "[ \"$px4_instance\" -gt 9 ] && udp_offboard_port_remote=14549"
 
 
 def px4_or_skip() -> Path:
@@ -85,14 +90,8 @@ def _udp_free(port: int) -> bool:
 
 
 def instance_ports(instance: int) -> tuple[int, ...]:
-    """Every UDP port instance I binds, and the offboard port it sends to (we listen there)."""
-    return (18570 + instance, 14580 + instance, 14280 + instance, 13030 + instance, 19450 + instance,
-            offboard_port(instance))
-
-
-def offboard_port(instance: int) -> int:
-    """Where instance I's offboard link sends (PX4's px4-rc.mavlink: 14549 for every I > 9)."""
-    return 14540 + instance if instance <= 9 else 14549
+    """Every UDP port instance I binds."""
+    return (18570 + instance, 14580 + instance, 14280 + instance, 13030 + instance, 19450 + instance)
 
 
 def _lock_free(instance: int) -> bool:
@@ -116,18 +115,33 @@ def _lock_free(instance: int) -> bool:
 
 
 def instance_free(instance: int) -> bool:
-    """Whether instance I's lock and every port it would use are free now."""
+    """Whether instance I's lock and every port it would bind are free now."""
     return _lock_free(instance) and all(_udp_free(p) for p in instance_ports(instance))
 
 
-def free_instance(instances: Iterable[int] = range(FIRST_INSTANCE, LAST_INSTANCE + 1),
-                  skip: set[int] | None = None) -> int:
-    """The first instance number of `instances` not in `skip` whose lock and ports are free."""
+def free_instance(skip: set[int] | None = None) -> int:
+    """A free instance number (lock and ports), not in `skip`; the search starts at a number spread by
+    our pid, so that test runs started together do not race for the same one."""
     skip = skip or set()
-    for instance in instances:
+    offset = (os.getpid() * 7) % INSTANCE_SPAN
+    for k in range(INSTANCE_SPAN):
+        instance = FIRST_INSTANCE + (offset + k) % INSTANCE_SPAN
         if instance not in skip and instance_free(instance):
             return instance
-    raise RuntimeError(f"no free PX4 instance number in {list(instances)} (skipping {sorted(skip)})")
+    raise RuntimeError(f"no free PX4 instance number in {FIRST_INSTANCE}..{FIRST_INSTANCE + INSTANCE_SPAN - 1}")
+
+
+def mavlink_script(gcs_port: int, offboard_port: int) -> str:
+    """PX4's own px4-rc.mavlink, its GCS link sending to `gcs_port` and its offboard link to
+    `offboard_port` (PX4 sends them to 14550 and 14540+I, ports every other instance and ground
+    station on the machine use too)."""
+    text = MAVLINK_SCRIPT.read_text()
+    for line in (GCS_LINK_START, OFFBOARD_REMOTE, OFFBOARD_REMOTE_ABOVE_9):
+        if line not in text:  # PX4 changed its script: say so rather than start a vehicle on fixed ports
+            raise RuntimeError(f"{MAVLINK_SCRIPT} no longer holds {line.strip()!r}")
+    text = text.replace(GCS_LINK_START, f"{GCS_LINK_START.rstrip()} -o {gcs_port}\n")
+    text = text.replace(OFFBOARD_REMOTE, f"udp_offboard_port_remote={offboard_port}\n")
+    return text.replace(OFFBOARD_REMOTE_ABOVE_9, "")
 
 
 def _module_links(bin_dir: Path) -> None:
@@ -141,23 +155,26 @@ def _module_links(bin_dir: Path) -> None:
 class PX4:
     """One PX4 SIH process. Use as a context manager, or start() / stop().
 
-    `instance` None picks a free one of `instances`. `home` is (lat, lon, alt AMSL m). `params`
+    `instance` None picks a free one. `sysid` None is PX4's own choice, instance + 1. `home` is (lat,
+    lon, alt AMSL m). `gcs_port` is where its GCS link sends (None: a free port of its own). `params`
     are set at boot, before any module starts (SDLOG_MODE = -1 is always among them)."""
 
     def __init__(self, instance: int | None = None, home: tuple[float, float, float] = DEFAULT_HOME,
-                 params: dict[str, float] | None = None,
-                 instances: Iterable[int] = range(FIRST_INSTANCE, LAST_INSTANCE + 1)) -> None:
+                 params: dict[str, float] | None = None, sysid: int | None = None,
+                 gcs_port: int | None = None) -> None:
         self.wanted = instance
-        self.instances = list(instances)
         self.instance = -1 if instance is None else instance
+        self.wanted_sysid = sysid
         self.home = home
         self.params: dict[str, float] = {**BOOT_PARAMS, **(params or {})}
-        self.folder: Path | None = None  # ours: bin/ (links, px4-rc.params), work/ (PX4_WORKDIR), px4.log
+        self.gcs_port = gcs_port if gcs_port is not None else free_udp_port()
+        self.offboard_port = free_udp_port()
+        self.folder: Path | None = None  # ours: bin/ (links, px4-rc.*), work/ (PX4_WORKDIR), px4.log
         self.proc: subprocess.Popen[bytes] | None = None
 
     @property
     def sysid(self) -> int:
-        return self.instance + 1
+        return self.wanted_sysid if self.wanted_sysid is not None else self.instance + 1
 
     @property
     def workdir(self) -> Path:
@@ -171,13 +188,13 @@ class PX4:
 
     @property
     def gcs_url(self) -> str:
-        """Where a ground station hears it: the one port every instance sends to."""
-        return GCS_URL
+        """Where a ground station hears its GCS link (shared by a fleet started with one gcs_port)."""
+        return f"udpin:127.0.0.1:{self.gcs_port}"
 
     @property
     def offboard_url(self) -> str:
-        """This vehicle's own port (its offboard link sends there): for a test that must not hold 14550."""
-        return f"udpin:127.0.0.1:{offboard_port(self.instance)}"
+        """This vehicle's own port (its offboard link sends there, to nobody else)."""
+        return f"udpin:127.0.0.1:{self.offboard_port}"
 
     def env(self) -> dict[str, str]:
         lat, lon, alt = self.home
@@ -186,12 +203,16 @@ class PX4:
                     "PX4_HOME_ALT": f"{alt:g}", "PATH": f"{self.bin_dir}{os.pathsep}{env.get('PATH', '')}"})
         return env
 
-    def _write_boot_params(self) -> None:
-        """px4-rc.params on PATH: sourced by the start-up script before the modules start."""
+    def _write_start_scripts(self) -> None:
+        """px4-rc.params and px4-rc.mavlink on PATH: the start-up script sources them, the parameters
+        before the modules start, the links after."""
         lines = ["#!/bin/sh", "# written by sitl_tests/px4.py: this vehicle's boot parameters"]
         lines += [f"param set SIH_LOC_H0 {self.home[2]:g}"]
+        if self.wanted_sysid is not None:
+            lines += [f"param set MAV_SYS_ID {self.wanted_sysid}"]
         lines += [f"param set {name} {value:g}" for name, value in self.params.items()]
         (self.bin_dir / "px4-rc.params").write_text("\n".join(lines) + "\n")
+        (self.bin_dir / "px4-rc.mavlink").write_text(mavlink_script(self.gcs_port, self.offboard_port))
 
     def start(self, attempts: int = 3, boot_wait: float = 30.0) -> PX4:
         """Start on a free instance; return once its start-up script has finished (a HEARTBEAT
@@ -200,7 +221,7 @@ class PX4:
         tried: set[int] = set()
         for _ in range(attempts):
             if self.wanted is None:
-                self.instance = free_instance(self.instances, skip=tried)
+                self.instance = free_instance(skip=tried)
             elif not instance_free(self.wanted):
                 raise RuntimeError(f"PX4 instance {self.wanted} is taken (its lock or one of its ports)")
             tried.add(self.instance)
@@ -215,7 +236,7 @@ class PX4:
         raise RuntimeError(f"PX4 SIH did not start (instances tried {sorted(tried)})")
 
     def _launch(self, boot_wait: float) -> bool:
-        self._write_boot_params()
+        self._write_start_scripts()
         log = open(self.folder / "px4.log", "ab")  # noqa: SIM115 (closed with the process)
         self.proc = subprocess.Popen([str(RUN_SIH), str(self.instance)], cwd=self.workdir, env=self.env(),
                                      stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
@@ -237,16 +258,19 @@ class PX4:
         return self
 
     def _wait_started(self, timeout: float) -> bool:
+        """Until its start-up script says it finished (True) or failed, or the process died (False)."""
         assert self.proc is not None
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
+        proc = self.proc
+
+        def outcome() -> str | None:
             text = self.log_bytes()
             if STARTED_MARKER in text:
-                return True
-            if self.proc.poll() is not None or any(m in text for m in FAILED_MARKERS):
-                return False
-            time.sleep(0.1)
-        return False
+                return "started"
+            if proc.poll() is not None or any(m in text for m in FAILED_MARKERS):
+                return "failed"
+            return None
+
+        return wait_until(outcome, timeout, interval=0.1) == "started"
 
     def log_bytes(self) -> bytes:
         try:

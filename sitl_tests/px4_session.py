@@ -194,7 +194,7 @@ def _start(link: Link, sysid: int, ready_s: float) -> tuple[int | None, list[str
                 break
         if result != 1 or time.monotonic() > deadline:
             return result, texts
-        time.sleep(2.0)
+        _texts(link, sysid, 2.0)  # not ready yet: listen, then ask again
 
 
 def start_session(url: str, sysid: int, ready_s: float = 90.0) -> dict[str, Any]:

@@ -18,6 +18,8 @@ from bridge.protocol import Timeouts
 from bridge.uploader import open_backend, upload_plan
 from missionplan.cli import main
 
+pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
+
 CLI_FAST = ["--timeout", "20", "--quiet"]
 
 

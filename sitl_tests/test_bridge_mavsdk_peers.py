@@ -9,7 +9,7 @@ import time
 from typing import Any
 
 import pytest
-from loopback import free_udp_port
+from loopback import free_udp_port, wait_until
 
 from bridge.mission import Flavour, Mission, MissionItem, compare_wire, to_wire
 from bridge.mock import MockAutopilot
@@ -30,13 +30,14 @@ def survey(n: int) -> Mission:
 
 
 def _system(sdk: Any, sysid: int, autopilot: int, timeout: float = 5.0) -> Any:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        for system in sdk.get_systems():
-            if system.get_system_id() == sysid and system.has_autopilot() and int(system.autopilot_type()) == autopilot:
-                return system
-        time.sleep(0.02)
-    raise AssertionError(f"MAVSDK did not find system {sysid}")
+    def found() -> Any:
+        return next((system for system in sdk.get_systems() if system.get_system_id() == sysid
+                     and system.has_autopilot() and int(system.autopilot_type()) == autopilot), None)
+
+    system = wait_until(found, timeout, interval=0.02)  # MAVSDK's list of systems: polled, bounded
+    if system is None:
+        raise AssertionError(f"MAVSDK did not find system {sysid}")
+    return system
 
 
 @pytest.mark.parametrize("flavour, autopilot", [("ardupilot", 2), ("px4", 1)])

@@ -8,6 +8,7 @@ the fence alone (an empty mission) must leave the vehicle with no mission and th
 
 from __future__ import annotations
 
+import pytest
 from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
 
 from bridge.mission import CMD_FENCE_POLYGON_VERTEX_INCLUSION, Flavour, MissionType, to_wire
@@ -15,6 +16,8 @@ from bridge.missionfile import read_mission_file
 from bridge.protocol import Timeouts
 from bridge.uploader import open_backend, upload_plan
 from missionplan.cli import main
+
+pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
 
 def test_planned_geofence_round_trips_through_arducopter(arducopter, tmp_path):  # noqa: F811

@@ -18,6 +18,7 @@ import json
 import time
 from pathlib import Path
 
+import pytest
 from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
 from loopback import armed_ever, free_udp_port
 
@@ -26,6 +27,8 @@ from bridge.missionfile import read_mission_file
 from bridge.params import ParamClient
 from bridge.shared_link import SharedLink
 from missionplan.cli import main
+
+pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
 SYSIDS = (1, 2, 3)
 # A 120 x 90 m block in Milan (around the SITL fixture's default home), three launch points on its

@@ -19,6 +19,8 @@ from bridge.missionfile import read_mission_file
 from missionplan.cli import main
 from missionplan.flight.fly import fly
 
+pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
+
 REPO = Path(__file__).resolve().parent.parent
 OSM = REPO.parent / "shared" / "maps" / "turin_cenisia_osm_buildings.geojson"
 LAUNCH = (45.069450, 7.652588)  # a street corner of Cenisia (README's first launch point)

@@ -28,6 +28,8 @@ from bridge.params import ParamClient
 from bridge.protocol import Timeouts
 from bridge.uploader import PymavlinkBackend
 
+pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
+
 HOME = (45.4643, 9.1895, 120.0)
 LAT, LON = 454643000, 91895000
 
@@ -102,7 +104,9 @@ def _home_known(backend: PymavlinkBackend, seconds: float) -> list[WireItem]:
         got = backend.download(MissionType.MISSION)
         if got and (got[0].x, got[0].y) != (0, 0) or time.monotonic() > deadline:
             return got
-        time.sleep(0.5)
+        ask_again = min(deadline, time.monotonic() + 0.5)  # listen meanwhile, then ask again
+        while backend.link.recv(ask_again) is not None:
+            pass
 
 
 def session(url: str, sysid: int) -> dict[str, Any]:
@@ -118,7 +122,9 @@ def session(url: str, sysid: int) -> dict[str, Any]:
         params = ParamClient(backend.link, backend.vehicle)
         out["WPNAV_RADIUS default"] = params.get("WPNAV_RADIUS")
         params.link.mav.param_set_send(sysid, 1, b"WPNAV_RADIUS", 3.0, 9)  # below its documented range
-        time.sleep(0.5)
+        answer = _wait(backend.link, sysid, lambda m: m.get_type() == "PARAM_VALUE"
+                       and str(m.param_id).rstrip("\x00") == "WPNAV_RADIUS", 5.0)  # what it made of it
+        out["WPNAV_RADIUS answer to setting 3"] = None if answer is None else float(answer.param_value)
         out["WPNAV_RADIUS after setting 3"] = params.get("WPNAV_RADIUS")
     return out
 

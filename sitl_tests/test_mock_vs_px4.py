@@ -23,7 +23,8 @@ from bridge.mission import WireItem
 from bridge.mock import MockAutopilot
 from bridge.mock_vehicle import MockVehicle
 
-INSTANCES = range(10, 30)  # this file's PX4 instances (the fleet tests use 0-9)
+pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
+
 
 
 def _same(a: Any, b: Any) -> bool:
@@ -61,7 +62,7 @@ def _mock(run: Any) -> dict[str, Any]:
 
 
 def test_mock_and_px4_store_and_answer_alike(px4) -> None:  # noqa: F811
-    vehicle: PX4 = px4(home=HOME, instances=INSTANCES)
+    vehicle: PX4 = px4(home=HOME)
     real = session(vehicle.offboard_url, vehicle.sysid)
     mocked = _mock(session)
     assert drift(real, mocked) == [], "the mock drifted from PX4:\n" + "\n".join(drift(real, mocked))
@@ -74,7 +75,7 @@ def test_mock_and_px4_store_and_answer_alike(px4) -> None:  # noqa: F811
 
 
 def test_mock_and_px4_refuse_the_same_starts(px4) -> None:  # noqa: F811
-    vehicle: PX4 = px4(home=HOME, instances=INSTANCES)
+    vehicle: PX4 = px4(home=HOME)
     real = start_session(vehicle.offboard_url, vehicle.sysid)
     mocked = _mock(start_session)
     assert drift(real, mocked) == [], "the mock drifted from PX4:\n" + "\n".join(drift(real, mocked))

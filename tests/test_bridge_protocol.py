@@ -131,7 +131,8 @@ def test_reboot_mid_upload_fails_clearly_and_the_next_upload_succeeds() -> None:
         with pytest.raises(MissionTransferError) as err:
             b.upload(0, to_wire(mission(40), Flavour.ARDUPILOT))
         assert "rebooted" in str(err.value) and "did not complete" in str(err.value)
-        assert time.monotonic() - start < 5
+        # Given up on the reboot, not after every retry of every item (40 x 5 x 0.2 s); generous for a busy machine.
+        assert time.monotonic() - start < 8
         assert m.vehicle(1).reboots == 1 and len(m.mission(1)) == 1  # it forgot everything but home
         assert upload_plan(b, [mission(40)]).verified
 
@@ -142,7 +143,7 @@ def test_unreachable_sysid_fails_within_the_timeout_naming_it() -> None:
             start = time.monotonic()
             with pytest.raises(BridgeError) as err:
                 wait_vehicle(link, 9, timeout=0.6)
-            assert time.monotonic() - start < 1.5
+            assert time.monotonic() - start < 5  # its own 0.6 s, not the default 10 s; generous for a busy machine
             assert "system 9" in str(err.value) and "heard only system 1 component 1" in str(err.value)
 
 

@@ -86,12 +86,13 @@ def test_a_clean_close_is_reported_once(capfd: pytest.CaptureFixture[str]) -> No
     server.bind(("127.0.0.1", 0))
     server.listen(1)
     port = server.getsockname()[1]
+    heard = threading.Event()  # the close comes only after the client has read the heartbeat
 
     def serve() -> None:
         client, _ = server.accept()
         encoder = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
         client.sendall(encoder.heartbeat_encode(2, 3, 0, 0, 4).pack(encoder))
-        time.sleep(0.2)
+        heard.wait(5.0)
         client.shutdown(socket.SHUT_RDWR)
         client.close()
         server.close()
@@ -100,6 +101,7 @@ def test_a_clean_close_is_reported_once(capfd: pytest.CaptureFixture[str]) -> No
     thread.start()
     with Link(f"tcp:127.0.0.1:{port}") as link:
         assert link.recv(time.monotonic() + 2.0).get_type() == "HEARTBEAT"
+        heard.set()
         with pytest.raises(BridgeError, match="the other end closed the TCP connection and 4 reconnects"):
             link.recv(time.monotonic() + 5.0)
         assert link.reconnects == 1

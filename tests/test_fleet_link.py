@@ -8,6 +8,8 @@ import time
 import numpy as np
 import pytest
 
+from loopback import free_udp_port, wait_until
+
 from bridge.errors import BridgeUsageError
 from bridge.link import Link, wait_vehicle
 from bridge.mission import Flavour
@@ -19,14 +21,6 @@ from missionplan.flight import flight_report as fr
 MILAN = (45.4643, 9.1895, 120.0)
 
 
-def _free_udp_port() -> int:
-    import socket
-
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
-
-
 def _senders(port: int, sysids: tuple[int, ...], **options) -> list[MockAutopilot]:
     """One mock per system id, each from its own socket, all sending to one ground-station port."""
     return [MockAutopilot(f"udpout:127.0.0.1:{port}", sysids=[k], homes={k: (MILAN[0] + 0.001 * k, MILAN[1], MILAN[2])},
@@ -34,7 +28,7 @@ def _senders(port: int, sysids: tuple[int, ...], **options) -> list[MockAutopilo
 
 
 def test_one_udpin_port_answers_each_vehicle_at_its_own_address() -> None:
-    port = _free_udp_port()
+    port = free_udp_port()
     mocks = _senders(port, (1, 2, 3))
     try:
         with SharedLink(f"udpin:127.0.0.1:{port}") as shared:
@@ -71,10 +65,11 @@ def test_cli_upload_to_one_vehicle_of_a_fleet_on_one_udpin_port(tmp_path, capsys
                                                       for k in range(1, 6)] + [MissionItem(20, 2)], home=MILAN)
     path = tmp_path / "one.plan"
     write_plan(path, PlanFile(mission=mission))
-    port = _free_udp_port()
+    port = free_udp_port()
     mocks = _senders(port, (1, 2, 3))
     try:
-        time.sleep(0.3)  # the vehicles are sending before the ground station listens, as in the field
+        # The vehicles are sending before the ground station listens, as in the field.
+        assert wait_until(lambda: all(m.stats["out"] > 0 for m in mocks), 5.0)
         code = main(["upload", str(path), "--sysid", "2", "--connect", f"udpin:127.0.0.1:{port}", "--timeout", "5"])
         out = capsys.readouterr().out
         assert code == 0, out
@@ -93,8 +88,9 @@ def test_a_shared_link_routes_by_system_id_and_bounds_each_queue() -> None:
             assert shared.vehicle(1) is one
             assert wait_vehicle(one, 1, timeout=5.0).sysid == 1
             request_streams(two, 2, {33: 200.0}, time.monotonic() + 5.0)  # 200 Hz positions of vehicle 2
-            time.sleep(1.0)  # nobody reads vehicle 2's queue meanwhile
-            assert len(shared._queues[2]) == 50 and shared.dropped.get(2, 0) > 0
+            # Nobody reads vehicle 2's queue meanwhile: it fills, then drops its oldest.
+            assert wait_until(lambda: shared.dropped.get(2, 0) > 0, 5.0)
+            assert len(shared._queues[2]) == 50
             while (msg := one.recv(time.monotonic() + 0.2)) is not None:
                 assert msg.get_srcSystem() == 1
 
@@ -110,7 +106,7 @@ def test_a_link_pool_finds_each_vehicle_on_the_link_that_carries_its_heartbeat()
     from bridge.errors import BridgeError
     from bridge.shared_link import LinkPool
 
-    ports = [_free_udp_port(), _free_udp_port()]
+    ports = [free_udp_port(), free_udp_port()]
     mocks = [_senders(port, (k,))[0] for port, k in zip(ports, (1, 2))]
     urls = [f"udpin:127.0.0.1:{port}" for port in ports]
     try:
@@ -217,6 +213,5 @@ def test_only_a_streams_clock_starting_again_is_a_reboot() -> None:
     link._track_boot(message("POSITION_TARGET_GLOBAL_INT", 37_000))  # a setpoint from 6 s ago
     link._track_boot(message("CAMERA_IMAGE_CAPTURED", 40_000))
     assert link.reboots == {}
-    time.sleep(0.3)
     link._track_boot(message("GLOBAL_POSITION_INT", 100))  # its clock started again: a reboot
     assert link.reboots == {1: 1}

@@ -143,7 +143,7 @@ def test_fly_judges_a_px4_fleet_by_its_camera_image_captured_reports(milan_plan,
         assert row["flight_s"] == pytest.approx(row["planned_flight_s_vehicle"], rel=0.05), row
         assert not any("streams not accepted" in note for note in row["notes"]), row["notes"]
         # Where the time went: PX4's landed states bound the four phases, each as the PX4 model plans it.
-        # sitl_tests/test_fleet_px4.py asserts the same sequence of landed states from PX4 SIH.
+        # PX4 SIH goes through the same ones, now and then skipping "taking off" (sitl_tests/test_fleet_px4.py).
         assert landed_states(row) == PX4_LANDED_STATES, row["events"]
         # As PX4 reports them: the DO_ items' seq after a waypoint, nothing for the take-off and the RTL.
         assert reached_items(row)[:2] == [4, 6], row["events"]

@@ -5,7 +5,6 @@ one armed while the vertical estimate moved was flown as a plain climb."""
 
 from __future__ import annotations
 
-import time
 from types import SimpleNamespace
 
 import numpy as np
@@ -53,39 +52,61 @@ def test_positions_of_zero_are_no_estimate() -> None:
     assert state.position_wander_m() is None
 
 
+class _Clock:
+    """bridge.readiness's clock in these tests: time moves only when the link delivers a message, so
+    the waits are measured exactly, whatever else the machine is doing."""
+
+    def __init__(self) -> None:
+        self.now = 1000.0
+
+    def monotonic(self) -> float:
+        return self.now
+
+
 class _Link:
     """A link whose vehicle's vertical velocity estimate follows `climb(t)` (t: seconds since the start),
-    one GLOBAL_POSITION_INT every 0.05 s; arming is accepted and its time kept."""
+    one GLOBAL_POSITION_INT every 0.05 s of the clock; arming is accepted and its time kept."""
 
-    def __init__(self, climb) -> None:
-        self.start, self.climb, self.armed_at, self.sent = time.monotonic(), climb, None, 0
+    def __init__(self, climb, clock: _Clock) -> None:
+        self.clock, self.climb, self.armed_at, self.sent = clock, climb, None, 0
+        self.start = clock.now
 
     def recv(self, until: float) -> SimpleNamespace | None:
-        if time.monotonic() >= until:
+        if self.clock.now >= until:
             return None
-        time.sleep(max(0.0, min(0.05, until - time.monotonic())))
+        self.clock.now = min(until, self.clock.now + 0.05)
         self.sent += 1
-        return _position(40.0 + 0.05 * self.sent, 0.0, self.climb(time.monotonic() - self.start))
+        return _position(40.0 + 0.05 * self.sent, 0.0, self.climb(self.clock.now - self.start))
 
     def command_long(self, sysid, command, params, deadline, other=None) -> int:
-        self.armed_at = time.monotonic() - self.start
+        self.armed_at = self.clock.now - self.start
         return 0
 
 
-def test_arming_waits_for_the_vertical_velocity_estimate_to_come_to_rest() -> None:
+@pytest.fixture()
+def clock(monkeypatch) -> _Clock:
+    fake = _Clock()
+    monkeypatch.setattr("bridge.readiness.time", fake)
+    return fake
+
+
+def test_arming_waits_for_the_vertical_velocity_estimate_to_come_to_rest(clock: _Clock) -> None:
     # SIH's vertical estimate on the ground: 0.5 m/s, falling to rest over 0.6 s.
-    link = _Link(lambda t: max(0.0, 0.5 - 0.8 * t))
+    link = _Link(lambda t: max(0.0, 0.5 - 0.8 * t), clock)
     said: list[str] = []
     vehicle = Vehicle(link, SimpleNamespace(sysid=1, flavour=Flavour.PX4), said.append)
-    vehicle.listen(time.monotonic() + 0.06)
-    assert vehicle.arm(time.monotonic() + 5.0) == (True, "")
-    assert link.armed_at == pytest.approx((0.5 - QUIET_CLIMB_M_S) / 0.8, abs=0.15)
+    vehicle.listen(clock.now + 0.06)
+    assert vehicle.arm(clock.now + 5.0) == (True, "")
+    # Armed once the estimate is at rest: at the end of the 0.1 s listen that heard it settle.
+    settled = (0.5 - QUIET_CLIMB_M_S) / 0.8
+    assert settled <= link.armed_at <= settled + 0.1 + 1e-9
     assert any("vertical velocity estimate to settle" in line for line in said), said
 
 
-def test_a_vertical_estimate_that_never_rests_delays_arming_only_to_the_bound() -> None:
-    link = _Link(lambda t: 0.6)
+def test_a_vertical_estimate_that_never_rests_delays_arming_only_to_the_bound(clock: _Clock) -> None:
+    link = _Link(lambda t: 0.6, clock)
     vehicle = Vehicle(link, SimpleNamespace(sysid=1, flavour=Flavour.PX4))
-    vehicle.listen(time.monotonic() + 0.06)
-    assert vehicle.wait_still(time.monotonic() + 0.3) is False  # the deadline bounds it
-    assert vehicle.arm(time.monotonic() + 0.3)[0] and link.armed_at < 1.0
+    vehicle.listen(clock.now + 0.06)
+    assert vehicle.wait_still(clock.now + 0.3) is False  # the deadline bounds it
+    assert link.start + 0.36 - 1e-9 <= clock.now <= link.start + 0.36 + 1e-9
+    assert vehicle.arm(clock.now + 0.3)[0] and link.armed_at == pytest.approx(0.66)
