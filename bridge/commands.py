@@ -6,6 +6,10 @@ the parsed arguments and returns the exit code: 0 on success (for upload: the ve
 the mission sent, unless --no-verify), 1 after printing one line to stderr when the vehicle or the
 link fails. Bad input (missing file, bad URL, bad system id, bad key file) raises BridgeUsageError;
 the main CLI prints its one-line message and exits 2.
+
+Also the link options `fly` shares with upload / download / clear (add_gcs_arguments, CONNECT_HELP),
+so every command has the same default connection, signing key and ground-station identity. No
+parser here accepts abbreviated options (allow_abbrev=False): `--uav 3` is an error, not `--uavs 3`.
 """
 
 from __future__ import annotations
@@ -21,16 +25,26 @@ from pathlib import Path
 from typing import Any
 
 from .errors import BridgeError, BridgeUsageError
+from .link import GCS_COMPONENT_ID, GCS_SYSTEM_ID
 from .mission import Flavour, MissionType
 
-DEFAULT_CONNECT = "udpin:0.0.0.0:14550"  # where ground stations listen for vehicles by convention
+DEFAULT_CONNECT = "udpin:0.0.0.0:14550"  # where ground stations listen for vehicles by convention (QGroundControl)
+CONNECT_HELP = (f"pymavlink connection string: udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT or a "
+                f"serial device DEVICE,BAUD (default {DEFAULT_CONNECT}, where ground stations listen for vehicles)")
+SIGNING_KEY_HELP = "MAVLink 2 signing key file (32 bytes or 64 hex digits): sign every packet, accept only signed ones"
+GCS_SYSID_HELP = (f"our system id on the link, 1..255 (default {GCS_SYSTEM_ID}). ArduPilot's GCS failsafe watches "
+                  f"system SYSID_MYGCS (default 255): with another id we are not \"the\" GCS for it; but two ground "
+                  "stations with one id (MAVProxy and missionplan both 255) interleave in a mission transfer: give "
+                  "one of them another id")
+GCS_COMPID_HELP = f"our component id on the link, 1..255 (default {GCS_COMPONENT_ID}, MAV_COMP_ID_MISSIONPLANNER)"
 DEFAULT_LISTEN = "udpin:127.0.0.1:14550"
 DEFAULT_HOME_ALT = 0.0  # metres AMSL when --home gives none
 
 
 def register(subparsers: Any) -> None:
     """Add the upload, download, clear and mock subcommands to an argparse subparsers object."""
-    up = subparsers.add_parser("upload", help="upload a .plan or .waypoints mission to a vehicle and verify it")
+    up = subparsers.add_parser("upload", help="upload a .plan or .waypoints mission to a vehicle and verify it",
+                               allow_abbrev=False)
     up.add_argument("file", type=Path, help="mission file (.plan, .waypoints, or a QGC WPL 110 .txt)")
     _vehicle_arguments(up)
     up.add_argument("--backend", default="pymavlink", choices=("pymavlink", "mavsdk"),
@@ -43,16 +57,18 @@ def register(subparsers: Any) -> None:
                          "acceptance radius, which it does not read from the waypoints)")
     up.set_defaults(handler=cmd_upload)
 
-    down = subparsers.add_parser("download", help="download a vehicle's mission to a .plan or .waypoints file")
-    _vehicle_arguments(down, connect_required=True)
+    down = subparsers.add_parser("download", help="download a vehicle's mission to a .plan or .waypoints file",
+                                 allow_abbrev=False)
+    _vehicle_arguments(down)
     down.add_argument("-o", "--output", required=True, type=Path, help="file to write (.plan, .waypoints or .txt)")
     down.set_defaults(handler=cmd_download)
 
-    clear = subparsers.add_parser("clear", help="clear a vehicle's mission, geofence and rally points, and verify")
-    _vehicle_arguments(clear, connect_required=True)
+    clear = subparsers.add_parser("clear", help="clear a vehicle's mission, geofence and rally points, and verify",
+                                  allow_abbrev=False)
+    _vehicle_arguments(clear)
     clear.set_defaults(handler=cmd_clear)
 
-    mock = subparsers.add_parser("mock", help="run mock autopilots on loopback until interrupted")
+    mock = subparsers.add_parser("mock", help="run mock autopilots on loopback until interrupted", allow_abbrev=False)
     mock.add_argument("--sysid", default="1", help="system ids to serve, comma-separated (default 1)")
     mock.add_argument("--listen", default=DEFAULT_LISTEN,
                       help=f"udpin:HOST:PORT, udpout:HOST:PORT, tcpin:HOST:PORT, a serial device DEVICE,BAUD, or "
@@ -65,7 +81,7 @@ def register(subparsers: Any) -> None:
     mock.add_argument("--latency", type=float, default=0.0, help="added one-way latency in seconds")
     mock.add_argument("--request-interval", type=float, default=None,
                       help="re-request a missing item after this many seconds (default: the flavour's)")
-    mock.add_argument("--signing-key", type=Path, help="MAVLink 2 signing key file (32 bytes or 64 hex digits)")
+    mock.add_argument("--signing-key", type=Path, metavar="FILE", help=SIGNING_KEY_HELP)
     mock.add_argument("--home", action="append", default=[], metavar="[SYSID=]LAT,LON[,ALT]",
                       help="where a vehicle starts: LAT,LON for every one (drone K placed K-1 x 55 m north), "
                            "or SYSID=LAT,LON for one; repeatable")
@@ -85,21 +101,24 @@ def register(subparsers: Any) -> None:
     mock.set_defaults(handler=cmd_mock)
 
 
-def _vehicle_arguments(parser: argparse.ArgumentParser, connect_required: bool = False) -> None:
+def add_gcs_arguments(parser: argparse.ArgumentParser) -> None:
+    """--signing-key, --gcs-sysid and --gcs-compid: how we appear on the link (upload, download, clear, fly)."""
+    parser.add_argument("--signing-key", type=Path, metavar="FILE", help=SIGNING_KEY_HELP)
+    parser.add_argument("--gcs-sysid", default=str(GCS_SYSTEM_ID), metavar="N", help=GCS_SYSID_HELP)
+    parser.add_argument("--gcs-compid", default=str(GCS_COMPONENT_ID), metavar="N", help=GCS_COMPID_HELP)
+
+
+def _vehicle_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--sysid", required=True, help="the vehicle's MAVLink system id (1..254)")
     parser.add_argument("--compid", default="1", help="the autopilot's component id (default 1)")
-    if connect_required:
-        parser.add_argument("--connect", required=True, help="pymavlink connection string, e.g. tcp:127.0.0.1:5760")
-    else:
-        parser.add_argument("--connect", default=DEFAULT_CONNECT,
-                            help=f"pymavlink connection string (default {DEFAULT_CONNECT})")
+    parser.add_argument("--connect", default=DEFAULT_CONNECT, metavar="URL", help=CONNECT_HELP)
     parser.add_argument("--timeout", type=float, default=10.0,
                         help="seconds to wait for the vehicle's heartbeat (default 10)")
     parser.add_argument("--item-timeout", type=float, default=1.5,
                         help="longest wait for one protocol step before re-sending (default 1.5 s)")
     parser.add_argument("--retries", type=int, default=5,
                         help="a step fails after item-timeout * (retries + 1) s without progress (default 5)")
-    parser.add_argument("--signing-key", type=Path, help="MAVLink 2 signing key file (32 bytes or 64 hex digits)")
+    add_gcs_arguments(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -112,17 +131,14 @@ def _fail(command: str, err: BaseException) -> int:
 
 def _checked(args: argparse.Namespace) -> dict[str, Any]:
     """The options every vehicle command shares, checked before anything is opened."""
-    from .link import parse_sysid, parse_url
+    from .link import parse_compid, parse_sysid, parse_url
     from .protocol import Timeouts
-    from .signing import load_key
+    from .uploader import check_gcs_identity
 
     sysid = parse_sysid(args.sysid)
-    try:
-        compid = int(str(args.compid).strip())
-    except ValueError:
-        raise BridgeUsageError(f"--compid {args.compid!r}: not a component id (an integer 1..255)") from None
-    if not 1 <= compid <= 255:
-        raise BridgeUsageError(f"--compid {compid}: component ids run from 1 to 255")
+    compid = parse_compid(args.compid)
+    gcs = gcs_identity(args, [sysid])
+    check_gcs_identity(getattr(args, "backend", "pymavlink"), *gcs)
     parse_url(args.connect)
     if not args.timeout > 0:
         raise BridgeUsageError(f"--timeout must be positive, got {args.timeout}")
@@ -130,10 +146,23 @@ def _checked(args: argparse.Namespace) -> dict[str, Any]:
         raise BridgeUsageError(f"--item-timeout must be positive, got {args.item_timeout}")
     if args.retries < 0:
         raise BridgeUsageError(f"--retries must not be negative, got {args.retries}")
-    key = load_key(args.signing_key) if args.signing_key is not None else None
-    return {"url": args.connect, "sysid": sysid, "compid": compid, "key": key,
+    return {"url": args.connect, "sysid": sysid, "compid": compid, "key": signing_key(args),
             "timeouts": Timeouts(item_timeout=args.item_timeout, retries=args.retries),
-            "connect_timeout": args.timeout}
+            "connect_timeout": args.timeout, "source_system": gcs[0], "source_component": gcs[1]}
+
+
+def gcs_identity(args: argparse.Namespace, vehicles: list[int]) -> tuple[int, int]:
+    """(--gcs-sysid, --gcs-compid), checked: one-line BridgeUsageError for a bad id or a vehicle's own."""
+    from .link import parse_compid, parse_gcs_sysid
+
+    return parse_gcs_sysid(args.gcs_sysid, vehicles), parse_compid(args.gcs_compid, "--gcs-compid")
+
+
+def signing_key(args: argparse.Namespace) -> Any:
+    """The --signing-key file's key (bridge.signing.SigningKey), or None without the option."""
+    from .signing import load_key
+
+    return load_key(args.signing_key) if args.signing_key is not None else None
 
 
 class _Bars:
@@ -181,7 +210,8 @@ def cmd_upload(args: argparse.Namespace) -> int:
     backend = None
     try:
         backend = open_backend(args.backend, opts["url"], opts["sysid"], opts["compid"], opts["key"],
-                               opts["timeouts"], opts["connect_timeout"])
+                               opts["timeouts"], opts["connect_timeout"], source_system=opts["source_system"],
+                               source_component=opts["source_component"])
         check_firmware(plan, args.file, backend.vehicle.flavour, opts["sysid"])  # learned from its HEARTBEAT
         report = upload_plan(backend, plan.parts(), verify=not args.no_verify, progress=bars,
                              set_params=not args.keep_params)
@@ -217,7 +247,8 @@ def cmd_download(args: argparse.Namespace) -> int:
     start = time.monotonic()
     try:
         backend = open_backend("pymavlink", opts["url"], opts["sysid"], opts["compid"], opts["key"],
-                               opts["timeouts"], opts["connect_timeout"])
+                               opts["timeouts"], opts["connect_timeout"], source_system=opts["source_system"],
+                               source_component=opts["source_component"])
         mission = download_plan(backend, [MissionType.MISSION], bars)[0]
         plan = PlanFile(mission=mission, firmware=backend.vehicle.flavour)
         if as_plan:  # a .plan also carries the geofence and rally points
@@ -273,7 +304,8 @@ def cmd_clear(args: argparse.Namespace) -> int:
     backend = None
     try:
         backend = open_backend("pymavlink", opts["url"], opts["sysid"], opts["compid"], opts["key"],
-                               opts["timeouts"], opts["connect_timeout"])
+                               opts["timeouts"], opts["connect_timeout"], source_system=opts["source_system"],
+                               source_component=opts["source_component"])
         report = clear_plan(backend)
     except BridgeError as err:
         return _fail("clear", err)
@@ -330,10 +362,9 @@ def mock_homes(sysids: list[int], homes: list[str], plan_dir: Path | None) -> di
 def cmd_mock(args: argparse.Namespace) -> int:
     from .link import parse_sysids
     from .mock import LinkFaults, MockAutopilot
-    from .signing import load_key
 
     sysids = parse_sysids(args.sysid)
-    key = load_key(args.signing_key) if args.signing_key is not None else None
+    key = signing_key(args)
     faults = LinkFaults(loss_in=args.loss, loss_out=args.loss, duplicate=args.duplicate, reorder=args.reorder,
                         latency=args.latency, seed=args.seed)
     if args.request_interval is not None and not args.request_interval > 0:

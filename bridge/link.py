@@ -18,7 +18,10 @@ Owns:
   the vehicle it is for (its target_system), not to the last sender; packets for no one in particular
   (our heartbeat) go to every vehicle heard. Sends are serialised (one lock around pack and write),
   so several threads may send on one Link (bridge.shared_link reads for them);
-- wait_vehicle: the HEARTBEAT of the requested system (and component) and what it tells: the flavour.
+- wait_vehicle: the HEARTBEAT of the requested system (and component) and what it tells: the flavour;
+- the signing diagnosis (Link.signing_hint): the one place that says whether MAVLink 2 signing is the
+  likely reason a vehicle ignores us (it signs and we do not; or we sign and its packets are refused),
+  which every "did not answer" message (parameters, mission transfers, commands) appends.
 """
 
 from __future__ import annotations
@@ -49,6 +52,9 @@ if mavutil.mavlink.WIRE_PROTOCOL_VERSION != "2.0":  # someone imported pymavlink
 
 mavlink: Any = mavutil.mavlink  # the MAVLink 2 dialect module (message classes and enums)
 
+# Our identity on the link (--gcs-sysid / --gcs-compid). ArduPilot's GCS failsafe watches the heartbeat
+# of system SYSID_MYGCS (default 255): another id is not "the" GCS for it; and two ground stations with
+# one id (MAVProxy and us, both 255) get each other's mission-protocol replies.
 GCS_SYSTEM_ID = 255
 GCS_COMPONENT_ID = 190  # MAV_COMP_ID_MISSIONPLANNER
 AUTOPILOT_COMPONENT_ID = 1
@@ -133,6 +139,34 @@ def parse_sysid(value: str | int, option: str = "--sysid") -> int:
     return sysid
 
 
+def parse_compid(value: str | int, option: str = "--compid") -> int:
+    """A MAVLink component id: 1..255 (0 addresses every component)."""
+    try:
+        compid = int(str(value).strip())
+    except ValueError:
+        raise BridgeUsageError(f"{option} {value!r}: not a component id (an integer 1..255)") from None
+    if not 1 <= compid <= 255:
+        raise BridgeUsageError(f"{option} {compid}: component ids run from 1 to 255")
+    return compid
+
+
+def parse_gcs_sysid(value: str | int, vehicles: list[int] | tuple[int, ...] = (),
+                    option: str = "--gcs-sysid") -> int:
+    """Our own system id on the link: 1..255 (255 by convention, what ArduPilot's SYSID_MYGCS expects),
+    never one of the vehicles' (two systems with one id on a link cannot be told apart: replies and
+    routing go by system id)."""
+    try:
+        sysid = int(str(value).strip())
+    except ValueError:
+        raise BridgeUsageError(f"{option} {value!r}: not a system id (an integer 1..255)") from None
+    if not 1 <= sysid <= 255:
+        raise BridgeUsageError(f"{option} {sysid}: system ids run from 1 to 255")
+    if sysid in vehicles:
+        raise BridgeUsageError(f"{option} {sysid}: that is a vehicle's system id; the ground station needs its own "
+                               f"(default {GCS_SYSTEM_ID})")
+    return sysid
+
+
 def parse_sysids(text: str, option: str = "--sysid") -> list[int]:
     """A comma-separated list of distinct system ids, such as "1,2,3"."""
     ids = [parse_sysid(part, option) for part in str(text).split(",") if part.strip()]
@@ -156,7 +190,10 @@ class VehicleInfo:
 
 
 def is_signed(msg: Any) -> bool:
-    """Whether a packet carried a signature (checked or not: without a key pymavlink does not check)."""
+    """Whether a packet carried a signature (checked or not: without a key pymavlink does not check).
+
+    Read from the header's incompat flags, not pymavlink's msg._signed: that is True only when a key
+    was set and the signature checked, so it is False for every packet of a link without a key."""
     return bool(msg.get_header().incompat_flags & mavlink.MAVLINK_IFLAG_SIGNED)
 
 
@@ -221,6 +258,7 @@ class Link:
         self._status: dict[int, int] = {}
         self.reboots: dict[int, int] = {}
         self.received = 0
+        self.signed_from: set[int] = set()  # system ids whose packets arrived signed
 
     # -- several vehicles on one udpin port
     def _udpin_recv_msg(self) -> Any | None:
@@ -303,6 +341,8 @@ class Link:
                     continue
                 self.received += 1
                 self._track_boot(msg)
+                if is_signed(msg):
+                    self.signed_from.add(msg.get_srcSystem())
                 return msg
             remaining = deadline - time.monotonic()
             if remaining <= 0:
@@ -403,6 +443,17 @@ class Link:
                     "(put the key on it first, or leave out --signing-key)")
         return ""
 
+    def signing_hint(self, sysid: int) -> str:
+        """MAVLink 2 signing as the likely reason system sysid does not answer us, as a clause to append
+        to a "did not answer" message; "" when signing does not explain it. Without a key: the
+        vehicle's packets arrive signed, so it most likely requires signed packets and drops ours.
+        With a key: the vehicle's packets are refused by our check (another key, none, a stale
+        clock). The one place this is decided: parameters, mission transfers and commands ask here."""
+        if self.key is None and sysid in self.signed_from:
+            return ("the vehicle signs its MAVLink (MAVLink 2 signing) and this link sends unsigned, so it likely "
+                    "ignores us; give --signing-key")
+        return self.signing_problem()
+
     def close(self) -> None:
         try:
             self.conn.close()
@@ -486,8 +537,8 @@ def wait_vehicle(link: Link, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID, t
         others |= {src for src in heard() if src != (sysid, compid)}
     if others:
         detail = "; heard only " + ", ".join(f"system {s} component {c}" for s, c in sorted(others))
-    elif link.signing_problem():
-        detail = "; " + link.signing_problem()
+    elif hint := link.signing_hint(sysid):
+        detail = "; " + hint
     elif link.received == 0:
         detail = "; nothing was received at all"
     raise BridgeError(f"no heartbeat from system {sysid} (component {compid}) on {link.url} within {timeout:g} s{detail}")

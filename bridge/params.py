@@ -62,12 +62,18 @@ class ParamClient:
                         return last, True
         return last, False
 
+    def _failure(self, text: str) -> BridgeError:
+        """The error for an unanswered or ignored request, with MAVLink 2 signing named when it is the
+        likely cause (bridge.link decides)."""
+        hint = self.link.signing_hint(self.vehicle.sysid)
+        return BridgeError(f"{text}: {hint}" if hint else text)
+
     def get(self, name: str, tries: int = PARAM_TRIES, wait_s: float = PARAM_WAIT_S) -> float:
         mav, sysid, compid = self.link.mav, self.vehicle.sysid, self.vehicle.compid
         value, _ = self._await_value(name, lambda: mav.param_request_read_send(sysid, compid, name.encode(), -1),
                                      tries, wait_s)
         if value is None:
-            raise BridgeError(f"vehicle {sysid} did not answer for parameter {name} ({tries} tries, {wait_s:g} s each)")
+            raise self._failure(f"vehicle {sysid} did not answer for parameter {name} ({tries} tries, {wait_s:g} s each)")
         return value
 
     def set(self, name: str, value: float, tries: int = PARAM_TRIES, wait_s: float = PARAM_WAIT_S) -> float:
@@ -78,9 +84,9 @@ class ParamClient:
             name, lambda: mav.param_set_send(sysid, compid, name.encode(), float(value), MAV_PARAM_TYPE_REAL32),
             tries, wait_s, lambda v: math.isclose(v, target, rel_tol=1e-6, abs_tol=1e-6))
         if got is None:
-            raise BridgeError(f"vehicle {sysid} did not answer for parameter {name} ({tries} tries, {wait_s:g} s each)")
-        if not ok:
-            raise BridgeError(f"vehicle {sysid} kept {name} = {got:g} when set to {value:g}")
+            raise self._failure(f"vehicle {sysid} did not answer for parameter {name} ({tries} tries, {wait_s:g} s each)")
+        if not ok:  # it may have ignored our PARAM_SET and answered someone else's read
+            raise self._failure(f"vehicle {sysid} kept {name} = {got:g} when set to {value:g}")
         return got
 
 

@@ -25,7 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from .errors import BridgeError
-from .link import GCS_SYSTEM_ID, Link, VehicleInfo
+from .link import Link, VehicleInfo
 from .mission import MissionType, WireItem
 
 ProgressFn = Callable[[int, int], None]  # (items done, items in all)
@@ -127,7 +127,9 @@ class MissionClient:
         if msg.get_srcComponent() != self.vehicle.compid:  # type: ignore[attr-defined]
             return False
         target = getattr(msg, "target_system", 0)
-        return target in (0, self.link.mav.srcSystem, GCS_SYSTEM_ID) if target else True
+        # Addressed to our --gcs-sysid only: with another id than 255, replies meant for a second ground
+        # station (MAVProxy at 255) on the same link are not ours.
+        return target in (0, self.link.mav.srcSystem) if target else True
 
     def _recv(self, deadline: float) -> object | None:
         """Our vehicle's next message before deadline."""
@@ -137,12 +139,9 @@ class MissionClient:
                 return msg
 
     def _silence_hint(self) -> str:
-        if self.vehicle.signed and self.link.key is None:
-            return (" Its packets are signed (MAVLink 2 signing) and ours are not: it ignores us without the right "
-                    "--signing-key.")
-        if problem := self.link.signing_problem():
-            return f" Some of its packets were refused: {problem}."
-        return ""
+        """': <why>' when MAVLink 2 signing explains the vehicle's silence (bridge.link decides), else ''."""
+        hint = self.link.signing_hint(self.vehicle.sysid)
+        return f": {hint}" if hint else ""
 
     def _rebooted_since(self, start_reboots: int) -> bool:
         return self.link.reboots.get(self.vehicle.sysid, 0) > start_reboots
@@ -193,7 +192,8 @@ class MissionClient:
                                                    f"of {count} items); the upload did not complete")
                     where = "answered nothing" if not requested_any else f"stopped asking after {highest + 1} of {count} items"
                     raise MissionTransferError(f"{self._name} {where} for {step_limit:g} s during the {label} upload; "
-                                               f"the upload did not complete.{self._silence_hint()}")
+                                               f"the upload did not complete"
+                                               f"{self._silence_hint() if not requested_any else ''}")
                 if requested_any:
                     send_item(sent_seq)  # only for a vehicle that does not re-request by itself
                 else:
@@ -301,7 +301,7 @@ class MissionClient:
             now = time.monotonic()
             if msg is None:
                 if now - start >= step_limit:
-                    raise MissionTransferError(f"{self._name} did not send {what} within {step_limit:g} s."
+                    raise MissionTransferError(f"{self._name} did not send {what} within {step_limit:g} s"
                                                f"{self._silence_hint()}")
                 send()
                 first = False

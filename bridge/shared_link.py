@@ -25,7 +25,8 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from .errors import BridgeError, BridgeUsageError
-from .link import COMMAND_TRIES, COMMAND_WAIT_S, MAV_TYPE_GCS, Link, command_long, parse_sysid, parse_url
+from .link import (COMMAND_TRIES, COMMAND_WAIT_S, GCS_COMPONENT_ID, GCS_SYSTEM_ID, MAV_TYPE_GCS, Link, command_long,
+                   parse_sysid, parse_url)
 from .signing import SigningKey
 
 QUEUE_PACKETS = 4096  # per vehicle: a minute of a 25 Hz position stream plus the rest, at 10x speed-up
@@ -35,8 +36,9 @@ READ_SLICE_S = 0.2    # the reader looks at its stop flag at least this often
 class SharedLink:
     """One Link read by one thread; vehicles registered with vehicle(sysid) get their packets queued."""
 
-    def __init__(self, url: str, key: SigningKey | None = None, queue_packets: int = QUEUE_PACKETS) -> None:
-        self.link = Link(url, key)
+    def __init__(self, url: str, key: SigningKey | None = None, queue_packets: int = QUEUE_PACKETS,
+                 source_system: int = GCS_SYSTEM_ID, source_component: int = GCS_COMPONENT_ID) -> None:
+        self.link = Link(url, key, source_system, source_component)
         self.url = url
         self.queue_packets = queue_packets
         self._queues: dict[int, deque[Any]] = {}
@@ -161,6 +163,9 @@ class VehicleLink:
     def signing_problem(self) -> str:
         return self.link.signing_problem()
 
+    def signing_hint(self, sysid: int) -> str:
+        return self.link.signing_hint(sysid)
+
     @property
     def bad_signatures(self) -> int:
         return self.link.bad_signatures
@@ -199,11 +204,14 @@ def parse_connects(values: Iterable[str], option: str = "--connect") -> tuple[di
 
 
 class LinkPool:
-    """The links of a fleet: one SharedLink per distinct URL, opened on first use, closed together."""
+    """The links of a fleet: one SharedLink per distinct URL, opened on first use, closed together; each
+    signs with `key` (when given) and speaks as ground station (source_system, source_component)."""
 
-    def __init__(self, connects: Iterable[str], key: SigningKey | None = None) -> None:
+    def __init__(self, connects: Iterable[str], key: SigningKey | None = None, source_system: int = GCS_SYSTEM_ID,
+                 source_component: int = GCS_COMPONENT_ID) -> None:
         self.by_sysid, self.pooled = parse_connects(connects)
         self.key = key
+        self.source = (source_system, source_component)
         self._links: dict[str, SharedLink] = {}
         self._lock = threading.Lock()
 
@@ -215,7 +223,8 @@ class LinkPool:
     def shared(self, url: str) -> SharedLink:
         with self._lock:
             if url not in self._links:
-                self._links[url] = SharedLink(url, self.key)
+                self._links[url] = SharedLink(url, self.key, source_system=self.source[0],
+                                              source_component=self.source[1])
             return self._links[url]
 
     def register(self, sysids: Iterable[int]) -> None:

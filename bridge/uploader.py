@@ -3,7 +3,8 @@
 Owns:
 - MissionBackend: what a backend offers (upload / download / clear / set-current of wire items for
   one vehicle), with two implementations: PymavlinkBackend here and MavsdkBackend in mavsdk_backend;
-- open_backend: connect by URL, find the vehicle by system id, learn its flavour;
+- open_backend: connect by URL as ground station (--gcs-sysid, --gcs-compid), find the vehicle by
+  system id, learn its flavour;
 - read_back_differences: download a list and compare it with what was sent;
 - upload_plan: turn the mission, fence and rally lists into the vehicle's wire items by flavour,
   upload each (clear the fence / rally when the file has none), read each back and compare item by
@@ -22,7 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from .errors import BridgeError, BridgeUsageError
-from .link import AUTOPILOT_COMPONENT_ID, Link, VehicleInfo, wait_vehicle
+from .link import AUTOPILOT_COMPONENT_ID, GCS_COMPONENT_ID, GCS_SYSTEM_ID, Link, VehicleInfo, wait_vehicle
 from .mission import Flavour, Mission, MissionType, WireItem, compare_wire, from_wire, to_wire
 from .params import ParamClient, ParamSetting, acceptance_radius_setting, set_param
 from .px4 import MIS_DIST_1WP_DEFAULT, START_DENIED, fence_problems, start_refusals
@@ -61,10 +62,12 @@ class PymavlinkBackend:
     name = "pymavlink"
 
     def __init__(self, url: str, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID, key: SigningKey | None = None,
-                 timeouts: Timeouts | None = None, connect_timeout: float = 10.0, link: Any = None) -> None:
+                 timeouts: Timeouts | None = None, connect_timeout: float = 10.0, link: Any = None,
+                 source_system: int = GCS_SYSTEM_ID, source_component: int = GCS_COMPONENT_ID) -> None:
         """link: an open link to use instead of opening url (a bridge.shared_link.VehicleLink of a
-        fleet's shared connection); close() then closes only the view."""
-        self.link = link if link is not None else Link(url, key)
+        fleet's shared connection, which has its own key and identity); close() then closes only the
+        view. source_system, source_component: our ground-station identity on a link we open."""
+        self.link = link if link is not None else Link(url, key, source_system, source_component)
         try:
             self.vehicle = wait_vehicle(self.link, sysid, compid, connect_timeout)
         except BaseException:
@@ -98,13 +101,26 @@ class PymavlinkBackend:
         self.close()
 
 
+def check_gcs_identity(backend: str, source_system: int, source_component: int, option: str = "--backend") -> None:
+    """MAVSDK speaks as its own ground station (system 245, component 190: bridge.mavsdk_backend) and
+    takes no other identity: asking for one with it is bad input, not silently ignored."""
+    if backend == "mavsdk" and (source_system, source_component) != (GCS_SYSTEM_ID, GCS_COMPONENT_ID):
+        raise BridgeUsageError(f"{option} mavsdk: MAVSDK sends as its own ground station (system 245), so "
+                               f"--gcs-sysid {source_system} / --gcs-compid {source_component} cannot apply; "
+                               "leave them at their defaults or use missionplan's own uploader")
+
+
 def open_backend(backend: str, url: str, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID,
                  key: SigningKey | None = None, timeouts: Timeouts | None = None,
-                 connect_timeout: float = 10.0, link: Any = None) -> MissionBackend:
-    """Connect (or, pymavlink only, use `link`, a shared link's view) and wait for the vehicle's
-    heartbeat; BridgeError naming the system id on time-out."""
+                 connect_timeout: float = 10.0, link: Any = None, source_system: int = GCS_SYSTEM_ID,
+                 source_component: int = GCS_COMPONENT_ID) -> MissionBackend:
+    """Connect (or, pymavlink only, use `link`, a shared link's view) as ground station
+    (source_system, source_component) and wait for the vehicle's heartbeat; BridgeError naming the
+    system id on time-out."""
+    check_gcs_identity(backend, source_system, source_component)
     if backend == "pymavlink":
-        return PymavlinkBackend(url, sysid, compid, key, timeouts, connect_timeout, link)
+        return PymavlinkBackend(url, sysid, compid, key, timeouts, connect_timeout, link, source_system,
+                                source_component)
     if backend == "mavsdk":
         from .mavsdk_backend import MavsdkBackend  # the native library loads only when asked for
 

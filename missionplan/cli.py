@@ -2,8 +2,10 @@
 
 Subcommands: `maps` (list the shipped maps), `plan` (plan a shipped map or a .map
 file, write report.json and plan.png), `train` (reproduce the neural policy's weights
-by imitation of the expert), and from bridge/commands.py `upload`, `download` and `mock`
-(MAVLink mission transfer and the mock autopilot). Bad input gives one line on stderr and exit 2.
+by imitation of the expert), from bridge/commands.py `upload`, `download`, `clear` and `mock`
+(MAVLink mission transfer and the mock autopilot), `fly` (missionplan/flight/fly.py) and `demo`
+(missionplan/flight/fleet_demo.py). `missionplan --version` prints the installed version.
+Bad input gives one line on stderr and exit 2; no option may be abbreviated (`--uav` is not `--uavs`).
 """
 
 from __future__ import annotations
@@ -53,8 +55,35 @@ def attach_negative_values(argv: Sequence[str]) -> list[str]:
     return out
 
 
+def package_version() -> str:
+    """The installed package's version (importlib.metadata); in a source tree that was never installed,
+    the version its pyproject.toml declares; failing both, the package's __version__."""
+    from importlib import metadata
+
+    try:
+        return metadata.version("missionplan")
+    except metadata.PackageNotFoundError:
+        pass
+    import tomllib
+
+    try:
+        project = tomllib.loads((Path(__file__).resolve().parent.parent / "pyproject.toml").read_text())["project"]
+        if project.get("name") == "missionplan" and isinstance(project.get("version"), str):
+            return project["version"]
+    except (OSError, KeyError, tomllib.TOMLDecodeError):
+        pass
+    from . import __version__
+
+    return __version__
+
+
 class _Parser(argparse.ArgumentParser):
-    """argparse that reports a bad argument in one line with exit code 2."""
+    """argparse that reports a bad argument in one line with exit code 2, and takes no abbreviated
+    option (argparse would read `--uav 3` as `--uavs 3`; a typo must fail, not guess)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> None:  # type: ignore[override]
         sys.stderr.write(f"missionplan: {message}\n")
@@ -68,6 +97,7 @@ class _Parser(argparse.ArgumentParser):
 
 def _build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="missionplan", description="Plan photo-coverage missions for several drones.")
+    parser.add_argument("--version", action="version", version=f"missionplan {package_version()}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     sub.add_parser("maps", help="list the shipped maps")
     plan = sub.add_parser("plan", help="plan full coverage of a map and write report.json and plan.png")

@@ -11,7 +11,6 @@ Nothing leaves the machine. Exit 0 only when the flight is judged good (fly's ru
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +28,8 @@ def cmd_demo(args: argparse.Namespace, plan_command: Any, plan_parser: argparse.
         from ..maps.gridmap import MapError
 
         raise MapError(f"--speedup must be positive, got {args.speedup}")
-    quiet = args.quiet or not sys.stderr.isatty()
+    # Progress on stderr: bars on a terminal, plain lines in a log (plan and fly each decide which).
+    quiet = args.quiet
     plan_argv = ["plan", "--map", DEMO_MAP, "--uavs", str(args.uavs), "--policy", DEMO_POLICY, "--out", str(args.out)]
     print(f"== 1/2 plan: missionplan {' '.join(plan_argv)}")
     status = plan_command(plan_parser.parse_args(plan_argv + (["--quiet"] if quiet else [])))
@@ -50,10 +50,11 @@ def cmd_demo(args: argparse.Namespace, plan_command: Any, plan_parser: argparse.
 def register(subparsers: Any, plan_command: Any, plan_parser: argparse.ArgumentParser) -> None:
     """Add `demo [--out DIR] [--uavs N] [--speedup X] [--quiet]`; plan_command runs `plan` (the CLI's)."""
     p = subparsers.add_parser("demo", help=f"plan {DEMO_MAP} for {DEMO_UAVS} drones with the shipped network, "
-                                           "fly it against in-process mock autopilots and judge the flight")
+                                           "fly it against in-process mock autopilots and judge the flight",
+                              allow_abbrev=False)
     p.add_argument("--out", type=Path, default=Path("demo-out"), help="output folder (default demo-out/)")
     p.add_argument("--uavs", type=int, default=DEMO_UAVS, help=f"number of drones (default {DEMO_UAVS})")
     p.add_argument("--speedup", type=float, default=DEMO_SPEEDUP,
                    help=f"simulated seconds per wall second of the mock autopilots (default {DEMO_SPEEDUP:g})")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--quiet", action="store_true", help="no progress bars or progress lines")
     p.set_defaults(handler=lambda args: cmd_demo(args, plan_command, plan_parser))

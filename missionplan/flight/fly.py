@@ -19,15 +19,18 @@ drone on its vehicle's view of that link:
    every other drone to be armed, then MAV_CMD_MISSION_START: all start together, as the plan's
    separation assumes. A drone that cannot fly is left disarmed and out of AUTO, and fly says so;
 5. record GLOBAL_POSITION_INT, MISSION_CURRENT, MISSION_ITEM_REACHED and the photo reports
-   (ArduPilot's CAMERA_FEEDBACK, PX4's CAMERA_IMAGE_CAPTURED), with one progress bar per drone, until
+   (ArduPilot's CAMERA_FEEDBACK, PX4's CAMERA_IMAGE_CAPTURED), with one progress bar per drone on a
+   terminal (elsewhere, a log: plain lines at the start and every quarter of each mission), until
    the vehicle has landed (PX4: its EXTENDED_SYS_STATE landed state) and disarmed with its mission
    complete (PX4: at its final RTL / LAND item, which it never reports as reached), or
    it reboots, stops answering, or the time-out passes (each a problem, the others fly on);
 6. after landing, read the mission back once more: the vehicle must still hold what was uploaded.
 
 The recordings go to flight_report.judge (coverage from the photo positions, separation, times),
-which writes DIR/flight.json and DIR/flight.png. Also here: start_mock_fleet(), the in-process mock
-autopilots `missionplan demo` and the integration tests fly against.
+which writes DIR/flight.json and DIR/flight.png. Every link fly opens signs with --signing-key when
+given and speaks as ground station --gcs-sysid / --gcs-compid (bridge.commands.add_gcs_arguments).
+Also here: start_mock_fleet(), the in-process mock autopilots `missionplan demo` and the integration
+tests fly against.
 """
 
 from __future__ import annotations
@@ -43,8 +46,10 @@ from typing import Any
 
 import numpy as np
 
+from bridge.commands import CONNECT_HELP, DEFAULT_CONNECT, add_gcs_arguments, gcs_identity, signing_key
 from bridge.copter_model import PARAMETERS as COPTER_PARAMETERS
 from bridge.errors import BridgeError, BridgeUsageError
+from bridge.link import GCS_COMPONENT_ID, GCS_SYSTEM_ID, parse_gcs_sysid
 from bridge.mission import Flavour, to_wire
 from bridge.missionfile import check_firmware, read_mission_file
 from bridge.params import ParamClient, read_params
@@ -53,7 +58,9 @@ from bridge.px4_model import FLOAT_PARAMETERS as PX4_PARAMETERS
 from bridge.readiness import (DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_MISSION_SUB, Vehicle, request_streams,
                               site_problem, stream_rates)
 from bridge.shared_link import LinkPool
-from bridge.uploader import MissionBackend, open_backend, read_back_differences, set_plan_params, upload_plan
+from bridge.signing import SigningKey
+from bridge.uploader import (MissionBackend, check_gcs_identity, open_backend, read_back_differences, set_plan_params,
+                             upload_plan)
 
 from ..mission.sorties import sortie_file
 from .flight_report import DroneRecord, FlightResult, judge, sortie_view
@@ -79,6 +86,56 @@ UPLOADERS = ("missionplan", "mavsdk")  # who reads the .plan files and uploads t
 
 def _refused(what: str, result: int | None) -> str:
     return f"{what} {'not acknowledged' if result is None else f'refused (MAV_RESULT {result})'}"
+
+
+def _unanswered(text: str, link: Any, sysid: int) -> str:
+    """text, with MAVLink 2 signing named when it is the likely reason the vehicle did not answer
+    (bridge.link.Link.signing_hint decides)."""
+    hint = link.signing_hint(sysid)
+    return f"{text}: {hint}" if hint else text
+
+
+class _LineProgress:
+    """A drone's progress where no bar can be drawn (stderr is a file or a pipe): the few attributes
+    of a tqdm bar that _DroneFlight uses, said as plain lines, at the mission's start and at each
+    quarter of it, so a log gets no cursor codes."""
+
+    def __init__(self, label: str, say: Callable[[str], None]) -> None:
+        self.label, self.say = label, say
+        self.n, self.total = 0, 1
+        self._quarter = 4  # nothing to say before the mission starts (reset)
+
+    def reset(self, total: int) -> None:
+        self.n, self.total, self._quarter = 0, total, 0
+        self.say(f"{self.label}: mission started")
+
+    def refresh(self) -> None:
+        quarter = 4 * self.n // max(self.total, 1)
+        if quarter > self._quarter:
+            self._quarter = quarter
+            self.say(f"{self.label}: at item {self.n} of {self.total}")
+
+    def close(self) -> None:
+        pass
+
+
+def _progress_display(labels: dict[int, str], progress: bool) -> tuple[dict[int, Any], Callable[[str], None]]:
+    """(one progress display per drone, how to say a line). Bars only when stderr is a terminal, as
+    `plan` and `upload` do; in a log, plain lines (_LineProgress). progress False: neither."""
+    if not progress:
+        return {}, lambda text: None
+    if sys.stderr.isatty():
+        from tqdm import tqdm
+
+        bars = {sysid: tqdm(total=1, desc=label, position=pos, unit="item", leave=True, file=sys.stderr)
+                for pos, (sysid, label) in enumerate(labels.items())}
+        return bars, lambda text: tqdm.write(text, file=sys.stderr)  # above the bars, not through them
+
+    def say(text: str) -> None:
+        sys.stderr.write(text + "\n")  # one write per line: the drones' threads say things at once
+        sys.stderr.flush()
+
+    return {sysid: _LineProgress(label, say) for sysid, label in labels.items()}, say
 
 
 class _StartGate:
@@ -130,6 +187,7 @@ class _FleetStart:
     arm_gate: _ArmGate
     gate: _StartGate
     stop: threading.Event
+    key: SigningKey | None = None  # for the links fly opens beside the pool (MAVSDK's upload)
     ready_s: float = DEFAULT_READY_S
     max_offset_m: float = DEFAULT_LAUNCH_OFFSET_M
     say: Callable[[str], None] = lambda text: None
@@ -191,8 +249,8 @@ class _DroneFlight:
         refused = request_streams(view, rec.id, stream_rates(self.telemetry_hz, self.backend.vehicle.flavour),
                                   self.deadline, other=self.vehicle.take)
         if refused:
-            rec.notes.append(f"streams not accepted (SET_MESSAGE_INTERVAL): {', '.join(refused)}; "
-                             "the vehicle's own rates")
+            rec.notes.append(_unanswered(f"streams not accepted (SET_MESSAGE_INTERVAL): {', '.join(refused)}; "
+                                         "the vehicle's own rates", view, rec.id))
         return True
 
     def _ready(self) -> bool:
@@ -201,8 +259,10 @@ class _DroneFlight:
         missing = self.vehicle.wait_ready(min(self.deadline, time.monotonic() + self.fleet.ready_s))
         if missing:
             reasons = self.vehicle.state.reasons()
-            self.problem(f"not ready to fly within {self.fleet.ready_s:g} s: still waiting for {', '.join(missing)}"
-                         + (f"; the vehicle said: {reasons}" if reasons else ""))
+            # A vehicle that ignores us (signing) never sends what it sends only when asked (its home).
+            self.problem(_unanswered(f"not ready to fly within {self.fleet.ready_s:g} s: still waiting for "
+                                     f"{', '.join(missing)}" + (f"; the vehicle said: {reasons}" if reasons else ""),
+                                     self.vehicle.link, self.record.id))
             return False
         return True
 
@@ -250,8 +310,8 @@ class _DroneFlight:
 
     def _upload_by_mavsdk(self) -> None:
         """MAVSDK's own QGroundControl importer opens the .plan and MAVSDK uploads what it read."""
-        mavsdk = open_backend("mavsdk", self.url, self.record.id, timeouts=Timeouts(item_timeout=0.5, retries=10),
-                              connect_timeout=self._connect_s())
+        mavsdk = open_backend("mavsdk", self.url, self.record.id, key=self.fleet.key,
+                              timeouts=Timeouts(item_timeout=0.5, retries=10), connect_timeout=self._connect_s())
         try:
             mavsdk.upload_qgc_plan(str(self.plan_path))  # type: ignore[attr-defined]
         finally:
@@ -292,7 +352,7 @@ class _DroneFlight:
                               other=self.vehicle.take)
         armed, why = self.vehicle.arm(min(self.deadline, time.monotonic() + self.fleet.ready_s))
         if not armed:
-            self.problem(why)
+            self.problem(_unanswered(why, link, sysid) if "not acknowledged" in why else why)
             return False
         return True
 
@@ -313,7 +373,8 @@ class _DroneFlight:
                 rec.notes.append(f"{_refused('MISSION_START', result)}; started in AUTO.MISSION mode")
                 result = 0
         if result != 0:
-            self.problem(_refused("mission start", result))
+            what = _refused("mission start", result)
+            self.problem(_unanswered(what, link, sysid) if result is None else what)
             return False
         rec.started = True
         rec.t_start = rec.last_heard = time.monotonic()
@@ -466,12 +527,17 @@ def flight_view(plan_dir: Path, report: dict[str, Any], sortie: int) -> dict[str
 def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, progress: bool = True,
         time_scale: float | None = None, telemetry_hz: float = DEFAULT_TELEMETRY_HZ,
         upload_with: str = "missionplan", sortie: int = 1, ready_s: float = DEFAULT_READY_S,
-        max_launch_offset_m: float = DEFAULT_LAUNCH_OFFSET_M, photos_from_track: bool = False) -> FlightResult:
+        max_launch_offset_m: float = DEFAULT_LAUNCH_OFFSET_M, photos_from_track: bool = False,
+        key: SigningKey | None = None, source_system: int = GCS_SYSTEM_ID,
+        source_component: int = GCS_COMPONENT_ID) -> FlightResult:
     """Wait until ready, upload, verify, site-check, arm, start and follow every drone of plan_dir at
     once; write flight.json/.png.
 
     connect: one URL or several (each URL, or SYSID=URL; bridge.shared_link.parse_connects): one
-    connection per URL, shared by the vehicles on it.
+    connection per URL, shared by the vehicles on it, signed with `key` when given, and speaking as
+    ground station (source_system, source_component).
+
+    progress: one bar per drone on stderr when it is a terminal, else plain lines (a log); False: none.
     sortie=J flies battery sortie J (uavK-sJ.plan, J >= 2) of every drone that has one, judged on the
     targets that sortie's plan photographs.
 
@@ -482,11 +548,13 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     the read-back must then equal what our own reader makes of the same file."""
     if upload_with not in UPLOADERS:
         raise BridgeUsageError(f"--upload-with {upload_with}: choose {' or '.join(UPLOADERS)}")
+    check_gcs_identity(upload_with, source_system, source_component, "--upload-with")
     plan_dir = Path(plan_dir)
     report = json.loads((plan_dir / "report.json").read_text())
     if "georeference" not in report or "drones" not in report:
         raise BridgeUsageError(f"{plan_dir / 'report.json'}: not a georeferenced plan (no missions to fly)")
-    pool = LinkPool([connect] if isinstance(connect, str) else list(connect))  # bad URLs: exit 2, before anything
+    # Bad URLs: exit 2, before anything.
+    pool = LinkPool([connect] if isinstance(connect, str) else list(connect), key, source_system, source_component)
     if sortie < 1:
         raise BridgeUsageError(f"--sortie must be 1 or more, got {sortie}")
     files = {int(d["id"]): plan_dir / sortie_file(int(d["id"]), sortie) for d in report["drones"]}
@@ -494,6 +562,7 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     if not report["drones"]:
         raise BridgeUsageError(f"{plan_dir}: no drone has a sortie {sortie}")
     records = [DroneRecord(id=int(d["id"]), planned_photos=int(d.get("photos", 0))) for d in report["drones"]]
+    parse_gcs_sysid(source_system, [rec.id for rec in records])  # not a drone's own id
     plans = {rec.id: files[rec.id] for rec in records}
     start = time.monotonic()
     deadline = start + timeout_s
@@ -501,18 +570,11 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
         if not plans[rec.id].exists():
             rec.problems.append(f"uav{rec.id}: {plans[rec.id]} is missing")
     runnable = [rec for rec in records if plans[rec.id].exists()]
-    bars: dict[int, Any] = {}
-    say: Callable[[str], None] = lambda text: None  # noqa: E731
-    if progress:
-        from tqdm import tqdm
-
-        bars = {rec.id: tqdm(total=1, desc=f"uav{rec.id}", position=pos, unit="item", leave=True)
-                for pos, rec in enumerate(runnable)}
-        say = lambda text: tqdm.write(text, file=sys.stderr)  # noqa: E731 - above the bars, not through them
+    bars, say = _progress_display({rec.id: f"uav{rec.id}" for rec in runnable}, progress)
     try:
         pool.open_all()
         pool.register(rec.id for rec in runnable)
-        fleet = _FleetStart(pool, _ArmGate(len(runnable)), _StartGate(len(runnable)), threading.Event(),
+        fleet = _FleetStart(pool, _ArmGate(len(runnable)), _StartGate(len(runnable)), threading.Event(), key=key,
                             ready_s=ready_s, max_offset_m=max_launch_offset_m, say=say)
         threads = [threading.Thread(target=_DroneFlight(fleet, rec, plans[rec.id], deadline, telemetry_hz,
                                                         bars.get(rec.id), upload_with).run,
@@ -603,11 +665,16 @@ def cmd_fly(args: Any) -> int:
     if not args.max_launch_offset >= 0:
         raise BridgeUsageError(f"--max-launch-offset must be a distance in metres (0 or more), "
                                f"got {args.max_launch_offset}")
+    gcs = gcs_identity(args, [])  # the drones' own ids are checked by fly(), once report.json is read
+    # --connect appends; its default applies only when none is given (an argparse append default
+    # would be appended to, not replaced).
+    connect = args.connect or [DEFAULT_CONNECT]
     try:
-        result = fly(Path(args.dir), args.connect, timeout_s=args.timeout, progress=not args.quiet,
+        result = fly(Path(args.dir), connect, timeout_s=args.timeout, progress=not args.quiet,
                      time_scale=args.time_scale, telemetry_hz=args.telemetry_hz, upload_with=args.upload_with,
                      sortie=args.sortie, ready_s=args.ready_timeout, max_launch_offset_m=args.max_launch_offset,
-                     photos_from_track=args.photos_from_track)
+                     photos_from_track=args.photos_from_track, key=signing_key(args), source_system=gcs[0],
+                     source_component=gcs[1])
     except BridgeUsageError:
         raise
     except BridgeError as err:  # a link that cannot be opened: one line, exit 1
@@ -618,15 +685,16 @@ def cmd_fly(args: Any) -> int:
 
 
 def register(subparsers: Any) -> None:
-    """Add `fly DIR --connect URL [--connect ...] [--ready-timeout S] [--max-launch-offset M] [--timeout S]
-    [--telemetry-hz HZ] [--time-scale X] [--upload-with W] [--sortie J] [--quiet]`."""
+    """Add `fly DIR [--connect URL ...] [--ready-timeout S] [--max-launch-offset M] [--timeout S]
+    [--telemetry-hz HZ] [--time-scale X] [--upload-with W] [--sortie J] [--photos-from-track]
+    [--signing-key FILE] [--gcs-sysid N] [--gcs-compid N] [--quiet]`."""
     p = subparsers.add_parser("fly", help="upload a planned fleet, fly it over MAVLink and judge the flight "
-                                          "(flight.json, flight.png)")
+                                          "(flight.json, flight.png)", allow_abbrev=False)
     p.add_argument("dir", help="plan folder written by `missionplan plan` (report.json, uavK.plan)")
-    p.add_argument("--connect", required=True, action="append",
-                   help="pymavlink URL of a link the vehicles share, e.g. udpin:0.0.0.0:14550 (every vehicle sends "
-                        "there), tcp:127.0.0.1:5760 or /dev/ttyUSB0,57600; repeat it for vehicles on several links "
-                        "(each found on its link by its heartbeat), or give SYSID=URL (1,2=URL) to say which")
+    p.add_argument("--connect", action="append", default=None, metavar="URL",
+                   help=f"{CONNECT_HELP}; the vehicles share it, told apart by system id; repeat it for vehicles on "
+                        "several links (each found on its link by its heartbeat), or give SYSID=URL (1,2=URL) to "
+                        "say which")
     p.add_argument("--ready-timeout", type=float, default=DEFAULT_READY_S,
                    help=f"wait this many seconds at most for each vehicle's GPS fix, EKF, home position and pre-arm "
                         f"checks (default {DEFAULT_READY_S:g})")
@@ -647,5 +715,6 @@ def register(subparsers: Any) -> None:
     p.add_argument("--photos-from-track", action="store_true",
                    help="a vehicle that reports no photos (no CAMERA_FEEDBACK: no camera configured) gets one every "
                         "trigger distance along its flown track; without this flag such a flight fails")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_gcs_arguments(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bars or progress lines")
     p.set_defaults(handler=cmd_fly)
