@@ -40,7 +40,7 @@ WEIGHT_SHAPES: dict[str, tuple[int, ...]] = {
 }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # eq: arrays have no single truth value; compare .arrays() instead
 class PolicyWeights:
     """The network's four float32 arrays, in torch's layout (a layer's weight is (outputs, inputs))."""
 
