@@ -74,13 +74,19 @@ def test_numpy_inference_equals_torch_on_the_shipped_weights():
     net.load_state_dict({name: torch.from_numpy(array) for name, array in shipped.arrays().items()})
     # to_weights hands the torch network back bit for bit
     assert all(np.array_equal(a, b) for a, b in zip(to_weights(net).arrays().values(), shipped.arrays().values()))
-    # A large random batch, and every batch a real plan asks for (Leonardo, 5 drones: 1 to 5 rows a step).
-    batches = [_random_states(4000, 3)] + _states_asked(load_shipped("leonardo"), 5)
+    # Every batch a real plan asks for (Leonardo, 5 drones: 1 to 5 rows a step): within 1e-6.
+    batches = _states_asked(load_shipped("leonardo"), 5)
     assert len(batches) > 100
     for states in batches:
         expected = net.probabilities(states)
         assert np.abs(shipped.probabilities(states) - expected).max() <= 1e-6
         assert np.array_equal(shipped.probabilities(states).argmax(axis=1), expected.argmax(axis=1))
+    # Random states, busier than any view the planner meets, push the logits further: float32
+    # rounding in another summation order then reaches 2e-6 with some BLAS builds (numpy 2.0's).
+    states = _random_states(4000, 3)
+    expected = net.probabilities(states)
+    assert np.abs(shipped.probabilities(states) - expected).max() <= 1e-5
+    assert np.array_equal(shipped.probabilities(states).argmax(axis=1), expected.argmax(axis=1))
 
 
 def _states_asked(gmap, uavs: int) -> list[np.ndarray]:

@@ -5,6 +5,7 @@ guard, in seconds, what would break it or what it cannot see.
 """
 
 import importlib.metadata
+import os
 import subprocess
 import sys
 import tomllib
@@ -25,7 +26,9 @@ sys.modules["torch"] = None
 
 
 def _python(code: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=cwd)
+    """`code` in a child Python, in `cwd`, importing this tree's missionplan however it is installed."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=cwd, env=env)
 
 
 def test_planning_help_and_every_module_but_training_run_without_torch(tmp_path):
