@@ -2,7 +2,7 @@
 print one row per flight.
 
 Run by hand: `.venv/bin/python bench/fly_bench.py [--maps leonardo,grid-city] [--uavs 3,5,6]
-[--streets block,cenisia] [--sitl] [--px4 milan3,block3] [--policy nn] [--keep DIR]`.
+[--streets block,cenisia] [--sitl] [--px4 milan3,block3] [--policy nn] [--keep DIR] [--write-doc FILE]`.
 Each row: the flown coverage (our rule, and the stricter whole-cell rule), the closest approach of two
 drones against the plan's promise, flight time (the longest drone's, on the vehicles' own clock:
 simulated seconds) against the plan's, the worst drone's gap between flown and planned time, photos,
@@ -44,6 +44,8 @@ import missionplan.flight.fly as fly_module  # noqa: E402
 from missionplan.cli import main  # noqa: E402
 from missionplan.flight.flight_report import judge  # noqa: E402
 from missionplan.flight.fly import fly, flight_view, start_mock_fleet  # noqa: E402
+
+import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 
 SPEEDUP = {"leonardo": 2.0}  # a 20 x 10 m arena; the street maps are hundreds of metres: 50x
 DEFAULT_SPEEDUP = 50.0
@@ -206,7 +208,13 @@ def main_bench() -> None:
     parser.add_argument("--keep", default="", metavar="DIR",
                         help="copy every SITL / PX4 SIH flight's folder (flight.json with its phases, flight.png) "
                              "into DIR/NAME-VEHICLE, to see where a row's time went")
+    doctable.add_option(parser)
     args = parser.parse_args()
+    with doctable.Recorder(args.write_doc, __file__):
+        table(args)
+
+
+def table(args: argparse.Namespace) -> None:
     print(HEADER)
     print("-" * len(HEADER))
     jobs = [(name, int(u)) for name in filter(None, args.maps.split(",")) for u in args.uavs.split(",")]

@@ -5,6 +5,7 @@ the thesis's cases, not copies of them, so the comparison is a yardstick, not a 
 the same grid. Run by hand:
 
     .venv/bin/python bench/plan_bench.py [--policy nn,expert] [--zones geodesic] [--maps leonardo,old-town]
+                                         [--write-doc docs/measured-numbers.md]
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from missionplan.maps.catalog import load_shipped, shipped_map_names  # noqa: E402
 from missionplan.pipeline import POLICIES, plan_map  # noqa: E402
 from missionplan.grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS  # noqa: E402
+
+import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 
 # Thesis Tables 5.1-5.4, for 3, 4, 5, 6 UAVs: (MMN, TE %, MNT %, MUD, MDU).
 THESIS = {
@@ -44,7 +47,13 @@ def main() -> int:
     parser.add_argument("--maps", default=",".join(shipped_map_names()))
     parser.add_argument("--uavs", default="3,4,5,6")
     parser.add_argument("--balance", default="on", help="zone balancing: on, off or on,off")
+    doctable.add_option(parser)
     args = parser.parse_args()
+    with doctable.Recorder(args.write_doc, __file__):
+        return table(args)
+
+
+def table(args: argparse.Namespace) -> int:
 
     header = (f"{'map':<11} {'A':>2} {'policy':<7} {'zones':<12} {'U':>6} {'floor':>6} {'MMN':>7} {'/floor':>6} {'mkspan':>6} "
               f"{'TE%':>5} {'MNT%':>5} {'MUD*':>6} {'MDU*':>6} {'hover':>5} {'cov%':>5} {'plan s':>6} | "

@@ -11,7 +11,7 @@ Run by hand, piecewise if you like:
 
     .venv/bin/python bench/scale_bench.py [--sizes 256,512,1024,2048] [--uavs 6,20,50]
                                           [--policy expert,nn] [--timeout 1800] [--progress]
-                                          [--mdu-check]
+                                          [--mdu-check] [--write-doc docs/scale.md]
 
 --mdu-check also computes MDU* at every steady-state step (slow on big maps) and prints
 how far the sampled MDU* (every mdu_stride(U)-th step, see missionplan/grid/metrics.py) is from it.
@@ -40,6 +40,8 @@ from missionplan.maps.gridmap import GridMap  # noqa: E402
 from missionplan.maps.mapgen import CITY_LAUNCH_EDGE_MARGIN, launch_candidates, median_launch_cells  # noqa: E402
 from missionplan.pipeline import POLICIES, make_policy, plan_map  # noqa: E402
 from missionplan.learn.trainmaps import TARGET, kind_of, random_city  # noqa: E402
+
+import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 
 SIZES = (256, 512, 1024, 2048)
 UAVS = (6, 20, 50)
@@ -123,12 +125,17 @@ def main() -> int:
     parser.add_argument("--mdu-check", action="store_true",
                         help="also compute MDU* at every steady-state step and print how far the sampled one is")
     parser.add_argument("--row", help=argparse.SUPPRESS)  # internal: size,uavs,policy in a child
+    doctable.add_option(parser)
     args = parser.parse_args()
     if args.row:
         size, uavs, policy = args.row.split(",")
         print(json.dumps(run_row(int(size), int(uavs), policy, args.progress, args.mdu_check)))
         return 0
+    with doctable.Recorder(args.write_doc, __file__):
+        return table(args)
 
+
+def table(args: argparse.Namespace) -> int:
     sizes = [int(s) for s in args.sizes.split(",")]
     for size in sizes:
         city(size)  # generate once here, not inside the timed children

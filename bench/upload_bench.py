@@ -2,7 +2,7 @@
 ArduCopter SITL and PX4 SIH.
 
 Run by hand: `.venv/bin/python bench/upload_bench.py [--sizes 100,1000] [--losses 0,0.2] [--backends pymavlink,mavsdk]
-[--sitl-sizes 100,1000] [--px4-sizes 100,1000] [--px4-backends pymavlink,mavsdk]`.
+[--sitl-sizes 100,1000] [--px4-sizes 100,1000] [--px4-backends pymavlink,mavsdk] [--write-doc FILE]`.
 For each backend, mission size and loss (the same in both directions, plus 5 % duplicates and 5 %
 reordering when the loss is not 0) it uploads once and reads back once, and prints a table of
 seconds and items per second. The mock re-requests a missing item after 10 ms and the ground
@@ -32,6 +32,8 @@ from bridge.mission import Flavour, Mission, MissionItem, compare_wire, to_wire 
 from bridge.mock import LinkFaults, MockAutopilot  # noqa: E402
 from bridge.protocol import MissionTransferError, Timeouts  # noqa: E402
 from bridge.uploader import open_backend  # noqa: E402
+
+import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 
 
 def survey(n: int) -> Mission:
@@ -120,7 +122,13 @@ def main() -> int:
     parser.add_argument("--sitl-sizes", default="100,649,1000", help="ArduCopter SITL rows ('' for none)")
     parser.add_argument("--px4-sizes", default="100,1000", help="PX4 SIH rows ('' for none)")
     parser.add_argument("--px4-backends", default="pymavlink", help="backends for the PX4 SIH rows")
+    doctable.add_option(parser)
     args = parser.parse_args()
+    with doctable.Recorder(args.write_doc, __file__):
+        return table(args)
+
+
+def table(args: argparse.Namespace) -> int:
     sizes = [int(s) for s in args.sizes.split(",")]
     losses = [float(s) for s in args.losses.split(",")]
     backends = args.backends.split(",")

@@ -1,7 +1,7 @@
 """How close ArduCopter passes a corner waypoint, with its default WPNAV_RADIUS and with the plan's
 acceptance radius written to it by the upload. Real ArduCopter SITL (../shared/sitl/arducopter).
 
-Run by hand: `.venv/bin/python bench/wpnav_radius_bench.py [--radii default,0.5,0.06] [--leg 30]`.
+Run by hand: `.venv/bin/python bench/wpnav_radius_bench.py [--radii default,0.5,0.06] [--leg 30] [--write-doc FILE]`.
 For each row a fresh SITL: a mission of NAV_TAKEOFF to 10 m, a waypoint `leg` m north of home (the
 corner), one `leg` m east of it (a right-angle turn), NAV_LAND there. `default` uploads with set_params off (the
 copter keeps WPNAV_RADIUS = 200 cm); a number R uploads waypoints with param2 = R m, which the upload
@@ -30,6 +30,8 @@ from bridge.mission import Mission, MissionItem  # noqa: E402
 from bridge.params import ParamClient  # noqa: E402
 from bridge.protocol import Timeouts  # noqa: E402
 from bridge.uploader import PymavlinkBackend, upload_plan  # noqa: E402
+
+import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 
 HOME = (45.4643, 9.1895, 120.0, 0.0)
 M_PER_DEG = 111_320.0
@@ -100,12 +102,18 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--radii", default="default,0.5,0.06", help="'default' or metres, comma-separated")
     parser.add_argument("--leg", type=float, default=30.0, help="leg length, metres")
+    doctable.add_option(parser)
     args = parser.parse_args()
     try:
         sitl_or_skip()
     except BaseException as err:  # pytest's Skipped outside pytest: say why and stop
         print(err)
         return 1
+    with doctable.Recorder(args.write_doc, __file__):
+        return table(args)
+
+
+def table(args: argparse.Namespace) -> int:
     print(f"leg {args.leg:g} m, right-angle corner, 10 m altitude, WPNAV_SPEED default")
     print(f"{'plan radius':>12} {'WPNAV_RADIUS':>13} {'closest to corner m':>20} {'flight s':>9} {'samples':>8}")
     for text in args.radii.split(","):
