@@ -211,8 +211,9 @@ def train_policy(seed: int = DEFAULT_SEED, num_maps: int = DEFAULT_MAPS, dagger:
     }
     chosen, chosen_dataset = first.net, dataset
     if dagger:
+        first_weights = to_weights(first.net)  # the network as it drives (numpy), here and in the workers
         began = time.perf_counter()
-        extra, _ = collect(maps, weights=to_weights(first.net), workers=workers, expert_share=DAGGER_EXPERT_SHARE,
+        extra, _ = collect(maps, weights=first_weights, workers=workers, expert_share=DAGGER_EXPERT_SHARE,
                            progress=progress, desc="DAgger (network drives)")
         dagger_collect_s = time.perf_counter() - began
         merged = Demonstrations.concatenate([demos, extra])
@@ -223,8 +224,9 @@ def train_policy(seed: int = DEFAULT_SEED, num_maps: int = DEFAULT_MAPS, dagger:
             f"retrained in {second.seconds:.1f} s, test accuracy {second_report['test_accuracy']:.2f} %")
 
         expert_eval = coverage_moves(eval_maps, ExpertPolicy)
-        first_eval = coverage_moves(eval_maps, lambda: NeuralPolicy(to_weights(first.net)))
-        second_eval = coverage_moves(eval_maps, lambda: NeuralPolicy(to_weights(second.net)))
+        second_weights = to_weights(second.net)
+        first_eval = coverage_moves(eval_maps, lambda: NeuralPolicy(first_weights))
+        second_eval = coverage_moves(eval_maps, lambda: NeuralPolicy(second_weights))
         means = {name: round(float(np.mean(values)), 3) for name, values in
                  (("expert", expert_eval), ("nn", first_eval), ("nn_dagger", second_eval))}
         keep = means["nn_dagger"] < means["nn"]
