@@ -17,8 +17,8 @@ against the promise. Street plans read the Turin map in place from ../shared/map
 
 PX4 rows (`--px4 PLANS`, needs ../shared/px4/bin/px4): each plan made with `plan --autopilot px4`
 (report.json timed by PX4's flight model), flown by the PX4 flavour of the mock (PX4's flight model,
-CAMERA_IMAGE_CAPTURED) and by the whole fleet at once on PX4 SIH (real time, instances 0-2, every GCS
-link into one udpin port, TRIG_MODE 4 at boot, fly started right after boot; at most 3 drones: SIH
+CAMERA_IMAGE_CAPTURED) and by the whole fleet at once on PX4 SIH (real time, free instances with
+system ids 1-N, every GCS link into one free udpin port, TRIG_MODE 4 at boot, fly started right after boot; at most 3 drones: SIH
 runs in real time and the machine has 2 cores). Coverage from the vehicles' CAMERA_IMAGE_CAPTURED.
 """
 
@@ -126,19 +126,22 @@ def mock_row(name: str, uavs: int, plan_dir: Path, flavour: str = "ardupilot") -
 
 def px4_row(name: str, uavs: int, plan_dir: Path) -> str:
     """The whole fleet at once on PX4 SIH, as sitl_tests/test_fleet_px4.py flies it."""
-    from px4 import GCS_URL, PX4
+    from loopback import free_udp_port
+    from px4 import PX4
 
     from bridge.missionfile import read_mission_file
 
     if uavs > PX4_MAX_VEHICLES:
         return f"{'PX4 SIH':<16}{name:<11}{uavs:>3}  skipped: more than {PX4_MAX_VEHICLES} PX4 SIH at a time"
     vehicles: list[Any] = []
+    port = free_udp_port()
     try:
         for sysid in range(1, uavs + 1):
             lat, lon, _ = read_mission_file(plan_dir / f"uav{sysid}.plan").mission.home
-            vehicles.append(PX4(instance=sysid - 1, home=(lat, lon, 120.0), params={"TRIG_MODE": 4}).start())
+            vehicles.append(PX4(sysid=sysid, gcs_port=port, home=(lat, lon, 120.0),
+                                params={"TRIG_MODE": 4}).start())
         start = time.monotonic()
-        result = fly(plan_dir, GCS_URL, timeout_s=1800, progress=False, telemetry_hz=SITL_TELEMETRY_HZ)
+        result = fly(plan_dir, f"udpin:127.0.0.1:{port}", timeout_s=1800, progress=False, telemetry_hz=SITL_TELEMETRY_HZ)
         wall = time.monotonic() - start  # includes the wait for readiness after boot (~35 s)
     finally:
         for vehicle in vehicles:

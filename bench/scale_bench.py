@@ -100,7 +100,7 @@ def run_row(size: int, uavs: int, policy: str, progress: bool, mdu_check: bool =
     """Plan one row in this process; what the table prints."""
     gmap = city(size)
     every = record_every_mdu() if mdu_check else None
-    ready = make_policy(policy)  # loading torch is not planning
+    ready = make_policy(policy)  # loading the weights is not planning
     zone_cpu = time_zones_cpu()
     cpu0 = time.process_time()
     result = plan_map(gmap, uavs, policy=ready, progress=progress)

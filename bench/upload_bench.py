@@ -12,7 +12,7 @@ timing (1.5 s item time-out), next to the ArduPilot-flavoured mock with the same
 SITL instance (../shared/sitl/arducopter, --speedup 10,
 sitl_tests/arducopter.py) over TCP, read back, verify by the ArduPilot rule, and count the
 INVALID_SEQUENCE acks it sent (the upload must not race its re-requests: 0 expected). The PX4 SIH
-rows (../shared/px4, sitl_tests/px4.py, an instance from 10-29, real time) use the same real-world
+rows (../shared/px4, sitl_tests/px4.py, a free instance, real time) use the same real-world
 timing over PX4's offboard UDP link, and verify by PX4's rule (bridge.px4.px4_stored).
 No assertions: this is a measurement, not a test.
 """
@@ -98,14 +98,14 @@ def measure_ardupilot(size: int, sitl: bool) -> dict[str, object]:
 
 def measure_px4(size: int, backend: str) -> dict[str, object]:
     """One upload and read-back with real-world timing to a fresh PX4 SIH (../shared/px4, v1.15.4;
-    sitl_tests/px4.py, an instance from 10-29, its offboard UDP link), verified by PX4's rule."""
+    sitl_tests/px4.py, a free instance, its offboard UDP link), verified by PX4's rule."""
     from px4 import PX4  # sitl_tests/px4.py: own temp folder and session, logging off, killed at exit
 
     home = (45.07, 7.68, 240.0)
     mission = survey(size)
     mission.items[0] = MissionItem(22, 3, x=home[0], y=home[1], z=30.0)  # PX4 refuses a take-off at 0, 0
     with contextlib.ExitStack() as stack:
-        vehicle = stack.enter_context(PX4(home=home, instances=range(10, 30)))
+        vehicle = stack.enter_context(PX4(home=home))
         b = stack.enter_context(open_backend(backend, vehicle.offboard_url, vehicle.sysid, timeouts=Timeouts(),
                                              connect_timeout=20))
         wire = to_wire(mission, b.vehicle.flavour)

@@ -409,7 +409,7 @@ def run_block(block: Block, cwd: Path, env: dict[str, str]) -> list[Ran]:
 # ------------------------------------------------------------------------------------------ measured tables
 TABLE_BEGIN = re.compile(r"^<!-- table: (.+?) -->\s*$")
 TABLE_END = re.compile(r"^<!-- end table -->\s*$")
-DECIMAL = re.compile(r"\d\.\d")
+DECIMAL = re.compile(r"(?<![\d.])\d+\.\d+(?![\d.])")  # 0.5, 12.34; not an address (127.0.0.1)
 
 
 @dataclass

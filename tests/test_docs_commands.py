@@ -153,3 +153,7 @@ def test_measured_tables_are_told_from_other_tables() -> None:
     measured = ["| map | A | s |", "|---|---|---|", "| a | 3 | 1.25 |", "| b | 4 | 0.99 |"]
     words = ["| setting | default |", "|---|---|", "| ceiling | 120 m |", "| reserve | a fifth |"]
     assert dc.looks_measured(measured, True) and not dc.looks_measured(words, True)
+    bench = ["leonardo  3  0.41  100.00", "leonardo  5  0.52  100.00", "grid-city 6  1.90   99.98"]
+    addresses = ["--connect udpin:0.0.0.0:14550 or udpout:127.0.0.1:14550", "tcp:127.0.0.1:5760 tcp:10.0.0.2:5760",
+                 "udpin:127.0.0.1:14550 serves udpout:127.0.0.1:14550"]
+    assert dc.looks_measured(bench, False) and not dc.looks_measured(addresses, False)
