@@ -47,8 +47,8 @@ def options(parser: argparse.ArgumentParser) -> set[str]:
 
 def reference_block() -> list[str]:
     text = CLI_MD.read_text()
-    start = text.index("```\nmissionplan ")
-    return text[start + 4:text.index("\n```", start + 4)].splitlines()
+    start = text.index("```text\nmissionplan ") + len("```text\n")
+    return text[start:text.index("\n```", start)].splitlines()
 
 
 def sections() -> dict[str, tuple[set[str], set[str], set[str]]]:
