@@ -29,7 +29,8 @@ CAMERA_FEEDBACK until a camera is configured (CAM1_TYPE set, then a reboot:
 MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN), img_idx from 1 and counting on across flights until a reboot,
 ArduCopter's navigation parameters (PARAM_REQUEST_READ / PARAM_SET) and its flight
 (bridge.copter_model: acceleration, stops at corners, RTL_ALT climb, slow final descent). The flight itself is mock_flight's; the link and the other
-faults are mock's. Everything here runs on the mock's one loop thread.
+faults are mock's; the onboard log (a DataFlash log with one CAM per photo, and the LOG_REQUEST_*
+transfer) is mock_log's. Everything here runs on the mock's one loop thread.
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ from .mission import (
     encode_xy,
 )
 from .mock_flight import FlightEvent, FlightSim
+from .mock_log import OnboardLogs
 from .px4 import (GEOFENCE_WITHOUT_HOME, MIS_DIST_1WP_DEFAULT, START_DENIED, fence_problems, item_result, px4_stored,
                   reported_reached, start_refusals)
 
@@ -174,11 +176,13 @@ class MockVehicle:
         self.camera = True
         self._text_id = 0  # PX4's STATUSTEXT id for chunked texts
         self._reboot_pending = False  # a reboot command acknowledged: reboot once the ack is out
+        self.logs = OnboardLogs(self.flavour, encoder, self._send_text)  # on its SD card: survives reboots
         self._boot(now)
 
     # ------------------------------------------------------------------------------ lifecycle
     def _boot(self, now: float) -> None:
         self._booting = True
+        self.logs.on_boot()
         self.boot_time = now
         self._last_tick = now
         self.offline_until = 0.0
@@ -373,9 +377,18 @@ class MockVehicle:
         while self._photos_sent < len(points):
             lat, lon, alt = points[self._photos_sent]
             self._photos_sent += 1
+            self._log_photo(now, self._photos_sent - 1 + first, lat, lon, home_alt, alt)
             self.mav.camera_feedback_send(int(now * 1e6), self.sysid, 0, (self._photos_sent - 1 + first) % 65536,
                                           int(round(lat * 1e7)), int(round(lon * 1e7)), home_alt + alt, alt,
                                           0.0, 0.0, self.flight.state.heading, 0.0, 0, self._photos_sent)
+
+    def _log_photo(self, now: float, img_idx: int, lat: float, lon: float, home_alt: float, alt: float) -> None:
+        """The onboard log's CAM of a photo (mock_log): what CAMERA_FEEDBACK reports, kept on the vehicle."""
+        self.logs.log_photo(img_idx, int(round(lat * 1e7)), int(round(lon * 1e7)), home_alt + alt, alt, 0.0, 0.0,
+                            self.flight.state.heading, self._time_us(now))
+
+    def _time_us(self, now: float) -> int:
+        return max(int((now - self.boot_time) * self.options.speedup * 1e6), 0)
 
     def _send_image_captured(self, now: float, points: list[tuple[float, float, float]], home_alt: float) -> None:
         """PX4 (camera_trigger + camera_feedback): one CAMERA_IMAGE_CAPTURED per photo on the GCS link,
@@ -417,6 +430,9 @@ class MockVehicle:
                 self.reboot_at_item = None
                 self.reboot(now)  # a brown-out in flight: the vehicle is gone, the others fly on
                 return
+        if self.flight.state.armed:  # ArduPilot opens a log when it arms (mock_log)
+            self.logs.on_armed("ArduCopter V4.7.0-dev (mock)", self._time_us(now))
+        self.logs.tick()
         if now >= self._next_heartbeat:
             self._next_heartbeat = now + 1.0
             self.send_heartbeat()
@@ -833,6 +849,9 @@ class MockVehicle:
             self.flight.copter = CopterParams.from_params(self.params)
         self._send_param(name, peer)
 
+    def _on_log_request(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        self.logs.handle(msg, peer, self.flight.state.armed)  # the log transfer: mock_log
+
     def _send_version(self) -> None:
         self.mav.autopilot_version_send(CAPABILITIES, (4 << 24) | (6 << 16), 0, 0, 0, [0] * 8, [0] * 8, [0] * 8,
                                         0, 0, self.sysid)
@@ -853,4 +872,7 @@ _HANDLERS = {
     "COMMAND_INT": MockVehicle._on_command,
     "PARAM_REQUEST_READ": MockVehicle._on_param_read,
     "PARAM_SET": MockVehicle._on_param_set,
+    "LOG_REQUEST_LIST": MockVehicle._on_log_request,
+    "LOG_REQUEST_DATA": MockVehicle._on_log_request,
+    "LOG_REQUEST_END": MockVehicle._on_log_request,
 }
