@@ -50,7 +50,8 @@ MODE_FLAG_ARMED = 128
 DISARM_TEXT = "Disarm for log download"  # ArduPilot's answer, once per arming, to a log request while armed
 GPS_EPOCH_UNIX = 315_964_800  # 1980-01-06 00:00:00 UTC
 GPS_LEAP_SECONDS = 18  # GPS time runs ahead of UTC by this much (since 2017)
-MTIME_SLACK_S = 5.0  # a log modified this long before the flight started may still hold its first photos
+CLOCK_SLACK_S = 5.0  # the vehicle's UTC clock (GPS) against ours: a log or photo dated this much before
+                     # the flight's start may still be of the flight
 
 
 class LogTransferError(BridgeError):
@@ -306,7 +307,8 @@ def recover_photos(link: Any, sysid: int, flavour: Flavour | str, deadline: floa
     (the flight's start, UTC seconds; a log's time_utc is its last write, so an older one cannot hold
     the flight): with `wanted`, older logs are read only while some wanted index is still missing;
     the newest log's copy of an index stands (img_idx starts again at 1 after a reboot, so an older
-    log's copy is another photo). Without `wanted`, the newest log only.
+    log's copy is another photo). Without `wanted`, the newest log only. With `since_utc`, photos
+    whose logged GPS time is earlier (an earlier flight in the same log) are left out too.
     save_dir: keep each downloaded log there as log{ID}.BIN (atomically); else it lives in a temp
     file only while it is read. progress(bytes received, bytes of the logs listed for download).
     Raises LogTransferError (a BridgeError) in one line: armed, no log, not answering, incomplete."""
@@ -324,7 +326,7 @@ def recover_photos(link: Any, sysid: int, flavour: Flavour | str, deadline: floa
                                "only from ArduPilot DataFlash logs here (PX4's ULog: docs/photo-recovery.md)")
     newest_first = sorted(entries, key=lambda e: e.id, reverse=True)
     if since_utc is not None:
-        recent = [e for e in newest_first if e.time_utc == 0 or e.time_utc >= since_utc - MTIME_SLACK_S]
+        recent = [e for e in newest_first if e.time_utc == 0 or e.time_utc >= since_utc - CLOCK_SLACK_S]
         if not recent:
             raise LogTransferError(f"vehicle {sysid} has no log written since the flight started at "
                                    f"{utc_of(since_utc)} (its newest, log {newest_first[0].id}, was last written "
@@ -346,6 +348,8 @@ def recover_photos(link: Any, sysid: int, flavour: Flavour | str, deadline: floa
         client.end()
     if wanted is not None:
         photos = {k: p for k, p in photos.items() if k in wanted}
+    if since_utc is not None:  # earlier flights of the same log
+        photos = {k: p for k, p in photos.items() if p.utc_s is None or p.utc_s >= since_utc - CLOCK_SLACK_S}
     return [photos[k] for k in sorted(photos)]
 
 

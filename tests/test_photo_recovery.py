@@ -212,6 +212,28 @@ def test_over_a_shared_link_with_the_log_kept_and_two_flights_in_two_logs(tmp_pa
     assert [p.img_idx for p in recent] == [max(second)]  # log 1 was last written before the second flight
 
 
+def test_two_flights_in_one_log_are_told_apart_by_their_gps_time() -> None:
+    """Without a reboot or a download in between, ArduPilot logs the next flight into the same log;
+    since_utc (the flight's start) leaves the earlier flight's photos out."""
+    utc = [1_700_000_000.0]
+    with _mock() as mock:
+        mock.vehicle(1).logs.wall = lambda: utc[0]
+        backend = _uploaded(mock, _survey(2.0, 30.0))
+        try:
+            _fly(mock, backend.link, 15.0)
+            first = _truth(mock)
+            utc[0] += 600.0
+            _fly(mock, backend.link, 15.0)
+            both = recover_photos(backend.link, 1, "ardupilot", time.monotonic() + 10.0)
+            second = recover_photos(backend.link, 1, "ardupilot", time.monotonic() + 10.0, since_utc=utc[0])
+        finally:
+            backend.close()
+        truth = _truth(mock)
+    assert {p.log_id for p in both} == {1} and len(mock.vehicle(1).logs.logs) == 1
+    _assert_equal(both, truth)
+    _assert_equal(second, {k: v for k, v in truth.items() if k not in first})
+
+
 def test_a_vehicle_without_a_log_says_so_in_one_line() -> None:
     with _mock() as mock, Link(mock.client_url) as link:
         with pytest.raises(LogTransferError) as err:
