@@ -93,9 +93,9 @@ def test_a_clean_close_is_reported_once(capfd: pytest.CaptureFixture[str]) -> No
         encoder = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
         client.sendall(encoder.heartbeat_encode(2, 3, 0, 0, 4).pack(encoder))
         heard.wait(5.0)
+        server.close()  # first: a reconnect that came between the two closes would be accepted
         client.shutdown(socket.SHUT_RDWR)
         client.close()
-        server.close()
 
     thread = threading.Thread(target=serve, daemon=True)
     thread.start()
