@@ -24,6 +24,7 @@ Logs survive a reboot (they are on the vehicle's SD card); everything runs on th
 
 from __future__ import annotations
 
+import math
 import struct
 import time
 from collections.abc import Callable
@@ -41,6 +42,12 @@ MAV_SEVERITY_ERROR = 3
 DISARM_TEXT = "Disarm for log download"
 GPS_EPOCH_UNIX = 315_964_800  # 1980-01-06 00:00:00 UTC
 GPS_LEAP_SECONDS = 18  # GPS time runs ahead of UTC by this much (since 2017)
+ULOG_MAGIC = b"ULog\x01\x12\x35"
+ULOG_TOPIC = "camera_capture"
+ULOG_CAPTURE_ID = 0
+# PX4 v1.15.4's camera_capture, as its ULog defines it (read from a SIH log).
+ULOG_CAPTURE_FORMAT = ("uint64_t timestamp;uint64_t timestamp_utc;double lat;double lon;uint32_t seq;float alt;"
+                       "float ground_distance;float[4] q;int8_t result;uint8_t[3] _padding0;")
 
 # DataFlash field codes -> struct codes (pymavlink DFReader.FORMAT_TO_STRUCT, the ones used here).
 _STRUCT = {"B": "B", "H": "H", "I": "I", "Q": "Q", "L": "i", "e": "i", "c": "h", "C": "H", "n": "4s",
@@ -65,11 +72,12 @@ class LogFormat:
         return 3 + self.struct.size  # header and type byte included, as FMT's Length says
 
 
-# The types the mock writes, with ArduPilot's numbers and formats (LogStructure.h): FMT itself,
-# MSG (text, e.g. the firmware version at the start of a log) and CAM.
+# The types the mock writes, with the numbers and formats of ArduCopter 4.7-dev SITL's log: FMT itself
+# (the log's first message, describing itself), MSG (text: the firmware version at the start of a
+# log) and CAM (a real log holds some 190 types; a reader finds these by name).
 FMT = LogFormat(FMT_TYPE, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns")
-MSG = LogFormat(91, "MSG", "QZ", "TimeUS,Message")
-CAM = LogFormat(72, "CAM", "QBHIHLLeeeccC", "TimeUS,I,Img,GPSTime,GPSWeek,Lat,Lng,Alt,RelAlt,GPSAlt,R,P,Y")
+MSG = LogFormat(59, "MSG", "QZ", "TimeUS,Message")
+CAM = LogFormat(81, "CAM", "QBHIHLLeeeccC", "TimeUS,I,Img,GPSTime,GPSWeek,Lat,Lng,Alt,RelAlt,GPSAlt,R,P,Y")
 
 
 class DataFlashWriter:
@@ -98,10 +106,30 @@ def gps_week_ms(unix_s: float) -> tuple[int, int]:
     return gps_ms // 604_800_000, gps_ms % 604_800_000
 
 
+class UlogWriter:
+    """The bytes of a PX4 ULog holding camera_capture messages, as PX4 v1.15.4 writes them: the header
+    (magic, version 1, start time), the flag bits, the topic's format (v1.15.4's camera_capture), its
+    subscription, then one data message per capture (trailing padding not logged, as PX4 does)."""
+
+    def __init__(self, start_us: int) -> None:
+        self.data = bytearray(ULOG_MAGIC + b"\x01" + struct.pack("<Q", start_us))
+        self._message("B", bytes(40))  # no compatible / incompatible flags, no appended data
+        self._message("F", f"{ULOG_TOPIC}:{ULOG_CAPTURE_FORMAT}".encode())
+        self._message("A", struct.pack("<BH", 0, ULOG_CAPTURE_ID) + ULOG_TOPIC.encode())
+
+    def _message(self, kind: str, body: bytes) -> None:
+        self.data += struct.pack("<HB", len(body), ord(kind)) + body
+
+    def capture(self, time_us: int, utc_us: int, lat: float, lon: float, seq: int, alt: float, ground_distance: float,
+                q: tuple[float, float, float, float], result: int = 1) -> None:
+        self._message("D", struct.pack("<HQQddIff4fb", ULOG_CAPTURE_ID, time_us, utc_us, lat, lon, seq, alt,
+                                       ground_distance, *q, result))
+
+
 @dataclass
 class _Log:
-    writer: DataFlashWriter
-    mtime: int  # UTC seconds of the last write (the file's mtime, which ArduPilot reports as time_utc)
+    writer: DataFlashWriter | UlogWriter
+    mtime: int  # UTC seconds of the last write (the file's mtime, which both autopilots report as time_utc)
 
 
 @dataclass
@@ -115,23 +143,35 @@ class _Transfer:
 @dataclass
 class OnboardLogs:
     """One vehicle's logs and its side of the log protocol. `mav` is the vehicle's pymavlink encoder;
-    `say` sends a STATUSTEXT (text, severity); `wall` is the vehicle's UTC clock (its GPS time)."""
+    `say` sends a STATUSTEXT (text, severity); `wall` is the vehicle's UTC clock (its GPS time).
+    `logging`: whether the vehicle logs at all (ArduPilot: yes; PX4: SDLOG_MODE >= 0, which the tests'
+    PX4 SIH does not have; set it before the vehicle arms)."""
 
     flavour: Flavour
     mav: Any
     say: Callable[[str, int], None]
     wall: Callable[[], float] = time.time
+    logging: bool | None = None
     logs: list[_Log] = field(default_factory=list)
     open_log: _Log | None = None
     transfer: _Transfer | None = None
     listing: list[int] = field(default_factory=list)  # ids still to send in a LOG_ENTRY
     _last_listed: int = 0  # the listing's last id: every LOG_ENTRY of it says so (last_log_num)
+    _listed: bool = False  # PX4 serves data only after a listing (its LogListHelper), until LOG_REQUEST_END
     _warned_armed: bool = False
     photos_logged: int = 0
 
+    def __post_init__(self) -> None:
+        if self.logging is None:
+            self.logging = self.flavour is Flavour.ARDUPILOT
+
     @property
-    def keeps_logs(self) -> bool:
-        return self.flavour is Flavour.ARDUPILOT
+    def px4(self) -> bool:
+        return self.flavour is Flavour.PX4
+
+    @property
+    def first_id(self) -> int:
+        return 0 if self.px4 else 1  # PX4 numbers its LOG_ENTRY rows from 0, ArduPilot from 1
 
     # -- writing
     def on_boot(self) -> None:
@@ -139,35 +179,51 @@ class OnboardLogs:
         self.open_log = None
         self.transfer = None
         self.listing = []
+        self._listed = False
 
     def on_armed(self, version: str, time_us: int) -> None:
         """The vehicle is armed: ArduPilot opens a new log unless one is open (LOG_DISARMED 0: it
-        logs only while armed), starting with its firmware version."""
-        if not self.keeps_logs or self.open_log is not None:
+        logs only while armed), starting with its firmware version; PX4 (SDLOG_MODE 0: from arming to
+        disarming) a new one at every arming."""
+        if not self.logging or (self.open_log is not None and not self.px4):
             return
-        self.open_log = _Log(DataFlashWriter(), int(self.wall()))
+        writer: DataFlashWriter | UlogWriter
+        if self.px4:
+            writer = UlogWriter(time_us)
+        else:
+            writer = DataFlashWriter()
+            writer.write(MSG, time_us, version.encode())
+        self.open_log = _Log(writer, int(self.wall()))
         self.logs.append(self.open_log)
-        self.open_log.writer.write(MSG, time_us, version.encode())
 
-    def log_photo(self, img_idx: int, lat_e7: int, lon_e7: int, alt_amsl_m: float, alt_rel_m: float,
+    def log_photo(self, img_idx: int, lat: float, lon: float, alt_amsl_m: float, alt_rel_m: float,
                   roll_deg: float, pitch_deg: float, yaw_deg: float, time_us: int) -> None:
-        """One CAM message, as AP_Camera writes it at the trigger (no feedback pin): where the vehicle
-        was (centimetre altitudes, centidegree attitude), its time since boot and the GPS time."""
+        """One photo in the open log. ArduPilot: a CAM message, as AP_Camera writes it at the trigger (no
+        feedback pin): where the vehicle was (centimetre altitudes, centidegree attitude), its time since
+        boot and the GPS time; positions in 1e-7 degrees, rounded as CAMERA_FEEDBACK's. PX4: a
+        camera_capture message (degrees as doubles, metres, the attitude as a quaternion, UTC in
+        microseconds, result 1)."""
         log = self.open_log
         if log is None:
             return
-        week, week_ms = gps_week_ms(self.wall())
-        alt_cm = int(round(alt_amsl_m * 100))
-        log.writer.write(CAM, time_us, 0, img_idx % 65536, week_ms, week, lat_e7, lon_e7, alt_cm,
-                         int(round(alt_rel_m * 100)), alt_cm, int(round(roll_deg * 100)),
-                         int(round(pitch_deg * 100)), int(round(yaw_deg * 100)) % 36000)
+        if isinstance(log.writer, UlogWriter):
+            half = math.radians(yaw_deg) / 2  # level flight: the yaw alone (roll, pitch 0 in the mock)
+            log.writer.capture(time_us, int(self.wall() * 1e6), lat, lon, img_idx, alt_amsl_m,
+                               alt_rel_m, (math.cos(half), 0.0, 0.0, math.sin(half)))
+        else:
+            week, week_ms = gps_week_ms(self.wall())
+            alt_cm = int(round(alt_amsl_m * 100))
+            log.writer.write(CAM, time_us, 0, img_idx % 65536, week_ms, week, int(round(lat * 1e7)),
+                             int(round(lon * 1e7)), alt_cm,
+                             int(round(alt_rel_m * 100)), alt_cm, int(round(roll_deg * 100)),
+                             int(round(pitch_deg * 100)), int(round(yaw_deg * 100)) % 36000)
         log.mtime = int(self.wall())
         self.photos_logged += 1
 
     # -- the log protocol
     def handle(self, msg: Any, peer: tuple[int, int], armed: bool) -> None:
         kind = msg.get_type()
-        if armed and self.flavour is Flavour.ARDUPILOT:
+        if armed and not self.px4:
             if not self._warned_armed:  # ArduPilot says it once per arming and answers nothing
                 self._warned_armed = True
                 self.say(DISARM_TEXT, MAV_SEVERITY_ERROR)
@@ -180,24 +236,35 @@ class OnboardLogs:
         elif kind == "LOG_REQUEST_END":
             self.transfer = None
             self.listing = []
+            self._listed = False
 
     def _on_list(self, start: int, end: int, peer: tuple[int, int]) -> None:
-        if self.transfer is not None:
+        if self.transfer is not None and not self.px4:
             return  # ArduPilot: "Log download in progress" to another channel; ours is the one
+        self.transfer = None  # PX4: a listing stops the data being sent
+        self._listed = True
         count = len(self.logs)
         if count == 0:
             self.listing, self._last_listed = [0], 0
+        elif self.px4:  # both ends clamped to the last log (mavlink_log_handler.cpp)
+            self._last_listed = min(end, count - 1)
+            self.listing = list(range(min(start, count - 1), self._last_listed + 1))
         else:
             self._last_listed = min(end, count)
             self.listing = list(range(max(start, 1), self._last_listed + 1))
 
     def _on_data(self, log_id: int, ofs: int, count: int, peer: tuple[int, int]) -> None:
-        if self.transfer is not None:
-            return  # a request while sending is dropped (MAVProxy streams them while filling gaps)
-        if not 1 <= log_id <= len(self.logs):
-            return  # a log that does not exist: the transfer is cancelled, nothing is said
-        self.open_log = None  # get_log_data's first read stops logging: the next arming opens a new log
-        size = len(self.logs[log_id - 1].writer.data)
+        if self.px4:
+            if not self._listed or not 0 <= log_id < len(self.logs):
+                return  # PX4 serves only a log of its listing; another request replaces the running one
+        else:
+            if self.transfer is not None:
+                return  # a request while sending is dropped (MAVProxy streams them while filling gaps)
+            if not 1 <= log_id <= len(self.logs):
+                return  # a log that does not exist: the transfer is cancelled, nothing is said
+            self.open_log = None  # get_log_data's first read stops logging: the next arming opens a new log
+        size = len(self.logs[log_id - self.first_id].writer.data)
+        self.listing = []
         self.transfer = _Transfer(log_id, ofs, min(max(size - ofs, 0), count), peer)
 
     def tick(self) -> None:
@@ -205,19 +272,18 @@ class OnboardLogs:
         if self.listing:
             log_id = self.listing.pop(0)
             count = len(self.logs)
-            if log_id == 0:
+            if count == 0:
                 self.mav.log_entry_send(0, 0, 0, 0, 0)
             else:
-                log = self.logs[log_id - 1]
-                size = len(log.writer.data)
-                mtime = int(self.wall()) if log is self.open_log else log.mtime  # the open one: now
-                self.mav.log_entry_send(log_id, count, self._last_listed, mtime, size)
+                log = self.logs[log_id - self.first_id]
+                mtime = int(self.wall()) if log is self.open_log and not self.px4 else log.mtime
+                self.mav.log_entry_send(log_id, count, self._last_listed, mtime, len(log.writer.data))
             return
         for _ in range(LOG_CHUNKS_PER_TICK):
             t = self.transfer
             if t is None:
                 return
-            data = self.logs[t.log_id - 1].writer.data
+            data = self.logs[t.log_id - self.first_id].writer.data
             chunk = bytes(data[t.offset:t.offset + min(t.remaining, LOG_DATA_LEN)])
             self.mav.log_data_send(t.log_id, t.offset, len(chunk), chunk.ljust(LOG_DATA_LEN, b"\0"))
             t.offset += len(chunk)

@@ -384,8 +384,8 @@ class MockVehicle:
 
     def _log_photo(self, now: float, img_idx: int, lat: float, lon: float, home_alt: float, alt: float) -> None:
         """The onboard log's CAM of a photo (mock_log): what CAMERA_FEEDBACK reports, kept on the vehicle."""
-        self.logs.log_photo(img_idx, int(round(lat * 1e7)), int(round(lon * 1e7)), home_alt + alt, alt, 0.0, 0.0,
-                            self.flight.state.heading, self._time_us(now))
+        self.logs.log_photo(img_idx, lat, lon, home_alt + alt, alt, 0.0, 0.0, self.flight.state.heading,
+                            self._time_us(now))
 
     def _time_us(self, now: float) -> int:
         return max(int((now - self.boot_time) * self.options.speedup * 1e6), 0)
@@ -395,9 +395,11 @@ class MockVehicle:
         image_index from 0 after boot (counting on across flights), capture_result 1, no CAMERA_FEEDBACK."""
         while self._photos_sent < len(points):
             lat, lon, alt = points[self._photos_sent]
-            self.mav.camera_image_captured_send(self._time_boot_ms(now), int(now * 1e6), 1, int(round(lat * 1e7)),
-                                                int(round(lon * 1e7)), int(round((home_alt + alt) * 1000)),
-                                                int(round(alt * 1000)), [1.0, 0.0, 0.0, 0.0], self._photos_sent, 1, b"")
+            self._log_photo(now, self._photos_sent, lat, lon, home_alt, alt)
+            # int(): PX4 casts (truncates) camera_capture's doubles and metres into the message
+            self.mav.camera_image_captured_send(self._time_boot_ms(now), int(now * 1e6), 1, int(lat * 1e7),
+                                                int(lon * 1e7), int((home_alt + alt) * 1000),
+                                                int(alt * 1000), [1.0, 0.0, 0.0, 0.0], self._photos_sent, 1, b"")
             self._photos_sent += 1
 
     def _send_mission_current(self, seq: int | None = None) -> None:
@@ -430,8 +432,6 @@ class MockVehicle:
                 self.reboot_at_item = None
                 self.reboot(now)  # a brown-out in flight: the vehicle is gone, the others fly on
                 return
-        if self.flight.state.armed:  # ArduPilot opens a log when it arms (mock_log)
-            self.logs.on_armed("ArduCopter V4.7.0-dev (mock)", self._time_us(now))
         self.logs.tick()
         if now >= self._next_heartbeat:
             self._next_heartbeat = now + 1.0
@@ -762,6 +762,7 @@ class MockVehicle:
                         self._send_text(text)
                     return CMD_FAILED
                 s.armed = True
+                self.logs.on_armed("ArduCopter V4.7.0-dev (mock)", self._time_us(now))  # a new log (mock_log)
             else:
                 if not s.on_ground and int(p[1]) != 21196:  # 21196 forces a disarm in flight
                     return CMD_DENIED

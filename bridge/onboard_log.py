@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import os
+import struct
 import tempfile
 import time
 from collections.abc import Callable
@@ -46,6 +47,7 @@ QUIET_S = 0.5      # no LOG_DATA for this long: the vehicle has finished (or los
 MIN_QUIET_S = 0.05  # the shortest silence taken for that, however fast the chunks came
 DATA_TRIES = 6     # requests in a row that bring nothing new before the download fails
 COALESCE_CHUNKS = 16  # missing chunks this close together are asked for in one request
+WINDOW_BYTES = 512 * LOG_DATA_LEN  # asked for at a time (46 KB: a burst a UDP socket's buffer holds)
 MODE_FLAG_ARMED = 128
 DISARM_TEXT = "Disarm for log download"  # ArduPilot's answer, once per arming, to a log request while armed
 GPS_EPOCH_UNIX = 315_964_800  # 1980-01-06 00:00:00 UTC
@@ -178,38 +180,48 @@ class LogClient:
     # -- downloading
     def download(self, entry: LogEntry, deadline: float, progress: ProgressFn | None = None,
                  done_before: int = 0, total: int | None = None) -> bytes:
-        """The bytes of one log. Chunks lost on the link are asked for again (a gap at a time, close
-        gaps together) once the vehicle has gone quiet: ArduPilot drops a request that comes while it
-        is still sending, PX4 replaces the running one. progress(done_before + bytes so far, total)."""
-        size = entry.size
-        total = size if total is None else total
-        chunks = math.ceil(size / LOG_DATA_LEN)
-        data = bytearray(size)
-        have = bytearray(chunks)  # 1 for each chunk received
-        got = 0
-        end = size  # a chunk shorter than 90 bytes ends the log: it may be shorter than listed
+        """The bytes of one log (read_range over all of it). progress(done_before + bytes so far, total)."""
+        return self.read_range(entry, 0, entry.size, deadline, progress, done_before, total)
+
+    def read_range(self, entry: LogEntry, start: int, stop: int, deadline: float, progress: ProgressFn | None = None,
+                   done_before: int = 0, total: int | None = None) -> bytes:
+        """Bytes [start, stop) of a log (fewer when the log ends first: a chunk shorter than 90 bytes
+        ends it). Asked for WINDOW_BYTES at a time: a whole log in one request comes faster than a
+        ground station on UDP reads it (PX4 SIH lost most of a 14 MB log that way; its socket buffer
+        overflowed), and one window fits. Within a window the chunks lost on the link are asked for
+        again (a gap at a time, close gaps together) once the vehicle has gone quiet: ArduPilot drops a
+        request that comes while it is still sending, PX4 replaces the running one."""
+        fetch = _Fetch(entry, start, min(stop, entry.size), progress, done_before,
+                       entry.size if total is None else total)
+        pos = start
+        while pos < fetch.end:
+            window = (pos, min(pos + WINDOW_BYTES, fetch.end))
+            self._fetch_window(fetch, window, deadline)
+            pos = window[1]
+        return bytes(fetch.data[:max(fetch.end - start, 0)])
+
+    def _fetch_window(self, fetch: _Fetch, window: tuple[int, int], deadline: float) -> None:
+        entry = fetch.entry
         fruitless = 0
-        want = (0, size)
         while True:
-            missing = [k for k in range(chunks) if not have[k] and k * LOG_DATA_LEN < end]
+            missing = fetch.missing(window)
             if not missing:
-                break
+                return
             if fruitless >= DATA_TRIES or time.monotonic() >= deadline:
-                if got == 0:
+                if fetch.got == 0:
                     raise self._why_silent(f"LOG_REQUEST_DATA for log {entry.id}")
-                raise LogTransferError(f"vehicle {self.sysid}: log {entry.id} incomplete, {got} of {end} bytes after "
-                                       f"{self.requests} requests ({len(missing)} chunks missing from byte "
-                                       f"{missing[0] * LOG_DATA_LEN})")
+                raise LogTransferError(f"vehicle {self.sysid}: log {entry.id} incomplete, {fetch.got} of "
+                                       f"{fetch.end - fetch.start} bytes after {self.requests} requests (nothing "
+                                       f"more came from byte {missing[0]})")
             first = last = missing[0]
-            for k in missing[1:]:  # the first gap, with the gaps close after it
-                if k - last > COALESCE_CHUNKS:
+            for ofs in missing[1:]:  # the first gap, with the gaps close after it
+                if ofs - last > COALESCE_CHUNKS * LOG_DATA_LEN:
                     break
-                last = k
-            want = (first * LOG_DATA_LEN, (last + 1) * LOG_DATA_LEN)
-            self.link.mav.log_request_data_send(self.sysid, self.compid, entry.id, want[0],
-                                                min(want[1], end) - want[0])
+                last = ofs
+            want = (first, min(last + LOG_DATA_LEN, fetch.end))
+            self.link.mav.log_request_data_send(self.sysid, self.compid, entry.id, want[0], want[1] - want[0])
             self.requests += 1
-            before = got
+            before = fetch.got
             sent_at = last_at = time.monotonic()
             first_chunk = True
             quiet_until = min(deadline, sent_at + self._first_wait())  # the first chunk takes a round trip
@@ -226,26 +238,46 @@ class LogClient:
                 first_chunk, last_at = False, now
                 quiet_until = min(deadline, now + self._quiet())
                 ofs, count = int(msg.ofs), int(msg.count)
-                if count < LOG_DATA_LEN:
-                    end = min(end, ofs + count)
-                if ofs % LOG_DATA_LEN or ofs >= size:
-                    continue
-                k = ofs // LOG_DATA_LEN
-                count = min(count, size - ofs)
-                if count and not have[k]:
-                    data[ofs:ofs + count] = bytes(msg.data[:count])
-                    have[k] = 1
-                    got += count
-                    if progress is not None:
-                        progress(done_before + got, total)
-                if ofs + max(count, 1) >= min(want[1], end):
+                fetch.take(ofs, count, bytes(msg.data))
+                if ofs + max(count, 1) >= min(want[1], fetch.end):
                     break  # the last chunk of this request: no need to wait for silence
-            fruitless = 0 if got > before else fruitless + 1
-        return bytes(data[:end])
+            fruitless = 0 if fetch.got > before else fruitless + 1
 
     def end(self) -> None:
         """LOG_REQUEST_END: ArduPilot resumes normal logging, PX4 forgets the listing."""
         self.link.mav.log_request_end_send(self.sysid, self.compid)
+
+
+class _Fetch:
+    """The bytes of one range of a log as they arrive, chunk by chunk (a chunk: 90 bytes from `start`)."""
+
+    def __init__(self, entry: LogEntry, start: int, stop: int, progress: ProgressFn | None, done_before: int,
+                 total: int) -> None:
+        self.entry, self.start, self.end = entry, start, stop
+        self.data = bytearray(max(stop - start, 0))
+        self.have = bytearray(math.ceil(max(stop - start, 0) / LOG_DATA_LEN))
+        self.got = 0
+        self.progress, self.done_before, self.total = progress, done_before, total
+
+    def missing(self, window: tuple[int, int]) -> list[int]:
+        """The offsets of the chunks of `window` not received yet (the log's end may have moved in)."""
+        stop = min(window[1], self.end)
+        return [ofs for ofs in range(window[0], stop, LOG_DATA_LEN)
+                if not self.have[(ofs - self.start) // LOG_DATA_LEN]]
+
+    def take(self, ofs: int, count: int, data: bytes) -> None:
+        if count < LOG_DATA_LEN:
+            self.end = min(self.end, ofs + count)  # the log ends here
+        if ofs < self.start or (ofs - self.start) % LOG_DATA_LEN or ofs >= self.end:
+            return  # not a chunk of ours (an answer to an earlier request of another range)
+        k = (ofs - self.start) // LOG_DATA_LEN
+        count = min(count, self.end - ofs)
+        if count and not self.have[k]:
+            self.data[ofs - self.start:ofs - self.start + count] = data[:count]
+            self.have[k] = 1
+            self.got += count
+            if self.progress is not None:
+                self.progress(self.done_before + self.got, self.total)
 
 
 def _smooth(average: float | None, sample: float) -> float:
@@ -289,6 +321,94 @@ def read_dataflash_photos(path: str | os.PathLike[str], log_id: int = 0) -> list
     return [photos[k] for k in sorted(photos)]
 
 
+ULOG_MAGIC = b"ULog\x01\x12\x35"
+ULOG_TYPES = {"int8_t": "b", "uint8_t": "B", "int16_t": "h", "uint16_t": "H", "int32_t": "i", "uint32_t": "I",
+              "int64_t": "q", "uint64_t": "Q", "float": "f", "double": "d", "bool": "?", "char": "c"}
+ULOG_TOPIC = "camera_capture"  # PX4's camera_feedback module: one per photo, what CAMERA_IMAGE_CAPTURED sends
+
+
+def _ulog_fields(definition: str) -> list[tuple[str, str, int]]:
+    """(type, name, count) of each field of a ULog format ("float[4] q;int8_t result;...")."""
+    fields = []
+    for field in filter(None, definition.split(";")):
+        kind, _, name = field.strip().partition(" ")
+        count = 1
+        if kind.endswith("]"):
+            kind, _, n = kind[:-1].partition("[")
+            count = int(n)
+        fields.append((kind, name, count))
+    return fields
+
+
+def _ulog_decode(formats: dict[str, list[tuple[str, str, int]]], name: str, buf: bytes,
+                 at: int = 0) -> tuple[dict[str, Any], int]:
+    """One message of format `name` from buf[at:] (nested formats too); fields cut off by the end of
+    the buffer are left out (PX4 does not log a message's trailing padding)."""
+    row: dict[str, Any] = {}
+    for kind, field, count in formats[name]:
+        values: list[Any] = []
+        for _ in range(count):
+            if kind in ULOG_TYPES:
+                code = "<" + ULOG_TYPES[kind]
+                if at + struct.calcsize(code) > len(buf):
+                    return row, at
+                values.append(struct.unpack_from(code, buf, at)[0])
+                at += struct.calcsize(code)
+            else:
+                value, at = _ulog_decode(formats, kind, buf, at)
+                values.append(value)
+        if not field.startswith("_padding"):
+            row[field] = values[0] if count == 1 else values
+    return row, at
+
+
+def _euler_deg(q: list[float]) -> tuple[float, float, float]:
+    """Roll, pitch, yaw (degrees, yaw 0..360) of a unit quaternion w, x, y, z (PX4's Hamilton order)."""
+    w, x, y, z = q
+    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return math.degrees(roll), math.degrees(pitch), math.degrees(yaw) % 360.0
+
+
+def read_ulog_photos(data: bytes, log_id: int = 0) -> list[LoggedPhoto]:
+    """The photos of a PX4 ULog: its camera_capture messages (instance 0) with result 1 (a capture
+    that failed is not a photo), keyed by seq (CAMERA_IMAGE_CAPTURED's image_index). Latitude and
+    longitude in 1e-7 degrees truncated, as PX4 truncates them for CAMERA_IMAGE_CAPTURED, so they
+    equal its report; alt_rel is camera_capture's ground_distance (the report's relative_alt)."""
+    if not data.startswith(ULOG_MAGIC):
+        raise LogTransferError(f"log {log_id} is not a ULog (it starts {data[:8]!r})")
+    formats: dict[str, list[tuple[str, str, int]]] = {}
+    topic_ids: set[int] = set()
+    photos: dict[int, LoggedPhoto] = {}
+    pos = 16  # magic, version, start time
+    while pos + 3 <= len(data):
+        size, kind = struct.unpack_from("<HB", data, pos)
+        body = data[pos + 3:pos + 3 + size]
+        pos += 3 + size
+        if len(body) < size:
+            break  # the log was cut off mid-message
+        if kind == ord("F"):
+            name, _, definition = body.decode("ascii", "replace").partition(":")
+            formats[name] = _ulog_fields(definition)
+        elif kind == ord("A") and size > 3:
+            multi_id, msg_id = struct.unpack_from("<BH", body)
+            if body[3:].decode("ascii", "replace") == ULOG_TOPIC and multi_id == 0:
+                topic_ids.add(msg_id)
+        elif kind == ord("D") and size >= 2 and struct.unpack_from("<H", body)[0] in topic_ids:
+            row, _ = _ulog_decode(formats, ULOG_TOPIC, body[2:])
+            if row.get("result") != 1 or int(row["seq"]) in photos:
+                continue
+            roll, pitch, yaw = _euler_deg(list(row["q"])) if "q" in row else (None, None, None)
+            photos[int(row["seq"])] = LoggedPhoto(
+                img_idx=int(row["seq"]), lat_e7=int(row["lat"] * 1e7), lon_e7=int(row["lon"] * 1e7),
+                alt_amsl=float(row["alt"]), alt_rel=float(row["ground_distance"]), roll=roll, pitch=pitch, yaw=yaw,
+                time_boot_s=int(row["timestamp"]) / 1e6,
+                utc_s=int(row["timestamp_utc"]) / 1e6 if row.get("timestamp_utc") else None,
+                log_id=log_id, message=ULOG_TOPIC)
+    return [photos[k] for k in sorted(photos)]
+
+
 # ---------------------------------------------------------------------------------- the one call
 def recover_photos(link: Any, sysid: int, flavour: Flavour | str, deadline: float, wanted: set[int] | None = None,
                    progress: ProgressFn | None = None, since_utc: float | None = None,
@@ -321,10 +441,12 @@ def recover_photos(link: Any, sysid: int, flavour: Flavour | str, deadline: floa
                "PX4 logs only with its logger on (SDLOG_MODE 0..3; -1 turns it off)"
                if flavour is Flavour.PX4 else "")
         raise LogTransferError(f"vehicle {sysid} has no onboard log" + (f": {why}" if why else ""))
-    if flavour is not Flavour.ARDUPILOT:
-        raise LogTransferError(f"vehicle {sysid} ({flavour.value}) has {len(entries)} log(s), but photos are read "
-                               "only from ArduPilot DataFlash logs here (PX4's ULog: docs/photo-recovery.md)")
-    newest_first = sorted(entries, key=lambda e: e.id, reverse=True)
+    if flavour is Flavour.GENERIC:
+        raise LogTransferError(f"vehicle {sysid} has {len(entries)} log(s), but photos are read only from "
+                               "ArduPilot DataFlash and PX4 ULog logs")
+    # ArduPilot numbers its logs oldest first; PX4 lists them in its folder's order, dated by time_utc.
+    newest_first = sorted(entries, key=(lambda e: e.id) if flavour is Flavour.ARDUPILOT
+                          else (lambda e: (e.time_utc, e.id)), reverse=True)
     if since_utc is not None:
         recent = [e for e in newest_first if e.time_utc == 0 or e.time_utc >= since_utc - CLOCK_SLACK_S]
         if not recent:
@@ -342,7 +464,7 @@ def recover_photos(link: Any, sysid: int, flavour: Flavour | str, deadline: floa
                 break
             data = client.download(entry, deadline, progress, done, total)
             done += entry.size
-            for photo in _read_bytes(data, entry.id, save_dir):
+            for photo in _read_bytes(data, entry.id, flavour, save_dir):
                 photos.setdefault(photo.img_idx, photo)  # the newer log's copy stands
     finally:
         client.end()
@@ -353,13 +475,17 @@ def recover_photos(link: Any, sysid: int, flavour: Flavour | str, deadline: floa
     return [photos[k] for k in sorted(photos)]
 
 
-def _read_bytes(data: bytes, log_id: int, save_dir: str | os.PathLike[str] | None) -> list[LoggedPhoto]:
-    """Read a downloaded log: from save_dir/log{ID}.BIN when kept, else from a temp file (DFReader
-    maps a file, it does not read bytes)."""
+def _read_bytes(data: bytes, log_id: int, flavour: Flavour,
+                save_dir: str | os.PathLike[str] | None) -> list[LoggedPhoto]:
+    """Read a downloaded log, kept as save_dir/log{ID}.BIN (ArduPilot) or .ulg (PX4) when asked; a
+    DataFlash log from a file (DFReader maps a file, it does not read bytes), a temp one if not kept."""
     if save_dir is not None:
-        target = Path(save_dir) / f"log{log_id}.BIN"
+        target = Path(save_dir) / f"log{log_id}.{'BIN' if flavour is Flavour.ARDUPILOT else 'ulg'}"
         with atomic_path(target) as tmp:
             tmp.write_bytes(data)
+    if flavour is Flavour.PX4:
+        return read_ulog_photos(data, log_id)
+    if save_dir is not None:
         return read_dataflash_photos(target, log_id)
     fd, tmp_name = tempfile.mkstemp(prefix=f"log{log_id}.", suffix=".BIN")
     try:
@@ -375,4 +501,5 @@ def utc_of(unix_s: float) -> str:
     return time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(unix_s)) if unix_s else "unknown"
 
 
-__all__ = ["LogClient", "LogEntry", "LogTransferError", "LoggedPhoto", "read_dataflash_photos", "recover_photos"]
+__all__ = ["LogClient", "LogEntry", "LogTransferError", "LoggedPhoto", "read_dataflash_photos", "read_ulog_photos",
+           "recover_photos"]

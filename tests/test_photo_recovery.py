@@ -21,7 +21,7 @@ import pytest
 from pymavlink import DFReader
 
 from bridge.link import Link
-from bridge.mission import Mission, MissionItem
+from bridge.mission import Flavour, Mission, MissionItem
 from bridge.mock import LinkFaults, MockAutopilot
 from bridge.mock_flight import EARTH_RADIUS
 from bridge.mock_log import CAM, DataFlashWriter, gps_week_ms
@@ -44,7 +44,8 @@ def _waypoint(north: float) -> MissionItem:
 
 def _survey(trigger_m: float, north: float) -> Mission:
     """Take off, photos every trigger_m metres on a leg north and back, return to launch."""
-    items = [MissionItem(22, 3, z=ALT), MissionItem(206, 2, param1=trigger_m), _waypoint(north), _waypoint(0.0),
+    items = [MissionItem(22, 3, x=HOME[0], y=HOME[1], z=ALT), MissionItem(206, 2, param1=trigger_m), _waypoint(north),
+             _waypoint(0.0),
              MissionItem(206, 2, param1=0.0), MissionItem(20, 2)]
     return Mission(items, home=HOME)
 
@@ -89,9 +90,11 @@ def _uploaded(mock: MockAutopilot, mission: Mission) -> Any:
 
 
 def _truth(mock: MockAutopilot, first: int = 0) -> dict[int, tuple[int, int, float]]:
-    """img_idx -> (lat e7, lon e7, altitude above home) of every photo the mock took."""
+    """img_idx -> (lat e7, lon e7, altitude above home) of every photo the mock took: rounded to 1e-7
+    degree as ArduPilot stores positions, truncated as PX4 casts them into CAMERA_IMAGE_CAPTURED."""
+    e7 = (lambda deg: int(deg * 1e7)) if mock.flavour is Flavour.PX4 else (lambda deg: int(round(deg * 1e7)))
     points = mock.vehicle(1).flight.state.photo_points
-    return {first + k: (int(round(lat * 1e7)), int(round(lon * 1e7)), alt) for k, (lat, lon, alt) in enumerate(points)}
+    return {first + k: (e7(lat), e7(lon), alt) for k, (lat, lon, alt) in enumerate(points)}
 
 
 def _assert_equal(photos: list[LoggedPhoto], truth: dict[int, tuple[int, int, float]]) -> None:
@@ -170,7 +173,8 @@ def test_lost_chunks_and_lost_requests_are_asked_for_again(tmp_path: Path) -> No
             client = LogClient(link, 1)
             [entry] = client.list_logs(time.monotonic() + 10.0)
             seen: list[tuple[int, int]] = []
-            data = client.download(entry, time.monotonic() + 20.0, progress=lambda done, total: seen.append((done, total)))
+            data = client.download(entry, time.monotonic() + 20.0,
+                                   progress=lambda done, total: seen.append((done, total)))
             client.end()
         assert mock.stats["dropped_out"] > 20 and mock.stats["dropped_in"] > 0
     assert len(data) == entry.size == len(mock.vehicle(1).logs.logs[0].writer.data)
@@ -252,6 +256,36 @@ def test_an_armed_vehicle_answers_disarm_for_log_download() -> None:
         assert time.monotonic() - started < 2.0  # its refusal ends the wait, not the deadline
     assert str(err.value) == ('vehicle 1 is armed: it sends its logs only when disarmed (after landing); '
                               'it said "Disarm for log download"')
+
+
+def test_px4_photos_come_back_from_its_ulog_when_it_logs() -> None:
+    """PX4 with its logger on (SDLOG_MODE 0, PX4's default) writes a ULog from arming to disarming;
+    its camera_capture messages are the photos CAMERA_IMAGE_CAPTURED reported, lost or not."""
+    with _mock(flavour="px4") as mock:
+        mock.vehicle(1).logs.logging = True
+        backend = _uploaded(mock, _survey(2.0, 40.0))
+        try:
+            state: dict[str, Any] = {"dropped": False}
+
+            def drop_for_a_while(msgs: list[Any]) -> None:
+                if not state["dropped"] and sum(m.get_type() == "CAMERA_IMAGE_CAPTURED" for m in msgs) >= 2:
+                    state["dropped"] = True
+                    mock.set_faults(LinkFaults(loss_out=1.0))
+                    assert mock.wait_until(lambda m: m.vehicle(1).flight.state.photos >= 12, timeout=5.0)
+                    mock.set_faults(LinkFaults())
+
+            msgs = _fly(mock, backend.link, 15.0, drop_for_a_while)
+            reports = {int(m.image_index): m for m in msgs if m.get_type() == "CAMERA_IMAGE_CAPTURED"}
+            photos = recover_photos(backend.link, 1, "px4", time.monotonic() + 10.0)
+        finally:
+            backend.close()
+        truth = _truth(mock)
+    assert len(truth) - len(reports) >= 8  # lost on the link
+    _assert_equal(photos, truth)
+    assert all(p.message == "camera_capture" and p.log_id == 0 for p in photos)  # PX4 counts its logs from 0
+    for k, m in reports.items():  # the log's copy of a report that came is that report
+        assert (photos[k].lat_e7, photos[k].lon_e7) == (int(m.lat), int(m.lon))
+        assert int(photos[k].alt_amsl * 1000) == int(m.alt)
 
 
 def test_px4_mock_has_no_log_like_px4_sih_with_its_logger_off() -> None:
