@@ -3,6 +3,7 @@ print one row per flight.
 
 Run by hand: `.venv/bin/python bench/fly_bench.py [--maps leonardo,grid-city] [--uavs 3,5,6]
 [--streets block,cenisia] [--sitl] [--px4 milan3,block3] [--policy nn] [--keep DIR] [--write-doc FILE]`.
+`[--faults sitl]`.
 Each row: the flown coverage (our rule, and the stricter whole-cell rule), the closest approach of two
 drones against the plan's promise, flight time (the longest drone's, on the vehicles' own clock:
 simulated seconds) against the plan's, the worst drone's gap between flown and planned time, photos,
@@ -20,6 +21,16 @@ PX4 rows (`--px4 PLANS`, needs ../shared/px4/bin/px4): each plan made with `plan
 CAMERA_IMAGE_CAPTURED) and by the whole fleet at once on PX4 SIH (real time, free instances with
 system ids 1-N, every GCS link into one free udpin port, TRIG_MODE 4 at boot, fly started right after boot; at most 3 drones: SIH
 runs in real time and the machine has 2 cores). Coverage from the vehicles' CAMERA_IMAGE_CAPTURED.
+
+Fault rows (`--faults sitl`, needs ../shared/sitl/arducopter): the fleet of sitl_tests/test_fly_faults_sitl.py
+(three ArduCopter SITL vehicles at 5x through a loopback relay, the 200 x 140 m Milan block from 20 m, fly as
+a child process) with one fault mid-flight (every vehicle past mission item 5): `kill` (uav2's SITL
+SIGKILLed), `link-drop` (the relay drops everything both ways for 30 s of wall time), `battery` (uav2's
+SIM_BATT_VOLTAGE set under BATT_LOW_VOLT, BATT_FS_LOW_ACT = 2: RTL). Each row: the time from the fault to
+fly's first alert about it (wall seconds, and the vehicles' seconds at 5x), the photos fly recorded, how
+many of them it read from the vehicles' logs, and how many the vehicles took (their own CAMERA_FEEDBACK
+as the relay saw it), the coverage fly recorded against the coverage of the photos really taken (same
+rule), fly's exit code and its wall time.
 """
 
 from __future__ import annotations
@@ -43,7 +54,8 @@ sys.path.insert(0, str(ROOT / "sitl_tests"))
 import missionplan.flight.fly as fly_module  # noqa: E402
 from missionplan.cli import main  # noqa: E402
 from missionplan.flight.flight_report import judge  # noqa: E402
-from missionplan.flight.fly import fly, flight_view, start_mock_fleet  # noqa: E402
+from missionplan.flight.fly import fly, flight_view  # noqa: E402
+from missionplan.flight.mock_fleet import start_mock_fleet  # noqa: E402
 
 import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 
@@ -69,6 +81,11 @@ AREAS: dict[str, tuple[list[list[float]], list[str]]] = {
                ["45.4641,9.1891", "45.4641,9.1898", "45.4641,9.1904"]),
 }
 PX4_MAX_VEHICLES = 3
+FAULTS = ("kill", "link-drop", "battery")
+FAULT_SYSID = 2
+FAULT_ITEM = 5  # every vehicle past this mission item when the fault comes
+FAULT_HEADER = (f"{'fault':<11}{'uav':>4}{'alert s':>9}{'veh s':>8}{'photos':>8}{'log':>6}{'taken':>7}"
+                f"{'cover %':>9}{'true %':>8}{'exit':>6}{'wall s':>8}  first alert")
 HEADER = (f"{'vehicle':<16}{'plan':<11}{'A':>3}{'targets':>9}{'cover %':>9}{'whole %':>9}{'sep 3d m':>10}"
           f"{'promised':>10}{'tol m':>7}{'flight s':>10}{'planned':>9}{'worst':>8}{'photos':>8}{'wall s':>8}")
 
@@ -199,6 +216,108 @@ def sitl_row(name: str, uavs: int, plan_dir: Path) -> str:
     return _row("ArduCopter SITL", name, uavs, plan_dir, result.problems, wall)
 
 
+def _true_coverage(plan_dir: Path, photos_at: dict[int, dict[int, tuple[float, float]]]) -> float:
+    """Coverage of the photos the vehicles really took (their own reports, as the relay saw them all),
+    by flight_report's rule."""
+    from missionplan.flight import flight_report as fr
+
+    report = json.loads((plan_dir / "report.json").read_text())
+    frame = fr.frame_of(report)
+    points = [p for taken in photos_at.values() for p in taken.values()]
+    if not points:
+        return 0.0
+    grid = fr.to_grid_m(frame, [p[0] for p in points], [p[1] for p in points])
+    covered = fr.coverage(frame, fr.target_cells(report), grid, float(report["georeference"]["footprint_m"]),
+                          fr.SLACK_CELLS * frame.cell_m)
+    return 100.0 * float(covered.mean())
+
+
+def fault_row(fault: str, plan_dir: Path) -> str:
+    """One fault on a fresh SITL fleet (sitl_tests/test_fly_faults_sitl.py's set-up); its row."""
+    import os
+    import signal
+
+    from arducopter import ArduCopter
+    from loopback import UdpRelay, free_udp_port, wait_until
+    from test_fly_faults_sitl import SPEEDUP as FAULT_SPEEDUP
+    from test_fly_faults_sitl import (BATTERY_LOW_V, BATTERY_SIM_V, FLY_TIMEOUT_S, LINK_DROP_S, SYSIDS, Fleet, FlyRun,
+                                      _configure, _home, _in_flight, _set_param_on_serial1, start_vehicle)
+
+    port = free_udp_port()
+    vehicles: list[Any] = []
+    with UdpRelay(port) as relay:
+        try:
+            def start(wait: bool, **kwargs: Any) -> Any:
+                vehicles.append(ArduCopter(**kwargs))
+                return vehicles[-1].start(wait=wait)
+
+            flying = [start_vehicle(start, sysid=k, home=_home(plan_dir, k), speedup=FAULT_SPEEDUP,
+                                    serial0=f"udpclient:127.0.0.1:{relay.vehicle_port}") for k in SYSIDS]
+            fleet = Fleet(plan_dir, relay, flying, f"udpin:127.0.0.1:{port}")
+            params = {"BATT_FS_LOW_ACT": 2.0, "BATT_LOW_VOLT": BATTERY_LOW_V} if fault == "battery" else None
+            _configure(fleet, params)
+            run = FlyRun(plan_dir, fleet.url)
+            try:
+                if not _in_flight(relay, FAULT_ITEM):
+                    run.kill()
+                    return f"{fault:<11}{FAULT_SYSID:>4}  the fleet never got past item {FAULT_ITEM}"
+                seen = len(run.lines)
+                target = f"uav{FAULT_SYSID}:"
+                if fault == "kill":
+                    os.killpg(fleet.vehicle(FAULT_SYSID).proc.pid, signal.SIGKILL)
+                    words: tuple[str, ...] = ("link lost",)
+                elif fault == "link-drop":
+                    relay.drop()
+                    words, target = ("link lost",), ""
+                else:
+                    _set_param_on_serial1(fleet.vehicle(FAULT_SYSID), "SIM_BATT_VOLTAGE", BATTERY_SIM_V)
+                    words = ("battery", "failsafe", "mode changed")
+                fault_at = time.monotonic()
+
+                def alert() -> tuple[float, str] | None:
+                    return next(((t, text) for t, text in run.lines[seen:] if target in text
+                                 and any(w in text.lower() for w in words)), None)
+
+                if fault == "link-drop":
+                    wait_until(lambda: time.monotonic() - fault_at >= LINK_DROP_S, LINK_DROP_S + 1.0)
+                    relay.restore()
+                code = run.finish(FLY_TIMEOUT_S)
+                said = alert()
+            finally:
+                run.kill()
+        finally:
+            for vehicle in vehicles:
+                vehicle.stop()
+        doc = json.loads((plan_dir / "flight.json").read_text())
+        taken = sum(int(relay.state(k).get("photos", 0)) for k in SYSIDS)
+        true = _true_coverage(plan_dir, relay.photos_at)
+    photos = sum(d["photos"] for d in doc["drones"])
+    from_log = sum(d.get("photos_from_log", 0) for d in doc["drones"])
+    delay = f"{said[0] - fault_at:>9.1f}{(said[0] - fault_at) * FAULT_SPEEDUP:>8.0f}" if said else f"{'-':>9}{'-':>8}"
+    text = said[1].strip()[:70] if said else "(none)"
+    return (f"{fault:<11}{FAULT_SYSID if fault != 'link-drop' else 'all':>4}{delay}{photos:>8}{from_log:>6}{taken:>7}"
+            f"{doc['coverage']:>9.2f}{true:>8.2f}{code:>6}{time.monotonic() - run.started:>8.1f}  {text}")
+
+
+def fault_table(policy: str) -> None:
+    from test_fly_faults_sitl import AREA, LAUNCHES
+
+    print(FAULT_HEADER)
+    print("-" * len(FAULT_HEADER))
+    for fault in FAULTS:
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(tmp)
+            area = out / "area.geojson"
+            area.write_text(json.dumps({"type": "Polygon", "coordinates": [AREA]}))
+            argv = ["plan", "--area", str(area), "--altitude", "20", "--fov", "84", "--policy", policy,
+                    "--out", str(out / "plan"), "--quiet"]
+            for launch in LAUNCHES:
+                argv += ["--launch", launch]
+            with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+                planned = main(argv) == 0
+            print(fault_row(fault, out / "plan") if planned else f"{fault:<11}  plan failed", flush=True)
+
+
 def main_bench() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--maps", default="leonardo,grid-city,old-town,river-city", help="shipped maps ('' for none)")
@@ -207,6 +326,9 @@ def main_bench() -> None:
     parser.add_argument("--sitl", action="store_true", help="also fly the street plans on ArduCopter SITL")
     parser.add_argument("--px4", default="", help=f"plans to fly for PX4 on the PX4 mock and PX4 SIH "
                                                    f"({', '.join([*AREAS, *STREETS])}; at most {PX4_MAX_VEHICLES} drones)")
+    parser.add_argument("--faults", default="", choices=("", "sitl"),
+                        help="also the fault rows on ArduCopter SITL (a vehicle killed, a 30 s link drop, a battery "
+                             "failsafe): fly's alert delay, photos read from the logs, coverage recorded vs true")
     parser.add_argument("--policy", default="nn", choices=("nn", "expert"))
     parser.add_argument("--keep", default="", metavar="DIR",
                         help="copy every SITL / PX4 SIH flight's folder (flight.json with its phases, flight.png) "
@@ -218,10 +340,11 @@ def main_bench() -> None:
 
 
 def table(args: argparse.Namespace) -> None:
-    print(HEADER)
-    print("-" * len(HEADER))
     jobs = [(name, int(u)) for name in filter(None, args.maps.split(",")) for u in args.uavs.split(",")]
     jobs += [(name, len(STREETS[name][1])) for name in filter(None, args.streets.split(","))]
+    if jobs or args.px4 or not args.faults:
+        print(HEADER)
+        print("-" * len(HEADER))
     for name, uavs in jobs:
         with tempfile.TemporaryDirectory() as tmp:
             if not _plan(Path(tmp), name, uavs, args.policy):
@@ -246,6 +369,10 @@ def table(args: argparse.Namespace) -> None:
             shutil.copytree(plan_dir, fresh)
             print(px4_row(name, uavs, fresh), flush=True)
             _keep(args.keep, fresh, f"{name}-px4")
+    if args.faults == "sitl":
+        if jobs or args.px4:
+            print()
+        fault_table(args.policy)
 
 
 def _keep(keep: str, flown: Path, name: str) -> None:

@@ -11,7 +11,11 @@ Every vehicle's output goes to every peer (like a shared radio link); each vehic
 messages addressed to its system id. Faults are injected per packet and per direction: loss,
 duplicates, reordering (a packet held back so later ones overtake it) and added latency; the reboot
 faults live on the vehicle (MockVehicle.reboot_after_items, during an upload, and
-reboot_at_item, in flight). With a signing key, packets that are
+reboot_at_item, in flight). kill(sysid) (now, or at a mission item) makes one vehicle silent for good, as
+a SITL process killed in flight; when every vehicle of the mock is killed its transport closes too (its
+sockets, TCP clients and serial line), as the killed process's would. set_battery(sysid, volts) is
+SITL's SIM_BATT_VOLTAGE (a ground station can PARAM_SET it too), for ArduPilot's battery failsafe
+(mock_vehicle). With a signing key, packets that are
 unsigned or signed with another key are dropped and everything sent is signed.
 
 Use it in-process (`with MockAutopilot(...) as mock:` or start()/stop(); it runs on a daemon thread)
@@ -138,6 +142,7 @@ class MockAutopilot:
         self._pty_slave: int | None = None  # held open so the master never reads EIO between clients
         self.device = ""
         self._greet = False
+        self._transport_closed = False  # every vehicle killed: nothing left to serve
         self.stats = {"in": 0, "out": 0, "dropped_in": 0, "dropped_out": 0, "rejected": 0, "clients": 0}
         now = time.monotonic()
         self.vehicles: dict[int, MockVehicle] = {}
@@ -382,6 +387,9 @@ class MockAutopilot:
             readable, _, _ = select.select(sockets, [], [], timeout)
         except (OSError, ValueError):
             readable = []
+        if self._transport_closed:  # every vehicle killed: a dead process serves nothing
+            self._stop.wait(TICK)
+            return
         with self._lock:
             now = time.monotonic()
             self._read(readable, now)
@@ -395,6 +403,8 @@ class MockAutopilot:
                 self._deliver(direction, peer_key, buf, now)
             for vehicle in self.vehicles.values():
                 vehicle.tick(now)
+            if not self._transport_closed and all(v.killed for v in self.vehicles.values()):
+                self._close_if_all_killed()
 
     def _run(self) -> None:
         while not self._stop.is_set():
@@ -473,6 +483,42 @@ class MockAutopilot:
             vehicle = self.vehicles[sysid]
             vehicle.reboot_after_items = items
             vehicle.reboot_offline = offline
+
+    def kill(self, sysid: int, at_item: int | None = None) -> None:
+        """Vehicle sysid goes silent for good, as a SITL process killed (SIGKILL) in flight: now, or once it
+        has reached mission item `at_item`. It sends nothing more (no HEARTBEAT either), hears nothing, and
+        its state stays as it was (mock.vehicle(sysid).flight.state: where it was killed). When every
+        vehicle is killed, the mock's transport closes as the process's would (stop() still ends the thread)."""
+        with self._lock:
+            vehicle = self.vehicles[sysid]
+            if at_item is not None:
+                vehicle.kill_at_item = at_item
+                return
+            vehicle.kill()
+            self._close_if_all_killed()
+
+    def killed(self, sysid: int) -> bool:
+        return self.vehicles[sysid].killed
+
+    @property
+    def transport_closed(self) -> bool:
+        """Every vehicle was killed: the sockets (listener, clients, serial line) are closed."""
+        return self._transport_closed
+
+    def _close_if_all_killed(self) -> None:
+        if self.vehicles and all(v.killed for v in self.vehicles.values()) and not self._transport_closed:
+            self._transport_closed = True
+            self._queue.clear()
+            self.close_sockets()
+
+    def set_battery(self, sysid: int, volts: float) -> None:
+        """The battery voltage vehicle sysid reads (ArduPilot flavour: SITL's SIM_BATT_VOLTAGE parameter;
+        below BATT_LOW_VOLT for BATT_LOW_TIMER simulated seconds while armed, its battery failsafe acts)."""
+        with self._lock:
+            vehicle = self.vehicles[sysid]
+            if "SIM_BATT_VOLTAGE" not in vehicle.params:
+                raise BridgeUsageError(f"vehicle {sysid} ({vehicle.flavour.value}) has no simulated battery")
+            vehicle.params["SIM_BATT_VOLTAGE"] = float(volts)
 
     def reboot_in_flight(self, sysid: int, after_item: int, offline: float = 0.3) -> None:
         """Vehicle sysid reboots once, in flight, when it has reached mission item `after_item`."""

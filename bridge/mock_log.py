@@ -40,6 +40,7 @@ LOG_DATA_LEN = 90  # MAVLINK_MSG_LOG_DATA_FIELD_DATA_LEN
 LOG_CHUNKS_PER_TICK = 40
 MAV_SEVERITY_ERROR = 3
 DISARM_TEXT = "Disarm for log download"
+MAV_SEVERITY_INFO = 6
 GPS_EPOCH_UNIX = 315_964_800  # 1980-01-06 00:00:00 UTC
 GPS_LEAP_SECONDS = 18  # GPS time runs ahead of UTC by this much (since 2017)
 ULOG_MAGIC = b"ULog\x01\x12\x35"
@@ -190,6 +191,9 @@ class OnboardLogs:
         writer: DataFlashWriter | UlogWriter
         if self.px4:
             writer = UlogWriter(time_us)
+            # PX4's logger names the file it opens (INFO, with a tab at the end), dated by UTC
+            self.say(time.strftime("[logger] ./log/%Y-%m-%d/%H_%M_%S.ulg\t", time.gmtime(self.wall())),
+                     MAV_SEVERITY_INFO)
         else:
             writer = DataFlashWriter()
             writer.write(MSG, time_us, version.encode())

@@ -23,7 +23,19 @@ before it is asked), STATUSTEXT,
 MISSION_ITEM_REACHED and one CAMERA_FEEDBACK per photo (as ArduPilot sends for each trigger);
 readiness like ArduCopter SITL's (gps_fix_after simulated seconds without a GPS fix, with a waiting
 EKF, no home, a failing pre-arm bit, and arming refused with FAILED and its STATUSTEXT reasons);
-and the reboot fault (forget everything, the flight included, and go silent for a moment).
+and the reboot fault (forget everything, the flight included, and go silent for a moment); the kill
+fault (kill(): silent for good, as a SITL process killed in flight: no message at all any more).
+ArduPilot's battery failsafe (AP_BattMonitor + ArduCopter events.cpp): the battery reads SIM_BATT_VOLTAGE
+(12.6 V, SITL's default; SYS_STATUS reports it); armed, below BATT_LOW_VOLT (10.5 V) for more than
+BATT_LOW_TIMER (10 s) simulated seconds (BATT_CRT_VOLT / BATT_FS_CRT_ACT likewise), it says
+"Battery 1 is low 10.00V used 83 mAh" and "Battery Failsafe" (severity WARNING) and does BATT_FS_LOW_ACT:
+1 LAND, 2 RTL (3, 4 and 6, SmartRTL / DO_LAND_START, flown as RTL here; 5, terminate, as LAND), or
+disarms at once when on the ground; below either voltage it refuses to arm ("PreArm: Battery 1 low
+voltage failsafe"). All by PARAM_SET, as on SITL. Another ground station's transfer:
+while one (sysid, compid) uploads, ArduPilot's MissionItemProtocol answers another's MISSION_COUNT and
+MISSION_CLEAR_ALL with MAV_MISSION_DENIED (clear-all then also ERROR), its items with INVALID_SEQUENCE
+or DENIED, and any MISSION_REQUEST_LIST / MISSION_REQUEST_INT with DENIED, until the upload completes
+or times out (8 s without an item).
 The SITL-like mode (VehicleOptions.sitl_like) adds what ArduCopter SITL does in flight: no
 CAMERA_FEEDBACK until a camera is configured (CAM1_TYPE set, then a reboot:
 MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN), img_idx from 1 and counting on across flights until a reboot,
@@ -98,6 +110,14 @@ PX4_MISSION_MODE_REFUSED = "Switching to Mission is currently not available"  # 
 PX4_CAMERA_PARAM, ARDUPILOT_CAMERA_PARAM = "TRIG_MODE", "CAM1_TYPE"  # read at boot: the camera reports only then
 MAV_SEVERITY_CRITICAL, MAV_SEVERITY_INFO = 2, 6
 CMD_GET_HOME_POSITION = 410
+# ArduPilot's battery monitor and its failsafe (AP_BattMonitor_Params.cpp: BATT_LOW_VOLT 10.5 V on copters,
+# BATT_LOW_TIMER 10 s, actions 0 = none; copter.parm sets BATT_MONITOR 4; SITL's SIM_BATT_VOLTAGE 12.6 V).
+ARDUPILOT_BATTERY_PARAMS = {"BATT_MONITOR": 4.0, "BATT_LOW_VOLT": 10.5, "BATT_LOW_TIMER": 10.0, "BATT_FS_LOW_ACT": 0.0,
+                            "BATT_CRT_VOLT": 0.0, "BATT_FS_CRT_ACT": 0.0, "SIM_BATT_VOLTAGE": 12.6}
+BATTERY_CURRENT_A = 10.0  # drawn while armed (SYS_STATUS current, the "used N mAh" of the failsafe text)
+MAV_SEVERITY_WARNING = 4
+BATTERY_FAILSAFE_TEXT = "Battery Failsafe"  # Copter::announce_failsafe("Battery"), events.cpp
+PX4_BATTERY_MV = 16_000
 PREARM_REPEAT_S = 30.0  # simulated seconds between ArduPilot's reports of a failing pre-arm check
 MIN_STREAM_INTERVAL_S = 0.005  # the loop's tick: a faster stream could not be kept anyway
 
@@ -165,6 +185,13 @@ class MockVehicle:
         self.stray_item_acks = 0        # ERROR answers to items that came after an upload completed
         # Parameters survive a reboot, like ArduPilot's EEPROM. Only the one the bridge sets is known.
         self.params: dict[str, float] = {"WPNAV_RADIUS": 200.0} if self.flavour is Flavour.ARDUPILOT else {}
+        if self.flavour is Flavour.ARDUPILOT:
+            self.params.update(ARDUPILOT_BATTERY_PARAMS)
+        self.killed = False  # kill(): silent for good
+        self.kill_at_item: int | None = None  # kill in flight once this mission item is reached
+        self.denied_transfers = 0  # DENIED answers to another ground station during an upload
+        self.battery_failsafe = 0  # 0 none, 1 low, 2 critical (the highest reached since boot)
+        self.consumed_mah = 0.0
         if self.flavour is Flavour.PX4:
             self.params["MIS_DIST_1WP"] = MIS_DIST_1WP_DEFAULT  # its mission feasibility check (bridge.px4)
         if self.options.sitl_like and self.flavour is Flavour.PX4:
@@ -210,6 +237,10 @@ class MockVehicle:
         self._landed_sent = MAV_LANDED_STATE_ON_GROUND
         self._said_waiting = False
         self._next_prearm_text = PREARM_REPEAT_S  # simulated seconds since boot
+        self.battery_failsafe = 0
+        self.consumed_mah = 0.0
+        self.battery_failsafe_sim_time: float | None = None  # the flight's simulated time when it acted
+        self._low_since: dict[int, float | None] = {1: None, 2: None}  # simulated s: below the level since
 
     def _default_intervals(self) -> dict[int, float | None]:
         """Streams before any SET_MESSAGE_INTERVAL: none (streams_until_asked, like ArduPilot whose
@@ -244,15 +275,22 @@ class MockVehicle:
 
     def reboot(self, now: float, offline: float | None = None) -> None:
         """Forget every mission and the flight, and say nothing for `offline` seconds."""
+        if self.killed:
+            return
         self.reboots += 1
         if self.upload is not None:
             self.uploads_failed += 1
         self._boot(now + (self.reboot_offline if offline is None else offline))
         self.offline_until = now + (self.reboot_offline if offline is None else offline)
 
+    def kill(self) -> None:
+        """Silent for good, as a killed SITL process: no message sent, none heard, nothing flown."""
+        self.killed = True
+        self.upload = None
+
     @property
     def online(self) -> bool:
-        return self.offline_until <= 0.0
+        return self.offline_until <= 0.0 and not self.killed
 
     def mission(self, mission_type: int = MissionType.MISSION) -> list[WireItem]:
         items = list(self.stores[int(mission_type)])
@@ -292,7 +330,11 @@ class MockVehicle:
     def _send_status(self, now: float) -> None:
         sensors = 0x0020_FFFF | SENSOR_PREARM_CHECK
         health = sensors if self.ready else sensors & ~SENSOR_PREARM_CHECK
-        self.mav.sys_status_send(sensors, sensors, health, 200, 16_000, 1_000, 90, 0, 0, 0, 0, 0, 0)
+        millivolts, centiamps = PX4_BATTERY_MV, 1_000
+        if self.flavour is Flavour.ARDUPILOT:  # SITL: SIM_BATT_VOLTAGE, current only while the motors run
+            millivolts = int(round(self.battery_voltage * 1000))
+            centiamps = int(BATTERY_CURRENT_A * 100) if self.flight.state.armed else 0
+        self.mav.sys_status_send(sensors, sensors, health, 200, millivolts, centiamps, 90, 0, 0, 0, 0, 0, 0)
 
     def _send_gps(self, now: float) -> None:
         s = self.flight.state
@@ -418,6 +460,8 @@ class MockVehicle:
 
     # ------------------------------------------------------------------------------ ticking
     def tick(self, now: float) -> None:
+        if self.killed:
+            return
         if not self.online:
             if now < self.offline_until:
                 self._last_tick = now
@@ -432,6 +476,13 @@ class MockVehicle:
                 self.reboot_at_item = None
                 self.reboot(now)  # a brown-out in flight: the vehicle is gone, the others fly on
                 return
+            if self.kill_at_item is not None and any(seq >= self.kill_at_item for seq in self.reached):
+                self.kill_at_item = None
+                self.kill()  # its process killed in flight: silent for good
+                return
+            self.consumed_mah += BATTERY_CURRENT_A * dt * self.options.speedup / 3.6
+        if self.flavour is Flavour.ARDUPILOT:
+            self._check_battery(now)
         self.logs.tick()
         if now >= self._next_heartbeat:
             self._next_heartbeat = now + 1.0
@@ -452,6 +503,63 @@ class MockVehicle:
             self._send_landed_state()  # at once, not a stream interval late (a sped-up mock's second is long)
         self._send_camera_feedback(now)
         self._upload_timers(now)
+
+    @property
+    def battery_voltage(self) -> float:
+        """What the battery monitor reads: SITL's simulated battery, a constant SIM_BATT_VOLTAGE."""
+        return float(self.params.get("SIM_BATT_VOLTAGE", ARDUPILOT_BATTERY_PARAMS["SIM_BATT_VOLTAGE"]))
+
+    def _battery_arming_problem(self) -> str:
+        """ArduPilot refuses to arm below a failsafe voltage (AP_BattMonitor_Backend::arming_checks)."""
+        if self.flavour is not Flavour.ARDUPILOT or self.params.get("BATT_MONITOR", 0.0) <= 0:
+            return ""
+        volts = self.battery_voltage
+        for name, param in (("low", "BATT_LOW_VOLT"), ("critical", "BATT_CRT_VOLT")):
+            if volts > 0 and 0 < self.params.get(param, 0.0) and volts < self.params[param]:
+                return f"{name} voltage failsafe"
+        return ""
+
+    def _check_battery(self, now: float) -> None:
+        """AP_BattMonitor::check_failsafes (only while armed): a level (low, critical) counts once the
+        voltage has stayed below it for more than BATT_LOW_TIMER simulated seconds; each level is
+        announced once ("Battery 1 is low ...", "Battery Failsafe") and its action taken
+        (Copter::handle_battery_failsafe)."""
+        s = self.flight.state
+        if not s.armed or self.params.get("BATT_MONITOR", 0.0) <= 0:
+            self._low_since = {1: None, 2: None}
+            return
+        sim = (now - self.boot_time) * self.options.speedup
+        volts = self.battery_voltage
+        timer = self.params.get("BATT_LOW_TIMER", 10.0)
+        levels = {1: ("low", "BATT_LOW_VOLT", "BATT_FS_LOW_ACT"), 2: ("critical", "BATT_CRT_VOLT", "BATT_FS_CRT_ACT")}
+        reached = 0
+        for level, (_, volt_param, _) in levels.items():
+            threshold = self.params.get(volt_param, 0.0)
+            if volts > 0 and threshold > 0 and volts < threshold:
+                since = self._low_since[level]
+                if since is None:
+                    self._low_since[level] = sim
+                elif timer > 0 and sim - since > timer:
+                    reached = level
+            else:
+                self._low_since[level] = None
+        if reached <= self.battery_failsafe:
+            return
+        self.battery_failsafe = reached
+        self.battery_failsafe_sim_time = s.sim_time
+        name, _, action_param = levels[reached]
+        self._send_text(f"Battery 1 is {name} {volts:.2f}V used {self.consumed_mah:.0f} mAh", MAV_SEVERITY_WARNING)
+        action = int(self.params.get(action_param, 0.0))
+        if s.on_ground and s.mode != "AUTO":  # should_disarm_on_failsafe: landed (AUTO: its mission not started)
+            s.armed = False
+            self._send_text(f"{BATTERY_FAILSAFE_TEXT} - Disarming", MAV_SEVERITY_WARNING)
+            self.send_heartbeat()
+            return
+        self._send_text(BATTERY_FAILSAFE_TEXT, MAV_SEVERITY_WARNING)
+        if action == 0:
+            return
+        s.mode = "LAND" if action in (1, 5) else "RTL"  # set_mode_land_with_pause / set_mode_RTL_or_land_with_pause
+        self.send_heartbeat()
 
     def _publish(self, events: list[FlightEvent]) -> None:
         for event in events:
@@ -513,7 +621,10 @@ class MockVehicle:
             self._ack(peer, mission_type, UNSUPPORTED)
             return
         if self.upload is not None and self.upload.peer != peer:
-            self._ack(peer, mission_type, DENIED)  # another ground station is uploading
+            # ArduPilot's MissionItemProtocol::cancel_upload: another (sysid, compid) is uploading; only it
+            # may restart its upload, the others are DENIED until it completes or times out.
+            self.denied_transfers += 1
+            self._ack(peer, mission_type, DENIED)
             return
         count = int(msg.count)
         if count > self.options.max_items:
@@ -561,6 +672,11 @@ class MockVehicle:
         if up is None or up.peer != peer or up.mission_type != item.mission_type:
             done = self.last_completed
             if self.flavour is Flavour.ARDUPILOT:
+                if up is not None and up.peer != peer and up.mission_type == item.mission_type:
+                    # MissionItemProtocol::handle_mission_item: the sequence first, then the sender
+                    self.denied_transfers += item.seq == len(up.received)
+                    self._ack(peer, item.mission_type, INVALID_SEQUENCE if item.seq != len(up.received) else DENIED)
+                    return
                 if up is None:
                     # ArduPilot: "mission item received while not receiving", even for a copy of the
                     # last item of an upload that just completed (its ACCEPTED is not repeated).
@@ -650,10 +766,18 @@ class MockVehicle:
                 self.uploads_failed += 1
 
     # -- download
+    def _receiving(self, mission_type: int) -> bool:
+        """ArduPilot: an upload of this type is in progress (MissionItemProtocol `receiving`)."""
+        up = self.upload
+        return self.flavour is Flavour.ARDUPILOT and up is not None and up.mission_type == mission_type
+
     def _on_request_list(self, msg: Any, peer: tuple[int, int], now: float) -> None:
         mission_type = int(getattr(msg, "mission_type", 0))
         if mission_type not in self.stores:
             self._ack(peer, mission_type, UNSUPPORTED)
+            return
+        if self._receiving(mission_type):  # "someone is uploading a mission; reject fetching of points"
+            self._ack(peer, mission_type, DENIED)
             return
         self.mav.mission_count_send(peer[0], peer[1], len(self.stores[mission_type]), mission_type)
 
@@ -665,6 +789,9 @@ class MockVehicle:
             return
         seq = int(msg.seq)
         self._int_mode = msg.get_type() == "MISSION_REQUEST_INT"
+        if self._int_mode and self._receiving(mission_type):  # ArduPilot checks this for the *_INT request only
+            self._ack(peer, mission_type, DENIED)
+            return
         if not 0 <= seq < len(store):
             self._ack(peer, mission_type, INVALID_SEQUENCE)
             return
@@ -690,6 +817,14 @@ class MockVehicle:
         if any(t not in self.stores for t in types):
             self._ack(peer, mission_type, UNSUPPORTED)
             return
+        up = self.upload
+        if self.flavour is Flavour.ARDUPILOT and up is not None and up.mission_type in types:
+            if up.peer != peer:  # MissionItemProtocol::handle_mission_clear_all: cancel_upload refused
+                self.denied_transfers += 1
+                self._ack(peer, mission_type, DENIED)
+                self._ack(peer, mission_type, ERROR)
+                return
+            self.upload = None  # its own upload: cancelled, then cleared
         if self.flight.state.armed and self.flight.state.mode == "AUTO" and MissionType.MISSION in types:
             self._ack(peer, mission_type, DENIED)  # not while flying it
             return
@@ -760,6 +895,9 @@ class MockVehicle:
                 if not self.ready and int(p[1]) != 21196:  # ArduCopter before its EKF uses the GPS
                     for text in NOT_READY_TEXTS[:2]:
                         self._send_text(text)
+                    return CMD_FAILED
+                if (problem := self._battery_arming_problem()) and int(p[1]) != 21196:
+                    self._send_text(f"PreArm: Battery 1 {problem}")  # AP_BattMonitor_Backend::arming_checks
                     return CMD_FAILED
                 s.armed = True
                 self.logs.on_armed("ArduCopter V4.7.0-dev (mock)", self._time_us(now))  # a new log (mock_log)

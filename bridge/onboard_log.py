@@ -11,14 +11,16 @@ This module owns:
   bounded by the caller's deadline; a vehicle that stops answering is a LogTransferError naming what
   it did not get;
 - read_dataflash_photos: the CAM messages (TRIG when a camera with a feedback pin logged no CAM) of an
-  ArduPilot DataFlash (.BIN) log, read with pymavlink's DFReader;
+  ArduPilot DataFlash (.BIN) log, read with pymavlink's DFReader; read_ulog_photos: the camera_capture
+  messages of a PX4 ULog;
 - recover_photos: the one call: list, choose, download and read, for a vehicle on the ground.
 
 What each autopilot supports (measured on ArduCopter SITL 4.7-dev and PX4 SIH v1.15.4:
-docs/photo-recovery.md): ArduPilot writes one CAM per photo (Img = CAMERA_FEEDBACK's img_idx, the
+docs/flight-faults.md): ArduPilot writes one CAM per photo (Img = CAMERA_FEEDBACK's img_idx, the
 same AHRS position) into a log it opens when it arms, and serves logs only while DISARMED (armed, it
-answers nothing but one STATUSTEXT "Disarm for log download"). PX4 SIH as the tests run it
-(SDLOG_MODE -1) has no log, and PX4 has no re-request of CAMERA_IMAGE_CAPTURED by index.
+answers nothing but one STATUSTEXT "Disarm for log download"). PX4 keeps a ULog from arming to
+disarming when its logger runs (SDLOG_MODE 0, its default), with one camera_capture per photo
+(read_ulog_photos); it has no re-request of CAMERA_IMAGE_CAPTURED by index.
 """
 
 from __future__ import annotations

@@ -33,6 +33,8 @@ ProgressFn = Callable[[int, int], None]  # (items done, items in all)
 MAV_MISSION_ACCEPTED = 0
 MAV_MISSION_ERROR = 1
 MAV_MISSION_INVALID_SEQUENCE = 13
+MAV_MISSION_DENIED = 14
+DENIED_TRIES, DENIED_WAIT_S = 5, 2.0  # another ground station's transfer: how long to wait it out
 MAV_MISSION_OPERATION_CANCELLED = 15
 STRAY_ACK_S = 2.0  # after an upload, an ERROR / INVALID_SEQUENCE ack of its type is a late stray
 
@@ -66,6 +68,7 @@ class MissionTransferError(BridgeError):
     def __init__(self, message: str, result: int | None = None) -> None:
         super().__init__(message)
         self.result = result
+        self.denied_at_start = False  # MAV_MISSION_DENIED before any item: busy with another transfer
 
 
 class UploadUnconfirmed(MissionTransferError):
@@ -151,7 +154,31 @@ class MissionClient:
 
     # ------------------------------------------------------------------------------------- upload
     def upload(self, mission_type: int, items: list[WireItem], progress: ProgressFn | None = None) -> None:
-        """Upload items (seq 0..n-1). Returns at MISSION_ACK ACCEPTED, raises MissionTransferError otherwise."""
+        """Upload items (seq 0..n-1). Returns at MISSION_ACK ACCEPTED, raises MissionTransferError otherwise.
+
+        A vehicle busy with another ground station's transfer answers the count with MAV_MISSION_DENIED
+        (ArduPilot denies a second uploader until the first is done or times out): that is tried again,
+        DENIED_TRIES times over about DENIED_WAIT_S each, and then reported as such."""
+        started = time.monotonic()
+        for attempt in range(1, DENIED_TRIES + 1):
+            try:
+                return self._upload_once(mission_type, items, progress)
+            except MissionTransferError as err:
+                if not err.denied_at_start or attempt == DENIED_TRIES:
+                    if err.denied_at_start:
+                        raise MissionTransferError(
+                            f"{self._name} denied the {MissionType(int(mission_type)).label} upload "
+                            f"(MAV_MISSION_DENIED) {attempt} times over {time.monotonic() - started:.0f} s: another "
+                            "ground station is probably transferring its mission (MAVProxy, QGroundControl); let its "
+                            "transfer finish or close it, and if it uses this one's system and component id, give "
+                            "this one another --gcs-sysid", err.result) from None
+                    raise
+            wait_until = time.monotonic() + DENIED_WAIT_S
+            while self._recv(wait_until) is not None:  # the other transfer runs meanwhile
+                pass
+        raise AssertionError("unreachable")
+
+    def _upload_once(self, mission_type: int, items: list[WireItem], progress: ProgressFn | None = None) -> None:
         mission_type = int(mission_type)
         label = MissionType(mission_type).label
         count = len(items)
@@ -252,8 +279,10 @@ class MissionClient:
                     raise MissionTransferError(f"{self._name} dropped the {label} upload after {highest + 1} of {count} "
                                                "items (MAV_MISSION_ERROR: it no longer knows this transfer; did it "
                                                "reboot?); the upload did not complete", result)
-                raise MissionTransferError(f"{self._name} refused the {label} upload after {highest + 1} of {count} "
-                                           f"items: {result_text(result)}", result)
+                error = MissionTransferError(f"{self._name} refused the {label} upload after {highest + 1} of {count} "
+                                             f"items: {result_text(result)}", result)
+                error.denied_at_start = result == MAV_MISSION_DENIED and not requested_any
+                raise error
 
     def _stray(self, mission_type: int, now: float) -> bool:
         """Within the window after an upload of this type in which stray error ACKs may still arrive."""

@@ -194,10 +194,12 @@ class ArduCopter:
             wait_mission_ready(link, self.sysid, timeout)
 
     def _wait_bound(self, timeout: float) -> bool:
-        """Until SITL says it listens (tcp) or has started (udpclient); False if it died first."""
+        """Until SITL has bound its ports: SERIAL0's TCP port (tcp), or with udpclient its serial1 / serial2
+        TCP ports, bound after "Starting sketch" (returning before them let the next vehicle's probe pick
+        the same instance number and die on them). False if it died first."""
         assert self.proc is not None and self.workdir is not None
         proc = self.proc
-        marker = b"SERIAL0 on TCP port" if self.serial0.startswith("tcp") else b"Starting sketch"
+        marker = b"SERIAL0 on TCP port" if self.serial0.startswith("tcp") else b"SERIAL2 on TCP port"
 
         def outcome() -> str | None:
             if marker in self.log_bytes():

@@ -10,7 +10,7 @@ request, a request past the end, a log that does not exist); arm and disarm twic
 Required: after landing, the log's CAM photos equal the CAMERA_FEEDBACK reports received (img_idx,
 lat / lon to 1e-7 degree, altitudes to 1 cm); and the mock answers the log protocol as ArduCopter does,
 field by field (sizes and times aside). The measured download (log size, seconds, on loopback) is
-printed (`pytest -s`) for docs/photo-recovery.md.
+printed (`pytest -s`) for docs/flight-faults.md.
 """
 
 from __future__ import annotations

@@ -197,7 +197,8 @@ def test_plan_autopilot_px4_writes_firmware_12_and_no_waypoints(tmp_path: Path) 
 
 
 def test_fly_refuses_a_plan_written_for_ardupilot_on_px4_vehicles(tmp_path: Path) -> None:
-    from missionplan.flight.fly import fly, start_mock_fleet
+    from missionplan.flight.fly import fly
+    from missionplan.flight.mock_fleet import start_mock_fleet
 
     plan_dir = tmp_path / "a"
     assert main(["plan", "--map", "leonardo", "--uavs", "1", "--out", str(plan_dir), "--quiet"]) == 0  # ArduPilot

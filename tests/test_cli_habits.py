@@ -29,6 +29,8 @@ from bridge.params import ParamClient
 from bridge.signing import SigningKey, new_key, write_key
 from missionplan import cli
 from missionplan.flight import fly as fly_module
+from missionplan.flight.display import progress_display
+from missionplan.flight.mock_fleet import start_mock_fleet
 
 SIGNS_UNSIGNED = "the vehicle signs its MAVLink (MAVLink 2 signing) and this link sends unsigned"
 FAST = ["--timeout", "3", "--item-timeout", "0.2", "--retries", "2", "--quiet"]
@@ -305,7 +307,7 @@ def test_fly_signs_speaks_as_the_gcs_ids_and_logs_plain_lines(plan_copy: Path, k
     """`fly` in its own process with stderr to a file (not a terminal): a signed fleet flies, every packet
     it took came from --gcs-sysid / --gcs-compid, and the log holds plain lines, no cursor codes."""
     key, path = key_file
-    mock = fly_module.start_mock_fleet(plan_copy, speedup=10.0, key=key)
+    mock = start_mock_fleet(plan_copy, speedup=10.0, key=key)
     try:
         seen = record_senders(mock)
         log = tmp_path / "fly.log"
@@ -328,7 +330,7 @@ def test_fly_signs_speaks_as_the_gcs_ids_and_logs_plain_lines(plan_copy: Path, k
 
 def test_fly_without_the_key_names_signing(plan_copy: Path, key_file: tuple[SigningKey, Path],
                                            capsys: pytest.CaptureFixture[str]) -> None:
-    mock = fly_module.start_mock_fleet(plan_copy, speedup=10.0, key=key_file[0])
+    mock = start_mock_fleet(plan_copy, speedup=10.0, key=key_file[0])
     try:
         code = cli.main(["fly", str(plan_copy), "--connect", mock.client_url, "--timeout", "8", "--ready-timeout", "5",
                          "--quiet"])
@@ -348,7 +350,7 @@ class _Terminal(io.StringIO):
 def test_progress_bars_only_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
     for stream, bars_expected in ((_Terminal(), True), (io.StringIO(), False)):
         monkeypatch.setattr(sys, "stderr", stream)
-        bars, say = fly_module._progress_display({1: "uav1"}, progress=True)
+        bars, say, _ = progress_display({1: "uav1"}, progress=True)
         bars[1].n = 1
         bars[1].refresh()  # readiness, before the mission: a log says nothing
         bars[1].reset(total=8)
@@ -363,4 +365,4 @@ def test_progress_bars_only_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> No
             assert text.splitlines() == ["uav1: mission started", "uav1: at item 2 of 8", "uav1: at item 4 of 8",
                                          "uav1: at item 6 of 8", "uav1: at item 8 of 8", "uav1: ready after 1.0 s"]
     monkeypatch.setattr(sys, "stderr", _Terminal())
-    assert fly_module._progress_display({1: "uav1"}, progress=False)[0] == {}  # --quiet: nothing at all
+    assert progress_display({1: "uav1"}, progress=False)[0] == {}  # --quiet: no bars (alerts are said)

@@ -178,7 +178,8 @@ def test_each_sortie_keeps_the_separation_started_together(leonardo_sorties):
 
 
 def test_fly_flies_a_later_sortie_against_the_mock(leonardo_sorties):
-    from missionplan.flight.fly import fly, start_mock_fleet
+    from missionplan.flight.fly import fly
+    from missionplan.flight.mock_fleet import start_mock_fleet
 
     out, _ = leonardo_sorties
     mock = start_mock_fleet(out, speedup=2.0)

@@ -115,10 +115,11 @@ def test_lost_camera_reports_are_placed_on_the_track(frame: GridFrame) -> None:
     rec.captures = total  # completed_captures says 12 photos: more than the highest idx + 1
     positions, placed, source = fr.photo_positions(frame, rec, TRIGGER)
     assert source == "camera"
-    assert positions.shape == (total, 2)
-    assert placed == total - len(known) == 4
+    assert positions.shape == (len(known), 2)  # confirmed: the reported ones
+    assert len(placed) == total - len(known) == 4  # not confirmed, counted apart
     truth = np.column_stack([np.full(total, ROW_M), _photo_s(np.arange(total))])
-    np.testing.assert_allclose(positions, truth, atol=0.005)  # every photo within 5 mm, the placed ones too
+    np.testing.assert_allclose(positions, truth[known], atol=0.005)
+    np.testing.assert_allclose(placed, truth[[4, 5, 10, 11]], atol=0.005)  # placed within 5 mm of the truth
 
 
 def test_photos_are_counted_from_the_first_index_this_flight_reported(frame: GridFrame) -> None:
@@ -132,9 +133,10 @@ def test_photos_are_counted_from_the_first_index_this_flight_reported(frame: Gri
         rec.camera[base + k] = (1000.0 + s / SPEED, float(lat[0]), float(lon[0]), 20.0)
     rec.captures = base + 5  # completed_captures counts from the boot too
     positions, placed, source = fr.photo_positions(frame, rec, TRIGGER)
-    assert (source, placed, len(positions)) == ("camera", 1, 5)  # was 589 photos, 585 of them invented
+    assert (source, len(placed), len(positions)) == ("camera", 1, 4)  # was 589 photos, 585 of them invented
     truth = np.column_stack([np.full(5, ROW_M), _photo_s(np.arange(5))])
-    np.testing.assert_allclose(positions, truth, atol=0.005)
+    np.testing.assert_allclose(positions, truth[[0, 1, 3, 4]], atol=0.005)
+    np.testing.assert_allclose(placed, truth[[2]], atol=0.005)
 
 
 def test_a_lost_first_report_is_not_invented(frame: GridFrame) -> None:
@@ -143,7 +145,7 @@ def test_a_lost_first_report_is_not_invented(frame: GridFrame) -> None:
     for k in (2, 3, 4):
         _report(frame, rec, k)
     positions, placed, source = fr.photo_positions(frame, rec, TRIGGER)
-    assert (source, placed, len(positions)) == ("camera", 0, 3)
+    assert (source, len(placed), len(positions)) == ("camera", 0, 3)
     np.testing.assert_allclose(positions, np.column_stack([np.full(3, ROW_M), _photo_s(np.arange(2, 5))]), atol=0.005)
 
 
@@ -159,10 +161,10 @@ def test_lost_camera_reports_are_placed_in_proportion_when_reports_arrive_late(f
         lat, lon = _latlon(frame, [[ROW_M, s]])
         rec.camera[k] = (1000.0 + after / SPEED + 0.01, float(lat[0]), float(lon[0]), 20.0)
     rec.captures = 10
-    positions, placed, _ = fr.photo_positions(frame, rec, TRIGGER)
-    assert placed == 2
+    _, placed, _ = fr.photo_positions(frame, rec, TRIGGER)
+    assert len(placed) == 2
     truth = np.column_stack([np.full(10, ROW_M), _photo_s(np.arange(10))])
-    np.testing.assert_allclose(positions[[4, 5]], truth[[4, 5]], atol=0.005)
+    np.testing.assert_allclose(placed, truth[[4, 5]], atol=0.005)
 
 
 def _wire(seq: int, command: int, param1: float = 0.0) -> WireItem:
@@ -183,20 +185,21 @@ def test_without_camera_reports_photos_only_when_asked_every_trigger_distance_al
     rec.samples = [(50.0 + ti, la, lo, 20.0, 2.0, ti) for ti, la, lo in zip(t, lat, lon)]
     rec.reached = [(52.0, 1), (55.0, 3), (59.0, 4), (65.0, 5), (65.01, 5), (70.0, 7)]  # 5 duplicated on the link
     # Photos the vehicle never reported are no evidence: none, unless the user asks for them explicitly.
-    assert fr.photo_positions(frame, rec, TRIGGER)[1:] == (0, "none")
-    assert len(fr.photo_positions(frame, rec, TRIGGER)[0]) == 0
+    positions, placed, source = fr.photo_positions(frame, rec, TRIGGER)
+    assert (len(positions), len(placed), source) == (0, 0, "none")
     positions, placed, source = fr.photo_positions(frame, rec, TRIGGER, from_track=True)
     assert source == "track"
-    # The survey is 20 m long (10 m along the columns, 10 m down the rows): photos at 0, 3, ..., 18 m.
+    # The survey is 20 m long (10 m along the columns, 10 m down the rows): photos at 0, 3, ..., 18 m,
+    # counted as the user asked (none of them reported).
     s = np.arange(0.0, 20.0 + 1e-9, TRIGGER)
-    assert placed == len(positions) == len(s) == 7
+    assert len(positions) == len(s) == 7 and len(placed) == 0
     truth = np.array([(ROW_M, 10.0 + si) if si <= 10 else (ROW_M + si - 10.0, 20.0) for si in s])
     np.testing.assert_allclose(positions, truth, atol=0.005)
 
 
 def test_no_samples_no_photos(frame: GridFrame) -> None:
     positions, placed, source = fr.photo_positions(frame, DroneRecord(id=3), TRIGGER)
-    assert (positions.shape, placed, source) == ((0, 2), 0, "none")
+    assert (positions.shape, placed.shape, source) == ((0, 2), (0, 2), "none")
 
 
 # ------------------------------------------------------------------------------------------- clocks

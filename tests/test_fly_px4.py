@@ -24,7 +24,8 @@ from bridge.px4 import reported_items
 from bridge.readiness import (MSG_EKF_STATUS_REPORT, MSG_EXTENDED_SYS_STATE, VehicleState, px4_mode,
                               stream_rates)
 from missionplan.cli import main
-from missionplan.flight.fly import fly, start_mock_fleet
+from missionplan.flight.fly import fly
+from missionplan.flight.mock_fleet import start_mock_fleet
 from missionplan.flight.phases import PX4_LANDED_STATES, landed_states, reached_items, reached_navigation_items
 from missionplan.mission.timeline import FlightModel, planned_seconds
 

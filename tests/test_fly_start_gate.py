@@ -5,10 +5,10 @@ from __future__ import annotations
 import threading
 import time
 
-from missionplan.flight.fly import _StartGate
+from missionplan.flight.drone_flight import StartGate
 
 
-def _ready(gate: _StartGate, released: list[float]) -> threading.Thread:
+def _ready(gate: StartGate, released: list[float]) -> threading.Thread:
     def run() -> None:
         gate.check_in(5.0)
         released.append(time.monotonic())
@@ -19,7 +19,7 @@ def _ready(gate: _StartGate, released: list[float]) -> threading.Thread:
 
 
 def test_ready_drones_wait_for_the_last_one_and_a_failed_one_does_not_hold_them() -> None:
-    gate = _StartGate(3)
+    gate = StartGate(3)
     released: list[float] = []
     first = _ready(gate, released)
     gate.check_in(0.0)  # a drone whose upload failed: checks in, does not wait

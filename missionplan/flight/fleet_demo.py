@@ -22,7 +22,9 @@ DEMO_TIMEOUT_S = 300.0
 
 
 def cmd_demo(args: argparse.Namespace, plan_command: Any, plan_parser: argparse.ArgumentParser) -> int:
-    from .fly import fly, print_flight, start_mock_fleet
+    from .display import print_flight
+    from .fly import fly
+    from .mock_fleet import start_mock_fleet
 
     if args.speedup <= 0:
         from ..maps.gridmap import MapError

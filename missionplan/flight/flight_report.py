@@ -27,7 +27,8 @@ No MAVLink here: fly.py records (DroneRecord), this module judges what was recor
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
@@ -37,11 +38,13 @@ from scipy.spatial import cKDTree
 from bridge.atomic import write_text_atomic
 from bridge.copter_model import CopterParams, Motion, total_time
 from bridge.px4_model import Px4Params
+from geo.cells import cells_feature
 from geo.frame import GridFrame
 
 from ..maps.gridmap import GridMap
 from ..mission.timeline import FlightModel, closest_approach, planned_motions
 from .phases import event_rows, on_vehicle_clock, phase_rows
+from .record import DroneRecord
 
 COVERAGE_OK = 99.0
 # How much of a cell's side may fall outside the photo that counts for it: a quarter cell, the
@@ -61,37 +64,8 @@ LIFTOFF_M, LIFTOFF_CLIMB_M_S = 1.5, 0.5
 
 
 @dataclass
-class DroneRecord:
-    """What the ground station learned about one vehicle during a flight (times: our monotonic clock)."""
-
-    id: int
-    planned_photos: int = 0
-    uploaded: bool = False
-    started: bool = False
-    finished: bool = False
-    held_after_flight: bool | None = None
-    mission_state: int = 0
-    current: int = 0
-    captures: int = 0  # photos the camera says it took (completed_captures / highest img_idx + 1)
-    wire: list[Any] = field(default_factory=list)  # the mission as uploaded (bridge.mission.WireItem)
-    reached: list[tuple[float, int]] = field(default_factory=list)  # arrival time, seq
-    landed: list[tuple[float, int]] = field(default_factory=list)  # EXTENDED_SYS_STATE landed state, at each change
-    events: list[tuple[float, str]] = field(default_factory=list)  # mode, arming, landed state, STATUSTEXT
-    # arrival time, lat, lon, up m, ground speed m/s, the vehicle's time since boot s, climb rate m/s
-    samples: list[tuple[float, float, float, float, float, float, float]] = field(default_factory=list)
-    camera: dict[int, tuple[float, float, float, float]] = field(default_factory=dict)  # img_idx -> t, lat, lon, up
-    params: dict[str, float] = field(default_factory=dict)  # navigation parameters the vehicle reported
-    flavour: str = ""  # the autopilot's conventions (bridge.mission.Flavour value): which flight model times it
-    t_start: float | None = None
-    t_end: float | None = None
-    last_heard: float = 0.0
-    problems: list[str] = field(default_factory=list)
-    notes: list[str] = field(default_factory=list)
-
-
-@dataclass
 class FlightResult:
-    coverage: float
+    coverage: float  # from the photos the vehicles confirmed (their reports, their logs)
     targets: int
     separation: dict[str, Any]
     drones: list[dict[str, Any]]
@@ -100,6 +74,8 @@ class FlightResult:
     wall_s: float
     json_path: Path
     png_path: Path
+    missed_path: Path = Path("missed.geojson")
+    coverage_with_unconfirmed: float = 0.0  # counting the photos placed on the track as well
 
     @property
     def ok(self) -> bool:
@@ -166,13 +142,18 @@ def _arc_on_track(track: np.ndarray, arc: np.ndarray, points: np.ndarray, arrive
 
 
 def photo_positions(frame: GridFrame, rec: DroneRecord, trigger_m: float,
-                    from_track: bool = False) -> tuple[np.ndarray, int, str]:
-    """(photos (n, 2) grid metres, how many were placed on the track rather than reported, source).
+                    from_track: bool = False) -> tuple[np.ndarray, np.ndarray, str]:
+    """(confirmed photos (n, 2) grid metres, photos placed on the track (m, 2), source).
 
-    source: "camera" (CAMERA_FEEDBACK), "track" (none reported and from_track: a photo every
-    trigger distance along the flown survey) or "none"."""
+    Confirmed: where the vehicle said each photo was taken, in its report over the link or in its own
+    log read after the flight. Placed: a photo the vehicle counted (a gap in its indices, or more
+    captures than reports) whose position never came, put on the recorded track between its known
+    neighbours in proportion to its index: not confirmed, and counted apart. source: "camera" (photo
+    reports), "track" (none reported and from_track: a photo every trigger distance along the flown
+    survey, all counted as confirmed, since the user asked for that) or "none"."""
+    empty = np.zeros((0, 2))
     if not rec.samples:
-        return np.zeros((0, 2)), 0, "none"
+        return empty, empty, "none"
     samples = np.array(rec.samples)
     if rec.camera:
         known = sorted(rec.camera.items())
@@ -186,15 +167,14 @@ def photo_positions(frame: GridFrame, rec: DroneRecord, trigger_m: float,
         # From the first index this flight reported: the ones below it are earlier flights' photos
         # (ArduPilot counts on until a reboot), not photos lost on the link.
         every = np.arange(int(idx[0]), total, dtype=float)
+        lost = every[~np.isin(every, idx)]
         # Lost reports: in proportion to the index between known neighbours, trigger_m per photo past the ends.
-        s_all = np.interp(every, idx, s_known)
-        s_all = np.where(every < idx[0], s_known[0] - (idx[0] - every) * trigger_m, s_all)
-        s_all = np.where(every > idx[-1], s_known[-1] + (every - idx[-1]) * trigger_m, s_all)
-        positions = _point_at(track, arc, np.clip(s_all, 0.0, arc[-1]))
-        positions[idx.astype(int) - int(idx[0])] = reported
-        return positions, len(every) - len(known), "camera"
+        s_lost = np.interp(lost, idx, s_known)
+        s_lost = np.where(lost > idx[-1], s_known[-1] + (lost - idx[-1]) * trigger_m, s_lost)
+        placed = _point_at(track, arc, np.clip(s_lost, 0.0, arc[-1])) if len(lost) else empty
+        return reported, placed, "camera"
     if not from_track:
-        return np.zeros((0, 2)), 0, "none"
+        return empty, empty, "none"
     # No camera reports, and the user asked for it: a photo every trigger_m along the survey part of the track.
     first, last = _survey_window(rec.wire)
     # The first report at or after each seq: PX4 reports a waypoint with the seq of the DO_ items after it.
@@ -202,11 +182,10 @@ def photo_positions(frame: GridFrame, rec: DroneRecord, trigger_m: float,
     t1 = min((t for t, seq in rec.reached if last is not None and seq >= last), default=samples[-1, 0])
     part = samples[(samples[:, 0] >= t0) & (samples[:, 0] <= t1)]
     if len(part) == 0 or trigger_m <= 0:
-        return np.zeros((0, 2)), 0, "track"
+        return empty, empty, "track"
     track = to_grid_m(frame, part[:, 1], part[:, 2])
     arc = _arc_length(track)
-    positions = _point_at(track, arc, np.arange(0.0, arc[-1] + 1e-9, trigger_m))
-    return positions, len(positions), "track"
+    return _point_at(track, arc, np.arange(0.0, arc[-1] + 1e-9, trigger_m)), empty, "track"
 
 
 def _survey_window(wire: list[Any]) -> tuple[int | None, int | None]:
@@ -399,7 +378,8 @@ def sortie_view(report: dict[str, Any], sortie: int, missions: dict[int, dict[in
 # ------------------------------------------------------------------------------------------- judging
 def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], time_scale: float | None,
           wall_s: float, telemetry_hz: float, photos_from_track: bool = False) -> FlightResult:
-    """Everything flight.json says, from the recordings; writes flight.json and flight.png.
+    """Everything flight.json says, from the recordings; writes flight.json, flight.png and
+    missed.geojson (the targets no confirmed photo covered, as polygons on the Earth).
 
     photos_from_track: a vehicle that reported no photo (no CAMERA_FEEDBACK) gets one every trigger
     distance along its flown survey; without it, that vehicle's flight is a problem."""
@@ -409,12 +389,13 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     scale = time_scale if time_scale else estimate_time_scale(records)
     planned = {int(d["id"]): d for d in report["drones"]}
     targets = target_cells(report)
-    photos, tracks_m, timed, rows, sources = [], {}, {}, [], set()
+    photos, unconfirmed, tracks_m, timed, rows, sources = [], [], {}, {}, [], set()
     liftoff: dict[int, float] = {}  # when each vehicle left the ground, on our clock
     liftoff_above = liftoff_height(records)
     for rec in records:
         points, placed, source = photo_positions(frame, rec, trigger, from_track=photos_from_track)
         photos.append(points)
+        unconfirmed.append(placed)
         if source != "none":
             sources.add(source)
         elif rec.started and rec.samples:
@@ -434,13 +415,16 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
         # The plan re-timed with the navigation parameters the vehicle reported (None without any).
         retimed = total_time(motions) if rec.params and motions is not None else None
         rows.append({"id": rec.id, "flight_s": round(flight_s, 2), "finished": rec.finished,
-                     "photos": int(len(points)), "photos_placed_on_track": placed,
+                     "ended_early": rec.ended_early or None,
+                     "photos": int(len(points)), "photos_placed_on_track": int(len(placed)),
+                     "photos_from_log": sum(1 for src in rec.photo_source.values() if src == "log"),
                      "planned_photos": rec.planned_photos,
                      "planned_flight_s": float(planned.get(rec.id, {}).get("flight_s", 0.0)),
                      "planned_flight_s_vehicle": None if retimed is None else round(retimed, 1),
                      "vehicle_params": rec.params,
                      "uploaded": rec.uploaded, "held_after_flight": rec.held_after_flight,
                      "samples": len(samples), "items_reached": len({seq for _, seq in rec.reached}),
+                     "last_position": _last_position(rec),
                      "phases": phase_rows(rec, motions, scale),
                      "events": event_rows(rec, scale), "notes": rec.notes})
     all_photos = np.vstack(photos) if photos else np.zeros((0, 2))
@@ -448,6 +432,9 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     gap = nearest_photo_gap(frame, targets, all_photos)  # once; each rule is a threshold on it
     covered = covered_by_gap(frame, gap, footprint, slack)
     percent = 100.0 * float(covered.mean()) if len(targets) else 100.0
+    with_placed = np.vstack([all_photos, *unconfirmed]) if unconfirmed else all_photos
+    covered_with_placed = covered_by_gap(frame, nearest_photo_gap(frame, targets, with_placed), footprint, slack)
+    percent_with_placed = 100.0 * float(covered_with_placed.mean()) if len(targets) else 100.0
     other_rules = {name: round(100.0 * float(covered_by_gap(frame, gap, footprint, frame.cell_m * cells).mean()), 2)
                    if len(targets) else 100.0 for name, cells in (("whole_cell", 0.0), ("cell_centre", 0.5))}
     separation = _separation(report, records, timed, liftoff, scale, telemetry_hz)
@@ -458,34 +445,76 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
         problems.append(f"uav{separation['pair_3d'][0]} and uav{separation['pair_3d'][1]} came within "
                         f"{separation['3d']} m; the plan promised {separation['planned_3d']} m")
     photo_source = " and ".join(sorted(sources)) or "none"
+    missed = targets[~covered]
+    missed_lat, missed_lon = frame.cell_to_latlon(missed[:, 0], missed[:, 1]) if len(missed) else ([], [])
     doc = {"coverage": round(percent, 2), "targets": int(len(targets)), "covered": int(covered.sum()),
-           "missed_cells": targets[~covered].tolist(), "min_separation_m": separation, "drones": rows,
+           "coverage_with_unconfirmed": round(percent_with_placed, 2),
+           "missed_cells": missed.tolist(),
+           "missed_cells_latlon": [[round(float(a), 7), round(float(b), 7)] for a, b in zip(missed_lat, missed_lon)],
+           "min_separation_m": separation, "drones": rows,
            "problems": problems, "photos_from": photo_source, "time_scale": round(scale, 3),
            "telemetry_hz": telemetry_hz, "wall_s": round(wall_s, 2),
            "coverage_rule": f"a target cell counts as photographed when one photo's square footprint, at the "
-                            f"position the vehicle reported for it, holds the cell short of at most {SLACK_CELLS:g} "
-                            f"cell ({slack:.3f} m) on a side",
+                            f"position the vehicle reported for it (over the link or in its log), holds the cell "
+                            f"short of at most {SLACK_CELLS:g} cell ({slack:.3f} m) on a side; photos placed on "
+                            f"the track (their reports lost) are counted apart, in coverage_with_unconfirmed",
            "coverage_other_rules": other_rules}
-    json_path, png_path = plan_dir / "flight.json", plan_dir / "flight.png"
+    json_path, png_path, missed_path = plan_dir / "flight.json", plan_dir / "flight.png", plan_dir / "missed.geojson"
     write_text_atomic(json_path, json.dumps(doc, indent=1) + "\n")
+    missed_doc = {"type": "FeatureCollection", "features": [cells_feature(frame, missed, {
+        "what": "target cells no confirmed photo covered", "cells": int(len(missed)),
+        "area_m2": round(float(len(missed)) * frame.cell_m ** 2, 1), "coverage": round(percent, 2)})]}
+    write_text_atomic(missed_path, json.dumps(missed_doc) + "\n")
     draw_flight(png_path, report, frame, targets, covered, tracks_m, {r["id"]: r["flight_s"] for r in rows}, percent)
     return FlightResult(coverage=round(percent, 2), targets=int(len(targets)), separation=separation, drones=rows,
                         problems=problems, photo_source=photo_source, wall_s=round(wall_s, 2),
-                        json_path=json_path, png_path=png_path)
+                        json_path=json_path, png_path=png_path, missed_path=missed_path,
+                        coverage_with_unconfirmed=round(percent_with_placed, 2))
+
+
+def _last_position(rec: DroneRecord) -> dict[str, Any] | None:
+    """Where the vehicle was last heard of (its last sample, or the last journaled position)."""
+    if rec.samples:
+        t, lat, lon, up = rec.samples[-1][:4]
+    elif rec.last_position:
+        lat, lon, up, t = rec.last_position
+    else:
+        return None
+    return {"lat": round(float(lat), 7), "lon": round(float(lon), 7), "up_m": round(float(up), 2),
+            "time_utc": datetime.fromtimestamp(float(t), timezone.utc).isoformat(timespec="milliseconds")}
+
+
+def _flight_speed_and_acceptance(records: list[DroneRecord]) -> tuple[float, float]:
+    speed = max((float(item.param2) for rec in records for item in rec.wire if item.command == CMD_DO_CHANGE_SPEED),
+                default=5.0)
+    acceptance = max((float(item.param2) for rec in records for item in rec.wire if item.command == CMD_WAYPOINT),
+                     default=0.0)
+    return speed, acceptance
+
+
+def live_tolerance(records: list[DroneRecord], scale: float, telemetry_hz: float) -> float:
+    """How much closer than promised two drones may seem in live telemetry: two acceptance radii and one
+    telemetry interval of flight (the judge adds the start spread, which the live watch cannot know)."""
+    speed, acceptance = _flight_speed_and_acceptance(records)
+    return 2 * acceptance + speed * scale / telemetry_hz
 
 
 def _separation(report: dict[str, Any], records: list[DroneRecord], timed: dict[int, np.ndarray],
                 liftoff: dict[int, float], scale: float, telemetry_hz: float) -> dict[str, Any]:
-    """Flown closest approach next to the plan's promise, and whether the promise was kept."""
+    """Flown closest approach next to the plan's promise, and whether the promise was kept.
+
+    The tolerance is what telemetry cannot pin down (two acceptance radii, one telemetry interval of
+    flight) plus how far apart the vehicles really left the ground, which the plan assumed all at once;
+    it never exceeds half the promise, so a start spread (or a vehicle that never took off with the
+    others) cannot make the check unable to fail."""
     flown = closest_approach(timed)
     promise = report.get("separation") or {}
-    speed = max((float(item.param2) for rec in records for item in rec.wire if item.command == CMD_DO_CHANGE_SPEED), default=5.0)
-    acceptance = max((float(item.param2) for rec in records for item in rec.wire if item.command == CMD_WAYPOINT),
-                     default=0.0)
-    # How far apart the vehicles really left the ground: the plan assumed all at once.
+    speed, _ = _flight_speed_and_acceptance(records)
     start_spread_s = (max(liftoff.values()) - min(liftoff.values())) * scale if liftoff else 0.0
-    tolerance = 2 * acceptance + speed * start_spread_s + speed * scale / telemetry_hz
     planned_3d = promise.get("3d")
+    tolerance = live_tolerance(records, scale, telemetry_hz) + speed * start_spread_s
+    if planned_3d is not None:
+        tolerance = min(tolerance, 0.5 * float(planned_3d))
     # Fewer than two tracks: nothing was measured, so the promise was neither kept nor broken.
     kept = None if flown["3d"] is None else bool(planned_3d is None or flown["3d"] >= planned_3d - tolerance)
     return {**flown, "planned_horizontal": promise.get("horizontal"), "planned_3d": planned_3d,

@@ -16,15 +16,14 @@ took far longer than planned then says where: a landing that took minutes is not
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from bridge.copter_model import Motion
 from bridge.px4 import reached_item
 
-if TYPE_CHECKING:  # a type only: flight_report imports this module
-    from .flight_report import DroneRecord
+from .record import DroneRecord
 
 MAV_LANDED_STATE_LANDING = 4
 CMD_WAYPOINT = 16

@@ -1,0 +1,136 @@
+"""What a flight learned about one vehicle (DroneRecord), and the one way it is written down.
+
+fly's per-drone thread changes a record only through its `set` / `add_*` methods; each change also
+goes to the record's `sink` (the flight journal, journal.py) as it happens, so that a crash of the
+ground station loses at most what the journal had not committed yet. Replaying the journal calls the
+same methods without a sink and gives the same record back: flight.json is judged from that replay.
+
+Times are seconds of our wall clock (time.time()): a record outlives the process that began it (a
+`fly --resume` continues it), and only differences of these times are ever used. The vehicle's own
+clock (time_boot_ms) travels in the samples.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+# (wall time, lat, lon, up m, ground speed m/s, the vehicle's time since boot s, climb rate m/s)
+Sample = tuple[float, float, float, float, float, float, float]
+Sink = Callable[[str, tuple[Any, ...]], None]
+FACTS = ("planned_photos", "uploaded", "started", "finished", "held_after_flight", "mission_state", "current",
+         "captures", "wire", "params", "flavour", "t_start", "t_end", "ended_early", "last_position")
+PHOTO_SOURCES = ("camera", "log")  # a report over the link; the vehicle's own log, read after the flight
+
+
+@dataclass
+class DroneRecord:
+    """What the ground station learned about one vehicle during a flight (times: our wall clock)."""
+
+    id: int
+    planned_photos: int = 0
+    uploaded: bool = False
+    started: bool = False
+    finished: bool = False
+    held_after_flight: bool | None = None
+    mission_state: int = 0
+    current: int = 0
+    captures: int = 0  # photos the camera says it took (completed_captures / highest img_idx + 1)
+    wire: list[Any] = field(default_factory=list)  # the mission as uploaded (bridge.mission.WireItem)
+    reached: list[tuple[float, int]] = field(default_factory=list)  # arrival time, seq
+    landed: list[tuple[float, int]] = field(default_factory=list)  # EXTENDED_SYS_STATE landed state, at each change
+    events: list[tuple[float, str]] = field(default_factory=list)  # mode, arming, landed state, STATUSTEXT, alerts
+    samples: list[Sample] = field(default_factory=list)
+    camera: dict[int, tuple[float, float, float, float]] = field(default_factory=dict)  # img_idx -> t, lat, lon, up
+    photo_source: dict[int, str] = field(default_factory=dict)  # img_idx -> "camera" or "log"
+    attitude: dict[int, tuple[float, float, float]] = field(default_factory=dict)  # img_idx -> roll, pitch, yaw deg
+    params: dict[str, float] = field(default_factory=dict)  # navigation parameters the vehicle reported
+    flavour: str = ""  # the autopilot's conventions (bridge.mission.Flavour value): which flight model times it
+    t_start: float | None = None
+    t_end: float | None = None
+    ended_early: str = ""  # why the vehicle ended its mission before its last item (a failsafe, a landing)
+    last_position: list[float] | None = None  # lat, lon, up m, wall time of the last sample
+    last_heard: float = 0.0  # not journaled: the live follower's own bookkeeping
+    problems: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    sink: Sink | None = field(default=None, repr=False, compare=False)
+
+    def _emit(self, kind: str, *row: Any) -> None:
+        if self.sink is not None:
+            self.sink(kind, row)
+
+    def set(self, **facts: Any) -> None:
+        """Change facts (FACTS) of the record; each is journaled as its latest value."""
+        for name, value in facts.items():
+            if name not in FACTS:
+                raise AttributeError(f"{name} is not a journaled fact of a drone record")
+            if getattr(self, name) != value:
+                setattr(self, name, value)
+                self._emit("fact", name, value)
+
+    def add_sample(self, sample: Sample) -> None:
+        self.samples.append(sample)
+        self._emit("sample", *sample)
+
+    def add_photo(self, idx: int, t: float, lat: float, lon: float, up: float, source: str = "camera",
+                  attitude: tuple[float, float, float] | None = None) -> bool:
+        """A photo and where it was taken; the first word about an index stands (a report repeated over
+        the link, or the log's copy of a photo already reported). Whether it was new."""
+        if idx in self.camera:
+            return False
+        self.camera[idx] = (t, lat, lon, up)
+        self.photo_source[idx] = source
+        if attitude is not None:
+            self.attitude[idx] = attitude
+        roll, pitch, yaw = attitude if attitude is not None else (None, None, None)
+        self._emit("photo", idx, t, lat, lon, up, source, roll, pitch, yaw)
+        return True
+
+    def add_reached(self, t: float, seq: int) -> None:
+        if not self.reached or self.reached[-1][1] != seq:  # PX4 repeats its last one every second
+            self.reached.append((t, seq))
+            self._emit("reached", t, seq)
+
+    def add_landed(self, t: float, state: int) -> None:
+        self.landed.append((t, state))
+        self._emit("landed", t, state)
+
+    def add_event(self, t: float, text: str) -> None:
+        self.events.append((t, text))
+        self._emit("event", t, text)
+
+    def add_problem(self, text: str) -> None:
+        self.problems.append(text)
+        self._emit("problem", text)
+
+    def add_note(self, text: str) -> None:
+        self.notes.append(text)
+        self._emit("note", text)
+
+    def replay(self, kind: str, row: tuple[Any, ...]) -> None:
+        """Apply one journaled change (what _emit wrote) to this record, without journaling it again."""
+        sink, self.sink = self.sink, None
+        try:
+            if kind == "fact":
+                self.set(**{row[0]: row[1]})
+            elif kind == "sample":
+                self.add_sample(tuple(row))  # type: ignore[arg-type]
+            elif kind == "photo":
+                idx, t, lat, lon, up, source, roll, pitch, yaw = row
+                attitude = None if roll is None else (roll, pitch, yaw)
+                self.add_photo(int(idx), t, lat, lon, up, source, attitude)
+            elif kind == "reached":
+                self.add_reached(row[0], int(row[1]))
+            elif kind == "landed":
+                self.add_landed(row[0], int(row[1]))
+            elif kind == "event":
+                self.add_event(row[0], row[1])
+            elif kind == "problem":
+                self.add_problem(row[0])
+            elif kind == "note":
+                self.add_note(row[0])
+            else:
+                raise ValueError(f"unknown journal entry {kind!r}")
+        finally:
+            self.sink = sink
