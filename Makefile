@@ -1,7 +1,7 @@
 # The two set-up commands of the README, and CI's wheel check. Each creates .venv when it is missing.
 #
-# One .venv serves both: `make demo` installs missionplan alone (planning and flying need no torch),
-# `make test` adds the `train` extra (torch, for the training tests) and the `test` extra; either
+# One .venv serves both: `make demo` installs missionplan alone (planning and flying need no PyTorch),
+# `make test` adds the `train` extra (torch==2.13.0, for the training tests) and the `test` extra; either
 # order works, since both install the same package and a stamp per target records what is in.
 # Every install goes through constraints.txt, the exact lock (`make constraints` rewrites it).
 PYTHON ?= python3
@@ -36,13 +36,13 @@ test: $(TEST_STAMP)
 bench: $(TEST_STAMP)
 	$(BIN)/python bench/plan_bench.py
 
-# Build the wheel, install it with the lock into a fresh venv outside the repository (no torch),
+# Build the wheel, install it with the lock into a fresh venv outside the repository (no PyTorch),
 # and plan and fly from there: what a user who installs the release gets.
 wheel-check:
 	PYTHON=$(PYTHON) bash .ci/wheel-check
 
 # The lock: every package a fresh venv holds after `make test`'s installs made without it (the
-# newest releases that pyproject.toml's ranges allow; torch as the extra pins it), pip and setuptools
+# newest releases that pyproject.toml's ranges allow; torch==2.13.0 as the extra pins it), pip and setuptools
 # included. Run by hand after changing a range; commit the result.
 constraints:
 	set -e; lock=$$(mktemp -d); trap 'rm -rf "$$lock"' EXIT; \

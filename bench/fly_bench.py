@@ -241,18 +241,17 @@ def fault_row(fault: str, plan_dir: Path) -> str:
     from loopback import UdpRelay, free_udp_port, wait_until
     from test_fly_faults_sitl import SPEEDUP as FAULT_SPEEDUP
     from test_fly_faults_sitl import (BATTERY_LOW_V, BATTERY_SIM_V, FLY_TIMEOUT_S, LINK_DROP_S, SYSIDS, Fleet, FlyRun,
-                                      _configure, _home, _in_flight, _set_param_on_serial1, start_vehicle)
+                                      _configure, _home, _in_flight, _set_param_on_serial1)
 
     port = free_udp_port()
     vehicles: list[Any] = []
     with UdpRelay(port) as relay:
         try:
-            def start(wait: bool, **kwargs: Any) -> Any:
-                vehicles.append(ArduCopter(**kwargs))
-                return vehicles[-1].start(wait=wait)
-
-            flying = [start_vehicle(start, sysid=k, home=_home(plan_dir, k), speedup=FAULT_SPEEDUP,
-                                    serial0=f"udpclient:127.0.0.1:{relay.vehicle_port}") for k in SYSIDS]
+            for k in SYSIDS:  # each start() returns once SITL has bound its ports (sitl_tests/arducopter.py)
+                vehicles.append(ArduCopter(sysid=k, home=_home(plan_dir, k), speedup=FAULT_SPEEDUP,
+                                           serial0=f"udpclient:127.0.0.1:{relay.vehicle_port}"))
+                vehicles[-1].start(wait=False)
+            flying = list(vehicles)
             fleet = Fleet(plan_dir, relay, flying, f"udpin:127.0.0.1:{port}")
             params = {"BATT_FS_LOW_ACT": 2.0, "BATT_LOW_VOLT": BATTERY_LOW_V} if fault == "battery" else None
             _configure(fleet, params)

@@ -1,4 +1,4 @@
-"""geo: world <-> grid (camera footprint, projection, rasterising, area files). Filled by issue 4.
+"""geo: world <-> grid (camera footprint, projection, rasterising, area files).
 
 One job per module:
 
@@ -9,6 +9,7 @@ One job per module:
                   building footprints (+ heights) from OSM .osm / .osm.pbf or GeoJSON.
 * `geo.area`    - `build_grid_map`: rasterise area, obstacles, buildings, no-fly into an `AreaRaster`
                   (plain arrays, wrapped into a GridMap by the planner).
+* `geo.cells`   - grid cells back on the Earth: merged lon/lat polygons, a GeoJSON feature.
 
 Grid coordinates are float (row, col) whose integer values are cell centres; row 0 is the top
 (north, before rotation) row; `rotation_deg` turns the grid clockwise from north.

@@ -35,17 +35,16 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import pytest
 from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
 from loopback import UdpRelay, free_udp_port, wait_until
+from plans import plan_area
 
 from bridge.link import Link, wait_vehicle
 from bridge.missionfile import read_mission_file
 from bridge.params import ParamClient
 from bridge.shared_link import SharedLink
-from missionplan.cli import main
 from missionplan.flight.journal import read_flight
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
@@ -78,14 +77,7 @@ LOW_BATTERY_SYSID = 2
 # ------------------------------------------------------------------------------ set-up
 @pytest.fixture(scope="module")
 def block(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    base = tmp_path_factory.mktemp("milan-block")
-    area = base / "area.geojson"
-    area.write_text(json.dumps({"type": "Polygon", "coordinates": [AREA]}))
-    args = ["plan", "--area", str(area), "--altitude", "20", "--fov", "84", "--out", str(base / "plan"), "--quiet"]
-    for point in LAUNCHES:
-        args += ["--launch", point]
-    assert main(args) == 0
-    return base / "plan"
+    return plan_area(tmp_path_factory.mktemp("milan-block"), AREA, LAUNCHES)
 
 
 @dataclass
@@ -113,27 +105,12 @@ def fleet(arducopter, block: Path, tmp_path: Path):  # noqa: F811
         (plan_dir / path.name).write_bytes(path.read_bytes())
     port = free_udp_port()
     with UdpRelay(port) as relay:
-        vehicles = [start_vehicle(arducopter, sysid=k, home=_home(plan_dir, k), speedup=SPEEDUP,
-                                  serial0=f"udpclient:127.0.0.1:{relay.vehicle_port}") for k in SYSIDS]
+        # start() returns once SITL has bound its ports (arducopter.py), so the next vehicle's instance differs
+        vehicles = [arducopter(wait=False, sysid=k, home=_home(plan_dir, k), speedup=SPEEDUP,
+                               serial0=f"udpclient:127.0.0.1:{relay.vehicle_port}") for k in SYSIDS]
         yield Fleet(plan_dir, relay, vehicles, f"udpin:127.0.0.1:{port}")
 
 
-SERIAL2_BOUND = b"SERIAL2 on TCP port"  # SITL's last port bound at start, after "Starting sketch"
-
-
-def start_vehicle(start: Any, attempts: int = 3, **kwargs: Any) -> ArduCopter:
-    """start(wait=False, **kwargs) (the arducopter fixture, or ArduCopter(...).start), then until it has bound
-    its serial ports: with udpclient, ArduCopter.start returns at "Starting sketch", before SITL binds its
-    serial1 / serial2 TCP ports, so the next vehicle's probe could pick the same instance number and die
-    on them. One that died is started again on another number."""
-    for _ in range(attempts):
-        vehicle = start(wait=False, **kwargs)
-        proc = vehicle.proc
-        wait_until(lambda: SERIAL2_BOUND in vehicle.log_bytes() or proc.poll() is not None, 30.0)
-        if proc.poll() is None and SERIAL2_BOUND in vehicle.log_bytes():
-            return vehicle
-        vehicle.stop()
-    raise RuntimeError(f"ArduCopter SITL system {kwargs.get('sysid')} did not start in {attempts} tries")
 
 
 def _configure(fleet: Fleet, params: dict[str, float] | None = None) -> None:

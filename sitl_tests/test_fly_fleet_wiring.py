@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 from loopback import free_udp_port
+from plans import plan_area
 
 from bridge.missionfile import read_mission_file
 from bridge.mock import MockAutopilot
@@ -30,14 +31,7 @@ READY_AFTER_S = 20.0  # simulated: 2 s of wall time without GPS, EKF, home or ar
 
 @pytest.fixture(scope="module")
 def plan_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    base = tmp_path_factory.mktemp("wiring")
-    area = base / "area.geojson"
-    area.write_text(json.dumps({"type": "Polygon", "coordinates": [AREA]}))
-    args = ["plan", "--area", str(area), "--altitude", "20", "--fov", "84", "--out", str(base / "plan"), "--quiet"]
-    for point in LAUNCHES:
-        args += ["--launch", point]
-    assert main(args) == 0
-    return base / "plan"
+    return plan_area(tmp_path_factory.mktemp("wiring"), AREA, LAUNCHES)
 
 
 def _launch(plan_dir: Path, sysid: int) -> tuple[float, float, float]:
