@@ -96,6 +96,9 @@ def register(subparsers: Any) -> None:
                       help="behave like ArduCopter SITL: no camera until CAM1_TYPE is set and the vehicle rebooted, "
                            "img_idx from 1 across flights, ArduCopter's navigation parameters and flight "
                            "(docs/flight-timeline.md)")
+    mock.add_argument("--kill", action="append", default=[], metavar="SYSID@ITEM",
+                      help="vehicle SYSID goes silent for good once it reaches mission item ITEM, as a SITL process "
+                           "killed in flight; repeatable")
     mock.add_argument("--seed", type=int, default=None, help="seed of the fault injection")
     mock.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
     mock.set_defaults(handler=cmd_mock)
@@ -359,6 +362,19 @@ def mock_homes(sysids: list[int], homes: list[str], plan_dir: Path | None) -> di
     return out
 
 
+def parse_kills(texts: list[str], sysids: list[int]) -> dict[int, int]:
+    """`--kill SYSID@ITEM` values -> {sysid: mission item}."""
+    kills: dict[int, int] = {}
+    for text in texts:
+        sysid, sep, item = text.partition("@")
+        if not sep or not sysid.strip().isdigit() or not item.strip().isdigit():
+            raise BridgeUsageError(f"--kill {text}: expected SYSID@ITEM, e.g. 2@8 (vehicle 2 at mission item 8)")
+        if int(sysid) not in sysids:
+            raise BridgeUsageError(f"--kill {text}: no vehicle {sysid} in --sysid {','.join(map(str, sysids))}")
+        kills[int(sysid)] = int(item)
+    return kills
+
+
 def cmd_mock(args: argparse.Namespace) -> int:
     from .link import parse_sysids
     from .mock import LinkFaults, MockAutopilot
@@ -370,6 +386,7 @@ def cmd_mock(args: argparse.Namespace) -> int:
     if args.request_interval is not None and not args.request_interval > 0:
         raise BridgeUsageError(f"--request-interval must be positive, got {args.request_interval}")
     homes = mock_homes(sysids, args.home, args.plan)
+    kills = parse_kills(args.kill, sysids)
     if args.ready_after < 0:
         raise BridgeUsageError(f"--ready-after must not be negative, got {args.ready_after}")
     mock = MockAutopilot(args.listen, sysids=sysids, flavour=args.flavour, speedup=args.speedup, faults=faults,
@@ -387,6 +404,8 @@ def cmd_mock(args: argparse.Namespace) -> int:
           f"connect with --connect {connect}; Ctrl-C stops", flush=True)
     for sysid, (lat, lon, alt) in sorted(homes.items()):
         print(f"  system {sysid} starts at {lat:.7f}, {lon:.7f}, {alt:g} m AMSL", flush=True)
+    for sysid, item in kills.items():
+        mock.kill(sysid, at_item=item)
     mock.start()
     try:
         deadline = None if args.duration is None else time.monotonic() + args.duration

@@ -14,6 +14,8 @@ its active item and on item 0 of fence and rally, the legacy MISSION_REQUEST unt
 station speaks *_INT (an error answer flips it), and a MISSION_START refused with "Mission start
 denied! No valid mission" before its GPS fix or when the first waypoint is MIS_DIST_1WP or more
 from its home; a fence without its home draws "Geofence invalid, doesn't contain Home position".
+A mission replaced while the vehicle flies is taken as each autopilot took it (docs/live-retasking.md,
+_replaced_in_flight): ArduPilot keeps its item and restarts it, PX4 goes to the item flagged current.
 COMMAND_LONG arm /
 disarm, mode changes, MAV_CMD_MISSION_START, DO_SET_MISSION_CURRENT and AUTOPILOT_VERSION requests,
 each answered with COMMAND_ACK; HEARTBEAT (quadrotor, ArduPilot or PX4), SYS_STATUS (with the pre-arm
@@ -65,8 +67,8 @@ from .mission import (
 )
 from .mock_flight import FlightEvent, FlightSim
 from .mock_log import OnboardLogs
-from .px4 import (GEOFENCE_WITHOUT_HOME, MIS_DIST_1WP_DEFAULT, START_DENIED, fence_problems, item_result, px4_stored,
-                  reported_reached, start_refusals)
+from .px4 import (GEOFENCE_WITHOUT_HOME, MIS_DIST_1WP_DEFAULT, NAV_LAST, START_DENIED, fence_problems, item_result,
+                  px4_stored, reported_reached, start_refusals)
 
 # MAV_MISSION_RESULT values the vehicle answers with.
 ACCEPTED, ERROR, UNSUPPORTED_FRAME, UNSUPPORTED, NO_SPACE = 0, 1, 2, 3, 4
@@ -218,6 +220,8 @@ class MockVehicle:
         if self.flavour.has_home_item(MissionType.MISSION):
             self.stores[MissionType.MISSION] = [self._home_item()]
         self.upload: _Upload | None = None
+        self._flight_stale = False  # ArduPilot: flying an item of a mission replaced since (_replaced_in_flight)
+        self._restart_on_auto = False  # ArduPilot: its item cut off by a shorter mission while out of AUTO
         # PX4 asks with the legacy MISSION_REQUEST until the ground station has used an *_INT message.
         self._int_mode = False
         self.last_completed: tuple[int, int, tuple[int, int]] | None = None  # type, count, peer
@@ -725,9 +729,12 @@ class MockVehicle:
         if mission_type == MissionType.MISSION:
             self.mission_checked_at = now + (self.options.mission_check_s or 0.0) / self.options.speedup
             s = self.flight.state
-            s.current = self.first_mission_seq
-            s.mission_done = False
-            self._load_flight()
+            if s.armed and not s.on_ground:
+                self._replaced_in_flight(items)
+            else:
+                s.current = self.first_mission_seq
+                s.mission_done = False
+                self._load_flight()
         self._ack(peer, mission_type, ACCEPTED)
         self._send_mission_current()
         if mission_type == MissionType.FENCE and self.flavour is Flavour.PX4 and fence_problems(
@@ -835,9 +842,53 @@ class MockVehicle:
             self._load_flight()
         self._ack(peer, mission_type, ACCEPTED)
 
+    def _replaced_in_flight(self, received: list[WireItem]) -> None:
+        """A mission replaced while the vehicle flies (measured: docs/live-retasking.md). ArduPilot keeps
+        its current index; flying its mission, it restarts the item now there when the navigation
+        items from it on changed ("Auto mission changed, restarted command"), and past the new end it
+        finishes the item it flies ("... but failed to restart command"); out of AUTO, it resumes there
+        (from the first item when that index is gone). PX4 takes the item flagged `current` in the
+        upload (else keeps its index, within the new mission) and, in mission mode, flies from it at once."""
+        s, flight = self.flight.state, self.flight
+        flying_mission = s.mode == "AUTO" and not s.mission_done
+        new = self.stores[MissionType.MISSION]
+        old, index = flight.items, s.current
+        self._restart_on_auto = False
+        if self.flavour is not Flavour.ARDUPILOT:
+            if new == old:
+                return  # the same mission (PX4: the same checksum): nothing changes
+            flagged = [it.seq for it in received if it.current]
+            target = flagged[-1] if flagged else min(index, len(new) - 1)
+            self._load_flight()
+            s.current = target
+            s.mission_done = False
+            if flying_mission:
+                self._publish(flight.set_current(target))
+            return
+        if index >= len(new):
+            if flying_mission:  # the item flown stays loaded; after it the mission is complete
+                self._send_text("Auto mission changed but failed to restart command")
+                flight.last_seq = index
+                self._flight_stale = True
+            else:
+                self._load_flight()
+                s.current = index  # still reported (MISSION_CURRENT), as SITL does, until set or resumed
+                self._restart_on_auto = True  # AP_Mission::resume: its item is gone, start() again
+            return
+        self._load_flight()
+        s.current = index
+        if flying_mission and _next_nav(old, index) != _next_nav(new, index):
+            self._send_text("Auto mission changed, restarted command")
+            self._publish(flight.set_current(index))
+
     def _set_current(self, seq: int) -> bool:
         if not 0 <= seq < len(self.stores[MissionType.MISSION]):
             return False
+        if self._flight_stale:  # still finishing an item of the replaced mission: the new one from now on
+            self._flight_stale = False
+            self._load_flight()
+            self.flight.last_seq = None
+        self._restart_on_auto = False
         self.flight.set_current(max(seq, self.first_mission_seq))
         self._send_mission_current()
         return True
@@ -868,6 +919,9 @@ class MockVehicle:
             if self.flavour is Flavour.PX4 and now < self.mission_checked_at:  # not checked yet
                 self._send_text(PX4_MISSION_MODE_REFUSED)
                 return False
+            if self._restart_on_auto:
+                self._restart_on_auto = False
+                self.flight.set_current(self.first_mission_seq)
             s.mode = "AUTO"
             s.mission_done = False
         else:
@@ -949,6 +1003,9 @@ class MockVehicle:
             if int(p[0]) == 0:
                 self.send_heartbeat()
                 return CMD_ACCEPTED
+            if int(p[0]) == MSG_MISSION_CURRENT and self.flavour is Flavour.ARDUPILOT:  # as ArduPilot answers it
+                self._send_mission_current()
+                return CMD_ACCEPTED
             return CMD_UNSUPPORTED
         if command == 511:  # SET_MESSAGE_INTERVAL
             msgid = int(p[0])
@@ -994,6 +1051,13 @@ class MockVehicle:
     def _send_version(self) -> None:
         self.mav.autopilot_version_send(CAPABILITIES, (4 << 24) | (6 << 16), 0, 0, 0, [0] * 8, [0] * 8, [0] * 8,
                                         0, 0, self.sysid)
+
+
+def _next_nav(items: list[WireItem], index: int, count: int = 3) -> list[tuple[object, ...]]:
+    """The next `count` navigation items from `index` on, as ArduPilot's AP_Mission_ChangeDetector
+    compares them (a change in them while in AUTO restarts the current item)."""
+    nav = [it for it in items[index:] if it.command <= NAV_LAST]
+    return [(it.command, it.frame, it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z) for it in nav[:count]]
 
 
 _HANDLERS = {

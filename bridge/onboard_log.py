@@ -364,8 +364,11 @@ def _ulog_decode(formats: dict[str, list[tuple[str, str, int]]], name: str, buf:
     return row, at
 
 
-def _euler_deg(q: list[float]) -> tuple[float, float, float]:
-    """Roll, pitch, yaw (degrees, yaw 0..360) of a unit quaternion w, x, y, z (PX4's Hamilton order)."""
+def euler_degrees(q: list[float]) -> tuple[float, float, float] | None:
+    """Roll, pitch, yaw (degrees, yaw 0..360) of a unit quaternion w, x, y, z (PX4's Hamilton order);
+    None for a quaternion that is not one (all zeros: the sender had no attitude)."""
+    if sum(v * v for v in q) < 0.5:
+        return None
     w, x, y, z = q
     roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
     pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
@@ -401,7 +404,7 @@ def read_ulog_photos(data: bytes, log_id: int = 0) -> list[LoggedPhoto]:
             row, _ = _ulog_decode(formats, ULOG_TOPIC, body[2:])
             if row.get("result") != 1 or int(row["seq"]) in photos:
                 continue
-            roll, pitch, yaw = _euler_deg(list(row["q"])) if "q" in row else (None, None, None)
+            roll, pitch, yaw = (euler_degrees(list(row["q"])) if "q" in row else None) or (None, None, None)
             photos[int(row["seq"])] = LoggedPhoto(
                 img_idx=int(row["seq"]), lat_e7=int(row["lat"] * 1e7), lon_e7=int(row["lon"] * 1e7),
                 alt_amsl=float(row["alt"]), alt_rel=float(row["ground_distance"]), roll=roll, pitch=pitch, yaw=yaw,

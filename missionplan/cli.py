@@ -4,13 +4,16 @@ Subcommands: `maps` (list the shipped maps), `plan` (plan a shipped map or a .ma
 file, write report.json and plan.png), `train` (reproduce the neural policy's weights
 by imitation of the expert), from bridge/commands.py `upload`, `download`, `clear` and `mock`
 (MAVLink mission transfer and the mock autopilot), `fly` (missionplan/flight/fly.py) and `demo`
-(missionplan/flight/fleet_demo.py). `missionplan --version` prints the installed version.
+(missionplan/flight/fleet_demo.py), `status` (the survey's ledger: missionplan/flight/survey_status.py) and
+`replan` (plan what the survey still misses: missionplan/replan.py). `missionplan --version` prints the
+installed version.
 Bad input gives one line on stderr and exit 2; no option may be abbreviated (`--uav` is not `--uavs`).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import re
 import sys
 from collections.abc import Sequence
@@ -24,14 +27,16 @@ from bridge.commands import register as register_bridge_commands
 from bridge.atomic import probe_writable
 from .flight.fleet_demo import register as register_demo_command
 from .flight.fly import register as register_fly_command
+from .flight.survey_status import register as register_status_command
 from .grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 from .maps.catalog import load_shipped, shipped_map_names
-from .maps.gridmap import MapError
+from .maps.gridmap import GridMap, MapError
 from .mission.missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
 from .mission.safety import DEFAULT_CLEARANCE_M
 from .mission.separation import DEFAULT_MAX_ALTITUDE_M
 from .mission.sorties import DEFAULT_ENDURANCE_MIN, DEFAULT_RESERVE
 from .pipeline import DEFAULT_POLICY, POLICIES, launch_cells, make_policy
+from .replan import register as register_replan_command
 
 EXIT_USAGE = 2
 EXIT_FAILED = 1
@@ -159,9 +164,18 @@ def _build_parser() -> argparse.ArgumentParser:
     train.add_argument("--workers", type=int, default=2, help="processes playing the expert demonstrations")
     train.add_argument("--quiet", action="store_true", help="no progress bars")
     register_bridge_commands(sub)  # upload, download, mock (bridge/commands.py)
-    register_fly_command(sub)  # fly (missionplan/flight/fly.py)
+    register_fly_command(sub, retask_planner=_plan_retask)  # fly (missionplan/flight/fly.py)
+    register_status_command(sub)  # status (missionplan/flight/survey_status.py)
+    register_replan_command(sub)  # replan (missionplan/replan.py)
     register_demo_command(sub, _cmd_plan, parser)  # demo = plan + mock fleet + fly (missionplan/flight/fleet_demo.py)
     return parser
+
+
+def _plan_retask(*args: Any, **kwargs: Any) -> Any:
+    """fly --replan's planner (missionplan/retask.py), imported when a re-task is planned."""
+    from .retask import plan_retask
+
+    return plan_retask(*args, **kwargs)
 
 
 def _cmd_maps() -> int:
@@ -192,13 +206,7 @@ def _cell_mask(shape: tuple[int, int], cells: list[list[int]]) -> Any:
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
-    from .mission.plot import draw_plan  # matplotlib only when a picture is drawn
-    from .mission.report import build_report, write_report
-
-    from .fieldplan import plan_field
-    from .mission.coverage_check import coverage_report
     from .mission.georef import UnknownHeights, load_area_checked, mission_settings, shipped_frame
-    from .mission.outputs import remove_stale_outputs
     from .mission.safety import safety_settings
 
     # Everything that can be wrong with the input fails here, before any folder is made.
@@ -216,6 +224,22 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     starts = launch_cells(gmap, args.uavs)
     settings = mission_settings(gmap, args) if frame is not None else None
     safety = safety_settings(gmap, args, settings.altitude_m) if settings is not None else None
+    return write_plan(args, gmap, frame, settings, safety, starts, unknown)
+
+
+def write_plan(args: argparse.Namespace, gmap: GridMap, frame: Any, settings: Any, safety: Any, starts: list[Any],
+               unknown: Any, ids: list[int] | None = None, survey: dict[str, Any] | None = None) -> int:
+    """Plan gmap from its launch cells and write the plan folder args.out; prints the summary.
+
+    `plan` and `replan` share it. ids: the system id of each drone, in launch order (default 1, 2, ...);
+    survey: report.json's `survey` (a re-plan's pointer to the survey it continues)."""
+    from .mission.plot import draw_plan  # matplotlib only when a picture is drawn
+    from .mission.report import build_report, write_report
+
+    from .fieldplan import plan_field
+    from .mission.coverage_check import coverage_report
+    from .mission.outputs import remove_stale_outputs
+
     if safety is not None:  # a launch point inside the clearance band fails here, before any folder
         from .mission.clearance import flight_map
 
@@ -234,8 +258,17 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     field = plan_field(gmap, args.uavs, frame, settings, safety, balance_zones=not args.no_balance, policy=policy,
                        zone_method=args.zones, seed=args.seed, progress=show_progress)
     result, plans = field.result, field.plans
+    if plans is not None and ids is not None:
+        plans.relabel(ids)
     report = build_report(result, args.seed)
     field.fill_report(report, gmap, frame)
+    if settings is not None and safety is not None:  # what `replan` plans the rest of the survey with
+        report["settings"] = {"mission": dataclasses.asdict(settings), "safety": dataclasses.asdict(safety),
+                              "policy": args.policy, "zones": args.zones, "balance_zones": not args.no_balance}
+    if ids is not None:
+        report["drone_ids"] = list(ids)
+    if survey is not None:
+        report["survey"] = survey
     written, sortie_starts = [], None
     if plans is not None and frame is not None and settings is not None:
         from .mission.flightplan import write_flight_files

@@ -63,6 +63,12 @@ MEASURED: tuple[tuple[str, re.Pattern[str], tuple[float, float] | None], ...] = 
     ("flown photos", re.compile(r" s\), (\d+) photos, "), (0.03, 3.0)),
     ("flown closest approach", re.compile(r"^closest approach (\d+\.\d+) m horizontal / (\d+\.\d+) m 3-D;"), None),
     ("judge's tolerance", re.compile(r"\(tolerance (\d+\.\d+) m\)"), None),
+    # a survey's figures after a mock flight (status, replan, fly's survey line): the flown photos' spread
+    ("survey photos", re.compile(r"flights? recorded, (\d+) photos$"), (0.03, 3.0)),
+    ("survey cells", re.compile(r"^covered (\d+) of \d+ target cells: (\d+\.\d+) %, (\d+\.\d+) of"), (0.01, 0.5)),
+    ("survey cells left", re.compile(r"recorded, (\d+) of \d+ target cells covered, (\d+) left$"), (0.03, 5.0)),
+    ("survey coverage", re.compile(r"^survey \S+: (\d+\.\d+) % of \d+ target cells over"), (0.0, 0.5)),
+    ("survey left", re.compile(r" flights, (\d+) left \("), (0.0, 10.0)),
 )
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?")
 IPV4 = re.compile(r"\b(\d{1,3}\.\d{1,3}\.\d{1,3}\.\d{1,3})\b")

@@ -126,3 +126,28 @@ def test_a_killed_process_loses_at_most_the_last_commit_interval(tmp_path: Path)
     # What was handed over up to COMMIT_S (plus the writer's scheduling) before the kill is on disk.
     assert killed_at - samples[-1][0] <= COMMIT_S + 0.25, (killed_at, samples[-1][0])
     assert [s[0] for s in samples] == sorted(s[0] for s in samples)
+
+
+def test_a_journal_from_before_the_amsl_column_is_read_and_extended(tmp_path: Path) -> None:
+    """A plan folder flown by an older missionplan: its photos table lacks `amsl`; the journal adds the
+    column, the old photos read back without it, new ones keep it."""
+    import sqlite3
+
+    db = sqlite3.connect(tmp_path / "journal.sqlite")
+    db.executescript("""
+        CREATE TABLE flights (flight INTEGER PRIMARY KEY, sortie INTEGER NOT NULL, started REAL NOT NULL, judged REAL);
+        CREATE TABLE photos (flight INTEGER NOT NULL, drone INTEGER NOT NULL, idx INTEGER NOT NULL, t REAL,
+                             lat REAL, lon REAL, up REAL, source TEXT NOT NULL, roll REAL, pitch REAL, yaw REAL);
+        INSERT INTO flights VALUES (1, 1, 0.0, NULL);
+        INSERT INTO photos VALUES (1, 1, 1, 10.0, 45.0, 9.0, 20.0, 'camera', NULL, NULL, NULL);
+    """)
+    db.commit()
+    db.close()
+    _, _, (old,) = read_flight(tmp_path)
+    assert old.camera == {1: (10.0, 45.0, 9.0, 20.0)} and old.amsl == {}
+    journal = Journal.start_flight(tmp_path, 1, "test")
+    rec = DroneRecord(id=1, sink=journal.sink(1))
+    rec.add_photo(1, 11.0, 45.1, 9.1, 20.0, attitude=(1.0, 2.0, 3.0), amsl=140.5)
+    journal.close()
+    _, _, (new,) = read_flight(tmp_path)
+    assert new.amsl == {1: 140.5} and new.attitude == {1: (1.0, 2.0, 3.0)}

@@ -103,4 +103,11 @@ def print_flight(result: FlightResult) -> None:
               + (f"; {slow}" if (slow := slow_phase(d.get("phases") or [])) else ""))
     for problem in result.problems:
         print(f"  problem: {problem}")
-    print(f"wrote {result.json_path}, {result.png_path} and {result.missed_path}")
+    survey = result.survey
+    if survey is not None and survey["flights"] > 1:
+        print(f"survey {survey['root']}: {survey['coverage']:.2f} % of {survey['targets']} target cells over "
+              f"{survey['flights']} flights, {survey['missing_cells']} left (`missionplan status {survey['root']}`)")
+    if survey is None:
+        print(f"wrote {result.json_path}, {result.png_path} and {result.missed_path}")
+    else:
+        print(f"wrote {result.json_path}, {result.png_path}, {result.missed_path}, photos.csv, photos.geojson and geo.txt")

@@ -32,8 +32,10 @@ autopilot keeps one (bridge.onboard_log), and the mission is read back once more
 
 from __future__ import annotations
 
+import queue
 import threading
 import time
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -44,12 +46,14 @@ from bridge.copter_model import PARAMETERS as COPTER_PARAMETERS
 from bridge.errors import BridgeError
 from bridge.mission import Flavour, to_wire
 from bridge.missionfile import check_firmware, read_mission_file
-from bridge.onboard_log import recover_photos
+from bridge.onboard_log import euler_degrees, recover_photos
 from bridge.params import ParamClient, read_params
+from bridge.px4 import NAV_LAST
 from bridge.protocol import Timeouts
 from bridge.px4_model import FLOAT_PARAMETERS as PX4_PARAMETERS
-from bridge.readiness import (DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_MISSION_SUB, Vehicle, request_streams,
-                              site_problem, stream_rates)
+from bridge.retask import replace_mission_in_flight
+from bridge.readiness import (ARDUPILOT_AUTO, DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_LOITER_SUB,
+                              PX4_MISSION_SUB, Vehicle, request_streams, site_problem, stream_rates)
 from bridge.shared_link import LinkPool
 from bridge.signing import SigningKey
 from bridge.uploader import MissionBackend, open_backend, read_back_differences, set_plan_params, upload_plan
@@ -73,6 +77,8 @@ DEFAULT_READY_S = 120.0  # a real vehicle's GPS and EKF may take a minute or two
 LINK_LOST_S = 5.0      # a vehicle silent this long has lost its link (said at once; followed on)
 LINK_WAIT_FACTOR, LINK_MARGIN_S = 1.5, 60.0  # a silent vehicle is waited for until its mission would be long over
 LOG_READ_S = 120.0  # at most this long to read a vehicle's log after landing
+RETASK_UPLOAD_S = 30.0  # at most this long to put a re-task's mission on a flying vehicle
+HOLD_S, HOLD_SPEED = 10.0, 0.5  # a vehicle held for a re-task stops (m/s) within this long (wall s)
 HEARTBEAT_WAIT_S = 3.0  # for the first HEARTBEAT that says whether a vehicle is armed (sent at 1 Hz)
 # Modes a mission flies in (ArduPilot AUTO; PX4 AUTO.MISSION, and AUTO.TAKEOFF), and the modes of its
 # final return (PX4 switches to AUTO.RTL / AUTO.LAND for a mission's final RTL / LAND item; ArduPilot
@@ -142,6 +148,16 @@ class ArmGate:
 
 
 @dataclass
+class RetaskRequest:
+    """fly --replan's new mission for one vehicle in flight (missionplan.retask.RetaskPlan's share)."""
+
+    mission: Any  # bridge.mission.Mission
+    fence: Any  # bridge.mission.Mission (inclusion fence) or None
+    resume_index: int  # index in mission.items to continue at
+    photos: int  # photos the new mission plans
+
+
+@dataclass
 class FleetStart:
     """What the drones' threads share: the links, both gates, the stop flag, how to say things."""
 
@@ -193,6 +209,10 @@ class DroneFlight:
         self.gaps = 0
         self.mission_heard_at = 0.0  # our monotonic clock: the latest MISSION_CURRENT
         self.back_at = 0.0  # our monotonic clock: the end of the latest silence
+        # fly --replan: what the main thread asks this one to do with the vehicle (hold, re-task, release),
+        # run here because this thread owns the link's receive loop; each answers through its Future.
+        self.requests: queue.SimpleQueue[tuple[Callable[[], Any], Future[Any]]] = queue.SimpleQueue()
+        self.given_away = False  # fly --replan gave this drone's share to others: heard again, it goes home
 
     @property
     def sysid(self) -> int:
@@ -515,6 +535,8 @@ class DroneFlight:
                 lost_since = None
                 self.gaps += 1
                 self.back_at = time.monotonic()
+                if self.given_away and self.armed:
+                    self._send_home()
             self.heard_at = time.monotonic()
             if link.reboots.get(self.sysid, 0) > reboots:
                 self.problem(f"rebooted in flight at item {rec.current} of {last_seq} (mission lost)")
@@ -524,6 +546,103 @@ class DroneFlight:
             if self._disarmed_on_ground():
                 self._end(last_seq)
                 return
+            if not self.requests.empty():
+                self._run_requests()
+                last_seq = len(rec.wire) - 1
+
+    # ------------------------------------------------------------------ fly --replan
+    def ask(self, action: Callable[[], Any]) -> Future[Any]:
+        """Have this drone's thread run `action` between two of its vehicle's messages; its outcome."""
+        done: Future[Any] = Future()
+        self.requests.put((action, done))
+        return done
+
+    def _run_requests(self) -> None:
+        while not self.requests.empty():
+            action, done = self.requests.get_nowait()
+            try:
+                done.set_result(action())
+            except Exception as err:  # noqa: BLE001 - said to the asker; the vehicle is still followed
+                done.set_exception(err)
+            self.heard_at = time.monotonic()  # heard meanwhile (the action's reads go to vehicle.take)
+
+    def hold(self) -> tuple[float, float, float]:
+        """Stop where it is (ArduPilot GUIDED, PX4 AUTO.LOITER: the autopilot brakes and hovers) until a
+        re-task or a release; returns where it hovers (lat, lon, m up) once its speed is under HOLD_SPEED.
+        Raises BridgeError when the vehicle refuses or does not stop in time."""
+        assert self.backend is not None and self.vehicle is not None
+        flavour = self.backend.vehicle.flavour
+        mode, params = (("GUIDED", [1.0, float(ARDUPILOT_GUIDED)]) if flavour is Flavour.ARDUPILOT else
+                        ("HOLD", [1.0, float(PX4_AUTO_MAIN), float(PX4_LOITER_SUB)]))
+        self.commanded.add(mode)
+        deadline = min(self.deadline, time.monotonic() + HOLD_S)
+        result = self.backend.link.command_long(self.sysid, CMD_DO_SET_MODE, params, deadline, other=self.vehicle.take)
+        if result != 0:
+            raise BridgeError(refused(f"{mode} (to hold it for the re-task)", result))
+        rec = self.record
+        while time.monotonic() < deadline:
+            if rec.samples and rec.samples[-1][4] < HOLD_SPEED and self.vehicle.state.mode_name() == mode:
+                t, lat, lon, up = rec.samples[-1][:4]
+                rec.add_event(time.time(), f"held for a re-task ({mode})")
+                return float(lat), float(lon), float(up)
+            msg = self.backend.link.recv(deadline)
+            if msg is not None and msg.get_srcSystem() == self.sysid:
+                self.vehicle.take(msg)
+        raise BridgeError(f"did not stop in {HOLD_S:g} s after {mode}")
+
+    def release(self) -> None:
+        """Back to its mission mode: its new mission from the item set current (after a re-task), or its
+        old one where it was (a re-task refused after the hold)."""
+        assert self.backend is not None and self.vehicle is not None
+        flavour = self.backend.vehicle.flavour
+        params = ([1.0, float(ARDUPILOT_AUTO)] if flavour is Flavour.ARDUPILOT else
+                  [1.0, float(PX4_AUTO_MAIN), float(PX4_MISSION_SUB)])
+        result = self.backend.link.command_long(self.sysid, CMD_DO_SET_MODE, params,
+                                                min(self.deadline, time.monotonic() + HOLD_S),
+                                                other=self.vehicle.take)
+        if result != 0:
+            raise BridgeError(refused("its mission mode (released after a refused re-task)", result))
+
+    def retask(self, request: RetaskRequest) -> str:
+        """Put a re-task's mission and fence on the held vehicle, current at its first item after the
+        take-off, and leave it holding (bridge.retask: the way each autopilot takes it, confirmed by the
+        vehicle; what it says meanwhile is recorded): release() then starts it, with the others. The record's mission becomes the new one, so its end and its photos are
+        judged against it. Returns what to say; raises BridgeError when it is not confirmed."""
+        assert self.backend is not None and self.vehicle is not None
+        rec = self.record
+        flavour = self.backend.vehicle.flavour
+        wire = to_wire(request.mission, flavour)
+        resume = request.resume_index + (len(wire) - len(request.mission.items))  # ArduPilot's home is seq 0
+        fence = to_wire(request.fence, flavour) if request.fence is not None and request.fence.items else None
+        try:
+            report = replace_mission_in_flight(self.backend, self.backend.link, self.sysid, flavour, wire, resume,
+                                               min(self.deadline, time.monotonic() + RETASK_UPLOAD_S), fence=fence,
+                                               observe=self.vehicle.take, held=True, resume=False)
+        except (BridgeError, ValueError) as err:
+            self.problem(f"re-task failed: the new mission is not on board ({err})")
+            raise BridgeError(f"the new mission is not on board ({err})") from None
+        rec.set(wire=wire, planned_photos=request.photos)  # what the vehicle holds now
+        self.last_reached = -1
+        if not report.confirmed:
+            self.problem(f"re-task failed: the new mission is on board but not confirmed: {report.problem}")
+            raise BridgeError(f"the new mission is on board but not confirmed: {report.problem}")
+        rec.set(current=report.continued_at or resume, mission_state=MISSION_STATE_ACTIVE)
+        rec.add_note(f"re-tasked in flight: {len(wire)} items, continued at item {report.continued_at} "
+                     f"({report.strategy}, upload {report.upload_s:.2f} s)")
+        if self.bar is not None:
+            self.bar.reset(total=max(len(wire) - 1, 1))
+        return (f"re-tasked: new mission of {len(wire)} items on board, continuing at item {report.continued_at} "
+                f"(upload {report.upload_s:.2f} s)")
+
+    def _send_home(self) -> None:
+        """A drone whose share fly --replan gave to others is heard again: it would fly their streets, so
+        it returns to launch (what --replan asks for), once."""
+        assert self.backend is not None
+        self.given_away = False
+        result = self.backend.link.command_long(self.sysid, CMD_NAV_RETURN_TO_LAUNCH, [],
+                                                min(self.deadline, time.monotonic() + 5.0), other=self.vehicle.take)
+        self.alert("heard again after its share was re-tasked to the others: sent home (RTL)" if result == 0 else
+                   f"heard again after its share was re-tasked: {refused('RTL', result)}; bring it home by hand")
 
     def _disarmed_on_ground(self) -> bool:
         on_ground = self.vehicle.state.on_ground  # PX4's landed state: its altitude drifts on the ground
@@ -560,8 +679,12 @@ class DroneFlight:
         """At the mission's last item, an RTL or a LAND: PX4 reports no MISSION_ITEM_REACHED for it
         (nor a mission_state), it lands and disarms there."""
         rec = self.record
-        return (rec.current >= last_seq and 0 <= last_seq < len(rec.wire)
-                and int(rec.wire[last_seq].command) in (CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_LAND))
+        if not (0 <= last_seq < len(rec.wire)
+                and int(rec.wire[last_seq].command) in (CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_LAND)):
+            return False
+        # At it, or only DO_ items left before it (PX4 may switch to RTL while it still reports the
+        # DO_SET_CAM_TRIGG_DIST after the last waypoint as its current item).
+        return all(int(item.command) > NAV_LAST for item in rec.wire[max(rec.current, 0) + 1:last_seq])
 
     def _give_up_at(self) -> float:
         """Our monotonic time after which a silent vehicle's mission is surely over: its planned time
@@ -619,7 +742,8 @@ class DroneFlight:
             rec.add_reached(t, int(msg.seq))
             self.last_reached = max(self.last_reached, int(msg.seq))
         elif kind == "CAMERA_FEEDBACK":
-            rec.add_photo(int(msg.img_idx), t, msg.lat / 1e7, msg.lng / 1e7, float(msg.alt_rel))
+            rec.add_photo(int(msg.img_idx), t, msg.lat / 1e7, msg.lng / 1e7, float(msg.alt_rel),
+                          attitude=(float(msg.roll), float(msg.pitch), float(msg.yaw)), amsl=float(msg.alt_msl))
             rec.set(captures=max(rec.captures, int(msg.completed_captures), int(msg.img_idx) + 1))
         elif kind == "CAMERA_IMAGE_CAPTURED":
             # PX4's photo report (its camera_feedback module, one per trigger, image_index from 0 after
@@ -629,7 +753,8 @@ class DroneFlight:
             index = int(msg.image_index)
             if msg.get_srcComponent() == self.camera_component and index >= 0:
                 if int(msg.capture_result) == CAPTURE_OK:
-                    rec.add_photo(index, t, msg.lat / 1e7, msg.lon / 1e7, self.rel_alt)
+                    rec.add_photo(index, t, msg.lat / 1e7, msg.lon / 1e7, self.rel_alt, amsl=msg.alt / 1000.0,
+                                  attitude=euler_degrees(list(msg.q)))
                 rec.set(captures=max(rec.captures, index + 1))
 
     def _note_changes(self, t: float) -> None:
@@ -715,7 +840,8 @@ class DroneFlight:
             t = float(np.interp(photo.time_boot_s, samples[:, 5], samples[:, 0])) if len(samples) else time.time()
             up = photo.alt_rel if photo.alt_rel is not None else self.rel_alt
             attitude = None if photo.roll is None else (photo.roll, photo.pitch, photo.yaw)
-            got += rec.add_photo(photo.img_idx, t, photo.lat, photo.lon, up, source="log", attitude=attitude)
+            got += rec.add_photo(photo.img_idx, t, photo.lat, photo.lon, up, source="log", attitude=attitude,
+                                 amsl=photo.alt_amsl)
         rec.add_note(f"{len(missing) if missing else 'some'} {lost}; {got} read back from the vehicle's log")
         unconfirmed = len(missing - set(rec.camera))
         if unconfirmed:

@@ -76,6 +76,7 @@ class FlightResult:
     png_path: Path
     missed_path: Path = Path("missed.geojson")
     coverage_with_unconfirmed: float = 0.0  # counting the photos placed on the track as well
+    survey: dict[str, Any] | None = None  # the survey's coverage from the ledger, all flights (survey_summary)
 
     @property
     def ok(self) -> bool:
@@ -376,11 +377,29 @@ def sortie_view(report: dict[str, Any], sortie: int, missions: dict[int, dict[in
 
 
 # ------------------------------------------------------------------------------------------- judging
+def ledger_photos(frame: GridFrame, rec: DroneRecord, points_m: np.ndarray, source: str) -> list[dict[str, Any]]:
+    """A vehicle's confirmed photos as the survey ledger keeps them (ledger.Ledger.record_flight)."""
+    if source == "camera":
+        return [{"vehicle": rec.id, "img_idx": idx, "time": t, "lat": lat, "lon": lon, "alt_rel": up,
+                 "alt_amsl": rec.amsl.get(idx), "source": rec.photo_source.get(idx, "camera"),
+                 **dict(zip(("roll", "pitch", "yaw"), rec.attitude.get(idx, (None, None, None))))}
+                for idx, (t, lat, lon, up) in sorted(rec.camera.items())]
+    if source == "track" and len(points_m):
+        lat, lon = frame.grid_to_latlon(points_m[:, 0] / frame.cell_m, points_m[:, 1] / frame.cell_m)
+        return [{"vehicle": rec.id, "img_idx": i, "lat": float(a), "lon": float(b), "source": "track"}
+                for i, (a, b) in enumerate(zip(np.atleast_1d(lat), np.atleast_1d(lon)))]
+    return []
+
+
 def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], time_scale: float | None,
-          wall_s: float, telemetry_hz: float, photos_from_track: bool = False) -> FlightResult:
+          wall_s: float, telemetry_hz: float, photos_from_track: bool = False, flight: int | None = None,
+          sortie: int = 1, retasks: list[dict[str, Any]] | None = None) -> FlightResult:
     """Everything flight.json says, from the recordings; writes flight.json, flight.png and
     missed.geojson (the targets no confirmed photo covered, as polygons on the Earth).
 
+    flight: the journal's number of this flight; given, its photos go into the survey ledger
+    (ledger.py), the coverage is the ledger's for this flight, flight.json says the survey's too, and
+    photos.csv, photos.geojson and geo.txt are written (geotag.py).
     photos_from_track: a vehicle that reported no photo (no CAMERA_FEEDBACK) gets one every trigger
     distance along its flown survey; without it, that vehicle's flight is a problem."""
     frame = frame_of(report)
@@ -389,12 +408,13 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     scale = time_scale if time_scale else estimate_time_scale(records)
     planned = {int(d["id"]): d for d in report["drones"]}
     targets = target_cells(report)
-    photos, unconfirmed, tracks_m, timed, rows, sources = [], [], {}, {}, [], set()
+    photos, unconfirmed, tracks_m, timed, rows, sources, kept = [], [], {}, {}, [], set(), []
     liftoff: dict[int, float] = {}  # when each vehicle left the ground, on our clock
     liftoff_above = liftoff_height(records)
     for rec in records:
         points, placed, source = photo_positions(frame, rec, trigger, from_track=photos_from_track)
         photos.append(points)
+        kept += ledger_photos(frame, rec, points, source)
         unconfirmed.append(placed)
         if source != "none":
             sources.add(source)
@@ -431,6 +451,16 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     slack = frame.cell_m * SLACK_CELLS
     gap = nearest_photo_gap(frame, targets, all_photos)  # once; each rule is a threshold on it
     covered = covered_by_gap(frame, gap, footprint, slack)
+    survey = None
+    if flight is not None:  # the ledger's figure: the same rule, kept for the survey as a whole
+        from .geotag import write_geotags
+        from .ledger import Ledger
+
+        with Ledger.of(plan_dir) as ledger:
+            ledger.record_flight(plan_dir, flight, sortie, kept)
+            covered = ledger.covered_mask(plan_dir, flight)[targets[:, 0], targets[:, 1]]
+            survey = survey_summary(ledger)
+            write_geotags(plan_dir, ledger.photos(plan_dir))
     percent = 100.0 * float(covered.mean()) if len(targets) else 100.0
     with_placed = np.vstack([all_photos, *unconfirmed]) if unconfirmed else all_photos
     covered_with_placed = covered_by_gap(frame, nearest_photo_gap(frame, targets, with_placed), footprint, slack)
@@ -459,6 +489,10 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
                             f"short of at most {SLACK_CELLS:g} cell ({slack:.3f} m) on a side; photos placed on "
                             f"the track (their reports lost) are counted apart, in coverage_with_unconfirmed",
            "coverage_other_rules": other_rules}
+    if survey is not None:
+        doc["survey"] = survey
+    if retasks:
+        doc["retasks"] = retasks
     json_path, png_path, missed_path = plan_dir / "flight.json", plan_dir / "flight.png", plan_dir / "missed.geojson"
     write_text_atomic(json_path, json.dumps(doc, indent=1) + "\n")
     missed_doc = {"type": "FeatureCollection", "features": [cells_feature(frame, missed, {
@@ -469,7 +503,17 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     return FlightResult(coverage=round(percent, 2), targets=int(len(targets)), separation=separation, drones=rows,
                         problems=problems, photo_source=photo_source, wall_s=round(wall_s, 2),
                         json_path=json_path, png_path=png_path, missed_path=missed_path,
-                        coverage_with_unconfirmed=round(percent_with_placed, 2))
+                        coverage_with_unconfirmed=round(percent_with_placed, 2), survey=survey)
+
+
+def survey_summary(ledger: Any) -> dict[str, Any]:
+    """flight.json's `survey`: the whole survey's coverage from the ledger (every flight of every folder)."""
+    targets = ledger.survey.targets
+    missing = ledger.missing_cells()
+    done = len(targets) - len(missing)
+    return {"root": str(ledger.survey.root), "flights": len(ledger.flights()), "targets": int(len(targets)),
+            "covered": int(done), "coverage": round(100.0 * done / len(targets), 2) if len(targets) else 100.0,
+            "missing_cells": int(len(missing))}
 
 
 def _last_position(rec: DroneRecord) -> dict[str, Any] | None:

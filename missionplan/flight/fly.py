@@ -25,7 +25,7 @@ import sys
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -44,6 +44,7 @@ from .display import print_flight, progress_display
 from .drone_flight import DEFAULT_READY_S, ArmGate, DroneFlight, FleetStart, StartGate
 from .flight_report import FlightResult, judge, live_tolerance, sortie_view
 from .journal import Journal, JournalError
+from .live_replan import DEFAULT_REPLAN_AFTER_S, Retasker
 from .record import DroneRecord
 
 DEFAULT_TELEMETRY_HZ = 25.0
@@ -125,7 +126,8 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
         max_launch_offset_m: float = DEFAULT_LAUNCH_OFFSET_M, photos_from_track: bool = False,
         key: SigningKey | None = None, source_system: int = GCS_SYSTEM_ID,
         source_component: int = GCS_COMPONENT_ID, resume: bool = False, on_abort: str = "none",
-        command: str = "") -> FlightResult:
+        command: str = "", replan: Callable[..., Any] | None = None,
+        replan_after_s: float = DEFAULT_REPLAN_AFTER_S) -> FlightResult:
     """Fly every drone of plan_dir at once (or, resume=True, follow again the flight a stopped run
     left), journal it as it happens, and judge it from the journal: flight.json, flight.png,
     missed.geojson.
@@ -142,7 +144,10 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     upload_with="mavsdk": MAVSDK's QGroundControl importer reads each .plan and MAVSDK uploads it;
     the read-back must then equal what our own reader makes of the same file.
     on_abort: what Ctrl-C commands the vehicles this run started ("none": nothing; a second Ctrl-C
-    within ABORT_WINDOW_S then commands RTL). command: the command line, kept in the journal."""
+    within ABORT_WINDOW_S then commands RTL). command: the command line, kept in the journal.
+    replan: `fly --replan`, the planner of live re-tasks (missionplan.retask.plan_retask): a drone gone
+    (ended early, or silent for replan_after_s mid-mission) has what is left re-planned among the drones
+    still flying, uploaded to them in flight (live_replan.Retasker)."""
     if upload_with not in UPLOADERS:
         raise BridgeUsageError(f"--upload-with {upload_with}: choose {' or '.join(UPLOADERS)}")
     if on_abort not in ON_ABORT:
@@ -164,7 +169,7 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     try:
         return _fly_journaled(plan_dir, report, pool, journal, timeout_s, progress, time_scale, telemetry_hz,
                               upload_with, ready_s, max_launch_offset_m, photos_from_track, key, resume, on_abort,
-                              source_system)
+                              source_system, replan=replan, replan_after_s=replan_after_s)
     finally:
         journal.close()
 
@@ -172,7 +177,8 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
 def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journal: Journal, timeout_s: float,
                    progress: bool, time_scale: float | None, telemetry_hz: float, upload_with: str, ready_s: float,
                    max_launch_offset_m: float, photos_from_track: bool, key: SigningKey | None, resume: bool,
-                   on_abort: str, source_system: int) -> FlightResult:
+                   on_abort: str, source_system: int, replan: Callable[..., Any] | None = None,
+                   replan_after_s: float = DEFAULT_REPLAN_AFTER_S) -> FlightResult:
     sortie = journal.sortie
     files = {int(d["id"]): plan_dir / sortie_file(int(d["id"]), sortie) for d in report["drones"]}
     report = flight_view(plan_dir, report, sortie)
@@ -191,7 +197,7 @@ def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journ
             rec.add_problem(f"uav{rec.id}: {files[rec.id]} is missing")
     runnable = [rec for rec in records if files[rec.id].exists()]
     bars, say, alert = progress_display({rec.id: f"uav{rec.id}" for rec in runnable}, progress)
-    interrupted, flights = False, []
+    interrupted, flights, retasker = False, [], None
     try:
         pool.open_all()
         pool.register(rec.id for rec in runnable)
@@ -206,10 +212,19 @@ def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journ
             thread.start()
         watch = SeparationWatch(runnable, (report.get("separation") or {}).get("3d"),
                                 live_tolerance(runnable, time_scale or 1.0, telemetry_hz), alert)
+        retasker = None if replan is None or resume else Retasker(plan_dir, report, flights, replan, alert,
+                                                                   replan_after_s, time_scale)
         try:
             while any(t.is_alive() for t in threads) and time.monotonic() < deadline + 5.0:
                 _wait_any(threads, WATCH_S)
                 watch.look()
+                if retasker is not None:
+                    retasker.look()
+                    # After a re-task the promise is the new tracks' (retasked_promise); the lost drone's
+                    # last position is no neighbour any more.
+                    promise = (retasked_promise(report, retasker.retasks).get("separation") or {}).get("3d")
+                    watch.promised = promise
+                    watch.records = [r for r in runnable if r.id not in retasker.handled]
         except KeyboardInterrupt:
             interrupted = True
             _stopped(fleet, flights, threads, on_abort, alert)
@@ -228,10 +243,24 @@ def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journ
                                           f"on with its mission: `missionplan fly --resume {plan_dir}` follows it")
     # flight.json is a view of the journal: the records read back from it, both runs' if resumed.
     judged = journal.records(ids)
+    if retasker is not None:
+        report = retasked_promise(report, retasker.retasks)
     result = judge(plan_dir, report, judged, time_scale, wall_s=time.monotonic() - start, telemetry_hz=telemetry_hz,
-                   photos_from_track=photos_from_track)
+                   photos_from_track=photos_from_track, flight=journal.flight, sortie=sortie,
+                   retasks=retasker.retasks if retasker is not None else None)
     journal.mark_judged()
     return result
+
+
+def retasked_promise(report: dict[str, Any], retasks: list[dict[str, Any]]) -> dict[str, Any]:
+    """report.json as the judge sees it after live re-tasks: the separation promised is the smaller of the
+    plan's and each re-task's (its new tracks' closest approach, checked against the minimum separation
+    before upload); the flight is held to what was promised for each part of it."""
+    promised = [r["separation_m"] for r in retasks if r.get("separation_m") is not None]
+    planned = (report.get("separation") or {}).get("3d")
+    if not promised or planned is None:
+        return report
+    return {**report, "separation": {**report["separation"], "3d": min([float(planned)] + promised)}}
 
 
 def _wait_any(threads: list[threading.Thread], seconds: float) -> None:
@@ -275,6 +304,10 @@ def cmd_fly(args: Any) -> int:
         raise BridgeUsageError(f"--telemetry-hz must be positive, got {args.telemetry_hz}")
     if not (Path(args.dir) / "report.json").is_file():
         raise BridgeUsageError(f"{args.dir}: no report.json (run `missionplan plan --out {args.dir}` first)")
+    if args.replan and args.retask_planner is None:
+        raise BridgeUsageError("--replan: this build of fly has no re-task planner")
+    if not args.replan_after > 0:
+        raise BridgeUsageError(f"--replan-after must be a positive number of seconds, got {args.replan_after}")
     if args.ready_timeout <= 0:
         raise BridgeUsageError(f"--ready-timeout must be positive, got {args.ready_timeout}")
     if not args.max_launch_offset >= 0:
@@ -292,7 +325,8 @@ def cmd_fly(args: Any) -> int:
                      sortie=args.sortie, ready_s=args.ready_timeout, max_launch_offset_m=args.max_launch_offset,
                      photos_from_track=args.photos_from_track, key=signing_key(args), source_system=gcs[0],
                      source_component=gcs[1], resume=args.resume, on_abort=args.on_abort,
-                     command=" ".join(shlex.quote(a) for a in sys.argv))
+                     command=" ".join(shlex.quote(a) for a in sys.argv),
+                     replan=args.retask_planner if args.replan else None, replan_after_s=args.replan_after)
     except BridgeUsageError:
         raise
     except BridgeError as err:  # a link that cannot be opened: one line, exit 1
@@ -305,7 +339,7 @@ def cmd_fly(args: Any) -> int:
     return 0 if result.ok else 1
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Any, retask_planner: Callable[..., Any] | None = None) -> None:
     """Add `fly DIR [--resume] [--connect URL ...] [--ready-timeout S] [--max-launch-offset M] [--timeout S]
     [--telemetry-hz HZ] [--time-scale X] [--upload-with W] [--sortie J] [--photos-from-track]
     [--on-abort A] [--signing-key FILE] [--gcs-sysid N] [--gcs-compid N] [--quiet]`."""
@@ -339,9 +373,16 @@ def register(subparsers: Any) -> None:
     p.add_argument("--photos-from-track", action="store_true",
                    help="a vehicle that reports no photos (no CAMERA_FEEDBACK: no camera configured) gets one every "
                         "trigger distance along its flown track; without this flag such a flight fails")
+    p.add_argument("--replan", action="store_true",
+                   help="live re-tasking: when a drone is lost or ends early, plan what is left for the drones still "
+                        "flying, from where they are (endurance, separation and fences checked), and upload it to "
+                        "them in flight; a lost drone heard again is sent home (RTL)")
+    p.add_argument("--replan-after", type=float, default=DEFAULT_REPLAN_AFTER_S, metavar="S",
+                   help=f"with --replan: a drone not heard for S seconds mid-mission counts as lost "
+                        f"(default {DEFAULT_REPLAN_AFTER_S:g})")
     p.add_argument("--on-abort", choices=ON_ABORT, default="none",
                    help="what Ctrl-C commands the vehicles this run started: nothing (default: they fly on with their "
                         f"missions; a second Ctrl-C within {ABORT_WINDOW_S:g} s sends them home), rtl or land")
     add_gcs_arguments(p)
     p.add_argument("--quiet", action="store_true", help="no progress bars or progress lines (alerts are still said)")
-    p.set_defaults(handler=cmd_fly)
+    p.set_defaults(handler=cmd_fly, retask_planner=retask_planner)

@@ -12,7 +12,7 @@ a *run* is one process. Tables:
   runs(run, flight, started, ended, how, command)   how: "fly" or "resume"; ended NULL: it was killed
   entries(flight, drone, kind, row)          every change of a DroneRecord, in order; row as JSON
   samples(flight, drone, t, lat, lon, up, speed, boot_s, climb)   the positions, the bulk, in columns
-  photos(flight, drone, idx, t, lat, lon, up, source, roll, pitch, yaw)
+  photos(flight, drone, idx, t, lat, lon, up, source, roll, pitch, yaw, amsl)
 Entries are replayed through DroneRecord.replay, so the record read back is the record that was kept.
 """
 
@@ -44,7 +44,7 @@ CREATE TABLE IF NOT EXISTS samples (flight INTEGER NOT NULL, drone INTEGER NOT N
                                     up REAL, speed REAL, boot_s REAL, climb REAL);
 CREATE TABLE IF NOT EXISTS photos (flight INTEGER NOT NULL, drone INTEGER NOT NULL, idx INTEGER NOT NULL, t REAL,
                                    lat REAL, lon REAL, up REAL, source TEXT NOT NULL, roll REAL, pitch REAL,
-                                   yaw REAL);
+                                   yaw REAL, amsl REAL);
 CREATE INDEX IF NOT EXISTS entries_by_drone ON entries (flight, drone);
 CREATE INDEX IF NOT EXISTS samples_by_drone ON samples (flight, drone);
 CREATE INDEX IF NOT EXISTS photos_by_drone ON photos (flight, drone);
@@ -61,6 +61,8 @@ def _connect(path: Path) -> sqlite3.Connection:
         db.execute("PRAGMA journal_mode=WAL")
         db.execute("PRAGMA synchronous=FULL")
         db.executescript(SCHEMA)
+        if "amsl" not in {row[1] for row in db.execute("PRAGMA table_info(photos)")}:  # a journal from before it
+            db.execute("ALTER TABLE photos ADD COLUMN amsl REAL")
     except sqlite3.DatabaseError as err:
         raise JournalError(f"{path}: not a missionplan flight journal ({err})") from None
     return db
@@ -246,7 +248,7 @@ def read_records(db: sqlite3.Connection, flight: int, ids: list[int] | None = No
     for drone, *sample in db.execute("SELECT drone, t, lat, lon, up, speed, boot_s, climb FROM samples "
                                      "WHERE flight = ? ORDER BY rowid", (flight,)):
         record(drone).samples.append(tuple(sample))  # type: ignore[arg-type]
-    for drone, *photo in db.execute("SELECT drone, idx, t, lat, lon, up, source, roll, pitch, yaw FROM photos "
+    for drone, *photo in db.execute("SELECT drone, idx, t, lat, lon, up, source, roll, pitch, yaw, amsl FROM photos "
                                     "WHERE flight = ? ORDER BY rowid", (flight,)):
         record(drone).replay("photo", tuple(photo))
     if ids is None:

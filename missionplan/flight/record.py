@@ -43,6 +43,7 @@ class DroneRecord:
     events: list[tuple[float, str]] = field(default_factory=list)  # mode, arming, landed state, STATUSTEXT, alerts
     samples: list[Sample] = field(default_factory=list)
     camera: dict[int, tuple[float, float, float, float]] = field(default_factory=dict)  # img_idx -> t, lat, lon, up
+    amsl: dict[int, float] = field(default_factory=dict)  # img_idx -> altitude above mean sea level, m, where reported
     photo_source: dict[int, str] = field(default_factory=dict)  # img_idx -> "camera" or "log"
     attitude: dict[int, tuple[float, float, float]] = field(default_factory=dict)  # img_idx -> roll, pitch, yaw deg
     params: dict[str, float] = field(default_factory=dict)  # navigation parameters the vehicle reported
@@ -74,7 +75,7 @@ class DroneRecord:
         self._emit("sample", *sample)
 
     def add_photo(self, idx: int, t: float, lat: float, lon: float, up: float, source: str = "camera",
-                  attitude: tuple[float, float, float] | None = None) -> bool:
+                  attitude: tuple[float, float, float] | None = None, amsl: float | None = None) -> bool:
         """A photo and where it was taken; the first word about an index stands (a report repeated over
         the link, or the log's copy of a photo already reported). Whether it was new."""
         if idx in self.camera:
@@ -83,8 +84,10 @@ class DroneRecord:
         self.photo_source[idx] = source
         if attitude is not None:
             self.attitude[idx] = attitude
+        if amsl is not None:
+            self.amsl[idx] = amsl
         roll, pitch, yaw = attitude if attitude is not None else (None, None, None)
-        self._emit("photo", idx, t, lat, lon, up, source, roll, pitch, yaw)
+        self._emit("photo", idx, t, lat, lon, up, source, roll, pitch, yaw, amsl)
         return True
 
     def add_reached(self, t: float, seq: int) -> None:
@@ -117,9 +120,9 @@ class DroneRecord:
             elif kind == "sample":
                 self.add_sample(tuple(row))  # type: ignore[arg-type]
             elif kind == "photo":
-                idx, t, lat, lon, up, source, roll, pitch, yaw = row
+                idx, t, lat, lon, up, source, roll, pitch, yaw, *rest = row  # amsl: journals before it lack it
                 attitude = None if roll is None else (roll, pitch, yaw)
-                self.add_photo(int(idx), t, lat, lon, up, source, attitude)
+                self.add_photo(int(idx), t, lat, lon, up, source, attitude, rest[0] if rest else None)
             elif kind == "reached":
                 self.add_reached(row[0], int(row[1]))
             elif kind == "landed":

@@ -56,6 +56,20 @@ class FlightPlans:
         if not self.sortie_tracks:
             self.sortie_tracks = [self.timed]
 
+    def relabel(self, ids: list[int]) -> None:
+        """Give drone k the system id ids[k] (planned as k + 1): a re-plan's drones are the vehicles chosen
+        to fly it, named by their own ids in the files, the report and the separation figures."""
+        if len(ids) != len(self.sorties) or len(set(ids)) != len(ids):
+            raise ValueError(f"{len(self.sorties)} drones need as many distinct ids, got {ids}")
+        for k, missions in enumerate(self.sorties):
+            for mission in missions:
+                mission.sysid = ids[k]
+        for k, drone in enumerate(self.drones):
+            drone.sysid = ids[k]
+        rename = {k + 1: ids[k] for k in range(len(ids))}
+        self.timed = {rename[key]: track for key, track in self.timed.items()}
+        self.sortie_tracks = [{rename[key]: track for key, track in tracks.items()} for tracks in self.sortie_tracks]
+
     def separation(self) -> dict[str, Any]:
         """report.json's `separation`: the closest approach of two drones if all fly as planned; with
         safety settings, the minimum it guarantees and how."""
@@ -84,7 +98,7 @@ class FlightPlans:
                     distance, where = d, w
             per_drone.append(round(distance, 2) if np.isfinite(distance) else None)
             if distance < worst[0]:
-                worst = (distance, k + 1, where)
+                worst = (distance, self.sorties[k][0].sysid, where)
         required = self.safety.clearance_m if self.safety is not None else None
         kept = None if not np.isfinite(worst[0]) else round(worst[0], 2)
         doc: dict[str, Any] = {"required_m": required, "kept_m": kept, "per_drone_m": per_drone,
@@ -335,11 +349,12 @@ def tracks_geojson(result: PlanResult, frame: GridFrame, plans: FlightPlans) -> 
     for k, fence in enumerate(plans.fences):
         ring = fence.latlon[:, ::-1].tolist()
         features.append({"type": "Feature", "geometry": {"type": "Polygon", "coordinates": [ring + ring[:1]]},
-                         "properties": {"kind": "geofence", "uav": k + 1, "max_altitude_m": fence.max_altitude_m}})
+                         "properties": {"kind": "geofence", "uav": plans.drones[k].sysid,
+                                        "max_altitude_m": fence.max_altitude_m}})
     for k, (latlon, drone) in enumerate(zip(plans.waypoints_latlon, plans.drones)):
         features.append({"type": "Feature",
                          "geometry": {"type": "LineString", "coordinates": latlon[:, ::-1].tolist()},
-                         "properties": {"kind": "track", "uav": k + 1, "sysid": drone.sysid,
+                         "properties": {"kind": "track", "uav": drone.sysid, "sysid": drone.sysid,
                                         "altitude_m": plans.settings.altitude_of(k), "waypoints": drone.waypoints,
                                         "length_m": round(drone.length_m, 2), "flight_s": round(drone.flight_s, 1),
                                         "photos": drone.photos}})

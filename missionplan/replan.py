@@ -1,0 +1,177 @@
+"""`missionplan replan DIR --out NEW`: plan only what the survey ledger says is still missing.
+
+The survey DIR belongs to (its root plan, flight/ledger.py) keeps its grid and georeference: NEW's
+grid is the root's with only the missing target cells left as targets, so a cell is the same ground
+in both folders and NEW's flights add to the root's ledger (NEW/report.json `survey` points back).
+The planning is `plan`'s own (cli.write_plan: clearance band, separation layers, geofences,
+endurance sorties, the autopilot's flavour), with the settings the root plan recorded
+(report.json `settings`).
+
+Who flies it is said, never assumed: `--drones 2,3` (the survey's drones 2 and 3, from their launch
+points, as system ids 2 and 3), or `--launch LAT,LON` once per drone with `--sysid K=ID` for each
+(drone K of the new plan is the vehicle with system id ID). The files are named by system id
+(uav2.plan for the vehicle with id 2), which is how `fly` matches them to vehicles.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .flight.ledger import Ledger, LedgerError, Survey, survey_grid
+from .grid.world import check_starts
+from .maps.gridmap import GridMap, MapError
+from .mission.missions import MissionSettings
+from .mission.safety import SafetySettings
+from .pipeline import DEFAULT_POLICY, POLICIES
+
+
+def stored_settings(survey: Survey) -> tuple[MissionSettings, SafetySettings, dict[str, Any]]:
+    """The mission and safety settings the survey's root plan was made with (report.json `settings`)."""
+    stored = survey.report.get("settings")
+    if not isinstance(stored, dict):
+        raise LedgerError(f"{survey.root / 'report.json'}: no `settings` (planned by an older missionplan): plan the "
+                          "area again with `missionplan plan`, then re-plan from that folder")
+    return MissionSettings(**stored["mission"]), SafetySettings(**stored["safety"]), stored
+
+
+def parse_assignments(texts: list[str]) -> dict[int, int]:
+    """`--sysid K=ID` values -> {drone K: system id ID}."""
+    from bridge.link import parse_sysid
+
+    out: dict[int, int] = {}
+    for text in texts:
+        drone, sep, sysid = text.partition("=")
+        if not sep or not drone.strip().isdigit():
+            raise MapError(f"--sysid {text}: expected K=ID (drone K of the re-plan is the vehicle with system id ID)")
+        k = int(drone)
+        if k in out:
+            raise MapError(f"--sysid {text}: drone {k} is given twice")
+        out[k] = parse_sysid(sysid.strip())
+    if len(set(out.values())) != len(out):
+        raise MapError(f"--sysid: one system id for two drones ({', '.join(texts)})")
+    return out
+
+
+def launch_of_drones(survey: Survey, drones: str) -> tuple[list[tuple[int, int]], list[int]]:
+    """`--drones 2,3`: the root plan's launch cells of those drones, and their ids."""
+    from bridge.link import parse_sysids
+
+    ids = parse_sysids(drones, option="--drones")
+    launch = survey.report.get("launch") or []
+    known = survey.report.get("drone_ids") or list(range(1, len(launch) + 1))
+    cells = []
+    for sysid in ids:
+        if sysid not in known:
+            raise MapError(f"--drones {drones}: the survey's plan has no drone {sysid} (it has "
+                           f"{', '.join(map(str, known))}); give new launch points with --launch and --sysid")
+        cells.append(tuple(int(v) for v in launch[known.index(sysid)]))
+    return cells, ids  # type: ignore[return-value]
+
+
+def launch_at(survey: Survey, launch: list[str], sysid: list[str]) -> tuple[list[tuple[int, int]], list[int]]:
+    """`--launch LAT,LON ... --sysid K=ID ...`: the grid cells of the points and the vehicles flying from them."""
+    from .mission.georef import parse_latlon
+
+    assignment = parse_assignments(sysid)
+    missing = [k for k in range(1, len(launch) + 1) if k not in assignment]
+    extra = sorted(k for k in assignment if not 1 <= k <= len(launch))
+    if missing or extra:
+        raise MapError(f"--sysid: say which vehicle flies each --launch point: "
+                       + (f"no --sysid for drone {', '.join(map(str, missing))}" if missing else
+                          f"drone {extra[0]} has no --launch point ({len(launch)} given)"))
+    cells = []
+    for text in launch:
+        lat, lon = parse_latlon(text)
+        r, c = survey.frame.latlon_to_grid(np.array([lat]), np.array([lon]))
+        cell = (int(np.rint(np.atleast_1d(r)[0])), int(np.rint(np.atleast_1d(c)[0])))
+        rows, cols = survey.shape
+        if not (0 <= cell[0] < rows and 0 <= cell[1] < cols):
+            raise MapError(f"--launch {text}: outside the survey's grid")
+        cells.append(cell)
+    return cells, [assignment[k] for k in range(1, len(launch) + 1)]
+
+
+def missing_map(survey: Survey, missing: np.ndarray, launch: list[tuple[int, int]]) -> GridMap:
+    """The root's grid with only `missing` as targets and the chosen launch cells, its meta from the georeference."""
+    base = survey_grid(survey)
+    target = np.zeros(base.shape, dtype=bool)
+    target[missing[:, 0], missing[:, 1]] = True
+    meta = {k: str(v) for k, v in survey.report["georeference"].items()}
+    return GridMap(f"{base.name}-rest", base.obstacle, target, launch, meta)
+
+
+def cmd_replan(args: argparse.Namespace) -> int:
+    from .cli import write_plan  # the plan command's own writer
+
+    plan_dir, out = Path(args.dir), Path(args.out)
+    with Ledger.of(plan_dir) as ledger:
+        survey = ledger.survey
+        missing = ledger.missing_cells()
+        flights = len(ledger.flights())
+    if out.resolve() in (plan_dir.resolve(), survey.root.resolve()):
+        raise MapError(f"--out {out}: a re-plan goes into a new folder, not over the survey's own plan")
+    mission, safety, stored = stored_settings(survey)
+    if args.drones is not None and args.launch:
+        raise MapError("give either --drones (the survey's drones, from their launch points) or --launch with --sysid")
+    if args.drones is not None:
+        if args.sysid:
+            raise MapError("--sysid goes with --launch; --drones already names the vehicles by their system ids")
+        cells, ids = launch_of_drones(survey, args.drones)
+    elif args.launch:
+        cells, ids = launch_at(survey, args.launch, args.sysid)
+    else:
+        raise MapError("say who flies the re-plan: --drones ID,... (the survey's drones, from their launch points) or "
+                       "--launch LAT,LON once per drone with --sysid K=ID")
+    targets = len(survey.targets)
+    print(f"survey {survey.root}: {flights} flight{'' if flights == 1 else 's'} recorded, {targets - len(missing)} of "
+          f"{targets} target cells "
+          f"covered, {len(missing)} left")
+    if not len(missing):
+        print("nothing left to photograph: no re-plan written")
+        return 0
+    gmap = missing_map(survey, missing, cells)
+    check_starts(gmap, cells)
+    for k, (cell, sysid) in enumerate(zip(cells, ids), start=1):
+        lat, lon = survey.frame.cell_to_latlon(np.array([cell[0]]), np.array([cell[1]]))
+        print(f"  drone {k}: system id {sysid}, from {float(np.atleast_1d(lat)[0]):.7f},"
+              f"{float(np.atleast_1d(lon)[0]):.7f} (cell {cell[0]},{cell[1]}) -> uav{sysid}.plan")
+    plan_args = argparse.Namespace(
+        out=out, uavs=len(cells), policy=args.policy or stored.get("policy", DEFAULT_POLICY), weights=args.weights,
+        zones=stored.get("zones", "geodesic"), no_balance=not stored.get("balance_zones", True), seed=args.seed,
+        quiet=args.quiet, autopilot=mission.autopilot, launch=[], area=None, osm=None, map=gmap.name)
+    pointer = {"root": os.path.relpath(survey.root.resolve(), out.resolve()), "missing_cells": int(len(missing)),
+               "from": os.path.relpath(plan_dir.resolve(), out.resolve())}
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise MapError(f"--out {out}: cannot create folder ({err.strerror})") from None
+    from .mission.georef import UnknownHeights
+
+    return write_plan(plan_args, gmap, survey.frame, mission, safety, cells, UnknownHeights(0, 0, None, None),
+                      ids=ids, survey=pointer)
+
+
+def register(subparsers: Any) -> None:
+    """Add `replan DIR --out NEW (--drones IDS | --launch LAT,LON ... --sysid K=ID ...) [--policy P] [--weights F]
+    [--seed N] [--quiet]`."""
+    p = subparsers.add_parser("replan", help="plan only the targets the survey's photos have not covered yet, "
+                                             "for the vehicles given", allow_abbrev=False)
+    p.add_argument("dir", help="a plan folder of the survey (the first plan or a re-plan of it)")
+    p.add_argument("--out", required=True, type=Path, help="new plan folder (its flights add to the same survey)")
+    p.add_argument("--drones", metavar="ID,ID", help="the survey's drones (system ids) that fly it, each from its "
+                                                     "launch point in the survey's plan")
+    p.add_argument("--launch", action="append", default=[], metavar="LAT,LON",
+                   help="a launch point per drone of the re-plan, in degrees (with --sysid for each)")
+    p.add_argument("--sysid", action="append", default=[], metavar="K=ID",
+                   help="drone K (the K-th --launch) is flown by the vehicle with system id ID")
+    p.add_argument("--policy", choices=POLICIES, default=None,
+                   help="planning policy (default: the one the survey was planned with)")
+    p.add_argument("--weights", type=Path, help="network weights for --policy nn (default: the shipped ones)")
+    p.add_argument("--seed", type=int, default=0, help="seed for zones and deadlock breaking")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(handler=cmd_replan)

@@ -1,0 +1,187 @@
+"""Live re-tasking (`fly --replan`): when a drone is lost or ends early, plan what the flight has
+not photographed yet for the drones still flying, from where they are, and prove it safe first.
+
+Called by fly (missionplan/flight/fly.py, through the `retask_planner` the CLI hands it) with what the
+flight knows at that moment: the photos the vehicles confirmed, each survivor's position, home and
+flight time so far. It plans *everything* left, not only the lost drone's share: the survivors'
+own unflown parts are re-split with it, so the result is a fresh plan for the survivors from that
+moment (Lloyd/Voronoi zones, the same policy, clearance band and altitude layers as `plan`). Each
+survivor's new mission: its camera on where it is, its survey, the way home round the obstacles
+(flightplan's homing) to its real home, RTL. Before anything is uploaded:
+- endurance: each survivor's new flight, on the timeline, fits in what its battery budget (the
+  plan's endurance less the reserve) has left after the time it has flown;
+- separation: the new tracks, all starting now from the survivors' positions, never come closer
+  than the plan's minimum separation plus two acceptance radii (a corner cut by each); the altitude
+  layers are chosen for it as `plan` chooses them (timeline.closest_approach);
+- geofence: a new fence per survivor around its new zone, its track, its position and its home.
+Any of these failing ends the re-task with the reason (RetaskError); the survivors fly on with the
+missions they have, and `missionplan replan` plans the rest after landing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bridge.mission import Mission
+
+from .fieldplan import plan_field
+from .flight.flight_report import frame_of, target_cells, to_grid_m
+from .flight.ledger import Ledger, covered_cells
+from .maps.gridmap import GridMap, MapError
+from .mission.clearance import clearance_band
+from .mission.flightplan import _Homing, _latlon
+from .mission.geofence import drone_fence
+from .mission.missions import MissionSettings, build_mission
+from .mission.safety import SafetySettings
+from .mission.timeline import FlightModel, closest_approach, planned_track
+
+
+class RetaskError(MapError):
+    """The re-task cannot be flown safely (or at all); the message says why."""
+
+
+@dataclass(frozen=True)
+class Survivor:
+    """A drone still flying its mission when the re-task is planned."""
+
+    sysid: int
+    lat: float
+    lon: float
+    up_m: float
+    home: tuple[float, float]  # where its RTL goes: its launch point
+    flown_s: float  # seconds of flight so far (vehicle time), against its endurance
+
+
+@dataclass
+class RetaskPlan:
+    missions: dict[int, Mission]  # sysid -> the new mission (seq order as in a .plan: takeoff first)
+    fences: dict[int, Mission]  # sysid -> its new inclusion fence
+    resume_index: dict[int, int]  # sysid -> index in missions[sysid].items to continue at (after the take-off)
+    flight_s: dict[int, float]  # sysid -> planned seconds of the new flight, from now to landing
+    photos: dict[int, int]  # sysid -> photos the new mission plans
+    targets_left: int  # target cells no confirmed photo had covered when it was planned
+    separation_m: float | None  # closest approach of the new tracks (None with one survivor)
+    plan_s: float  # seconds spent planning
+
+
+def _free_cell(free: np.ndarray, cell: tuple[int, int], taken: set[tuple[int, int]]) -> tuple[int, int]:
+    """cell if it is free and not taken, else the nearest such cell (the grid planner starts on free cells)."""
+    rows, cols = free.shape
+    r, c = min(max(cell[0], 0), rows - 1), min(max(cell[1], 0), cols - 1)
+    if free[r, c] and (r, c) not in taken:
+        return r, c
+    candidates = np.argwhere(free)
+    order = np.argsort(np.hypot(candidates[:, 0] - r, candidates[:, 1] - c))
+    for index in order:
+        found = (int(candidates[index, 0]), int(candidates[index, 1]))
+        if found not in taken:
+            return found
+    raise RetaskError("no free cell to start a survivor from")
+
+
+def plan_retask(plan_dir: Path, report: dict[str, Any], survivors: list[Survivor | dict[str, Any]],
+                photos_latlon: np.ndarray, policy: str | None = None) -> RetaskPlan | None:
+    """The re-task of `survivors` (Survivor, or dicts of its fields: fly's Retasker sends those) (see the
+    module docstring); None when nothing is left to photograph.
+    photos_latlon: (n, 2) lat, lon of every photo the vehicles confirmed so far in this flight."""
+    import time
+
+    survivors = [s if isinstance(s, Survivor) else Survivor(**s) for s in survivors]
+    started = time.monotonic()
+    stored = report.get("settings")
+    if not isinstance(stored, dict):
+        raise RetaskError(f"{plan_dir / 'report.json'}: no `settings` (planned by an older missionplan): plan again")
+    settings, safety = MissionSettings(**stored["mission"]), SafetySettings(**stored["safety"])
+    frame = frame_of(report)
+    cell = frame.cell_m
+    targets = target_cells(report)
+    with Ledger.of(plan_dir) as ledger:  # earlier flights of the survey count too
+        done = ledger.covered_mask()
+        which, cells = covered_cells(ledger.survey, photos_latlon[:, 0], photos_latlon[:, 1]) if len(photos_latlon) \
+            else (None, np.zeros((0, 2), dtype=np.int64))
+    done[cells[:, 0], cells[:, 1]] = True
+    left = targets[~done[targets[:, 0], targets[:, 1]]]
+    if not len(left) or not survivors:
+        return None
+    base = GridMap.from_rows(str(report.get("map", "plan")), report["grid"])
+    band = clearance_band(base.obstacle, safety.clearance_m / cell)
+    flyable = ~base.obstacle & ~band
+    starts: list[tuple[int, int]] = []
+    for s in survivors:
+        r, c = frame.latlon_to_grid(np.array([s.lat]), np.array([s.lon]))
+        starts.append(_free_cell(flyable, (int(np.rint(np.atleast_1d(r)[0])), int(np.rint(np.atleast_1d(c)[0]))),
+                                 set(starts)))
+    target = np.zeros(base.shape, dtype=bool)
+    target[left[:, 0], left[:, 1]] = True
+    meta = {k: str(v) for k, v in report["georeference"].items()}
+    gmap = GridMap(f"{base.name}-retask", base.obstacle, target, starts, meta)
+    # Endurance is checked below against what each survivor has left; the planner itself plans one flight.
+    # The separation gets a margin for what the timeline cannot know: each may cut a corner by its
+    # acceptance radius (the survivors are released together, so their tracks start at one moment).
+    margin = 2.0 * settings.acceptance_m
+    required = safety.min_separation_m + margin
+    field = plan_field(gmap, len(survivors), frame, settings,
+                       replace(safety, endurance_s=None, min_separation_m=required),
+                       policy=policy or stored.get("policy", "expert"), zone_method=stored.get("zones", "geodesic"),
+                       seed=0, progress=False, balance_zones=bool(stored.get("balance_zones", True)))
+    if field.plans is None:
+        raise RetaskError(f"the re-task could not be planned: {field.result.run.failure}")
+    plans = field.plans
+    layered = plans.settings
+    model = FlightModel.for_autopilot(layered.autopilot, layered.speed_m_s, layered.acceptance_m)
+    margin = max(0.5, safety.clearance_m / cell)
+    missions, fences, resume, flight_s, tracks, photos = {}, {}, {}, {}, {}, {}
+    for k, s in enumerate(survivors):
+        here_m = to_grid_m(frame, [s.lat], [s.lon])[0]
+        home_m = to_grid_m(frame, [s.home[0]], [s.home[1]])[0]
+        home_cell = _free_cell(flyable, (int(np.rint(home_m[0] / cell)), int(np.rint(home_m[1] / cell))), set())
+        waypoints_m = np.asarray(plans.corrected[k].waypoints, dtype=float) * cell
+        homing = _Homing(flyable, home_cell, base.obstacle, margin, cell)
+        back_m = homing.way(waypoints_m[-1], outbound=False) if len(waypoints_m) else np.zeros((0, 2))
+        altitude = layered.altitude_of(k)
+        route = np.vstack([waypoints_m, back_m, home_m[None, :]])
+        # From where it is, already in the air: the timeline's climb from the ground is cut off (its
+        # length differs between altitude layers, and would shift the tracks against each other); it
+        # lands at home (RTL).
+        track = airborne(planned_track(here_m, route, altitude, "land", model), altitude)
+        tracks[s.sysid] = track
+        flight_s[s.sysid] = float(track[-1, 0])
+        if safety.budget_s is not None and s.flown_s + flight_s[s.sysid] > safety.budget_s:
+            raise RetaskError(f"uav{s.sysid} would need {flight_s[s.sysid]:.0f} s more; its battery budget has "
+                              f"{max(safety.budget_s - s.flown_s, 0.0):.0f} s left ({safety.budget_s:.0f} s less "
+                              f"{s.flown_s:.0f} s flown): the rest is for `missionplan replan` after landing")
+        mission = build_mission(k, (s.lat, s.lon), _latlon(frame, waypoints_m), waypoints_m, here_m, layered,
+                                flight_s=flight_s[s.sysid], end="rtl", back=(_latlon(frame, back_m), back_m))
+        missions[s.sysid] = Mission(items=mission.mission.items, home=(s.home[0], s.home[1], 0.0))
+        photos[s.sysid] = mission.photos
+        resume[s.sysid] = 1  # after the NAV_TAKEOFF: the speed, the camera, then the survey
+        zone = np.argwhere(field.result.zones.zone == k)
+        points = np.vstack([here_m[None, :], route])
+        fences[s.sysid] = drone_fence(frame, zone, points, altitude, safety.fence_margin_m,
+                                      safety.max_altitude_m).mission()
+    separation = None
+    if len(tracks) > 1:
+        approach = closest_approach(tracks)
+        separation = approach["3d"]
+        if separation is not None and separation < required - 1e-6:
+            a, b = approach["pair_3d"]
+            raise RetaskError(f"the re-task would bring uav{a} and uav{b} within {separation:.2f} m of each other "
+                              f"(at {approach['at_s']} s), under the minimum separation {safety.min_separation_m:g} m "
+                              f"plus {margin:.2f} m for the corners each may cut")
+    return RetaskPlan(missions, fences, resume, flight_s, photos, int(len(left)), separation,
+                      time.monotonic() - started)
+
+
+
+def airborne(track: np.ndarray, altitude: float) -> np.ndarray:
+    """A planned track (timeline.planned_track: t, row_m, col_m, up_m) without its take-off: from the
+    moment it reaches its altitude, with the clock restarted there."""
+    up = np.flatnonzero(track[:, 3] >= altitude - 0.05)
+    start = int(up[0]) if len(up) else 0
+    cut = track[start:].copy()
+    cut[:, 0] -= cut[0, 0]
+    return cut
