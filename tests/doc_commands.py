@@ -63,6 +63,8 @@ MEASURED: tuple[tuple[str, re.Pattern[str], tuple[float, float] | None], ...] = 
     ("flown photos", re.compile(r" s\), (\d+) photos, "), (0.03, 3.0)),
     ("flown closest approach", re.compile(r"^closest approach (\d+\.\d+) m horizontal / (\d+\.\d+) m 3-D;"), None),
     ("judge's tolerance", re.compile(r"\(tolerance (\d+\.\d+) m\)"), None),
+    # a vehicle killed in a mock flight: when fly gave it up and at which item it was last heard
+    ("lost vehicle", re.compile(r"link lost for (\d+) s since item (\d+) of"), None),
     # a survey's figures after a mock flight (status, replan, fly's survey line): the flown photos' spread
     ("survey photos", re.compile(r"flights? recorded, (\d+) photos$"), (0.03, 3.0)),
     ("survey cells", re.compile(r"^covered (\d+) of \d+ target cells: (\d+\.\d+) %, (\d+\.\d+) of"), (0.01, 0.5)),
