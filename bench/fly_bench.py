@@ -237,56 +237,43 @@ def fault_row(fault: str, plan_dir: Path) -> str:
     import os
     import signal
 
-    from arducopter import ArduCopter
-    from loopback import UdpRelay, free_udp_port, wait_until
+    from loopback import wait_until
     from test_fly_faults_sitl import SPEEDUP as FAULT_SPEEDUP
-    from test_fly_faults_sitl import (BATTERY_LOW_V, BATTERY_SIM_V, FLY_TIMEOUT_S, LINK_DROP_S, SYSIDS, Fleet, FlyRun,
-                                      _configure, _home, _in_flight, _set_param_on_serial1)
+    from test_fly_faults_sitl import (BATTERY_LOW_V, BATTERY_SIM_V, FLY_TIMEOUT_S, LINK_DROP_S, SYSIDS, FlyRun,
+                                      _in_flight, _set_param_on_serial1, sitl_fleet)
 
-    port = free_udp_port()
-    vehicles: list[Any] = []
-    with UdpRelay(port) as relay:
+    params = {"BATT_FS_LOW_ACT": 2.0, "BATT_LOW_VOLT": BATTERY_LOW_V} if fault == "battery" else None
+    with sitl_fleet(plan_dir, params) as fleet:
+        relay = fleet.relay
+        run = FlyRun(plan_dir, fleet.url)
         try:
-            for k in SYSIDS:  # each start() returns once SITL has bound its ports (sitl_tests/arducopter.py)
-                vehicles.append(ArduCopter(sysid=k, home=_home(plan_dir, k), speedup=FAULT_SPEEDUP,
-                                           serial0=f"udpclient:127.0.0.1:{relay.vehicle_port}"))
-                vehicles[-1].start(wait=False)
-            flying = list(vehicles)
-            fleet = Fleet(plan_dir, relay, flying, f"udpin:127.0.0.1:{port}")
-            params = {"BATT_FS_LOW_ACT": 2.0, "BATT_LOW_VOLT": BATTERY_LOW_V} if fault == "battery" else None
-            _configure(fleet, params)
-            run = FlyRun(plan_dir, fleet.url)
-            try:
-                if not _in_flight(relay, FAULT_ITEM):
-                    run.kill()
-                    return f"{fault:<11}{FAULT_SYSID:>4}  the fleet never got past item {FAULT_ITEM}"
-                seen = len(run.lines)
-                target = f"uav{FAULT_SYSID}:"
-                if fault == "kill":
-                    os.killpg(fleet.vehicle(FAULT_SYSID).proc.pid, signal.SIGKILL)
-                    words: tuple[str, ...] = ("link lost",)
-                elif fault == "link-drop":
-                    relay.drop()
-                    words, target = ("link lost",), ""
-                else:
-                    _set_param_on_serial1(fleet.vehicle(FAULT_SYSID), "SIM_BATT_VOLTAGE", BATTERY_SIM_V)
-                    words = ("battery", "failsafe", "mode changed")
-                fault_at = time.monotonic()
-
-                def alert() -> tuple[float, str] | None:
-                    return next(((t, text) for t, text in run.lines[seen:] if target in text
-                                 and any(w in text.lower() for w in words)), None)
-
-                if fault == "link-drop":
-                    wait_until(lambda: time.monotonic() - fault_at >= LINK_DROP_S, LINK_DROP_S + 1.0)
-                    relay.restore()
-                code = run.finish(FLY_TIMEOUT_S)
-                said = alert()
-            finally:
+            if not _in_flight(relay, FAULT_ITEM):
                 run.kill()
+                return f"{fault:<11}{FAULT_SYSID:>4}  the fleet never got past item {FAULT_ITEM}"
+            seen = len(run.lines)
+            target = f"uav{FAULT_SYSID}:"
+            if fault == "kill":
+                os.killpg(fleet.vehicle(FAULT_SYSID).proc.pid, signal.SIGKILL)
+                words: tuple[str, ...] = ("link lost",)
+            elif fault == "link-drop":
+                relay.drop()
+                words, target = ("link lost",), ""
+            else:
+                _set_param_on_serial1(fleet.vehicle(FAULT_SYSID), "SIM_BATT_VOLTAGE", BATTERY_SIM_V)
+                words = ("battery", "failsafe", "mode changed")
+            fault_at = time.monotonic()
+
+            def alert() -> tuple[float, str] | None:
+                return next(((t, text) for t, text in run.lines[seen:] if target in text
+                             and any(w in text.lower() for w in words)), None)
+
+            if fault == "link-drop":
+                wait_until(lambda: time.monotonic() - fault_at >= LINK_DROP_S, LINK_DROP_S + 1.0)
+                relay.restore()
+            code = run.finish(FLY_TIMEOUT_S)
+            said = alert()
         finally:
-            for vehicle in vehicles:
-                vehicle.stop()
+            run.kill()
         doc = json.loads((plan_dir / "flight.json").read_text())
         taken = sum(int(relay.state(k).get("photos", 0)) for k in SYSIDS)
         true = _true_coverage(plan_dir, relay.photos_at)

@@ -98,34 +98,20 @@ def ideal_end(plan_dir: Path, scale: float) -> tuple[float, float]:
 
 
 def run_once(index: int, replan_after: float) -> str:
-    from arducopter import ArduCopter
-    from loopback import UdpRelay, free_udp_port
-    from test_fly_faults_sitl import SPEEDUP, SYSIDS, Fleet, FlyRun, _configure, _home, _in_flight
+    from test_fly_faults_sitl import FlyRun, _in_flight, sitl_fleet
 
     with tempfile.TemporaryDirectory() as tmp:
         plan_dir = _plan(Path(tmp))
         half = len(read_mission_file(plan_dir / f"uav{LOST}.plan").mission.items) // 2
-        port = free_udp_port()
-        vehicles: list[Any] = []
-        with UdpRelay(port) as relay:
+        with sitl_fleet(plan_dir) as fleet:
+            run = FlyRun(plan_dir, fleet.url, "--replan", "--replan-after", str(replan_after))
             try:
-                for k in SYSIDS:
-                    vehicles.append(ArduCopter(sysid=k, home=_home(plan_dir, k), speedup=SPEEDUP,
-                                               serial0=f"udpclient:127.0.0.1:{relay.vehicle_port}"))
-                    vehicles[-1].start(wait=False)
-                fleet = Fleet(plan_dir, relay, vehicles, f"udpin:127.0.0.1:{port}")
-                _configure(fleet)
-                run = FlyRun(plan_dir, fleet.url, "--replan", "--replan-after", str(replan_after))
-                try:
-                    if not _in_flight(relay, half, sysids=(LOST,)):
-                        return f"{index:>3}  vehicle {LOST} never got half-way"
-                    os.killpg(fleet.vehicle(LOST).proc.pid, signal.SIGKILL)
-                    run.finish(600.0)
-                finally:
-                    run.kill()
+                if not _in_flight(fleet.relay, half, sysids=(LOST,)):
+                    return f"{index:>3}  vehicle {LOST} never got half-way"
+                os.killpg(fleet.vehicle(LOST).proc.pid, signal.SIGKILL)
+                run.finish(600.0)
             finally:
-                for vehicle in vehicles:
-                    vehicle.stop()
+                run.kill()
         doc = json.loads((plan_dir / "flight.json").read_text())
         retask = (doc.get("retasks") or [{}])[0]
         if retask.get("outcome") != "re-tasked":

@@ -22,7 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from .flight.ledger import Ledger, LedgerError, Survey, survey_grid
+from .flight.flight_report import planned_grid
+from .flight.ledger import Ledger, LedgerError, Survey
 from .grid.world import check_starts
 from .maps.gridmap import GridMap, MapError
 from .mission.missions import MissionSettings
@@ -96,13 +97,15 @@ def launch_at(survey: Survey, launch: list[str], sysid: list[str]) -> tuple[list
     return cells, [assignment[k] for k in range(1, len(launch) + 1)]
 
 
-def missing_map(survey: Survey, missing: np.ndarray, launch: list[tuple[int, int]]) -> GridMap:
-    """The root's grid with only `missing` as targets and the chosen launch cells, its meta from the georeference."""
-    base = survey_grid(survey)
+def missing_map(report: dict[str, Any], missing: np.ndarray, launch: list[tuple[int, int]],
+                suffix: str = "rest") -> GridMap:
+    """A plan's grid (report.json) with only `missing` as targets and the given launch cells, its meta from
+    the georeference: what `replan` and fly's live re-task plan."""
+    base = planned_grid(report)
     target = np.zeros(base.shape, dtype=bool)
     target[missing[:, 0], missing[:, 1]] = True
-    meta = {k: str(v) for k, v in survey.report["georeference"].items()}
-    return GridMap(f"{base.name}-rest", base.obstacle, target, launch, meta)
+    meta = {k: str(v) for k, v in report["georeference"].items()}
+    return GridMap(f"{base.name}-{suffix}", base.obstacle, target, launch, meta)
 
 
 def cmd_replan(args: argparse.Namespace) -> int:
@@ -134,7 +137,7 @@ def cmd_replan(args: argparse.Namespace) -> int:
     if not len(missing):
         print("nothing left to photograph: no re-plan written")
         return 0
-    gmap = missing_map(survey, missing, cells)
+    gmap = missing_map(survey.report, missing, cells)
     check_starts(gmap, cells)
     for k, (cell, sysid) in enumerate(zip(cells, ids), start=1):
         lat, lon = survey.frame.cell_to_latlon(np.array([cell[0]]), np.array([cell[1]]))

@@ -29,14 +29,15 @@ import numpy as np
 from bridge.mission import Mission
 
 from .fieldplan import plan_field
-from .flight.flight_report import frame_of, target_cells, to_grid_m
+from .flight.flight_report import frame_of, planned_grid, target_cells, to_grid_m
 from .flight.ledger import Ledger, covered_cells
-from .maps.gridmap import GridMap, MapError
+from .maps.gridmap import MapError
 from .mission.clearance import clearance_band
 from .mission.flightplan import _Homing, _latlon
 from .mission.geofence import drone_fence
 from .mission.missions import MissionSettings, build_mission
 from .mission.safety import SafetySettings
+from .replan import missing_map
 from .mission.timeline import FlightModel, closest_approach, planned_track
 
 
@@ -101,13 +102,12 @@ def plan_retask(plan_dir: Path, report: dict[str, Any], survivors: list[Survivor
     targets = target_cells(report)
     with Ledger.of(plan_dir) as ledger:  # earlier flights of the survey count too
         done = ledger.covered_mask()
-        which, cells = covered_cells(ledger.survey, photos_latlon[:, 0], photos_latlon[:, 1]) if len(photos_latlon) \
-            else (None, np.zeros((0, 2), dtype=np.int64))
+        _, cells = covered_cells(ledger.survey, photos_latlon[:, 0], photos_latlon[:, 1])
     done[cells[:, 0], cells[:, 1]] = True
     left = targets[~done[targets[:, 0], targets[:, 1]]]
     if not len(left) or not survivors:
         return None
-    base = GridMap.from_rows(str(report.get("map", "plan")), report["grid"])
+    base = planned_grid(report)
     band = clearance_band(base.obstacle, safety.clearance_m / cell)
     flyable = ~base.obstacle & ~band
     starts: list[tuple[int, int]] = []
@@ -115,10 +115,7 @@ def plan_retask(plan_dir: Path, report: dict[str, Any], survivors: list[Survivor
         r, c = frame.latlon_to_grid(np.array([s.lat]), np.array([s.lon]))
         starts.append(_free_cell(flyable, (int(np.rint(np.atleast_1d(r)[0])), int(np.rint(np.atleast_1d(c)[0]))),
                                  set(starts)))
-    target = np.zeros(base.shape, dtype=bool)
-    target[left[:, 0], left[:, 1]] = True
-    meta = {k: str(v) for k, v in report["georeference"].items()}
-    gmap = GridMap(f"{base.name}-retask", base.obstacle, target, starts, meta)
+    gmap = missing_map(report, left, starts, suffix="retask")
     # Endurance is checked below against what each survivor has left; the planner itself plans one flight.
     # The separation gets a margin for what the timeline cannot know: each may cut a corner by its
     # acceptance radius (the survivors are released together, so their tracks start at one moment).

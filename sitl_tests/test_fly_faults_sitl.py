@@ -26,6 +26,7 @@ Skipped with a reason when ../shared/sitl/arducopter is absent.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -33,6 +34,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -111,6 +113,24 @@ def fleet(arducopter, block: Path, tmp_path: Path):  # noqa: F811
         yield Fleet(plan_dir, relay, vehicles, f"udpin:127.0.0.1:{port}")
 
 
+@contextlib.contextmanager
+def sitl_fleet(plan_dir: Path, params: dict[str, float] | None = None) -> Iterator[Fleet]:
+    """The `fleet` fixture's fleet outside pytest (the benches'): three SITL vehicles at plan_dir's launch
+    points through a relay, configured (_configure), stopped when the block ends."""
+    port = free_udp_port()
+    vehicles: list[ArduCopter] = []
+    with UdpRelay(port) as relay:
+        try:
+            for k in SYSIDS:  # each start() returns once SITL has bound its ports (sitl_tests/arducopter.py)
+                vehicles.append(ArduCopter(sysid=k, home=_home(plan_dir, k), speedup=SPEEDUP,
+                                           serial0=f"udpclient:127.0.0.1:{relay.vehicle_port}"))
+                vehicles[-1].start(wait=False)
+            fleet = Fleet(plan_dir, relay, vehicles, f"udpin:127.0.0.1:{port}")
+            _configure(fleet, params)
+            yield fleet
+        finally:
+            for vehicle in vehicles:
+                vehicle.stop()
 
 
 def _configure(fleet: Fleet, params: dict[str, float] | None = None) -> None:

@@ -31,7 +31,7 @@ import numpy as np
 
 from geo.frame import GridFrame
 
-from ..maps.gridmap import GridMap, MapError
+from ..maps.gridmap import MapError
 
 LEDGER_NAME = "ledger.sqlite"
 MAX_POINTERS = 16  # re-plans of re-plans: a chain longer than this is a loop
@@ -265,7 +265,3 @@ class Ledger:
         t = self.survey.targets
         return t[~covered[t[:, 0], t[:, 1]]]
 
-
-def survey_grid(survey: Survey) -> GridMap:
-    """The root plan's grid as given (report.json `grid`)."""
-    return GridMap.from_rows(str(survey.report.get("map", "plan")), survey.report["grid"])

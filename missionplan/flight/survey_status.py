@@ -18,7 +18,8 @@ import numpy as np
 from bridge.atomic import atomic_path, write_text_atomic
 from geo.cells import cells_feature
 
-from .ledger import Ledger, Survey, survey_grid
+from .flight_report import planned_grid
+from .ledger import Ledger, Survey
 
 
 def extent(survey: Survey, cells: np.ndarray) -> dict[str, Any] | None:
@@ -54,7 +55,7 @@ def draw_status(path: Path, ledger: Ledger, status: dict[str, Any]) -> None:
     import matplotlib.pyplot as plt
 
     survey = ledger.survey
-    gmap = survey_grid(survey)
+    gmap = planned_grid(survey.report)
     rows, cols = gmap.shape
     img = np.ones((rows, cols, 3))
     img[gmap.obstacle] = (0.25, 0.25, 0.25)
