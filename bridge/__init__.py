@@ -6,7 +6,8 @@ Modules, one job each:
   atomic        atomic file output (temp file, then rename), shared with missionplan: bridge is the
                 lowest layer that writes files
   mission       the mission model (MissionItem, Mission), wire items, flavour rules, comparison
-  missionfile   QGroundControl .plan and QGC WPL 110 .waypoints readers and writers
+  missionfile   QGroundControl .plan and QGC WPL 110 .waypoints readers and writers (and QGC's .mission)
+  qgc_legacy    QGroundControl's older item layouts and legacy .mission files, in the current .plan shape
   signing       MAVLink 2 signing keys: loading and applying them, never printing them
   link          pymavlink connections: URL checks, heartbeats, finding a vehicle by system id
   protocol      the GCS side of the mission protocol over pymavlink (upload, download, clear, set-current)

@@ -45,7 +45,7 @@ def register(subparsers: Any) -> None:
     """Add the upload, download, clear and mock subcommands to an argparse subparsers object."""
     up = subparsers.add_parser("upload", help="upload a .plan or .waypoints mission to a vehicle and verify it",
                                allow_abbrev=False)
-    up.add_argument("file", type=Path, help="mission file (.plan, .waypoints, or a QGC WPL 110 .txt)")
+    up.add_argument("file", type=Path, help="mission file (.plan, .waypoints, QGC's legacy .mission, or a QGC WPL 110 .txt)")
     _vehicle_arguments(up)
     up.add_argument("--backend", default="pymavlink", choices=("pymavlink", "mavsdk"),
                     help="who runs the mission protocol (default pymavlink)")

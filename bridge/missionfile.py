@@ -1,14 +1,23 @@
-"""Mission files: QGroundControl `.plan` (JSON) and QGC WPL 110 `.waypoints`, read and written.
+"""Mission files: QGroundControl `.plan` (JSON) and QGC WPL 110 `.waypoints`, read and written;
+QGroundControl's legacy `.mission` read.
 
 Owns the translation between those formats and bridge.mission's model:
 - `.plan`: fileType "Plan", version 1; mission.items of SimpleItem (command, frame, params[7] with
   null for NaN, autoContinue, doJumpId), plannedHomePosition; geoFence polygons and circles become
   fence items (MAV_CMD_NAV_FENCE_*), rallyPoints become rally items (MAV_CMD_NAV_RALLY_POINT).
+  Items are read as QGroundControl reads them: the older item layouts and the legacy `.mission`
+  file go through bridge.qgc_legacy; a survey or corridor-scan ComplexItem contributes the
+  waypoints QGroundControl stored in it ("TransectStyleComplexItem".Items, the ones QGroundControl
+  flies from a loaded plan); a ComplexItem without stored waypoints (structure scan, landing
+  pattern, old surveys), whose waypoints QGroundControl generates on load, is refused, as is an item
+  whose altitude QGroundControl computes from its terrain data (AltitudeMode 3, or a terrain frame
+  without an altitude): this tool has no terrain data to convert it with.
 - `.waypoints`: first line "QGC WPL 110", then one tab-separated line of 12 columns per item; line 0
   is the home position (Mission Planner's convention), so mission items are lines 1..n.
 DO_JUMP targets: a `.plan` names them by doJumpId, a `.waypoints` by line number; both become the
-model's 1-based item number. Which reader runs: `.plan` and `.waypoints` by suffix; any other name
-(Mission Planner's `.waypoints.txt` / `.txt`) by content, the `QGC WPL 110` header or a JSON plan.
+model's 1-based item number. Which reader runs: `.plan`, `.mission` and `.waypoints` by suffix; any
+other name (Mission Planner's `.waypoints.txt` / `.txt`) by content, the `QGC WPL 110` header or a
+JSON plan or mission.
 Bad files raise BridgeUsageError naming the file, the item and the problem, and nothing else: a
 reader never lets a number through that the wire cannot carry faithfully (a NaN or infinite
 coordinate, a latitude beyond +-90, a frame that is not a uint8) because MISSION_ITEM_INT would carry
@@ -29,6 +38,7 @@ from typing import Any
 # A leaf utility with no planner imports: bridge still knows nothing about grids.
 from .atomic import write_text_atomic
 
+from . import qgc_legacy
 from .errors import BridgeError, BridgeUsageError
 from .mission import (
     CMD_DO_JUMP,
@@ -40,6 +50,8 @@ from .mission import (
     CMD_RALLY_POINT,
     FRAME_GLOBAL,
     FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_GLOBAL_TERRAIN_ALT,
+    FRAME_GLOBAL_TERRAIN_ALT_INT,
     Flavour,
     Mission,
     MissionItem,
@@ -51,6 +63,24 @@ WPL_HEADER = "QGC WPL 110"
 MAV_TYPE_QUADROTOR = 2
 SUFFIXES = (".plan", ".waypoints")
 PLAN_MISSION_VERSION = 2  # the only mission.version QGroundControl reads
+SIMPLE_ITEM_TYPES = ("SimpleItem", "missionItem")  # "missionItem": the version 1 name of a SimpleItem
+
+# QGroundControl's AltitudeMode (QGroundControlQmlGlobal::AltMode) that it turns into an altitude above
+# sea level from its own terrain data when it loads the plan: the number in the file is not what it flies.
+ALT_MODE_CALC_ABOVE_TERRAIN = 3
+TERRAIN_FRAMES = {FRAME_GLOBAL_TERRAIN_ALT: "MAV_FRAME_GLOBAL_TERRAIN_ALT",
+                  FRAME_GLOBAL_TERRAIN_ALT_INT: "MAV_FRAME_GLOBAL_TERRAIN_ALT_INT"}
+TERRAIN_ADVICE = ("this tool has no terrain data to convert it with: in QGroundControl set the item's altitude "
+                  "to relative (or absolute) and save the plan again, or fly a plan written by `missionplan plan`")
+
+# ComplexItems QGroundControl reads (complexItemType -> what it is). Survey and corridor scan are
+# TransectStyleComplexItems: QGroundControl saves their generated waypoints as "Items" and flies those
+# from a loaded plan; the others are generated from their settings every time the plan is loaded.
+COMPLEX_ITEM_KINDS = {"survey": "survey pattern", "CorridorScan": "corridor scan",
+                      "StructureScan": "structure scan", "fwLandingPattern": "fixed-wing landing pattern",
+                      "vtolLandingPattern": "VTOL landing pattern"}
+STORED_ITEMS_KINDS = ("survey", "CorridorScan")
+SURVEY_VERSIONS = range(2, 6)  # QGroundControl reads survey versions 2-5; 2 and 3 hold no waypoints
 
 # Commands whose x / y are a position the vehicle flies to (or fences / rallies at). MISSION_ITEM_INT
 # carries x / y as integers, so a NaN there would reach the vehicle as 0, 0 and read back "verified".
@@ -125,11 +155,13 @@ def _read_text(path: Path) -> str:
 
 
 def read_mission_file(path: str | os.PathLike[str]) -> PlanFile:
-    """Read a `.plan` or `.waypoints` file: by suffix, or for any other name by its first line."""
+    """Read a `.plan`, `.mission` or `.waypoints` file: by suffix, or for any other name by its content."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".plan":
         return read_plan(path)
+    if suffix == ".mission":
+        return read_qgc_mission(path)
     if suffix == ".waypoints":
         return PlanFile(mission=read_waypoints(path))
     # Mission Planner and QGroundControl also save QGC WPL files as `.waypoints.txt` or `.txt`.
@@ -137,7 +169,10 @@ def read_mission_file(path: str | os.PathLike[str]) -> PlanFile:
     if start.startswith("QGC WPL"):
         return PlanFile(mission=read_waypoints(path))
     if start.startswith("{"):
-        return read_plan(path)
+        doc = _read_json(path)
+        if isinstance(doc, dict) and doc.get("fileType") != "Plan" and _looks_like_mission_file(doc):
+            return _plan_from_mission_file(doc, path)
+        return _plan_from_document(doc, path)
     raise BridgeUsageError(f"{path}: not a mission file (expected a QGroundControl .plan or a file whose first line "
                            f"is \"{WPL_HEADER}\")")
 
@@ -260,21 +295,59 @@ def _latlon(value: Any, where: str, path: Path, length: int = 2) -> list[float]:
     return [_number(v, where, path) for v in value[:length]]
 
 
-def read_plan(path: str | os.PathLike[str]) -> PlanFile:
-    path = Path(path)
+def _read_json(path: Path) -> Any:
     try:
-        doc = json.loads(_read_text(path))
+        return json.loads(_read_text(path))
     except json.JSONDecodeError as err:
         raise BridgeUsageError(f"{path}: not valid JSON (line {err.lineno}: {err.msg})") from None
     except RecursionError:
         raise BridgeUsageError(f"{path}: not a plan (JSON nested too deeply)") from None
+
+
+def _looks_like_mission_file(doc: dict[str, Any]) -> bool:
+    """A legacy QGroundControl .mission document: fileType "Mission" (version 2) or none (version 1)."""
+    return doc.get("fileType", qgc_legacy.MISSION_FILE_TYPE) == qgc_legacy.MISSION_FILE_TYPE and "items" in doc
+
+
+def read_plan(path: str | os.PathLike[str]) -> PlanFile:
+    path = Path(path)
+    return _plan_from_document(_read_json(path), path)
+
+
+def _plan_from_document(doc: Any, path: Path) -> PlanFile:
     if not isinstance(doc, dict) or doc.get("fileType") != "Plan":
-        raise BridgeUsageError(f"{path}: not a QGroundControl plan (fileType is not \"Plan\")")
+        hint = " (a QGroundControl .mission file? name it .mission)" if (
+            isinstance(doc, dict) and _looks_like_mission_file(doc)) else ""
+        raise BridgeUsageError(f"{path}: not a QGroundControl plan (fileType is not \"Plan\"){hint}")
     if type(doc.get("version")) is not int or doc["version"] != 1:
         raise BridgeUsageError(f"{path}: unsupported plan version {_short(doc.get('version'))} (expected 1)")
     mission_doc = doc.get("mission")
     if not isinstance(mission_doc, dict) or not isinstance(mission_doc.get("items"), list):
         raise BridgeUsageError(f"{path}: the plan has no mission.items list")
+    plan = _read_mission(mission_doc, path)
+    plan.fence = _read_fence(doc.get("geoFence"), path)
+    if isinstance(doc.get("geoFence"), dict) and doc["geoFence"].get("maxAltitude") is not None:
+        plan.fence_max_altitude = _number(doc["geoFence"]["maxAltitude"], "geoFence maxAltitude", path)
+    plan.rally = _read_rally(doc.get("rallyPoints"), path)
+    return plan
+
+
+def read_qgc_mission(path: str | os.PathLike[str]) -> PlanFile:
+    """QGroundControl's legacy `.mission` file (version "1.0" or 2): its mission, no fence or rally points."""
+    path = Path(path)
+    return _plan_from_mission_file(_read_json(path), path)
+
+
+def _plan_from_mission_file(doc: Any, path: Path) -> PlanFile:
+    if isinstance(doc, dict) and doc.get("fileType") == "Plan":
+        return _plan_from_document(doc, path)  # a .plan under another name: it is what it says
+    if not isinstance(doc, dict) or doc.get("fileType", qgc_legacy.MISSION_FILE_TYPE) != qgc_legacy.MISSION_FILE_TYPE:
+        raise BridgeUsageError(f"{path}: not a QGroundControl mission (fileType is not \"Mission\" or \"Plan\")")
+    return _read_mission(qgc_legacy.mission_object(doc, path), path)
+
+
+def _read_mission(mission_doc: dict[str, Any], path: Path) -> PlanFile:
+    """A `.plan` mission object (mission.items, plannedHomePosition, firmwareType, speeds) as a PlanFile."""
     # QGroundControl refuses any other mission version; a later format may mean something else.
     if "version" in mission_doc and (type(mission_doc["version"]) is not int
                                      or mission_doc["version"] != PLAN_MISSION_VERSION):
@@ -286,54 +359,108 @@ def read_plan(path: str | os.PathLike[str]) -> PlanFile:
         lat, lon, alt = _latlon(mission_doc["plannedHomePosition"], "mission.plannedHomePosition", path, 3)
         home = _check_home((lat, lon, alt), "mission.plannedHomePosition", path)
 
-    raw_items: list[tuple[MissionItem, int | None]] = []
+    # (item, its doJumpId, where it is in the file, whether it is a SimpleItem of the mission). QGroundControl
+    # resolves doJumpIds among the mission's SimpleItems only: a ComplexItem's stored items are neither
+    # targets nor have their own DO_JUMP targets rewritten.
+    raw_items: list[tuple[MissionItem, int | None, str, bool]] = []
     for index, entry in enumerate(mission_doc["items"]):
         where = f"mission item {index + 1}"
         if not isinstance(entry, dict):
             raise BridgeUsageError(f"{path}: {where}: expected an object")
         kind = entry.get("type")
         if kind == "ComplexItem":
-            raise BridgeUsageError(f"{path}: {where} is a {entry.get('complexItemType', 'complex')} ComplexItem; "
-                                   "only SimpleItem missions can be uploaded (let QGroundControl or missionplan "
-                                   "expand it into waypoints first)")
-        if kind != "SimpleItem":
-            raise BridgeUsageError(f"{path}: {where}: unknown item type {kind!r}")
-        params = entry.get("params")
-        if not isinstance(params, list) or len(params) != 7:
-            raise BridgeUsageError(f"{path}: {where}: params must be a list of 7 numbers")
-        p = [_number(v, f"{where} params", path) for v in params]
-        frame = _integer(entry.get("frame"), f"{where} frame", path, 0, 255)  # uint8 on the wire
-        command = _integer(entry.get("command"), f"{where} command", path, 0, 65535)  # uint16
-        jump_id = entry.get("doJumpId")
-        item = check_item(MissionItem(command=command, frame=frame, param1=p[0], param2=p[1], param3=p[2],
-                                      param4=p[3], x=p[4], y=p[5], z=p[6],
-                                      autocontinue=bool(entry.get("autoContinue", True))), where, path)
-        raw_items.append((item, None if jump_id is None else _integer(jump_id, f"{where} doJumpId", path)))
+            name = entry.get("complexItemType")
+            for number, stored in enumerate(_stored_complex_items(entry, where, path), start=1):
+                inner = f"{where} ({name} item {number})"
+                if not isinstance(stored, dict) or stored.get("type") not in SIMPLE_ITEM_TYPES:
+                    raise BridgeUsageError(f"{path}: {inner}: expected a SimpleItem object")
+                raw_items.append((_simple_item(stored, inner, path)[0], None, inner, False))
+            continue
+        if kind not in SIMPLE_ITEM_TYPES:
+            raise BridgeUsageError(f"{path}: {where}: unknown item type {_short(kind)}")
+        item, jump_id = _simple_item(entry, where, path)
+        raw_items.append((item, jump_id, where, True))
 
     # DO_JUMP names its target by doJumpId; the model counts items from 1.
-    by_jump_id = {jump_id: number for number, (_, jump_id) in enumerate(raw_items, start=1) if jump_id is not None}
+    by_jump_id = {jump_id: number for number, (_, jump_id, _, simple) in enumerate(raw_items, start=1)
+                  if simple and jump_id is not None}
     items: list[MissionItem] = []
-    for number, (item, _) in enumerate(raw_items, start=1):
-        if item.command == CMD_DO_JUMP:
+    for item, _, where, simple in raw_items:
+        if item.command == CMD_DO_JUMP and simple:
             if not math.isfinite(item.param1):
-                raise BridgeUsageError(f"{path}: mission item {number}: DO_JUMP without a target doJumpId")
+                raise BridgeUsageError(f"{path}: {where}: DO_JUMP without a target doJumpId")
             target = int(round(item.param1))
             if target not in by_jump_id:
-                raise BridgeUsageError(f"{path}: mission item {number}: DO_JUMP to doJumpId {target}, which no item has")
+                raise BridgeUsageError(f"{path}: {where}: DO_JUMP to doJumpId {target}, which no item has")
             item.param1 = float(by_jump_id[target])
         items.append(item)
 
     firmware = None
     if "firmwareType" in mission_doc:
         firmware = Flavour.from_autopilot(_integer(mission_doc["firmwareType"], "mission.firmwareType", path))
-    plan = PlanFile(mission=Mission(items=items, mission_type=MissionType.MISSION, home=home), firmware=firmware,
+    return PlanFile(mission=Mission(items=items, mission_type=MissionType.MISSION, home=home), firmware=firmware,
                     cruise_speed=_optional_number(mission_doc.get("cruiseSpeed"), path, "mission.cruiseSpeed"),
                     hover_speed=_optional_number(mission_doc.get("hoverSpeed"), path, "mission.hoverSpeed"))
-    plan.fence = _read_fence(doc.get("geoFence"), path)
-    if isinstance(doc.get("geoFence"), dict) and doc["geoFence"].get("maxAltitude") is not None:
-        plan.fence_max_altitude = _number(doc["geoFence"]["maxAltitude"], "geoFence maxAltitude", path)
-    plan.rally = _read_rally(doc.get("rallyPoints"), path)
-    return plan
+
+
+def _simple_item(entry: dict[str, Any], where: str, path: Path) -> tuple[MissionItem, int | None]:
+    """One SimpleItem in any layout QGroundControl reads, checked, and its doJumpId."""
+    params = qgc_legacy.item_params(entry, where, path)
+    p = [_number(v, f"{where} params", path) for v in params]
+    frame = _integer(entry.get("frame"), f"{where} frame", path, 0, 255)  # uint8 on the wire
+    command = _integer(entry.get("command"), f"{where} command", path, 0, 65535)  # uint16
+    item = MissionItem(command=command, frame=frame, param1=p[0], param2=p[1], param3=p[2], param4=p[3],
+                       x=p[4], y=p[5], z=p[6], autocontinue=bool(entry.get("autoContinue", True)))
+    refuse_terrain_altitude(item, where, path, entry.get("AltitudeMode"))
+    check_item(item, where, path)
+    jump_id = entry.get("doJumpId")
+    return item, None if jump_id is None else _integer(jump_id, f"{where} doJumpId", path)
+
+
+def refuse_terrain_altitude(item: MissionItem, where: str, path: str | os.PathLike[str],
+                            altitude_mode: Any = None) -> None:
+    """BridgeUsageError for an item whose altitude is above terrain and known only from terrain data.
+
+    QGroundControl's AltitudeMode 3 ("calculated above terrain") keeps the height above terrain aside and
+    puts into param 7 an altitude above sea level that it computes from its terrain data whenever it loads
+    the plan (null until that data has come). A terrain frame (10, 11) without an altitude is the same
+    question unanswered. A terrain frame with an altitude goes to the vehicle as it is, as QGroundControl
+    sends it: the autopilot follows the terrain itself (ArduPilot does; PX4 refuses the frame).
+    """
+    if type(altitude_mode) in (int, float) and altitude_mode == ALT_MODE_CALC_ABOVE_TERRAIN:
+        raise BridgeUsageError(f"{path}: {where}: altitude is terrain-relative (QGroundControl's AltitudeMode 3: a "
+                               "height above terrain that QGroundControl turns into an altitude above sea level "
+                               f"from its terrain data when it loads the plan); {TERRAIN_ADVICE}")
+    positional = item.command in POSITIONAL_COMMANDS and is_global(item.frame)
+    if item.frame in TERRAIN_FRAMES and positional and math.isnan(item.z):
+        raise BridgeUsageError(f"{path}: {where}: altitude is terrain-relative (frame {item.frame}, "
+                               f"{TERRAIN_FRAMES[item.frame]}) and has no value; {TERRAIN_ADVICE}")
+
+
+def _stored_complex_items(entry: dict[str, Any], where: str, path: Path) -> list[Any]:
+    """The mission items QGroundControl stored in a ComplexItem and flies, or BridgeUsageError why none."""
+    name = entry.get("complexItemType")
+    name = name if isinstance(name, str) else None
+    if name not in COMPLEX_ITEM_KINDS:
+        raise BridgeUsageError(f"{path}: {where} is a ComplexItem of type {_short(name)}, which QGroundControl "
+                               f"does not read (it reads {', '.join(COMPLEX_ITEM_KINDS)})")
+    version = entry.get("version")
+    if name == "survey" and not (type(version) in (int, float) and version in SURVEY_VERSIONS):
+        raise BridgeUsageError(f"{path}: {where} is a survey ComplexItem of version {_short(version)}, which "
+                               "QGroundControl does not read (it reads versions 2 to 5)")
+    inner = entry.get("TransectStyleComplexItem")
+    stored = inner.get("Items") if isinstance(inner, dict) else None
+    if name in STORED_ITEMS_KINDS and isinstance(stored, list) and stored:
+        return stored
+    if name in STORED_ITEMS_KINDS:
+        fix = ("open the plan in QGroundControl and save it again (QGroundControl then stores the generated "
+               f"waypoints in it), or plan the area with `missionplan plan --area {path}`")
+    else:
+        fix = (f"QGroundControl never stores a {COMPLEX_ITEM_KINDS[name]}'s waypoints in a plan, so upload it with "
+               "QGroundControl and read the mission back with `missionplan download`")
+    raise BridgeUsageError(f"{path}: {where} is a {name} ComplexItem, a QGroundControl {COMPLEX_ITEM_KINDS[name]} "
+                           "whose waypoints QGroundControl generates when it loads the plan; the file does not "
+                           f"hold them and this tool does not generate them: {fix}")
 
 
 def _optional_number(value: Any, path: Path, where: str) -> float | None:
@@ -495,9 +622,11 @@ def read_waypoints(path: str | os.PathLike[str]) -> Mission:
         if position == 0:
             home = None if (x, y, z) == (0.0, 0.0, 0.0) else _check_home((x, y, z), f"line {line_no} (home)", path)
             continue
-        items.append(check_item(MissionItem(command=command, frame=frame, param1=p1, param2=p2, param3=p3,
-                                            param4=p4, x=x, y=y, z=z, autocontinue=bool(autocontinue)),
-                                f"line {line_no} (item {position})", path))
+        item = MissionItem(command=command, frame=frame, param1=p1, param2=p2, param3=p3, param4=p4, x=x, y=y, z=z,
+                           autocontinue=bool(autocontinue))
+        where = f"line {line_no} (item {position})"
+        refuse_terrain_altitude(item, where, path)
+        items.append(check_item(item, where, path))
     return Mission(items=items, mission_type=MissionType.MISSION, home=home)
 
 

@@ -148,6 +148,9 @@ def _build_parser() -> argparse.ArgumentParser:
                       help="the vehicles' autopilot: the .plan firmwareType that upload / fly check (default "
                            "ardupilot; px4 writes no .waypoints, see docs/px4-missions.md)")
     plan.add_argument("--out", required=True, type=Path, help="output folder (created if missing)")
+    plan.add_argument("--basemap", metavar="URL",
+                      help="plan.html draws map tiles from this tile server (e.g. "
+                           "https://tile.openstreetmap.org/{z}/{x}/{y}.png); without it the page needs no network")
     plan.add_argument("--policy", default=DEFAULT_POLICY, choices=POLICIES,
                       help="who decides moves in view of targets: the neural network (nn) or the expert it imitates")
     plan.add_argument("--weights", type=Path, help="network weights for --policy nn (default: the shipped ones)")
@@ -210,9 +213,9 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from .mission.safety import safety_settings
 
     # Everything that can be wrong with the input fails here, before any folder is made.
-    unknown = UnknownHeights(0, 0, None, None)
+    unknown, sources = UnknownHeights(0, 0, None, None), None
     if args.area is not None:
-        gmap, frame, unknown = load_area_checked(args)
+        gmap, frame, unknown, sources = load_area_checked(args)
         args.uavs = len(gmap.launch) if args.uavs is None else args.uavs
     else:
         if args.uavs is None:
@@ -224,20 +227,22 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     starts = launch_cells(gmap, args.uavs)
     settings = mission_settings(gmap, args) if frame is not None else None
     safety = safety_settings(gmap, args, settings.altitude_m) if settings is not None else None
-    return write_plan(args, gmap, frame, settings, safety, starts, unknown)
+    return write_plan(args, gmap, frame, settings, safety, starts, unknown, sources=sources)
 
 
 def write_plan(args: argparse.Namespace, gmap: GridMap, frame: Any, settings: Any, safety: Any, starts: list[Any],
-               unknown: Any, ids: list[int] | None = None, survey: dict[str, Any] | None = None) -> int:
+               unknown: Any, ids: list[int] | None = None, survey: dict[str, Any] | None = None,
+               sources: Any = None) -> int:
     """Plan gmap from its launch cells and write the plan folder args.out; prints the summary.
 
     `plan` and `replan` share it. ids: the system id of each drone, in launch order (default 1, 2, ...);
-    survey: report.json's `survey` (a re-plan's pointer to the survey it continues)."""
+    survey: report.json's `survey` (a re-plan's pointer to the survey it continues); sources: the area
+    and buildings an `--area` grid was drawn from (georef.AreaSources), for the map files."""
     from .mission.plot import draw_plan  # matplotlib only when a picture is drawn
     from .mission.report import build_report, write_report
 
     from .fieldplan import plan_field
-    from .mission.coverage_check import coverage_report
+    from .mission.coverage_check import coverage_report, unreachable_causes
     from .mission.outputs import remove_stale_outputs
 
     if safety is not None:  # a launch point inside the clearance band fails here, before any folder
@@ -269,6 +274,8 @@ def write_plan(args: argparse.Namespace, gmap: GridMap, frame: Any, settings: An
         report["drone_ids"] = list(ids)
     if survey is not None:
         report["survey"] = survey
+    if getattr(args, "basemap", None):  # flight.html draws the same tiles
+        report["basemap"] = args.basemap
     written, sortie_starts = [], None
     if plans is not None and frame is not None and settings is not None:
         from .mission.flightplan import write_flight_files
@@ -277,20 +284,36 @@ def write_plan(args: argparse.Namespace, gmap: GridMap, frame: Any, settings: An
                                   "footprint_m": settings.footprint_m, "trigger_distance_m": settings.trigger_distance_m}
         from bridge.mission import Flavour
 
-        written = write_flight_files(args.out, result, frame, plans, Flavour(args.autopilot))
+        written = write_flight_files(args.out, plans, Flavour(args.autopilot))
         sortie_starts = plans.sortie_starts
     osm = args.area is not None and args.osm is not None
+    unreachable_mask = _cell_mask(gmap.shape, report["unreachable_cells"])
+    clearance_m = float(report.get("clearance", {}).get("required_m") or 0.0)
+    # Why each unreachable target is unreachable: the warnings count them, the pictures colour them.
+    crossed = unknown.if_overflown() if osm and unknown.if_overflown is not None and unreachable_mask.any() else None
+    causes = unreachable_causes(gmap, starts, unreachable_mask, clearance_m, crossed)
+    launch_labels = list(args.launch[:args.uavs]) if args.area is not None else None
     report["coverage"] = coverage_report(
         gmap, starts, report["targets"], report["unreachable"], report["metrics"]["coverage"], report["zone_sizes"],
         unknown_buildings=unknown.buildings if osm else None, total_buildings=unknown.total if osm else None,
-        assumed_height_m=unknown.assumed_m, if_overflown=unknown.if_overflown,
-        launch_labels=list(args.launch[:args.uavs]) if args.area is not None else None,
-        unreachable_mask=_cell_mask(gmap.shape, report["unreachable_cells"]),
-        clearance_m=float(report.get("clearance", {}).get("required_m") or 0.0))
+        assumed_height_m=unknown.assumed_m, if_overflown=unknown.if_overflown, launch_labels=launch_labels,
+        unreachable_mask=unreachable_mask, clearance_m=clearance_m, causes=causes)
+    paths_latlon = None
+    if plans is not None and frame is not None:
+        from .mission.layers import drone_paths_latlon, plan_layers, plan_summary
+        from .mission.mapfiles import write_map_files
+
+        layers = plan_layers(result, frame, plans, gmap, band=field.band, causes=causes, sources=sources,
+                             launch_labels=launch_labels)
+        written += write_map_files(args.out, "plan", layers, plan_summary(report, layers),
+                                   basemap=getattr(args, "basemap", None))
+        paths_latlon = drone_paths_latlon(layers)
     report["files"] = sorted({p.name for p in written} | {"report.json", "plan.png"})
     remove_stale_outputs(args.out, keep=report["files"])  # before the new report.json replaces the old list
     write_report(report, args.out / "report.json")
-    draw_plan(result, args.out / "plan.png", sortie_starts=sortie_starts)
+    draw_plan(result, args.out / "plan.png", sortie_starts=sortie_starts, frame=frame,
+              paths_latlon=paths_latlon,
+              obstacle=gmap.obstacle, band=field.band, unreachable_causes=causes)
 
     m = report["metrics"]
     zones = args.zones + ("" if args.no_balance else ", balanced")
@@ -335,8 +358,12 @@ def write_plan(args: argparse.Namespace, gmap: GridMap, frame: Any, settings: An
                   f"courtyards); counted unreachable", file=sys.stderr)
     for warning in report["coverage"]["warnings"]:
         print(f"missionplan: warning: {warning}", file=sys.stderr)
-    names = ", ".join(p.name for p in written[:2]) + (f", ... ({len(written)} files)" if written else "")
-    print(f"wrote {args.out / 'report.json'}, {args.out / 'plan.png'}" + (f", {names}" if written else ""))
+    missions = [p.name for p in written if p.suffix in (".plan", ".waypoints")]
+    maps = [p.name for p in written if p.name not in missions]
+    listed = ", ".join(["report.json", "plan.png", *maps])
+    if missions:
+        listed += f", {len(missions)} mission files ({missions[0]} ... {missions[-1]})"
+    print(f"wrote {args.out}: {listed}")
     if not report["success"]:
         print(f"missionplan: plan failed: {report['failure']}", file=sys.stderr)
         return EXIT_FAILED

@@ -245,7 +245,8 @@ def test_a_replan_removes_only_the_files_the_previous_plan_wrote(tmp_path):
     assert not {"uav3.plan", "uav3.waypoints", "uav4.plan", "uav4.waypoints"} & names
     assert {"uav1.plan", "uav2.waypoints", "report.json", "plan.png", "notes.txt", "uav9.plan"} <= names
     assert json.loads((out / "report.json").read_text())["files"] == sorted(
-        {"plan.png", "report.json", "tracks.geojson", "uav1.plan", "uav1.waypoints", "uav2.plan", "uav2.waypoints"})
+        {"plan.png", "plan.html", "plan.gpkg", "plan.kmz", "report.json", "tracks.geojson",
+         "uav1.plan", "uav1.waypoints", "uav2.plan", "uav2.waypoints"})
 
 
 def test_a_replan_without_sorties_removes_the_old_sortie_files(tmp_path):

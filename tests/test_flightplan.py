@@ -111,15 +111,18 @@ def test_corrector_cuts_waypoints_at_least_five_fold_on_leonardo(leonardo_run):
     assert 5 * waypoints <= cells
 
 
-def test_tracks_geojson_has_zones_and_tracks(leonardo_run):
+def test_tracks_geojson_has_every_plan_layer(leonardo_run):
     out, report = leonardo_run
     doc = json.loads((out / "tracks.geojson").read_text())
-    kinds = [f["properties"]["kind"] for f in doc["features"]]
-    assert kinds.count("zone") == 5 and kinds.count("track") == 5
+    layers = [f["properties"]["layer"] for f in doc["features"]]
+    assert layers.count("zones") == 5 and layers.count("paths") == 5 and layers.count("launch") == 5
+    assert layers.count("photos") == sum(d["photos"] for d in report["drones"])
     for feature in doc["features"]:
-        if feature["properties"]["kind"] == "track":
-            lon, lat = feature["geometry"]["coordinates"][0]
+        if feature["properties"]["layer"] == "paths":
+            lon, lat, up = feature["geometry"]["coordinates"][0]  # 3-D: metres above home
             assert 45.47 < lat < 45.48 and 9.22 < lon < 9.23  # the arena's origin is in Milan
+            assert up == 0 and max(c[2] for c in feature["geometry"]["coordinates"]) == pytest.approx(
+                feature["properties"]["altitude_m"])
 
 
 def test_land_and_altitude_step_options(tmp_path):
@@ -228,7 +231,7 @@ def test_plan_files_read_back_to_exactly_the_built_missions(tmp_path):
     result = plan_map(gmap, 3)
     frame = shipped_frame(gmap)
     plans = make_flight_plans(result, frame, MissionSettings(altitude_m=1.2, footprint_m=9 * 0.238))
-    write_flight_files(tmp_path, result, frame, plans)
+    write_flight_files(tmp_path, plans)
     for drone in plans.drones:
         back = read_mission_file(tmp_path / f"uav{drone.sysid}.plan").mission
         assert back.home == pytest.approx(drone.mission.home)

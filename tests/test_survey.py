@@ -20,6 +20,7 @@ from missionplan.cli import main
 from missionplan.flight.flight_report import SLACK_CELLS, frame_of, target_cells, to_grid_m
 from missionplan.flight.ledger import LEDGER_NAME, Ledger
 from missionplan.flight.mock_fleet import start_mock_fleet
+from lost_drone import fly_with_a_lost_drone
 
 FAST = 10.0
 
@@ -28,15 +29,7 @@ FAST = 10.0
 def lost_drone_survey(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Leonardo for 3 drones, flown with drone 2 killed at item 8: the survey's first flight."""
     root = tmp_path_factory.mktemp("survey") / "day1"
-    assert main(["plan", "--map", "leonardo", "--uavs", "3", "--out", str(root), "--quiet"]) == 0
-    mock = start_mock_fleet(root, FAST)
-    mock.kill(2, at_item=8)
-    try:
-        code = main(["fly", str(root), "--connect", mock.client_url, "--time-scale", str(FAST), "--timeout", "40",
-                     "--quiet"])
-    finally:
-        mock.stop()
-    assert code == 1  # a drone lost is a problem of the flight
+    assert fly_with_a_lost_drone(root) == 1  # a drone lost is a problem of the flight
     return root
 
 

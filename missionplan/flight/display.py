@@ -107,7 +107,7 @@ def print_flight(result: FlightResult) -> None:
     if survey is not None and survey["flights"] > 1:
         print(f"survey {survey['root']}: {survey['coverage']:.2f} % of {survey['targets']} target cells over "
               f"{survey['flights']} flights, {survey['missing_cells']} left (`missionplan status {survey['root']}`)")
-    if survey is None:
-        print(f"wrote {result.json_path}, {result.png_path} and {result.missed_path}")
-    else:
-        print(f"wrote {result.json_path}, {result.png_path}, {result.missed_path}, photos.csv, photos.geojson and geo.txt")
+    names = [result.json_path.name, result.png_path.name, *(p.name for p in result.map_paths), result.missed_path.name]
+    if survey is not None:  # a judged flight of the journal: its photos' geotags too
+        names += ["photos.csv", "photos.geojson", "geo.txt"]
+    print(f"wrote {result.json_path.parent}: {', '.join(names)}")

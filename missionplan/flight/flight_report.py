@@ -21,13 +21,14 @@ No MAVLink here: fly.py records (DroneRecord), this module judges what was recor
 - Times: flight_s on the vehicle's own clock, next to the plan (and the plan re-timed with the
   vehicle's parameters, mission_motions); per drone its phases and events (phases.py: where the
   time went).
-- flight.png: the grid with covered and missed targets, the flown tracks, and flight time per drone.
+- flight.png (flight_plot.py): a map in metres of covered and missed targets, the flown tracks, and
+  flight time per drone; flight.html, flight.gpkg, flight.kmz (flight_layers.py): the same over the city.
 """
 
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -43,6 +44,9 @@ from geo.frame import GridFrame
 
 from ..maps.gridmap import GridMap
 from ..mission.timeline import FlightModel, closest_approach, planned_motions
+from ..mission.layers import Layers, drone_paths_latlon
+from .flight_layers import flight_layers, flight_summary, plan_layers_on_disk
+from .flight_plot import draw_flight
 from .phases import event_rows, on_vehicle_clock, phase_rows
 from .record import DroneRecord
 
@@ -77,6 +81,7 @@ class FlightResult:
     missed_path: Path = Path("missed.geojson")
     coverage_with_unconfirmed: float = 0.0  # counting the photos placed on the track as well
     survey: dict[str, Any] | None = None  # the survey's coverage from the ledger, all flights (survey_summary)
+    map_paths: list[Path] = field(default_factory=list)  # flight.html, flight.gpkg, flight.kmz
 
     @property
     def ok(self) -> bool:
@@ -499,11 +504,28 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
         "what": "target cells no confirmed photo covered", "cells": int(len(missed)),
         "area_m2": round(float(len(missed)) * frame.cell_m ** 2, 1), "coverage": round(percent, 2)})]}
     write_text_atomic(missed_path, json.dumps(missed_doc) + "\n")
-    draw_flight(png_path, report, frame, targets, covered, tracks_m, {r["id"]: r["flight_s"] for r in rows}, percent)
+    plan = plan_layers_on_disk(plan_dir)
+    draw_flight(png_path, report, frame, targets, covered, tracks_m, {r["id"]: r["flight_s"] for r in rows}, percent,
+                paths_latlon=drone_paths_latlon(plan) if plan.get("paths") else None)
+    map_paths = write_flight_maps(plan_dir, plan, report, doc, frame, records, kept, targets, covered)
     return FlightResult(coverage=round(percent, 2), targets=int(len(targets)), separation=separation, drones=rows,
                         problems=problems, photo_source=photo_source, wall_s=round(wall_s, 2),
                         json_path=json_path, png_path=png_path, missed_path=missed_path,
-                        coverage_with_unconfirmed=round(percent_with_placed, 2), survey=survey)
+                        coverage_with_unconfirmed=round(percent_with_placed, 2), survey=survey,
+                        map_paths=map_paths)
+
+
+def write_flight_maps(plan_dir: Path, plan: Layers, report: dict[str, Any], doc: dict[str, Any], frame: GridFrame,
+                      records: list[DroneRecord], photos: list[dict[str, Any]], targets: np.ndarray,
+                      covered: np.ndarray) -> list[Path]:
+    """flight.html, flight.gpkg and flight.kmz: the plan's layers (its tracks.geojson) and what was flown."""
+    from ..mission.mapfiles import write_map_files
+
+    tracks = {rec.id: np.array(rec.samples)[:, 1:4] for rec in records if rec.samples}
+    flight_s = {row["id"]: row["flight_s"] for row in doc["drones"]}
+    layers = flight_layers(plan, frame, tracks, photos, targets, covered, flight_s)
+    return write_map_files(plan_dir, "flight", layers, flight_summary(report, doc, layers),
+                           basemap=report.get("basemap"))
 
 
 def survey_summary(ledger: Any) -> dict[str, Any]:
@@ -565,42 +587,3 @@ def _separation(report: dict[str, Any], records: list[DroneRecord], timed: dict[
             "tolerance": round(float(tolerance), 3), "start_spread_s": round(float(start_spread_s), 3),
             "kept": kept, "tracks": len(timed)}
 
-
-# ------------------------------------------------------------------------------------------- picture
-def draw_flight(path: Path, report: dict[str, Any], frame: GridFrame, targets: np.ndarray, covered: np.ndarray,
-                tracks_m: dict[int, np.ndarray], flight_s: dict[int, float], coverage_pct: float) -> None:
-    """flight.png: obstacles, covered (green) and missed (red) targets, flown tracks; flight time per drone."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    gmap = planned_grid(report)
-    rows, cols = gmap.shape
-    img = np.ones((rows, cols, 3))
-    img[gmap.obstacle] = (0.25, 0.25, 0.25)
-    img[gmap.target] = (0.85, 0.85, 0.85)  # targets outside the reachable set stay grey
-    if len(targets):
-        img[targets[covered, 0], targets[covered, 1]] = (0.62, 0.87, 0.62)
-        img[targets[~covered, 0], targets[~covered, 1]] = (0.95, 0.35, 0.35)
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(12, 5), gridspec_kw={"width_ratios": [4, 1]})
-    ax.imshow(img, interpolation="nearest", origin="upper")
-    colours = plt.get_cmap("tab10")
-    for k, (uid, pts) in enumerate(sorted(tracks_m.items())):
-        if len(pts):
-            g = pts / frame.cell_m
-            ax.plot(g[:, 1], g[:, 0], "-", lw=1.0, color=colours(k % 10), label=f"uav{uid}")
-            ax.plot(g[0, 1], g[0, 0], "o", ms=5, color=colours(k % 10))
-    ax.set_xlim(-0.5, cols - 0.5)
-    ax.set_ylim(rows - 0.5, -0.5)
-    ax.set_title(f"flown coverage {coverage_pct:.2f} % (green photographed, red missed)")
-    if ax.get_legend_handles_labels()[0]:  # no flown track, no legend (matplotlib warns about an empty one)
-        ax.legend(loc="upper right", fontsize=7)
-    ids = sorted(flight_s)
-    bx.bar([f"uav{i}" for i in ids], [flight_s[i] for i in ids], color=[colours(k % 10) for k in range(len(ids))])
-    bx.set_ylabel("flight time (s, simulated)")
-    bx.set_title("flight time")
-    bx.tick_params(axis="x", labelrotation=45, labelsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)

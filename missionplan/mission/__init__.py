@@ -1,7 +1,8 @@
-"""missionplan.mission: georeferenced missions and the plan's files (.plan, report.json, plan.png).
+"""missionplan.mission: georeferenced missions and the plan's files (.plan, report.json, the maps).
 
 Georeferenced missions from a grid plan: georeference, corrector, clearance, sorties, altitude
-separation, geofence, timeline, the .plan / .waypoints / geojson files, report.json, plan.png.
+separation, geofence, timeline, the .plan / .waypoints files, report.json, and the maps a crew
+looks at: plan.png, plan.html, plan.gpkg, plan.kmz, tracks.geojson.
 
 May import: missionplan.learn, .grid, .maps; geo; bridge (the mission model, files, copter model).
 Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_layers.py).
@@ -12,11 +13,14 @@ Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_l
                   (SPEC section 8).
   coverage_check  Coverage honesty: what a plan covers of ALL the targets, and warnings when that is
                   much less.
-  flightplan      Grid plan -> smoothed tracks -> missions -> files (`uavK.plan`, `uavK.waypoints`,
-                  `tracks.geojson`).
+  flightplan      Grid plan -> smoothed tracks -> missions -> mission files (`uavK.plan`,
+                  `uavK.waypoints`).
   geofence        Each drone's geofence: an inclusion polygon around its whole flight, and a ceiling.
   georef          Georeferenced inputs for `missionplan plan`: an area file, or a shipped map's own
                   georeference.
+  layers          A plan's map layers: what plan.html, plan.gpkg, plan.kmz and tracks.geojson draw.
+  mapfiles        The map files a crew opens and carries away, written from a plan's (or a flight's)
+                  layers.
   missions        From a smoothed track to one MAVLink mission per drone (SPEC section 9).
   outputs         A plan folder's own files: which ones a previous `plan` wrote there, so a re-plan
                   leaves none stale.
@@ -30,4 +34,6 @@ Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_l
                   endurance.
   timeline        Where every drone is when: planned missions as timed 3-D tracks, and the closest
                   approach of two tracks.
+  webmap          plan.html / flight.html: one self-contained page, the layers over the city (Leaflet
+                  inlined, webmap_assets/).
 """

@@ -23,6 +23,20 @@ from .clearance import clearance_band
 UNREACHABLE_WARN_FRACTION = 0.05  # warn when more than this share of all targets is unreachable
 SMALL_SHARE_FRACTION = 0.2  # warn about a drone whose share is under this fraction of the mean
 
+# Why a target cell is unreachable, as plan.png, plan.html and the GIS files name it.
+UNKNOWN_HEIGHT = "unknown-height buildings"
+CLEARANCE_BAND = "clearance band"
+POCKET = "pocket"
+CAUSE_REASONS = {
+    UNKNOWN_HEIGHT: "cut off only by buildings of unknown height, counted as obstacles "
+                    "(--unknown-building-height M overflies them)",
+    CLEARANCE_BAND: "closer than --clearance to an obstacle and out of every photo taken outside that band",
+    POCKET: "walled in by obstacles, tall buildings, the clearance margin or the area edge; "
+            "a launch point inside would reach them",
+}
+POCKET_REASON = ("lie in pockets walled in by obstacles, tall buildings, the clearance margin or the area edge "
+                 "(courtyards, closed blocks); a launch point inside a pocket would reach it")
+
 
 def _pct(part: int, whole: int) -> float:
     return round(100.0 * part / whole, 2) if whole else 100.0
@@ -40,7 +54,7 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
                     total_buildings: int | None = None, assumed_height_m: float | None = None,
                     if_overflown: Callable[[], GridMap] | None = None,
                     launch_labels: list[str] | None = None, unreachable_mask: np.ndarray | None = None,
-                    clearance_m: float = 0.0) -> dict[str, Any]:
+                    clearance_m: float = 0.0, causes: dict[str, np.ndarray] | None = None) -> dict[str, Any]:
     """The `coverage` block of report.json: both coverage numbers, counts, causes, warnings.
 
     `coverage_pct` is the plan's coverage of the reachable targets; `zone_sizes` the targets
@@ -49,6 +63,7 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
     `launch_labels` names each drone's launch point in warnings (default: its grid cell).
     `unreachable_mask` (the report's unreachable cells) and `clearance_m` let the warning name a
     third cause: targets inside the `--clearance` band that no photo taken outside it sees.
+    `causes`: unreachable_causes' masks when the caller has them (else computed here when needed).
     """
     total = reachable_targets_count + unreachable
     covered = int(round(coverage_pct * reachable_targets_count / 100.0))
@@ -69,40 +84,33 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
     }
     warnings: list[str] = block["warnings"]
     if total and unreachable > UNREACHABLE_WARN_FRACTION * total:
-        pockets = ("lie in pockets walled in by obstacles, tall buildings, the clearance margin or the area edge "
-                   "(courtyards, closed blocks); a launch point inside a pocket would reach it")
-        causes: list[str] = []
-        explained = np.zeros(gmap.shape, dtype=bool)
-        if if_overflown is not None:
-            cut = _cut_off_by(gmap, starts, if_overflown())
-            if unreachable_mask is not None:
-                cut &= unreachable_mask
-            block["unreachable_by_unknown_height"] = int(cut.sum())
-            if cut.any():
-                causes.append(f"{int(cut.sum())} of them are cut off only by the {unknown_buildings} of "
-                              f"{total_buildings} buildings of unknown height (no height, no building:levels tag), "
-                              f"counted as obstacles: if those are low enough to overfly, give "
-                              f"--unknown-building-height M (or tag building:levels, 3 m a level)")
-                explained |= cut
-        if unreachable_mask is not None and clearance_m > 0:
-            cell_m = float(gmap.meta.get("cell_m", 0.0) or 0.0)
-            band = clearance_band(gmap.obstacle, clearance_m / cell_m) if cell_m > 0 else np.zeros_like(explained)
-            # pocket cells are pockets whatever the margin: only band targets the drones can get near count
-            in_band = unreachable_mask & band & reachable_targets(gmap, starts) & ~explained
+        if causes is None:
+            crossed = if_overflown() if if_overflown is not None else None
+            causes = unreachable_causes(gmap, starts, unreachable_mask, clearance_m, crossed)
+        reasons: list[str] = []
+        cut = causes.get(UNKNOWN_HEIGHT)
+        if if_overflown is not None or cut is not None:
+            block["unreachable_by_unknown_height"] = int(cut.sum()) if cut is not None else 0
+        if cut is not None and cut.any():
+            reasons.append(f"{int(cut.sum())} of them are cut off only by the {unknown_buildings} of "
+                           f"{total_buildings} buildings of unknown height (no height, no building:levels tag), "
+                           f"counted as obstacles: if those are low enough to overfly, give "
+                           f"--unknown-building-height M (or tag building:levels, 3 m a level)")
+        in_band = causes.get(CLEARANCE_BAND)
+        if in_band is not None:
             block["unreachable_by_clearance"] = int(in_band.sum())
             if in_band.any():
-                causes.append(f"{int(in_band.sum())} of them lie within --clearance {clearance_m:g} m of an obstacle "
-                              f"and out of every photo taken outside it (narrow streets, courtyards); a smaller "
-                              f"--clearance reaches them")
-                explained |= in_band
-        if not causes:
-            causes.append(f"they {pockets}")
-        elif int(explained.sum()) < unreachable:
-            causes.append(f"the other {unreachable - int(explained.sum())} {pockets}")
-        cause = "; ".join(causes)
+                reasons.append(f"{int(in_band.sum())} of them lie within --clearance {clearance_m:g} m of an obstacle "
+                               f"and out of every photo taken outside it (narrow streets, courtyards); a smaller "
+                               f"--clearance reaches them")
+        explained = sum(int(mask.sum()) for name, mask in causes.items() if name != POCKET)
+        if not reasons:
+            reasons.append(f"they {POCKET_REASON}")
+        elif explained < unreachable:
+            reasons.append(f"the other {unreachable - explained} {POCKET_REASON}")
         warnings.append(f"{unreachable} of {total} target cells ({block['unreachable_pct']:.1f} %) are unreachable: "
                         f"the plan covers {block['reachable_pct']:.1f} % of the reachable targets but "
-                        f"{block['all_pct']:.1f} % of all; {cause}")
+                        f"{block['all_pct']:.1f} % of all; {'; '.join(reasons)}")
     if zone_sizes:
         mean = sum(zone_sizes) / len(zone_sizes)
         pockets = _launch_pockets(gmap, starts)
@@ -120,6 +128,28 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
                 why = "its zone came out small; another launch point spreads the work better"
             warnings.append(f"uav{uav} gets {size} target cells, under a fifth of the mean share ({mean:.0f}): {why}")
     return block
+
+
+def unreachable_causes(gmap: GridMap, starts: list[Cell], unreachable_mask: np.ndarray | None,
+                       clearance_m: float = 0.0, crossed: GridMap | None = None) -> dict[str, np.ndarray]:
+    """Each unreachable target cell's cause, as masks that do not overlap: cut off only by buildings of
+    unknown height (`crossed`: the grid with them overflown), in the clearance band though the drones get
+    near it, else a pocket. Without `unreachable_mask` every unreachable target counts."""
+    if unreachable_mask is None:
+        unreachable_mask = gmap.target & ~reachable_targets(gmap, starts)
+    left = unreachable_mask.copy()
+    causes: dict[str, np.ndarray] = {}
+    if crossed is not None:
+        causes[UNKNOWN_HEIGHT] = _cut_off_by(gmap, starts, crossed) & left
+        left &= ~causes[UNKNOWN_HEIGHT]
+    cell_m = float(gmap.meta.get("cell_m", 0.0) or 0.0)
+    if clearance_m > 0 and cell_m > 0:
+        band = clearance_band(gmap.obstacle, clearance_m / cell_m)
+        # pocket cells are pockets whatever the margin: only band targets the drones can get near count
+        causes[CLEARANCE_BAND] = left & band & reachable_targets(gmap, starts)
+        left &= ~causes[CLEARANCE_BAND]
+    causes[POCKET] = left
+    return causes
 
 
 def _cut_off_by(gmap: GridMap, starts: list[Cell], crossed: GridMap) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Grid plan -> smoothed tracks -> missions -> files (`uavK.plan`, `uavK.waypoints`, `tracks.geojson`).
+"""Grid plan -> smoothed tracks -> missions -> mission files (`uavK.plan`, `uavK.waypoints`).
 
 The last stage of `missionplan plan` when the grid is georeferenced: each drone's cell path
 goes through the trajectory corrector, its waypoints are turned into latitude/longitude by
@@ -9,7 +9,6 @@ to a temporary name and renamed.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -20,7 +19,6 @@ from bridge.mission import Flavour
 from bridge.missionfile import PlanFile, write_mission_file
 from geo.frame import GridFrame
 
-from bridge.atomic import write_text_atomic
 from ..grid.planresult import PlanResult
 from ..grid.world import FOOTPRINT_RADIUS
 from ..maps.gridmap import GridMap, MapError
@@ -319,51 +317,8 @@ def _separation_failure(failure: SeparationError, frame: GridFrame,
     return error
 
 
-def _zone_polygons(result: PlanResult, frame: GridFrame) -> list[dict[str, Any]]:
-    """Each drone's zone as a GeoJSON (Multi)Polygon, from the union of its cells' squares."""
-    import shapely
-    from shapely.geometry import mapping
-
-    features = []
-    zone = result.zones.zone
-    for k in range(len(result.starts)):
-        cells = np.argwhere(zone == k)
-        if not len(cells):
-            continue
-        # Cell (i, j) is the square (i +- 0.5, j +- 0.5) in grid coordinates.
-        boxes = shapely.box(cells[:, 1] - 0.5, cells[:, 0] - 0.5, cells[:, 1] + 0.5, cells[:, 0] + 0.5)
-        merged = shapely.union_all(boxes)
-
-        def to_lonlat(coords: np.ndarray) -> np.ndarray:
-            lat, lon = frame.grid_to_latlon(coords[:, 1], coords[:, 0])  # (x, y) = (col, row)
-            return np.column_stack([lon, lat])
-
-        geometry = shapely.transform(merged, to_lonlat)
-        features.append({"type": "Feature", "geometry": mapping(geometry),
-                         "properties": {"kind": "zone", "uav": k + 1, "cells": int(len(cells))}})
-    return features
-
-
-def tracks_geojson(result: PlanResult, frame: GridFrame, plans: FlightPlans) -> dict[str, Any]:
-    features = _zone_polygons(result, frame)
-    for k, fence in enumerate(plans.fences):
-        ring = fence.latlon[:, ::-1].tolist()
-        features.append({"type": "Feature", "geometry": {"type": "Polygon", "coordinates": [ring + ring[:1]]},
-                         "properties": {"kind": "geofence", "uav": plans.drones[k].sysid,
-                                        "max_altitude_m": fence.max_altitude_m}})
-    for k, (latlon, drone) in enumerate(zip(plans.waypoints_latlon, plans.drones)):
-        features.append({"type": "Feature",
-                         "geometry": {"type": "LineString", "coordinates": latlon[:, ::-1].tolist()},
-                         "properties": {"kind": "track", "uav": drone.sysid, "sysid": drone.sysid,
-                                        "altitude_m": plans.settings.altitude_of(k), "waypoints": drone.waypoints,
-                                        "length_m": round(drone.length_m, 2), "flight_s": round(drone.flight_s, 1),
-                                        "photos": drone.photos}})
-    return {"type": "FeatureCollection", "features": features}
-
-
-def write_flight_files(out: Path, result: PlanResult, frame: GridFrame, plans: FlightPlans,
-                       autopilot: Flavour = Flavour.ARDUPILOT) -> list[Path]:
-    """Write every sortie's uavK[-sJ].plan and .waypoints, and tracks.geojson, into `out`; returns the paths.
+def write_flight_files(out: Path, plans: FlightPlans, autopilot: Flavour = Flavour.ARDUPILOT) -> list[Path]:
+    """Write every sortie's uavK[-sJ].plan and .waypoints into `out`; returns the paths.
 
     `autopilot` is the target (`plan --autopilot`): each .plan carries its QGroundControl firmwareType
     (ArduPilot 3, PX4 12), which `upload` and `fly` check against the vehicle. The items are the same
@@ -384,7 +339,4 @@ def write_flight_files(out: Path, result: PlanResult, frame: GridFrame, plans: F
                 path = out / sortie_file(drone.sysid, j + 1, suffix)
                 write_mission_file(path, plan_file)
                 written.append(path)
-    path = out / "tracks.geojson"
-    write_text_atomic(path, json.dumps(tracks_geojson(result, frame, plans)) + "\n")
-    written.append(path)
     return written

@@ -10,7 +10,8 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 from geo.area import build_grid_map
 from geo.camera import Camera
@@ -57,14 +58,25 @@ class UnknownHeights:
     if_overflown: Callable[[], GridMap] | None
 
 
+@dataclass
+class AreaSources:
+    """What an `--area` grid was drawn from, in lon/lat: the area, the building footprints (with the
+    heights the plan used) and the no-fly polygons; the plan's map layers draw them."""
+
+    area: Any  # shapely (Multi)Polygon
+    buildings: list[Building] = field(default_factory=list)
+    no_fly: list[Any] = field(default_factory=list)
+
+
 def load_area(args: argparse.Namespace) -> tuple[GridMap, GridFrame]:
     """The grid of `--area` with its obstacles, buildings and launch points."""
-    gmap, frame, _ = load_area_checked(args)
+    gmap, frame, _, _ = load_area_checked(args)
     return gmap, frame
 
 
-def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, UnknownHeights]:
-    """`load_area`, plus the buildings of unknown height and the grid without them as obstacles."""
+def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, UnknownHeights, AreaSources]:
+    """`load_area`, plus the buildings of unknown height and the grid without them as obstacles, and
+    what the grid was drawn from."""
     if args.altitude is None:
         raise GeoError("--altitude is required with --area")
     if not args.launch:
@@ -99,7 +111,8 @@ def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, Unk
         return build([b if b.height_m is not None else Building(b.geometry, 0.0, b.properties) for b in buildings])[0]
 
     return gmap, frame, UnknownHeights(unknown, len(buildings), assumed,
-                                       overflown if unknown and assumed is None else None)
+                                       overflown if unknown and assumed is None else None), \
+        AreaSources(area, buildings, no_fly)
 
 
 def shipped_frame(gmap: GridMap) -> GridFrame | None:

@@ -14,8 +14,8 @@ import re
 from pathlib import Path
 from typing import Any, Iterable
 
-# What `plan` writes: report.json, plan.png, tracks.geojson, uavK.plan / .waypoints, uavK-sJ.plan / .waypoints.
-OUR_FILE = re.compile(r"^(report\.json|plan\.png|tracks\.geojson|uav\d+(-s\d+)?\.(plan|waypoints))$")
+# What `plan` writes: report.json, plan.png / .html / .gpkg / .kmz, tracks.geojson, uavK[-sJ].plan / .waypoints.
+OUR_FILE = re.compile(r"^(report\.json|plan\.(png|html|gpkg|kmz)|tracks\.geojson|uav\d+(-s\d+)?\.(plan|waypoints))$")
 
 
 def previous_outputs(out: Path) -> list[str]:
