@@ -213,6 +213,11 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from .mission.safety import safety_settings
 
     # Everything that can be wrong with the input fails here, before any folder is made.
+    if args.basemap is not None:
+        from .mission.webmap import basemap_problem
+
+        if (problem := basemap_problem(args.basemap)) is not None:
+            raise MapError(f"--basemap {args.basemap}: {problem}")
     unknown, sources = UnknownHeights(0, 0, None, None), None
     if args.area is not None:
         gmap, frame, unknown, sources = load_area_checked(args)

@@ -162,3 +162,19 @@ def test_the_real_plan_and_flight_pages_draw_in_chromium(browser_context, leonar
             assert len(view.page.locator('#mp-legend li[data-layer="unreachable"]').all_inner_texts()) == 1
         finally:
             view.close()
+
+
+@pytest.mark.parametrize("url", ["tiles.example/{z}/{x}.png", "file:///tiles/{z}/{x}/{y}.png"])
+def test_a_bad_basemap_fails_before_any_folder(tmp_path: Path, url: str, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "never"
+    assert main(["plan", "--map", "leonardo", "--uavs", "2", "--out", str(out), "--basemap", url, "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"missionplan: --basemap {url}: must be") and not out.exists()
+
+
+def test_a_basemap_is_kept_for_the_flights_pages(tmp_path: Path) -> None:
+    url = "https://tiles.example.org/{z}/{x}/{y}.png"
+    out = tmp_path / "tiles"
+    assert main(["plan", "--map", "leonardo", "--uavs", "2", "--out", str(out), "--basemap", url, "--quiet"]) == 0
+    assert json.loads((out / "report.json").read_text())["basemap"] == url  # fly's flight.html reads it here
+    assert "tiles.example.org" in (out / "plan.html").read_text()

@@ -62,9 +62,20 @@ def render_html_map(layers: dict[str, dict], summary: dict, basemap: str | None 
     return _page(summary, kind, _script_json(data))
 
 
-def _basemap(url: str) -> dict[str, str]:
+def basemap_problem(url: str) -> str | None:
+    """What is wrong with `url` as a tile server's address, or None: an http(s) URL template with
+    {z}, {x} and {y}."""
     if not all(part in url for part in ("{z}", "{x}", "{y}")):
-        raise ValueError(f"basemap must be a tile URL template with {{z}}, {{x}} and {{y}}: {url!r}")
+        return "must be a tile URL template with {z}, {x} and {y}"
+    if urlsplit(url).scheme not in ("http", "https") or not urlsplit(url).hostname:
+        return "must be the http:// or https:// address of a tile server"
+    return None
+
+
+def _basemap(url: str) -> dict[str, str]:
+    problem = basemap_problem(url)
+    if problem is not None:
+        raise ValueError(f"basemap {url!r}: {problem}")
     host = urlsplit(url).hostname or url
     if host == "openstreetmap.org" or host.endswith(".openstreetmap.org"):
         # The OSM tile policy asks for this credit, linked to the copyright page.
