@@ -122,8 +122,20 @@ def test_a_drone_under_a_fifth_of_the_mean_is_named():
     assert block["warnings"] == ["uav2 gets 16 target cells, under a fifth of the mean share (108): its launch point "
                                  "45.1,7.1 is in a pocket of 16 target cells walled off from the rest; move it into "
                                  "the open street"]
-    balanced = coverage_report(gmap, starts, int(gmap.target.sum()), 0, 100.0, [120, 96])
+    balanced = coverage_report(gmap, [(1, 1), (2, 2)], int(gmap.target.sum()), 0, 100.0, [120, 96])
     assert balanced["small_shares"] == [] and balanced["warnings"] == []
+
+
+def test_a_drone_walled_in_alone_is_named_even_with_more_than_a_fifth():
+    # A pocket of 16 targets against a mean share of 40: over a fifth, but it flies less than half as
+    # long as the others whatever the zones do.
+    gmap = _grid()
+    starts = [(1, 1), (10, 10), (1, 8)]
+    block = coverage_report(gmap, starts, 120, 0, 100.0, [52, 16, 52], launch_labels=["a", "45.1,7.1", "b"])
+    assert [s["uav"] for s in block["small_shares"]] == [2]
+    assert block["warnings"] == ["uav2 gets 16 target cells, less than the mean share (40): its launch point "
+                                 "45.1,7.1 is in a pocket of 16 target cells walled off from the rest; move it into "
+                                 "the open street"]
 
 
 def test_shipped_map_report_and_printout_carry_both_numbers(tmp_path, capsys):

@@ -42,11 +42,13 @@ def _pct(part: int, whole: int) -> float:
     return round(100.0 * part / whole, 2) if whole else 100.0
 
 
-def _launch_pockets(gmap: GridMap, starts: list[Cell]) -> list[int]:
-    """Per drone: target cells in the free region (4-connected) its launch cell lies in."""
+def _launch_pockets(gmap: GridMap, starts: list[Cell]) -> tuple[list[int], list[bool]]:
+    """Per drone: target cells in the free region (4-connected) its launch cell lies in, and whether
+    no other drone launches in that region."""
     labels, _ = ndimage.label(gmap.free)  # 4-connectivity, as the drones move
     counts = np.bincount(labels[gmap.target], minlength=labels.max() + 1)
-    return [int(counts[labels[cell]]) for cell in starts]
+    regions = [int(labels[cell]) for cell in starts]
+    return [int(counts[r]) for r in regions], [regions.count(r) == 1 for r in regions]
 
 
 def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: int, unreachable: int,
@@ -113,20 +115,23 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
                         f"{block['all_pct']:.1f} % of all; {'; '.join(reasons)}")
     if zone_sizes:
         mean = sum(zone_sizes) / len(zone_sizes)
-        pockets = _launch_pockets(gmap, starts)
+        pockets, alone = _launch_pockets(gmap, starts)
         for k, size in enumerate(zone_sizes):
-            if size >= SMALL_SHARE_FRACTION * mean:
+            # Walled in alone with less than a fair share: it flies short however the zones fall.
+            in_pocket = alone[k] and len(starts) > 1 and pockets[k] < mean
+            if size >= SMALL_SHARE_FRACTION * mean and not in_pocket:
                 continue
             uav = k + 1
             block["small_shares"].append({"uav": uav, "targets": int(size), "mean": round(mean, 1),
                                           "launch_pocket_targets": pockets[k]})
-            if pockets[k] < SMALL_SHARE_FRACTION * mean:
+            if pockets[k] < SMALL_SHARE_FRACTION * mean or in_pocket:
                 where = launch_labels[k] if launch_labels else f"cell {tuple(starts[k])}"
                 why = (f"its launch point {where} is in a pocket of {pockets[k]} target cells walled off "
                        f"from the rest; move it into the open street")
             else:
                 why = "its zone came out small; another launch point spreads the work better"
-            warnings.append(f"uav{uav} gets {size} target cells, under a fifth of the mean share ({mean:.0f}): {why}")
+            share = "under a fifth of" if size < SMALL_SHARE_FRACTION * mean else "less than"
+            warnings.append(f"uav{uav} gets {size} target cells, {share} the mean share ({mean:.0f}): {why}")
     return block
 
 

@@ -13,6 +13,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+import shapely
+
 from geo.area import build_grid_map
 from geo.camera import Camera
 from geo.errors import GeoError
@@ -52,8 +54,8 @@ class UnknownHeights:
     plan leaves many targets unreachable, to tell how many of them these buildings cut off).
     """
 
-    buildings: int  # footprints in --osm without height or building:levels
-    total: int  # all footprints in --osm
+    buildings: int  # footprints in the area without height or building:levels
+    total: int  # all footprints in the area
     assumed_m: float | None  # --unknown-building-height, when given
     if_overflown: Callable[[], GridMap] | None
 
@@ -94,7 +96,10 @@ def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, Unk
     # Obstacle and no-fly files are obstacles whatever their height; OSM buildings may be overflown.
     no_fly = [polygon for path in args.obstacles for polygon in read_polygons(path)]
     buildings = read_buildings(args.osm) if args.osm is not None else []
-    unknown = sum(b.height_m is None for b in buildings)
+    # Counted in the area only: an OSM extract of a whole city is mostly buildings nowhere near it.
+    inside = shapely.intersects(area, [b.geometry for b in buildings]) if buildings else []
+    unknown = sum(1 for b, within in zip(buildings, inside) if within and b.height_m is None)
+    in_area = int(sum(inside))
     if assumed is not None:
         buildings = [b if b.height_m is not None else Building(b.geometry, assumed, b.properties) for b in buildings]
     launch = [parse_latlon(text) for text in args.launch]
@@ -110,7 +115,7 @@ def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, Unk
         # Height 0 m: below any flight altitude, so each such footprint is a roof the drones cross.
         return build([b if b.height_m is not None else Building(b.geometry, 0.0, b.properties) for b in buildings])[0]
 
-    return gmap, frame, UnknownHeights(unknown, len(buildings), assumed,
+    return gmap, frame, UnknownHeights(unknown, in_area, assumed,
                                        overflown if unknown and assumed is None else None), \
         AreaSources(area, buildings, no_fly)
 
