@@ -281,6 +281,8 @@ def write_plan(args: argparse.Namespace, gmap: GridMap, frame: Any, settings: An
         report["survey"] = survey
     if getattr(args, "basemap", None):  # flight.html draws the same tiles
         report["basemap"] = args.basemap
+    if gmap.meta.get("credit"):  # the map data's credit, for every picture and page drawn from it
+        report["credit"] = gmap.meta["credit"]
     written, sortie_starts = [], None
     if plans is not None and frame is not None and settings is not None:
         from .mission.flightplan import write_flight_files

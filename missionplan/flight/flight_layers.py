@@ -79,6 +79,8 @@ def flight_summary(report: dict[str, Any], doc: dict[str, Any], layers: Layers) 
                "photos from": str(doc.get("photos_from"))}
     if sep.get("3d") is not None:
         figures["closest approach"] = f"{sep['3d']} m (promised {sep.get('planned_3d')} m)"
+    if report.get("credit"):
+        figures["map data"] = report["credit"]
     if doc.get("survey"):
         figures["survey"] = f"{doc['survey']['coverage']:.2f} % over {doc['survey']['flights']} flights"
     return {"kind": "flight", "title": f"flight of {report.get('map', 'plan')}: {len(drones)} drones",

@@ -7,5 +7,7 @@ Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_l
 
   catalog         The shipped maps: the `*.map` files in the repository's top-level `maps/` folder.
   gridmap         The occupancy-grid map and its plain-text file format.
+  launches        Launch points for grids that come without any: a well-spread sequence in the open.
   mapgen          Generators of the maps that ship with missionplan (`maps/*.map`).
+  movingai        The MovingAI map reader: grid benchmarks in the octile format, read as missionplan maps.
 """

@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from .gridmap import GridMap, MapError, load_map
+from .movingai import load_any_map
 
 _INSTALLED_DIR = Path(__file__).resolve().parent / "shipped"
 # The repository root: one folder up per dot in this module's name, so the line holds wherever it sits.
@@ -23,9 +24,9 @@ def shipped_map_names() -> list[str]:
 
 
 def load_shipped(name: str) -> GridMap:
-    """A shipped map by name, or a map file by path (anything ending in .map)."""
+    """A shipped map by name, or a map file by path (anything ending in .map: ours or MovingAI's, by content)."""
     if name.endswith(".map"):
-        return load_map(name)
+        return load_any_map(name)
     path = MAPS_DIR / f"{name}.map"
     if not path.is_file():
         names = ", ".join(shipped_map_names()) or "none"

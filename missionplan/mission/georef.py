@@ -110,6 +110,8 @@ def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, Unk
         return GridMap(raster.name, raster.obstacle, raster.target, raster.launch, raster.meta), frame
 
     gmap, frame = build(buildings)
+    if str(args.osm).endswith((".osm", ".osm.pbf")):  # the licence asks for the credit wherever it is shown
+        gmap.meta["credit"] = "Buildings: OpenStreetMap data © OpenStreetMap contributors (ODbL)"
 
     def overflown() -> GridMap:
         # Height 0 m: below any flight altitude, so each such footprint is a roof the drones cross.

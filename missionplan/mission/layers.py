@@ -250,6 +250,8 @@ def plan_summary(report: dict[str, Any], layers: Layers) -> dict[str, Any]:
     clearance = report.get("clearance") or {}
     if clearance.get("kept_m") is not None:
         figures["clearance kept"] = f"{clearance['kept_m']:g} m (asked {clearance['required_m']:g} m)"
+    if report.get("credit"):
+        figures["map data"] = report["credit"]
     status = "every reachable target covered" if report["success"] else f"FAILED: {report['failure']}"
     return {"kind": "plan", "title": f"{report['map']}: {report['uavs']} drones, policy {report['policy']}",
             "subtitle": status, "drones": drones, "figures": figures, "notes": list(cover.get("warnings") or []),

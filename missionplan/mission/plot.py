@@ -188,7 +188,8 @@ def _plan_codes(result: PlanResult, obstacle: np.ndarray, band: np.ndarray | Non
         mask = np.asarray(mask, dtype=bool)
         codes[mask] = len(palette) - 1
         name = "unreachable" if label == "unreachable" else f"unreachable: {label}"
-        legend.append(Patch(fc=colour, ec="0.5", label=f"{name} ({int(mask.sum())})"))
+        if mask.any():  # a cause with no cell is no news
+            legend.append(Patch(fc=colour, ec="0.5", label=f"{name} ({int(mask.sum())})"))
     return codes, palette, legend
 
 
@@ -246,6 +247,8 @@ def plan_figure(result: PlanResult, sortie_starts: list[np.ndarray] | None = Non
     ax_map.set_title(f"{gmap.name}: {num} UAVs, policy {result.policy}, zones {result.zones.method} - {status}\n"
                      f"MMN {m['MMN']:.1f}  TE {m['TE']:.1f} %  MNT {m['MNT']:.2f} %  makespan {m['makespan']}",
                      fontsize=10, pad=16 if frame is not None else 6)  # room for the origin line
+    if gmap.meta.get("credit"):  # the map data's licence asks for it wherever a picture of it is shown
+        fig.text(0.01, 0.003, gmap.meta["credit"], fontsize=6.5, color="0.35", va="bottom")
     what = "waypoint lines as uploaded" if flown else "grid paths"
     drone_handles: list[Any] = [Line2D([], [], color=colours[k], lw=1.6, label=f"UAV {k + 1}")
                                 for k in range(min(num, len(TRACK_COLOURS)))]
