@@ -15,6 +15,9 @@
   answer is known, instead of ordering the whole grid on every call; its order (the
   queue order of a textbook BFS visiting neighbours up, left, right, down) is the order
   scipy's `breadth_first_order` gives on `zones.grid_graph`, so the goals are the same.
+  It labels the free regions (4-connected) once, so `find_goal` counts and filters only
+  the cells and rivals in the start's region: what lies elsewhere can never be flown to,
+  and a search that waits to meet it would sweep the whole region for nothing.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ import heapq
 from collections.abc import Callable, Iterator
 
 import numpy as np
+from scipy import ndimage
 
 from ..maps.gridmap import Cell
 
@@ -117,7 +121,8 @@ class FlightSearch:
     Cells are numbered row-major in the grid padded by `pad` blocked cells on every side
     (`flat_index`), so neighbours need no bounds checks, and with the world's padding a
     ring indexes the world's padded arrays directly; a visit stamp per cell (instead of a
-    fresh visited array) makes starting a search O(1) whatever the grid size.
+    fresh visited array) makes starting a search O(1) whatever the grid size. The free
+    cells never change, so their regions are labelled once (`region`).
     """
 
     def __init__(self, free: np.ndarray, pad: int = 1) -> None:
@@ -128,6 +133,7 @@ class FlightSearch:
         padded = np.zeros((rows + 2 * pad, self.width), dtype=bool)
         padded[pad:pad + rows, pad:pad + cols] = free
         self._free = padded.ravel()
+        self._region = ndimage.label(padded)[0].ravel()  # 4-connected; 0 on blocked cells
         # Ascending index order = up, left, right, down: the order of the CSR rows of grid_graph.
         self._steps = np.array([-self.width, -1, 1, self.width], dtype=np.int64)
         self._stamp = np.zeros(self._free.size, dtype=np.int32)
@@ -137,6 +143,10 @@ class FlightSearch:
         """Padded flat numbers of (n, 2) cells."""
         cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
         return (cells[:, 0] + self.pad) * self.width + cells[:, 1] + self.pad
+
+    def region(self, flat: np.ndarray) -> np.ndarray:
+        """Free-region label of padded flat numbers (0 for a blocked cell): equal labels, reachable."""
+        return self._region[flat]
 
     def cells(self, flat: np.ndarray) -> np.ndarray:
         """(n, 2) cells of padded flat numbers."""
@@ -172,21 +182,31 @@ def find_goal(search: FlightSearch, start: Cell, seen_unexplored: np.ndarray | C
     every rival are candidates: a rival needs its Manhattan distance plus its
     `rival_backlog` (steps of work it still has elsewhere). So a drone that has finished
     its own zone helps where it would get there first, and gets None (stay put) where not.
+    Only cells and rivals in start's free region count: no one gets anywhere else from here.
 
     `seen_unexplored` is a (rows, cols) mask, or a function of `search`'s padded flat
-    numbers returning their flags, with `seen_count` = how many cells are seen and (with
-    `rivals`) `seen_cells` = those cells as (n, 2), so that the candidates are known up
-    front. The search stops at the first uncongested candidate, or once every candidate
-    has been met.
+    numbers returning their flags, with `seen_count` = how many seen cells lie in start's
+    region (more only lengthens a fruitless search) and (with `rivals`) `seen_cells` = the
+    seen cells as (n, 2), anywhere, so that the candidates are known up front. The search
+    stops at the first uncongested candidate, or once every candidate has been met.
     """
+    home = int(search.region(search.flat_index(np.array([start])))[0])  # 0: a blocked start, no region to keep to
     if callable(seen_unexplored):
         is_seen, count = seen_unexplored, int(seen_count if seen_count is not None else -1)
     else:
-        mask = np.asarray(seen_unexplored, dtype=bool)
+        flat = search.flat_index(np.argwhere(np.asarray(seen_unexplored, dtype=bool)))
+        if home:
+            flat = flat[search.region(flat) == home]
         padded = np.zeros(search._free.size, dtype=bool)
-        padded[search.flat_index(np.argwhere(mask))] = True
-        is_seen, count = padded.__getitem__, int(mask.sum())
-        seen_cells = np.argwhere(mask) if rivals is not None else None
+        padded[flat] = True
+        is_seen, count = padded.__getitem__, len(flat)
+        seen_cells = search.cells(flat) if rivals is not None else None
+    if rivals is not None and len(rivals) and home:
+        rivals = np.asarray(rivals).reshape(-1, 2)
+        elsewhere = search.region(search.flat_index(rivals)) != home  # can never get here
+        if rival_backlog is not None:
+            rival_backlog = np.asarray(rival_backlog, dtype=float)[~elsewhere]
+        rivals = rivals[~elsewhere]
     candidates: np.ndarray | None = None  # sorted flat numbers of every candidate, when known up front
     if rivals is not None and len(rivals):
         backlog = np.zeros(len(rivals)) if rival_backlog is None else np.asarray(rival_backlog, dtype=float)
@@ -195,7 +215,10 @@ def find_goal(search: FlightSearch, start: Cell, seen_unexplored: np.ndarray | C
         for rival, extra in zip(np.asarray(rivals), backlog):  # each rival rules out most cells: shrink as we go
             keep = mine <= np.abs(cells - rival).sum(axis=1) + extra
             cells, mine = cells[keep], mine[keep]
-        candidates = np.sort(search.flat_index(cells))
+        flat = search.flat_index(cells)
+        if home:  # after the rivals: they leave few cells to look up
+            flat = flat[search.region(flat) == home]
+        candidates = np.sort(flat)
         count = len(candidates)
     gone = search.flat_index(np.array(sorted(excluded or ()), dtype=np.int64))
     if gone.size and count > 0:

@@ -17,6 +17,12 @@ Beyond the thesis:
 - a drone whose own zone is done helps only where it would arrive before the drones
   still busy there (their distance plus their backlog); otherwise it parks, and steps
   aside when another drone needs its cell. This cuts moves without stretching the plan;
+- drones keep to the free region (4-connected) they launched in: a goal search counts only
+  what the drone sees there and rivals only the drones there, its zone counts as done once
+  the part in its region is, and a drone whose region has nothing unexplored left (a
+  walled-in courtyard it has covered) is parked for good - no policy call, no search - so
+  a drone launched in a pocket costs nothing per step however big the map (the world keeps
+  the per-region counts current with every photo);
 - a policy-driven drone that photographs nothing new for POLICY_PATIENCE steps (it dithers
   next to cells it cannot reach inside its view) is handed to the path-finder until that
   goal is photographed, so the loop is safe with any policy, an imperfect network too.
@@ -116,6 +122,9 @@ class Planner:
         self.stall_limit = stall_limit if stall_limit is not None else 4 * (rows + cols) + 200
         self.free = world.gmap.free
         self.search = FlightSearch(self.free, pad=PAD)  # numbered like the world's padded arrays
+        drones = np.arange(world.num_drones)
+        # The other drones in each drone's free region, in index order (regions never change).
+        self._region_mates = [drones[(world.drone_region == world.drone_region[k]) & (drones != k)] for k in drones]
         self._unexplored_cells: tuple[int, np.ndarray] | None = None  # (step, cells) cache
         self.nav = [_Navigation() for _ in range(world.num_drones)]
         self.deadlocks_broken = 0
@@ -131,6 +140,11 @@ class Planner:
 
     def _plan_path(self, k: int) -> bool:
         world, nav = self.world, self.nav[k]
+        seen_count = world.seen_in_region(k)
+        if seen_count == 0:  # nothing it sees lies where it can fly: no search would find a goal
+            nav.clear()
+            nav.avoid_drones = False
+            return False
         start = tuple(int(v) for v in world.positions[k])
         taken = [n.goal for i, n in enumerate(self.nav) if i != k and n.goal is not None]
         free = self.free
@@ -139,16 +153,18 @@ class Planner:
             free[tuple(np.delete(world.positions, k, axis=0).T)] = False
             nav.avoid_drones = False
         # A drone done with its own zone helps only where it would arrive before the
-        # others, counting the work each still has in its own zone.
+        # others, counting the work each still has in its own zone; drones in other
+        # regions never get here, so they are no rivals.
         rivals = backlog = seen_cells = None
-        if world.zone_done(k) and world.num_drones > 1:
-            rivals = np.delete(world.positions, k, axis=0)
-            backlog = np.delete(world.zone_remaining, k) / CELLS_PER_MOVE
+        mates = self._region_mates[k]
+        if world.zone_done(k) and len(mates):
+            rivals = world.positions[mates]
+            backlog = world.region_zone_remaining[world.drone_region[k], mates] / CELLS_PER_MOVE
             seen_cells = self._unexplored_now()
         excluded: set[Cell] = set()
         for _ in range(MAX_GOAL_TRIES):
             goal = find_goal(self.search, start, world.seen_flat(k), taken, excluded,
-                             rivals, backlog, seen_count=world.seen_count(k), seen_cells=seen_cells)
+                             rivals, backlog, seen_count=seen_count, seen_cells=seen_cells)
             if goal is None:
                 break
             path = explorative_astar(free, world.seen_predicate(k), start, goal) or astar(free, start, goal)
@@ -233,7 +249,12 @@ class Planner:
         """One action per drone, and how many drones the policy / path-finders / nobody decided."""
         world = self.world
         num = world.num_drones
-        sees = world.sees_unexplored()
+        # Nothing left in its region: parked for good, hovering; no policy, no search.
+        parked = world.region_done()
+        sees = world.sees_unexplored() & ~parked
+        for k in np.flatnonzero(parked):
+            self.nav[k].clear()
+            self.nav[k].blocked_steps = 0
         for k in range(num):
             nav = self.nav[k]
             if sees[k] and (nav.retreating or (nav.forced and nav.goal is not None and world.unexplored[nav.goal])):
@@ -261,7 +282,7 @@ class Planner:
                         actions[k] = action
                         claimed.add(cell)
                         break
-            else:
+            elif not parked[k]:
                 action = self._path_action(k)
                 if action != HOVER:
                     cell = tuple(world.positions[k] + ACTION_DELTAS[action])

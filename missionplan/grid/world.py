@@ -4,7 +4,9 @@ It owns the rules of SPEC section 2 and nothing else: cell states (unexplored ta
 explored, obstacle), the 9 x 9 camera footprint explored at every step, drones as moving
 obstacles, moves resolved so that no two drones share a cell or swap cells, hovering when
 a move is blocked, zone sight (a drone sees as unexplored only its own zone's cells until
-that zone is done), and the step cap. Who decides the actions (expert, network,
+that zone is done), the step cap, and how much is left where: per zone, and per free region
+a drone launched in (4-connected; drones never leave theirs) and zone, so "is there anything
+left that this drone could reach" is one lookup. Who decides the actions (expert, network,
 path-finders) is someone else's job: the expert, the training code and the planner all
 drive this same class.
 """
@@ -32,11 +34,23 @@ PAD = 32  # padding of the internal arrays, so any window up to this radius is o
 _VIEW_DR, _VIEW_DC = np.mgrid[-VIEW_RADIUS:VIEW_RADIUS + 1, -VIEW_RADIUS:VIEW_RADIUS + 1]
 
 
+def launch_regions(free: np.ndarray, starts: list[Cell]) -> tuple[np.ndarray, np.ndarray]:
+    """The 4-connected free regions the drones launch in, numbered 0, 1, ... in label order.
+
+    Returns (region of every cell, -1 outside the launch regions; region of every start,
+    -1 for a start on a blocked cell).
+    """
+    labels, count = ndimage.label(free)  # default structure is 4-connectivity
+    start_labels = np.array([labels[cell] for cell in starts], dtype=np.int64)
+    launched = np.unique(start_labels[start_labels > 0])
+    number = np.full(count + 1, -1, dtype=np.int64)
+    number[launched] = np.arange(len(launched))
+    return number[labels], number[start_labels]
+
+
 def reachable_targets(gmap: GridMap, starts: list[Cell]) -> np.ndarray:
     """Target cells 4-connected through free cells to at least one start cell."""
-    labels, _ = ndimage.label(gmap.free)  # default structure is 4-connectivity
-    start_labels = {labels[cell] for cell in starts if labels[cell] > 0}
-    return gmap.target & np.isin(labels, list(start_labels))
+    return gmap.target & (launch_regions(gmap.free, starts)[0] >= 0)
 
 
 def check_starts(gmap: GridMap, starts: list[Cell]) -> None:
@@ -77,7 +91,10 @@ class CoverageWorld:
         self.gmap = gmap
         self.starts = [tuple(s) for s in starts]
         self.num_drones = len(starts)
-        self.reachable = reachable_targets(gmap, self.starts)
+        # Drones move 4-connected over free cells, so each stays in the region it launched in.
+        self.region_of, self.drone_region = launch_regions(gmap.free, self.starts)
+        self.num_regions = int(self.drone_region.max()) + 1
+        self.reachable = gmap.target & (self.region_of >= 0)
         self.unreachable_cells = np.argwhere(gmap.target & ~self.reachable)
         self.num_targets = int(self.reachable.sum())
         if zone is None:
@@ -95,6 +112,12 @@ class CoverageWorld:
         self._pad_obstacle[PAD:-PAD, PAD:-PAD] = gmap.obstacle
         self._pad_zone = np.full(self._pad_obstacle.shape, -1, dtype=np.int64)
         self._pad_zone[PAD:-PAD, PAD:-PAD] = self.zone_of
+        # Each reachable cell's (region, zone) counter, flat: region * (K + 1) + zone, the last
+        # column for a zone no drone has. One bincount per footprint keeps every count current.
+        slot = self.region_of * (self.num_drones + 1) + np.where(
+            (self.zone_of >= 0) & (self.zone_of < self.num_drones), self.zone_of, self.num_drones)
+        self._pad_slot = np.full(self._pad_obstacle.shape, -1, dtype=np.int32)
+        self._pad_slot[PAD:-PAD, PAD:-PAD] = np.where(self.reachable, slot, -1)
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -110,6 +133,9 @@ class CoverageWorld:
         self.remaining = self.num_targets
         self.zone_remaining = np.bincount(self.zone_of[self.reachable], minlength=self.num_drones)[: self.num_drones]
         self.zone_remaining = self.zone_remaining.astype(np.int64)
+        self.region_zone_remaining = np.bincount(
+            self._pad_slot[PAD:-PAD, PAD:-PAD][self.reachable], minlength=self.num_regions * (self.num_drones + 1)
+        ).astype(np.int64).reshape(self.num_regions, self.num_drones + 1)
         self.last_actions = np.full((self.num_drones, 2), HOVER, dtype=np.int64)  # [previous, one before]
         self.visits = np.zeros((self.num_drones, rows, cols), dtype=np.uint16)
         self.truncated = False
@@ -134,7 +160,19 @@ class CoverageWorld:
         return 1.0 if self.num_targets == 0 else 1.0 - self.remaining / self.num_targets
 
     def zone_done(self, k: int) -> bool:
-        return self.num_drones == 1 or self.zone_remaining[k] == 0
+        """Drone k's zone is done: all of it, or all of it that lies in k's region (the rest is
+        for the drones that can fly there; waiting on it would blind k for good)."""
+        return self.num_drones == 1 or self.zone_remaining[k] == 0 or \
+            self.region_zone_remaining[self.drone_region[k], k] == 0
+
+    def region_done(self) -> np.ndarray:
+        """(K,) bool: nothing unexplored is left in the region each drone stands in (and never will be)."""
+        return self.region_zone_remaining.sum(axis=1)[self.drone_region] == 0
+
+    def seen_in_region(self, k: int) -> int:
+        """How many cells drone k sees as unexplored in its own region: all it could fly to."""
+        left = self.region_zone_remaining[self.drone_region[k]]
+        return int(left.sum() if self.zone_done(k) else left[k])
 
     def sees_unexplored(self) -> np.ndarray:
         """(K,) bool: whether each drone's 19 x 19 view holds a cell it sees as unexplored."""
@@ -145,7 +183,8 @@ class CoverageWorld:
     def seen_unexplored_at(self, drones: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """Whether each of `drones` sees padded cells (rows, cols) as unexplored; rows/cols are (n, ...)."""
         extra = (1,) * (rows.ndim - 1)
-        zone_done = (self.num_drones == 1) | (self.zone_remaining[drones] == 0)
+        zone_done = (self.num_drones == 1) | (self.zone_remaining[drones] == 0) | \
+            (self.region_zone_remaining[self.drone_region[drones], drones] == 0)
         open_zone = self._pad_open_zone[rows, cols]
         seen = open_zone == drones.reshape(-1, *extra)
         if zone_done.any():
@@ -274,6 +313,9 @@ class CoverageWorld:
             self.zone_remaining -= np.bincount(counted, minlength=self.num_drones)
         else:  # ufunc.at is slow, but wraps a -1 zone the way it always did
             np.subtract.at(self.zone_remaining, counted, 1)
+        slots = self._window(self._pad_slot, k, FOOTPRINT_RADIUS)[window]
+        self.region_zone_remaining -= np.bincount(slots, minlength=self.region_zone_remaining.size).reshape(
+            self.region_zone_remaining.shape)
         window[:] = False  # a view into _pad_unexplored: marks the cells explored
         self._window(self._pad_open_zone, k, FOOTPRINT_RADIUS)[...] = EXPLORED
         self.remaining -= count
