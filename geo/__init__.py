@@ -10,8 +10,8 @@ One job per module:
 * `geo.area`    - `build_grid_map`: rasterise area, obstacles, buildings, no-fly into an `AreaRaster`
                   (plain arrays, wrapped into a GridMap by the planner).
 * `geo.cells`   - grid cells back on the Earth: merged lon/lat polygons, a GeoJSON feature.
-* `geo.geojson_layers` - GeoJSON layers for GIS files: RFC 7946 ring order (`rfc7946`), altitudes,
-                  a layer's geometry type and property types, atomic output.
+* `geo.geojson_layers` - GeoJSON layers for GIS files: RFC 7946 ring order (`rfc7946`), a layer's
+                  geometry type and property types.
 * `geo.gpkg`    - `write_geopackage`: the layers as an OGC GeoPackage 1.3 (sqlite3, no GDAL).
 * `geo.kml`     - `write_kmz`: the layers as a KMZ for Google Earth (a folder per layer, heights).
 

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 import shapely
-from shapely.geometry import MultiPolygon, Polygon, box
+from shapely.geometry import MultiPolygon, Polygon
 from shapely.geometry.polygon import orient
 
 from .frame import GridFrame
@@ -23,7 +23,8 @@ def cells_polygons(frame: GridFrame, cells: np.ndarray) -> list[Polygon]:
     cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
     if not len(cells):
         return []
-    squares = [box(c - 0.5, r - 0.5, c + 0.5, r + 0.5) for r, c in cells.tolist()]  # x: column, y: row
+    rows, cols = cells[:, 0], cells[:, 1]
+    squares = shapely.box(cols - 0.5, rows - 0.5, cols + 0.5, rows + 0.5)  # x: column, y: row; all at once
     merged = shapely.unary_union(squares)
     parts = list(merged.geoms) if isinstance(merged, MultiPolygon) else [merged]
 

@@ -7,21 +7,15 @@ module is what the code building them and the writers (geo.gpkg, geo.kml) share:
 * `rfc7946`       - a Polygon / MultiPolygon with RFC 7946's ring order (exteriors counter-clockwise,
                     holes clockwise, in the lon/lat plane), the order GeoJSON readers, GDAL and QGIS
                     agree on for inside and outside;
-* `with_altitude` - positions given a third coordinate;
-* `layer_schema`  - the geometry type a layer is written as, whether it is 3-D, one type per property;
-* `atomic_path`   - a temp path beside the target that replaces it only once written whole (as
-                    bridge.atomic does; geo stands alone and does not import bridge).
+* `layer_schema`  - the geometry type a layer is written as, whether it is 3-D, one type per property.
+The writers write atomically with bridge.atomic (bridge imports nothing from geo, so no circle).
 """
 
 from __future__ import annotations
 
 import numbers
-import os
-import tempfile
-from collections.abc import Iterable, Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 SIMPLE_TYPES = ("Point", "LineString", "Polygon")
@@ -60,15 +54,6 @@ def rfc7946(geometry: dict[str, Any] | None) -> dict[str, Any] | None:
     if kind == "MultiPolygon":
         return {**geometry, "coordinates": [_polygon(p) for p in geometry["coordinates"]]}
     return geometry
-
-
-def with_altitude(coords: Iterable[Sequence[float]], alt: float | Iterable[float]) -> list[list[float]]:
-    """Positions [lon, lat, alt]: `alt` one height for all or one per position (replaces any given)."""
-    coords = list(coords)
-    alts = [alt] * len(coords) if isinstance(alt, numbers.Real) else list(alt)
-    if len(alts) != len(coords):
-        raise ValueError(f"{len(alts)} altitudes for {len(coords)} positions")
-    return [[float(p[0]), float(p[1]), float(a)] for p, a in zip(coords, alts)]
 
 
 @dataclass(frozen=True)
@@ -136,24 +121,3 @@ def layer_schema(collection: dict[str, Any]) -> LayerSchema:
     else:
         geometry_type = "Geometry"
     return LayerSchema(geometry_type, has_z, {key: kind or "str" for key, kind in fields.items()})
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-@contextmanager
-def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
-    """Yield a temp path beside `path` to write; on success it replaces `path`, on error it is removed."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        yield Path(tmp)
-        os.chmod(tmp, 0o666 & ~_umask())  # what a plain open() would give (mkstemp makes 0600)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise

@@ -26,7 +26,9 @@ import struct
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from .geojson_layers import GEOMETRY_TYPES, LayerSchema, atomic_path, geometry_positions, layer_schema
+from bridge.atomic import atomic_path
+
+from .geojson_layers import GEOMETRY_TYPES, LayerSchema, geometry_positions, layer_schema
 
 APPLICATION_ID = 0x47504B47  # "GPKG"
 USER_VERSION = 10300  # GeoPackage 1.3.0

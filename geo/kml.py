@@ -33,7 +33,9 @@ import zipfile
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from .geojson_layers import atomic_path, geometry_positions, layer_schema
+from bridge.atomic import atomic_path
+
+from .geojson_layers import geometry_positions, layer_schema
 
 KML_NS = "http://www.opengis.net/kml/2.2"
 TAB10 = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",

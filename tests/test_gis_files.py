@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 import shapely
 
-from geo.geojson_layers import LayerSchema, layer_schema, rfc7946, with_altitude
+from geo.geojson_layers import LayerSchema, layer_schema, rfc7946
 from geo.gpkg import write_geopackage
 from geo.kml import write_kmz
 
@@ -181,13 +181,6 @@ def test_rfc7946_turns_exteriors_counter_clockwise_and_holes_clockwise() -> None
 def test_rfc7946_keeps_right_rings_as_they_are() -> None:
     polygon = {"type": "Polygon", "coordinates": AREA}
     assert rfc7946(polygon)["coordinates"] == AREA
-
-
-def test_with_altitude() -> None:
-    assert with_altitude([[7.65, 45.07], (7.66, 45.08, 5.0)], 60) == [[7.65, 45.07, 60.0], [7.66, 45.08, 60.0]]
-    assert with_altitude([[7.65, 45.07], [7.66, 45.08]], [0.0, 61.5]) == [[7.65, 45.07, 0.0], [7.66, 45.08, 61.5]]
-    with pytest.raises(ValueError, match="1 altitudes for 2 positions"):
-        with_altitude([[7.65, 45.07], [7.66, 45.08]], [1.0])
 
 
 def test_layer_schema_types_and_promotion(layers: dict[str, dict[str, Any]]) -> None:

@@ -44,7 +44,7 @@ from geo.frame import GridFrame
 
 from ..maps.gridmap import GridMap
 from ..mission.timeline import FlightModel, closest_approach, planned_motions
-from ..mission.layers import Layers, drone_paths_latlon
+from ..mission.layers import Layers, drone_paths_latlon, planned_photos
 from .flight_layers import flight_layers, flight_summary, plan_layers_on_disk
 from .flight_plot import draw_flight
 from .phases import event_rows, on_vehicle_clock, phase_rows
@@ -321,27 +321,6 @@ def estimate_time_scale(records: list[DroneRecord]) -> float:
 
 
 # ------------------------------------------------------------------------------------------- sorties
-def _planned_photos_m(frame: GridFrame, items: list[Any], trigger_m: float) -> np.ndarray:
-    """Where a mission's photos are planned (grid metres): one wherever DO_SET_CAM_TRIGG_DIST says "trigger
-    once now" after a waypoint, and one every trigger distance along each leg flown with the distance
-    trigger on (not on a way out or home, where it is 0)."""
-    points: list[np.ndarray] = []
-    distance, previous = 0.0, None
-    for item in items:
-        if item.command == CMD_CAM_TRIGG_DIST:
-            if item.param3 > 0 and previous is not None:
-                points.append(previous)
-            distance = item.param1
-        elif item.command == CMD_WAYPOINT:
-            here = to_grid_m(frame, item.x, item.y)[0]
-            if distance > 0 and previous is not None and trigger_m > 0:
-                length = float(np.hypot(*(here - previous)))
-                for along in np.arange(trigger_m, length, trigger_m):
-                    points.append(previous + (here - previous) * (along / length))
-            previous = here
-    return np.array(points).reshape(-1, 2)
-
-
 def sortie_view(report: dict[str, Any], sortie: int, missions: dict[int, dict[int, list[Any]]]) -> dict[str, Any]:
     """report.json as `fly --sortie J` judges it: the drones that fly sortie J with that sortie's planned
     photos and time, that sortie's separation promise, and as targets only the cells that are its duty.
@@ -369,7 +348,8 @@ def sortie_view(report: dict[str, Any], sortie: int, missions: dict[int, dict[in
         targets = target_cells(report)
 
         def gap(which: list[int]) -> np.ndarray:
-            photos = [_planned_photos_m(frame, items, trigger) for j in which for items in missions.get(j, {}).values()]
+            photos = [planned_photos(items, trigger, lambda lat, lon: to_grid_m(frame, lat, lon)[0], from_takeoff=False)
+                      for j in which for items in missions.get(j, {}).values()]
             return nearest_photo_gap(frame, targets, np.vstack(photos) if photos else np.zeros((0, 2)))
 
         mine = gap([sortie])

@@ -250,10 +250,6 @@ class CoverageWorld:
         rows, cols = np.divmod(flat, self._pad_unexplored.shape[1])
         return np.stack([rows - PAD, cols - PAD], axis=1)
 
-    def seen_count(self, k: int) -> int:
-        """How many cells drone k sees as unexplored on the whole map."""
-        return int(self.remaining if self.zone_done(k) else self.zone_remaining[k])
-
     def is_free(self, cell: Cell) -> bool:
         r, c = cell
         return not self._pad_obstacle[r + PAD, c + PAD]

@@ -150,15 +150,18 @@ def parse_map(text: str, source: str = "<map>") -> GridMap:
     return gmap
 
 
-def load_map(path: str | os.PathLike[str]) -> GridMap:
-    path = Path(path)
+def read_map_text(path: str | os.PathLike[str]) -> str:
+    """A map file's text; MapError naming the file when it cannot be read or is not UTF-8."""
     try:
-        text = path.read_text(encoding="utf-8")
+        return Path(path).read_text(encoding="utf-8")
     except OSError as err:
         raise MapError(f"{path}: cannot read map file ({err.strerror})") from None
     except UnicodeDecodeError as err:
         raise MapError(f"{path}: not a map file (not UTF-8 text: byte {err.start})") from None
-    return parse_map(text, str(path))
+
+
+def load_map(path: str | os.PathLike[str]) -> GridMap:
+    return parse_map(read_map_text(path), str(path))
 
 
 def format_map(gmap: GridMap) -> str:

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .gridmap import GridMap, MapError, parse_map
+from .gridmap import GridMap, MapError, parse_map, read_map_text
 from .launches import spread_launches
 
 # How many launch cells a MovingAI map gets: more than any fleet the planner is used with.
@@ -59,13 +59,7 @@ def is_movingai(text: str) -> bool:
 
 def load_any_map(path: str | os.PathLike[str]) -> GridMap:
     """A `.map` file in either format, told apart by content: MovingAI octile, else missionplan's own."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as err:
-        raise MapError(f"{path}: cannot read map file ({err.strerror})") from None
-    except UnicodeDecodeError as err:
-        raise MapError(f"{path}: not a map file (not UTF-8 text: byte {err.start})") from None
+    text = read_map_text(path)
     return parse_movingai(text, str(path)) if is_movingai(text) else parse_map(text, str(path))
 
 

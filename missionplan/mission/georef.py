@@ -62,8 +62,8 @@ class UnknownHeights:
 
 @dataclass
 class AreaSources:
-    """What an `--area` grid was drawn from, in lon/lat: the area, the building footprints (with the
-    heights the plan used) and the no-fly polygons; the plan's map layers draw them."""
+    """What an `--area` grid was drawn from, in lon/lat: the area, the building footprints in it (with
+    the heights the plan used) and the no-fly polygons; the plan's map layers draw them."""
 
     area: Any  # shapely (Multi)Polygon
     buildings: list[Building] = field(default_factory=list)
@@ -119,7 +119,7 @@ def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, Unk
 
     return gmap, frame, UnknownHeights(unknown, in_area, assumed,
                                        overflown if unknown and assumed is None else None), \
-        AreaSources(area, buildings, no_fly)
+        AreaSources(area, [b for b, within in zip(buildings, inside) if within], no_fly)
 
 
 def shipped_frame(gmap: GridMap) -> GridFrame | None:

@@ -21,11 +21,11 @@ from typing import Any
 import numpy as np
 import shapely
 from shapely.geometry import mapping
-from shapely.geometry.polygon import orient
 
 from bridge.mission import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND, CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF,
                             CMD_NAV_WAYPOINT, MissionItem)
 from geo.cells import cells_polygons
+from geo.geojson_layers import rfc7946
 from geo.frame import GridFrame
 
 from ..grid.planresult import PlanResult
@@ -64,9 +64,7 @@ def _polygonal(geom: Any) -> dict[str, Any]:
     """A shapely polygon or multipolygon in RFC 7946 ring order, as GeoJSON, 7 decimals (1 cm)."""
     geom = shapely.set_precision(geom, 1e-7)  # may merge or split parts: orient after it
     parts = [part for part in shapely.get_parts(geom) if isinstance(part, shapely.Polygon) and not part.is_empty]
-    if len(parts) == 1:
-        return mapping(orient(parts[0], sign=1.0))
-    return mapping(shapely.MultiPolygon([orient(part, sign=1.0) for part in parts]))
+    return rfc7946(mapping(parts[0] if len(parts) == 1 else shapely.MultiPolygon(parts)))
 
 
 def cells_geometry(frame: GridFrame, mask: np.ndarray) -> dict[str, Any] | None:
@@ -94,16 +92,17 @@ def mission_path(items: list[MissionItem], launch: tuple[float, float]) -> np.nd
     return np.array(points)
 
 
-def planned_photos(items: list[MissionItem], trigger_m: float,
-                   to_m: Callable[[float, float], np.ndarray]) -> np.ndarray:
+def planned_photos(items: list[MissionItem], trigger_m: float, to_m: Callable[[float, float], np.ndarray],
+                   from_takeoff: bool = True) -> np.ndarray:
     """Where a mission's photos are planned, in the metric frame `to_m(lat, lon)` maps into: one wherever
     DO_SET_CAM_TRIGG_DIST says "trigger once now" (over the take-off point, after a waypoint), and one
     every trigger distance along each leg flown with the distance trigger on (not on a way out or home,
-    where it is 0). Counts as missions.build_mission counts `photos`."""
+    where it is 0). Counts as missions.build_mission counts `photos`; without `from_takeoff`, the photo
+    over the take-off point and those on the leg from it are left out (the judge's sortie duties)."""
     points: list[np.ndarray] = []
     distance, previous = 0.0, None
     for item in items:
-        if item.command == CMD_NAV_TAKEOFF and (item.x or item.y):
+        if item.command == CMD_NAV_TAKEOFF and from_takeoff and (item.x or item.y):
             previous = to_m(item.x, item.y)
         elif item.command == CMD_DO_SET_CAM_TRIGG_DIST:
             if item.param3 > 0 and previous is not None:
@@ -139,10 +138,9 @@ def plan_layers(result: PlanResult, frame: GridFrame, plans: Any, base: GridMap,
     if sources is not None:
         layers["area"] = collection([feature("area", _polygonal(sources.area), name=base.name)])
         area = sources.area
-        footprints = [b for b in sources.buildings if b.geometry.intersects(area)]
-        layers["buildings"] = collection([
+        layers["buildings"] = collection([  # sources.buildings are those in the area (georef)
             feature("buildings", _polygonal(b.geometry), height_m=b.height_m, known_height=b.height_m is not None)
-            for b in footprints] + [
+            for b in sources.buildings] + [
             feature("buildings", _polygonal(p), height_m=None, known_height=False, no_fly=True)
             for p in sources.no_fly if p.intersects(area)])
     else:
@@ -157,10 +155,10 @@ def plan_layers(result: PlanResult, frame: GridFrame, plans: Any, base: GridMap,
     layers["clearance"] = collection(
         [feature("clearance", cells_geometry(frame, band), clearance_m=clearance_m, cells=int(band.sum()))]
         if band is not None and band.any() else [])
+    zone_masks = [(k, result.zones.zone == k) for k in range(len(plans.sorties))]
     layers["zones"] = collection([
-        feature("zones", cells_geometry(frame, result.zones.zone == k), uav=plans.sorties[k][0].sysid,
-                cells=int((result.zones.zone == k).sum()))
-        for k in range(len(plans.sorties)) if (result.zones.zone == k).any()])
+        feature("zones", cells_geometry(frame, mask), uav=plans.sorties[k][0].sysid, cells=int(mask.sum()))
+        for k, mask in zone_masks if mask.any()])
     layers["unreachable"] = collection([
         feature("unreachable", cells_geometry(frame, mask), cause=cause, cells=int(mask.sum()),
                 reason=CAUSE_REASONS.get(cause, cause))
@@ -196,10 +194,11 @@ def plan_layers(result: PlanResult, frame: GridFrame, plans: Any, base: GridMap,
                                  flight_s=round(drone.flight_s, 1), photos=drone.photos))
             points_m = planned_photos(items, trigger_m, to_en)
             altitude = plans.settings.altitude_of(k)
-            for point in points_m:
-                lat, lon = grid_m_to_latlon(point)
+            lat, lon = frame.grid_to_latlon(points_m[:, 0] / frame.cell_m, points_m[:, 1] / frame.cell_m)
+            points = np.column_stack([np.atleast_1d(lon), np.atleast_1d(lat), np.full(len(points_m), altitude)])
+            for point in _round(points):
                 index += 1
-                photos.append(feature("photos", {"type": "Point", "coordinates": _round(np.array([[lon, lat, altitude]]))[0]},
+                photos.append(feature("photos", {"type": "Point", "coordinates": point},
                                       uav=sysid, sortie=j + 1, index=index))
     layers["paths"] = collection(paths)
     layers["photos"] = collection(photos)
