@@ -68,7 +68,7 @@ from .mission import (
 from .mock_flight import FlightEvent, FlightSim
 from .mock_log import OnboardLogs
 from .px4 import (GEOFENCE_WITHOUT_HOME, MIS_DIST_1WP_DEFAULT, NAV_LAST, START_DENIED, fence_problems, item_result,
-                  px4_stored, reported_reached, start_refusals)
+                  px4_millimetres, px4_stored, reported_reached, start_refusals)
 
 # MAV_MISSION_RESULT values the vehicle answers with.
 ACCEPTED, ERROR, UNSUPPORTED_FRAME, UNSUPPORTED, NO_SPACE = 0, 1, 2, 3, 4
@@ -442,10 +442,10 @@ class MockVehicle:
         while self._photos_sent < len(points):
             lat, lon, alt = points[self._photos_sent]
             self._log_photo(now, self._photos_sent, lat, lon, home_alt, alt)
-            # int(): PX4 casts (truncates) camera_capture's doubles and metres into the message
+            # PX4 truncates camera_capture's doubles, and its float32 metres times 1e3f, into the message
             self.mav.camera_image_captured_send(self._time_boot_ms(now), int(now * 1e6), 1, int(lat * 1e7),
-                                                int(lon * 1e7), int((home_alt + alt) * 1000),
-                                                int(alt * 1000), [1.0, 0.0, 0.0, 0.0], self._photos_sent, 1, b"")
+                                                int(lon * 1e7), px4_millimetres(home_alt + alt),
+                                                px4_millimetres(alt), [1.0, 0.0, 0.0, 0.0], self._photos_sent, 1, b"")
             self._photos_sent += 1
 
     def _send_mission_current(self, seq: int | None = None) -> None:

@@ -13,7 +13,8 @@ Owns PX4's rules, as data and pure functions, for the mock's PX4 flavour and for
   Home position"): PX4 then ignores it and still starts the mission, unfenced;
 - reported_reached / reached_item / reported_items: which MISSION_ITEM_REACHED PX4 sends when it
   reaches an item (none for a take-off or a final RTL; a waypoint's report usually carries the seq of
-  the DO_ items right after it), and back from a report to the item it is about.
+  the DO_ items right after it), and back from a report to the item it is about;
+- px4_millimetres: a photo's altitude as PX4's CAMERA_IMAGE_CAPTURED rounds it.
 Each problem is PX4's own console / STATUSTEXT line.
 Everything here was measured (sitl_tests/px4_session.py, docs/px4-missions.md).
 
@@ -88,6 +89,12 @@ def _f32(value: float) -> float:
 _PI_F = _f32(math.pi)
 _DEG_TO_RAD_F, _RAD_TO_DEG_F = _f32(_PI_F / 180.0), _f32(180.0 / _PI_F)
 _TWO_PI_F = _f32(2.0 * math.pi)
+
+
+def px4_millimetres(metres: float) -> int:
+    """An altitude as CAMERA_IMAGE_CAPTURED carries it: camera_capture keeps metres in a float32 and
+    PX4's stream multiplies by 1e3f in float32, then truncates (209.99999 m -> 210000 mm, not 209999)."""
+    return int(_f32(_f32(metres) * 1000.0))
 
 
 def px4_yaw(degrees: float) -> float:

@@ -33,6 +33,7 @@ from bridge.mock import MockAutopilot
 from bridge.mock_flight import EARTH_RADIUS
 from bridge.onboard_log import LOG_DATA_LEN, recover_photos
 from bridge.protocol import Timeouts
+from bridge.px4 import px4_millimetres
 from bridge.uploader import PymavlinkBackend
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
@@ -139,7 +140,7 @@ def test_after_landing_the_ulog_photos_equal_the_camera_image_captured(px4_sessi
     for p in photos:
         m = reports[p.img_idx]
         assert (p.lat_e7, p.lon_e7) == (int(m.lat), int(m.lon)), (p, m)
-        assert int(p.alt_amsl * 1000) == int(m.alt) and int(p.alt_rel * 1000) == int(m.relative_alt)
+        assert px4_millimetres(p.alt_amsl) == int(m.alt) and px4_millimetres(p.alt_rel) == int(m.relative_alt)
         assert p.utc_s == pytest.approx(int(m.time_utc) / 1e6, abs=1e-6)
     # No report is sent again on request: PX4 refuses MAV_CMD_REQUEST_MESSAGE for it.
     assert rec["report 3 asked again"] == [("COMMAND_ACK", MAV_RESULT_DENIED)]

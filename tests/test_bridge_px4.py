@@ -15,8 +15,8 @@ from bridge.mission import Flavour, Mission, MissionItem, MissionType, WireItem,
 from bridge.missionfile import FirmwareMismatch, PlanFile, check_firmware, read_plan, write_plan, write_waypoints
 from bridge.mock import MockAutopilot
 from bridge.protocol import Timeouts
-from bridge.px4 import (GEOFENCE_WITHOUT_HOME, START_DENIED, fence_problems, home_in_fence, item_result, px4_stored,
-                        px4_yaw, start_refusals)
+from bridge.px4 import (GEOFENCE_WITHOUT_HOME, START_DENIED, fence_problems, home_in_fence, item_result, px4_millimetres,
+                        px4_stored, px4_yaw, start_refusals)
 from bridge.uploader import PymavlinkBackend, upload_plan
 from missionplan.cli import main
 
@@ -46,6 +46,13 @@ def test_px4_takes_positions_in_global_frames_and_the_rest_in_frame_2() -> None:
     assert item_result(_w(2, 20)) == 0 and item_result(_w(3, 20)) == 3    # RTL too
     assert item_result(_w(3, 999)) == 3 and item_result(_w(3, 5100)) == 1
     assert item_result(_w(0, 5001, mission_type=1)) == 0 and item_result(_w(3, 5100, mission_type=2)) == 0
+
+
+def test_photo_altitudes_are_rounded_as_px4_rounds_them_in_float32() -> None:
+    # 209.99999237 m (what a float32 keeps of 209.9999924) times 1e3f is 210000.0f in float32; a double
+    # product truncates to 209999, one millimetre off PX4's CAMERA_IMAGE_CAPTURED.
+    assert int(209.9999924 * 1000) == 209999 and px4_millimetres(209.9999924) == 210000
+    assert px4_millimetres(10.0) == 10000 and px4_millimetres(-1.5) == -1500
 
 
 def test_px4_stored_form_and_verify_accept_exactly_what_px4_changes() -> None:

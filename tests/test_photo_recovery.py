@@ -28,6 +28,7 @@ from bridge.mock_log import CAM, DataFlashWriter, gps_week_ms
 from bridge.onboard_log import (LogClient, LoggedPhoto, LogTransferError, read_dataflash_photos,
                                 recover_photos)
 from bridge.protocol import Timeouts
+from bridge.px4 import px4_millimetres
 from bridge.shared_link import SharedLink
 from bridge.uploader import open_backend, upload_plan
 
@@ -285,7 +286,7 @@ def test_px4_photos_come_back_from_its_ulog_when_it_logs() -> None:
     assert all(p.message == "camera_capture" and p.log_id == 0 for p in photos)  # PX4 counts its logs from 0
     for k, m in reports.items():  # the log's copy of a report that came is that report
         assert (photos[k].lat_e7, photos[k].lon_e7) == (int(m.lat), int(m.lon))
-        assert int(photos[k].alt_amsl * 1000) == int(m.alt)
+        assert px4_millimetres(photos[k].alt_amsl) == int(m.alt)
 
 
 def test_px4_mock_has_no_log_like_px4_sih_with_its_logger_off() -> None:
