@@ -37,9 +37,10 @@ def courtyard_city(sealed: bool = False) -> GridMap:
     return GridMap("courtyard", obstacle, ~obstacle, [])
 
 
-def plan(gmap: GridMap, starts: list, monkeypatch: pytest.MonkeyPatch, zone_method: str = "geodesic"):
+def plan(gmap: GridMap, starts: list, monkeypatch: pytest.MonkeyPatch, zone_method: str = "geodesic",
+         balance: bool = True):
     """Plan with the expert, counting find_goal calls per drone start cell and whether the courtyard was done."""
-    zones = split_zones(reachable_targets(gmap, starts), gmap.free, starts, zone_method, balance=True)
+    zones = split_zones(reachable_targets(gmap, starts), gmap.free, starts, zone_method, balance=balance)
     world = CoverageWorld(gmap, starts, zones.zone)
     calls: list[tuple[tuple[int, int], bool]] = []  # (start of the search, courtyard already covered)
     real = planner_module.find_goal
@@ -115,20 +116,41 @@ def test_a_pocket_drone_and_a_courtyard_nobody_reaches(monkeypatch):
 ])
 def test_straight_line_zones_that_straddle_the_courtyard_wall_still_finish(monkeypatch, pocket_launch,
                                                                            street_launches):
-    """Euclidean zones give street cells to the pocket drone and courtyard cells to street
-    drones: a drone's zone is done once the part it can fly to is, and nobody waits on a
-    drone that can never come."""
+    """The thesis's straight-line Voronoi zones (unbalanced) give street cells to the pocket drone
+    and courtyard cells to street drones: a drone's zone is done once the part it can fly to is,
+    and nobody waits on a drone that can never come."""
     gmap = courtyard_city()
     starts = street_launches + [pocket_launch]
     pocket = len(starts) - 1
-    world, run, calls = plan(gmap, starts, monkeypatch, zone_method="euclidean")
-    zone = split_zones(reachable_targets(gmap, starts), gmap.free, starts, "euclidean", balance=True).zone
+    world, run, calls = plan(gmap, starts, monkeypatch, zone_method="euclidean", balance=False)
+    zone = split_zones(reachable_targets(gmap, starts), gmap.free, starts, "euclidean").zone
     regions, _ = ndimage.label(gmap.free)
     outside = regions != regions[pocket_launch]
     assert (zone[outside] == pocket).any() and (zone[~outside] != pocket).any()  # both ways across the wall
     assert run.success, run.failure
     assert run.metrics["coverage"] == pytest.approx(100.0)
     check_parked(world, run, calls, pocket=pocket)
+
+
+@pytest.mark.parametrize("method", ["geodesic", "euclidean"])
+def test_balanced_zones_share_each_region_among_the_drones_launched_in_it(method):
+    """Balancing with a drone in the courtyard: the courtyard is that drone's alone, and the
+    streets are split evenly among the street drones (an equal share of the whole map for the
+    pocket drone would leave them uneven)."""
+    gmap = courtyard_city()
+    starts = STREET_LAUNCHES + [(1, 30), POCKET_LAUNCH]  # three street drones, then the pocket's
+    targets = reachable_targets(gmap, starts)
+    zones = split_zones(targets, gmap.free, starts, method, balance=True)
+    regions, _ = ndimage.label(gmap.free)
+    courtyard = regions == regions[POCKET_LAUNCH]
+    assert (zones.zone[courtyard & targets] == 3).all() and not (zones.zone[~courtyard] == 3).any()
+    street_sizes = np.bincount(zones.zone[targets & ~courtyard], minlength=4)[:3]
+    assert street_sizes.max() / street_sizes.min() - 1 <= 0.1, street_sizes
+    shares = np.array([0.4, 0.2, 0.2, 0.2])  # shares are renormalised within each region
+    weighted = split_zones(targets, gmap.free, starts, method, balance=True, shares=shares)
+    assert (weighted.zone[courtyard & targets] == 3).all()
+    sizes = np.bincount(weighted.zone[targets & ~courtyard], minlength=4)[:3]
+    assert abs(sizes[0] / sizes.sum() - 0.5) <= 0.05, sizes
 
 
 def test_region_counts_follow_every_photo():

@@ -27,6 +27,9 @@ beyond that, where its 500 rounds would cost more than the plan, each round is o
 search in which centroid k starts late by its offset w_k rounded to whole cells, at
 most MAX_BALANCE_PASSES rounds, keeping the most even one. The search runs ring by ring in
 numpy without sorting (`_search`); Lloyd's update moves all centroids at once.
+
+Drones launched in separate free regions (one in a walled courtyard) are balanced region by
+region: a region's targets go to the drones launched in it, in proportion to their shares.
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import shortest_path
 
@@ -363,6 +367,14 @@ def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], metho
     seeds = np.rint(centroids).astype(np.int64)
     if not balance:
         zone[targets] = nearest_centroid(target_cells, centroids)
+        return Zones(zone, centroids, iterations, method, balance)
+    region = _seed_regions(free, np.array(starts, dtype=np.int64).reshape(-1, 2))
+    if len(set(region.tolist()) - {0}) > 1:
+        # Drones launched in separate free regions (a walled courtyard): each region's targets are
+        # shared among the drones that can reach them; an equal share of the whole map for a
+        # pocket drone would leave the others unbalanced and the offsets loop never converging.
+        zone[targets] = nearest_centroid(target_cells, centroids)  # targets no drone reaches keep their Voronoi
+        _balance_by_region(zone, targets, free, centroids, region, method, shares)
     elif geodesic and graph is None:
         zone[targets] = balanced_by_passes(free, targets, seeds, shares=shares)
     elif geodesic:
@@ -372,3 +384,39 @@ def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], metho
         zone[targets] = balanced_assignment(np.linalg.norm(target_cells[None, :, :] - centroids[:, None, :], axis=2),
                                             shares=shares)
     return Zones(zone, centroids, iterations, method, balance)
+
+
+def _seed_regions(free: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """(K,) label of the 4-connected free region each launch cell lies in (0: on a blocked cell)."""
+    labels, _ = ndimage.label(free)  # default structure: 4-connectivity, as the drones move
+    return labels[starts[:, 0], starts[:, 1]]
+
+
+def _balance_by_region(zone: np.ndarray, targets: np.ndarray, free: np.ndarray, centroids: np.ndarray,
+                       seed_region: np.ndarray, method: str, shares: np.ndarray | None) -> None:
+    """Balance, in place, each launch region's targets among the drones launched in it (their shares
+    renormalised); a drone alone in its region takes all of it."""
+    labels, _ = ndimage.label(free)
+    for region in sorted(set(seed_region.tolist()) - {0}):
+        members = np.flatnonzero(seed_region == region)
+        inside = free & (labels == region)
+        region_targets = targets & inside
+        cells = np.argwhere(region_targets)
+        if len(cells) == 0:
+            continue
+        if len(members) == 1:
+            zone[region_targets] = members[0]
+            continue
+        part = None
+        if shares is not None and np.sum(np.asarray(shares, dtype=float)[members]) > 0:
+            part = np.asarray(shares, dtype=float)[members] / np.sum(np.asarray(shares, dtype=float)[members])
+        seeds = np.rint(centroids[members]).astype(np.int64)
+        if method == "geodesic" and len(members) * len(cells) > DENSE_BALANCE_LIMIT:
+            local = balanced_by_passes(inside, region_targets, seeds, shares=part)
+        elif method == "geodesic":
+            field = _geodesic_from(grid_graph(inside), seeds, free.shape[1])
+            local = balanced_assignment(field[:, cells[:, 0] * free.shape[1] + cells[:, 1]], shares=part)
+        else:
+            local = balanced_assignment(np.linalg.norm(cells[None, :, :] - centroids[members][:, None, :], axis=2),
+                                        shares=part)
+        zone[region_targets] = members[local]
