@@ -150,6 +150,29 @@ def test_the_page_is_self_contained(tmp_path):
     assert "turin-cenisia-area: 2 drones, expert" in text and "longest flight" in text and "#ff7f0e" in text
 
 
+def drone_table(text: str) -> list[list[str]]:
+    """The per-drone table's cells, row by row (header row first), as text."""
+    table = re.search(r'<section id="mp-drones">.*?</table>', text, re.S).group(0)
+    return [[re.sub(r"<[^>]+>", "", cell) for cell in re.findall(r"<t[hd][^>]*>(.*?)</t[hd]>", row, re.S)]
+            for row in re.findall(r"<tr>(.*?)</tr>", table, re.S)]
+
+
+@pytest.mark.parametrize("fleet", [2, webmap.DRONE_COLUMNS, webmap.DRONE_COLUMNS + 1, 20])
+def test_a_small_fleet_reads_across_and_a_big_one_down_the_panel(tmp_path, fleet):
+    drones = [{"uav": uav, "colour": "#1f77b4", "figures": {"flight": f"{100 + uav} s", "photos": str(uav)}}
+              for uav in range(1, fleet + 1)]
+    out = tmp_path / "plan.html"
+    write_html_map(out, plan_layers(), summary(drones=drones))
+    rows = drone_table(out.read_text(encoding="utf-8"))
+    if fleet <= webmap.DRONE_COLUMNS:  # a column per drone
+        assert rows[0] == [""] + [f"UAV {uav}" for uav in range(1, fleet + 1)]
+        assert rows[1:] == [["flight"] + [f"{100 + uav} s" for uav in range(1, fleet + 1)],
+                            ["photos"] + [str(uav) for uav in range(1, fleet + 1)]]
+    else:  # a row per drone: no sideways scrolling for a big fleet
+        assert rows[0] == ["", "flight", "photos"]
+        assert rows[1:] == [[f"UAV {uav}", f"{100 + uav} s", str(uav)] for uav in range(1, fleet + 1)]
+
+
 def test_a_script_end_in_a_property_cannot_close_the_data_block(tmp_path):
     evil = "</script><script>window.pwned = 1</script><!--"
     layers = plan_layers()

@@ -29,6 +29,7 @@ from bridge.atomic import write_text_atomic
 
 LEAFLET_VERSION = "1.9.4"
 KINDS = ("plan", "flight")
+DRONE_COLUMNS = 4  # past this many drones the panel lists one drone per row
 _COLOUR = re.compile(r"#[0-9a-fA-F]{6}")
 
 
@@ -140,6 +141,31 @@ def _text(value: Any) -> str:
     return html.escape("" if value is None else str(value))
 
 
+def _drone_table(drones: list[dict]) -> str:
+    """The per-drone figures. Up to DRONE_COLUMNS drones: a column per drone, a row per figure (the
+    panel is narrow and figures outnumber drones); more: a row per drone, so a fleet of 20 reads
+    down the panel instead of scrolling sideways."""
+    labels = list(dict.fromkeys(label for d in drones for label in (d.get("figures") or {})))
+
+    def heading(d: dict, scope: str) -> str:
+        return (f'<th scope="{scope}" data-uav="{_text(d.get("uav"))}"><span class="mp-chip" style="background:'
+                f'{d["colour"]}"></span>UAV {_text(d.get("uav"))}</th>')
+
+    def value(d: dict, label: str) -> str:
+        return f"<td>{_text((d.get('figures') or {}).get(label, '-'))}</td>"
+
+    if len(drones) <= DRONE_COLUMNS:
+        head = "".join(heading(d, "col") for d in drones)
+        body = "".join(f'<tr><th scope="row">{_text(label)}</th>' + "".join(value(d, label) for d in drones) + "</tr>"
+                       for label in labels)
+    else:
+        head = "".join(f'<th scope="col">{_text(label)}</th>' for label in labels)
+        body = "".join("<tr>" + heading(d, "row") + "".join(value(d, label) for label in labels) + "</tr>"
+                       for d in drones)
+    wide = "" if len(drones) <= DRONE_COLUMNS else " mp-fleet"
+    return f'<table class="mp-table{wide}"><thead><tr><th></th>{head}</tr></thead><tbody>{body}</tbody></table>'
+
+
 def _panel(summary: dict, kind: str) -> str:
     """The side panel's fixed part: title, subtitle, figures, the per-drone table, notes. Written
     here rather than by the script, so a browser with JavaScript off still shows the figures."""
@@ -152,15 +178,8 @@ def _panel(summary: dict, kind: str) -> str:
         parts.append(f'<section id="mp-figures"><h2>Figures</h2><table class="mp-table">{rows}</table></section>')
     drones = summary.get("drones") or []
     if drones:
-        # One column per drone, one row per figure: figures outnumber drones, and the panel is narrow.
-        labels = list(dict.fromkeys(label for d in drones for label in (d.get("figures") or {})))
-        head = "".join(f'<th data-uav="{_text(d.get("uav"))}"><span class="mp-chip" style="background:'
-                       f'{d["colour"]}"></span>UAV {_text(d.get("uav"))}</th>' for d in drones)
-        body = "".join(f"<tr><th>{_text(label)}</th>"
-                       + "".join(f"<td>{_text((d.get('figures') or {}).get(label, '-'))}</td>" for d in drones)
-                       + "</tr>" for label in labels)
-        parts.append(f'<section id="mp-drones"><h2>Drones</h2><div class="mp-scroll"><table class="mp-table">'
-                     f"<thead><tr><th></th>{head}</tr></thead><tbody>{body}</tbody></table></div></section>")
+        parts.append(f'<section id="mp-drones"><h2>Drones</h2><div class="mp-scroll">{_drone_table(drones)}</div>'
+                     "</section>")
     notes = summary.get("notes") or []
     if notes:
         items = "".join(f"<li>{_text(note)}</li>" for note in notes)
@@ -211,6 +230,8 @@ body { display: flex; font: 13px/1.4 system-ui, -apple-system, "Segoe UI", Robot
 .mp-table th, .mp-table td { padding: 2px 6px 2px 0; text-align: left; vertical-align: top; border-bottom: 1px solid #e6e9ed; }
 .mp-table th { font-weight: 600; white-space: nowrap; }
 .mp-table td { font-variant-numeric: tabular-nums; }
+.mp-fleet { font-size: 11px; }
+.mp-fleet th, .mp-fleet td { padding-right: 3px; }
 .mp-chip { display: inline-block; width: 10px; height: 10px; border-radius: 2px; margin-right: 4px;
            border: 1px solid rgba(0,0,0,.35); vertical-align: -1px; }
 #mp-notes ul { margin: 0; padding-left: 18px; }
