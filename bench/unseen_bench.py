@@ -10,9 +10,10 @@ Two kinds of map, neither made by missionplan's own generators:
 
 Each row plans in a fresh child process and prints: targets reachable from the launch cells, how
 many launch cells lie outside the largest free region, the CPU seconds (user + system of the
-child: zones + plan, weights not included), MMN / floor (floor = reachable targets / 9A),
-coverage of the reachable targets, steps, the 1-minute load when it finished, and the goal
-(256 x 256 with 6 drones: 2 CPU s; 1024 x 1024 with 20: 60 CPU s). Run by hand:
+child: zones + plan, weights not included), the goal of that size and fleet (256 x 256 with 6
+drones: 2 CPU s; 1024 x 1024 with 20: 60 CPU s), the wall seconds of zones + plan, MMN / floor
+(floor = reachable targets / 9A), coverage of the reachable targets, steps, and the 1-minute load
+when it finished. Run by hand:
 
     .venv/bin/python bench/unseen_bench.py [--voronoi 256x6,1024x20] [--seeds 1,2,3]
                                            [--movingai-uavs 6,20] [--policy expert,nn]
@@ -55,13 +56,13 @@ def run_row(kind: str, name: str, uavs: int, seed: int, policy: str) -> dict[str
     """Plan one row in this process; what the table prints."""
     gmap = load_row_map(kind, name, uavs, seed)
     ready = make_policy(policy)  # loading the weights is not planning
-    cpu0 = time.process_time()
+    cpu0, wall0 = time.process_time(), time.perf_counter()
     result = plan_map(gmap, uavs, policy=ready)
-    cpu = time.process_time() - cpu0
+    cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
     world, run = result.world, result.run
     regions, outside = free_regions(gmap, result.starts)
     return {"map": gmap.name, "shape": list(gmap.obstacle.shape), "targets": world.num_targets, "outside": outside,
-            "cpu_s": cpu, "mmn_floor": run.metrics["MMN"] / (world.num_targets / (9 * uavs)),
+            "cpu_s": cpu, "wall_s": wall, "mmn_floor": run.metrics["MMN"] / (world.num_targets / (9 * uavs)),
             "coverage": run.metrics["coverage"], "steps": run.steps, "success": run.success,
             "failure": run.failure or "", "load": os.getloadavg()[0]}
 
@@ -100,7 +101,7 @@ def main() -> int:
 
 def table(args: argparse.Namespace) -> int:
     header = (f"{'map':<16} {'size':>9} {'A':>3} {'policy':<7} {'targets':>8} {'walled':>6} {'cpu s':>7} {'goal':>6} "
-              f"{'MMN/floor':>9} {'cov %':>6} {'steps':>6} {'load':>5}")
+              f"{'wall s':>7} {'MMN/floor':>9} {'cov %':>6} {'steps':>6} {'load':>5}")
     print(header)
     print("-" * len(header), flush=True)
     for kind, name, uavs, seed in rows(args):
@@ -120,8 +121,8 @@ def table(args: argparse.Namespace) -> int:
             goal = GOAL_CPU_S.get((max(rows_, cols), uavs))
             verdict = "-" if goal is None else ("ok" if r["cpu_s"] <= goal else "OVER")
             line = (f"{label_name:<16} {f'{rows_}x{cols}':>9} {uavs:>3} {policy:<7} {r['targets']:>8} {r['outside']:>6} "
-                    f"{r['cpu_s']:>7.1f} {verdict:>6} {r['mmn_floor']:>9.2f} {r['coverage']:>6.1f} {r['steps']:>6} "
-                    f"{r['load']:>5.1f}")
+                    f"{r['cpu_s']:>7.1f} {verdict:>6} {r['wall_s']:>7.1f} {r['mmn_floor']:>9.2f} {r['coverage']:>6.1f} "
+                    f"{r['steps']:>6} {r['load']:>5.1f}")
             print(line + ("" if r["success"] else f"  FAILED: {r['failure']}"), flush=True)
     return 0
 
