@@ -368,13 +368,15 @@ def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], metho
     if not balance:
         zone[targets] = nearest_centroid(target_cells, centroids)
         return Zones(zone, centroids, iterations, method, balance)
-    region = _seed_regions(free, np.array(starts, dtype=np.int64).reshape(-1, 2))
+    labels, _ = ndimage.label(free)  # 4-connected free regions, as the drones move
+    launch = np.array(starts, dtype=np.int64).reshape(-1, 2)
+    region = labels[launch[:, 0], launch[:, 1]]  # 0: a launch on a blocked cell
     if len(set(region.tolist()) - {0}) > 1:
         # Drones launched in separate free regions (a walled courtyard): each region's targets are
         # shared among the drones that can reach them; an equal share of the whole map for a
         # pocket drone would leave the others unbalanced and the offsets loop never converging.
         zone[targets] = nearest_centroid(target_cells, centroids)  # targets no drone reaches keep their Voronoi
-        _balance_by_region(zone, targets, free, centroids, region, method, shares)
+        _balance_by_region(zone, targets, labels, centroids, region, method, shares)
     elif geodesic and graph is None:
         zone[targets] = balanced_by_passes(free, targets, seeds, shares=shares)
     elif geodesic:
@@ -386,20 +388,15 @@ def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], metho
     return Zones(zone, centroids, iterations, method, balance)
 
 
-def _seed_regions(free: np.ndarray, starts: np.ndarray) -> np.ndarray:
-    """(K,) label of the 4-connected free region each launch cell lies in (0: on a blocked cell)."""
-    labels, _ = ndimage.label(free)  # default structure: 4-connectivity, as the drones move
-    return labels[starts[:, 0], starts[:, 1]]
-
-
-def _balance_by_region(zone: np.ndarray, targets: np.ndarray, free: np.ndarray, centroids: np.ndarray,
+def _balance_by_region(zone: np.ndarray, targets: np.ndarray, labels: np.ndarray, centroids: np.ndarray,
                        seed_region: np.ndarray, method: str, shares: np.ndarray | None) -> None:
     """Balance, in place, each launch region's targets among the drones launched in it (their shares
-    renormalised); a drone alone in its region takes all of it."""
-    labels, _ = ndimage.label(free)
+    renormalised); a drone alone in its region takes all of it. `labels`: the free regions."""
+    weights = None if shares is None else np.asarray(shares, dtype=float)
+    cols = labels.shape[1]
     for region in sorted(set(seed_region.tolist()) - {0}):
         members = np.flatnonzero(seed_region == region)
-        inside = free & (labels == region)
+        inside = labels == region
         region_targets = targets & inside
         cells = np.argwhere(region_targets)
         if len(cells) == 0:
@@ -408,14 +405,14 @@ def _balance_by_region(zone: np.ndarray, targets: np.ndarray, free: np.ndarray, 
             zone[region_targets] = members[0]
             continue
         part = None
-        if shares is not None and np.sum(np.asarray(shares, dtype=float)[members]) > 0:
-            part = np.asarray(shares, dtype=float)[members] / np.sum(np.asarray(shares, dtype=float)[members])
+        if weights is not None and weights[members].sum() > 0:
+            part = weights[members] / weights[members].sum()
         seeds = np.rint(centroids[members]).astype(np.int64)
         if method == "geodesic" and len(members) * len(cells) > DENSE_BALANCE_LIMIT:
             local = balanced_by_passes(inside, region_targets, seeds, shares=part)
         elif method == "geodesic":
-            field = _geodesic_from(grid_graph(inside), seeds, free.shape[1])
-            local = balanced_assignment(field[:, cells[:, 0] * free.shape[1] + cells[:, 1]], shares=part)
+            field = _geodesic_from(grid_graph(inside), seeds, cols)
+            local = balanced_assignment(field[:, cells[:, 0] * cols + cells[:, 1]], shares=part)
         else:
             local = balanced_assignment(np.linalg.norm(cells[None, :, :] - centroids[members][:, None, :], axis=2),
                                         shares=part)
