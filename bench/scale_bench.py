@@ -23,7 +23,6 @@ import argparse
 import json
 import os
 import resource
-import subprocess
 import sys
 import tempfile
 import time
@@ -42,6 +41,7 @@ from missionplan.pipeline import POLICIES, make_policy, plan_map  # noqa: E402
 from missionplan.learn.trainmaps import TARGET, kind_of, random_city  # noqa: E402
 
 import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
+from child_row import run_child_row  # noqa: E402
 
 SIZES = (256, 512, 1024, 2048)
 UAVS = (6, 20, 50)
@@ -150,15 +150,10 @@ def table(args: argparse.Namespace) -> int:
                 command += ["--progress"] if args.progress else []
                 command += ["--mdu-check"] if args.mdu_check else []
                 label = f"{size}x{size:<4} {uavs:>3} {policy:<7}"
-                try:
-                    done = subprocess.run(command, stdout=subprocess.PIPE, text=True, timeout=args.timeout)
-                except subprocess.TimeoutExpired:
-                    print(f"{label} did not finish in {args.timeout:.0f} s", flush=True)
+                r = run_child_row(command, args.timeout)
+                if isinstance(r, str):
+                    print(f"{label} {r}", flush=True)
                     continue
-                if done.returncode != 0:
-                    print(f"{label} failed (exit {done.returncode})", flush=True)
-                    continue
-                r = json.loads(done.stdout.strip().splitlines()[-1])
                 share = 100 * r["zones_s"] / max(r["plan_s"], 1e-9)
                 cpu_share = 100 * r["zones_cpu_s"] / max(r["cpu_s"] - r["zones_cpu_s"], 1e-9)
                 row = (f"{label} {r['targets']:>8} {r['zones_s']:>8.2f} {r['plan_s']:>8.2f} {share:>7.1f} "

@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -33,11 +32,13 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from missionplan.maps.gridmap import GridMap, read_map_text  # noqa: E402
+from missionplan.maps.launches import largest_region  # noqa: E402
 from missionplan.maps.movingai import parse_movingai  # noqa: E402
 from missionplan.pipeline import POLICIES, make_policy, plan_map  # noqa: E402
 
 import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
-from unseen_cities import free_regions, random_free_launches, voronoi_city  # noqa: E402
+from child_row import run_child_row  # noqa: E402
+from unseen_cities import random_free_launches, voronoi_city  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 MOVINGAI_DIR = ROOT.parent / "shared" / "maps" / "movingai"
@@ -60,7 +61,8 @@ def run_row(kind: str, name: str, uavs: int, seed: int, policy: str) -> dict[str
     result = plan_map(gmap, uavs, policy=ready)
     cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
     world, run = result.world, result.run
-    regions, outside = free_regions(gmap, result.starts)
+    main_region = largest_region(gmap.free)
+    outside = sum(not main_region[r, c] for r, c in result.starts)
     return {"map": gmap.name, "shape": list(gmap.obstacle.shape), "targets": world.num_targets, "outside": outside,
             "cpu_s": cpu, "wall_s": wall, "mmn_floor": run.metrics["MMN"] / (world.num_targets / (9 * uavs)),
             "coverage": run.metrics["coverage"], "steps": run.steps, "success": run.success,
@@ -108,15 +110,10 @@ def table(args: argparse.Namespace) -> int:
         for policy in args.policy.split(","):
             label_name = f"voronoi seed {seed}" if kind == "voronoi" else Path(name).stem
             command = [sys.executable, __file__, "--row", f"{kind},{name},{uavs},{seed},{policy}"]
-            try:
-                done = subprocess.run(command, stdout=subprocess.PIPE, text=True, timeout=args.timeout)
-            except subprocess.TimeoutExpired:
-                print(f"{label_name:<16} {uavs:>13} {policy:<7} did not finish in {args.timeout:.0f} s", flush=True)
+            r = run_child_row(command, args.timeout)
+            if isinstance(r, str):
+                print(f"{label_name:<16} {uavs:>13} {policy:<7} {r}", flush=True)
                 continue
-            if done.returncode != 0:
-                print(f"{label_name:<16} {uavs:>13} {policy:<7} failed (exit {done.returncode})", flush=True)
-                continue
-            r = json.loads(done.stdout.strip().splitlines()[-1])
             rows_, cols = r["shape"]
             goal = GOAL_CPU_S.get((max(rows_, cols), uavs))
             verdict = "-" if goal is None else ("ok" if r["cpu_s"] <= goal else "OVER")

@@ -74,11 +74,3 @@ def random_free_launches(gmap: GridMap, count: int, seed: int) -> list[Cell]:
     picks = np.random.default_rng(seed).choice(len(free), size=count, replace=False)
     return [(int(r), int(c)) for r, c in free[picks]]
 
-
-def free_regions(gmap: GridMap, starts: list[Cell]) -> tuple[int, int]:
-    """(free regions with a launch in them, launches outside the largest region)."""
-    labels, _ = ndimage.label(gmap.free)
-    sizes = np.bincount(labels.ravel())
-    sizes[0] = 0
-    of_start = [int(labels[r, c]) for r, c in starts]
-    return len(set(of_start)), sum(region != int(sizes.argmax()) for region in of_start)

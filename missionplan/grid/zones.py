@@ -331,9 +331,7 @@ def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], metho
     points = target_cells[picks]
     centroids = np.array(starts, dtype=float)
     cols = targets.shape[1]
-    # The sparse graph only for the dense balancing of small maps; Lloyd steps search the grid directly.
     geodesic = method == "geodesic"
-    graph = grid_graph(free) if geodesic and balance and num_zones * len(target_cells) <= DENSE_BALANCE_LIMIT else None
 
     labels_of: list = [b"", None]  # (centroid cells, their nearest_seed labels) of the last search
 
@@ -377,10 +375,10 @@ def split_zones(targets: np.ndarray, free: np.ndarray, starts: list[Cell], metho
         # pocket drone would leave the others unbalanced and the offsets loop never converging.
         zone[targets] = nearest_centroid(target_cells, centroids)  # targets no drone reaches keep their Voronoi
         _balance_by_region(zone, targets, labels, centroids, region, method, shares)
-    elif geodesic and graph is None:
+    elif geodesic and num_zones * len(target_cells) > DENSE_BALANCE_LIMIT:
         zone[targets] = balanced_by_passes(free, targets, seeds, shares=shares)
-    elif geodesic:
-        field = _geodesic_from(graph, seeds, cols)
+    elif geodesic:  # the sparse graph only for the dense balancing of small maps; Lloyd searches the grid
+        field = _geodesic_from(grid_graph(free), seeds, cols)
         zone[targets] = balanced_assignment(field[:, target_cells[:, 0] * cols + target_cells[:, 1]], shares=shares)
     else:
         zone[targets] = balanced_assignment(np.linalg.norm(target_cells[None, :, :] - centroids[:, None, :], axis=2),
