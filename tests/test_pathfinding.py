@@ -46,6 +46,22 @@ def test_explorative_astar_prefers_unexplored_and_stays_short():
     assert len(explorative) - 1 <= 1.5 * (len(plain) - 1)
 
 
+def test_flight_search_paths_are_the_astar_paths_of_the_same_grid():
+    # The planner searches FlightSearch's padded grid in place; astar / explorative_astar pad a
+    # copy. Same grid, same costs, same tie-breaks: the same cells, step for step.
+    for seed in range(8):
+        free = maze(seed, size=25)
+        rng = np.random.default_rng(seed)
+        seen = free & (rng.random(free.shape) < 0.5)
+        search = FlightSearch(free, pad=3)
+        padded_seen = np.pad(seen, 3).ravel()
+        cells = np.argwhere(free)
+        for start, goal in rng.choice(cells, size=(6, 2)):
+            start, goal = tuple(int(v) for v in start), tuple(int(v) for v in goal)
+            assert search.path(start, goal) == astar(free, start, goal)
+            assert search.path(start, goal, lambda i: bool(padded_seen[i])) == explorative_astar(free, seen, start, goal)
+
+
 def test_no_path_and_budget_give_none():
     free = np.ones((5, 5), dtype=bool)
     free[:, 2] = False

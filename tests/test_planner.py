@@ -131,3 +131,32 @@ def test_expert_scores_a_batch_as_it_scores_each_drone_alone():
     alone = np.vstack([expert.action_scores(world, [k]) for k in range(4)])
     assert np.array_equal(together, alone)
     assert np.isfinite(together).any(axis=1).all()
+
+
+def test_expert_distance_field_is_the_breadth_first_distance():
+    # Checked against scipy's shortest paths on the grid graph of each view: exact everywhere
+    # without `needed`, exact on the needed open cells with it; blocked or unreached cells read
+    # the cap.
+    from scipy.sparse.csgraph import shortest_path
+    from missionplan.grid.expert import flight_distance_field
+    from missionplan.grid.zones import grid_graph
+
+    rng = np.random.default_rng(7)
+    blocked = rng.random((5, 19, 19)) < 0.3
+    goals = rng.random((5, 19, 19)) < 0.02
+    goals[4] = False  # a view with nothing to reach: every cell at the cap
+    needed = np.zeros((19, 19), dtype=bool)
+    needed[4:15, 4:15] = True
+    limit = 38
+    full = flight_distance_field(goals, blocked, limit)
+    partial = flight_distance_field(goals, blocked, limit, needed=needed)
+    for v in range(5):
+        open_cells = ~blocked[v]
+        sources = np.flatnonzero(goals[v] & open_cells)  # grid_graph numbers every cell row-major
+        expected = np.full((19, 19), float(limit))
+        if sources.size:
+            hops = shortest_path(grid_graph(open_cells), unweighted=True, indices=sources).min(axis=0)
+            expected[open_cells] = np.minimum(hops.reshape(19, 19), limit)[open_cells]
+        assert np.array_equal(full[v], expected)
+        assert np.array_equal(partial[v][needed & open_cells], expected[needed & open_cells])
+        assert (partial[v][blocked[v]] == limit).all()

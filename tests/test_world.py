@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from missionplan.maps.gridmap import GridMap, MapError
-from missionplan.grid.world import DOWN, HOVER, LEFT, RIGHT, UP, CoverageWorld, reachable_targets
+from missionplan.grid.world import DOWN, HOVER, LEFT, PAD, RIGHT, UP, CoverageWorld, reachable_targets
 
 
 def open_map(rows=20, cols=30, launch=((10, 10), (10, 11))):
@@ -89,6 +89,36 @@ def test_zone_sight_until_zone_done():
     assert not view[:, 13:].any()  # columns 20..25 belong to drone 2's zone: not seen
     world.zone_remaining[0] = 0  # drone 1's zone done: it now sees every zone
     assert world.view_unexplored(0)[:, 14:].any()
+
+
+def test_every_form_of_what_a_drone_sees_agrees():
+    gmap = open_map(rows=9, cols=40, launch=((4, 16), (4, 35)))
+    world = CoverageWorld(gmap, gmap.launch, two_zones(gmap, 20))
+    world.step([RIGHT, LEFT])
+    cells = np.argwhere(np.ones(gmap.shape, dtype=bool))
+    flat = (cells[:, 0] + PAD) * (gmap.shape[1] + 2 * PAD) + cells[:, 1] + PAD  # FlightSearch(pad=PAD) numbers
+    for zone_done in (False, True):
+        if zone_done:
+            world.zone_remaining[0] = 0
+        for k in range(2):
+            mask = world.seen_unexplored_mask(k)
+            one_by_one = world.seen_predicate(k)
+            assert mask.any() and not mask.all()
+            assert np.array_equal(mask[tuple(cells.T)], world.seen_flat(k)(flat))
+            assert [bool(one_by_one(int(i))) for i in flat] == mask[tuple(cells.T)].tolist()
+    assert world.seen_unexplored_mask(0)[:, 25:].any()  # done with its zone: drone 1 sees drone 2's
+
+
+def test_flown_views_mark_where_each_drone_flew_and_nothing_off_the_map():
+    gmap = open_map(rows=9, cols=40, launch=((0, 0), (4, 35)))
+    world = CoverageWorld(gmap, gmap.launch, two_zones(gmap, 20))
+    world.step([RIGHT, LEFT])
+    world.step([DOWN, HOVER])
+    flown = world.flown_views(np.array([0, 1]))
+    centre = flown.shape[1] // 2
+    assert flown[0, centre, centre] and flown[0, centre - 1, centre] and flown[0, centre - 1, centre - 1]
+    assert flown[0].sum() == 3  # (0, 0), (0, 1), (1, 1); off the map reads as never flown
+    assert flown[1].sum() == 2 and flown[1, centre, centre] and flown[1, centre, centre + 1]
 
 
 def test_step_cap_is_a_failure_not_success():

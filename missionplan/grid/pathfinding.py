@@ -7,7 +7,9 @@
   most 1.5 x the shortest one, and among paths of similar length it takes the one that
   runs over unexplored ground. Manhattan distance stays an admissible heuristic because
   no step costs less than 1. A search that expands more than its budget gives up
-  ("does not converge") and the caller falls back to classic A*.
+  ("does not converge") and the caller falls back to classic A*. Both search cell numbers
+  of a grid padded with blocked cells (no bounds check per neighbour); the planner runs
+  them on `FlightSearch`'s padded grid (`FlightSearch.path`), so a search copies nothing.
 - `find_goal`: the outward search for the nearest cell the drone sees as unexplored
   (breadth-first along free cells, so "nearest" means by flight, not through walls),
   skipping goals near another drone's goal (anti-congestion). `FlightSearch` runs that
@@ -36,31 +38,78 @@ CONGESTION_RADIUS = 4  # goals within this Chebyshev distance of another drone's
 _NEIGHBOURS = ((-1, 0), (0, 1), (1, 0), (0, -1))
 
 
-def astar(free: np.ndarray, start: Cell, goal: Cell, step_cost: np.ndarray | _ExplorativeCost | None = None,
+def astar(free: np.ndarray, start: Cell, goal: Cell, step_cost: np.ndarray | None = None,
           max_expansions: int | None = None) -> list[Cell] | None:
     """Cheapest 4-connected path from start to goal over `free` cells, both ends included.
 
     `step_cost[r, c]` is the cost of entering (r, c) (>= 1; None means 1 everywhere).
     Returns None when no path exists or the expansion budget runs out.
     """
-    rows, cols = free.shape
     if not (free[start] and free[goal]):
         return None
-    # Python-level reads of a memoryview are several times faster than numpy scalar indexing.
-    free = free.data if free.flags.c_contiguous else free
-    goal_r, goal_c = goal
+    grid = _PaddedGrid(free)
+    cost = None
+    if step_cost is not None:
+        padded_cost = np.pad(np.asarray(step_cost, dtype=float), 1).ravel().tolist()
+        cost = padded_cost.__getitem__
+    path = _astar_flat(grid.free, grid.width, grid.flat(start), grid.flat(goal), cost, None,
+                       max_expansions if max_expansions is not None else free.size)
+    return None if path is None else [grid.cell(i) for i in path]
+
+
+def explorative_astar(free: np.ndarray, seen_unexplored: np.ndarray, start: Cell, goal: Cell,
+                      max_expansions: int | None = None) -> list[Cell] | None:
+    """A short path that runs over cells the drone sees as unexplored (a (rows, cols) mask) where it can."""
+    if not (free[start] and free[goal]):
+        return None
+    grid = _PaddedGrid(free)
+    seen = np.pad(np.asarray(seen_unexplored, dtype=bool), 1).ravel()
+    path = _astar_flat(grid.free, grid.width, grid.flat(start), grid.flat(goal), None, seen.data.__getitem__,
+                       max_expansions if max_expansions is not None else explorative_budget(start, goal))
+    return None if path is None else [grid.cell(i) for i in path]
+
+
+def explorative_budget(start: Cell, goal: Cell) -> int:
+    """Expansions Explorative A* may spend: a few times what plain A* needs on an open map;
+    past it, the caller falls back to plain A*."""
+    return 8 * (abs(start[0] - goal[0]) + abs(start[1] - goal[1]) + 10) ** 2
+
+
+class _PaddedGrid:
+    """`free` with one blocked cell around it, flat: neighbours of a free cell need no bounds check."""
+
+    def __init__(self, free: np.ndarray) -> None:
+        self.width = free.shape[1] + 2
+        self.free = np.pad(np.asarray(free, dtype=bool), 1).ravel().data
+
+    def flat(self, cell: Cell) -> int:
+        return (cell[0] + 1) * self.width + cell[1] + 1
+
+    def cell(self, flat: int) -> Cell:
+        r, c = divmod(flat, self.width)
+        return r - 1, c - 1
+
+
+def _astar_flat(free: memoryview, width: int, start: int, goal: int, step_cost: Callable[[int], float] | None,
+                seen: Callable[[int], bool] | None, budget: int) -> list[int] | None:
+    """A* over flat numbers of a padded grid (blocked border, row-major, `width` columns).
+
+    Entering cell i costs `step_cost(i)`, or with `seen` (Explorative A*) 1 where seen(i) and
+    1 + EXPLORED_PENALTY elsewhere, or 1. Flat numbers order cells as (row, col) tuples do, so
+    ties break exactly as on cells. Returns the flat numbers from start to goal, or None.
+    """
+    goal_r, goal_c = divmod(goal, width)
+    start_r, start_c = divmod(start, width)
     best_cost = {start: 0.0}
-    parent: dict[Cell, Cell] = {}
+    parent: dict[int, int] = {}
     # Ties on f broken by larger g: prefers nodes nearer the goal, fewer expansions.
-    frontier: list[tuple[float, float, Cell]] = [(abs(start[0] - goal_r) + abs(start[1] - goal_c), 0.0, start)]
-    closed: set[Cell] = set()
-    budget = max_expansions if max_expansions is not None else rows * cols
-    # Explorative costs straight from the predicate: the hot loop skips a method call per neighbour.
-    seen = step_cost.seen if isinstance(step_cost, _ExplorativeCost) else None
+    frontier: list[tuple[float, float, int]] = [(abs(start_r - goal_r) + abs(start_c - goal_c), 0.0, start)]
+    closed: set[int] = set()
     explored_cost = 1.0 + EXPLORED_PENALTY
     unknown = float("inf")
+    push, pop = heapq.heappush, heapq.heappop
     while frontier:
-        _, neg_g, node = heapq.heappop(frontier)
+        _, neg_g, node = pop(frontier)
         if node in closed:
             continue
         if node == goal:
@@ -74,45 +123,21 @@ def astar(free: np.ndarray, start: Cell, goal: Cell, step_cost: np.ndarray | _Ex
         if budget < 0:
             return None
         g = -neg_g
-        r, c = node
-        for dr, dc in _NEIGHBOURS:
-            nr, nc = r + dr, c + dc
-            if not (0 <= nr < rows and 0 <= nc < cols) or not free[nr, nc]:
+        r, c = divmod(node, width)
+        # Up, right, down, left: the order the neighbours were always tried in.
+        for nxt, nr, nc in ((node - width, r - 1, c), (node + 1, r, c + 1), (node + width, r + 1, c),
+                            (node - 1, r, c - 1)):
+            if not free[nxt]:
                 continue
-            nxt = (nr, nc)
             if seen is not None:
                 cost = g + (1.0 if seen(nxt) else explored_cost)
             else:
-                cost = g + (1.0 if step_cost is None else float(step_cost[nr, nc]))
+                cost = g + (1.0 if step_cost is None else step_cost(nxt))
             if cost < best_cost.get(nxt, unknown):
                 best_cost[nxt] = cost
                 parent[nxt] = node
-                heapq.heappush(frontier, (cost + abs(nr - goal_r) + abs(nc - goal_c), -cost, nxt))
+                push(frontier, (cost + abs(nr - goal_r) + abs(nc - goal_c), -cost, nxt))
     return None
-
-
-def explorative_astar(free: np.ndarray, seen_unexplored: np.ndarray | Callable[[Cell], bool], start: Cell,
-                      goal: Cell, max_expansions: int | None = None) -> list[Cell] | None:
-    """A short path that runs over cells the drone sees as unexplored where it can.
-
-    `seen_unexplored` is a (rows, cols) mask or a function of a cell: the search reads
-    only the cells it expands, so no whole-grid cost array is built per call.
-    """
-    seen = seen_unexplored if callable(seen_unexplored) else (lambda cell: bool(seen_unexplored[cell]))
-    if max_expansions is None:
-        # Budget: a few times what plain A* needs on an open map; past it, fall back.
-        max_expansions = 8 * (abs(start[0] - goal[0]) + abs(start[1] - goal[1]) + 10) ** 2
-    return astar(free, start, goal, _ExplorativeCost(seen), max_expansions)
-
-
-class _ExplorativeCost:
-    """step_cost[r, c] of Explorative A*, read lazily from a seen-as-unexplored predicate."""
-
-    def __init__(self, seen: Callable[[Cell], bool]) -> None:
-        self.seen = seen
-
-    def __getitem__(self, cell: Cell) -> float:
-        return 1.0 if self.seen(cell) else 1.0 + EXPLORED_PENALTY
 
 
 class FlightSearch:
@@ -133,6 +158,7 @@ class FlightSearch:
         padded = np.zeros((rows + 2 * pad, self.width), dtype=bool)
         padded[pad:pad + rows, pad:pad + cols] = free
         self._free = padded.ravel()
+        self._free_view = self._free.data  # Python-level reads: several times faster than numpy's
         self._region = ndimage.label(padded)[0].ravel()  # 4-connected; 0 on blocked cells
         # Ascending index order = up, left, right, down: the order of the CSR rows of grid_graph.
         self._steps = np.array([-self.width, -1, 1, self.width], dtype=np.int64)
@@ -152,6 +178,17 @@ class FlightSearch:
         """(n, 2) cells of padded flat numbers."""
         rows, cols = np.divmod(flat, self.width)
         return np.stack([rows, cols], axis=1) - self.pad
+
+    def path(self, start: Cell, goal: Cell, seen: Callable[[int], bool] | None = None) -> list[Cell] | None:
+        """A* from start to goal on this grid's free cells, as `astar` would find it; with `seen`
+        (of a padded flat number: does the drone see that cell as unexplored) Explorative
+        A* within `explorative_budget`, else classic A*. No per-call copy of the grid."""
+        start_i, goal_i = (int(i) for i in self.flat_index(np.array([start, goal])))
+        if not (self._free[start_i] and self._free[goal_i]):
+            return None
+        budget = explorative_budget(start, goal) if seen is not None else self._free.size
+        found = _astar_flat(self._free_view, self.width, start_i, goal_i, None, seen, budget)
+        return None if found is None else [(i // self.width - self.pad, i % self.width - self.pad) for i in found]
 
     def rings(self, start: Cell) -> Iterator[np.ndarray]:
         """Yield padded flat numbers of the cells at flight distance 0, 1, 2, ... in BFS queue order."""

@@ -138,10 +138,13 @@ class CoverageWorld:
         ).astype(np.int64).reshape(self.num_regions, self.num_drones + 1)
         self.last_actions = np.full((self.num_drones, 2), HOVER, dtype=np.int64)  # [previous, one before]
         self.visits = np.zeros((self.num_drones, rows, cols), dtype=np.uint16)
+        # Whether each drone has flown over each cell, padded like the other arrays: the expert
+        # reads it around every asked drone every step, as one gather with no bounds to check.
+        self._pad_flown = np.zeros((self.num_drones, rows + 2 * PAD, cols + 2 * PAD), dtype=bool)
         self.truncated = False
         initial = np.zeros(self.num_drones, dtype=np.int64)
         for k in range(self.num_drones):
-            self.visits[k][tuple(self.positions[k])] += 1
+            self._mark_visit(k)
             initial[k] = self._explore_footprint(k)
         self.initial_new_cells = initial
 
@@ -208,6 +211,14 @@ class CoverageWorld:
         blocked[i, offsets[i, j, 0], offsets[i, j, 1]] = True
         return unexplored, blocked
 
+    def flown_views(self, drones: np.ndarray, radius: int = VIEW_RADIUS) -> np.ndarray:
+        """(n, 2r+1, 2r+1) bool: where each of `drones` has already flown, around itself (outside
+        the map: never)."""
+        span = np.arange(-radius, radius + 1)
+        centre = self.positions[drones] + PAD
+        return self._pad_flown[drones[:, None, None], centre[:, 0, None, None] + span[None, :, None],
+                               centre[:, 1, None, None] + span[None, None, :]]
+
     # ---------------------------------------------------------------- windows
     def _window(self, array: np.ndarray, k: int, radius: int) -> np.ndarray:
         r, c = self.positions[k] + PAD
@@ -237,12 +248,18 @@ class CoverageWorld:
             return lambda flat: open_zone[flat] != EXPLORED
         return lambda flat: open_zone[flat] == k
 
-    def seen_predicate(self, k: int) -> Callable[[Cell], bool]:
-        """A fast `cell -> bool`: whether drone k sees the in-map cell as unexplored, as of now."""
-        open_zone = self._pad_open_zone.data  # a memoryview: Python-level reads 5x faster than numpy's
+    def seen_unexplored_mask(self, k: int) -> np.ndarray:
+        """(rows, cols) bool: the cells drone k sees as unexplored, as of now (a new array)."""
+        open_zone = self._pad_open_zone[PAD:-PAD, PAD:-PAD]
+        return open_zone != EXPLORED if self.zone_done(k) else open_zone == k
+
+    def seen_predicate(self, k: int) -> Callable[[int], bool]:
+        """A fast `flat -> bool` for one cell at a time (numbered as in `seen_flat`): whether drone
+        k sees it as unexplored, as of now. What Explorative A* asks of every neighbour."""
+        open_zone = self._pad_open_zone.ravel().data  # a memoryview: Python-level reads 5x faster than numpy's
         if self.zone_done(k):
-            return lambda cell: open_zone[cell[0] + PAD, cell[1] + PAD] != EXPLORED
-        return lambda cell: open_zone[cell[0] + PAD, cell[1] + PAD] == k
+            return lambda flat: open_zone[flat] != EXPLORED
+        return lambda flat: open_zone[flat] == k
 
     def unexplored_cells(self) -> np.ndarray:
         """(n, 2) every unexplored cell, row-major (a flat scan of the contiguous padded array)."""
@@ -291,28 +308,36 @@ class CoverageWorld:
         for k in range(self.num_drones):
             if moved[k]:
                 self.last_actions[k] = (actions[k], self.last_actions[k, 0])
-                self.visits[k][tuple(self.positions[k])] += 1
+                self._mark_visit(k)
                 new_cells[k] = self._explore_footprint(k)
         if self.t >= self.step_cap and not self.done:
             self.truncated = True
         return StepOutcome(moved=moved, blocked=wants & ~moved, new_cells=new_cells,
                            done=self.done, truncated=self.truncated)
 
+    def _mark_visit(self, k: int) -> None:
+        r, c = int(self.positions[k, 0]), int(self.positions[k, 1])
+        self.visits[k, r, c] += 1
+        self._pad_flown[k, r + PAD, c + PAD] = True
+
     def _explore_footprint(self, k: int) -> int:
-        window = self._window(self._pad_unexplored, k, FOOTPRINT_RADIUS)
+        r, c = int(self.positions[k, 0]) + PAD, int(self.positions[k, 1]) + PAD
+        f = FOOTPRINT_RADIUS
+        under = (slice(r - f, r + f + 1), slice(c - f, c + f + 1))  # the footprint, in the padded arrays
+        window = self._pad_unexplored[under]
         if not np.count_nonzero(window):  # far cheaper than any() on a 9 x 9 window
             return 0
-        zones = self._window(self._pad_zone, k, FOOTPRINT_RADIUS)[window]
+        zones = self._pad_zone[under][window]
         count = int(zones.size)
         counted = zones[zones < self.num_drones]
         if counted.size and counted.min() >= 0:
             self.zone_remaining -= np.bincount(counted, minlength=self.num_drones)
         else:  # ufunc.at is slow, but wraps a -1 zone the way it always did
             np.subtract.at(self.zone_remaining, counted, 1)
-        slots = self._window(self._pad_slot, k, FOOTPRINT_RADIUS)[window]
+        slots = self._pad_slot[under][window]
         self.region_zone_remaining -= np.bincount(slots, minlength=self.region_zone_remaining.size).reshape(
             self.region_zone_remaining.shape)
         window[:] = False  # a view into _pad_unexplored: marks the cells explored
-        self._window(self._pad_open_zone, k, FOOTPRINT_RADIUS)[...] = EXPLORED
+        self._pad_open_zone[under] = EXPLORED
         self.remaining -= count
         return count
