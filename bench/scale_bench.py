@@ -1,15 +1,17 @@
 """City scale: seeded generated cities of 256² to 2048² cells, 6 / 20 / 50 drones, both policies.
 
-Each row plans one (size, drones, policy) in a fresh child process, so its peak RSS is its
-own, and prints: zone seconds, plan seconds, zones as a share of the plan time, CPU seconds
+Each row plans one (size, seed, drones, policy) in a fresh child process, so its peak RSS is its
+own, and prints: the city's street width in cells (median / 90th percentile over the streets'
+ridges, bench/streets.py), zone seconds, plan seconds, zones as a share of the plan time, CPU seconds
 (user + system of the child, zones + plan: compare these when the machine is shared), the
 zones' CPU seconds as a share of the plan's, peak RSS, MMN / floor, coverage, steps, and the
 1-minute load average when the row finished. Maps are
-`trainmaps.random_city` with seed = side length, launch cells by mapgen's greedy k-median
+`trainmaps.random_city` with seed = side length (--seeds N: also side + 1 ... side + N - 1),
+launch cells by mapgen's greedy k-median
 (the first A of them for A drones); generated maps are cached under the temp directory.
 Run by hand, piecewise if you like:
 
-    .venv/bin/python bench/scale_bench.py [--sizes 256,512,1024,2048] [--uavs 6,20,50]
+    .venv/bin/python bench/scale_bench.py [--sizes 256,512,1024,2048] [--uavs 6,20,50] [--seeds 1]
                                           [--policy expert,nn] [--timeout 1800] [--progress]
                                           [--mdu-check] [--write-doc docs/scale.md]
 
@@ -42,6 +44,7 @@ from missionplan.learn.trainmaps import TARGET, kind_of, random_city  # noqa: E4
 
 import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 from child_row import run_child_row  # noqa: E402
+from streets import street_width_summary  # noqa: E402
 
 SIZES = (256, 512, 1024, 2048)
 UAVS = (6, 20, 50)
@@ -49,14 +52,15 @@ MAX_UAVS = max(UAVS)
 CACHE = Path(tempfile.gettempdir()) / "missionplan-scale-maps"
 
 
-def city(size: int) -> GridMap:
-    """The bench's city of size x size cells with MAX_UAVS launch cells (cached on disk)."""
-    path = CACHE / f"city-{size}-v1.npz"
+def city(size: int, seed: int | None = None) -> GridMap:
+    """The bench's city of size x size cells with MAX_UAVS launch cells (cached on disk); seed: size."""
+    seed = size if seed is None else seed
+    path = CACHE / (f"city-{size}-v1.npz" if seed == size else f"city-{size}-seed{seed}-v1.npz")
     if path.is_file():
         data = np.load(path)
         return GridMap(name=f"city{size}", obstacle=data["obstacle"], target=data["target"],
                        launch=[(int(r), int(c)) for r, c in data["launch"]], meta={})
-    gmap = random_city(np.random.default_rng(size), (size, size), name=f"city{size}")
+    gmap = random_city(np.random.default_rng(seed), (size, size), name=f"city{size}")
     kind = kind_of(gmap)
     launch = median_launch_cells(launch_candidates(kind, CITY_LAUNCH_EDGE_MARGIN), kind == TARGET, MAX_UAVS)
     CACHE.mkdir(parents=True, exist_ok=True)
@@ -96,9 +100,10 @@ def time_zones_cpu() -> list[float]:
     return spent
 
 
-def run_row(size: int, uavs: int, policy: str, progress: bool, mdu_check: bool = False) -> dict[str, float | str | bool]:
+def run_row(size: int, seed: int, uavs: int, policy: str, progress: bool,
+            mdu_check: bool = False) -> dict[str, float | str | bool]:
     """Plan one row in this process; what the table prints."""
-    gmap = city(size)
+    gmap = city(size, seed)
     every = record_every_mdu() if mdu_check else None
     ready = make_policy(policy)  # loading the weights is not planning
     zone_cpu = time_zones_cpu()
@@ -119,37 +124,39 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default=",".join(map(str, SIZES)))
     parser.add_argument("--uavs", default=",".join(map(str, UAVS)))
+    parser.add_argument("--seeds", type=int, default=1, help="cities per size (seeds size, size + 1, ...)")
     parser.add_argument("--policy", default=",".join(POLICIES), help=f"comma list of {', '.join(POLICIES)}")
     parser.add_argument("--timeout", type=float, default=1800.0, help="seconds allowed per row")
     parser.add_argument("--progress", action="store_true", help="show each row's progress bar")
     parser.add_argument("--mdu-check", action="store_true",
                         help="also compute MDU* at every steady-state step and print how far the sampled one is")
-    parser.add_argument("--row", help=argparse.SUPPRESS)  # internal: size,uavs,policy in a child
+    parser.add_argument("--row", help=argparse.SUPPRESS)  # internal: size,seed,uavs,policy in a child
     doctable.add_option(parser)
     args = parser.parse_args()
     if args.row:
-        size, uavs, policy = args.row.split(",")
-        print(json.dumps(run_row(int(size), int(uavs), policy, args.progress, args.mdu_check)))
+        size, seed, uavs, policy = args.row.split(",")
+        print(json.dumps(run_row(int(size), int(seed), int(uavs), policy, args.progress, args.mdu_check)))
         return 0
     with doctable.Recorder(args.write_doc, __file__):
         return table(args)
 
 
 def table(args: argparse.Namespace) -> int:
-    sizes = [int(s) for s in args.sizes.split(",")]
-    for size in sizes:
-        city(size)  # generate once here, not inside the timed children
-    header = (f"{'size':>9} {'A':>3} {'policy':<7} {'U':>8} {'zones s':>8} {'plan s':>8} {'zones %':>7} "
-              f"{'cpu s':>8} {'zones cpu %':>11} {'peak MB':>8} {'MMN/floor':>9} {'cov %':>6} {'steps':>6} {'load':>5}")
+    cities = [(int(s), int(s) + i) for s in args.sizes.split(",") for i in range(max(1, args.seeds))]
+    streets = {(size, seed): street_width_summary(city(size, seed).free)  # made here, not in the timed children
+               for size, seed in cities}
+    header = (f"{'size':>9} {'seed':>5} {'streets':>7} {'A':>3} {'policy':<7} {'U':>8} {'zones s':>8} {'plan s':>8} "
+              f"{'zones %':>7} {'cpu s':>8} {'zones cpu %':>11} {'peak MB':>8} {'MMN/floor':>9} {'cov %':>6} "
+              f"{'steps':>6} {'load':>5}")
     print(header)
     print("-" * len(header), flush=True)
-    for size in sizes:
+    for size, seed in cities:
         for uavs in (int(u) for u in args.uavs.split(",")):
             for policy in args.policy.split(","):
-                command = [sys.executable, __file__, "--row", f"{size},{uavs},{policy}"]
+                command = [sys.executable, __file__, "--row", f"{size},{seed},{uavs},{policy}"]
                 command += ["--progress"] if args.progress else []
                 command += ["--mdu-check"] if args.mdu_check else []
-                label = f"{size}x{size:<4} {uavs:>3} {policy:<7}"
+                label = f"{size}x{size:<4} {seed:>5} {streets[size, seed]:>7} {uavs:>3} {policy:<7}"
                 r = run_child_row(command, args.timeout)
                 if isinstance(r, str):
                     print(f"{label} {r}", flush=True)

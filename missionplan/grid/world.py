@@ -137,7 +137,6 @@ class CoverageWorld:
             self._pad_slot[PAD:-PAD, PAD:-PAD][self.reachable], minlength=self.num_regions * (self.num_drones + 1)
         ).astype(np.int64).reshape(self.num_regions, self.num_drones + 1)
         self.last_actions = np.full((self.num_drones, 2), HOVER, dtype=np.int64)  # [previous, one before]
-        self.visits = np.zeros((self.num_drones, rows, cols), dtype=np.uint16)
         # Whether each drone has flown over each cell, padded like the other arrays: the expert
         # reads it around every asked drone every step, as one gather with no bounds to check.
         self._pad_flown = np.zeros((self.num_drones, rows + 2 * PAD, cols + 2 * PAD), dtype=bool)
@@ -316,9 +315,7 @@ class CoverageWorld:
                            done=self.done, truncated=self.truncated)
 
     def _mark_visit(self, k: int) -> None:
-        r, c = int(self.positions[k, 0]), int(self.positions[k, 1])
-        self.visits[k, r, c] += 1
-        self._pad_flown[k, r + PAD, c + PAD] = True
+        self._pad_flown[k, int(self.positions[k, 0]) + PAD, int(self.positions[k, 1]) + PAD] = True
 
     def _explore_footprint(self, k: int) -> int:
         r, c = int(self.positions[k, 0]) + PAD, int(self.positions[k, 1]) + PAD
