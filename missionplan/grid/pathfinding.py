@@ -35,8 +35,6 @@ from ..maps.gridmap import Cell
 EXPLORED_PENALTY = 0.5
 CONGESTION_RADIUS = 4  # goals within this Chebyshev distance of another drone's goal are skipped
 
-_NEIGHBOURS = ((-1, 0), (0, 1), (1, 0), (0, -1))
-
 
 def astar(free: np.ndarray, start: Cell, goal: Cell, step_cost: np.ndarray | None = None,
           max_expansions: int | None = None) -> list[Cell] | None:
