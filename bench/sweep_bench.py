@@ -1,0 +1,175 @@
+"""Ground that may be overflown: our planner against footprint-wide sweeps, a DARP-like baseline.
+
+Where nothing blocks the drones (open ground, or a city whose buildings are low enough to fly
+over: buildings become free cells with nothing to photograph), the classic planners cover an area
+in lanes one footprint apart. DARP (Kapoutsis et al., 2017) splits the area into equal connected
+parts and covers each with a spanning-tree path; on an obstacle-free grid that path visits each
+footprint-sized block once, as a boustrophedon sweep does. The baseline here measures that, with
+nothing of ours but the zones, so the two differ only in how a zone is flown:
+
+- zones: `zones.split_zones` (balanced geodesic Lloyd), the very zones our planner gets;
+- each zone is cut into 9 x 9 blocks (the footprint) aligned on the zone's corner; every block
+  holding a target is photographed from its centre (clipped into the map), so one photo covers it;
+- the drone visits those centres in a snake, by block rows or block columns, from whichever of the
+  eight corners and directions makes its flight shortest, launch cell included; the legs are
+  taxicab distances, flyable because no cell is blocked. Drones never meet or wait (our planner's
+  do), which can only flatter the baseline.
+
+It is a measurement only (no product code uses it), and checks itself: coverage is recounted from
+the photo centres. Per map and fleet it prints, for our expert and network and for the sweep:
+makespan (the longest drone's moves), total moves, coverage of the targets, CPU seconds, and the
+makespan over the floor U / (9 A). Maps: open ground (every cell a target) and the MovingAI street
+maps in ../shared/maps/movingai/ with every building overflown. Run by hand:
+
+    .venv/bin/python bench/sweep_bench.py [--open 128,256] [--uavs 6,20]
+                                          [--movingai-dir ../shared/maps/movingai] [--write-doc FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from itertools import product
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from missionplan.grid.world import FOOTPRINT_RADIUS, reachable_targets  # noqa: E402
+from missionplan.grid.zones import split_zones  # noqa: E402
+from missionplan.maps.gridmap import Cell, GridMap, read_map_text  # noqa: E402
+from missionplan.maps.launches import spread_launches  # noqa: E402
+from missionplan.maps.movingai import parse_movingai  # noqa: E402
+from missionplan.pipeline import make_policy, plan_map  # noqa: E402
+
+import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
+
+ROOT = Path(__file__).resolve().parent.parent
+MOVINGAI_DIR = ROOT.parent / "shared" / "maps" / "movingai"
+BLOCK = 2 * FOOTPRINT_RADIUS + 1  # the footprint's side in cells
+
+
+def open_ground(size: int, uavs: int) -> GridMap:
+    """A size x size field with nothing on it: every cell a target; launch cells spread over it."""
+    free = np.ones((size, size), dtype=bool)
+    return GridMap(f"open {size}", ~free, free.copy(), spread_launches(free, uavs))
+
+
+def overflown(gmap: GridMap) -> GridMap:
+    """The same map with every obstacle flown over: free, with nothing to photograph."""
+    blocked = np.zeros_like(gmap.obstacle)
+    return GridMap(f"{gmap.name} overflown", blocked, gmap.target & gmap.free, list(gmap.launch), dict(gmap.meta))
+
+
+def sweep_centres(zone: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 2) photo centres, one per footprint-sized block of the zone's bounding grid that holds a
+    target, and (n, 2) those blocks' (row, col) numbers."""
+    cells = np.argwhere(zone)
+    corner = cells.min(axis=0)
+    blocks = np.unique((cells - corner) // BLOCK, axis=0)
+    centres = corner + blocks * BLOCK + FOOTPRINT_RADIUS
+    return np.minimum(centres, np.array(shape) - 1), blocks
+
+
+def snake_flight(start: Cell, centres: np.ndarray, blocks: np.ndarray) -> tuple[int, np.ndarray]:
+    """Moves of the shortest snake through the centres (rows or columns first, any corner), and its order."""
+    best: tuple[int, np.ndarray] | None = None
+    for major, flip_major, flip_minor in product((0, 1), (False, True), (False, True)):
+        minor = 1 - major
+        lane = blocks[:, major] * (-1 if flip_major else 1)
+        lanes = np.unique(lane)
+        order_parts = []
+        for i, value in enumerate(lanes):
+            members = np.flatnonzero(lane == value)
+            along = blocks[members, minor] * (-1 if flip_minor ^ (i % 2 == 1) else 1)
+            order_parts.append(members[np.argsort(along, kind="stable")])
+        order = np.concatenate(order_parts)
+        path = np.vstack([np.array(start)[None, :], centres[order]])
+        moves = int(np.abs(np.diff(path, axis=0)).sum())
+        if best is None or moves < best[0]:
+            best = (moves, order)
+    assert best is not None
+    return best
+
+
+def sweep_plan(gmap: GridMap, starts: list[Cell], zone: np.ndarray) -> dict[str, float]:
+    """The DARP-like baseline on the given zones: makespan, total moves, coverage %."""
+    targets = reachable_targets(gmap, starts)
+    covered = np.zeros_like(targets)
+    moves = []
+    for k, start in enumerate(starts):
+        mine = zone == k
+        if not mine.any():
+            moves.append(0)
+            continue
+        centres, blocks = sweep_centres(mine, gmap.shape)
+        flown, _ = snake_flight(start, centres, blocks)
+        moves.append(flown)
+        for r, c in centres:
+            covered[max(r - FOOTPRINT_RADIUS, 0): r + FOOTPRINT_RADIUS + 1,
+                    max(c - FOOTPRINT_RADIUS, 0): c + FOOTPRINT_RADIUS + 1] = True
+    count = int(targets.sum())
+    return {"makespan": max(moves), "total": sum(moves),
+            "coverage": 100.0 * int((covered & targets).sum()) / count if count else 100.0}
+
+
+def maps(args: argparse.Namespace) -> list[tuple[str, int]]:
+    """(map key, drones) of every row."""
+    keys = [f"open:{size}" for size in filter(None, args.open.split(","))]
+    folder = Path(args.movingai_dir)
+    keys += [str(path) for path in sorted(folder.glob("*.map"))] if folder.is_dir() else []
+    return [(key, int(uavs)) for key in keys for uavs in filter(None, args.uavs.split(","))]
+
+
+def load(key: str, uavs: int) -> GridMap:
+    if key.startswith("open:"):
+        return open_ground(int(key.split(":")[1]), uavs)
+    return overflown(parse_movingai(read_map_text(key), key))
+
+
+def table(args: argparse.Namespace) -> int:
+    header = (f"{'map':<22} {'A':>3} {'planner':<8} {'targets':>8} {'makespan':>8} {'total':>8} {'cov %':>6} "
+              f"{'cpu s':>6} {'span/floor':>10} {'vs sweep':>8}")
+    print(header)
+    print("-" * len(header), flush=True)
+    policies = {name: make_policy(name) for name in ("expert", "nn")}
+    for key, uavs in maps(args):
+        gmap = load(key, uavs)
+        starts = list(gmap.launch[:uavs])
+        targets = int(reachable_targets(gmap, starts).sum())
+        floor = targets / (9 * uavs)
+        name = gmap.name if not key.startswith("/") else f"{Path(key).stem} overflown"
+        cpu = time.process_time()
+        zones = split_zones(reachable_targets(gmap, starts), gmap.free, starts, balance=True)
+        sweep = sweep_plan(gmap, starts, zones.zone)
+        sweep["cpu"] = time.process_time() - cpu
+        rows = []
+        for label, policy in policies.items():
+            cpu = time.process_time()
+            result = plan_map(gmap, uavs, policy=policy, starts=starts)
+            m = result.run.metrics
+            rows.append((label, {"makespan": m["makespan"], "total": round(uavs * m["MMN"]),
+                                 "coverage": m["coverage"], "cpu": time.process_time() - cpu}))
+        rows.append(("sweep", sweep))
+        for label, r in rows:
+            versus = f"{100 * (r['makespan'] / sweep['makespan'] - 1):+7.1f}%" if label != "sweep" else f"{'-':>8}"
+            print(f"{name:<22} {uavs:>3} {label:<8} {targets:>8} {r['makespan']:>8} {r['total']:>8} "
+                  f"{r['coverage']:>6.1f} {r['cpu']:>6.1f} {r['makespan'] / floor:>10.2f} {versus}", flush=True)
+    return 0
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--open", default="128,256", help="comma list of open-ground sizes (empty: none)")
+    parser.add_argument("--uavs", default="6,20", help="comma list of fleet sizes")
+    parser.add_argument("--movingai-dir", default=str(MOVINGAI_DIR))
+    doctable.add_option(parser)
+    args = parser.parse_args()
+    with doctable.Recorder(args.write_doc, __file__):
+        return table(args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
