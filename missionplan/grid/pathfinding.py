@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import heapq
 from collections.abc import Callable, Iterator
+from functools import cached_property
 
 import numpy as np
 from scipy import ndimage
@@ -36,35 +37,19 @@ EXPLORED_PENALTY = 0.5
 CONGESTION_RADIUS = 4  # goals within this Chebyshev distance of another drone's goal are skipped
 
 
-def astar(free: np.ndarray, start: Cell, goal: Cell, step_cost: np.ndarray | None = None,
-          max_expansions: int | None = None) -> list[Cell] | None:
-    """Cheapest 4-connected path from start to goal over `free` cells, both ends included.
+def astar(free: np.ndarray, start: Cell, goal: Cell, max_expansions: int | None = None) -> list[Cell] | None:
+    """Shortest 4-connected path from start to goal over `free` cells, both ends included.
 
-    `step_cost[r, c]` is the cost of entering (r, c) (>= 1; None means 1 everywhere).
     Returns None when no path exists or the expansion budget runs out.
     """
-    if not (free[start] and free[goal]):
-        return None
-    grid = _PaddedGrid(free)
-    cost = None
-    if step_cost is not None:
-        padded_cost = np.pad(np.asarray(step_cost, dtype=float), 1).ravel().tolist()
-        cost = padded_cost.__getitem__
-    path = _astar_flat(grid.free, grid.width, grid.flat(start), grid.flat(goal), cost, None,
-                       max_expansions if max_expansions is not None else free.size)
-    return None if path is None else [grid.cell(i) for i in path]
+    return FlightSearch(free).path(start, goal, max_expansions=max_expansions)
 
 
 def explorative_astar(free: np.ndarray, seen_unexplored: np.ndarray, start: Cell, goal: Cell,
                       max_expansions: int | None = None) -> list[Cell] | None:
     """A short path that runs over cells the drone sees as unexplored (a (rows, cols) mask) where it can."""
-    if not (free[start] and free[goal]):
-        return None
-    grid = _PaddedGrid(free)
-    seen = np.pad(np.asarray(seen_unexplored, dtype=bool), 1).ravel()
-    path = _astar_flat(grid.free, grid.width, grid.flat(start), grid.flat(goal), None, seen.data.__getitem__,
-                       max_expansions if max_expansions is not None else explorative_budget(start, goal))
-    return None if path is None else [grid.cell(i) for i in path]
+    seen = np.pad(np.asarray(seen_unexplored, dtype=bool), 1).ravel()  # numbered as FlightSearch(free) numbers
+    return FlightSearch(free).path(start, goal, seen.data.__getitem__, max_expansions)
 
 
 def explorative_budget(start: Cell, goal: Cell) -> int:
@@ -73,28 +58,13 @@ def explorative_budget(start: Cell, goal: Cell) -> int:
     return 8 * (abs(start[0] - goal[0]) + abs(start[1] - goal[1]) + 10) ** 2
 
 
-class _PaddedGrid:
-    """`free` with one blocked cell around it, flat: neighbours of a free cell need no bounds check."""
-
-    def __init__(self, free: np.ndarray) -> None:
-        self.width = free.shape[1] + 2
-        self.free = np.pad(np.asarray(free, dtype=bool), 1).ravel().data
-
-    def flat(self, cell: Cell) -> int:
-        return (cell[0] + 1) * self.width + cell[1] + 1
-
-    def cell(self, flat: int) -> Cell:
-        r, c = divmod(flat, self.width)
-        return r - 1, c - 1
-
-
-def _astar_flat(free: memoryview, width: int, start: int, goal: int, step_cost: Callable[[int], float] | None,
-                seen: Callable[[int], bool] | None, budget: int) -> list[int] | None:
+def _astar_flat(free: memoryview, width: int, start: int, goal: int, seen: Callable[[int], bool] | None,
+                budget: int) -> list[int] | None:
     """A* over flat numbers of a padded grid (blocked border, row-major, `width` columns).
 
-    Entering cell i costs `step_cost(i)`, or with `seen` (Explorative A*) 1 where seen(i) and
-    1 + EXPLORED_PENALTY elsewhere, or 1. Flat numbers order cells as (row, col) tuples do, so
-    ties break exactly as on cells. Returns the flat numbers from start to goal, or None.
+    Entering cell i costs 1, or with `seen` (Explorative A*) 1 where seen(i) and 1 +
+    EXPLORED_PENALTY elsewhere. Flat numbers order cells as (row, col) tuples do, so ties
+    break exactly as on cells. Returns the flat numbers from start to goal, or None.
     """
     goal_r, goal_c = divmod(goal, width)
     start_r, start_c = divmod(start, width)
@@ -127,10 +97,7 @@ def _astar_flat(free: memoryview, width: int, start: int, goal: int, step_cost: 
                             (node - 1, r, c - 1)):
             if not free[nxt]:
                 continue
-            if seen is not None:
-                cost = g + (1.0 if seen(nxt) else explored_cost)
-            else:
-                cost = g + (1.0 if step_cost is None else step_cost(nxt))
+            cost = g + (1.0 if seen is None or seen(nxt) else explored_cost)
             if cost < best_cost.get(nxt, unknown):
                 best_cost[nxt] = cost
                 parent[nxt] = node
@@ -157,7 +124,6 @@ class FlightSearch:
         padded[pad:pad + rows, pad:pad + cols] = free
         self._free = padded.ravel()
         self._free_view = self._free.data  # Python-level reads: several times faster than numpy's
-        self._region = ndimage.label(padded)[0].ravel()  # 4-connected; 0 on blocked cells
         # Ascending index order = up, left, right, down: the order of the CSR rows of grid_graph.
         self._steps = np.array([-self.width, -1, 1, self.width], dtype=np.int64)
         self._stamp = np.zeros(self._free.size, dtype=np.int32)
@@ -168,6 +134,12 @@ class FlightSearch:
         cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
         return (cells[:, 0] + self.pad) * self.width + cells[:, 1] + self.pad
 
+    @cached_property
+    def _region(self) -> np.ndarray:
+        """4-connected free-region labels, flat; 0 on blocked cells. Labelled on first use: a
+        search made for one path never needs them."""
+        return ndimage.label(self._free.reshape(-1, self.width))[0].ravel()
+
     def region(self, flat: np.ndarray) -> np.ndarray:
         """Free-region label of padded flat numbers (0 for a blocked cell): equal labels, reachable."""
         return self._region[flat]
@@ -177,15 +149,17 @@ class FlightSearch:
         rows, cols = np.divmod(flat, self.width)
         return np.stack([rows, cols], axis=1) - self.pad
 
-    def path(self, start: Cell, goal: Cell, seen: Callable[[int], bool] | None = None) -> list[Cell] | None:
-        """A* from start to goal on this grid's free cells, as `astar` would find it; with `seen`
-        (of a padded flat number: does the drone see that cell as unexplored) Explorative
-        A* within `explorative_budget`, else classic A*. No per-call copy of the grid."""
+    def path(self, start: Cell, goal: Cell, seen: Callable[[int], bool] | None = None,
+             max_expansions: int | None = None) -> list[Cell] | None:
+        """A* from start to goal on this grid's free cells; with `seen` (of a padded flat number:
+        does the drone see that cell as unexplored) Explorative A*, by default within
+        `explorative_budget`, else classic A*. The grid is searched in place, nothing copied."""
         start_i, goal_i = (int(i) for i in self.flat_index(np.array([start, goal])))
         if not (self._free[start_i] and self._free[goal_i]):
             return None
-        budget = explorative_budget(start, goal) if seen is not None else self._free.size
-        found = _astar_flat(self._free_view, self.width, start_i, goal_i, None, seen, budget)
+        if max_expansions is None:
+            max_expansions = explorative_budget(start, goal) if seen is not None else self._free.size
+        found = _astar_flat(self._free_view, self.width, start_i, goal_i, seen, max_expansions)
         return None if found is None else [(i // self.width - self.pad, i % self.width - self.pad) for i in found]
 
     def rings(self, start: Cell) -> Iterator[np.ndarray]:

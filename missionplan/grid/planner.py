@@ -44,7 +44,7 @@ from tqdm import tqdm
 
 from ..maps.gridmap import Cell
 from .metrics import SteadyStateSampler, compute_metrics, mdu_stride
-from .pathfinding import FlightSearch, astar, explorative_astar, find_goal
+from .pathfinding import FlightSearch, find_goal
 from .world import ACTION_DELTAS, HOVER, PAD, CoverageWorld
 
 DEADLOCK_STEPS = 3
@@ -168,10 +168,9 @@ class Planner:
                              rivals, backlog, seen_count=seen_count, seen_cells=seen_cells)
             if goal is None:
                 break
-            if free is self.free:
-                path = self.search.path(start, goal, world.seen_predicate(k)) or self.search.path(start, goal)
-            else:  # this once, around the other drones: a search on the copy
-                path = explorative_astar(free, world.seen_unexplored_mask(k), start, goal) or astar(free, start, goal)
+            # Around the other drones (this once): a search over the copy, numbered as the world is.
+            search = self.search if free is self.free else FlightSearch(free, pad=PAD)
+            path = search.path(start, goal, world.seen_predicate(k)) or search.path(start, goal)
             if path is not None:
                 nav.goal, nav.path = goal, path[1:]
                 return True

@@ -247,11 +247,6 @@ class CoverageWorld:
             return lambda flat: open_zone[flat] != EXPLORED
         return lambda flat: open_zone[flat] == k
 
-    def seen_unexplored_mask(self, k: int) -> np.ndarray:
-        """(rows, cols) bool: the cells drone k sees as unexplored, as of now (a new array)."""
-        open_zone = self._pad_open_zone[PAD:-PAD, PAD:-PAD]
-        return open_zone != EXPLORED if self.zone_done(k) else open_zone == k
-
     def seen_predicate(self, k: int) -> Callable[[int], bool]:
         """A fast `flat -> bool` for one cell at a time (numbered as in `seen_flat`): whether drone
         k sees it as unexplored, as of now. What Explorative A* asks of every neighbour."""
