@@ -7,8 +7,26 @@ last. Used by scale_bench.py and unseen_bench.py.
 from __future__ import annotations
 
 import json
+import resource
 import subprocess
 from typing import Any
+
+
+def peak_rss_mb() -> float:
+    """This process's own peak resident memory, in MB.
+
+    getrusage's ru_maxrss is not it: Linux carries the parent's high-water mark over fork and exec,
+    so a child started by a bench that had built a 2048² city reports that city's memory. The
+    kernel's VmHWM is the peak of this process's own memory map, which exec replaced.
+    """
+    try:
+        with open("/proc/self/status") as status:
+            for line in status:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # no /proc (not Linux): the best there is
 
 
 def run_child_row(command: list[str], timeout: float) -> dict[str, Any] | str:

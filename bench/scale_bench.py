@@ -24,7 +24,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import sys
 import tempfile
 import time
@@ -43,7 +42,7 @@ from missionplan.pipeline import POLICIES, make_policy, plan_map  # noqa: E402
 from missionplan.learn.trainmaps import TARGET, kind_of, random_city  # noqa: E402
 
 import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
-from child_row import run_child_row  # noqa: E402
+from child_row import peak_rss_mb, run_child_row  # noqa: E402
 from streets import street_width_summary  # noqa: E402
 
 SIZES = (256, 512, 1024, 2048)
@@ -113,7 +112,7 @@ def run_row(size: int, seed: int, uavs: int, policy: str, progress: bool,
     m, world = result.run.metrics, result.world
     floor = world.num_targets / (9 * uavs)
     return {"targets": world.num_targets, "zones_s": result.zone_seconds, "plan_s": result.run.plan_seconds,
-            "cpu_s": cpu, "zones_cpu_s": zone_cpu[0], "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+            "cpu_s": cpu, "zones_cpu_s": zone_cpu[0], "rss_mb": peak_rss_mb(),
             "mmn_floor": m["MMN"] / floor, "coverage": m["coverage"], "success": result.run.success,
             "failure": result.run.failure or "", "steps": result.run.steps, "load": os.getloadavg()[0],
             "mdu": m["MDU"], "mdu_every": float(np.mean(every)) if every else None,

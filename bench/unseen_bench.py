@@ -14,7 +14,8 @@ child: zones + plan, weights not included; with --repeat N the least of N runs, 
 the goal of that size and fleet (256 x 256 with 6 drones: 2 CPU s; 1024 x 1024 with 20: 60 CPU s,
 judged on the least: the plans are identical, what varies is the machine), the wall seconds of
 zones + plan, MMN / floor
-(floor = reachable targets / 9A), coverage of the reachable targets, steps, and the 1-minute load
+(floor = reachable targets / 9A), the makespan (the busiest drone's moves) and, on a network row,
+how much longer it is than the expert's on the same map and fleet, coverage of the reachable targets, steps, and the 1-minute load
 when it finished. Run by hand:
 
     .venv/bin/python bench/unseen_bench.py [--voronoi 256x6,1024x20] [--seeds 1,2,3]
@@ -68,6 +69,7 @@ def run_row(kind: str, name: str, uavs: int, seed: int, policy: str) -> dict[str
     outside = sum(not main_region[r, c] for r, c in result.starts)
     return {"map": gmap.name, "shape": list(gmap.obstacle.shape), "targets": world.num_targets, "outside": outside,
             "cpu_s": cpu, "wall_s": wall, "mmn_floor": run.metrics["MMN"] / (world.num_targets / (9 * uavs)),
+            "makespan": int(run.metrics["makespan"]),
             "coverage": run.metrics["coverage"], "steps": run.steps, "success": run.success,
             "failure": run.failure or "", "load": os.getloadavg()[0]}
 
@@ -108,11 +110,14 @@ def main() -> int:
 
 def table(args: argparse.Namespace) -> int:
     header = (f"{'map':<16} {'size':>9} {'A':>3} {'policy':<7} {'targets':>8} {'walled':>6} {'cpu s':>7} {'most':>5} "
-              f"{'goal':>6} {'wall s':>7} {'MMN/floor':>9} {'cov %':>6} {'steps':>6} {'load':>5}")
+              f"{'goal':>6} {'wall s':>7} {'MMN/floor':>9} {'mkspan':>6} {'vs exp':>6} {'cov %':>6} {'steps':>6} {'load':>5}")
     print(header)
     print("-" * len(header), flush=True)
+    # The expert first, so that a network row can say how its makespan compares.
+    policies = sorted(args.policy.split(","), key=lambda name: name != "expert")
     for kind, name, uavs, seed in rows(args):
-        for policy in args.policy.split(","):
+        expert_makespan = None
+        for policy in policies:
             label_name = f"voronoi seed {seed}" if kind == "voronoi" else Path(name).stem
             command = [sys.executable, __file__, "--row", f"{kind},{name},{uavs},{seed},{policy}"]
             runs = [run_child_row(command, args.timeout) for _ in range(max(1, args.repeat))]
@@ -125,8 +130,13 @@ def table(args: argparse.Namespace) -> int:
             rows_, cols = r["shape"]
             goal = GOAL_CPU_S.get((max(rows_, cols), uavs))
             verdict = "-" if goal is None else ("ok" if r["cpu_s"] <= goal else "OVER")
+            if policy == "expert":
+                expert_makespan = r["makespan"]
+            versus = (f"{100 * (r['makespan'] / expert_makespan - 1):>+5.1f}%"
+                      if policy != "expert" and expert_makespan else f"{'-':>6}")
             line = (f"{label_name:<16} {f'{rows_}x{cols}':>9} {uavs:>3} {policy:<7} {r['targets']:>8} {r['outside']:>6} "
-                    f"{r['cpu_s']:>7.1f} {most} {verdict:>6} {r['wall_s']:>7.1f} {r['mmn_floor']:>9.2f} {r['coverage']:>6.1f} "
+                    f"{r['cpu_s']:>7.1f} {most} {verdict:>6} {r['wall_s']:>7.1f} {r['mmn_floor']:>9.2f} {r['makespan']:>6} "
+                    f"{versus} {r['coverage']:>6.1f} "
                     f"{r['steps']:>6} {r['load']:>5.1f}")
             print(line + ("" if r["success"] else f"  FAILED: {r['failure']}"), flush=True)
     return 0

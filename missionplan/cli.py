@@ -163,7 +163,7 @@ def _build_parser() -> argparse.ArgumentParser:
     train.add_argument("--out", required=True, type=Path, help="weights file to write (a training report goes beside it, .json)")
     train.add_argument("--seed", type=int, default=0, help="seed of the training maps, the split and the network")
     train.add_argument("--maps", type=int, default=None, help="number of training maps")
-    train.add_argument("--no-dagger", action="store_true", help="skip the DAgger pass")
+    train.add_argument("--no-dagger", action="store_true", help="skip the DAgger rounds")
     train.add_argument("--workers", type=int, default=2, help="processes playing the expert demonstrations")
     train.add_argument("--quiet", action="store_true", help="no progress bars")
     register_bridge_commands(sub)  # upload, download, mock (bridge/commands.py)

@@ -11,13 +11,14 @@ import numpy as np
 import pytest
 
 from missionplan.learn.dataset import build_dataset
-from missionplan.learn.demos import _play_job, play_single
+from missionplan.learn.demos import _play_job, fleet_starts, play_map
 from missionplan.grid.expert import ExpertPolicy
 from missionplan.learn.features import STATE_SIZE, encode_states, transform_actions, transform_states
 from missionplan.learn.network import (SHIPPED_WEIGHTS, WEIGHT_SHAPES, NeuralPolicy, PolicyWeights, load_weights,
                                        save_weights)
 from missionplan.learn.trainmaps import training_maps
-from missionplan.grid.world import CoverageWorld
+from missionplan.grid.world import CoverageWorld, reachable_targets
+from missionplan.grid.zones import split_zones
 from missionplan.maps.catalog import load_shipped
 from missionplan.pipeline import plan_map
 
@@ -207,7 +208,7 @@ def test_fit_learns_a_rule_and_is_repeatable():
 
 def test_demonstrations_record_the_expert_choice_for_every_asked_state():
     gmap = training_maps(7, 1)[0]
-    demos, run = play_single(gmap)
+    demos, run = play_map(gmap)
     assert run.success and len(demos) > 50
     # Replay: the expert, asked again in the same world states, picks the recorded labels.
     world = CoverageWorld(gmap, [gmap.launch[0]])
@@ -221,10 +222,59 @@ def test_demonstrations_record_the_expert_choice_for_every_asked_state():
 
 def test_dagger_worker_lets_the_network_drive_and_the_expert_label():
     gmap = training_maps(7, 1)[0]
-    expert_only, _ = play_single(gmap)
-    demos, run = _play_job((gmap, load_weights(), 0.0))  # the network alone drives; no torch needed
+    expert_only, _ = play_map(gmap)
+    demos, run = _play_job((gmap, load_weights(), 0.0, 1))  # the network alone drives; no torch needed
     assert run.success and len(demos) > 50
     # the network drove elsewhere than the expert would, and the expert labelled what it saw there
     assert demos.states.tobytes() != expert_only.states.tobytes()
     world = CoverageWorld(gmap, [gmap.launch[0]])
     assert demos.actions[0] == np.argmax(ExpertPolicy().action_scores(world, [0])[0])
+
+
+def test_fleet_demonstrations_see_zone_borders_and_other_drones():
+    gmap = training_maps(7, 1)[0]
+    starts = fleet_starts(gmap, 3)
+    assert len(starts) == 3 and len(set(starts)) == 3 and starts[0] == gmap.launch[0]
+    assert all(gmap.free[cell] for cell in starts)
+    fleet, run = play_map(gmap, uavs=3)
+    alone, _ = play_map(gmap)
+    assert run.success and len(fleet) > 50
+    assert run.floor == pytest.approx(gmap.target.sum() / 9 / 3)
+    assert fleet.states.tobytes() != alone.states.tobytes()
+    # The recorded labels are still the expert's: replaying the first asked state gives the same label.
+    world = CoverageWorld(gmap, starts, split_zones(reachable_targets(gmap, starts), gmap.free, starts,
+                                                    balance=True).zone)
+    asked = [k for k in range(3) if np.isfinite(ExpertPolicy().action_scores(world, [k])[0]).any()]
+    assert np.array_equal(fleet.states[: len(asked)], encode_states(world, asked).astype(np.int8))
+
+
+@needs_torch
+def test_dagger_rounds_keep_the_network_with_the_fewest_held_out_moves(monkeypatch):
+    from missionplan.learn import training
+
+    # A small run: 4 training maps, 2 held-out small maps, one 70 x 70 held-out city, two rounds.
+    monkeypatch.setattr(training, "DAGGER_ROUNDS", 2)
+    monkeypatch.setattr(training, "EVAL_MAPS", 2)
+    monkeypatch.setattr(training, "HELDOUT_CITIES", 1)
+    real_cities = training.heldout_cities
+    monkeypatch.setattr(training, "heldout_cities", lambda seed, count: real_cities(seed, count, side=70))
+    fitted = []
+    real_fit = training.fit
+
+    def recording_fit(dataset, seed, progress, desc=""):
+        result = real_fit(dataset, seed, progress, max_epochs=3, desc=desc)
+        fitted.append(training.to_weights(result.net))
+        return result
+
+    monkeypatch.setattr(training, "fit", recording_fit)
+    weights, report = training.train_policy(num_maps=4, workers=1, progress=False, log=lambda line: None)
+    rounds = report["dagger"]["rounds"]
+    assert len(rounds) == 2 and len(fitted) == 3
+    assert [r["expert_share"] for r in rounds] == [0.5, 0.25]
+    assert all(r["states"] > 0 for r in rounds)
+    # each round trains on every pair so far: the recorded pairs only grow
+    assert report["samples"]["raw"] < rounds[0]["samples"]["raw"] < rounds[1]["samples"]["raw"]
+    kept = report["dagger"]["kept_round"]
+    scores = [report["dagger"]["heldout_network_moves_per_floor"]] + [r["heldout_moves_per_floor"] for r in rounds]
+    assert scores[kept] == min(scores) and scores.index(min(scores)) == kept  # the first best wins ties
+    assert np.array_equal(weights.probabilities(_random_states(64, 3)), fitted[kept].probabilities(_random_states(64, 3)))

@@ -13,7 +13,8 @@ from scipy import ndimage
 
 from missionplan.maps.gridmap import GridMap
 from missionplan.maps.mapgen import MIN_STREET_WIDTH
-from missionplan.learn.trainmaps import MIN_TARGETS, SHIPPED_SEEDS, random_city, training_maps
+from missionplan.learn import trainmaps
+from missionplan.learn.trainmaps import MIN_TARGETS, SHIPPED_SEEDS, heldout_cities, random_city, training_maps
 
 COUNT = 12
 
@@ -97,3 +98,29 @@ def test_sizes_and_density_vary():
 def test_some_free_cells_are_not_targets():
     """Parks (reachable) or courtyards (unreachable pockets) appear somewhere in the set."""
     assert any((gmap.free & ~gmap.target).any() for gmap in maps())
+
+
+def test_turned_street_grids_staircase_and_keep_the_guarantees(monkeypatch):
+    """The turned style: blocks on a street grid at an angle, so block edges are staircases."""
+    monkeypatch.setattr(trainmaps, "STYLE_P", (0.0, 0.0, 0.0, 1.0))
+    staircased = 0
+    for seed in range(6):
+        gmap = random_city(np.random.default_rng(seed), (70, 80), name=f"turned-{seed}")
+        assert gmap.meta["style"] == "turned"
+        check_usable(gmap, min_targets=1)
+        # Corners pointing down-right (an obstacle cell with free cells below and to its right):
+        # an axis-aligned block has one, a block turned by an angle one per step of its staircase.
+        solid = gmap.obstacle
+        corners = solid[:-1, :-1] & ~solid[1:, :-1] & ~solid[:-1, 1:]
+        staircased += int(corners.sum() > 1.5 * ndimage.label(solid)[1])
+    assert staircased >= 3
+
+
+def test_heldout_cities_are_larger_deterministic_and_usable():
+    cities = heldout_cities(1000, 2, side=120)
+    again = heldout_cities(1000, 2, side=120)
+    assert same_maps(tuple(cities), tuple(again))
+    assert not same_maps(tuple(cities), tuple(heldout_cities(1001, 2, side=120)))
+    for city in cities:
+        assert city.shape == (120, 120)
+        check_usable(city)

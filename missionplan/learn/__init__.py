@@ -7,11 +7,11 @@ May import: missionplan.grid, missionplan.maps; bridge.atomic.
 Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_layers.py).
 
   dataset         From recorded demonstrations to the train / validation / test sets (SPEC section 5).
-  demos           Demonstrations: (state, expert action) pairs recorded from single-drone coverage runs.
+  demos           Demonstrations: (state, expert action) pairs recorded from coverage runs.
   features        The policy's input: one fixed-length state vector per drone, and its x8 symmetry.
   network         The neural policy: the 376 -> 280 -> 4 network, its weights file, and the planner's
                   Policy.
-  training        Training the neural policy by imitation of the expert, with an optional DAgger pass.
+  training        Training the neural policy by imitation of the expert, then DAgger rounds.
   trainmaps       Training maps: the varied cities on which the expert plays to make imitation-learning
                   data.
   weights/        (data)

@@ -1,4 +1,4 @@
-"""Demonstrations: (state, expert action) pairs recorded from single-drone coverage runs.
+"""Demonstrations: (state, expert action) pairs recorded from coverage runs.
 
 The expert plays single-drone coverage on the training maps inside the ordinary planner
 loop (so the states are exactly the ones the planner asks a policy about: a drone with
@@ -7,7 +7,8 @@ the expert's choice are recorded.
 
 The same recorder does DAgger: the network drives, the expert only labels. The states
 then come from where the network's own mistakes take the drone, which is what plain
-imitation never shows it.
+imitation never shows it. DAgger plays fleets (`fleet_starts`, balanced zones), so the
+network also meets zone borders and other drones, as it does when planning.
 
 Runs are independent per map, so they are spread over worker processes; each map's run
 is deterministic, and results come back in map order, so the data do not depend on how
@@ -22,12 +23,15 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
+from scipy import ndimage
 from tqdm import tqdm
 
 from ..grid.expert import ExpertPolicy
 from ..grid.planner import Planner, Policy
-from ..grid.world import CoverageWorld
-from ..maps.gridmap import GridMap
+from ..grid.world import CoverageWorld, reachable_targets
+from ..grid.zones import split_zones
+from ..maps.gridmap import Cell, GridMap
+from ..maps.launches import spread_launches
 from .features import STATE_SIZE, encode_states
 from .network import NeuralPolicy, PolicyWeights
 
@@ -85,39 +89,67 @@ class LabellingPolicy:
 
 @dataclass
 class CoverageRun:
-    """One single-drone coverage run: its moves, the map's floor U/9, and whether it finished."""
+    """One coverage run: its MMN, the floor U / (9 A), and whether it finished."""
 
     moves: int
     floor: float
     success: bool
 
 
-def play_single(gmap: GridMap, driver: Policy | None = None,
-                expert_share: float = 0.0) -> tuple[Demonstrations, CoverageRun]:
-    """One drone from the map's first launch cell to full coverage; returns what it recorded."""
-    labeller = LabellingPolicy(ExpertPolicy(), driver, expert_share)
-    world = CoverageWorld(gmap, [gmap.launch[0]])
-    run = Planner(world, labeller).run()
-    if labeller.states:
-        states, actions = np.concatenate(labeller.states), np.concatenate(labeller.actions)
+def fleet_starts(gmap: GridMap, uavs: int) -> list[Cell]:
+    """The map's launch cell and up to `uavs` - 1 more, spread over the streets of its free region."""
+    labels, _ = ndimage.label(gmap.free)
+    home = gmap.launch[0]
+    starts = [home]
+    for cell in spread_launches(labels == labels[home], uavs):
+        if len(starts) < uavs and cell != home:
+            starts.append(cell)
+    return starts
+
+
+def play_map(gmap: GridMap, driver: Policy | None = None, expert_share: float = 0.0, uavs: int = 1,
+             record: bool = True) -> tuple[Demonstrations, CoverageRun]:
+    """Drones from the map's launch cells to full coverage; returns what was recorded.
+
+    One drone by default (the thesis's demonstrations); with `uavs` > 1 a fleet on balanced
+    zones, so the states also show zone borders and other drones, as planning does.
+    `driver` None: the expert drives. `record` False: nothing is labelled, only the run counts
+    (how a trained network is judged).
+    """
+    if record:
+        policy: Policy = LabellingPolicy(ExpertPolicy(), driver, expert_share)
+    else:
+        policy = driver if driver is not None else ExpertPolicy()
+    if uavs == 1:
+        world = CoverageWorld(gmap, [gmap.launch[0]])
+    else:
+        starts = fleet_starts(gmap, uavs)
+        zones = split_zones(reachable_targets(gmap, starts), gmap.free, starts, balance=True)
+        world = CoverageWorld(gmap, starts, zones.zone)
+    run = Planner(world, policy).run()
+    if isinstance(policy, LabellingPolicy) and policy.states:
+        states, actions = np.concatenate(policy.states), np.concatenate(policy.actions)
     else:
         states, actions = np.zeros((0, STATE_SIZE), np.int8), np.zeros(0, np.int8)
     demos = Demonstrations(states, actions, np.zeros(len(actions), np.int32))
-    return demos, CoverageRun(moves=int(run.metrics["MMN"]), floor=world.num_targets / 9, success=run.success)
+    floor = world.num_targets / 9 / len(world.positions)
+    return demos, CoverageRun(moves=int(run.metrics["MMN"]), floor=floor, success=run.success)
 
 
-def _play_job(job: tuple[GridMap, PolicyWeights | None, float]) -> tuple[Demonstrations, CoverageRun]:
-    gmap, weights, expert_share = job
+def _play_job(job: tuple[GridMap, PolicyWeights | None, float, int]) -> tuple[Demonstrations, CoverageRun]:
+    gmap, weights, expert_share, uavs = job
     driver = NeuralPolicy(weights) if weights is not None else None  # DAgger: the network drives
-    return play_single(gmap, driver, expert_share)
+    return play_map(gmap, driver, expert_share, uavs)
 
 
 def collect(maps: Sequence[GridMap], weights: PolicyWeights | None = None, workers: int = 2,
-            expert_share: float = 0.0, progress: bool = True,
-            desc: str = "demonstrations") -> tuple[Demonstrations, list[CoverageRun]]:
+            expert_share: float = 0.0, progress: bool = True, desc: str = "demonstrations",
+            fleets: Sequence[int] | None = None) -> tuple[Demonstrations, list[CoverageRun]]:
     """Play every map once: the expert drives, or (DAgger) the network with `weights`
-    drives and the expert takes over a random `expert_share` of the decisions."""
-    jobs = [(gmap, weights, expert_share) for gmap in maps]
+    drives and the expert takes over a random `expert_share` of the decisions.
+    `fleets`: drones per map (default one each)."""
+    fleets = [1] * len(maps) if fleets is None else list(fleets)
+    jobs = [(gmap, weights, expert_share, uavs) for gmap, uavs in zip(maps, fleets)]
     results: list[tuple[Demonstrations, CoverageRun]] = []
     bar = tqdm(total=len(jobs), desc=desc, unit="map", disable=not progress, leave=False)
     if workers > 1 and len(jobs) > 1:

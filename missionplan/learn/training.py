@@ -1,4 +1,4 @@
-"""Training the neural policy by imitation of the expert, with an optional DAgger pass.
+"""Training the neural policy by imitation of the expert, then DAgger rounds.
 
 `train_policy` is the whole job behind `missionplan train`:
 
@@ -7,10 +7,13 @@
 2. dataset: x8 augmentation, cleaning, 75 / 15 / 10 split (missionplan.learn.dataset);
 3. fit: mini-batch Adam on the categorical cross-entropy, early stopping on the
    validation loss (the best epoch's weights are kept);
-4. DAgger (beyond the thesis): the trained network covers the same maps, the expert labels
-   every state the network reaches, the new pairs join the data and the network is trained
-   again from scratch. Both networks then cover held-out maps; the DAgger one is kept only
-   if it needs fewer moves than the first one.
+4. DAgger (beyond the thesis), in DAGGER_ROUNDS rounds: the latest network drives fleets on
+   the training maps (one drone per TARGETS_PER_DRONE targets, on balanced zones, so it meets
+   zone borders and other drones as when planning) with the expert taking a share of the
+   decisions that halves every round; the expert labels every state reached, all pairs so far
+   train a fresh network. Every network, the first included, then covers held-out maps (the
+   small ones alone, larger cities with a fleet of six); the one with the fewest moves per
+   floor ships.
 
 Everything is seeded, and torch runs single-threaded per process, so the same seed gives
 the same weights.
@@ -42,23 +45,27 @@ except ModuleNotFoundError as missing:
     raise MapError("training needs PyTorch, which is not installed: pip install 'missionplan[train]'") from None
 
 from ..grid.expert import ExpertPolicy
-from ..grid.planner import Planner, Policy
-from ..grid.world import CoverageWorld
+from ..grid.planner import Policy
 from .dataset import Dataset, Split, build_dataset
-from .demos import Demonstrations, collect
+from .demos import Demonstrations, collect, play_map
 from .features import STATE_SIZE
 from .network import HIDDEN_UNITS, NUM_ACTIONS, NeuralPolicy, PolicyWeights
-from .trainmaps import training_maps
+from .trainmaps import heldout_cities, training_maps
 
 DEFAULT_SEED = 0
-DEFAULT_MAPS = 60
+DEFAULT_MAPS = 100
 EVAL_MAPS = 12
+HELDOUT_CITIES = 6  # larger cities, covered by a fleet of HELDOUT_FLEET
+HELDOUT_FLEET = 6
 EVAL_SEED_OFFSET = 1000  # held-out maps come from a different seed than the training maps
 BATCH_SIZE = 512
 LEARNING_RATE = 2e-3
 MAX_EPOCHS = 40
 PATIENCE = 4  # epochs without a better validation loss before stopping
-DAGGER_EXPERT_SHARE = 0.5  # DAgger's beta: the expert still takes half of the decisions
+DAGGER_EXPERT_SHARE = 0.5  # DAgger's beta in the first round: the expert still takes half of the decisions
+DAGGER_ROUNDS = 3  # each round halves the expert's share
+DAGGER_MAX_FLEET = 6
+TARGETS_PER_DRONE = 400  # a DAgger map gets one drone per this many targets, up to DAGGER_MAX_FLEET
 DROPOUT = 0.2
 
 
@@ -161,14 +168,20 @@ def evaluate(net: PolicyNet, split: Split) -> tuple[float, np.ndarray]:
     return float((predicted == split.actions).mean()), confusion
 
 
-def coverage_moves(maps: list[GridMap], make_policy: Callable[[], Policy]) -> list[float]:
-    """Moves / floor of single-drone coverage of each map (lower is better; inf if it failed)."""
+def dagger_fleets(maps: list[GridMap]) -> list[int]:
+    """Drones per map in the DAgger rounds: one per TARGETS_PER_DRONE targets, 1..DAGGER_MAX_FLEET,
+    so the network also meets zone borders and other drones, as it does when planning."""
+    return [int(np.clip(gmap.target.sum() // TARGETS_PER_DRONE, 1, DAGGER_MAX_FLEET)) for gmap in maps]
+
+
+def coverage_moves(maps: list[GridMap], make_policy: Callable[[], Policy],
+                   fleets: list[int] | None = None) -> list[float]:
+    """MMN / floor of covering each map (lower is better; inf if it failed): one drone each, or `fleets`."""
+    fleets = [1] * len(maps) if fleets is None else fleets
     ratios = []
-    for gmap in maps:
-        world = CoverageWorld(gmap, [gmap.launch[0]])
-        run = Planner(world, make_policy()).run()
-        floor = max(world.num_targets / 9, 1.0)
-        ratios.append(float(run.metrics["MMN"]) / floor if run.success else float("inf"))
+    for gmap, uavs in zip(maps, fleets):
+        _, run = play_map(gmap, make_policy(), 0.0, uavs, record=False)
+        ratios.append(run.moves / max(run.floor, 1.0) if run.success else float("inf"))
     return ratios
 
 
@@ -180,6 +193,54 @@ def _accuracy_report(net: PolicyNet, dataset: Dataset) -> dict[str, Any]:
         if name == "test":
             report["test_confusion"] = confusion.tolist()
     return report
+
+
+def _dagger(maps: list[GridMap], eval_maps: list[GridMap], demos: Demonstrations, first: PolicyNet,
+            first_dataset: Dataset, seed: int, workers: int, progress: bool,
+            log: Callable[[str], None]) -> tuple[PolicyNet, Dataset, dict[str, Any]]:
+    """DAgger rounds: the latest network drives fleets on the training maps, the expert labels every
+    state it reaches, all pairs so far train a fresh network. Every network is scored on the held-out
+    maps (one drone and fleets); the best one is kept, the first network included."""
+    fleets = dagger_fleets(maps)
+    cities = heldout_cities(seed + EVAL_SEED_OFFSET, HELDOUT_CITIES)
+
+    def held_out(make_policy: Callable[[], Policy]) -> float:
+        moves = (coverage_moves(eval_maps, make_policy)
+                 + coverage_moves(cities, make_policy, [HELDOUT_FLEET] * len(cities)))
+        return round(float(np.mean(moves)), 3)
+
+    expert_score = held_out(ExpertPolicy)
+    weights = to_weights(first)
+    best_score = first_score = held_out(lambda: NeuralPolicy(weights))
+    best, best_dataset, best_round = first, first_dataset, 0
+    log(f"held-out maps, moves / floor: expert {expert_score}, network {best_score}")
+    rounds: list[dict[str, Any]] = []
+    data = demos
+    for round_number in range(1, DAGGER_ROUNDS + 1):
+        share = DAGGER_EXPERT_SHARE ** round_number
+        began = time.perf_counter()
+        extra, _ = collect(maps, weights=weights, workers=workers, expert_share=share, fleets=fleets,
+                           progress=progress, desc=f"DAgger round {round_number} (network drives)")
+        collect_s = time.perf_counter() - began
+        data = Demonstrations.concatenate([data, extra])
+        dataset = build_dataset(data.states, data.actions, seed)
+        fitted = fit(dataset, seed, progress, desc=f"training (DAgger round {round_number})")
+        weights = to_weights(fitted.net)
+        score = held_out(lambda: NeuralPolicy(weights))
+        log(f"DAgger round {round_number}: {len(extra)} states labelled by the expert in {collect_s:.1f} s "
+            f"(expert share {share}); retrained in {fitted.seconds:.1f} s; held-out moves / floor {score}")
+        rounds.append({"states": len(extra), "expert_share": share, "collect_s": round(collect_s, 1),
+                       "training_s": round(fitted.seconds, 1), "epochs": fitted.epochs,
+                       "samples": dataset.stats, "heldout_moves_per_floor": score,
+                       **_accuracy_report(fitted.net, dataset)})
+        if score < best_score:
+            best, best_dataset, best_score, best_round = fitted.net, dataset, score, round_number
+    log(f"kept the network of {'DAgger round ' + str(best_round) if best_round else 'the first training'} "
+        f"(held-out moves / floor {best_score}, expert {expert_score})")
+    summary = {"rounds": rounds, "fleets": {"max": DAGGER_MAX_FLEET, "targets_per_drone": TARGETS_PER_DRONE},
+               "heldout_expert_moves_per_floor": expert_score, "heldout_network_moves_per_floor": first_score,
+               "kept_round": best_round}
+    return best, best_dataset, summary
 
 
 def train_policy(seed: int = DEFAULT_SEED, num_maps: int = DEFAULT_MAPS, dagger: bool = True,
@@ -211,34 +272,8 @@ def train_policy(seed: int = DEFAULT_SEED, num_maps: int = DEFAULT_MAPS, dagger:
     }
     chosen, chosen_dataset = first.net, dataset
     if dagger:
-        first_weights = to_weights(first.net)  # the network as it drives (numpy), here and in the workers
-        began = time.perf_counter()
-        extra, _ = collect(maps, weights=first_weights, workers=workers, expert_share=DAGGER_EXPERT_SHARE,
-                           progress=progress, desc="DAgger (network drives)")
-        dagger_collect_s = time.perf_counter() - began
-        merged = Demonstrations.concatenate([demos, extra])
-        dagger_dataset = build_dataset(merged.states, merged.actions, seed)
-        second = fit(dagger_dataset, seed, progress, desc="training (DAgger)")
-        second_report = _accuracy_report(second.net, dagger_dataset)
-        log(f"DAgger: {len(extra)} states labelled by the expert in {dagger_collect_s:.1f} s; "
-            f"retrained in {second.seconds:.1f} s, test accuracy {second_report['test_accuracy']:.2f} %")
-
-        expert_eval = coverage_moves(eval_maps, ExpertPolicy)
-        second_weights = to_weights(second.net)
-        first_eval = coverage_moves(eval_maps, lambda: NeuralPolicy(first_weights))
-        second_eval = coverage_moves(eval_maps, lambda: NeuralPolicy(second_weights))
-        means = {name: round(float(np.mean(values)), 3) for name, values in
-                 (("expert", expert_eval), ("nn", first_eval), ("nn_dagger", second_eval))}
-        keep = means["nn_dagger"] < means["nn"]
-        log(f"held-out maps, single drone, moves / floor: expert {means['expert']}, network {means['nn']}, "
-            f"network after DAgger {means['nn_dagger']} -> {'keep DAgger' if keep else 'keep the first network'}")
-        report["dagger"] = {"states": len(extra), "collect_s": round(dagger_collect_s, 1),
-                            "training_s": round(second.seconds, 1), "epochs": second.epochs,
-                            "samples": dagger_dataset.stats, **second_report,
-                            "heldout_moves_per_floor": means, "kept": keep}
-        if keep:
-            chosen, chosen_dataset = second.net, dagger_dataset
-        report["dagger"]["expert_share"] = DAGGER_EXPERT_SHARE
+        chosen, chosen_dataset, report["dagger"] = _dagger(maps, eval_maps, demos, first.net, dataset, seed, workers,
+                                                           progress, log)
     report["final"] = _accuracy_report(chosen, chosen_dataset)
     report["final"]["samples"] = chosen_dataset.stats
     return to_weights(chosen), report

@@ -6,15 +6,17 @@ lanes and wide avenues, small and large blocks, L-shaped and merged blocks, dead
 alleys, courtyards, open squares with a tower in them, parks, bent and diagonal streets,
 rivers with bridges. Two sources give that:
 
-* `random_city(rng, shape)` paints a fresh random city in one of three styles - a
+* `random_city(rng, shape)` paints a fresh random city in one of four styles - a
   recursive subdivision of the map (T-junctions, blocks of every size), an orthogonal
-  grid of streets of varied widths, or an organic lattice of bent, possibly rotated,
-  lanes - then dresses the blocks and adds a few overlays (diagonal avenue, river,
-  plaza, big park).
+  grid of streets of varied widths, an organic lattice of bent, possibly rotated,
+  lanes, or a street grid turned by any angle and rasterised cell by cell (the
+  staircase block edges of real street maps) - then dresses the blocks and adds a few
+  overlays (diagonal avenue, river, plaza, big park).
 * crops of the shipped-map generators of `mapgen` run with seeds other than the
   shipped ones, and the Leonardo arena, each turned or mirrored at random.
 
-`training_maps(seed, count)` mixes both, deterministically for a seed. Every map it
+`training_maps(seed, count)` mixes both, deterministically for a seed; `heldout_cities`
+makes larger random cities, from another seed, on which a trained network is judged. Every map it
 returns has one launch cell, on a street when possible and away from the edge; every
 target is 4-connected to that cell through free cells; every free cell lies in an
 all-free 3 x 3 square (streets at least `MIN_STREET_WIDTH` wide); there are at least
@@ -48,6 +50,7 @@ CROP_FRACTION = 0.22  # share of crops in a training set; Leonardo ~3 %, the res
 LEONARDO_FRACTION = 0.03
 LAUNCH_EDGE_MARGIN = FOOTPRINT_RADIUS + 1  # the drone's first photo lies inside the map
 MAX_ATTEMPTS = 12
+HELDOUT_SIDE = 160  # sides of the held-out cities a trained network is judged on
 CROP_TRIES = 3
 CELL_M = "2.0"
 
@@ -324,6 +327,45 @@ def organic_lanes(kind: np.ndarray, rng: np.random.Generator, radii: tuple[float
         paint_squares(kind, rng, inner, count=squares, size_range=(9, 18))
 
 
+def turned_blocks(kind: np.ndarray, rng: np.random.Generator, widths: tuple[int, ...]) -> None:
+    """Buildings as rectangles on a street grid turned by any angle, rasterised cell by cell.
+
+    Real street maps rasterised from OpenStreetMap look like this: block edges that
+    staircase because the streets are not aligned with the grid, streets and setbacks of
+    every width, and open squares where a block was never built.
+    """
+    rows, cols = kind.shape
+    angle = float(rng.uniform(0.0, np.pi / 2))
+    centre = np.array([rows / 2, cols / 2])
+    r, c = np.mgrid[0:rows, 0:cols].astype(np.float64)
+    # (u, v): the cell centre in the turned street grid's frame.
+    u = (r + 0.5 - centre[0]) * np.cos(angle) + (c + 0.5 - centre[1]) * np.sin(angle)
+    v = -(r + 0.5 - centre[0]) * np.sin(angle) + (c + 0.5 - centre[1]) * np.cos(angle)
+    half = np.hypot(rows, cols) / 2 + 40
+    built = np.zeros(kind.shape, dtype=bool)
+    block_low = int(rng.integers(10, 18))
+    block_high = block_low + int(rng.integers(4, 24))
+    u_edges = street_intervals(rng, int(2 * half), (block_low, block_high), widths,
+                               int(rng.integers(*AVENUE_WIDTHS)), float(rng.uniform(0.0, 0.25)))
+    v_edges = street_intervals(rng, int(2 * half), (block_low, block_high), widths,
+                               int(rng.integers(*AVENUE_WIDTHS)), float(rng.uniform(0.0, 0.25)))
+    u_blocks, v_blocks = gaps_between(u_edges, int(2 * half)), gaps_between(v_edges, int(2 * half))
+    open_p = float(rng.uniform(0.0, 0.15))
+    setback_p = float(rng.uniform(0.0, 0.5))
+    for u0, u1 in u_blocks:
+        for v0, v1 in v_blocks:
+            if rng.random() < open_p:
+                continue  # an open square
+            # A building set back from the street on some sides: wider streets here and there.
+            inset = rng.integers(0, 4, size=4) * (rng.random(4) < setback_p)
+            a0, a1 = u0 - half + inset[0], u1 - half - inset[1]
+            b0, b1 = v0 - half + inset[2], v1 - half - inset[3]
+            if a1 - a0 < 3 or b1 - b0 < 3:
+                continue
+            built |= (u >= a0) & (u < a1) & (v >= b0) & (v < b1)
+    kind[:] = np.where(built, OBSTACLE, TARGET)
+
+
 # --------------------------------------------------------------------------- overlays
 
 def diagonal_avenue(kind: np.ndarray, rng: np.random.Generator) -> None:
@@ -396,8 +438,8 @@ def towers(kind: np.ndarray, rng: np.random.Generator, count: int) -> None:
 
 # --------------------------------------------------------------------------- random city
 
-STYLES = ("subdivided", "grid", "organic")
-STYLE_P = (0.45, 0.3, 0.25)
+STYLES = ("subdivided", "grid", "organic", "turned")
+STYLE_P = (0.35, 0.2, 0.2, 0.25)
 
 
 def random_city(rng: np.random.Generator, shape: tuple[int, int], *, name: str = "random") -> GridMap:
@@ -414,8 +456,11 @@ def random_city(rng: np.random.Generator, shape: tuple[int, int], *, name: str =
         dress_blocks(kind, rng, subdivided_city(kind, rng, WIDTH_SETS[width_set]), richness)
     elif style == "grid":
         dress_blocks(kind, rng, grid_streets(kind, rng, WIDTH_SETS[width_set]), richness)
-    else:
+    elif style == "organic":
         organic_lanes(kind, rng, LANE_RADII[width_set])
+        dress_buildings(kind, rng, richness)
+    else:
+        turned_blocks(kind, rng, WIDTH_SETS[width_set])
         dress_buildings(kind, rng, richness)
     extras = []
     if rng.random() < 0.2:
@@ -537,6 +582,21 @@ def training_maps(seed: int, count: int) -> list[GridMap]:
     return [training_map(kind, np.random.default_rng(child), index)
             for index, (kind, child) in enumerate(zip(kinds, children))]
 
+
+
+def heldout_cities(seed: int, count: int, side: int = HELDOUT_SIDE) -> list[GridMap]:
+    """`count` random cities of `side` x `side` cells for judging a trained network with a fleet:
+    larger than the training maps, so long runs and zone borders show; the same for the same seed."""
+    cities = []
+    for index, child in enumerate(np.random.SeedSequence(seed).spawn(count)):
+        rng = np.random.default_rng(child)
+        for _ in range(MAX_ATTEMPTS):
+            try:
+                cities.append(random_city(rng, (side, side), name=f"heldout-{index}"))
+                break
+            except ValueError:
+                continue
+    return cities
 
 # --------------------------------------------------------------------------- preview
 
