@@ -342,7 +342,6 @@ def turned_blocks(kind: np.ndarray, rng: np.random.Generator, widths: tuple[int,
     u = (r + 0.5 - centre[0]) * np.cos(angle) + (c + 0.5 - centre[1]) * np.sin(angle)
     v = -(r + 0.5 - centre[0]) * np.sin(angle) + (c + 0.5 - centre[1]) * np.cos(angle)
     half = np.hypot(rows, cols) / 2 + 40
-    built = np.zeros(kind.shape, dtype=bool)
     block_low = int(rng.integers(10, 18))
     block_high = block_low + int(rng.integers(4, 24))
     u_edges = street_intervals(rng, int(2 * half), (block_low, block_high), widths,
@@ -352,17 +351,24 @@ def turned_blocks(kind: np.ndarray, rng: np.random.Generator, widths: tuple[int,
     u_blocks, v_blocks = gaps_between(u_edges, int(2 * half)), gaps_between(v_edges, int(2 * half))
     open_p = float(rng.uniform(0.0, 0.15))
     setback_p = float(rng.uniform(0.0, 0.5))
-    for u0, u1 in u_blocks:
-        for v0, v1 in v_blocks:
+    # Each block's building [a0, a1) x [b0, b1) in (u, v); a block never built keeps an empty one.
+    building = np.zeros((len(u_blocks), len(v_blocks), 4))
+    for i, (u0, u1) in enumerate(u_blocks):
+        for j, (v0, v1) in enumerate(v_blocks):
             if rng.random() < open_p:
                 continue  # an open square
             # A building set back from the street on some sides: wider streets here and there.
             inset = rng.integers(0, 4, size=4) * (rng.random(4) < setback_p)
             a0, a1 = u0 - half + inset[0], u1 - half - inset[1]
             b0, b1 = v0 - half + inset[2], v1 - half - inset[3]
-            if a1 - a0 < 3 or b1 - b0 < 3:
-                continue
-            built |= (u >= a0) & (u < a1) & (v >= b0) & (v < b1)
+            if a1 - a0 >= 3 and b1 - b0 >= 3:
+                building[i, j] = a0, a1, b0, b1
+    # A building lies inside its block, so a cell can only be in the one of the block its (u, v)
+    # falls in: look that block up instead of testing every building against every cell.
+    i = np.clip(np.searchsorted([u0 - half for u0, _ in u_blocks], u, side="right") - 1, 0, None)
+    j = np.clip(np.searchsorted([v0 - half for v0, _ in v_blocks], v, side="right") - 1, 0, None)
+    a0, a1, b0, b1 = np.moveaxis(building[i, j], -1, 0)
+    built = (u >= a0) & (u < a1) & (v >= b0) & (v < b1)
     kind[:] = np.where(built, OBSTACLE, TARGET)
 
 
