@@ -21,7 +21,7 @@ from typing import Any
 from bridge.link import Link
 from bridge.mission import MissionType, WireItem
 from bridge.protocol import Timeouts
-from bridge.uploader import PymavlinkBackend
+from bridge.uploader import PymavlinkBackend, read_back_differences
 
 HOME = (45.4641, 9.1891, 120.0)
 LAT, LON = 454641000, 91891000
@@ -99,6 +99,29 @@ def _list_answered(link: Link, sysid: int, component: int) -> bool:
     return answered
 
 
+SETTLE_TRIES = 5
+
+
+def _upload_until_held(backend: PymavlinkBackend, items: list[WireItem]) -> None:
+    """Upload `items` until it reads back held (by the product's read-back rule) both at once and
+    after the vehicle's next MISSION_CURRENT (sent at 1 Hz or on a change of item): up to SETTLE_TRIES.
+
+    PX4 v1.15 can lose an accepted upload that follows other uploads within moments: its navigator,
+    still catching up with an earlier mission, publishes that mission's state with a new current index
+    (MissionBase::setMissionIndex), and the MAVLink mission manager adopts any mission topic whose id
+    differs from its own (check_active_mission), so the vehicle then holds the earlier mission again.
+    The single-item uploads above are 64 uploads in a row."""
+    sysid = backend.vehicle.sysid
+    for _ in range(SETTLE_TRIES):
+        backend.upload(MissionType.MISSION, items)
+        if read_back_differences(backend, MissionType.MISSION, items):
+            continue
+        _wait(backend.link, sysid, lambda m: m.get_type() == "MISSION_CURRENT", 3.0)
+        if not read_back_differences(backend, MissionType.MISSION, items):
+            return
+    raise AssertionError(f"vehicle {sysid} did not keep a {len(items)}-item mission in {SETTLE_TRIES} uploads")
+
+
 def _single(seq_item: WireItem) -> list[WireItem]:
     return [replace(seq_item, seq=0, current=1)]
 
@@ -118,8 +141,8 @@ def session(url: str, sysid: int) -> dict[str, Any]:
         for frame in (3, 2):
             out[f"commands in frame {frame}"] = {c: raw_upload(link, sysid, _single(replace(wp, command=c, frame=frame)))[1]
                                                  for c in COMMANDS}
-        # A rejected upload keeps the previous mission.
-        backend.upload(MissionType.MISSION, good)
+        # A rejected upload keeps the previous mission: first make sure that mission is `good`.
+        _upload_until_held(backend, good)
         bad = good + [w(2, 1, 16, x=1, y=2, z=3.0), w(3, 3, 16, x=LAT, y=LON + 50, z=10.0)]
         out["bad upload ack"] = raw_upload(link, sysid, bad)[1]
         out["after bad upload"] = [astuple(it) for it in backend.download(MissionType.MISSION)]
