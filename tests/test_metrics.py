@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from missionplan.grid import metrics
 from missionplan.grid.metrics import (SteadyStateSampler, compute_metrics, mdu_stride, mean_distance_to_nearest,
                                  mean_pairwise_distance, move_count, turn_sum)
 
@@ -27,6 +28,20 @@ def test_pairwise_and_nearest_distances():
     # A drone outside the cells' grid still counts; no cell gives 0.
     assert mean_distance_to_nearest(cells[:1, :1], np.array([[3, -4]])) == pytest.approx(5.0)
     assert mean_distance_to_nearest(np.zeros((2, 2), dtype=bool), drones) == 0.0
+
+
+@pytest.mark.parametrize("direct", [True, False])
+def test_nearest_distance_the_same_float_either_way(monkeypatch: pytest.MonkeyPatch, direct: bool) -> None:
+    """MDU* takes the direct way (cells x drones) or the distance transform by cost: both give the
+    very same float, so a plan's reported MDU* does not depend on which one ran."""
+    rng = np.random.default_rng(7)
+    monkeypatch.setattr(metrics, "DIRECT_PAIRS_PER_BOX_CELL", 10**9 if direct else 0)  # one way, whatever the sizes
+    for share in (0.02, 0.3, 0.9):
+        for drones in (1, 6, 50):
+            unexplored, positions = rng.random((40, 57)) < share, rng.integers(-5, 60, (drones, 2))
+            cells = np.argwhere(unexplored)
+            squared = ((cells[:, None, :] - positions[None, :, :]) ** 2).sum(axis=2).min(axis=1)
+            assert mean_distance_to_nearest(unexplored, positions) == float(np.sqrt(squared.astype(np.float64)).mean())
 
 
 def test_mdu_on_every_stride_th_steady_step():

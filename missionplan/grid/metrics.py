@@ -58,26 +58,46 @@ def mean_pairwise_distance(positions: np.ndarray) -> float:
     return float(dist[upper].mean())
 
 
+# Cost of the two exact ways, per cell (measured on a 256² map): a distance transform ~40 ns
+# per cell of its box; the direct way ~1.6 ns per (unexplored cell, drone) pair.
+DIRECT_PAIRS_PER_BOX_CELL = 16
+
+
 def mean_distance_to_nearest(unexplored: np.ndarray, positions: np.ndarray) -> float:
     """Mean over the True cells of `unexplored` of the Euclidean distance to the nearest position.
 
-    One exact Euclidean distance transform over the box that holds the cells and the
-    drones (positions may lie outside the mask's grid), instead of cells x drones distances.
+    Exact either way, whichever is cheaper: squared distances from every cell to every drone
+    (few drones, few cells), or one Euclidean distance transform over the box that holds the
+    cells and the drones (positions may lie outside the mask's grid). Both take the square root
+    of the same integer and average the cells in row-major order, so they give the same float.
     """
     unexplored = np.asarray(unexplored, dtype=bool)
-    if not unexplored.any():
-        return 0.0
     positions = np.asarray(positions, dtype=np.int64).reshape(-1, 2)
+    cells = np.count_nonzero(unexplored)
+    if not cells:
+        return 0.0
     rows = np.flatnonzero(unexplored.any(axis=1))
     cols = np.flatnonzero(unexplored.any(axis=0))
     r0, c0 = min(rows[0], positions[:, 0].min()), min(cols[0], positions[:, 1].min())
     r1, c1 = max(rows[-1], positions[:, 0].max()), max(cols[-1], positions[:, 1].max())
+    if cells * len(positions) <= DIRECT_PAIRS_PER_BOX_CELL * (r1 - r0 + 1) * (c1 - c0 + 1):
+        return _mean_distance_direct(unexplored, positions)
     canvas = np.ones((r1 - r0 + 1, c1 - c0 + 1), dtype=bool)
     canvas[positions[:, 0] - r0, positions[:, 1] - c0] = False  # the transform measures to the zeros
     dist = ndimage.distance_transform_edt(canvas)
     box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
     inside = dist[rows[0] - r0: rows[-1] + 1 - r0, cols[0] - c0: cols[-1] + 1 - c0]
     return float(inside[unexplored[box]].mean())
+
+
+def _mean_distance_direct(unexplored: np.ndarray, positions: np.ndarray) -> float:
+    """mean_distance_to_nearest by squared integer distances from every cell to every drone."""
+    cell_rows, cell_cols = np.nonzero(unexplored)  # row-major, as the transform's mask reads them
+    nearest = None
+    for r, c in positions:
+        d = (cell_rows - r) ** 2 + (cell_cols - c) ** 2
+        nearest = d if nearest is None else np.minimum(nearest, d, out=nearest)
+    return float(np.sqrt(nearest.astype(np.float64)).mean())
 
 
 def mdu_stride(num_targets: int) -> int:
