@@ -9,9 +9,12 @@ zones' CPU seconds as a share of the plan's, peak RSS, MMN / floor, coverage, st
 `trainmaps.random_city` with seed = side length (--seeds N: also side + 1 ... side + N - 1),
 launch cells by mapgen's greedy k-median
 (the first A of them for A drones); generated maps are cached under the temp directory.
+--movingai adds the MovingAI street maps of ../shared/maps/movingai/ (real OpenStreetMap cities,
+256 x 256, read and given launch cells as `plan --map` does), after the generated cities.
 Run by hand, piecewise if you like:
 
     .venv/bin/python bench/scale_bench.py [--sizes 256,512,1024,2048] [--uavs 6,20,50] [--seeds 1]
+                                          [--movingai all|NAME,...] [--movingai-dir DIR]
                                           [--policy expert,nn] [--timeout 1800] [--progress]
                                           [--mdu-check] [--write-doc docs/scale.md]
 
@@ -36,7 +39,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from missionplan.grid import metrics, planner  # noqa: E402
 from missionplan import pipeline  # noqa: E402
 from bridge.atomic import atomic_path  # noqa: E402
-from missionplan.maps.gridmap import GridMap  # noqa: E402
+from missionplan.maps.gridmap import GridMap, read_map_text  # noqa: E402
+from missionplan.maps.movingai import parse_movingai  # noqa: E402
 from missionplan.maps.mapgen import CITY_LAUNCH_EDGE_MARGIN, launch_candidates, median_launch_cells  # noqa: E402
 from missionplan.pipeline import POLICIES, make_policy, plan_map  # noqa: E402
 from missionplan.learn.trainmaps import TARGET, kind_of, random_city  # noqa: E402
@@ -49,6 +53,7 @@ SIZES = (256, 512, 1024, 2048)
 UAVS = (6, 20, 50)
 MAX_UAVS = max(UAVS)
 CACHE = Path(tempfile.gettempdir()) / "missionplan-scale-maps"
+MOVINGAI_DIR = Path(__file__).resolve().parent.parent.parent / "shared" / "maps" / "movingai"
 
 
 def city(size: int, seed: int | None = None) -> GridMap:
@@ -99,10 +104,22 @@ def time_zones_cpu() -> list[float]:
     return spent
 
 
-def run_row(size: int, seed: int, uavs: int, policy: str, progress: bool,
+def movingai_map(path: str, uavs: int) -> GridMap:
+    """A MovingAI street map with the launch cells `plan --map PATH --uavs A` gives it."""
+    return parse_movingai(read_map_text(path), path, launches=uavs)
+
+
+def row_map(source: str, seed: str, uavs: int) -> GridMap:
+    """A row's map: `source` is a city's side length (with its seed) or "movingai:PATH"."""
+    if source.startswith("movingai:"):
+        return movingai_map(source.removeprefix("movingai:"), uavs)
+    return city(int(source), int(seed))
+
+
+def run_row(source: str, seed: str, uavs: int, policy: str, progress: bool,
             mdu_check: bool = False) -> dict[str, float | str | bool]:
     """Plan one row in this process; what the table prints."""
-    gmap = city(size, seed)
+    gmap = row_map(source, seed, uavs)
     every = record_every_mdu() if mdu_check else None
     ready = make_policy(policy)  # loading the weights is not planning
     zone_cpu = time_zones_cpu()
@@ -124,38 +141,74 @@ def main() -> int:
     parser.add_argument("--sizes", default=",".join(map(str, SIZES)))
     parser.add_argument("--uavs", default=",".join(map(str, UAVS)))
     parser.add_argument("--seeds", type=int, default=1, help="cities per size (seeds size, size + 1, ...)")
+    parser.add_argument("--movingai", default="",
+                        help="MovingAI maps to add: all, or a comma list of names such as Berlin_1_256 (default none)")
+    parser.add_argument("--movingai-dir", default=str(MOVINGAI_DIR))
     parser.add_argument("--policy", default=",".join(POLICIES), help=f"comma list of {', '.join(POLICIES)}")
     parser.add_argument("--timeout", type=float, default=1800.0, help="seconds allowed per row")
     parser.add_argument("--progress", action="store_true", help="show each row's progress bar")
     parser.add_argument("--mdu-check", action="store_true",
                         help="also compute MDU* at every steady-state step and print how far the sampled one is")
-    parser.add_argument("--row", help=argparse.SUPPRESS)  # internal: size,seed,uavs,policy in a child
+    parser.add_argument("--row", help=argparse.SUPPRESS)  # internal: size|movingai:PATH,seed,uavs,policy in a child
     doctable.add_option(parser)
     args = parser.parse_args()
     if args.row:
-        size, seed, uavs, policy = args.row.split(",")
-        print(json.dumps(run_row(int(size), int(seed), int(uavs), policy, args.progress, args.mdu_check)))
+        source, seed, uavs, policy = args.row.split(",")
+        print(json.dumps(run_row(source, seed, int(uavs), policy, args.progress, args.mdu_check)))
         return 0
     with doctable.Recorder(args.write_doc, __file__):
         return table(args)
 
 
+def movingai_paths(args: argparse.Namespace) -> list[Path]:
+    """The MovingAI maps --movingai asks for (all, or by name), in name order; an unknown name is an error."""
+    if not args.movingai:
+        return []
+    folder = Path(args.movingai_dir)
+    found = {path.stem: path for path in sorted(folder.glob("*.map"))} if folder.is_dir() else {}
+    if args.movingai == "all":
+        if not found:
+            raise SystemExit(f"--movingai-dir {folder}: no .map files there")
+        return list(found.values())
+    names = args.movingai.split(",")
+    unknown = [name for name in names if name not in found]
+    if unknown:
+        raise SystemExit(f"--movingai {','.join(unknown)}: not in {folder} (there: {', '.join(found) or 'no .map files'})")
+    return [found[name] for name in names]
+
+
+COLUMNS = (f"{'A':>3} {'policy':<7} {'U':>8} {'zones s':>8} {'plan s':>8} {'zones %':>7} {'cpu s':>8} "
+           f"{'zones cpu %':>11} {'peak MB':>8} {'MMN/floor':>9} {'cov %':>6} {'steps':>6} {'load':>5}")
+
+
 def table(args: argparse.Namespace) -> int:
-    cities = [(int(s), int(s) + i) for s in args.sizes.split(",") for i in range(max(1, args.seeds))]
-    streets = {(size, seed): street_width_summary(city(size, seed).free)  # made here, not in the timed children
-               for size, seed in cities}
-    header = (f"{'size':>9} {'seed':>5} {'streets':>7} {'A':>3} {'policy':<7} {'U':>8} {'zones s':>8} {'plan s':>8} "
-              f"{'zones %':>7} {'cpu s':>8} {'zones cpu %':>11} {'peak MB':>8} {'MMN/floor':>9} {'cov %':>6} "
-              f"{'steps':>6} {'load':>5}")
+    drones = [int(u) for u in args.uavs.split(",")]
+    cities = [(f"{int(s)}x{int(s):<4} {int(s) + i:>5}", s, str(int(s) + i))
+              for s in filter(None, args.sizes.split(",")) for i in range(max(1, args.seeds))]
+    if cities:
+        print_rows(args, f"{'size':>9} {'seed':>5}", cities, drones)
+    street_maps = [(f"{path.stem:<16}", f"movingai:{path}", "-") for path in movingai_paths(args)]
+    if street_maps:
+        print("" if not cities else "\n", end="")
+        print_rows(args, f"{'MovingAI map':<16}", street_maps, drones)
+    return 0
+
+
+def print_rows(args: argparse.Namespace, first_columns: str, maps: list[tuple[str, str, str]],
+               drones: list[int]) -> None:
+    """One table: a row per (map, drones, policy), each planned in a child; maps are (label, source, seed)."""
+    # Street widths are measured here, not in the timed children (launch cells do not change the streets).
+    streets = {source + seed: street_width_summary(row_map(source, seed, drones[0]).free) for _, source, seed in maps}
+    header = f"{first_columns} {'streets':>7} {COLUMNS}"
     print(header)
     print("-" * len(header), flush=True)
-    for size, seed in cities:
-        for uavs in (int(u) for u in args.uavs.split(",")):
+    for label_start, source, seed in maps:
+        for uavs in drones:
             for policy in args.policy.split(","):
-                command = [sys.executable, __file__, "--row", f"{size},{seed},{uavs},{policy}"]
+                command = [sys.executable, __file__, "--row", f"{source},{seed},{uavs},{policy}"]
                 command += ["--progress"] if args.progress else []
                 command += ["--mdu-check"] if args.mdu_check else []
-                label = f"{size}x{size:<4} {seed:>5} {streets[size, seed]:>7} {uavs:>3} {policy:<7}"
+                label = f"{label_start} {streets[source + seed]:>7} {uavs:>3} {policy:<7}"
                 r = run_child_row(command, args.timeout)
                 if isinstance(r, str):
                     print(f"{label} {r}", flush=True)
@@ -170,7 +223,6 @@ def table(args: argparse.Namespace) -> int:
                     print(f"{'':>9} MDU* at all {r['window']} steady steps {r['mdu_every']:.3f}, sampled every "
                           f"{r['mdu_stride']} steps {r['mdu']:.3f}: {100 * (r['mdu'] / r['mdu_every'] - 1):+.2f} %",
                           flush=True)
-    return 0
 
 
 if __name__ == "__main__":
