@@ -1,4 +1,4 @@
-"""Ground that may be overflown: our planner against footprint-wide sweeps, a DARP-like baseline.
+"""Ground that may be overflown: our planner's lanes and its cell-by-cell exploration against a DARP-like baseline.
 
 Where nothing blocks the drones (open ground, or a city whose buildings are low enough to fly
 over: buildings become free cells with nothing to photograph), the classic planners cover an area
@@ -15,11 +15,15 @@ nothing of ours but the zones, so the two differ only in how a zone is flown:
   taxicab distances, flyable because no cell is blocked. Drones never meet or wait (our planner's
   do), which can only flatter the baseline.
 
-It is a measurement only (no product code uses it), and checks itself: coverage is recounted from
-the photo centres. Per map and fleet it prints, for our expert and network and for the sweep:
-makespan (the longest drone's moves), total moves, coverage of the targets, CPU seconds, and the
-makespan over the floor U / (9 A). Maps: open ground (every cell a target) and the MovingAI street
-maps in ../shared/maps/movingai/ with every building overflown. Run by hand:
+The blocks and the snake are missionplan.grid.lanes's, which our planner flies on open ground
+(`plan --open-ground lanes`, the default): the baseline visits every centre, the planner skips each
+block its own passes or another drone have photographed already, and its drones wait for each
+other. The baseline checks itself: coverage is recounted from the photo centres. Per map and fleet
+it prints, for our planner with lanes (`lanes`), for it exploring cell by cell with the expert and
+with the network (`--open-ground explore`), and for the sweep: makespan (the longest drone's moves),
+total moves, coverage of the targets, CPU seconds, and the makespan over the floor U / (9 A). Maps:
+open ground (every cell a target) and the MovingAI street maps in ../shared/maps/movingai/ with
+every building overflown. Run by hand:
 
     .venv/bin/python bench/sweep_bench.py [--open 128,256] [--uavs 6,20]
                                           [--movingai-dir ../shared/maps/movingai] [--write-doc FILE]
@@ -30,13 +34,13 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from itertools import product
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from missionplan.grid.lanes import block_centres, snake_order  # noqa: E402
 from missionplan.grid.world import FOOTPRINT_RADIUS, reachable_targets  # noqa: E402
 from missionplan.grid.zones import split_zones  # noqa: E402
 from missionplan.maps.gridmap import Cell, GridMap, read_map_text  # noqa: E402
@@ -48,7 +52,6 @@ import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 
 ROOT = Path(__file__).resolve().parent.parent
 MOVINGAI_DIR = ROOT.parent / "shared" / "maps" / "movingai"
-BLOCK = 2 * FOOTPRINT_RADIUS + 1  # the footprint's side in cells
 
 
 def open_ground(size: int, uavs: int) -> GridMap:
@@ -63,37 +66,6 @@ def overflown(gmap: GridMap) -> GridMap:
     return GridMap(f"{gmap.name} overflown", blocked, gmap.target & gmap.free, list(gmap.launch), dict(gmap.meta))
 
 
-def sweep_centres(zone: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """(n, 2) photo centres, one per footprint-sized block of the zone's bounding grid that holds a
-    target, and (n, 2) those blocks' (row, col) numbers."""
-    cells = np.argwhere(zone)
-    corner = cells.min(axis=0)
-    blocks = np.unique((cells - corner) // BLOCK, axis=0)
-    centres = corner + blocks * BLOCK + FOOTPRINT_RADIUS
-    return np.minimum(centres, np.array(shape) - 1), blocks
-
-
-def snake_flight(start: Cell, centres: np.ndarray, blocks: np.ndarray) -> tuple[int, np.ndarray]:
-    """Moves of the shortest snake through the centres (rows or columns first, any corner), and its order."""
-    best: tuple[int, np.ndarray] | None = None
-    for major, flip_major, flip_minor in product((0, 1), (False, True), (False, True)):
-        minor = 1 - major
-        lane = blocks[:, major] * (-1 if flip_major else 1)
-        lanes = np.unique(lane)
-        order_parts = []
-        for i, value in enumerate(lanes):
-            members = np.flatnonzero(lane == value)
-            along = blocks[members, minor] * (-1 if flip_minor ^ (i % 2 == 1) else 1)
-            order_parts.append(members[np.argsort(along, kind="stable")])
-        order = np.concatenate(order_parts)
-        path = np.vstack([np.array(start)[None, :], centres[order]])
-        moves = int(np.abs(np.diff(path, axis=0)).sum())
-        if best is None or moves < best[0]:
-            best = (moves, order)
-    assert best is not None
-    return best
-
-
 def sweep_plan(shape: tuple[int, int], targets: np.ndarray, starts: list[Cell], zone: np.ndarray) -> dict[str, float]:
     """The DARP-like baseline on the given zones of the `targets` mask: makespan, total moves, coverage %."""
     covered = np.zeros_like(targets)
@@ -103,8 +75,8 @@ def sweep_plan(shape: tuple[int, int], targets: np.ndarray, starts: list[Cell], 
         if not mine.any():
             moves.append(0)
             continue
-        centres, blocks = sweep_centres(mine, shape)
-        flown, _ = snake_flight(start, centres, blocks)
+        centres, blocks = block_centres(np.argwhere(mine), shape)
+        flown, _ = snake_order(start, centres, blocks)
         moves.append(flown)
         for r, c in centres:
             covered[max(r - FOOTPRINT_RADIUS, 0): r + FOOTPRINT_RADIUS + 1,
@@ -144,9 +116,9 @@ def table(args: argparse.Namespace) -> int:
         sweep = sweep_plan(gmap.shape, reachable, starts, zones.zone)
         sweep["cpu"] = time.process_time() - cpu
         rows = []
-        for label, policy in policies.items():
+        for label, policy, lanes in (("lanes", "expert", True), ("expert", "expert", False), ("nn", "nn", False)):
             cpu = time.process_time()
-            result = plan_map(gmap, uavs, policy=policy, starts=starts)
+            result = plan_map(gmap, uavs, policy=policies[policy], starts=starts, lanes=lanes)
             m = result.run.metrics
             rows.append((label, {"makespan": m["makespan"], "total": round(uavs * m["MMN"]),
                                  "coverage": m["coverage"], "cpu": time.process_time() - cpu}))

@@ -157,6 +157,10 @@ def _build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--zones", default=DEFAULT_ZONE_METHOD, choices=ZONE_METHODS, help="zone distance")
     plan.add_argument("--no-balance", action="store_true",
                       help="plain Lloyd/Voronoi zones, without equalising their sizes")
+    plan.add_argument("--open-ground", choices=("lanes", "explore"), default="lanes",
+                      help="a drone whose zone lies on open ground (nothing blocked around it, e.g. every building "
+                           "low enough to fly over) sweeps it in footprint-wide lanes, or explores it cell by cell "
+                           "(default lanes)")
     plan.add_argument("--seed", type=int, default=0, help="seed for zones and deadlock breaking")
     plan.add_argument("--quiet", action="store_true", help="no progress bar")
     train = sub.add_parser("train", help="train the neural policy by imitation of the expert and write its weights")
@@ -266,7 +270,8 @@ def write_plan(args: argparse.Namespace, gmap: GridMap, frame: Any, settings: An
     show_progress = not args.quiet and sys.stderr.isatty()
     # Clearance band, band detours, flight plans, sorties, separation, geofences (missionplan/fieldplan.py).
     field = plan_field(gmap, args.uavs, frame, settings, safety, balance_zones=not args.no_balance, policy=policy,
-                       zone_method=args.zones, seed=args.seed, progress=show_progress)
+                       zone_method=args.zones, seed=args.seed, progress=show_progress,
+                       lanes=getattr(args, "open_ground", "lanes") == "lanes")
     result, plans = field.result, field.plans
     if plans is not None and ids is not None:
         plans.relabel(ids)
@@ -274,7 +279,8 @@ def write_plan(args: argparse.Namespace, gmap: GridMap, frame: Any, settings: An
     field.fill_report(report, gmap, frame)
     if settings is not None and safety is not None:  # what `replan` plans the rest of the survey with
         report["settings"] = {"mission": dataclasses.asdict(settings), "safety": dataclasses.asdict(safety),
-                              "policy": args.policy, "zones": args.zones, "balance_zones": not args.no_balance}
+                              "policy": args.policy, "zones": args.zones, "balance_zones": not args.no_balance,
+                              "open_ground": getattr(args, "open_ground", "lanes")}
     if ids is not None:
         report["drone_ids"] = list(ids)
     if survey is not None:
@@ -328,6 +334,9 @@ def write_plan(args: argparse.Namespace, gmap: GridMap, frame: Any, settings: An
           f"zones {zones}, seed {args.seed}")
     print(f"targets U = {report['targets']} reachable, {report['unreachable']} unreachable (set explored); "
           f"floor U/(9A) = {report['floor']:.1f}")
+    if report["lane_drones"]:
+        print(f"open ground: {report['lane_drones']} of {args.uavs} drones sweep their zone in footprint-wide lanes "
+              "(--open-ground explore: cell by cell)")
     rows = [("MMN", _fmt(m["MMN"]), "mean moves per drone"),
             ("TE %", _fmt(m["TE"]), "trajectory efficiency"),
             ("MNT %", _fmt(m["MNT"], 2), "weighted turns per move"),

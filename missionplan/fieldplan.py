@@ -52,7 +52,7 @@ class FieldPlan:
 
 def plan_field(gmap: GridMap, uavs: int, frame: GridFrame | None, settings: MissionSettings | None,
                safety: SafetySettings | None, balance_zones: bool = True, **planning: Any) -> FieldPlan:
-    """Plan `gmap` for `uavs` drones; `planning`: plan_map's policy, zone_method, seed, progress."""
+    """Plan `gmap` for `uavs` drones; `planning`: plan_map's policy, zone_method, seed, progress, lanes."""
     plan_gmap, band = flight_map(gmap, safety.clearance_m, uavs) if safety is not None else (gmap, None)
 
     def attempt(shares: np.ndarray | None) -> FieldPlan:

@@ -50,9 +50,10 @@ def launch_cells(gmap: GridMap, uavs: int) -> list[Cell]:
 def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
              zone_method: str = DEFAULT_ZONE_METHOD, seed: int = 0, starts: list[Cell] | None = None,
              progress: bool = False, balance_zones: bool = True, weights: str | Path | None = None,
-             zone_shares: np.ndarray | None = None) -> PlanResult:
+             zone_shares: np.ndarray | None = None, lanes: bool = True) -> PlanResult:
     """Plan full coverage of `gmap` for `uavs` drones; `policy` is a name or a ready Policy; `zone_shares`:
-    the fraction of the targets each balanced zone gets (default equal)."""
+    the fraction of the targets each balanced zone gets (default equal); `lanes`: a drone whose zone
+    lies on open ground sweeps it in footprint-wide lanes (grid.lanes) instead of exploring it."""
     if zone_method not in ZONE_METHODS:
         raise MapError(f"unknown zone method {zone_method!r} (choose {', '.join(ZONE_METHODS)})")
     chosen = make_policy(policy, weights) if isinstance(policy, str) else policy
@@ -64,5 +65,5 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
                         balance=balance_zones, shares=zone_shares)
     zone_seconds = time.perf_counter() - began
     world = CoverageWorld(gmap, starts, zones.zone)
-    run = Planner(world, chosen, seed=seed, progress=progress).run()
+    run = Planner(world, chosen, seed=seed, progress=progress, lanes=lanes).run()
     return PlanResult(gmap, starts, policy, zones, world, run, zone_seconds)

@@ -146,6 +146,7 @@ def cmd_replan(args: argparse.Namespace) -> int:
     plan_args = argparse.Namespace(
         out=out, uavs=len(cells), policy=args.policy or stored.get("policy", DEFAULT_POLICY), weights=args.weights,
         zones=stored.get("zones", "geodesic"), no_balance=not stored.get("balance_zones", True), seed=args.seed,
+        open_ground=stored.get("open_ground", "lanes"),
         quiet=args.quiet, autopilot=mission.autopilot, launch=[], area=None, osm=None, map=gmap.name)
     pointer = {"root": os.path.relpath(survey.root.resolve(), out.resolve()), "missing_cells": int(len(missing)),
                "from": os.path.relpath(plan_dir.resolve(), out.resolve())}

@@ -124,7 +124,8 @@ def plan_retask(plan_dir: Path, report: dict[str, Any], survivors: list[Survivor
     field = plan_field(gmap, len(survivors), frame, settings,
                        replace(safety, endurance_s=None, min_separation_m=required),
                        policy=policy or stored.get("policy", "expert"), zone_method=stored.get("zones", "geodesic"),
-                       seed=0, progress=False, balance_zones=bool(stored.get("balance_zones", True)))
+                       seed=0, progress=False, balance_zones=bool(stored.get("balance_zones", True)),
+                       lanes=stored.get("open_ground", "lanes") == "lanes")
     if field.plans is None:
         raise RetaskError(f"the re-task could not be planned: {field.result.run.failure}")
     plans = field.plans

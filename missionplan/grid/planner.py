@@ -25,7 +25,11 @@ Beyond the thesis:
   the per-region counts current with every photo);
 - a policy-driven drone that photographs nothing new for POLICY_PATIENCE steps (it dithers
   next to cells it cannot reach inside its view) is handed to the path-finder until that
-  goal is photographed, so the loop is safe with any policy, an imperfect network too.
+  goal is photographed, so the loop is safe with any policy, an imperfect network too;
+- with `lanes`, a drone whose zone lies on open ground (grid.lanes: nothing blocked in the box
+  of its zone and launch cell) sweeps it in footprint-wide lanes instead of exploring cell by
+  cell, then helps or parks like any drone done with its zone; it waits, yields and steps aside
+  like any drone.
 
 The run ends when nothing reachable is left unexplored, or fails at the step cap or when
 coverage stops growing for too long (both reported, never called success).
@@ -44,6 +48,7 @@ from tqdm import tqdm
 
 from ..maps.gridmap import Cell
 from .metrics import SteadyStateSampler, compute_metrics, mdu_stride
+from .lanes import LaneSweep, zone_is_open
 from .pathfinding import FlightSearch, find_goal
 from .world import ACTION_DELTAS, HOVER, PAD, CoverageWorld
 
@@ -99,6 +104,7 @@ class PlanRun:
     steps: int
     deadlocks_broken: int
     plan_seconds: float
+    lane_drones: int = 0  # drones that swept an open-ground zone in lanes (grid.lanes)
 
 
 _ACTION_OF_DELTA = {(int(dr), int(dc)): action for action, (dr, dc) in enumerate(ACTION_DELTAS)}
@@ -113,8 +119,9 @@ class Planner:
     """Drives a CoverageWorld with a policy and the path-finders until full coverage."""
 
     def __init__(self, world: CoverageWorld, policy: Policy, seed: int = 0, progress: bool = False,
-                 stall_limit: int | None = None) -> None:
+                 stall_limit: int | None = None, lanes: bool = False) -> None:
         self.world = world
+        self.lanes = lanes
         self.policy = policy
         self.rng = np.random.default_rng(seed)
         self.progress = progress
@@ -130,6 +137,18 @@ class Planner:
         self.nav = [_Navigation() for _ in range(world.num_drones)]
         self.deadlocks_broken = 0
         self._by_policy = np.zeros(world.num_drones, dtype=bool)
+        self.sweeps: list[LaneSweep | None] = [None] * world.num_drones  # set per run
+
+    def _plan_sweeps(self) -> None:
+        """A lane sweep for each drone whose zone lies on open ground (with `lanes`), else None."""
+        world = self.world
+        self.sweeps = [None] * world.num_drones
+        if not self.lanes:
+            return
+        for k in range(world.num_drones):
+            zone_cells = np.argwhere(world.zone_of == k)
+            if zone_is_open(world.gmap.obstacle, zone_cells, world.starts[k]):
+                self.sweeps[k] = LaneSweep.plan(zone_cells, world.starts[k], world.gmap.shape)
 
     # ----------------------------------------------------------- path-finding
     def _unexplored_now(self) -> np.ndarray:
@@ -254,7 +273,15 @@ class Planner:
         num = world.num_drones
         # Nothing left in its region: parked for good, hovering; no policy, no search.
         parked = world.region_done()
-        sees = world.sees_unexplored() & ~parked
+        sweeping = np.zeros(num, dtype=bool)
+        for k, sweep in enumerate(self.sweeps):
+            if sweep is not None and not parked[k] and not self.nav[k].retreating:
+                cell = sweep.next_cell(tuple(int(v) for v in world.positions[k]), world.unexplored)
+                if cell is None:
+                    self.sweeps[k] = None  # swept: from now on it helps (or parks) as any drone done with its zone
+                else:
+                    sweeping[k] = True
+        sees = world.sees_unexplored() & ~parked & ~sweeping
         for k in np.flatnonzero(parked):
             self.nav[k].clear()
             self.nav[k].blocked_steps = 0
@@ -285,6 +312,14 @@ class Planner:
                         actions[k] = action
                         claimed.add(cell)
                         break
+            elif sweeping[k]:
+                cell = self.sweeps[k].leg[0]  # type: ignore[union-attr]
+                action = _action_towards(world.positions[k], cell)
+                if cell in claimed:
+                    action = HOVER
+                else:
+                    claimed.add(cell)  # a drone standing there moves on, makes way, or blocks it
+                actions[k] = action
             elif not parked[k]:
                 action = self._path_action(k)
                 if action != HOVER:
@@ -294,7 +329,8 @@ class Planner:
                     else:
                         claimed.add(cell)
                 actions[k] = action
-        idle = sum(1 for k in range(num) if not sees[k] and self.nav[k].goal is None and not self.nav[k].retreating)
+        idle = sum(1 for k in range(num) if not sees[k] and not sweeping[k] and self.nav[k].goal is None
+                   and not self.nav[k].retreating)
         self._make_way(actions, claimed)
         self._by_policy = sees
         return actions, len(policy_drones), num - len(policy_drones) - idle, idle
@@ -327,6 +363,8 @@ class Planner:
         world = self.world
         world.reset()
         started = time.perf_counter()
+        self._plan_sweeps()
+        lane_drones = sum(sweep is not None for sweep in self.sweeps)
         num = world.num_drones
         path_log = [world.positions.copy()]
         cells_log: list[np.ndarray] = []
@@ -377,4 +415,4 @@ class Planner:
                        policy_decisions=decisions[:, 0], pathfinder_decisions=decisions[:, 1],
                        idle_decisions=decisions[:, 2], success=failure is None and world.done,
                        failure=failure, steps=world.t, deadlocks_broken=self.deadlocks_broken,
-                       plan_seconds=seconds)
+                       plan_seconds=seconds, lane_drones=lane_drones)

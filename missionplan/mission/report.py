@@ -3,8 +3,8 @@
 Keys: map, uavs, policy, zones, zones_balanced, zone_sizes, seed, success, failure, metrics (MMN, TE, MNT, MUD, MDU,
 coverage, makespan, hover_steps; TE, MNT and coverage in percent), targets (reachable
 target cells U), unreachable (count) and unreachable_cells, floor (U / (9 A)), steps,
-deadlocks_broken, decisions (drones per step decided by the policy, on a path-finder, or
-parked idle), timing
+deadlocks_broken, lane_drones (drones that swept an open-ground zone in lanes), decisions (drones
+per step decided by the policy, on a path-finder or a lane sweep, or parked idle), timing
 (zones_s, plan_s), launch, paths (per drone, one [row, col] per step, start and hovers
 included), and grid (one string per row: '#' obstacle, '.' target, 'o' free non-target).
 """
@@ -40,6 +40,7 @@ def build_report(result: PlanResult, seed: int) -> dict[str, Any]:
         "floor": world.num_targets / (9 * uavs),
         "steps": run.steps,
         "deadlocks_broken": run.deadlocks_broken,
+        "lane_drones": run.lane_drones,
         "decisions": {"policy": run.policy_decisions.tolist(), "pathfinder": run.pathfinder_decisions.tolist(),
                       "idle": run.idle_decisions.tolist()},
         "timing": {"zones_s": round(result.zone_seconds, 4),

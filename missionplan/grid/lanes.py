@@ -1,0 +1,164 @@
+"""Lanes: a zone of open ground swept in footprint-wide lanes, as sweep and spanning-tree planners fly it.
+
+Where nothing blocks a drone (open ground, or a city whose buildings are low enough to fly over),
+exploring cell by cell loses to the classic answer: cut the zone into footprint-sized blocks,
+photograph each block holding a target once from its centre, and visit the centres in a snake
+(boustrophedon), lane after lane one footprint apart. On an obstacle-free grid that is also the
+path a spanning-tree planner (DARP, STC) flies over the same blocks.
+
+- `zone_is_open`: whether a drone's zone, its launch cell and every photo centre lie in one
+  obstacle-free box (then every leg below is flyable);
+- `block_centres` / `snake_order`: the blocks of a zone (aligned on its corner) and the shortest
+  of the eight snakes through their centres (by block rows or columns, from any corner);
+- `LaneSweep`: one drone's sweep as the planner flies it, cell by cell: an L-shaped leg to the
+  next centre (the corner placed where it turns least), skipping every block that is photographed
+  already (by its own passes or another drone's), so it never flies longer than the snake.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from itertools import product
+
+import numpy as np
+
+from ..maps.gridmap import Cell
+from .world import ACTION_DELTAS, FOOTPRINT_RADIUS
+
+BLOCK = 2 * FOOTPRINT_RADIUS + 1  # the footprint's side in cells
+
+
+def _turn(a: int | None, b: int | None) -> float:
+    """Turn weight between two headings (action numbers): 0.5 per 90 deg, 1 for a reversal."""
+    if a is None or b is None or a == b:
+        return 0.0
+    return 1.0 if (a - b) % 4 == 2 else 0.5
+
+
+def _heading(delta_r: int, delta_c: int) -> int | None:
+    """The action number of a straight move along one axis (None for no move)."""
+    if delta_r == delta_c == 0:
+        return None
+    step = (int(np.sign(delta_r)), int(np.sign(delta_c)))
+    return next(a for a, (dr, dc) in enumerate(ACTION_DELTAS) if (dr, dc) == step)
+
+
+def zone_box(zone_cells: np.ndarray, start: Cell, shape: tuple[int, int]) -> tuple[slice, slice]:
+    """The box holding the zone's cells, the launch cell and every photo centre (a centre lies at
+    most FOOTPRINT_RADIUS past the zone, clipped into the map)."""
+    low = np.minimum(zone_cells.min(axis=0), start)
+    high = np.maximum(zone_cells.max(axis=0) + FOOTPRINT_RADIUS, start)
+    high = np.minimum(high, np.array(shape) - 1)
+    return slice(int(low[0]), int(high[0]) + 1), slice(int(low[1]), int(high[1]) + 1)
+
+
+def zone_is_open(obstacle: np.ndarray, zone_cells: np.ndarray, start: Cell) -> bool:
+    """Whether the drone can sweep this zone in lanes: a zone with targets, in an obstacle-free box."""
+    if not len(zone_cells):
+        return False
+    return not obstacle[zone_box(zone_cells, start, obstacle.shape)].any()
+
+
+def block_centres(zone_cells: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 2) photo centres, one per footprint-sized block (aligned on the zone's corner) holding a
+    zone cell, clipped into the map, and (n, 2) those blocks' (row, col) numbers. A centre clipped
+    at the map's edge still sees all of its block that lies inside the map."""
+    corner = zone_cells.min(axis=0)
+    blocks = np.unique((zone_cells - corner) // BLOCK, axis=0)
+    centres = corner + blocks * BLOCK + FOOTPRINT_RADIUS
+    return np.minimum(centres, np.array(shape) - 1), blocks
+
+
+def snake_order(start: Cell, centres: np.ndarray, blocks: np.ndarray) -> tuple[int, np.ndarray]:
+    """The shortest snake through the centres from `start` (by block rows or columns, from any of the
+    four corners, taxicab legs): (its moves, the centres' order)."""
+    best: tuple[int, np.ndarray] | None = None
+    for major, flip_major, flip_minor in product((0, 1), (False, True), (False, True)):
+        minor = 1 - major
+        lane = blocks[:, major] * (-1 if flip_major else 1)
+        parts = []
+        for i, value in enumerate(np.unique(lane)):
+            members = np.flatnonzero(lane == value)
+            along = blocks[members, minor] * (-1 if flip_minor ^ (i % 2 == 1) else 1)
+            parts.append(members[np.argsort(along, kind="stable")])
+        order = np.concatenate(parts)
+        path = np.vstack([np.asarray(start)[None, :], centres[order]])
+        moves = int(np.abs(np.diff(path, axis=0)).sum())
+        if best is None or moves < best[0]:
+            best = (moves, order)
+    assert best is not None
+    return best
+
+
+def l_leg(start: Cell, goal: Cell, heading: int | None, next_heading: int | None) -> list[Cell]:
+    """Cells from `start` (left out) to `goal`: straight, or an L whose corner costs the fewest turns
+    coming in at `heading` and leaving at `next_heading` (rows first on a tie)."""
+    (r0, c0), (r1, c1) = start, goal
+    dr, dc = r1 - r0, c1 - c0
+    rows_dir, cols_dir = _heading(dr, 0), _heading(0, dc)
+    rows_first = True
+    if dr and dc:
+        cost_rows = _turn(heading, rows_dir) + _turn(cols_dir, next_heading)
+        cost_cols = _turn(heading, cols_dir) + _turn(rows_dir, next_heading)
+        rows_first = cost_rows <= cost_cols
+    step_r, step_c = int(np.sign(dr)), int(np.sign(dc))
+    along_rows = [(r0 + step_r * i, c0) for i in range(1, abs(dr) + 1)]
+    along_cols = [(r0, c0 + step_c * i) for i in range(1, abs(dc) + 1)]
+    if rows_first:
+        return along_rows + [(r1, c0 + step_c * i) for i in range(1, abs(dc) + 1)]
+    return along_cols + [(r0 + step_r * i, c1) for i in range(1, abs(dr) + 1)]
+
+
+@dataclass
+class LaneSweep:
+    """One drone's sweep of its zone: the photo centres still to visit, in snake order, and the leg
+    it is flying to the first of them."""
+
+    centres: list[Cell]
+    blocks: list[tuple[slice, slice]]  # each centre's block, to skip one photographed already
+    leg: list[Cell] = field(default_factory=list)  # cells still to fly to centres[0], next first
+    heading: int | None = None  # the direction of the last leg's last move
+
+    @classmethod
+    def plan(cls, zone_cells: np.ndarray, start: Cell, shape: tuple[int, int]) -> LaneSweep:
+        centres, blocks = block_centres(zone_cells, shape)
+        _, order = snake_order(start, centres, blocks)
+        corner = zone_cells.min(axis=0)
+        low = corner + blocks * BLOCK
+        spans = [(slice(int(r), int(r) + BLOCK), slice(int(c), int(c) + BLOCK)) for r, c in low[order]]
+        return cls([(int(r), int(c)) for r, c in centres[order]], spans)
+
+    @property
+    def finished(self) -> bool:
+        return not self.centres
+
+    def next_cell(self, position: Cell, unexplored: np.ndarray) -> Cell | None:
+        """The cell to fly to next from `position`; None once every block is photographed.
+
+        `unexplored` is the world's mask of targets not photographed yet: a block with none left
+        is skipped, however it got photographed."""
+        if self.leg and self.leg[0] == position:
+            self.leg.pop(0)
+        if self.leg and abs(self.leg[0][0] - position[0]) + abs(self.leg[0][1] - position[1]) != 1:
+            self.leg = []  # pushed off the leg (it made way for another drone): fly a new one
+        if self.centres and not unexplored[self.blocks[0]].any():
+            self.leg = []  # this block is done already: on to the next one from here
+        if not self.leg:
+            while self.centres and (self.centres[0] == position or not unexplored[self.blocks[0]].any()):
+                self.centres.pop(0)
+                self.blocks.pop(0)
+            if not self.centres:
+                return None
+            goal = self.centres[0]
+            after = self.centres[1] if len(self.centres) > 1 else None
+            next_heading = None
+            if after is not None:  # along the goal's lane, when the next centre lies on it
+                dr, dc = after[0] - goal[0], after[1] - goal[1]
+                next_heading = _heading(dr, dc) if dr == 0 or dc == 0 else None
+            self.leg = l_leg(position, goal, self.heading, next_heading)
+            if len(self.leg) >= 2:
+                last, before = self.leg[-1], self.leg[-2]
+            else:
+                last, before = self.leg[-1], position
+            self.heading = _heading(last[0] - before[0], last[1] - before[1])
+        return self.leg[0]

@@ -1,0 +1,156 @@
+"""Open ground swept in lanes (missionplan/grid/lanes.py) and the planner flying those sweeps.
+
+The blocks' photos are recounted here cell by cell; the planner's sweeps are checked for full
+coverage with random fields and launch points (drones meeting, waiting and yielding), against the
+snake they come from (never longer) and against exploring cell by cell (shorter on an open field);
+a zone with a building in its box is explored as before; `plan --open-ground` chooses and says so.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from missionplan.cli import main
+from missionplan.grid.lanes import BLOCK, LaneSweep, block_centres, l_leg, snake_order, zone_is_open
+from missionplan.grid.world import FOOTPRINT_RADIUS, reachable_targets
+from missionplan.grid.zones import split_zones
+from missionplan.maps.gridmap import GridMap, save_map
+from missionplan.maps.launches import spread_launches
+from missionplan.pipeline import make_policy, plan_map
+
+UP, RIGHT, DOWN, LEFT = 0, 1, 2, 3
+
+
+def field(rows: int, cols: int, launches: list[tuple[int, int]], obstacle: np.ndarray | None = None) -> GridMap:
+    blocked = np.zeros((rows, cols), dtype=bool) if obstacle is None else obstacle
+    return GridMap("field", blocked, ~blocked, launches, {})
+
+
+def test_block_photos_cover_every_zone_cell_even_at_the_map_edge() -> None:
+    rng = np.random.default_rng(1)
+    shape = (40, 31)  # not a multiple of the block: the last blocks stick out of the map
+    for _ in range(20):
+        zone = rng.random(shape) < rng.uniform(0.05, 0.9)
+        cells = np.argwhere(zone)
+        centres, blocks = block_centres(cells, shape)
+        seen = np.zeros(shape, dtype=bool)
+        for r, c in centres:
+            assert 0 <= r < shape[0] and 0 <= c < shape[1]
+            seen[max(r - FOOTPRINT_RADIUS, 0): r + FOOTPRINT_RADIUS + 1, max(c - FOOTPRINT_RADIUS, 0): c + FOOTPRINT_RADIUS + 1] = True
+        assert seen[zone].all()
+        assert len(centres) == len({tuple(b) for b in blocks})  # one photo per block
+
+
+def test_the_snake_is_the_shortest_of_its_eight_and_flies_lanes() -> None:
+    cells = np.argwhere(np.ones((27, 45), dtype=bool))  # 3 block rows x 5 block columns
+    centres, blocks = block_centres(cells, (27, 45))
+    moves, order = snake_order((0, 0), centres, blocks)
+    path = np.vstack([[0, 0], centres[order]])
+    assert moves == int(np.abs(np.diff(path, axis=0)).sum())
+    # From the corner: 4 + 4 to the first centre, then 14 blocks one footprint apart.
+    assert moves == 8 + 14 * BLOCK
+    assert len({tuple(c) for c in centres[order]}) == len(centres)
+
+
+def test_legs_put_the_corner_where_it_turns_least() -> None:
+    assert l_leg((0, 0), (0, 3), None, None) == [(0, 1), (0, 2), (0, 3)]
+    # Flying right, next lane back to the left, 9 rows down and 3 columns right: go on right, then down.
+    leg = l_leg((0, 0), (9, 3), RIGHT, LEFT)
+    assert leg[:3] == [(0, 1), (0, 2), (0, 3)] and leg[-1] == (9, 3) and len(leg) == 12
+    # Flying right, next lane to the left, 9 down and 3 columns left: down first, then left along the lane.
+    leg = l_leg((0, 0), (9, -3), RIGHT, LEFT)
+    assert leg[0] == (1, 0) and leg[-3:] == [(9, -1), (9, -2), (9, -3)]
+
+
+def test_open_zone_needs_an_obstacle_free_box() -> None:
+    obstacle = np.zeros((30, 30), dtype=bool)
+    zone = np.argwhere(np.pad(np.ones((10, 10), dtype=bool), ((5, 15), (5, 15))))
+    assert zone_is_open(obstacle, zone, (0, 0))
+    obstacle[16, 16] = True  # inside the box (the zone ends at 14, photos reach 4 further)
+    assert not zone_is_open(obstacle, zone, (0, 0))
+    obstacle[:] = False
+    obstacle[29, 29] = True
+    assert zone_is_open(obstacle, zone, (0, 0))
+    assert not zone_is_open(obstacle, zone[:0], (0, 0))  # no targets: nothing to sweep
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_sweeps_cover_random_fields_with_drones_in_each_others_way(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    rows, cols = (int(v) for v in rng.integers(20, 70, 2))
+    uavs = int(rng.integers(2, 9))
+    if seed % 3 == 0:  # launch cells side by side: drones wait for and make way for each other
+        launches = [(rows // 2, int(c)) for c in range(cols // 2 - uavs // 2, cols // 2 - uavs // 2 + uavs)]
+    else:
+        flat = rng.choice(rows * cols, size=uavs, replace=False)
+        launches = [(int(i) // cols, int(i) % cols) for i in flat]
+    result = plan_map(field(rows, cols, launches), uavs, policy="expert", lanes=True)
+    run = result.run
+    assert run.success and run.metrics["coverage"] == 100.0, run.failure
+    assert run.lane_drones == uavs
+    steps = np.abs(np.diff(run.paths, axis=1)).sum(axis=2)
+    assert set(np.unique(steps)) <= {0, 1}  # one cell per step, or a hover
+
+
+def test_a_lone_drone_flies_no_longer_than_its_snake() -> None:
+    gmap = field(60, 45, [(3, 40)])
+    run = plan_map(gmap, 1, policy="expert", lanes=True).run
+    snake_moves, _ = snake_order((3, 40), *block_centres(np.argwhere(gmap.target), gmap.shape))
+    assert run.success and run.metrics["makespan"] <= snake_moves
+
+
+def test_lanes_beat_cell_by_cell_exploration_on_an_open_field() -> None:
+    free = np.ones((128, 128), dtype=bool)
+    gmap = field(128, 128, spread_launches(free, 6))
+    policy = make_policy("expert")
+    lanes = plan_map(gmap, 6, policy=policy, lanes=True).run
+    explored = plan_map(gmap, 6, policy=policy, lanes=False).run
+    assert lanes.success and explored.success and explored.lane_drones == 0
+    # Measured: 406 against 499 moves (bench/sweep_bench.py's open 128 row: 458 for the baseline).
+    assert lanes.metrics["makespan"] < 0.9 * explored.metrics["makespan"]
+    assert lanes.metrics["MNT"] < explored.metrics["MNT"]  # fewer turns per move
+
+
+def test_a_zone_with_a_building_in_its_box_is_explored() -> None:
+    obstacle = np.zeros((60, 60), dtype=bool)
+    obstacle[5:12, 5:12] = True  # one tall building in the north-west
+    gmap = field(60, 60, [(2, 30), (57, 2), (57, 57)], obstacle)
+    reachable = reachable_targets(gmap, gmap.launch)
+    zones = split_zones(reachable, gmap.free, gmap.launch, balance=True).zone
+    expected = sum(zone_is_open(obstacle, np.argwhere(zones == k), gmap.launch[k]) for k in range(3))
+    run = plan_map(gmap, 3, policy="expert", lanes=True).run
+    assert 0 < expected < 3 and run.lane_drones == expected
+    assert run.success and run.metrics["coverage"] == 100.0
+
+
+def test_sweep_skips_blocks_photographed_already() -> None:
+    cells = np.argwhere(np.ones((9, 27), dtype=bool))  # three blocks in a row
+    sweep = LaneSweep.plan(cells, (4, 0), (9, 27))
+    unexplored = np.ones((9, 27), dtype=bool)
+    unexplored[:, 9:18] = False  # the middle block is done (another drone)
+    assert sweep.next_cell((4, 0), unexplored) == (4, 1)
+    assert sweep.centres == [(4, 4), (4, 13), (4, 22)]
+    unexplored[:, :9] = False  # now the first too: on to the last, from where it is
+    assert sweep.next_cell((4, 1), unexplored) == (4, 2)
+    assert sweep.centres == [(4, 22)] and sweep.leg[-1] == (4, 22)
+    unexplored[:] = False
+    assert sweep.next_cell((4, 2), unexplored) is None and sweep.finished
+
+
+def test_plan_open_ground_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "open.map"
+    save_map(field(40, 40, [(0, 0), (39, 39), (0, 39)]), path)
+    assert main(["plan", "--map", str(path), "--uavs", "3", "--out", str(tmp_path / "lanes"), "--quiet"]) == 0
+    assert "open ground: 3 of 3 drones sweep their zone in footprint-wide lanes" in capsys.readouterr().out
+    assert main(["plan", "--map", str(path), "--uavs", "3", "--open-ground", "explore",
+                 "--out", str(tmp_path / "explore"), "--quiet"]) == 0
+    assert "open ground" not in capsys.readouterr().out
+    lanes = json.loads((tmp_path / "lanes" / "report.json").read_text())
+    explore = json.loads((tmp_path / "explore" / "report.json").read_text())
+    assert (lanes["lane_drones"], explore["lane_drones"]) == (3, 0)
+    assert lanes["metrics"]["coverage"] == explore["metrics"]["coverage"] == 100.0
+    assert lanes["metrics"]["makespan"] < explore["metrics"]["makespan"]
