@@ -7,11 +7,13 @@ swappable piece chosen by name (zone method, policy).
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from .grid.expert import ExpertPolicy
+from .grid.lanes import fleet_zones, zone_is_open
 from .grid.planner import Planner, Policy
 from .grid.planresult import PlanResult
 from .grid.world import CoverageWorld, check_starts, reachable_targets
@@ -47,13 +49,19 @@ def launch_cells(gmap: GridMap, uavs: int) -> list[Cell]:
     return starts
 
 
+def _all_open(gmap: GridMap, zone: np.ndarray, starts: list[Cell]) -> bool:
+    """Every drone's zone lies in an obstacle-free box (grid.lanes.zone_is_open)."""
+    return all(zone_is_open(gmap.obstacle, np.argwhere(zone == k), start) for k, start in enumerate(starts))
+
+
 def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
              zone_method: str = DEFAULT_ZONE_METHOD, seed: int = 0, starts: list[Cell] | None = None,
              progress: bool = False, balance_zones: bool = True, weights: str | Path | None = None,
              zone_shares: np.ndarray | None = None, lanes: bool = True) -> PlanResult:
     """Plan full coverage of `gmap` for `uavs` drones; `policy` is a name or a ready Policy; `zone_shares`:
     the fraction of the targets each balanced zone gets (default equal); `lanes`: a drone whose zone
-    lies on open ground sweeps it in footprint-wide lanes (grid.lanes) instead of exploring it."""
+    lies on open ground sweeps it in footprint-wide lanes (grid.lanes) instead of exploring it, and
+    when every zone does (and no shares are asked), the zones are redrawn block by block for it."""
     if zone_method not in ZONE_METHODS:
         raise MapError(f"unknown zone method {zone_method!r} (choose {', '.join(ZONE_METHODS)})")
     chosen = make_policy(policy, weights) if isinstance(policy, str) else policy
@@ -61,8 +69,13 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
     starts = launch_cells(gmap, uavs) if starts is None else starts
     check_starts(gmap, starts)
     began = time.perf_counter()
-    zones = split_zones(reachable_targets(gmap, starts), gmap.free, starts, zone_method, seed,
-                        balance=balance_zones, shares=zone_shares)
+    reachable = reachable_targets(gmap, starts)
+    zones = split_zones(reachable, gmap.free, starts, zone_method, seed, balance=balance_zones, shares=zone_shares)
+    if lanes and zone_shares is None and _all_open(gmap, zones.zone, starts):
+        # The whole fleet sweeps: zones redrawn block by block and balanced on the longest snake.
+        redrawn = fleet_zones(zones.zone, reachable, starts)
+        if _all_open(gmap, redrawn, starts):
+            zones = replace(zones, zone=redrawn)
     zone_seconds = time.perf_counter() - began
     world = CoverageWorld(gmap, starts, zones.zone)
     run = Planner(world, chosen, seed=seed, progress=progress, lanes=lanes).run()

@@ -8,8 +8,12 @@ path a spanning-tree planner (DARP, STC) flies over the same blocks.
 
 - `zone_is_open`: whether a drone's zone, its launch cell and every photo centre lie in one
   obstacle-free box (then every leg below is flyable);
-- `block_centres` / `snake_order`: the blocks of a zone (aligned on its corner) and the shortest
-  of the eight snakes through their centres (by block rows or columns, from any corner);
+- `block_centres` / `snake_order`: the blocks of a zone (aligned on its corner, or on the map's
+  when the whole fleet sweeps) and the shortest of the eight snakes through their centres (by block
+  rows or columns, from any corner);
+- `fleet_zones`: when every zone is open, the zones redrawn block by block on the map's block grid
+  (no block shared, so none photographed twice) and balanced by local search on the longest snake,
+  as LS-MCPP does on its decomposition;
 - `LaneSweep`: one drone's sweep as the planner flies it, cell by cell: an L-shaped leg to the
   next centre (the corner placed where it turns least), skipping every block that is photographed
   already (by its own passes or another drone's), so it never flies longer than the snake.
@@ -59,11 +63,12 @@ def zone_is_open(obstacle: np.ndarray, zone_cells: np.ndarray, start: Cell) -> b
     return not obstacle[zone_box(zone_cells, start, obstacle.shape)].any()
 
 
-def block_centres(zone_cells: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """(n, 2) photo centres, one per footprint-sized block (aligned on the zone's corner) holding a
-    zone cell, clipped into the map, and (n, 2) those blocks' (row, col) numbers. A centre clipped
-    at the map's edge still sees all of its block that lies inside the map."""
-    corner = zone_cells.min(axis=0)
+def block_centres(zone_cells: np.ndarray, shape: tuple[int, int],
+                  origin: Cell | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 2) photo centres, one per footprint-sized block (aligned on `origin`, by default the zone's
+    corner) holding a zone cell, clipped into the map, and (n, 2) those blocks' (row, col) numbers.
+    A centre clipped at the map's edge still sees all of its block that lies inside the map."""
+    corner = zone_cells.min(axis=0) if origin is None else np.asarray(origin)
     blocks = np.unique((zone_cells - corner) // BLOCK, axis=0)
     centres = corner + blocks * BLOCK + FOOTPRINT_RADIUS
     return np.minimum(centres, np.array(shape) - 1), blocks
@@ -88,6 +93,61 @@ def snake_order(start: Cell, centres: np.ndarray, blocks: np.ndarray) -> tuple[i
             best = (moves, order)
     assert best is not None
     return best
+
+
+LOCAL_SEARCH_MOVES = 400  # block hand-overs at most (each shortens the longest snake)
+LOCAL_SEARCH_CANDIDATES = 24  # the longest drone's border blocks tried per hand-over, farthest from its launch first
+
+
+def _snake_moves(start: Cell, centres: np.ndarray, blocks: np.ndarray) -> int:
+    return snake_order(start, centres, blocks)[0] if len(blocks) else 0
+
+
+def fleet_zones(zone: np.ndarray, targets: np.ndarray, starts: list[Cell]) -> np.ndarray:
+    """The zones redrawn for a fleet that sweeps all of them: each block of the map's block grid (aligned
+    on cell (0, 0)) holding a target goes whole to the zone holding most of its targets, then, while
+    handing one of the longest snake's border blocks to a neighbouring drone makes both snakes shorter
+    than the longest, the best such block is handed over (local search on the makespan, as LS-MCPP).
+    Returns the zone map with every target cell labelled by its block's drone (other cells as given)."""
+    cells = np.argwhere(targets)
+    if not len(cells):
+        return zone
+    shape = targets.shape
+    blocks, inverse = np.unique(cells // BLOCK, axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    votes = np.zeros((len(blocks), len(starts)), dtype=np.int64)
+    np.add.at(votes, (inverse, np.clip(zone[cells[:, 0], cells[:, 1]], 0, len(starts) - 1)), 1)
+    owner = votes.argmax(axis=1)
+    centres = np.minimum(blocks * BLOCK + FOOTPRINT_RADIUS, np.array(shape) - 1)
+    number = {(int(r), int(c)): i for i, (r, c) in enumerate(blocks)}
+    neighbours = [[number[n] for n in ((r - 1, c), (r + 1, c), (r, c - 1), (r, c + 1)) if n in number]
+                  for r, c in blocks.tolist()]
+    launch = np.asarray(starts)
+
+    def cost(k: int) -> int:
+        mine = owner == k
+        return _snake_moves(starts[k], centres[mine], blocks[mine])
+
+    costs = [cost(k) for k in range(len(starts))]
+    for _ in range(LOCAL_SEARCH_MOVES):
+        longest = int(np.argmax(costs))
+        border = [int(b) for b in np.flatnonzero(owner == longest) if any(owner[n] != longest for n in neighbours[b])]
+        border.sort(key=lambda b: -int(np.abs(centres[b] - launch[longest]).sum()))
+        best: tuple[int, int, int, int, int] | None = None  # (new longest of the two, block, to, their costs)
+        for b in border[:LOCAL_SEARCH_CANDIDATES]:
+            for j in sorted({int(owner[n]) for n in neighbours[b]} - {longest}):
+                owner[b] = j
+                pair = (cost(longest), cost(j))
+                owner[b] = longest
+                if max(pair) < costs[longest] and (best is None or max(pair) < best[0]):
+                    best = (max(pair), b, j, *pair)
+        if best is None:
+            break
+        _, b, j, costs[longest], costs[j] = best
+        owner[b] = j
+    out = zone.copy()
+    out[cells[:, 0], cells[:, 1]] = owner[inverse]
+    return out
 
 
 def l_leg(start: Cell, goal: Cell, heading: int | None, next_heading: int | None) -> list[Cell]:
@@ -120,10 +180,10 @@ class LaneSweep:
     heading: int | None = None  # the direction of the last leg's last move
 
     @classmethod
-    def plan(cls, zone_cells: np.ndarray, start: Cell, shape: tuple[int, int]) -> LaneSweep:
-        centres, blocks = block_centres(zone_cells, shape)
+    def plan(cls, zone_cells: np.ndarray, start: Cell, shape: tuple[int, int], origin: Cell | None = None) -> LaneSweep:
+        centres, blocks = block_centres(zone_cells, shape, origin)
         _, order = snake_order(start, centres, blocks)
-        corner = zone_cells.min(axis=0)
+        corner = zone_cells.min(axis=0) if origin is None else np.asarray(origin)
         low = corner + blocks * BLOCK
         spans = [(slice(int(r), int(r) + BLOCK), slice(int(c), int(c) + BLOCK)) for r, c in low[order]]
         return cls([(int(r), int(c)) for r, c in centres[order]], spans)

@@ -145,10 +145,14 @@ class Planner:
         self.sweeps = [None] * world.num_drones
         if not self.lanes:
             return
-        for k in range(world.num_drones):
-            zone_cells = np.argwhere(world.zone_of == k)
-            if zone_is_open(world.gmap.obstacle, zone_cells, world.starts[k]):
-                self.sweeps[k] = LaneSweep.plan(zone_cells, world.starts[k], world.gmap.shape)
+        zones = [np.argwhere(world.zone_of == k) for k in range(world.num_drones)]
+        open_zones = [zone_is_open(world.gmap.obstacle, cells, world.starts[k]) for k, cells in enumerate(zones)]
+        # A whole fleet sweeping (its zones drawn block by block by lanes.fleet_zones) keeps to the
+        # map's block grid, so no block is split between two drones; one drone alone, to its zone's.
+        origin = (0, 0) if all(open_zones) else None
+        for k, cells in enumerate(zones):
+            if open_zones[k]:
+                self.sweeps[k] = LaneSweep.plan(cells, world.starts[k], world.gmap.shape, origin)
 
     # ----------------------------------------------------------- path-finding
     def _unexplored_now(self) -> np.ndarray:
