@@ -271,7 +271,7 @@ def write_plan(args: argparse.Namespace, gmap: GridMap, frame: Any, settings: An
     # Clearance band, band detours, flight plans, sorties, separation, geofences (missionplan/fieldplan.py).
     field = plan_field(gmap, args.uavs, frame, settings, safety, balance_zones=not args.no_balance, policy=policy,
                        zone_method=args.zones, seed=args.seed, progress=show_progress,
-                       lanes=getattr(args, "open_ground", "lanes") == "lanes")
+                       lanes=args.open_ground == "lanes")
     result, plans = field.result, field.plans
     if plans is not None and ids is not None:
         plans.relabel(ids)
@@ -280,7 +280,7 @@ def write_plan(args: argparse.Namespace, gmap: GridMap, frame: Any, settings: An
     if settings is not None and safety is not None:  # what `replan` plans the rest of the survey with
         report["settings"] = {"mission": dataclasses.asdict(settings), "safety": dataclasses.asdict(safety),
                               "policy": args.policy, "zones": args.zones, "balance_zones": not args.no_balance,
-                              "open_ground": getattr(args, "open_ground", "lanes")}
+                              "open_ground": args.open_ground}
     if ids is not None:
         report["drone_ids"] = list(ids)
     if survey is not None:

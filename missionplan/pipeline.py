@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .grid.expert import ExpertPolicy
-from .grid.lanes import fleet_zones, zone_is_open
+from .grid.lanes import fleet_zones, open_zones
 from .grid.planner import Planner, Policy
 from .grid.planresult import PlanResult
 from .grid.world import CoverageWorld, check_starts, reachable_targets
@@ -49,11 +49,6 @@ def launch_cells(gmap: GridMap, uavs: int) -> list[Cell]:
     return starts
 
 
-def _all_open(gmap: GridMap, zone: np.ndarray, starts: list[Cell]) -> bool:
-    """Every drone's zone lies in an obstacle-free box (grid.lanes.zone_is_open)."""
-    return all(zone_is_open(gmap.obstacle, np.argwhere(zone == k), start) for k, start in enumerate(starts))
-
-
 def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
              zone_method: str = DEFAULT_ZONE_METHOD, seed: int = 0, starts: list[Cell] | None = None,
              progress: bool = False, balance_zones: bool = True, weights: str | Path | None = None,
@@ -71,10 +66,10 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
     began = time.perf_counter()
     reachable = reachable_targets(gmap, starts)
     zones = split_zones(reachable, gmap.free, starts, zone_method, seed, balance=balance_zones, shares=zone_shares)
-    if lanes and zone_shares is None and _all_open(gmap, zones.zone, starts):
+    if lanes and zone_shares is None and all(open_zones(gmap.obstacle, zones.zone, starts)):
         # The whole fleet sweeps: zones redrawn block by block and balanced on the longest snake.
         redrawn = fleet_zones(zones.zone, reachable, starts)
-        if _all_open(gmap, redrawn, starts):
+        if all(open_zones(gmap.obstacle, redrawn, starts)):
             zones = replace(zones, zone=redrawn)
     zone_seconds = time.perf_counter() - began
     world = CoverageWorld(gmap, starts, zones.zone)

@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from missionplan.cli import main
-from missionplan.grid.lanes import BLOCK, LaneSweep, block_centres, fleet_zones, l_leg, snake_order, zone_is_open
+from missionplan.grid.lanes import (BLOCK, LaneSweep, block_centres, fleet_zones, l_leg, open_zones, snake_order,
+                                    zone_is_open)
 from missionplan.grid.world import FOOTPRINT_RADIUS, reachable_targets
 from missionplan.grid.zones import split_zones
 from missionplan.maps.gridmap import GridMap, save_map
@@ -76,6 +77,20 @@ def test_open_zone_needs_an_obstacle_free_box() -> None:
     obstacle[29, 29] = True
     assert zone_is_open(obstacle, zone, (0, 0))
     assert not zone_is_open(obstacle, zone[:0], (0, 0))  # no targets: nothing to sweep
+
+
+def test_open_zones_agrees_with_zone_is_open_zone_by_zone() -> None:
+    rng = np.random.default_rng(5)
+    for _ in range(30):
+        rows, cols = (int(v) for v in rng.integers(20, 80, 2))
+        obstacle = rng.random((rows, cols)) < rng.choice([0.0, 0.0005, 0.002, 0.01])
+        zone = rng.integers(-1, 4, (rows, cols))  # -1: no zone; drone 3 gets no zone sometimes
+        zone[rng.random((rows, cols)) < 0.5] = -1
+        if rng.random() < 0.5:
+            zone[zone == 3] = -1
+        starts = [(int(rng.integers(0, rows)), int(rng.integers(0, cols))) for _ in range(4)]
+        expected = [zone_is_open(obstacle, np.argwhere(zone == k), start) for k, start in enumerate(starts)]
+        assert open_zones(obstacle, zone, starts) == expected
 
 
 def _longest_snake(zone: np.ndarray, starts: list[tuple[int, int]], origin: tuple[int, int] | None) -> int:

@@ -30,7 +30,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .world import ACTION_DELTAS, FOOTPRINT_RADIUS, HOVER, VIEW_RADIUS, CoverageWorld
+from .world import ACTION_DELTAS, FOOTPRINT_RADIUS, VIEW_RADIUS, CoverageWorld, turn_weight
 
 LOOKAHEAD = 5
 GAMMA = 0.9
@@ -49,12 +49,6 @@ class _SequenceTables:
     turn_cost: np.ndarray  # (5, S) discounted turn cost, row = previous action + 1 (row 0: none)
     self_revisits: np.ndarray  # (S,) moves onto a cell the sequence already stood on
     cells_by_move: np.ndarray  # (D * S,) cells.T flattened: move t of every sequence, then move t + 1
-
-
-def _turn(a: int, b: int) -> float:
-    if a == HOVER or a == b:
-        return 0.0
-    return 1.0 if (a - b) % 4 == 2 else 0.5
 
 
 @lru_cache(maxsize=None)
@@ -84,7 +78,7 @@ def sequence_tables(depth: int = LOOKAHEAD, gamma: float = GAMMA) -> _SequenceTa
             stood.add(int(cells[s, t]))
         for prev in range(-1, 4):
             chain = [prev, *sequences[s]]
-            turn_cost[prev + 1, s] = sum(gamma ** t * _turn(chain[t], chain[t + 1]) for t in range(depth))
+            turn_cost[prev + 1, s] = sum(gamma ** t * turn_weight(chain[t], chain[t + 1]) for t in range(depth))
     # action_scores relies on this order: each first move owns one contiguous quarter.
     assert np.array_equal(sequences[:, 0], np.arange(num) // (num // 4))
     return _SequenceTables(sequences[:, 0].copy(), cells, new_weights, turn_cost, self_revisits,

@@ -6,8 +6,8 @@ photograph each block holding a target once from its centre, and visit the centr
 (boustrophedon), lane after lane one footprint apart. On an obstacle-free grid that is also the
 path a spanning-tree planner (DARP, STC) flies over the same blocks.
 
-- `zone_is_open`: whether a drone's zone, its launch cell and every photo centre lie in one
-  obstacle-free box (then every leg below is flyable);
+- `zone_is_open` / `open_zones`: whether a drone's zone, its launch cell and every photo centre
+  lie in one obstacle-free box (then every leg below is flyable), for one zone or every zone;
 - `block_centres` / `snake_order`: the blocks of a zone (aligned on its corner, or on the map's
   when the whole fleet sweeps) and the shortest of the eight snakes through their centres (by block
   rows or columns, from any corner);
@@ -25,34 +25,24 @@ from dataclasses import dataclass, field
 from itertools import product
 
 import numpy as np
+from scipy import ndimage
 
 from ..maps.gridmap import Cell
-from .world import ACTION_DELTAS, FOOTPRINT_RADIUS
+from .world import ACTION_OF_DELTA, FOOTPRINT_RADIUS, HOVER, turn_weight
 
 BLOCK = 2 * FOOTPRINT_RADIUS + 1  # the footprint's side in cells
 
 
-def _turn(a: int | None, b: int | None) -> float:
-    """Turn weight between two headings (action numbers): 0.5 per 90 deg, 1 for a reversal."""
-    if a is None or b is None or a == b:
-        return 0.0
-    return 1.0 if (a - b) % 4 == 2 else 0.5
+def _heading(delta_r: int, delta_c: int) -> int:
+    """The action of a straight move along one axis (HOVER for no move)."""
+    return ACTION_OF_DELTA.get((int(np.sign(delta_r)), int(np.sign(delta_c))), HOVER)
 
 
-def _heading(delta_r: int, delta_c: int) -> int | None:
-    """The action number of a straight move along one axis (None for no move)."""
-    if delta_r == delta_c == 0:
-        return None
-    step = (int(np.sign(delta_r)), int(np.sign(delta_c)))
-    return next(a for a, (dr, dc) in enumerate(ACTION_DELTAS) if (dr, dc) == step)
-
-
-def zone_box(zone_cells: np.ndarray, start: Cell, shape: tuple[int, int]) -> tuple[slice, slice]:
-    """The box holding the zone's cells, the launch cell and every photo centre (a centre lies at
-    most FOOTPRINT_RADIUS past the zone, clipped into the map)."""
-    low = np.minimum(zone_cells.min(axis=0), start)
-    high = np.maximum(zone_cells.max(axis=0) + FOOTPRINT_RADIUS, start)
-    high = np.minimum(high, np.array(shape) - 1)
+def _box(low: np.ndarray, high: np.ndarray, start: Cell, shape: tuple[int, int]) -> tuple[slice, slice]:
+    """The box from a zone's lowest to highest cell, grown to hold the launch cell and every photo
+    centre (a centre lies at most FOOTPRINT_RADIUS past the zone, clipped into the map)."""
+    low = np.minimum(low, start)
+    high = np.minimum(np.maximum(high + FOOTPRINT_RADIUS, start), np.array(shape) - 1)
     return slice(int(low[0]), int(high[0]) + 1), slice(int(low[1]), int(high[1]) + 1)
 
 
@@ -60,7 +50,21 @@ def zone_is_open(obstacle: np.ndarray, zone_cells: np.ndarray, start: Cell) -> b
     """Whether the drone can sweep this zone in lanes: a zone with targets, in an obstacle-free box."""
     if not len(zone_cells):
         return False
-    return not obstacle[zone_box(zone_cells, start, obstacle.shape)].any()
+    return not obstacle[_box(zone_cells.min(axis=0), zone_cells.max(axis=0), start, obstacle.shape)].any()
+
+
+def open_zones(obstacle: np.ndarray, zone: np.ndarray, starts: list[Cell]) -> list[bool]:
+    """zone_is_open for every drone's zone (labels 0 .. len(starts) - 1 in `zone`), the zones' boxes
+    found in one pass over the map instead of one per drone."""
+    boxes = ndimage.find_objects(np.where(zone >= 0, zone + 1, 0), max_label=len(starts))
+    out = []
+    for box, start in zip(boxes, starts):
+        if box is None:
+            out.append(False)  # no targets: nothing to sweep
+            continue
+        low, high = np.array([box[0].start, box[1].start]), np.array([box[0].stop - 1, box[1].stop - 1])
+        out.append(not obstacle[_box(low, high, start, obstacle.shape)].any())
+    return out
 
 
 def block_centres(zone_cells: np.ndarray, shape: tuple[int, int],
@@ -150,7 +154,7 @@ def fleet_zones(zone: np.ndarray, targets: np.ndarray, starts: list[Cell]) -> np
     return out
 
 
-def l_leg(start: Cell, goal: Cell, heading: int | None, next_heading: int | None) -> list[Cell]:
+def l_leg(start: Cell, goal: Cell, heading: int = HOVER, next_heading: int = HOVER) -> list[Cell]:
     """Cells from `start` (left out) to `goal`: straight, or an L whose corner costs the fewest turns
     coming in at `heading` and leaving at `next_heading` (rows first on a tie)."""
     (r0, c0), (r1, c1) = start, goal
@@ -158,8 +162,8 @@ def l_leg(start: Cell, goal: Cell, heading: int | None, next_heading: int | None
     rows_dir, cols_dir = _heading(dr, 0), _heading(0, dc)
     rows_first = True
     if dr and dc:
-        cost_rows = _turn(heading, rows_dir) + _turn(cols_dir, next_heading)
-        cost_cols = _turn(heading, cols_dir) + _turn(rows_dir, next_heading)
+        cost_rows = turn_weight(heading, rows_dir) + turn_weight(cols_dir, next_heading)
+        cost_cols = turn_weight(heading, cols_dir) + turn_weight(rows_dir, next_heading)
         rows_first = cost_rows <= cost_cols
     step_r, step_c = int(np.sign(dr)), int(np.sign(dc))
     along_rows = [(r0 + step_r * i, c0) for i in range(1, abs(dr) + 1)]
@@ -177,7 +181,7 @@ class LaneSweep:
     centres: list[Cell]
     blocks: list[tuple[slice, slice]]  # each centre's block, to skip one photographed already
     leg: list[Cell] = field(default_factory=list)  # cells still to fly to centres[0], next first
-    heading: int | None = None  # the direction of the last leg's last move
+    heading: int = HOVER  # the direction of the last leg's last move (HOVER: none yet)
 
     @classmethod
     def plan(cls, zone_cells: np.ndarray, start: Cell, shape: tuple[int, int], origin: Cell | None = None) -> LaneSweep:
@@ -211,10 +215,10 @@ class LaneSweep:
                 return None
             goal = self.centres[0]
             after = self.centres[1] if len(self.centres) > 1 else None
-            next_heading = None
+            next_heading = HOVER
             if after is not None:  # along the goal's lane, when the next centre lies on it
                 dr, dc = after[0] - goal[0], after[1] - goal[1]
-                next_heading = _heading(dr, dc) if dr == 0 or dc == 0 else None
+                next_heading = _heading(dr, dc) if dr == 0 or dc == 0 else HOVER
             self.leg = l_leg(position, goal, self.heading, next_heading)
             if len(self.leg) >= 2:
                 last, before = self.leg[-1], self.leg[-2]

@@ -48,9 +48,9 @@ from tqdm import tqdm
 
 from ..maps.gridmap import Cell
 from .metrics import SteadyStateSampler, compute_metrics, mdu_stride
-from .lanes import LaneSweep, zone_is_open
+from .lanes import LaneSweep, open_zones
 from .pathfinding import FlightSearch, find_goal
-from .world import ACTION_DELTAS, HOVER, PAD, CoverageWorld
+from .world import ACTION_DELTAS, ACTION_OF_DELTA, HOVER, PAD, CoverageWorld
 
 DEADLOCK_STEPS = 3
 MAX_GOAL_TRIES = 4
@@ -107,12 +107,9 @@ class PlanRun:
     lane_drones: int = 0  # drones that swept an open-ground zone in lanes (grid.lanes)
 
 
-_ACTION_OF_DELTA = {(int(dr), int(dc)): action for action, (dr, dc) in enumerate(ACTION_DELTAS)}
-
-
 def _action_towards(position: np.ndarray, cell: Cell) -> int:
     """The action that moves from `position` to the neighbouring `cell`; HOVER if it is not one."""
-    return _ACTION_OF_DELTA.get((int(cell[0]) - int(position[0]), int(cell[1]) - int(position[1])), HOVER)
+    return ACTION_OF_DELTA.get((int(cell[0]) - int(position[0]), int(cell[1]) - int(position[1])), HOVER)
 
 
 class Planner:
@@ -145,14 +142,13 @@ class Planner:
         self.sweeps = [None] * world.num_drones
         if not self.lanes:
             return
-        zones = [np.argwhere(world.zone_of == k) for k in range(world.num_drones)]
-        open_zones = [zone_is_open(world.gmap.obstacle, cells, world.starts[k]) for k, cells in enumerate(zones)]
+        sweeps = open_zones(world.gmap.obstacle, world.zone_of, world.starts)
         # A whole fleet sweeping (its zones drawn block by block by lanes.fleet_zones) keeps to the
         # map's block grid, so no block is split between two drones; one drone alone, to its zone's.
-        origin = (0, 0) if all(open_zones) else None
-        for k, cells in enumerate(zones):
-            if open_zones[k]:
-                self.sweeps[k] = LaneSweep.plan(cells, world.starts[k], world.gmap.shape, origin)
+        origin = (0, 0) if all(sweeps) else None
+        for k in np.flatnonzero(sweeps):
+            cells = np.argwhere(world.zone_of == k)
+            self.sweeps[k] = LaneSweep.plan(cells, world.starts[k], world.gmap.shape, origin)
 
     # ----------------------------------------------------------- path-finding
     def _unexplored_now(self) -> np.ndarray:

@@ -26,6 +26,14 @@ UP, RIGHT, DOWN, LEFT = 0, 1, 2, 3
 HOVER = -1
 ACTION_NAMES = ("up", "right", "down", "left")
 ACTION_DELTAS = np.array([[-1, 0], [0, 1], [1, 0], [0, -1]], dtype=np.int64)
+ACTION_OF_DELTA = {(int(dr), int(dc)): action for action, (dr, dc) in enumerate(ACTION_DELTAS)}
+
+
+def turn_weight(a: int, b: int) -> float:
+    """The thesis's turn weight between two moves: 0 straight (or after a hover), 0.5 for 90 deg, 1 reversed."""
+    if a == HOVER or b == HOVER or a == b:
+        return 0.0
+    return 1.0 if (a - b) % 4 == 2 else 0.5
 
 FOOTPRINT_RADIUS = 4  # 9 x 9 cells centred on the drone
 VIEW_RADIUS = 9  # 19 x 19 local view
