@@ -28,11 +28,16 @@ themselves: coverage is recounted from the photo centres. Per map and fleet it p
 planner with lanes (`lanes`), for it exploring cell by cell with the expert and with the network
 (`--open-ground explore`), and for both baselines: makespan (the longest drone's moves),
 total moves, coverage of the targets, CPU seconds, the makespan over the floor U / (9 A), and the
-makespan against the sweep's and the ls baseline's. Maps:
-open ground (every cell a target) and the MovingAI street maps in ../shared/maps/movingai/ with
-every building overflown. Run by hand:
+makespan against the sweep's, the ls baseline's and our expert's exploring (`vs exp`). Maps:
+open ground (every cell a target), the MovingAI street maps in ../shared/maps/movingai/ with
+every building overflown, and the same maps with every N-th building left standing (`1/N tall`,
+--tall-every: a few tall buildings among low ones; the planner sweeps the zones that are at most
+lanes.MAX_OBSTACLE_SHARE obstacle round them and explores the rest). The baselines' taxicab legs
+assume nothing in the way, so the tall maps have none. One plan's makespan moves by a few percent
+with the seed (where the zones' sampling starts, who makes way), so --seeds N prints the mean of
+N plans for our rows. Run by hand:
 
-    .venv/bin/python bench/sweep_bench.py [--open 128,256] [--uavs 6,20]
+    .venv/bin/python bench/sweep_bench.py [--open 128,256] [--uavs 6,20] [--seeds N] [--tall-every N]
                                           [--movingai-dir ../shared/maps/movingai] [--write-doc FILE]
 """
 
@@ -44,6 +49,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from scipy import ndimage
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
@@ -95,53 +101,81 @@ def sweep_plan(shape: tuple[int, int], targets: np.ndarray, starts: list[Cell], 
             "coverage": 100.0 * int((covered & targets).sum()) / count if count else 100.0}
 
 
+def mostly_overflown(gmap: GridMap, every: int) -> GridMap:
+    """The same map with its buildings flown over except every `every`-th (4-connected obstacle
+    pieces, in ndimage.label's order), which stay: a few tall buildings among low ones."""
+    pieces, count = ndimage.label(gmap.obstacle)
+    tall = np.isin(pieces, np.arange(every, count + 1, every))
+    return GridMap(f"{gmap.name} 1/{every} tall", tall, gmap.target & gmap.free, list(gmap.launch), dict(gmap.meta))
+
+
 def maps(args: argparse.Namespace) -> list[tuple[str, int]]:
     """(map key, drones) of every row."""
     keys = [f"open:{size}" for size in filter(None, args.open.split(","))]
     folder = Path(args.movingai_dir)
-    keys += [str(path) for path in sorted(folder.glob("*.map"))] if folder.is_dir() else []
+    found = [str(path) for path in sorted(folder.glob("*.map"))] if folder.is_dir() else []
+    keys += found
+    if args.tall_every:
+        keys += [f"tall:{path}" for path in found]
     return [(key, int(uavs)) for key in keys for uavs in filter(None, args.uavs.split(","))]
 
 
-def load(key: str, uavs: int) -> GridMap:
+def load(key: str, uavs: int, tall_every: int) -> GridMap:
     if key.startswith("open:"):
         return open_ground(int(key.split(":")[1]), uavs)
-    return overflown(parse_movingai(read_map_text(key), key))
+    if key.startswith("tall:"):
+        path = key.split(":", 1)[1]
+        return mostly_overflown(parse_movingai(read_map_text(path), Path(path).stem), tall_every)
+    return overflown(parse_movingai(read_map_text(key), Path(key).stem))
 
 
 def table(args: argparse.Namespace) -> int:
     header = (f"{'map':<22} {'A':>3} {'planner':<8} {'targets':>8} {'makespan':>8} {'total':>8} {'cov %':>6} "
-              f"{'cpu s':>6} {'span/floor':>10} {'vs sweep':>8} {'vs ls':>7}")
+              f"{'cpu s':>6} {'span/floor':>10} {'vs sweep':>8} {'vs ls':>7} {'vs exp':>7}")
     print(header)
     print("-" * len(header), flush=True)
     policies = {name: make_policy(name) for name in ("expert", "nn")}
     for key, uavs in maps(args):
-        gmap = load(key, uavs)
+        gmap = load(key, uavs, args.tall_every)
         starts = list(gmap.launch[:uavs])
-        name = gmap.name if not key.startswith("/") else f"{Path(key).stem} overflown"
-        cpu = time.process_time()
         reachable = reachable_targets(gmap, starts)
-        zones = split_zones(reachable, gmap.free, starts, balance=True)
-        sweep = sweep_plan(gmap.shape, reachable, starts, zones.zone)
-        sweep["cpu"] = time.process_time() - cpu
-        cpu = time.process_time()
-        searched = sweep_plan(gmap.shape, reachable, starts, fleet_zones(zones.zone, reachable, starts), (0, 0))
-        searched["cpu"] = sweep["cpu"] + time.process_time() - cpu  # the zones are its too
+        # The baselines fly taxicab legs between block centres: only where nothing stands in the way.
+        baselines = not gmap.obstacle.any()
+        if baselines:
+            cpu = time.process_time()
+            zones = split_zones(reachable, gmap.free, starts, balance=True)
+            sweep = sweep_plan(gmap.shape, reachable, starts, zones.zone)
+            sweep["cpu"] = time.process_time() - cpu
+            cpu = time.process_time()
+            searched = sweep_plan(gmap.shape, reachable, starts, fleet_zones(zones.zone, reachable, starts), (0, 0))
+            searched["cpu"] = sweep["cpu"] + time.process_time() - cpu  # the zones are its too
         rows = []
         for label, policy, lanes in (("lanes", "expert", True), ("expert", "expert", False), ("nn", "nn", False)):
-            cpu = time.process_time()
-            result = plan_map(gmap, uavs, policy=policies[policy], starts=starts, lanes=lanes)
-            m = result.run.metrics
-            rows.append((label, {"makespan": m["makespan"], "total": round(uavs * m["MMN"]),
-                                 "coverage": m["coverage"], "cpu": time.process_time() - cpu}))
-        rows += [("ls", searched), ("sweep", sweep)]
+            # With --seeds N, the mean of N plans (seeds 0 .. N-1: zones and tie-breaks), least coverage.
+            runs = []
+            for seed in range(args.seeds):
+                cpu = time.process_time()
+                m = plan_map(gmap, uavs, policy=policies[policy], starts=starts, lanes=lanes, seed=seed).run.metrics
+                runs.append((m["makespan"], uavs * m["MMN"], m["coverage"], time.process_time() - cpu))
+            makespan, total, _, seconds = np.mean(runs, axis=0)
+            rows.append((label, {"makespan": round(float(makespan)), "total": round(float(total)),
+                                 "coverage": min(run[2] for run in runs), "cpu": float(seconds)}))
+        if baselines:
+            rows += [("ls", searched), ("sweep", sweep)]
         targets = int(reachable.sum())
         floor = targets / (9 * uavs)
+        expert = dict(rows)["expert"]
+
+        def against(r: dict[str, float], other: dict[str, float] | None, width: int) -> str:
+            if other is None or r is other:
+                return f"{'-':>{width}}"
+            return f"{100 * (r['makespan'] / other['makespan'] - 1):+{width - 1}.1f}%"
+
         for label, r in rows:
-            versus = f"{100 * (r['makespan'] / sweep['makespan'] - 1):+7.1f}%" if label != "sweep" else f"{'-':>8}"
-            versus_ls = f"{100 * (r['makespan'] / searched['makespan'] - 1):+6.1f}%" if label != "ls" else f"{'-':>7}"
-            print(f"{name:<22} {uavs:>3} {label:<8} {targets:>8} {r['makespan']:>8} {r['total']:>8} "
-                  f"{r['coverage']:>6.1f} {r['cpu']:>6.1f} {r['makespan'] / floor:>10.2f} {versus} {versus_ls}", flush=True)
+            print(f"{gmap.name:<22} {uavs:>3} {label:<8} {targets:>8} {r['makespan']:>8} {r['total']:>8} "
+                  f"{r['coverage']:>6.1f} {r['cpu']:>6.1f} {r['makespan'] / floor:>10.2f} "
+                  f"{against(r, sweep if baselines else None, 8)} {against(r, searched if baselines else None, 7)} "
+                  f"{against(r, expert, 7)}", flush=True)
     return 0
 
 
@@ -150,6 +184,10 @@ def main() -> int:
     parser.add_argument("--open", default="128,256", help="comma list of open-ground sizes (empty: none)")
     parser.add_argument("--uavs", default="6,20", help="comma list of fleet sizes")
     parser.add_argument("--movingai-dir", default=str(MOVINGAI_DIR))
+    parser.add_argument("--seeds", type=int, default=1,
+                        help="plan each of our rows with seeds 0 .. N-1 and print the means (baselines: seed 0)")
+    parser.add_argument("--tall-every", type=int, default=5,
+                        help="also plan each MovingAI map with every N-th building left standing (0: not)")
     doctable.add_option(parser)
     args = parser.parse_args()
     with doctable.Recorder(args.write_doc, __file__):

@@ -28,6 +28,7 @@ from bridge.atomic import probe_writable
 from .flight.fleet_demo import register as register_demo_command
 from .flight.fly import register as register_fly_command
 from .flight.survey_status import register as register_status_command
+from .grid.lanes import MAX_OBSTACLE_SHARE
 from .grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 from .maps.catalog import load_shipped, shipped_map_names
 from .maps.gridmap import GridMap, MapError
@@ -158,9 +159,9 @@ def _build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--no-balance", action="store_true",
                       help="plain Lloyd/Voronoi zones, without equalising their sizes")
     plan.add_argument("--open-ground", choices=("lanes", "explore"), default="lanes",
-                      help="a drone whose zone lies on open ground (nothing blocked around it, e.g. every building "
-                           "low enough to fly over) sweeps it in footprint-wide lanes, or explores it cell by cell "
-                           "(default lanes)")
+                      help=f"a drone whose zone lies on open ground (at most {100 * MAX_OBSTACLE_SHARE:g} %% of the box "
+                           "around it blocked, e.g. buildings low enough to fly over with a few tall ones) sweeps "
+                           "it in footprint-wide lanes, or explores it cell by cell (default lanes)")
     plan.add_argument("--seed", type=int, default=0, help="seed for zones and deadlock breaking")
     plan.add_argument("--quiet", action="store_true", help="no progress bar")
     train = sub.add_parser("train", help="train the neural policy by imitation of the expert and write its weights")

@@ -8,6 +8,8 @@ path a spanning-tree planner (DARP, STC) flies over the same blocks.
 
 - `zone_is_open` / `open_zones`: whether a drone's zone, its launch cell and every photo centre
   lie in one obstacle-free box (then every leg below is flyable), for one zone or every zone;
+  `obstacle_shares` / `sweepable_zones`: how much of each box is obstacle, and whether it is little
+  enough (MAX_OBSTACLE_SHARE: a few tall buildings among low ones flown over) to sweep round it;
 - `block_centres` / `snake_order`: the blocks of a zone (aligned on its corner, or on the map's
   when the whole fleet sweeps) and the shortest of the eight snakes through their centres (by block
   rows or columns, from any corner);
@@ -16,7 +18,10 @@ path a spanning-tree planner (DARP, STC) flies over the same blocks.
   as LS-MCPP does on its decomposition;
 - `LaneSweep`: one drone's sweep as the planner flies it, cell by cell: an L-shaped leg to the
   next centre (the corner placed where it turns least), skipping every block that is photographed
-  already (by its own passes or another drone's), so it never flies longer than the snake.
+  already (by its own passes or another drone's), so on open ground it never flies longer than the
+  snake. Round obstacles, a leg takes the other corner or else the shortest way round (A*), and a
+  block whose centre is an obstacle or out of reach is left for the drone to explore once its sweep
+  is over.
 """
 
 from __future__ import annotations
@@ -28,9 +33,13 @@ import numpy as np
 from scipy import ndimage
 
 from ..maps.gridmap import Cell
+from .pathfinding import FlightSearch
 from .world import ACTION_OF_DELTA, FOOTPRINT_RADIUS, HOVER, turn_weight
 
 BLOCK = 2 * FOOTPRINT_RADIUS + 1  # the footprint's side in cells
+# A zone whose box holds at most this share of obstacle cells is still swept in lanes (around them);
+# past it, exploring cell by cell wins (bench/sweep_bench.py's "tall" maps).
+MAX_OBSTACLE_SHARE = 0.05
 
 
 def _heading(delta_r: int, delta_c: int) -> int:
@@ -53,18 +62,30 @@ def zone_is_open(obstacle: np.ndarray, zone_cells: np.ndarray, start: Cell) -> b
     return not obstacle[_box(zone_cells.min(axis=0), zone_cells.max(axis=0), start, obstacle.shape)].any()
 
 
-def open_zones(obstacle: np.ndarray, zone: np.ndarray, starts: list[Cell]) -> list[bool]:
-    """zone_is_open for every drone's zone (labels 0 .. len(starts) - 1 in `zone`), the zones' boxes
-    found in one pass over the map instead of one per drone."""
+def obstacle_shares(obstacle: np.ndarray, zone: np.ndarray, starts: list[Cell]) -> list[float | None]:
+    """The share of obstacle cells in every drone's box (zone labels 0 .. len(starts) - 1 in `zone`;
+    None for a zone without targets), the boxes found in one pass over the map instead of one per drone."""
     boxes = ndimage.find_objects(np.where(zone >= 0, zone + 1, 0), max_label=len(starts))
-    out = []
+    out: list[float | None] = []
     for box, start in zip(boxes, starts):
         if box is None:
-            out.append(False)  # no targets: nothing to sweep
+            out.append(None)  # no targets: nothing to sweep
             continue
         low, high = np.array([box[0].start, box[1].start]), np.array([box[0].stop - 1, box[1].stop - 1])
-        out.append(not obstacle[_box(low, high, start, obstacle.shape)].any())
+        out.append(float(obstacle[_box(low, high, start, obstacle.shape)].mean()))
     return out
+
+
+def open_zones(obstacle: np.ndarray, zone: np.ndarray, starts: list[Cell]) -> list[bool]:
+    """zone_is_open for every drone's zone (labels 0 .. len(starts) - 1 in `zone`)."""
+    return [share == 0.0 for share in obstacle_shares(obstacle, zone, starts)]
+
+
+def sweepable_zones(obstacle: np.ndarray, zone: np.ndarray, starts: list[Cell],
+                    max_share: float = MAX_OBSTACLE_SHARE) -> list[bool]:
+    """For every drone's zone: whether it is swept in lanes, its box at most `max_share` obstacle
+    (open ground, or low buildings flown over with a few tall ones left to fly around)."""
+    return [share is not None and share <= max_share for share in obstacle_shares(obstacle, zone, starts)]
 
 
 def block_centres(zone_cells: np.ndarray, shape: tuple[int, int],
@@ -154,9 +175,11 @@ def fleet_zones(zone: np.ndarray, targets: np.ndarray, starts: list[Cell]) -> np
     return out
 
 
-def l_leg(start: Cell, goal: Cell, heading: int = HOVER, next_heading: int = HOVER) -> list[Cell]:
+def l_leg(start: Cell, goal: Cell, heading: int = HOVER, next_heading: int = HOVER,
+          other_corner: bool = False) -> list[Cell]:
     """Cells from `start` (left out) to `goal`: straight, or an L whose corner costs the fewest turns
-    coming in at `heading` and leaving at `next_heading` (rows first on a tie)."""
+    coming in at `heading` and leaving at `next_heading` (rows first on a tie); `other_corner`: the
+    L round the other corner (an obstacle stands on the first)."""
     (r0, c0), (r1, c1) = start, goal
     dr, dc = r1 - r0, c1 - c0
     rows_dir, cols_dir = _heading(dr, 0), _heading(0, dc)
@@ -164,7 +187,7 @@ def l_leg(start: Cell, goal: Cell, heading: int = HOVER, next_heading: int = HOV
     if dr and dc:
         cost_rows = turn_weight(heading, rows_dir) + turn_weight(cols_dir, next_heading)
         cost_cols = turn_weight(heading, cols_dir) + turn_weight(rows_dir, next_heading)
-        rows_first = cost_rows <= cost_cols
+        rows_first = (cost_rows <= cost_cols) != other_corner
     step_r, step_c = int(np.sign(dr)), int(np.sign(dc))
     along_rows = [(r0 + step_r * i, c0) for i in range(1, abs(dr) + 1)]
     along_cols = [(r0, c0 + step_c * i) for i in range(1, abs(dc) + 1)]
@@ -184,8 +207,17 @@ class LaneSweep:
     heading: int = HOVER  # the direction of the last leg's last move (HOVER: none yet)
 
     @classmethod
-    def plan(cls, zone_cells: np.ndarray, start: Cell, shape: tuple[int, int], origin: Cell | None = None) -> LaneSweep:
+    def plan(cls, zone_cells: np.ndarray, start: Cell, shape: tuple[int, int], origin: Cell | None = None,
+             free: np.ndarray | None = None) -> LaneSweep:
+        """The sweep of a zone from `start`. With `free` (the map's free cells, where the zone's box
+        holds obstacles) a block whose centre is an obstacle is left out: exploration photographs it
+        once the sweep is over."""
         centres, blocks = block_centres(zone_cells, shape, origin)
+        if free is not None:
+            flyable = free[centres[:, 0], centres[:, 1]]
+            centres, blocks = centres[flyable], blocks[flyable]
+        if not len(centres):
+            return cls([], [])
         _, order = snake_order(start, centres, blocks)
         corner = zone_cells.min(axis=0) if origin is None else np.asarray(origin)
         low = corner + blocks * BLOCK
@@ -196,21 +228,23 @@ class LaneSweep:
     def finished(self) -> bool:
         return not self.centres
 
-    def next_cell(self, position: Cell, unexplored: np.ndarray) -> Cell | None:
+    def next_cell(self, position: Cell, unexplored: np.ndarray, search: FlightSearch | None = None) -> Cell | None:
         """The cell to fly to next from `position`; None once every block is photographed.
 
         `unexplored` is the world's mask of targets not photographed yet: a block with none left
-        is skipped, however it got photographed."""
+        is skipped, however it got photographed. `search` (a FlightSearch of the map's free cells) is
+        needed only where obstacles stand in the zone: a leg that an L-shape cannot fly goes the
+        other way round the corner, else the shortest way around (A*), and a centre that cannot be
+        reached is left to exploration."""
         if self.leg and self.leg[0] == position:
             self.leg.pop(0)
         if self.leg and abs(self.leg[0][0] - position[0]) + abs(self.leg[0][1] - position[1]) != 1:
             self.leg = []  # pushed off the leg (it made way for another drone): fly a new one
         if self.centres and not unexplored[self.blocks[0]].any():
             self.leg = []  # this block is done already: on to the next one from here
-        if not self.leg:
+        while not self.leg:
             while self.centres and (self.centres[0] == position or not unexplored[self.blocks[0]].any()):
-                self.centres.pop(0)
-                self.blocks.pop(0)
+                self._drop_first()
             if not self.centres:
                 return None
             goal = self.centres[0]
@@ -220,9 +254,26 @@ class LaneSweep:
                 dr, dc = after[0] - goal[0], after[1] - goal[1]
                 next_heading = _heading(dr, dc) if dr == 0 or dc == 0 else HOVER
             self.leg = l_leg(position, goal, self.heading, next_heading)
+            if search is not None and not _flyable(search, self.leg):
+                self.leg = l_leg(position, goal, self.heading, next_heading, other_corner=True)
+                if not _flyable(search, self.leg):
+                    around = search.path(position, goal)
+                    self.leg = around[1:] if around else []
+                    if not self.leg:
+                        self._drop_first()  # out of reach from here: exploration's
+                        continue
             if len(self.leg) >= 2:
                 last, before = self.leg[-1], self.leg[-2]
             else:
                 last, before = self.leg[-1], position
             self.heading = _heading(last[0] - before[0], last[1] - before[1])
         return self.leg[0]
+
+    def _drop_first(self) -> None:
+        self.centres.pop(0)
+        self.blocks.pop(0)
+
+
+def _flyable(search: FlightSearch, leg: list[Cell]) -> bool:
+    """Whether every cell of the leg is free."""
+    return bool(search.is_free(np.asarray(leg).reshape(-1, 2)).all())

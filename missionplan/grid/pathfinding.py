@@ -134,6 +134,10 @@ class FlightSearch:
         cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
         return (cells[:, 0] + self.pad) * self.width + cells[:, 1] + self.pad
 
+    def is_free(self, cells: np.ndarray) -> np.ndarray:
+        """Whether each of (n, 2) cells is free (off the grid, within the padding, counts as blocked)."""
+        return self._free[self.flat_index(cells)]
+
     @cached_property
     def _region(self) -> np.ndarray:
         """4-connected free-region labels, flat; 0 on blocked cells. Labelled on first use: a
