@@ -1,0 +1,106 @@
+"""The network against the expert on street maps it never saw: makespan over several seeds.
+
+One plan's makespan is a noisy sample: the fleet's drones meet, wait and hand work to each other, so
+a small change early (where the zones' Lloyd iterations start, which drone makes way) moves the
+busiest drone's last cell by several percent, for either policy. So each map and fleet is planned
+with `plan_map(seed=s)` for several seeds s (the seed sets the zones' random sample points and the
+planner's tie-breaks; the launch cells stay as `plan --map` picks them) with the expert and with the
+shipped network, and the network is judged on the mean makespan.
+
+Maps: the MovingAI street maps in ../shared/maps/movingai/ (real OpenStreetMap cities, 256 x 256,
+none of them seen in training). Per map and fleet it prints the expert's and the network's mean
+makespan with their least and most, the gap of the means (network over expert), the least and most
+gap of a single seed, and on how many seeds the network was within GAP_GOAL_PERCENT of the expert;
+then the mean gap over every row. Plans run in parallel worker processes (--workers); the plans do
+not depend on it. Run by hand:
+
+    .venv/bin/python bench/gap_bench.py [--seeds 5] [--uavs 6,20] [--workers 2]
+                                        [--movingai-dir ../shared/maps/movingai] [--weights FILE]
+                                        [--write-doc FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from missionplan.maps.gridmap import read_map_text  # noqa: E402
+from missionplan.maps.movingai import parse_movingai  # noqa: E402
+from missionplan.pipeline import make_policy, plan_map  # noqa: E402
+
+import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
+
+ROOT = Path(__file__).resolve().parent.parent
+MOVINGAI_DIR = ROOT.parent / "shared" / "maps" / "movingai"
+GAP_GOAL_PERCENT = 3.0  # the network's makespan at most this much above the expert's
+POLICIES = ("expert", "nn")
+
+_ready: dict[str, object] = {}  # each worker's loaded policies, made once
+
+
+def plan_makespan(path: str, uavs: int, seed: int, policy: str, weights: str | None) -> tuple[int, float]:
+    """The makespan of one plan, and its coverage of the reachable targets in percent."""
+    if policy not in _ready:
+        _ready[policy] = make_policy(policy, weights if policy == "nn" else None)
+    gmap = parse_movingai(read_map_text(path), path, launches=uavs)
+    run = plan_map(gmap, uavs, policy=_ready[policy], seed=seed).run  # type: ignore[arg-type]
+    return int(run.metrics["makespan"]), float(run.metrics["coverage"])
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=5, help="seeds 0 .. N-1 per map and fleet")
+    parser.add_argument("--uavs", default="6,20", help="comma list of fleet sizes")
+    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="planning processes")
+    parser.add_argument("--movingai-dir", default=str(MOVINGAI_DIR))
+    parser.add_argument("--weights", help="the network's weights (default: the shipped ones), to judge a retrained network")
+    doctable.add_option(parser)
+    args = parser.parse_args()
+    maps = sorted(Path(args.movingai_dir).glob("*.map"))
+    if not maps:
+        print(f"gap_bench: no .map files in {args.movingai_dir}", file=sys.stderr)
+        return 2
+    with doctable.Recorder(args.write_doc, __file__):
+        return table(maps, [int(u) for u in args.uavs.split(",")], args.seeds, args.workers, args.weights)
+
+
+def table(maps: list[Path], fleets: list[int], seeds: int, workers: int, weights: str | None) -> int:
+    header = (f"{'map':<14} {'A':>3} {'expert mkspan':>19} {'network mkspan':>19} {'gap':>7} "
+              f"{'seed gaps':>15} {'within':>7} {'cov %':>6}")
+    print(header)
+    print("-" * len(header), flush=True)
+    rows = [(path, uavs) for uavs in fleets for path in maps]
+    jobs = [(str(path), uavs, seed, policy, weights) for path, uavs in rows for policy in POLICIES for seed in range(seeds)]
+    with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
+        results = iter(list(pool.map(plan_makespan, *zip(*jobs))))
+    gaps = []
+    for path, uavs in rows:
+        makespan = {policy: np.array([next(results) for _ in range(seeds)]) for policy in POLICIES}
+        expert, network = makespan["expert"][:, 0].astype(int), makespan["nn"][:, 0].astype(int)
+        coverage = min(makespan["expert"][:, 1].min(), makespan["nn"][:, 1].min())
+        gap = 100 * (network.mean() / expert.mean() - 1)
+        per_seed = 100 * (network / expert - 1)
+        gaps.append(gap)
+        within = int((per_seed <= GAP_GOAL_PERCENT).sum())
+
+        def spread(values: np.ndarray) -> str:
+            return f"{values.mean():>7.1f} ({values.min():>4}-{values.max():>4})"
+
+        print(f"{path.stem:<14} {uavs:>3} {spread(expert):>19} {spread(network):>19} {gap:>+6.1f}% "
+              f"{f'{per_seed.min():+.1f}..{per_seed.max():+.1f}%':>15} {f'{within}/{seeds}':>7} {coverage:>6.1f}",
+              flush=True)
+    met = sum(g <= GAP_GOAL_PERCENT for g in gaps)
+    print(f"mean gap {np.mean(gaps):+.1f} %; {met} of {len(gaps)} map x fleet rows within "
+          f"{GAP_GOAL_PERCENT:g} % on the mean of {seeds} seeds")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
