@@ -38,7 +38,7 @@ from .world import ACTION_OF_DELTA, FOOTPRINT_RADIUS, HOVER, turn_weight
 
 BLOCK = 2 * FOOTPRINT_RADIUS + 1  # the footprint's side in cells
 # A zone whose box holds at most this share of obstacle cells is still swept in lanes (around them);
-# past it, exploring cell by cell wins (bench/sweep_bench.py's "tall" maps).
+# past it, exploring cell by cell won in trials (the MovingAI maps with every second building standing).
 MAX_OBSTACLE_SHARE = 0.05
 
 
@@ -253,6 +253,9 @@ class LaneSweep:
             if after is not None:  # along the goal's lane, when the next centre lies on it
                 dr, dc = after[0] - goal[0], after[1] - goal[1]
                 next_heading = _heading(dr, dc) if dr == 0 or dc == 0 else HOVER
+            if search is not None and not _same_region(search, position, goal):
+                self._drop_first()  # walled off from here (a courtyard): exploration's, no search needed
+                continue
             self.leg = l_leg(position, goal, self.heading, next_heading)
             if search is not None and not _flyable(search, self.leg):
                 self.leg = l_leg(position, goal, self.heading, next_heading, other_corner=True)
@@ -272,6 +275,12 @@ class LaneSweep:
     def _drop_first(self) -> None:
         self.centres.pop(0)
         self.blocks.pop(0)
+
+
+def _same_region(search: FlightSearch, a: Cell, b: Cell) -> bool:
+    """Whether b can be flown to from a (the same free region)."""
+    regions = search.region(search.flat_index(np.array([a, b])))
+    return bool(regions[0] == regions[1] and regions[0] != 0)
 
 
 def _flyable(search: FlightSearch, leg: list[Cell]) -> bool:
