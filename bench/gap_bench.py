@@ -71,6 +71,11 @@ def main() -> int:
         return table(maps, [int(u) for u in args.uavs.split(",")], args.seeds, args.workers, args.weights)
 
 
+def spread(values: np.ndarray) -> str:
+    """Mean (least-most) of makespans."""
+    return f"{values.mean():>7.1f} ({values.min():>4}-{values.max():>4})"
+
+
 def table(maps: list[Path], fleets: list[int], seeds: int, workers: int, weights: str | None) -> int:
     header = (f"{'map':<14} {'A':>3} {'expert mkspan':>19} {'network mkspan':>19} {'gap':>7} "
               f"{'seed gaps':>15} {'within':>7} {'cov %':>6}")
@@ -89,9 +94,6 @@ def table(maps: list[Path], fleets: list[int], seeds: int, workers: int, weights
         per_seed = 100 * (network / expert - 1)
         gaps.append(gap)
         within = int((per_seed <= GAP_GOAL_PERCENT).sum())
-
-        def spread(values: np.ndarray) -> str:
-            return f"{values.mean():>7.1f} ({values.min():>4}-{values.max():>4})"
 
         print(f"{path.stem:<14} {uavs:>3} {spread(expert):>19} {spread(network):>19} {gap:>+6.1f}% "
               f"{f'{per_seed.min():+.1f}..{per_seed.max():+.1f}%':>15} {f'{within}/{seeds}':>7} {coverage:>6.1f}",

@@ -8,8 +8,9 @@ path a spanning-tree planner (DARP, STC) flies over the same blocks.
 
 - `zone_is_open` / `open_zones`: whether a drone's zone, its launch cell and every photo centre
   lie in one obstacle-free box (then every leg below is flyable), for one zone or every zone;
-  `obstacle_shares` / `sweepable_zones`: how much of each box is obstacle, and whether it is little
-  enough (MAX_OBSTACLE_SHARE: a few tall buildings among low ones flown over) to sweep round it;
+  `obstacle_shares` / `sweepable` / `sweepable_zones`: how much of each box is obstacle, and whether
+  it is little enough (MAX_OBSTACLE_SHARE: a few tall buildings among low ones flown over) to sweep
+  round it;
 - `block_centres` / `snake_order`: the blocks of a zone (aligned on its corner, or on the map's
   when the whole fleet sweeps) and the shortest of the eight snakes through their centres (by block
   rows or columns, from any corner);
@@ -81,11 +82,15 @@ def open_zones(obstacle: np.ndarray, zone: np.ndarray, starts: list[Cell]) -> li
     return [share == 0.0 for share in obstacle_shares(obstacle, zone, starts)]
 
 
-def sweepable_zones(obstacle: np.ndarray, zone: np.ndarray, starts: list[Cell],
-                    max_share: float = MAX_OBSTACLE_SHARE) -> list[bool]:
-    """For every drone's zone: whether it is swept in lanes, its box at most `max_share` obstacle
-    (open ground, or low buildings flown over with a few tall ones left to fly around)."""
-    return [share is not None and share <= max_share for share in obstacle_shares(obstacle, zone, starts)]
+def sweepable(share: float | None) -> bool:
+    """Whether a zone whose box is `share` obstacle (None: no targets) is swept in lanes: open ground,
+    or low buildings flown over with a few tall ones left to fly around."""
+    return share is not None and share <= MAX_OBSTACLE_SHARE
+
+
+def sweepable_zones(obstacle: np.ndarray, zone: np.ndarray, starts: list[Cell]) -> list[bool]:
+    """`sweepable` for every drone's zone."""
+    return [sweepable(share) for share in obstacle_shares(obstacle, zone, starts)]
 
 
 def block_centres(zone_cells: np.ndarray, shape: tuple[int, int],
@@ -205,6 +210,7 @@ class LaneSweep:
     blocks: list[tuple[slice, slice]]  # each centre's block, to skip one photographed already
     leg: list[Cell] = field(default_factory=list)  # cells still to fly to centres[0], next first
     heading: int = HOVER  # the direction of the last leg's last move (HOVER: none yet)
+    around_obstacles: bool = False  # obstacles stand in the zone's box: legs and centres are checked
 
     @classmethod
     def plan(cls, zone_cells: np.ndarray, start: Cell, shape: tuple[int, int], origin: Cell | None = None,
@@ -216,13 +222,14 @@ class LaneSweep:
         if free is not None:
             flyable = free[centres[:, 0], centres[:, 1]]
             centres, blocks = centres[flyable], blocks[flyable]
+        around = free is not None
         if not len(centres):
-            return cls([], [])
+            return cls([], [], around_obstacles=around)
         _, order = snake_order(start, centres, blocks)
         corner = zone_cells.min(axis=0) if origin is None else np.asarray(origin)
         low = corner + blocks * BLOCK
         spans = [(slice(int(r), int(r) + BLOCK), slice(int(c), int(c) + BLOCK)) for r, c in low[order]]
-        return cls([(int(r), int(c)) for r, c in centres[order]], spans)
+        return cls([(int(r), int(c)) for r, c in centres[order]], spans, around_obstacles=around)
 
     @property
     def finished(self) -> bool:
@@ -233,9 +240,10 @@ class LaneSweep:
 
         `unexplored` is the world's mask of targets not photographed yet: a block with none left
         is skipped, however it got photographed. `search` (a FlightSearch of the map's free cells) is
-        needed only where obstacles stand in the zone: a leg that an L-shape cannot fly goes the
+        read only by a sweep planned round obstacles: a leg that an L-shape cannot fly goes the
         other way round the corner, else the shortest way around (A*), and a centre that cannot be
         reached is left to exploration."""
+        check = search if self.around_obstacles else None
         if self.leg and self.leg[0] == position:
             self.leg.pop(0)
         if self.leg and abs(self.leg[0][0] - position[0]) + abs(self.leg[0][1] - position[1]) != 1:
@@ -248,19 +256,19 @@ class LaneSweep:
             if not self.centres:
                 return None
             goal = self.centres[0]
+            if check is not None and not _same_region(check, position, goal):
+                self._drop_first()  # walled off from here (a courtyard): exploration's, no search needed
+                continue
             after = self.centres[1] if len(self.centres) > 1 else None
             next_heading = HOVER
             if after is not None:  # along the goal's lane, when the next centre lies on it
                 dr, dc = after[0] - goal[0], after[1] - goal[1]
                 next_heading = _heading(dr, dc) if dr == 0 or dc == 0 else HOVER
-            if search is not None and not _same_region(search, position, goal):
-                self._drop_first()  # walled off from here (a courtyard): exploration's, no search needed
-                continue
             self.leg = l_leg(position, goal, self.heading, next_heading)
-            if search is not None and not _flyable(search, self.leg):
+            if check is not None and not _flyable(check, self.leg):
                 self.leg = l_leg(position, goal, self.heading, next_heading, other_corner=True)
-                if not _flyable(search, self.leg):
-                    around = search.path(position, goal)
+                if not _flyable(check, self.leg):
+                    around = check.path(position, goal)
                     self.leg = around[1:] if around else []
                     if not self.leg:
                         self._drop_first()  # out of reach from here: exploration's

@@ -48,7 +48,7 @@ from tqdm import tqdm
 
 from ..maps.gridmap import Cell
 from .metrics import SteadyStateSampler, compute_metrics, mdu_stride
-from .lanes import LaneSweep, obstacle_shares, MAX_OBSTACLE_SHARE
+from .lanes import LaneSweep, obstacle_shares, sweepable
 from .pathfinding import FlightSearch, find_goal
 from .world import ACTION_DELTAS, ACTION_OF_DELTA, HOVER, PAD, CoverageWorld
 
@@ -135,13 +135,11 @@ class Planner:
         self.deadlocks_broken = 0
         self._by_policy = np.zeros(world.num_drones, dtype=bool)
         self.sweeps: list[LaneSweep | None] = [None] * world.num_drones  # set per run
-        self._sweep_search: list[FlightSearch | None] = [None] * world.num_drones  # set per run
 
     def _plan_sweeps(self) -> None:
         """A lane sweep for each drone whose zone lies on open ground, or nearly (with `lanes`), else None."""
         world = self.world
         self.sweeps = [None] * world.num_drones
-        self._sweep_search = [None] * world.num_drones
         if not self.lanes:
             return
         shares = obstacle_shares(world.gmap.obstacle, world.zone_of, world.starts)
@@ -149,13 +147,12 @@ class Planner:
         # to the map's block grid, so no block is split between two drones; one drone alone, to its zone's.
         origin = (0, 0) if all(share == 0.0 for share in shares) else None
         for k, share in enumerate(shares):
-            if share is None or share > MAX_OBSTACLE_SHARE:
+            if not sweepable(share):
                 continue
             cells = np.argwhere(world.zone_of == k)
             # Around obstacles, legs and centres are checked against the free cells.
             free = None if share == 0.0 else self.free
             self.sweeps[k] = LaneSweep.plan(cells, world.starts[k], world.gmap.shape, origin, free)
-            self._sweep_search[k] = None if free is None else self.search
 
     # ----------------------------------------------------------- path-finding
     def _unexplored_now(self) -> np.ndarray:
@@ -283,7 +280,7 @@ class Planner:
         sweeping = np.zeros(num, dtype=bool)
         for k, sweep in enumerate(self.sweeps):
             if sweep is not None and not parked[k] and not self.nav[k].retreating:
-                cell = sweep.next_cell(tuple(int(v) for v in world.positions[k]), world.unexplored, self._sweep_search[k])
+                cell = sweep.next_cell(tuple(int(v) for v in world.positions[k]), world.unexplored, self.search)
                 if cell is None:
                     self.sweeps[k] = None  # swept: from now on it helps (or parks) as any drone done with its zone
                 else:
