@@ -1,7 +1,8 @@
 """missionplan: photo-coverage missions for several drones over a city.
 
 Pipeline: map -> zones -> multi-drone grid coverage (policy + A*) -> metrics and files.
-The one library call is `missionplan.pipeline.plan_map`.
+Library calls: `missionplan.pipeline.plan_map` plans a grid in memory; `missionplan.plan_folder.write_plan_folder`
+plans and writes a plan folder (report, missions, map files, pictures).
 
 Layout, one stage per subpackage (imports run one way: cli -> flight -> mission -> learn -> grid -> maps):
   maps/     the map type and .map format, the shipped maps, their generator
@@ -9,7 +10,8 @@ Layout, one stage per subpackage (imports run one way: cli -> flight -> mission 
   learn/    the neural policy: features, network + weights, imitation training
   mission/  georeferenced missions and the plan's files (.plan, report.json, plan.png)
   flight/   flying the missions and judging the flight (flight.json)
-  top       cli (the command line), pipeline (plan_map), fieldplan (plan_field)
+  top       cli (the command line: parses and prints), pipeline (plan_map), fieldplan (plan_field),
+            plan_folder (write_plan_folder) and plan_display (what `plan` prints), demo, replan, retask
 """
 
 __version__ = "0.1.0"

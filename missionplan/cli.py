@@ -4,7 +4,7 @@ Subcommands: `maps` (list the shipped maps), `plan` (plan a shipped map or a .ma
 file, write report.json and plan.png), `train` (reproduce the neural policy's weights
 by imitation of the expert), from bridge/commands.py `upload`, `download`, `clear` and `mock`
 (MAVLink mission transfer and the mock autopilot), `fly` (missionplan/flight/fly.py) and `demo`
-(missionplan/flight/fleet_demo.py), `status` (the survey's ledger: missionplan/flight/survey_status.py) and
+(missionplan/demo.py), `status` (the survey's ledger: missionplan/flight/survey_status.py) and
 `replan` (plan what the survey still misses: missionplan/replan.py). `missionplan --version` prints the
 installed version.
 Bad input gives one line on stderr and exit 2; no option may be abbreviated (`--uav` is not `--uavs`).
@@ -13,7 +13,6 @@ Bad input gives one line on stderr and exit 2; no option may be abbreviated (`--
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import re
 import sys
 from collections.abc import Sequence
@@ -22,25 +21,26 @@ from typing import Any
 
 from bridge import BridgeUsageError
 from geo.errors import GeoError
+from bridge.atomic import probe_writable
 from bridge.commands import register as register_bridge_commands
 
-from bridge.atomic import probe_writable
-from .flight.fleet_demo import register as register_demo_command
 from .flight.fly import register as register_fly_command
 from .flight.survey_status import register as register_status_command
 from .grid.lanes import MAX_OBSTACLE_SHARE
 from .grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 from .maps.catalog import load_shipped, shipped_map_names
-from .maps.gridmap import GridMap, MapError
+from .maps.gridmap import MapError
 from .mission.missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
 from .mission.safety import DEFAULT_CLEARANCE_M
 from .mission.separation import DEFAULT_MAX_ALTITUDE_M
 from .mission.sorties import DEFAULT_ENDURANCE_MIN, DEFAULT_RESERVE
-from .pipeline import DEFAULT_POLICY, POLICIES, launch_cells, make_policy
+from .pipeline import DEFAULT_POLICY, POLICIES, launch_cells
+from .plan_display import EXIT_FAILED, print_plan
+from .plan_folder import NO_UNKNOWN_HEIGHTS, PlanGround, PlanOptions, check_options, write_plan_folder
+from .demo import register as register_demo_command
 from .replan import register as register_replan_command
 
 EXIT_USAGE = 2
-EXIT_FAILED = 1
 
 
 # A negative number or LAT,LON pair such as -33.86,151.21 (argparse would take it for an option).
@@ -175,7 +175,7 @@ def _build_parser() -> argparse.ArgumentParser:
     register_fly_command(sub, retask_planner=_plan_retask)  # fly (missionplan/flight/fly.py)
     register_status_command(sub)  # status (missionplan/flight/survey_status.py)
     register_replan_command(sub)  # replan (missionplan/replan.py)
-    register_demo_command(sub, _cmd_plan, parser)  # demo = plan + mock fleet + fly (missionplan/flight/fleet_demo.py)
+    register_demo_command(sub)  # demo = plan + mock fleet + fly (missionplan/demo.py)
     return parser
 
 
@@ -196,34 +196,11 @@ def _cmd_maps() -> int:
     return 0
 
 
-def _fmt(value: float | int | None, digits: int = 1) -> str:
-    if value is None:
-        return "-"
-    return f"{value:.{digits}f}" if isinstance(value, float) else str(value)
-
-
-def _cell_mask(shape: tuple[int, int], cells: list[list[int]]) -> Any:
-    """A boolean grid that is True on `cells` ([row, col] pairs from report.json)."""
-    import numpy as np
-
-    mask = np.zeros(shape, dtype=bool)
-    if cells:
-        rows, cols = np.asarray(cells, dtype=int).T
-        mask[rows, cols] = True
-    return mask
-
-
-def _cmd_plan(args: argparse.Namespace) -> int:
-    from .mission.georef import UnknownHeights, load_area_checked, mission_settings, shipped_frame
+def _plan_ground(args: argparse.Namespace) -> PlanGround:
+    """What `plan` is asked to plan: a shipped map or .map file (--map), or an area drawn to a grid (--area)."""
+    from .mission.georef import load_area_checked, mission_settings, shipped_frame
     from .mission.safety import safety_settings
 
-    # Everything that can be wrong with the input fails here, before any folder is made.
-    if args.basemap is not None:
-        from .mission.webmap import basemap_problem
-
-        if (problem := basemap_problem(args.basemap)) is not None:
-            raise MapError(f"--basemap {args.basemap}: {problem}")
-    unknown, sources = UnknownHeights(0, 0, None, None), None
     if args.area is not None:
         gmap, frame, unknown, sources = load_area_checked(args)
         args.uavs = len(gmap.launch) if args.uavs is None else args.uavs
@@ -233,158 +210,28 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         if getattr(args, "unknown_building_height", None) is not None:
             raise MapError("--unknown-building-height is for --area with --osm; a map's grid is already drawn")
         gmap = load_shipped(args.map)
-        frame = shipped_frame(gmap)
+        frame, unknown, sources = shipped_frame(gmap), NO_UNKNOWN_HEIGHTS, None
     starts = launch_cells(gmap, args.uavs)
-    settings = mission_settings(gmap, args) if frame is not None else None
-    safety = safety_settings(gmap, args, settings.altitude_m) if settings is not None else None
-    return write_plan(args, gmap, frame, settings, safety, starts, unknown, sources=sources)
+    settings = safety = None
+    if frame is not None:
+        settings = mission_settings(gmap, speed=args.speed, overlap=args.overlap, end=args.end,
+                                    altitude_step=args.altitude_step, altitude=args.altitude, autopilot=args.autopilot)
+        safety = safety_settings(gmap, settings.altitude_m, min_separation=args.min_separation,
+                                 max_altitude=args.max_altitude, clearance=args.clearance, endurance=args.endurance,
+                                 reserve=args.reserve)
+    return PlanGround(gmap, starts, frame, settings, safety, unknown, sources,
+                      from_osm=args.area is not None and args.osm is not None,
+                      launch_labels=list(args.launch[:args.uavs]) if args.area is not None else None)
 
 
-def write_plan(args: argparse.Namespace, gmap: GridMap, frame: Any, settings: Any, safety: Any, starts: list[Any],
-               unknown: Any, ids: list[int] | None = None, survey: dict[str, Any] | None = None,
-               sources: Any = None) -> int:
-    """Plan gmap from its launch cells and write the plan folder args.out; prints the summary.
-
-    `plan` and `replan` share it. ids: the system id of each drone, in launch order (default 1, 2, ...);
-    survey: report.json's `survey` (a re-plan's pointer to the survey it continues); sources: the area
-    and buildings an `--area` grid was drawn from (georef.AreaSources), for the map files."""
-    from .mission.plot import draw_plan  # matplotlib only when a picture is drawn
-    from .mission.report import build_report, write_report
-
-    from .fieldplan import plan_field
-    from .mission.coverage_check import coverage_report, unreachable_causes
-    from .mission.outputs import remove_stale_outputs
-
-    if safety is not None:  # a launch point inside the clearance band fails here, before any folder
-        from .mission.clearance import flight_map
-
-        flight_map(gmap, safety.clearance_m, args.uavs)
-    policy = make_policy(args.policy, args.weights)
-    try:
-        args.out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise MapError(f"--out {args.out}: cannot create folder ({err.strerror})") from None
-    try:
-        probe_writable(args.out)
-    except OSError as err:
-        raise MapError(f"--out {args.out}: cannot write files there ({err.strerror})") from None
-    show_progress = not args.quiet and sys.stderr.isatty()
-    # Clearance band, band detours, flight plans, sorties, separation, geofences (missionplan/fieldplan.py).
-    field = plan_field(gmap, args.uavs, frame, settings, safety, balance_zones=not args.no_balance, policy=policy,
-                       zone_method=args.zones, seed=args.seed, progress=show_progress,
-                       lanes=args.open_ground == "lanes")
-    result, plans = field.result, field.plans
-    if plans is not None and ids is not None:
-        plans.relabel(ids)
-    report = build_report(result, args.seed)
-    field.fill_report(report, gmap, frame)
-    if settings is not None and safety is not None:  # what `replan` plans the rest of the survey with
-        report["settings"] = {"mission": dataclasses.asdict(settings), "safety": dataclasses.asdict(safety),
-                              "policy": args.policy, "zones": args.zones, "balance_zones": not args.no_balance,
-                              "open_ground": args.open_ground}
-    if ids is not None:
-        report["drone_ids"] = list(ids)
-    if survey is not None:
-        report["survey"] = survey
-    if getattr(args, "basemap", None):  # flight.html draws the same tiles
-        report["basemap"] = args.basemap
-    if gmap.meta.get("credit"):  # the map data's credit, for every picture and page drawn from it
-        report["credit"] = gmap.meta["credit"]
-    written, sortie_starts = [], None
-    if plans is not None and frame is not None and settings is not None:
-        from .mission.flightplan import write_flight_files
-
-        report["georeference"] = {**frame.to_meta(), "altitude_m": settings.altitude_m,
-                                  "footprint_m": settings.footprint_m, "trigger_distance_m": settings.trigger_distance_m}
-        from bridge.mission import Flavour
-
-        written = write_flight_files(args.out, plans, Flavour(args.autopilot))
-        sortie_starts = plans.sortie_starts
-    osm = args.area is not None and args.osm is not None
-    unreachable_mask = _cell_mask(gmap.shape, report["unreachable_cells"])
-    clearance_m = float(report.get("clearance", {}).get("required_m") or 0.0)
-    # Why each unreachable target is unreachable: the warnings count them, the pictures colour them.
-    crossed = unknown.if_overflown() if osm and unknown.if_overflown is not None and unreachable_mask.any() else None
-    causes = unreachable_causes(gmap, starts, unreachable_mask, clearance_m, crossed)
-    launch_labels = list(args.launch[:args.uavs]) if args.area is not None else None
-    report["coverage"] = coverage_report(
-        gmap, starts, report["targets"], report["unreachable"], report["metrics"]["coverage"], report["zone_sizes"],
-        unknown_buildings=unknown.buildings if osm else None, total_buildings=unknown.total if osm else None,
-        assumed_height_m=unknown.assumed_m, if_overflown=unknown.if_overflown, launch_labels=launch_labels,
-        unreachable_mask=unreachable_mask, clearance_m=clearance_m, causes=causes)
-    paths_latlon = None
-    if plans is not None and frame is not None:
-        from .mission.layers import drone_paths_latlon, plan_layers, plan_summary
-        from .mission.mapfiles import write_map_files
-
-        layers = plan_layers(result, frame, plans, gmap, band=field.band, causes=causes, sources=sources,
-                             launch_labels=launch_labels)
-        written += write_map_files(args.out, "plan", layers, plan_summary(report, layers),
-                                   basemap=getattr(args, "basemap", None))
-        paths_latlon = drone_paths_latlon(layers)
-    report["files"] = sorted({p.name for p in written} | {"report.json", "plan.png"})
-    remove_stale_outputs(args.out, keep=report["files"])  # before the new report.json replaces the old list
-    write_report(report, args.out / "report.json")
-    draw_plan(result, args.out / "plan.png", sortie_starts=sortie_starts, frame=frame,
-              paths_latlon=paths_latlon,
-              obstacle=gmap.obstacle, band=field.band, unreachable_causes=causes)
-
-    m = report["metrics"]
-    zones = args.zones + ("" if args.no_balance else ", balanced")
-    print(f"map {gmap.name} ({gmap.shape[0]} x {gmap.shape[1]}), {args.uavs} UAVs, policy {args.policy}, "
-          f"zones {zones}, seed {args.seed}")
-    print(f"targets U = {report['targets']} reachable, {report['unreachable']} unreachable (set explored); "
-          f"floor U/(9A) = {report['floor']:.1f}")
-    if report["lane_drones"]:
-        print(f"open ground: {report['lane_drones']} of {args.uavs} drones sweep their zone in footprint-wide lanes "
-              "(--open-ground explore: cell by cell)")
-    rows = [("MMN", _fmt(m["MMN"]), "mean moves per drone"),
-            ("TE %", _fmt(m["TE"]), "trajectory efficiency"),
-            ("MNT %", _fmt(m["MNT"], 2), "weighted turns per move"),
-            ("MUD*", _fmt(m["MUD"], 2), "mean drone spacing, steady state (cells)"),
-            ("MDU*", _fmt(m["MDU"], 2), "mean distance unexplored -> drone, steady state"),
-            ("coverage %", _fmt(m["coverage"]), f"of the {report['targets']} reachable targets"),
-            ("coverage all", _fmt(report["coverage"]["all_pct"]),
-             f"% of all {report['coverage']['targets_all']} targets ({report['unreachable']} unreachable)"),
-            ("makespan", _fmt(m["makespan"]), "moves of the busiest drone"),
-            ("hover steps", _fmt(m["hover_steps"]), ""),
-            ("MMN / floor", f"{m['MMN'] / report['floor']:.2f}" if report["floor"] else "-", ""),
-            ("plan s", f"{report['timing']['plan_s']:.2f}", "wall time, zones + planning")]
-    for name, value, note in rows:
-        print(f"  {name:<12} {value:>9}  {note}")
-    if "drones" in report:
-        for drone in report["drones"]:
-            before, after = drone["smoothing"]["before"], drone["smoothing"]["after"]
-            sorties = f" in {len(drone['sorties'])} sorties" if len(drone.get("sorties", [])) > 1 else ""
-            print(f"  uav{drone['id']}: {drone['cells']} cells -> {drone['waypoints']} waypoints, "
-                  f"{drone['length_m']:.0f} m, {drone['flight_s']:.0f} s{sorties}, {drone['photos']} photos "
-                  f"at {drone['altitude_m']:g} m (turning {before['turning_deg']:.0f} -> {after['turning_deg']:.0f} deg)")
-    if "separation" in report:
-        sep = report["separation"]
-        if sep["3d"] is not None:
-            print(f"  closest approach if flown as planned: {sep['3d']} m 3-D, {sep['horizontal']} m horizontal "
-                  f"(uav{sep['pair_3d'][0]} and uav{sep['pair_3d'][1]} at {sep['at_s']} s"
-                  f"{'' if len(sep['sorties']) < 2 else ' of sortie ' + str(sep['sortie'])}); "
-                  f"at least {sep['required_m']:g} m guaranteed by {sep['method']}")
-    if "clearance" in report and report["clearance"]["kept_m"] is not None:
-        cl = report["clearance"]
-        print(f"  clearance from obstacles: {cl['kept_m']:g} m (asked {cl['required_m']:g} m)")
-        if cl.get("band_targets_missed") and not report["coverage"]["unreachable_by_clearance"]:
-            print(f"missionplan: warning: {cl['band_targets_missed']} of the {cl['band_targets']} target cells closer "
-                  f"than --clearance {cl['required_m']:g} m to an obstacle are out of every photo (narrow streets, "
-                  f"courtyards); counted unreachable", file=sys.stderr)
-    for warning in report["coverage"]["warnings"]:
-        print(f"missionplan: warning: {warning}", file=sys.stderr)
-    missions = [p.name for p in written if p.suffix in (".plan", ".waypoints")]
-    maps = [p.name for p in written if p.name not in missions]
-    listed = ", ".join(["report.json", "plan.png", *maps])
-    if missions:
-        listed += f", {len(missions)} mission files ({missions[0]} ... {missions[-1]})"
-    print(f"wrote {args.out}: {listed}")
-    if not report["success"]:
-        print(f"missionplan: plan failed: {report['failure']}", file=sys.stderr)
-        return EXIT_FAILED
-    return 0
+def _cmd_plan(args: argparse.Namespace) -> int:
+    options = PlanOptions(policy=args.policy, weights=args.weights, zones=args.zones, balance_zones=not args.no_balance,
+                          open_ground=args.open_ground, seed=args.seed, basemap=args.basemap,
+                          progress=not args.quiet and sys.stderr.isatty())
+    check_options(options)  # a bad --basemap fails before an area is read
+    folder = write_plan_folder(args.out, _plan_ground(args), options)
+    print_plan(folder)
+    return 0 if folder.success else EXIT_FAILED
 
 
 def _cmd_train(args: argparse.Namespace) -> int:

@@ -3,7 +3,7 @@
 The survey DIR belongs to (its root plan, flight/ledger.py) keeps its grid and georeference: NEW's
 grid is the root's with only the missing target cells left as targets, so a cell is the same ground
 in both folders and NEW's flights add to the root's ledger (NEW/report.json `survey` points back).
-The planning is `plan`'s own (cli.write_plan: clearance band, separation layers, geofences,
+The planning is `plan`'s own (plan_folder.write_plan_folder: clearance band, separation layers, geofences,
 endurance sorties, the autopilot's flavour), with the settings the root plan recorded
 (report.json `settings`).
 
@@ -17,18 +17,21 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .flight.flight_report import planned_grid
+from .flight.plan_report import missing_map
 from .flight.ledger import Ledger, LedgerError, Survey
 from .grid.world import check_starts
-from .maps.gridmap import GridMap, MapError
+from .maps.gridmap import MapError
 from .mission.missions import MissionSettings
 from .mission.safety import SafetySettings
 from .pipeline import DEFAULT_POLICY, POLICIES
+from .plan_display import EXIT_FAILED, print_plan
+from .plan_folder import PlanGround, PlanOptions, write_plan_folder
 
 
 def stored_settings(survey: Survey) -> tuple[MissionSettings, SafetySettings, dict[str, Any]]:
@@ -97,20 +100,7 @@ def launch_at(survey: Survey, launch: list[str], sysid: list[str]) -> tuple[list
     return cells, [assignment[k] for k in range(1, len(launch) + 1)]
 
 
-def missing_map(report: dict[str, Any], missing: np.ndarray, launch: list[tuple[int, int]],
-                suffix: str = "rest") -> GridMap:
-    """A plan's grid (report.json) with only `missing` as targets and the given launch cells, its meta from
-    the georeference: what `replan` and fly's live re-task plan."""
-    base = planned_grid(report)
-    target = np.zeros(base.shape, dtype=bool)
-    target[missing[:, 0], missing[:, 1]] = True
-    meta = {k: str(v) for k, v in report["georeference"].items()}
-    return GridMap(f"{base.name}-{suffix}", base.obstacle, target, launch, meta)
-
-
 def cmd_replan(args: argparse.Namespace) -> int:
-    from .cli import write_plan  # the plan command's own writer
-
     plan_dir, out = Path(args.dir), Path(args.out)
     with Ledger.of(plan_dir) as ledger:
         survey = ledger.survey
@@ -143,21 +133,15 @@ def cmd_replan(args: argparse.Namespace) -> int:
         lat, lon = survey.frame.cell_to_latlon(np.array([cell[0]]), np.array([cell[1]]))
         print(f"  drone {k}: system id {sysid}, from {float(np.atleast_1d(lat)[0]):.7f},"
               f"{float(np.atleast_1d(lon)[0]):.7f} (cell {cell[0]},{cell[1]}) -> uav{sysid}.plan")
-    plan_args = argparse.Namespace(
-        out=out, uavs=len(cells), policy=args.policy or stored.get("policy", DEFAULT_POLICY), weights=args.weights,
-        zones=stored.get("zones", "geodesic"), no_balance=not stored.get("balance_zones", True), seed=args.seed,
-        open_ground=stored.get("open_ground", "lanes"),
-        quiet=args.quiet, autopilot=mission.autopilot, launch=[], area=None, osm=None, map=gmap.name)
     pointer = {"root": os.path.relpath(survey.root.resolve(), out.resolve()), "missing_cells": int(len(missing)),
                "from": os.path.relpath(plan_dir.resolve(), out.resolve())}
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise MapError(f"--out {out}: cannot create folder ({err.strerror})") from None
-    from .mission.georef import UnknownHeights
-
-    return write_plan(plan_args, gmap, survey.frame, mission, safety, cells, UnknownHeights(0, 0, None, None),
-                      ids=ids, survey=pointer)
+    options = PlanOptions(policy=args.policy or stored.get("policy", DEFAULT_POLICY), weights=args.weights,
+                          zones=stored.get("zones", "geodesic"), balance_zones=stored.get("balance_zones", True),
+                          open_ground=stored.get("open_ground", "lanes"), seed=args.seed,
+                          progress=not args.quiet and sys.stderr.isatty(), drone_ids=ids, survey=pointer)
+    folder = write_plan_folder(out, PlanGround(gmap, cells, survey.frame, mission, safety), options)
+    print_plan(folder)
+    return 0 if folder.success else EXIT_FAILED
 
 
 def register(subparsers: Any) -> None:

@@ -29,7 +29,7 @@ import numpy as np
 from bridge.mission import Mission
 
 from .fieldplan import plan_field
-from .flight.flight_report import frame_of, planned_grid, target_cells, to_grid_m
+from .flight.plan_report import frame_of, missing_map, planned_grid, target_cells, to_grid_m
 from .flight.ledger import Ledger, covered_cells
 from .maps.gridmap import MapError
 from .mission.clearance import clearance_band
@@ -37,7 +37,6 @@ from .mission.flightplan import _Homing, _latlon
 from .mission.geofence import drone_fence
 from .mission.missions import MissionSettings, build_mission
 from .mission.safety import SafetySettings
-from .replan import missing_map
 from .mission.timeline import FlightModel, closest_approach, planned_track
 
 

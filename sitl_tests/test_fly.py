@@ -234,7 +234,8 @@ def test_a_second_flight_counts_only_its_own_photos(planned):
 
 
 def test_flight_png_without_any_track_draws_no_empty_legend(planned, recwarn):
-    from missionplan.flight.flight_report import draw_flight, frame_of, target_cells
+    from missionplan.flight.flight_report import draw_flight
+    from missionplan.flight.plan_report import frame_of, target_cells
 
     plan_dir = planned("leonardo", 3)
     report = json.loads((plan_dir / "report.json").read_text())

@@ -11,7 +11,7 @@ from bridge.mission import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_FENCE_POLYGON_VERTEX_
                             CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, MissionType)
 from bridge.missionfile import read_mission_file
 from missionplan.cli import main
-from missionplan.flight.flight_report import frame_of, to_grid_m
+from missionplan.flight.plan_report import frame_of, to_grid_m
 from missionplan.mission.sorties import split_sorties
 from missionplan.mission.timeline import FlightModel, closest_approach, planned_track
 

@@ -11,7 +11,7 @@ import pytest
 from bridge.mission import WireItem
 from geo.frame import GridFrame
 from missionplan.flight import flight_report as fr
-from missionplan.flight.flight_report import DroneRecord
+from missionplan.flight.record import DroneRecord
 
 CELL = 4.0
 EARTH = 6_378_137.0

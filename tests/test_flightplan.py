@@ -12,7 +12,7 @@ from bridge.mission import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND, CMD_NAV_RET
 from bridge.missionfile import read_mission_file
 from bridge import copter_model as cm
 from missionplan.cli import main
-from missionplan.flight.flight_report import frame_of, to_grid_m
+from missionplan.flight.plan_report import frame_of, to_grid_m
 from missionplan.mission.timeline import FlightModel, planned_seconds
 
 

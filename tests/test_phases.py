@@ -11,7 +11,8 @@ import pytest
 
 from bridge import px4_model as pm
 from missionplan.flight import phases
-from missionplan.flight.flight_report import DroneRecord, flown_seconds
+from missionplan.flight.flight_report import flown_seconds
+from missionplan.flight.record import DroneRecord
 
 T0 = 5000.0  # our clock at the mission start
 BOOT0 = 40.0  # the vehicle's clock then

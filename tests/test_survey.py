@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from missionplan.cli import main
-from missionplan.flight.flight_report import SLACK_CELLS, frame_of, target_cells, to_grid_m
+from missionplan.flight.plan_report import SLACK_CELLS, frame_of, target_cells, to_grid_m
 from missionplan.flight.ledger import LEDGER_NAME, Ledger
 from missionplan.flight.mock_fleet import start_mock_fleet
 from lost_drone import fly_with_a_lost_drone

@@ -101,7 +101,7 @@ def draw_flight(path: str | os.PathLike[str], report: dict[str, Any], frame: Gri
                 coverage_pct: float, *, paths_latlon: list[np.ndarray] | None = None) -> None:
     """Write flight.png. `targets` (n, 2) the judged target cells, `covered` (n,) which a photo covered;
     `tracks_m`: sysid -> (m, 2) recorded positions in metres along the grid's row and column axes
-    (flight_report.to_grid_m); `flight_s`: sysid -> seconds flown; `paths_latlon`: per drone (launch
+    (plan_report.to_grid_m); `flight_s`: sysid -> seconds flown; `paths_latlon`: per drone (launch
     order), the planned waypoints' lat/lon, drawn faint."""
     import matplotlib.pyplot as plt
 

@@ -42,19 +42,15 @@ from bridge.px4_model import Px4Params
 from geo.cells import cells_feature
 from geo.frame import GridFrame
 
-from ..maps.gridmap import GridMap
 from ..mission.timeline import FlightModel, closest_approach, planned_motions
 from ..mission.layers import Layers, drone_paths_latlon, planned_photos
 from .flight_layers import flight_layers, flight_summary, plan_layers_on_disk
 from .flight_plot import draw_flight
 from .phases import event_rows, on_vehicle_clock, phase_rows
+from .plan_report import SLACK_CELLS, frame_of, target_cells, to_grid_m
 from .record import DroneRecord
 
 COVERAGE_OK = 99.0
-# How much of a cell's side may fall outside the photo that counts for it: a quarter cell, the
-# waypoint acceptance radius the missions give the autopilot (a vehicle may turn that early), which
-# also absorbs the 1e-7 degree (about 1 cm) resolution of reported positions.
-SLACK_CELLS = 0.25
 CMD_WAYPOINT, CMD_DO_CHANGE_SPEED, CMD_CAM_TRIGG_DIST = 16, 178, 206
 MIN_RATE_SPAN_S = 2.0  # of our time: a vehicle's clock rate is fitted over at least this long a record
 REAL_TIME_TOLERANCE = 0.05  # a clock within 5 % of ours runs in real time
@@ -90,33 +86,6 @@ class FlightResult:
 
 
 # ------------------------------------------------------------------------------------------- geometry
-def frame_of(report: dict[str, Any]) -> GridFrame:
-    grid = report["grid"]
-    return GridFrame.from_meta({k: str(v) for k, v in report["georeference"].items()}, len(grid), len(grid[0]))
-
-
-def planned_grid(report: dict[str, Any]) -> GridMap:
-    """The grid the plan was made on (report.json `grid`)."""
-    return GridMap.from_rows(str(report.get("map", "plan")), report["grid"])
-
-
-def target_cells(report: dict[str, Any]) -> np.ndarray:
-    """(n, 2) cells the plan had to photograph: the map's targets that are reachable."""
-    target = planned_grid(report).target.copy()
-    unreachable = np.asarray(report.get("unreachable_cells") or [], dtype=np.int64).reshape(-1, 2)
-    target[unreachable[:, 0], unreachable[:, 1]] = False
-    return np.argwhere(target)
-
-
-def to_grid_m(frame: GridFrame, lat: Any, lon: Any) -> np.ndarray:
-    """lat/lon -> (n, 2) metres in the grid frame (row axis, column axis; cell centres at integers * cell_m)."""
-    lat, lon = np.atleast_1d(np.asarray(lat, dtype=float)), np.atleast_1d(np.asarray(lon, dtype=float))
-    if len(lat) == 0:
-        return np.zeros((0, 2))
-    r, c = frame.latlon_to_grid(lat, lon)
-    return np.column_stack([np.atleast_1d(r), np.atleast_1d(c)]) * frame.cell_m
-
-
 def _arc_length(points: np.ndarray) -> np.ndarray:
     steps = np.diff(points, axis=0)
     return np.concatenate([[0.0], np.cumsum(np.hypot(steps[:, 0], steps[:, 1]))])

@@ -14,7 +14,7 @@ Tables:
                                                 journal's flight number (journal.sqlite)
   photos(id, flight_id, vehicle, img_idx, time, lat, lon, alt_amsl, alt_rel, roll, pitch, yaw, source)
   covered(photo, row, col)                      the root's target cells the photo holds (its footprint
-                                                with flight_report.SLACK_CELLS of slack on a side)
+                                                with plan_report.SLACK_CELLS of slack on a side)
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ import numpy as np
 from geo.frame import GridFrame
 
 from ..maps.gridmap import MapError
+from .plan_report import SLACK_CELLS, frame_of, target_cells  # the judge's rule, one place
 
 LEDGER_NAME = "ledger.sqlite"
 MAX_POINTERS = 16  # re-plans of re-plans: a chain longer than this is a loop
@@ -121,8 +122,6 @@ def survey_root(plan_dir: Path) -> Path:
 
 def open_survey(plan_dir: Path) -> Survey:
     """The survey plan_dir belongs to, read from its root's report.json."""
-    from .flight_report import SLACK_CELLS, frame_of, target_cells  # the judge's rule, one place
-
     root = survey_root(Path(plan_dir))
     report = _read_report(root)
     if "georeference" not in report:

@@ -18,7 +18,7 @@ import numpy as np
 from bridge.atomic import atomic_path, write_text_atomic
 from geo.cells import cells_feature
 
-from .flight_report import planned_grid
+from .plan_report import planned_grid
 from .ledger import Ledger, Survey
 
 

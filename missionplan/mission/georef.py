@@ -22,7 +22,7 @@ from geo.frame import GridFrame
 from geo.readers import Building, read_area, read_buildings, read_polygons
 
 from ..maps.gridmap import GridMap
-from .missions import MissionSettings
+from .missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, MissionSettings
 
 
 def parse_latlon(text: str) -> tuple[float, float]:
@@ -130,18 +130,20 @@ def shipped_frame(gmap: GridMap) -> GridFrame | None:
     return GridFrame.from_meta(meta, *gmap.shape)
 
 
-def mission_settings(gmap: GridMap, args: argparse.Namespace) -> MissionSettings:
-    """Altitude and footprint from the map (9 cells a side), speed, overlap and end action from the CLI."""
-    if not (args.speed > 0 and math.isfinite(args.speed)):
-        raise GeoError(f"--speed {args.speed}: must be above 0 m/s")
-    if not 0 <= args.overlap < 1:
-        raise GeoError(f"--overlap {args.overlap}: must be in [0, 1)")
-    if not (args.altitude_step >= 0 and math.isfinite(args.altitude_step)):  # NaN compares false
-        raise GeoError(f"--altitude-step {args.altitude_step}: must be a finite number of metres, 0 or more "
+def mission_settings(gmap: GridMap, *, speed: float = DEFAULT_SPEED_M_S, overlap: float = DEFAULT_OVERLAP,
+                     end: str = "rtl", altitude_step: float = 0.0, altitude: float | None = None,
+                     autopilot: str = "ardupilot") -> MissionSettings:
+    """Altitude and footprint from the map (9 cells a side; `altitude` where the map has none), speed, overlap,
+    end action, altitude step and autopilot as `plan` takes them; the defaults are `plan`'s."""
+    if not (speed > 0 and math.isfinite(speed)):
+        raise GeoError(f"--speed {speed}: must be above 0 m/s")
+    if not 0 <= overlap < 1:
+        raise GeoError(f"--overlap {overlap}: must be in [0, 1)")
+    if not (altitude_step >= 0 and math.isfinite(altitude_step)):  # NaN compares false
+        raise GeoError(f"--altitude-step {altitude_step}: must be a finite number of metres, 0 or more "
                        f"(layers go up from the altitude, never below it)")
-    altitude = float(gmap.meta.get("altitude_m", args.altitude or 0.0))
-    if not altitude > 0:
+    flight_altitude = float(gmap.meta.get("altitude_m", altitude or 0.0))
+    if not flight_altitude > 0:
         raise GeoError(f"map {gmap.name}: no flight altitude (altitude_m) in its metadata")
-    return MissionSettings(altitude_m=altitude, footprint_m=9 * float(gmap.meta["cell_m"]), speed_m_s=args.speed,
-                           overlap=args.overlap, end=args.end, altitude_step_m=args.altitude_step,
-                           autopilot=getattr(args, "autopilot", "ardupilot"))
+    return MissionSettings(altitude_m=flight_altitude, footprint_m=9 * float(gmap.meta["cell_m"]), speed_m_s=speed,
+                           overlap=overlap, end=end, altitude_step_m=altitude_step, autopilot=autopilot)

@@ -11,7 +11,6 @@ Each protects one thing (docs/field-safety.md):
 
 from __future__ import annotations
 
-import argparse
 from dataclasses import dataclass
 
 from ..maps.gridmap import GridMap, MapError
@@ -58,28 +57,31 @@ def _declared(gmap: GridMap, key: str) -> float:
     return _positive(f"map {gmap.name}: {key}", value)
 
 
-def safety_settings(gmap: GridMap, args: argparse.Namespace, altitude_m: float) -> SafetySettings:
-    """The checked settings for `plan`; the map may declare its own min_separation_m."""
-    if args.min_separation is not None:
-        min_sep = _positive("--min-separation", args.min_separation)
+def safety_settings(gmap: GridMap, altitude_m: float, *, min_separation: float | None = None,
+                    max_altitude: float = DEFAULT_MAX_ALTITUDE_M, clearance: float | None = None,
+                    endurance: float = DEFAULT_ENDURANCE_MIN, reserve: float = DEFAULT_RESERVE) -> SafetySettings:
+    """The checked settings for a plan, as `plan` takes them (its defaults; endurance in minutes, 0: no limit);
+    the map may declare its own min_separation_m and clearance_m, used where none is given."""
+    if min_separation is not None:
+        min_sep = _positive("--min-separation", min_separation)
     elif "min_separation_m" in gmap.meta:
         min_sep = _declared(gmap, "min_separation_m")
     else:
         min_sep = DEFAULT_MIN_SEPARATION_M
-    max_alt = _positive("--max-altitude", args.max_altitude)
+    max_alt = _positive("--max-altitude", max_altitude)
     if altitude_m > max_alt:
         raise MapError(f"--max-altitude {max_alt:g}: below the flight altitude {altitude_m:g} m")
     cell_m = float(gmap.meta.get("cell_m", 0.0) or 0.0)
-    if args.clearance is not None:
-        if args.clearance < 0:
-            raise MapError(f"--clearance {args.clearance:g}: a margin cannot be negative")
-        clearance = float(args.clearance)
+    if clearance is not None:
+        if clearance < 0:
+            raise MapError(f"--clearance {clearance:g}: a margin cannot be negative")
+        clearance = float(clearance)
     elif "clearance_m" in gmap.meta:
         clearance = _declared(gmap, "clearance_m")
     else:
         clearance = max(DEFAULT_CLEARANCE_M, cell_m)
-    endurance = None if args.endurance == 0 else _positive("--endurance", args.endurance) * 60.0
-    if not 0 <= args.reserve < 1:
-        raise MapError(f"--reserve {args.reserve:g}: must be a fraction in [0, 1)")
+    endurance_s = None if endurance == 0 else _positive("--endurance", endurance) * 60.0
+    if not 0 <= reserve < 1:
+        raise MapError(f"--reserve {reserve:g}: must be a fraction in [0, 1)")
     return SafetySettings(min_separation_m=min_sep, max_altitude_m=max_alt, clearance_m=clearance,
-                          endurance_s=endurance, reserve=float(args.reserve))
+                          endurance_s=endurance_s, reserve=float(reserve))
