@@ -65,11 +65,11 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "sitl_tests"))
 
-from bridge.link import AUTOPILOT_COMPONENT_ID, Link, VehicleInfo  # noqa: E402
+from bridge.link import AUTOPILOT_COMPONENT_ID, Link, VehicleInfo, mavlink  # noqa: E402
 from bridge.mission import Flavour, Mission, MissionItem, WireItem, to_wire  # noqa: E402
 from bridge.protocol import RESULT_TEXT, MissionTransferError, Timeouts  # noqa: E402
-from bridge.readiness import (ARDUPILOT_AUTO, PX4_AUTO_MAIN, PX4_LOITER_SUB, PX4_MISSION_SUB, Vehicle,  # noqa: E402
-                              request_streams, stream_rates)
+from bridge.readiness import (ARDUPILOT_AUTO, ARDUPILOT_GUIDED, PX4_AUTO_MAIN, PX4_LOITER_SUB,  # noqa: E402
+                              PX4_MISSION_SUB, Vehicle, mode_params, request_streams, stream_rates)
 from bridge.retask import RetaskError, replace_mission_in_flight  # noqa: E402
 from bridge.uploader import PymavlinkBackend, upload_plan  # noqa: E402
 
@@ -95,9 +95,7 @@ ABORT_AFTER = 3  # items answered before an aborted upload goes silent
 SAYS_CHARS = 110  # of the vehicle's STATUSTEXT in the table
 NEAR_M = 5.0  # the heading path ends this close to B1
 REACHED_M = 10.0  # a B item reported reached counts when the vehicle is this close to it
-ARDUPILOT_GUIDED, ARDUPILOT_BRAKE = 4, 17
-CMD_DO_SET_MODE, CMD_MISSION_START, CMD_SET_MISSION_CURRENT = 176, 300, 224
-MODE_FLAG_ARMED = 128
+ARDUPILOT_BRAKE = 17  # ArduCopter's custom_mode number (its own, not a MAVLink enum)
 RESULT_NAMES = {k: v.split("(MAV_MISSION_")[-1].rstrip(")") if "(MAV_MISSION_" in v else v
                 for k, v in RESULT_TEXT.items()}
 RESULT_NAMES[0] = "ACCEPTED"
@@ -189,8 +187,8 @@ class Observer:
             self.reached.append((now, int(msg.seq)))
         elif kind == "STATUSTEXT":
             self.texts.append((now, str(msg.text).rstrip("\x00").strip()))
-        elif kind == "HEARTBEAT" and msg.type != 6:
-            self.beats.append((now, bool(msg.base_mode & MODE_FLAG_ARMED), int(msg.custom_mode)))
+        elif kind == "HEARTBEAT" and msg.type != mavlink.MAV_TYPE_GCS:
+            self.beats.append((now, bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED), int(msg.custom_mode)))
         elif kind in ("MISSION_ACK", "COMMAND_ACK"):
             self.acks.append((now, kind, int(msg.type if kind == "MISSION_ACK" else msg.result)))
         elif kind in ("MISSION_REQUEST", "MISSION_REQUEST_INT"):
@@ -294,17 +292,17 @@ def start_flying(link: Link, sysid: int, flavour: Flavour, home: tuple[float, fl
     upload_plan(backend, [old_mission], verify=True)
     old, new = to_wire(old_mission, flavour), to_wire(retasked(home, short, speed), flavour)
     if flavour is Flavour.ARDUPILOT:
-        seen.command_long(sysid, CMD_DO_SET_MODE, [1.0, float(ARDUPILOT_GUIDED)], deadline)
+        seen.command_long(sysid, mavlink.MAV_CMD_DO_SET_MODE, mode_params(ARDUPILOT_GUIDED), deadline)
     armed, why = vehicle.arm(deadline)
     if not armed:
         raise RuntimeError(why)
     started_until = time.monotonic() + (30.0 if flavour is Flavour.PX4 else 5.0)
     while True:
-        result = seen.command_long(sysid, CMD_MISSION_START, [0.0, 0.0], deadline)
-        if result == 0 or time.monotonic() > started_until:
+        result = seen.command_long(sysid, mavlink.MAV_CMD_MISSION_START, [0.0, 0.0], deadline)
+        if result == mavlink.MAV_RESULT_ACCEPTED or time.monotonic() > started_until:
             break
         listen(seen, time.monotonic() + 0.5)
-    if result != 0:
+    if result != mavlink.MAV_RESULT_ACCEPTED:
         raise RuntimeError(f"MISSION_START refused ({result}): {vehicle.state.reasons()}")
     resume = resume_seq(flavour, short)
     flight = Flight(flavour, seen, backend, observer, home, old, new, resume, speedup,
@@ -338,9 +336,9 @@ def _mode(flight: Flight, name: str, deadline: float) -> int | None:
     f = flight
     if f.flavour is Flavour.ARDUPILOT:
         custom = {"AUTO": ARDUPILOT_AUTO, "GUIDED": ARDUPILOT_GUIDED, "BRAKE": ARDUPILOT_BRAKE}[name]
-        return f.link.command_long(f.sysid, CMD_DO_SET_MODE, [1.0, float(custom)], deadline)
+        return f.link.command_long(f.sysid, mavlink.MAV_CMD_DO_SET_MODE, mode_params(custom), deadline)
     sub = {"MISSION": PX4_MISSION_SUB, "HOLD": PX4_LOITER_SUB}[name]
-    return f.link.command_long(f.sysid, CMD_DO_SET_MODE, [1.0, float(PX4_AUTO_MAIN), float(sub)], deadline)
+    return f.link.command_long(f.sysid, mavlink.MAV_CMD_DO_SET_MODE, mode_params(PX4_AUTO_MAIN, sub), deadline)
 
 
 def _upload(flight: Flight, items: list[WireItem], out: Outcome) -> bool:
@@ -360,7 +358,8 @@ def _upload(flight: Flight, items: list[WireItem], out: Outcome) -> bool:
 def _set_current(flight: Flight, out: Outcome, how: str = "message") -> None:
     f = flight
     if how == "command":
-        result = f.link.command_long(f.sysid, CMD_SET_MISSION_CURRENT, [float(f.resume)], time.monotonic() + 5.0)
+        result = f.link.command_long(f.sysid, mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, [float(f.resume)],
+                                     time.monotonic() + 5.0)
         out.note += f" DO_SET_MISSION_CURRENT result {result}"
         return
     try:
@@ -387,7 +386,7 @@ def partial(flight: Flight) -> Outcome:
     last = len(f.new) - 1
     mav = f.link.mav
     start = time.monotonic()
-    mav.mission_write_partial_list_send(f.sysid, AUTOPILOT_COMPONENT_ID, first, last, 0)
+    mav.mission_write_partial_list_send(f.sysid, AUTOPILOT_COMPONENT_ID, first, last, mavlink.MAV_MISSION_TYPE_MISSION)
     until = start + PARTIAL_WAIT_S
     answer = "none"
     while (msg := f.link.recv(until)) is not None:
@@ -397,7 +396,7 @@ def partial(flight: Flight) -> Outcome:
         if kind in ("MISSION_REQUEST", "MISSION_REQUEST_INT") and first <= int(msg.seq) <= last:
             mav.mission_item_int_send(f.sysid, AUTOPILOT_COMPONENT_ID, **f.new[int(msg.seq)].fields())
             until = time.monotonic() + PARTIAL_WAIT_S
-        elif kind == "MISSION_ACK" and int(getattr(msg, "mission_type", 0)) == 0:
+        elif kind == "MISSION_ACK" and int(getattr(msg, "mission_type", 0)) == mavlink.MAV_MISSION_TYPE_MISSION:
             answer = RESULT_NAMES.get(int(msg.type), str(msg.type))
             break
     out.upload_wall = (start, time.monotonic())
@@ -414,7 +413,7 @@ def abort(flight: Flight) -> Outcome:
     f, out = flight, Outcome()
     mav = f.link.mav
     start = time.monotonic()
-    mav.mission_count_send(f.sysid, AUTOPILOT_COMPONENT_ID, len(f.new), 0)
+    mav.mission_count_send(f.sysid, AUTOPILOT_COMPONENT_ID, len(f.new), mavlink.MAV_MISSION_TYPE_MISSION)
     until = start + 8.0 / f.speedup + 5.0
     answer = "none"
     while (msg := f.link.recv(until)) is not None:
@@ -423,7 +422,7 @@ def abort(flight: Flight) -> Outcome:
         kind = msg.get_type()
         if kind in ("MISSION_REQUEST", "MISSION_REQUEST_INT") and int(msg.seq) < ABORT_AFTER:
             mav.mission_item_int_send(f.sysid, AUTOPILOT_COMPONENT_ID, **f.new[int(msg.seq)].fields())
-        elif kind == "MISSION_ACK" and int(getattr(msg, "mission_type", 0)) == 0:
+        elif kind == "MISSION_ACK" and int(getattr(msg, "mission_type", 0)) == mavlink.MAV_MISSION_TYPE_MISSION:
             answer = RESULT_NAMES.get(int(msg.type), str(msg.type))
             break
     out.upload_wall = (start, time.monotonic())

@@ -26,16 +26,17 @@ sys.path.insert(0, str(ROOT / "sitl_tests"))
 
 from arducopter import ArduCopter, sitl_or_skip  # noqa: E402
 
+from bridge.link import mavlink  # noqa: E402
 from bridge.mission import Mission, MissionItem  # noqa: E402
 from bridge.params import ParamClient  # noqa: E402
 from bridge.protocol import Timeouts  # noqa: E402
+from bridge.readiness import ARDUPILOT_GUIDED, mode_params  # noqa: E402
 from bridge.uploader import PymavlinkBackend, upload_plan  # noqa: E402
 
 import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 
 HOME = (45.4643, 9.1895, 120.0, 0.0)
 M_PER_DEG = 111_320.0
-GUIDED, MSG_GLOBAL_POSITION_INT = 4, 33
 
 
 def _offset(north: float, east: float) -> tuple[float, float]:
@@ -72,14 +73,17 @@ def fly_once(radius_m: float | None, leg: float, timeout: float = 180.0) -> dict
         wpnav = ParamClient(b.link, b.vehicle).get("WPNAV_RADIUS")  # what the copter will fly
         link = b.link
         deadline = time.monotonic() + timeout
-        link.command_long(1, 511, [MSG_GLOBAL_POSITION_INT, 50_000], deadline)  # 20 Hz (simulated time)
-        while link.command_long(1, 176, [1, GUIDED], deadline) != 0:
+        accepted = mavlink.MAV_RESULT_ACCEPTED
+        link.command_long(1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, [mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, 50_000],
+                          deadline)  # 20 Hz (simulated time)
+        while link.command_long(1, mavlink.MAV_CMD_DO_SET_MODE, mode_params(ARDUPILOT_GUIDED), deadline) != accepted:
             time.sleep(0.5)
-        while link.command_long(1, 400, [1], deadline) != 0:  # refused until the EKF has a fix
+        # refused until the EKF has a fix
+        while link.command_long(1, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, [1], deadline) != accepted:
             time.sleep(1.0)
             if time.monotonic() > deadline:
                 raise RuntimeError("SITL never armed")
-        if link.command_long(1, 300, [0, 0], deadline) != 0:
+        if link.command_long(1, mavlink.MAV_CMD_MISSION_START, [0, 0], deadline) != accepted:
             raise RuntimeError("MISSION_START refused")
         track: list[tuple[float, float]] = []
         reached_last = False

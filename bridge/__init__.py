@@ -5,7 +5,10 @@ Modules, one job each:
   errors        BridgeUsageError (bad input, exit 2) and BridgeError (operational failure, exit 1)
   atomic        atomic file output (temp file, then rename), shared with missionplan: bridge is the
                 lowest layer that writes files
-  mission       the mission model (MissionItem, Mission), wire items, flavour rules, comparison
+  mission       the mission model (MissionItem, Mission), wire items, flavour rules; the MAVLink numbers of
+                the modules free of pymavlink
+  px4           PX4's rules (measured on SIH): item results, stored forms, start refusals
+  readback      what a vehicle may legally change in what it stores, per flavour; the read-back comparison
   missionfile   QGroundControl .plan and QGC WPL 110 .waypoints readers and writers (and QGC's .mission)
   qgc_legacy    QGroundControl's older item layouts and legacy .mission files, in the current .plan shape
   signing       MAVLink 2 signing keys: loading and applying them, never printing them

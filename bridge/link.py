@@ -43,7 +43,7 @@ os.environ.setdefault("MAVLINK20", "1")  # before pymavlink is imported: MAVLink
 from pymavlink import mavutil  # noqa: E402
 
 from .errors import BridgeError, BridgeUsageError  # noqa: E402
-from .mission import MAV_AUTOPILOT_INVALID, Flavour  # noqa: E402
+from .mission import Flavour  # noqa: E402
 from .signing import SigningKey, apply_key, refused_packets  # noqa: E402
 
 if mavutil.mavlink.WIRE_PROTOCOL_VERSION != "2.0":  # someone imported pymavlink before us without MAVLINK20
@@ -55,11 +55,9 @@ mavlink: Any = mavutil.mavlink  # the MAVLink 2 dialect module (message classes 
 # Our identity on the link (--gcs-sysid / --gcs-compid). ArduPilot's GCS failsafe watches the heartbeat
 # of system SYSID_MYGCS (default 255): another id is not "the" GCS for it; and two ground stations with
 # one id (MAVProxy and us, both 255) get each other's mission-protocol replies.
-GCS_SYSTEM_ID = 255
-GCS_COMPONENT_ID = 190  # MAV_COMP_ID_MISSIONPLANNER
-AUTOPILOT_COMPONENT_ID = 1
-MAV_TYPE_GCS = 6
-MAV_STATE_BOOT = 1
+GCS_SYSTEM_ID = 255  # a convention, not a MAVLink enum
+GCS_COMPONENT_ID: int = mavlink.MAV_COMP_ID_MISSIONPLANNER
+AUTOPILOT_COMPONENT_ID: int = mavlink.MAV_COMP_ID_AUTOPILOT1
 REBOOT_JUMP = 0.25  # seconds; more than a late packet's delay, less than any reboot
 # The messages whose time_boot_ms is when they were sent (a sample of a stream), so a clock that starts
 # again in them means a reboot. Others carry the time of what they report (PX4: a setpoint's or a
@@ -68,7 +66,6 @@ REBOOT_JUMP = 0.25  # seconds; more than a late packet's delay, less than any re
 CLOCK_MESSAGES = frozenset({"GLOBAL_POSITION_INT", "ATTITUDE", "LOCAL_POSITION_NED", "SYSTEM_TIME"})
 COMMAND_TRIES = 5    # COMMAND_LONG sends before giving up
 COMMAND_WAIT_S = 0.5  # for its COMMAND_ACK, each time
-MAV_RESULT_ACCEPTED = 0
 RECONNECT_TRIES = 4      # TCP connects after the peer closed the connection, before giving up
 RECONNECT_WAIT_S = 0.5   # between them (and the connect time-out of each)
 MAX_RECONNECTS = 5       # closed connections one Link survives; a peer that keeps dropping us is broken
@@ -309,7 +306,7 @@ class Link:
         now = time.monotonic()
         if force or now - self._last_heartbeat >= 1.0:
             self._last_heartbeat = now
-            self.mav.heartbeat_send(MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID, 0, 0, 0)
+            self.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
 
     def command_long(self, sysid: int, command: int, params: list[float], deadline: float,
                      other: Callable[[Any], Any] | None = None, done: Callable[[], bool] | None = None,
@@ -353,8 +350,8 @@ class Link:
         """A vehicle that reports MAV_STATE_BOOT again, or whose time_boot_ms starts again, has rebooted."""
         if msg.get_type() == "HEARTBEAT":
             sysid = msg.get_srcSystem()
-            booting = msg.system_status == MAV_STATE_BOOT
-            if booting and self._status.get(sysid, MAV_STATE_BOOT) != MAV_STATE_BOOT:
+            booting = msg.system_status == mavlink.MAV_STATE_BOOT
+            if booting and self._status.get(sysid, mavlink.MAV_STATE_BOOT) != mavlink.MAV_STATE_BOOT:
                 self.reboots[sysid] = self.reboots.get(sysid, 0) + 1
             self._status[sysid] = int(msg.system_status)
             return
@@ -478,7 +475,7 @@ def command_long(link: Any, sysid: int, command: int, params: list[float], deadl
     padded = (list(params) + [0.0] * 7)[:7]
     for attempt in range(tries):
         if attempt and done is not None and done():
-            return MAV_RESULT_ACCEPTED
+            return mavlink.MAV_RESULT_ACCEPTED
         link.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, command, attempt, *padded)
         wait_until = min(time.monotonic() + wait_s, deadline)
         while (msg := link.recv(wait_until)) is not None:
@@ -525,7 +522,7 @@ def wait_vehicle(link: Link, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID, t
         if msg.get_type() != "HEARTBEAT":
             continue
         src = (msg.get_srcSystem(), msg.get_srcComponent())
-        if msg.type == MAV_TYPE_GCS or msg.autopilot == MAV_AUTOPILOT_INVALID:
+        if msg.type == mavlink.MAV_TYPE_GCS or msg.autopilot == mavlink.MAV_AUTOPILOT_INVALID:
             continue  # another ground station
         if src == (sysid, compid):
             return VehicleInfo(sysid=sysid, compid=compid, autopilot=int(msg.autopilot), mav_type=int(msg.type),

@@ -30,7 +30,7 @@ from .signing import SigningKey, apply_key
 log = logging.getLogger("bridge.mavsdk")
 
 MAVSDK_SYSTEM_ID = 245  # MAVSDK's default ground-station identity
-MAVSDK_COMPONENT_ID = 190
+MAVSDK_COMPONENT_ID = mavlink.MAV_COMP_ID_MISSIONPLANNER
 
 
 def _import_mavsdk() -> Any:

@@ -8,9 +8,8 @@ Owns:
 - The flavour rules that turn a Mission into wire items and back: ArduPilot keeps home as item 0 of
   the mission (an upload sends a placeholder there, a download returns the real home), PX4 does not;
   DO_JUMP targets are counted with home as item 0 on ArduPilot and without it on PX4.
-- The read-back rule per flavour: stored_form / ardupilot_stored say what a vehicle may legally
-  change in what it stores (measured on ArduCopter SITL; PX4's in bridge.px4, measured on PX4 SIH);
-  compare_wire is the item-by-item check.
+The read-back rule (what a vehicle may legally change in what it stores, per flavour) builds on this
+module: bridge.readback.
 
 Model convention for DO_JUMP: param1 is the 1-based number of the target in Mission.items (the same
 number as QGroundControl's doJumpId for plain missions and as the line number in a .waypoints file).
@@ -20,7 +19,6 @@ Pure Python with no MAVLink library and no planner import, so every layer can us
 
 from __future__ import annotations
 
-import math
 import struct
 from dataclasses import dataclass, field, replace
 from enum import Enum, IntEnum
@@ -72,11 +70,24 @@ class Flavour(str, Enum):
         return self is Flavour.ARDUPILOT and mission_type == MissionType.MISSION
 
 
+# MAVLink numbers for the modules that stay free of pymavlink (this one, bridge.px4, bridge.missionfile,
+# bridge.mock_flight and the planner): written down here and nowhere else, under their MAVLink names (CMD_
+# for MAV_CMD_, FRAME_ for MAV_FRAME_); tests/test_mavlink_names.py checks them against pymavlink. A module
+# that imports pymavlink takes its numbers from mavutil.mavlink instead.
+
 # MAV_AUTOPILOT values used to tell flavours apart.
 MAV_AUTOPILOT_GENERIC = 0
 MAV_AUTOPILOT_ARDUPILOTMEGA = 3
 MAV_AUTOPILOT_INVALID = 8
 MAV_AUTOPILOT_PX4 = 12
+
+MAV_TYPE_QUADROTOR = 2  # the vehicle type a .plan names
+
+# MAV_MISSION_RESULT values of PX4's item checks.
+MAV_MISSION_ACCEPTED = 0
+MAV_MISSION_ERROR = 1
+MAV_MISSION_UNSUPPORTED_FRAME = 2
+MAV_MISSION_UNSUPPORTED = 3
 
 # MAV_FRAME values a mission uses. The *_INT variants are deprecated aliases of the plain ones.
 FRAME_GLOBAL = 0
@@ -94,17 +105,44 @@ _FRAME_ALIASES = {FRAME_GLOBAL_INT: FRAME_GLOBAL, FRAME_GLOBAL_RELATIVE_ALT_INT:
 
 # MAV_CMD values the bridge needs to know by name.
 CMD_NAV_WAYPOINT = 16
+CMD_NAV_LOITER_UNLIM = 17
+CMD_NAV_LOITER_TURNS = 18
+CMD_NAV_LOITER_TIME = 19
 CMD_NAV_RETURN_TO_LAUNCH = 20
 CMD_NAV_LAND = 21
 CMD_NAV_TAKEOFF = 22
+CMD_NAV_LAND_LOCAL = 23
+CMD_NAV_CONTINUE_AND_CHANGE_ALT = 30
+CMD_NAV_LOITER_TO_ALT = 31
+CMD_NAV_SPLINE_WAYPOINT = 82
+CMD_NAV_VTOL_TAKEOFF = 84
+CMD_NAV_VTOL_LAND = 85
+CMD_NAV_DELAY = 93
+CMD_NAV_PAYLOAD_PLACE = 94
+CMD_NAV_LAST = 95  # not a command: navigation commands are numbered up to it, DO_ / CONDITION_ ones after
+CMD_CONDITION_DELAY = 112
 CMD_DO_JUMP = 177
 CMD_DO_CHANGE_SPEED = 178
+CMD_DO_SET_HOME = 179
+CMD_DO_LAND_START = 189
+CMD_DO_REPOSITION = 192
+CMD_DO_SET_ROI_LOCATION = 195
+CMD_DO_SET_ROI = 201
+CMD_DO_DIGICAM_CONTROL = 203
+CMD_DO_MOUNT_CONTROL = 205
 CMD_DO_SET_CAM_TRIGG_DIST = 206
-CMD_FENCE_POLYGON_VERTEX_INCLUSION = 5001
+CMD_DO_SET_CAM_TRIGG_INTERVAL = 214
+CMD_DO_GIMBAL_MANAGER_PITCHYAW = 1000
+CMD_IMAGE_START_CAPTURE = 2000
+CMD_IMAGE_STOP_CAPTURE = 2001
+CMD_DO_VTOL_TRANSITION = 3000
+CMD_FENCE_POLYGON_VERTEX_INCLUSION = 5001  # MAV_CMD_NAV_FENCE_*
 CMD_FENCE_POLYGON_VERTEX_EXCLUSION = 5002
 CMD_FENCE_CIRCLE_INCLUSION = 5003
 CMD_FENCE_CIRCLE_EXCLUSION = 5004
-CMD_RALLY_POINT = 5100
+CMD_RALLY_POINT = 5100  # MAV_CMD_NAV_RALLY_POINT
+
+SPEED_TYPE_GROUNDSPEED = 1  # DO_CHANGE_SPEED's param1 for a ground speed (SPEED_TYPE)
 
 
 def normalize_frame(frame: int) -> int:
@@ -268,159 +306,6 @@ def from_wire(items: list[WireItem], flavour: Flavour, mission_type: int = Missi
                                param3=it.param3, param4=it.param4, x=decode_xy(it.frame, it.x),
                                y=decode_xy(it.frame, it.y), z=it.z, autocontinue=bool(it.autocontinue)))
     return Mission(items=out, mission_type=MissionType(mission_type), home=home)
-
-
-# ------------------------------------------------------------------------------------------------
-# What a vehicle may legally change in the items it stores (the read-back rule, per flavour).
-#
-# Measured on ArduCopter 4.7-dev SITL (docs/autopilots.md has the table and how): it keeps only
-# what its storage format has room for and hands the rest back as fixed values. Verify accepts, field
-# by field, either the value sent or the value ArduPilot's storage turns it into; nothing else.
-# PX4 (measured on PX4 SIH v1.15.4): bridge.px4.px4_stored. Other autopilots: the value sent
-# (deprecated *_INT frames read as their plain number).
-
-# Commands that carry a position (x, y, z). Everything else in a mission (DO_*, CONDITION_*, RTL,
-# camera, gimbal) is non-positional: ArduPilot returns it in frame 0 with x = y = z = 0.
-POSITIONAL_COMMANDS = frozenset({
-    16, 17, 18, 19, 21, 22, 23, 30, 31, 82, 84, 85, 94,  # NAV_* with a location
-    179, 189, 192, 195, 201,  # DO_SET_HOME, DO_LAND_START, DO_REPOSITION, DO_SET_ROI_LOCATION, DO_SET_ROI
-})
-
-# Params ArduCopter does not store, per command: the vehicle returns the value given here instead.
-# Only what was seen on SITL (docs/autopilots.md); a param not listed must come back as sent.
-# NAV_WAYPOINT keeps only param1 (the hold time, in whole seconds); its param2 (acceptance radius) is
-# dropped: the copter flies WPNAV_RADIUS instead (see bridge.params).
-ARDUPILOT_UNSTORED_PARAMS: dict[int, dict[str, float]] = {
-    CMD_NAV_WAYPOINT: {"param2": 0.0, "param3": 0.0, "param4": 0.0},
-    CMD_NAV_TAKEOFF: {"param4": 0.0},
-    CMD_NAV_LAND: {"param2": 0.0, "param4": 1.0},
-    CMD_NAV_RETURN_TO_LAUNCH: {"param1": 0.0},
-    CMD_DO_CHANGE_SPEED: {"param4": 0.0},
-    CMD_DO_SET_CAM_TRIGG_DIST: {"param2": 0.0, "param4": 0.0},
-    CMD_RALLY_POINT: {"param1": 0.0},
-}
-UINT16_SECONDS = 65536  # NAV_WAYPOINT's hold time is a uint16 of whole seconds on ArduCopter
-
-
-def is_positional(command: int) -> bool:
-    return command in POSITIONAL_COMMANDS or command >= 5000  # fence and rally items are points too
-
-
-def ardupilot_stored(item: WireItem) -> WireItem:
-    """The item as ArduCopter stores it and returns it on download (its seq and mission_type kept).
-
-    - altitudes: whole centimetres (truncated, and returned as cm * 0.01 in float32) in a mission, whole metres for rally points, none for
-      fence vertices; latitude and longitude: the 1e-7 degree integers as sent;
-    - non-positional mission items: frame 0 (MAV_FRAME_GLOBAL), x = y = z = 0;
-    - deprecated *_INT frames: their plain number (6 -> 3, 5 -> 0, 11 -> 10);
-    - params it has no room for: ARDUPILOT_UNSTORED_PARAMS; NAV_WAYPOINT's hold time truncated to
-      whole seconds;
-    - fence and rally items: autocontinue 0 (they are not flown), fence items in frame 0.
-    The home item (mission seq 0) is not covered: the vehicle replaces it with its own home.
-    """
-    frame, x, y, z = normalize_frame(item.frame), item.x, item.y, item.z
-    autocontinue = item.autocontinue
-    params = {"param1": item.param1, "param2": item.param2, "param3": item.param3, "param4": item.param4}
-    for name, value in ARDUPILOT_UNSTORED_PARAMS.get(item.command, {}).items():
-        params[name] = value
-    if item.mission_type == MissionType.FENCE:
-        frame, z, autocontinue = FRAME_GLOBAL, 0.0, 0
-    elif item.mission_type == MissionType.RALLY:
-        autocontinue = 0
-        z = float(math.trunc(_f32(z))) if math.isfinite(z) else z
-    elif not is_positional(item.command):
-        frame, x, y, z = FRAME_GLOBAL, 0, 0, 0.0
-    else:
-        if math.isfinite(z):  # int32 centimetres, truncated; returned as cm * 0.01f (float32 maths, as on board)
-            z = _f32(_f32(math.trunc(_f32(_f32(z) * 100.0))) * _f32(0.01))
-    if item.command == CMD_NAV_WAYPOINT and item.mission_type == MissionType.MISSION:
-        hold = item.param1
-        if math.isfinite(hold) and 0.0 <= hold < UINT16_SECONDS:
-            params["param1"] = float(math.trunc(hold))
-        # A negative or huge hold time wraps around on the vehicle: left as sent, so it shows as a difference.
-    return replace(item, frame=frame, x=x, y=y, z=z, autocontinue=autocontinue, **params)
-
-
-def stored_form(item: WireItem, flavour: Flavour) -> WireItem:
-    """What a vehicle of this flavour may legally hold instead of `item` (besides `item` itself)."""
-    if flavour is Flavour.ARDUPILOT:
-        return ardupilot_stored(item)
-    if flavour is Flavour.PX4:
-        from .px4 import px4_stored  # px4 builds on this module
-
-        return px4_stored(item)
-    return replace(item, frame=normalize_frame(item.frame))
-
-
-def _same_float(sent: float, got: float, abs_tol: float) -> bool:
-    a, b = _f32(sent), _f32(got)
-    if math.isnan(a) or math.isnan(b):
-        return math.isnan(a) and math.isnan(b)
-    return math.isclose(a, b, rel_tol=1e-6, abs_tol=abs_tol)
-
-
-def _field_matches(name: str, sent: float, legal: float, got: float) -> bool:
-    """got equals what was sent, or the flavour's stored form of it, within the wire's rounding."""
-    for want in (sent, legal):
-        if name in ("x", "y"):
-            if abs(int(want) - int(got)) <= 1:  # 1e-7 degree: a vehicle may round the last digit
-                return True
-        elif name == "z":
-            if _same_float(want, got, abs_tol=0.01):  # float32, and centimetres
-                return True
-        elif name == "frame":
-            if normalize_frame(int(want)) == normalize_frame(int(got)):
-                return True
-        elif name == "autocontinue":
-            if bool(want) == bool(got):
-                return True
-        elif name in ("command", "mission_type"):
-            if int(want) == int(got):
-                return True
-        elif _same_float(want, got, abs_tol=1e-4):
-            return True
-    return False
-
-
-def compare_items(sent: WireItem, got: WireItem, flavour: Flavour = Flavour.GENERIC) -> list[str]:
-    """What differs between one sent item and the vehicle's copy, as short phrases, beyond what a
-    vehicle of this flavour may legally change (stored_form)."""
-    legal = stored_form(sent, flavour) if sent.command == got.command else sent
-    diffs: list[str] = []
-    for name in ("command", "frame", "autocontinue", "param1", "param2", "param3", "param4", "x", "y", "z",
-                 "mission_type"):
-        a, b = getattr(sent, name), getattr(got, name)
-        if not _field_matches(name, a, getattr(legal, name), b):
-            shown = f"{a:g}, vehicle has {b:g}" if isinstance(a, float) else f"{a}, vehicle has {b}"
-            diffs.append(f"{name} sent {shown}")
-    return diffs
-
-
-def compare_wire(sent: list[WireItem], got: list[WireItem], skip_home: bool, limit: int = 5,
-                 flavour: Flavour = Flavour.GENERIC) -> list[str]:
-    """Item-by-item differences between what was sent and what the vehicle holds (empty: identical up
-    to what the flavour may legally change, see stored_form).
-
-    skip_home: ArduPilot replaces item 0 by its real home, so it is not compared (it must exist).
-    """
-    problems: list[str] = []
-    if len(sent) != len(got):
-        problems.append(f"the vehicle holds {len(got)} items, {len(sent)} were sent")
-    by_seq = {it.seq: it for it in got}
-    for item in sent:
-        if skip_home and item.seq == 0:
-            continue
-        other = by_seq.get(item.seq)
-        if other is None:
-            problems.append(f"item {item.seq}: missing on the vehicle")
-        else:
-            diffs = compare_items(item, other, flavour)
-            if diffs:
-                problems.append(f"item {item.seq}: " + "; ".join(diffs))
-        if len(problems) > limit:
-            problems.append("...")
-            break
-    return problems
 
 
 def renumber(items: list[WireItem]) -> list[WireItem]:

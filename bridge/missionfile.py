@@ -42,16 +42,28 @@ from . import qgc_legacy
 from .errors import BridgeError, BridgeUsageError
 from .mission import (
     CMD_DO_JUMP,
+    CMD_DO_SET_ROI,
+    CMD_DO_SET_ROI_LOCATION,
     CMD_FENCE_CIRCLE_EXCLUSION,
     CMD_FENCE_CIRCLE_INCLUSION,
     CMD_FENCE_POLYGON_VERTEX_EXCLUSION,
     CMD_FENCE_POLYGON_VERTEX_INCLUSION,
+    CMD_NAV_LAND,
+    CMD_NAV_LOITER_TIME,
+    CMD_NAV_LOITER_TO_ALT,
+    CMD_NAV_LOITER_TURNS,
+    CMD_NAV_LOITER_UNLIM,
+    CMD_NAV_SPLINE_WAYPOINT,
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_VTOL_LAND,
+    CMD_NAV_VTOL_TAKEOFF,
     CMD_NAV_WAYPOINT,
     CMD_RALLY_POINT,
     FRAME_GLOBAL,
     FRAME_GLOBAL_RELATIVE_ALT,
     FRAME_GLOBAL_TERRAIN_ALT,
     FRAME_GLOBAL_TERRAIN_ALT_INT,
+    MAV_TYPE_QUADROTOR,
     Flavour,
     Mission,
     MissionItem,
@@ -60,7 +72,6 @@ from .mission import (
 )
 
 WPL_HEADER = "QGC WPL 110"
-MAV_TYPE_QUADROTOR = 2
 SUFFIXES = (".plan", ".waypoints")
 PLAN_MISSION_VERSION = 2  # the only mission.version QGroundControl reads
 SIMPLE_ITEM_TYPES = ("SimpleItem", "missionItem")  # "missionItem": the version 1 name of a SimpleItem
@@ -85,9 +96,9 @@ SURVEY_VERSIONS = range(2, 6)  # QGroundControl reads survey versions 2-5; 2 and
 # Commands whose x / y are a position the vehicle flies to (or fences / rallies at). MISSION_ITEM_INT
 # carries x / y as integers, so a NaN there would reach the vehicle as 0, 0 and read back "verified".
 POSITIONAL_COMMANDS = frozenset({
-    16, 17, 18, 19, 21, 22, 31,   # NAV_WAYPOINT, LOITER_UNLIM / _TURNS / _TIME, LAND, TAKEOFF, LOITER_TO_ALT
-    82, 84, 85,                   # NAV_SPLINE_WAYPOINT, NAV_VTOL_TAKEOFF, NAV_VTOL_LAND
-    195, 201,                     # DO_SET_ROI_LOCATION, DO_SET_ROI
+    CMD_NAV_WAYPOINT, CMD_NAV_LOITER_UNLIM, CMD_NAV_LOITER_TURNS, CMD_NAV_LOITER_TIME, CMD_NAV_LAND,
+    CMD_NAV_TAKEOFF, CMD_NAV_LOITER_TO_ALT, CMD_NAV_SPLINE_WAYPOINT, CMD_NAV_VTOL_TAKEOFF, CMD_NAV_VTOL_LAND,
+    CMD_DO_SET_ROI_LOCATION, CMD_DO_SET_ROI,
     CMD_FENCE_POLYGON_VERTEX_INCLUSION, CMD_FENCE_POLYGON_VERTEX_EXCLUSION,
     CMD_FENCE_CIRCLE_INCLUSION, CMD_FENCE_CIRCLE_EXCLUSION, CMD_RALLY_POINT,
 })

@@ -154,7 +154,7 @@ class MockAutopilot:
                                      max_items=max_items, gps_fix_after=gps_fix_after,
                                      streams_until_asked=streams_until_asked, sitl_like=sitl_like,
                                      mission_check_s=mission_check_s)
-            encoder = mavlink.MAVLink(_Writer(self), srcSystem=sysid, srcComponent=1)
+            encoder = mavlink.MAVLink(_Writer(self), srcSystem=sysid, srcComponent=mavlink.MAV_COMP_ID_AUTOPILOT1)
             apply_key(encoder, key, link_id=index, clock=clock)
             self.vehicles[sysid] = MockVehicle(sysid, options, encoder, now)
         if not self.vehicles:

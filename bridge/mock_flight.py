@@ -31,8 +31,13 @@ from .mission import (
     CMD_DO_JUMP,
     CMD_DO_SET_CAM_TRIGG_DIST,
     CMD_NAV_LAND,
+    CMD_NAV_LOITER_TIME,
+    CMD_NAV_LOITER_TO_ALT,
+    CMD_NAV_LOITER_TURNS,
+    CMD_NAV_LOITER_UNLIM,
     CMD_NAV_RETURN_TO_LAUNCH,
     CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
     FRAME_GLOBAL,
     FRAME_GLOBAL_INT,
     WireItem,
@@ -40,7 +45,8 @@ from .mission import (
 )
 
 EARTH_RADIUS = 6_378_137.0
-NAV_COMMANDS_WITH_POSITION = frozenset({16, 17, 18, 19, 21, 22, 31})  # waypoint, loiters, land, takeoff
+NAV_COMMANDS_WITH_POSITION = frozenset({CMD_NAV_WAYPOINT, CMD_NAV_LOITER_UNLIM, CMD_NAV_LOITER_TURNS,
+                                        CMD_NAV_LOITER_TIME, CMD_NAV_LAND, CMD_NAV_TAKEOFF, CMD_NAV_LOITER_TO_ALT})
 
 
 @dataclass
@@ -225,7 +231,7 @@ class FlightSim:
         if not self._entered:
             self._entered = True
             self._entries += 1
-            self._hold_left = float(item.param1) if cmd == 16 and item.param1 > 0 else 0.0
+            self._hold_left = float(item.param1) if cmd == CMD_NAV_WAYPOINT and item.param1 > 0 else 0.0
             if cmd == CMD_DO_CHANGE_SPEED:
                 if item.param2 > 0:
                     s.speed = float(item.param2)

@@ -31,16 +31,15 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from .link import mavlink
 from .mission import Flavour
 
 HEAD = b"\xa3\x95"
-FMT_TYPE = 128
-LOG_DATA_LEN = 90  # MAVLINK_MSG_LOG_DATA_FIELD_DATA_LEN
+FMT_TYPE = 128  # DataFlash's own numbering, not MAVLink's
+LOG_DATA_LEN = 90  # MAVLINK_MSG_LOG_DATA_FIELD_DATA_LEN of the C headers: pymavlink has no constant for it
 # SITL sends up to 40 LOG_DATA per call of its log sender ("assume USB speeds in SITL").
 LOG_CHUNKS_PER_TICK = 40
-MAV_SEVERITY_ERROR = 3
 DISARM_TEXT = "Disarm for log download"
-MAV_SEVERITY_INFO = 6
 GPS_EPOCH_UNIX = 315_964_800  # 1980-01-06 00:00:00 UTC
 GPS_LEAP_SECONDS = 18  # GPS time runs ahead of UTC by this much (since 2017)
 ULOG_MAGIC = b"ULog\x01\x12\x35"
@@ -193,7 +192,7 @@ class OnboardLogs:
             writer = UlogWriter(time_us)
             # PX4's logger names the file it opens (INFO, with a tab at the end), dated by UTC
             self.say(time.strftime("[logger] ./log/%Y-%m-%d/%H_%M_%S.ulg\t", time.gmtime(self.wall())),
-                     MAV_SEVERITY_INFO)
+                     mavlink.MAV_SEVERITY_INFO)
         else:
             writer = DataFlashWriter()
             writer.write(MSG, time_us, version.encode())
@@ -230,7 +229,7 @@ class OnboardLogs:
         if armed and not self.px4:
             if not self._warned_armed:  # ArduPilot says it once per arming and answers nothing
                 self._warned_armed = True
-                self.say(DISARM_TEXT, MAV_SEVERITY_ERROR)
+                self.say(DISARM_TEXT, mavlink.MAV_SEVERITY_ERROR)
             return
         self._warned_armed = False
         if kind == "LOG_REQUEST_LIST":

@@ -3,7 +3,7 @@
 Owns the vehicle side of the mission protocol for every mission_type (mission, fence, rally):
 upload with re-requests on a timer and a give-up time-out (the old mission stays until an upload
 completes), download of any in-range item in any order, clear-all, set-current. The ArduPilot flavour
-does what ArduCopter SITL does: it stores items as bridge.mission.ardupilot_stored says (NAV_WAYPOINT
+does what ArduCopter SITL does: it stores items as bridge.readback.ardupilot_stored says (NAV_WAYPOINT
 keeps only param1, DO_* come back in frame 0, ...), keeps its home as item 0 (0, 0, 0 until its GPS
 has a fix), re-requests after 1 s, answers an item it did not ask for with INVALID_SEQUENCE and one
 after the upload completed with ERROR, and flies every waypoint to WPNAV_RADIUS (PARAM_SET /
@@ -54,53 +54,44 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from .copter_model import CopterParams
+from .link import mavlink
 from .px4_model import Px4Params
-from .mission import (
-    CMD_RALLY_POINT,
-    FRAME_GLOBAL,
-    GLOBAL_FRAMES,
-    Flavour,
-    MissionType,
-    WireItem,
-    ardupilot_stored,
-    encode_xy,
-)
+from .mission import GLOBAL_FRAMES, Flavour, MissionType, WireItem, encode_xy
+from .readback import ardupilot_stored
 from .mock_flight import FlightEvent, FlightSim
 from .mock_log import OnboardLogs
-from .px4 import (GEOFENCE_WITHOUT_HOME, MIS_DIST_1WP_DEFAULT, NAV_LAST, START_DENIED, fence_problems, item_result,
+from .px4 import (GEOFENCE_WITHOUT_HOME, MIS_DIST_1WP_DEFAULT, START_DENIED, fence_problems, item_result,
                   px4_millimetres, px4_stored, reported_reached, start_refusals)
 
-# MAV_MISSION_RESULT values the vehicle answers with.
-ACCEPTED, ERROR, UNSUPPORTED_FRAME, UNSUPPORTED, NO_SPACE = 0, 1, 2, 3, 4
-INVALID_PARAM5_X, INVALID_PARAM6_Y, INVALID_SEQUENCE, DENIED, OPERATION_CANCELLED = 10, 11, 13, 14, 15
-# MAV_RESULT for COMMAND_ACK.
-CMD_ACCEPTED, CMD_TEMPORARILY_REJECTED, CMD_DENIED, CMD_UNSUPPORTED, CMD_FAILED = 0, 1, 2, 3, 4
+CAPABILITIES = (mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+                | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+                | mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
+                | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY)
+# COMPONENT_ARM_DISARM's param2 that forces arming or disarming: a magic number of the command's
+# definition, not an enum.
+FORCE_ARM_DISARM = 21196
 
-MAV_TYPE_QUADROTOR = 2
-MAV_STATE_BOOT, MAV_STATE_STANDBY, MAV_STATE_ACTIVE = 1, 3, 4
-MODE_FLAG_CUSTOM, MODE_FLAG_AUTO, MODE_FLAG_GUIDED, MODE_FLAG_STABILIZE, MODE_FLAG_ARMED = 1, 4, 8, 16, 128
-CAPABILITIES = 4 | 8 | 256 | 8192 | 16384 | 32768  # MISSION_INT, COMMAND_INT, SET_POS_GLOBAL_INT, MAVLINK2, FENCE, RALLY
-
-# Mode names <-> custom_mode numbers. ArduCopter numbers directly; PX4 packs main mode << 16, sub mode << 24.
+# Mode names <-> custom_mode numbers, the autopilots' own (not MAVLink enums). ArduCopter numbers
+# directly; PX4 packs main mode << 16, sub mode << 24.
 ARDUPILOT_MODES = {"MANUAL": 0, "AUTO": 3, "GUIDED": 4, "LOITER": 5, "RTL": 6, "LAND": 9}
 PX4_MODES = {"MANUAL": 1 << 16, "GUIDED": (4 << 16) | (8 << 24), "LOITER": (4 << 16) | (3 << 24),
              "AUTO": (4 << 16) | (4 << 24), "RTL": (4 << 16) | (5 << 24), "LAND": (4 << 16) | (6 << 24)}
 
-MSG_SYS_STATUS, MSG_GPS_RAW_INT, MSG_GLOBAL_POSITION_INT, MSG_MISSION_CURRENT = 1, 24, 33, 42
-MSG_EKF_STATUS_REPORT, MSG_HOME_POSITION, MSG_EXTENDED_SYS_STATE = 193, 242, 245
-STREAMS = (MSG_SYS_STATUS, MSG_GPS_RAW_INT, MSG_GLOBAL_POSITION_INT, MSG_MISSION_CURRENT, MSG_EKF_STATUS_REPORT,
-           MSG_HOME_POSITION, MSG_EXTENDED_SYS_STATE)
-MAV_LANDED_STATE_ON_GROUND, MAV_LANDED_STATE_IN_AIR, MAV_LANDED_STATE_TAKEOFF, MAV_LANDED_STATE_LANDING = 1, 2, 3, 4
+STREAMS = (mavlink.MAVLINK_MSG_ID_SYS_STATUS, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT,
+           mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, mavlink.MAVLINK_MSG_ID_MISSION_CURRENT,
+           mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT, mavlink.MAVLINK_MSG_ID_HOME_POSITION,
+           mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE)
 # Flight-model motions (copter_model.Motion.kind) during which PX4 reports taking off, and landing
 # (SIH: taking off from "Takeoff detected" to the take-off altitude; landing from "RTL: land at
 # destination" until "Landing detected").
 TAKING_OFF_KINDS = frozenset({"spool", "takeoff", "settle"})
 LANDING_KINDS = frozenset({"descent", "land", "touchdown"})
-SENSOR_PREARM_CHECK = 0x1000_0000  # MAV_SYS_STATUS_PREARM_CHECK
 # EKF_STATUS_REPORT flags as ArduCopter SITL reports them: before its GPS is used (attitude, velocity,
 # vertical position, constant-position mode) and after (absolute and relative position, predicted too).
-EKF_FLAGS_WAITING = 1 | 2 | 4 | 32 | 128
-EKF_FLAGS_READY = 1 | 2 | 4 | 8 | 16 | 32 | 64 | 256 | 512
+_EKF_ALWAYS = mavlink.EKF_ATTITUDE | mavlink.EKF_VELOCITY_HORIZ | mavlink.EKF_VELOCITY_VERT | mavlink.EKF_POS_VERT_ABS
+EKF_FLAGS_WAITING = _EKF_ALWAYS | mavlink.EKF_CONST_POS_MODE
+EKF_FLAGS_READY = (_EKF_ALWAYS | mavlink.EKF_POS_HORIZ_REL | mavlink.EKF_POS_HORIZ_ABS | mavlink.EKF_POS_VERT_AGL
+                   | mavlink.EKF_PRED_POS_HORIZ_REL | mavlink.EKF_PRED_POS_HORIZ_ABS)
 NOT_READY_TEXTS = ("PreArm: Need Position Estimate", "Arm: Need Alt Estimate", "AHRS: waiting for home")
 # PX4 SIH's answer to arming before "Ready for takeoff!": TEMPORARILY_REJECTED and these (the first
 # is 51 characters: PX4 sends it as two STATUSTEXT chunks with one id).
@@ -110,21 +101,20 @@ PX4_NOT_READY_TEXTS = ("Arming denied: Resolve system health failures first", "P
 PX4_MISSION_CHECK_S = 0.5
 PX4_MISSION_MODE_REFUSED = "Switching to Mission is currently not available"  # AUTO.MISSION asked meanwhile
 PX4_CAMERA_PARAM, ARDUPILOT_CAMERA_PARAM = "TRIG_MODE", "CAM1_TYPE"  # read at boot: the camera reports only then
-MAV_SEVERITY_CRITICAL, MAV_SEVERITY_INFO = 2, 6
-CMD_GET_HOME_POSITION = 410
 # ArduPilot's battery monitor and its failsafe (AP_BattMonitor_Params.cpp: BATT_LOW_VOLT 10.5 V on copters,
 # BATT_LOW_TIMER 10 s, actions 0 = none; copter.parm sets BATT_MONITOR 4; SITL's SIM_BATT_VOLTAGE 12.6 V).
 ARDUPILOT_BATTERY_PARAMS = {"BATT_MONITOR": 4.0, "BATT_LOW_VOLT": 10.5, "BATT_LOW_TIMER": 10.0, "BATT_FS_LOW_ACT": 0.0,
                             "BATT_CRT_VOLT": 0.0, "BATT_FS_CRT_ACT": 0.0, "SIM_BATT_VOLTAGE": 12.6}
 BATTERY_CURRENT_A = 10.0  # drawn while armed (SYS_STATUS current, the "used N mAh" of the failsafe text)
-MAV_SEVERITY_WARNING = 4
 BATTERY_FAILSAFE_TEXT = "Battery Failsafe"  # Copter::announce_failsafe("Battery"), events.cpp
 PX4_BATTERY_MV = 16_000
 PREARM_REPEAT_S = 30.0  # simulated seconds between ArduPilot's reports of a failing pre-arm check
 MIN_STREAM_INTERVAL_S = 0.005  # the loop's tick: a faster stream could not be kept anyway
 
 MISSION_COMMANDS_REJECTED = range(5000, 6000)  # fence and rally commands do not belong in a mission
-FENCE_COMMANDS = frozenset({5001, 5002, 5003, 5004})
+FENCE_COMMANDS = frozenset({mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+                            mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
+                            mavlink.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION})
 
 
 @dataclass
@@ -238,7 +228,7 @@ class MockVehicle:
         self.intervals: dict[int, float | None] = self._default_intervals()  # wall seconds; None: off
         self._next_due = {msgid: now for msgid in STREAMS}
         self._photos_sent = 0
-        self._landed_sent = MAV_LANDED_STATE_ON_GROUND
+        self._landed_sent = mavlink.MAV_LANDED_STATE_ON_GROUND
         self._said_waiting = False
         self._next_prearm_text = PREARM_REPEAT_S  # simulated seconds since boot
         self.battery_failsafe = 0
@@ -252,14 +242,17 @@ class MockVehicle:
         if self.options.streams_until_asked:
             return {msgid: None for msgid in STREAMS}
         ardupilot = self.flavour is Flavour.ARDUPILOT
-        return {MSG_SYS_STATUS: 1.0, MSG_GPS_RAW_INT: 1.0, MSG_GLOBAL_POSITION_INT: 1.0 / self.options.telemetry_hz,
-                MSG_MISSION_CURRENT: 1.0, MSG_EKF_STATUS_REPORT: 1.0 if ardupilot else None, MSG_HOME_POSITION: None,
-                MSG_EXTENDED_SYS_STATE: None if ardupilot else 1.0}
+        return {mavlink.MAVLINK_MSG_ID_SYS_STATUS: 1.0, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
+                mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 1.0 / self.options.telemetry_hz,
+                mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 1.0,
+                mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT: 1.0 if ardupilot else None,
+                mavlink.MAVLINK_MSG_ID_HOME_POSITION: None,
+                mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: None if ardupilot else 1.0}
 
     @property
     def position_interval(self) -> float | None:
         """The GLOBAL_POSITION_INT interval in wall seconds (None: off)."""
-        return self.intervals[MSG_GLOBAL_POSITION_INT]
+        return self.intervals[mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT]
 
     @property
     def ready(self) -> bool:
@@ -273,9 +266,10 @@ class MockVehicle:
 
     def _home_item(self) -> WireItem:
         lat, lon, alt = self.options.home if self.has_fix else (0.0, 0.0, 0.0)
-        return WireItem(seq=0, frame=FRAME_GLOBAL, command=16, current=0, autocontinue=1, param1=0.0, param2=0.0,
-                        param3=0.0, param4=0.0, x=encode_xy(FRAME_GLOBAL, lat), y=encode_xy(FRAME_GLOBAL, lon),
-                        z=float(alt), mission_type=0)
+        frame = mavlink.MAV_FRAME_GLOBAL
+        return WireItem(seq=0, frame=frame, command=mavlink.MAV_CMD_NAV_WAYPOINT, current=0, autocontinue=1,
+                        param1=0.0, param2=0.0, param3=0.0, param4=0.0, x=encode_xy(frame, lat),
+                        y=encode_xy(frame, lon), z=float(alt), mission_type=int(MissionType.MISSION))
 
     def reboot(self, now: float, offline: float | None = None) -> None:
         """Forget every mission and the flight, and say nothing for `offline` seconds."""
@@ -320,20 +314,21 @@ class MockVehicle:
 
     def send_heartbeat(self) -> None:
         s = self.flight.state
-        base = MODE_FLAG_CUSTOM | MODE_FLAG_STABILIZE | MODE_FLAG_GUIDED
+        base = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
+                | mavlink.MAV_MODE_FLAG_GUIDED_ENABLED)
         if s.mode == "AUTO":
-            base |= MODE_FLAG_AUTO
+            base |= mavlink.MAV_MODE_FLAG_AUTO_ENABLED
         if s.armed:
-            base |= MODE_FLAG_ARMED
-        status = MAV_STATE_ACTIVE if s.armed else MAV_STATE_STANDBY
+            base |= mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+        status = mavlink.MAV_STATE_ACTIVE if s.armed else mavlink.MAV_STATE_STANDBY
         if self._booting:
-            status = MAV_STATE_BOOT  # the first heartbeat after a (re)boot, as autopilots report
+            status = mavlink.MAV_STATE_BOOT  # the first heartbeat after a (re)boot, as autopilots report
             self._booting = False
-        self.mav.heartbeat_send(MAV_TYPE_QUADROTOR, self.flavour.autopilot, base, self._custom_mode(), status)
+        self.mav.heartbeat_send(mavlink.MAV_TYPE_QUADROTOR, self.flavour.autopilot, base, self._custom_mode(), status)
 
     def _send_status(self, now: float) -> None:
-        sensors = 0x0020_FFFF | SENSOR_PREARM_CHECK
-        health = sensors if self.ready else sensors & ~SENSOR_PREARM_CHECK
+        sensors = 0x0020_FFFF | mavlink.MAV_SYS_STATUS_PREARM_CHECK  # the usual sensors (bits 0-15, 21) and pre-arm
+        health = sensors if self.ready else sensors & ~mavlink.MAV_SYS_STATUS_PREARM_CHECK
         millivolts, centiamps = PX4_BATTERY_MV, 1_000
         if self.flavour is Flavour.ARDUPILOT:  # SITL: SIM_BATT_VOLTAGE, current only while the motors run
             millivolts = int(round(self.battery_voltage * 1000))
@@ -342,7 +337,7 @@ class MockVehicle:
 
     def _send_gps(self, now: float) -> None:
         s = self.flight.state
-        fix, sats = (3, 12) if self.ready else (1, 0)
+        fix, sats = (mavlink.GPS_FIX_TYPE_3D_FIX, 12) if self.ready else (mavlink.GPS_FIX_TYPE_NO_FIX, 0)
         self.mav.gps_raw_int_send(int(now * 1e6), fix, int(round(s.lat * 1e7)) if self.ready else 0,
                                   int(round(s.lon * 1e7)) if self.ready else 0,
                                   int(round((s.home[2] + s.alt) * 1000)) if self.ready else 0,
@@ -362,7 +357,7 @@ class MockVehicle:
                                     0.0, 0.0, 0.0, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0)
         return True
 
-    def _send_text(self, text: str, severity: int = MAV_SEVERITY_CRITICAL) -> None:
+    def _send_text(self, text: str, severity: int = mavlink.MAV_SEVERITY_CRITICAL) -> None:
         if self.flavour is not Flavour.PX4 or len(text) <= 50:
             self.mav.statustext_send(severity, text.encode()[:50])
             return
@@ -374,31 +369,31 @@ class MockVehicle:
         s = self.flight.state
         kind = self.flight.motion_kind if s.armed else None
         if kind in TAKING_OFF_KINDS:
-            return MAV_LANDED_STATE_TAKEOFF
+            return mavlink.MAV_LANDED_STATE_TAKEOFF
         if kind in LANDING_KINDS:
-            return MAV_LANDED_STATE_LANDING
+            return mavlink.MAV_LANDED_STATE_LANDING
         on_ground = s.on_ground and not (s.armed and s.mode == "AUTO" and not s.mission_done)
-        return MAV_LANDED_STATE_ON_GROUND if on_ground else MAV_LANDED_STATE_IN_AIR
+        return mavlink.MAV_LANDED_STATE_ON_GROUND if on_ground else mavlink.MAV_LANDED_STATE_IN_AIR
 
     def _send_landed_state(self) -> None:
         """EXTENDED_SYS_STATE, as PX4 streams it: on the ground, taking off, in the air or landing."""
         self._landed_sent = self._landed_state()
-        self.mav.extended_sys_state_send(0, self._landed_sent)
+        self.mav.extended_sys_state_send(mavlink.MAV_VTOL_STATE_UNDEFINED, self._landed_sent)
 
     def _send_stream(self, msgid: int, now: float) -> None:
-        if msgid == MSG_SYS_STATUS:
+        if msgid == mavlink.MAVLINK_MSG_ID_SYS_STATUS:
             self._send_status(now)
-        elif msgid == MSG_GPS_RAW_INT:
+        elif msgid == mavlink.MAVLINK_MSG_ID_GPS_RAW_INT:
             self._send_gps(now)
-        elif msgid == MSG_GLOBAL_POSITION_INT:
+        elif msgid == mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT:
             self._send_position(now)
-        elif msgid == MSG_MISSION_CURRENT:
+        elif msgid == mavlink.MAVLINK_MSG_ID_MISSION_CURRENT:
             self._send_mission_current()
-        elif msgid == MSG_EKF_STATUS_REPORT:
+        elif msgid == mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT:
             self._send_ekf(now)
-        elif msgid == MSG_HOME_POSITION:
+        elif msgid == mavlink.MAVLINK_MSG_ID_HOME_POSITION:
             self._send_home()
-        elif msgid == MSG_EXTENDED_SYS_STATE:
+        elif msgid == mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE:
             self._send_landed_state()
 
     def _send_position(self, now: float) -> None:
@@ -453,13 +448,13 @@ class MockVehicle:
         items = self.stores[MissionType.MISSION]
         total = len(items)
         if total <= self.first_mission_seq:
-            state = 1  # MISSION_STATE_NO_MISSION
+            state = mavlink.MISSION_STATE_NO_MISSION
         elif s.mission_done:
-            state = 5  # COMPLETE
+            state = mavlink.MISSION_STATE_COMPLETE
         elif s.mode == "AUTO" and s.armed:
-            state = 3  # ACTIVE
+            state = mavlink.MISSION_STATE_ACTIVE
         else:
-            state = 2  # NOT_STARTED
+            state = mavlink.MISSION_STATE_NOT_STARTED
         self.mav.mission_current_send(s.current if seq is None else seq, total, state, 1 if s.mode == "AUTO" else 0)
 
     # ------------------------------------------------------------------------------ ticking
@@ -498,12 +493,13 @@ class MockVehicle:
         if not self.ready and self.flavour is Flavour.ARDUPILOT:
             if not self._said_waiting:
                 self._said_waiting = True
-                self._send_text(NOT_READY_TEXTS[2], MAV_SEVERITY_INFO)
+                self._send_text(NOT_READY_TEXTS[2], mavlink.MAV_SEVERITY_INFO)
             simulated = (now - self.boot_time) * self.options.speedup
             if simulated >= self._next_prearm_text:  # ArduPilot repeats a failing pre-arm check every 30 s
                 self._next_prearm_text = simulated + PREARM_REPEAT_S
                 self._send_text(NOT_READY_TEXTS[0])
-        if self.intervals.get(MSG_EXTENDED_SYS_STATE) is not None and self._landed_state() != self._landed_sent:
+        if self.intervals.get(mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE) is not None \
+                and self._landed_state() != self._landed_sent:
             self._send_landed_state()  # at once, not a stream interval late (a sped-up mock's second is long)
         self._send_camera_feedback(now)
         self._upload_timers(now)
@@ -552,14 +548,15 @@ class MockVehicle:
         self.battery_failsafe = reached
         self.battery_failsafe_sim_time = s.sim_time
         name, _, action_param = levels[reached]
-        self._send_text(f"Battery 1 is {name} {volts:.2f}V used {self.consumed_mah:.0f} mAh", MAV_SEVERITY_WARNING)
+        self._send_text(f"Battery 1 is {name} {volts:.2f}V used {self.consumed_mah:.0f} mAh",
+                        mavlink.MAV_SEVERITY_WARNING)
         action = int(self.params.get(action_param, 0.0))
         if s.on_ground and s.mode != "AUTO":  # should_disarm_on_failsafe: landed (AUTO: its mission not started)
             s.armed = False
-            self._send_text(f"{BATTERY_FAILSAFE_TEXT} - Disarming", MAV_SEVERITY_WARNING)
+            self._send_text(f"{BATTERY_FAILSAFE_TEXT} - Disarming", mavlink.MAV_SEVERITY_WARNING)
             self.send_heartbeat()
             return
-        self._send_text(BATTERY_FAILSAFE_TEXT, MAV_SEVERITY_WARNING)
+        self._send_text(BATTERY_FAILSAFE_TEXT, mavlink.MAV_SEVERITY_WARNING)
         if action == 0:
             return
         s.mode = "LAND" if action in (1, 5) else "RTL"  # set_mode_land_with_pause / set_mode_RTL_or_land_with_pause
@@ -587,7 +584,7 @@ class MockVehicle:
         if now - up.last_progress >= self.options.upload_timeout:
             self.upload = None
             self.uploads_failed += 1
-            self._ack(up.peer, up.mission_type, OPERATION_CANCELLED)  # the old mission stays
+            self._ack(up.peer, up.mission_type, mavlink.MAV_MISSION_OPERATION_CANCELLED)  # the old mission stays
             return
         if now - up.last_sent >= self.options.request_interval:
             self._request(up, now)
@@ -600,7 +597,7 @@ class MockVehicle:
         if target is not None and target not in (0, self.sysid):
             return  # for another vehicle on the same link
         target_comp = getattr(msg, "target_component", None)
-        if target_comp is not None and target_comp not in (0, 1):
+        if target_comp is not None and target_comp not in (mavlink.MAV_COMP_ID_ALL, mavlink.MAV_COMP_ID_AUTOPILOT1):
             return
         kind = msg.get_type()
         handler = _HANDLERS.get(kind)
@@ -622,18 +619,18 @@ class MockVehicle:
     def _on_count(self, msg: Any, peer: tuple[int, int], now: float) -> None:
         mission_type = int(getattr(msg, "mission_type", 0))
         if mission_type not in self.stores:
-            self._ack(peer, mission_type, UNSUPPORTED)
+            self._ack(peer, mission_type, mavlink.MAV_MISSION_UNSUPPORTED)
             return
         if self.upload is not None and self.upload.peer != peer:
             # ArduPilot's MissionItemProtocol::cancel_upload: another (sysid, compid) is uploading; only it
             # may restart its upload, the others are DENIED until it completes or times out.
             self.denied_transfers += 1
-            self._ack(peer, mission_type, DENIED)
+            self._ack(peer, mission_type, mavlink.MAV_MISSION_DENIED)
             return
         count = int(msg.count)
         if count > self.options.max_items:
             self.upload = None
-            self._ack(peer, mission_type, NO_SPACE)
+            self._ack(peer, mission_type, mavlink.MAV_MISSION_NO_SPACE)
             return
         if count == 0:
             self.upload = None
@@ -648,26 +645,26 @@ class MockVehicle:
         frame, command = item.frame, item.command
         if self.flavour is Flavour.PX4:
             result = item_result(item)  # PX4's frame / command matrix, measured on SIH
-            if result != ACCEPTED:
+            if result != mavlink.MAV_MISSION_ACCEPTED:
                 return result
         elif item.mission_type == MissionType.FENCE:
             if command not in FENCE_COMMANDS:
-                return UNSUPPORTED
+                return mavlink.MAV_MISSION_UNSUPPORTED
         elif item.mission_type == MissionType.RALLY:
-            if command != CMD_RALLY_POINT:
-                return UNSUPPORTED
+            if command != mavlink.MAV_CMD_NAV_RALLY_POINT:
+                return mavlink.MAV_MISSION_UNSUPPORTED
         elif command in MISSION_COMMANDS_REJECTED:
-            return UNSUPPORTED
-        if frame not in GLOBAL_FRAMES and frame != 2:
-            return UNSUPPORTED_FRAME
+            return mavlink.MAV_MISSION_UNSUPPORTED
+        if frame not in GLOBAL_FRAMES and frame != mavlink.MAV_FRAME_MISSION:
+            return mavlink.MAV_MISSION_UNSUPPORTED_FRAME
         if frame in GLOBAL_FRAMES:
             if abs(item.x) > 900_000_000:
-                return INVALID_PARAM5_X
+                return mavlink.MAV_MISSION_INVALID_PARAM5_X
             if abs(item.y) > 1_800_000_000:
-                return INVALID_PARAM6_Y
+                return mavlink.MAV_MISSION_INVALID_PARAM6_Y
         if not all(math.isfinite(v) or math.isnan(v) for v in (item.param1, item.param2, item.param3, item.param4)):
-            return ERROR
-        return ACCEPTED
+            return mavlink.MAV_MISSION_ERROR
+        return mavlink.MAV_MISSION_ACCEPTED
 
     def _on_item(self, msg: Any, peer: tuple[int, int], now: float) -> None:
         self._int_mode = msg.get_type() == "MISSION_ITEM_INT"
@@ -679,28 +676,31 @@ class MockVehicle:
                 if up is not None and up.peer != peer and up.mission_type == item.mission_type:
                     # MissionItemProtocol::handle_mission_item: the sequence first, then the sender
                     self.denied_transfers += item.seq == len(up.received)
-                    self._ack(peer, item.mission_type, INVALID_SEQUENCE if item.seq != len(up.received) else DENIED)
+                    self._ack(peer, item.mission_type, mavlink.MAV_MISSION_INVALID_SEQUENCE
+                              if item.seq != len(up.received) else mavlink.MAV_MISSION_DENIED)
                     return
                 if up is None:
                     # ArduPilot: "mission item received while not receiving", even for a copy of the
                     # last item of an upload that just completed (its ACCEPTED is not repeated).
                     self.stray_item_acks += done is not None
-                    self._ack(peer, item.mission_type, ERROR)
+                    self._ack(peer, item.mission_type, mavlink.MAV_MISSION_ERROR)
                 return
             if done is not None and done[0] == item.mission_type and done[2] == peer and item.seq < done[1]:
                 if item.seq == done[1] - 1:
-                    self._ack(peer, item.mission_type, ACCEPTED)  # the last item again: our ACK was lost
+                    # the last item again: our ACK was lost
+                    self._ack(peer, item.mission_type, mavlink.MAV_MISSION_ACCEPTED)
                 return  # a late copy of an item of the finished upload
             if up is None:
-                self._ack(peer, item.mission_type, ERROR)  # no upload in progress (after a reboot, say)
+                # no upload in progress (after a reboot, say)
+                self._ack(peer, item.mission_type, mavlink.MAV_MISSION_ERROR)
             return
         if item.seq != len(up.received):
             if self.flavour is Flavour.ARDUPILOT:  # ArduPilot complains about any item it did not ask for
                 self.invalid_sequence_acks += 1
-                self._ack(peer, up.mission_type, INVALID_SEQUENCE)
+                self._ack(peer, up.mission_type, mavlink.MAV_MISSION_INVALID_SEQUENCE)
             return  # out of order or repeated: the timer re-requests what is missing
         result = self._check_item(item)
-        if result != ACCEPTED:
+        if result != mavlink.MAV_MISSION_ACCEPTED:
             self.upload = None
             self.uploads_failed += 1
             self._ack(peer, up.mission_type, result)
@@ -735,14 +735,14 @@ class MockVehicle:
                 s.current = self.first_mission_seq
                 s.mission_done = False
                 self._load_flight()
-        self._ack(peer, mission_type, ACCEPTED)
+        self._ack(peer, mission_type, mavlink.MAV_MISSION_ACCEPTED)
         self._send_mission_current()
         if mission_type == MissionType.FENCE and self.flavour is Flavour.PX4 and fence_problems(
                 stored, self.options.home[:2]):
             self._send_text(GEOFENCE_WITHOUT_HOME)  # as PX4 says it right after such a fence upload
 
     def _stored(self, item: WireItem) -> WireItem:
-        # ArduPilot keeps what its storage has room for (bridge.mission.ardupilot_stored, measured on
+        # ArduPilot keeps what its storage has room for (bridge.readback.ardupilot_stored, measured on
         # ArduCopter SITL: no NAV_WAYPOINT param2, frame 0 for DO_* ...); PX4 what bridge.px4.px4_stored
         # says (frames 3 -> 6, 0 -> 5, no pass radius; measured on PX4 SIH); others keep what they got.
         if self.flavour is Flavour.ARDUPILOT:
@@ -762,13 +762,14 @@ class MockVehicle:
     def _on_gcs_ack(self, msg: Any, peer: tuple[int, int], now: float) -> None:
         up = self.upload
         if up is not None and up.peer == peer and int(getattr(msg, "mission_type", 0)) == up.mission_type:
-            if self.flavour is Flavour.PX4 and int(msg.type) not in (ACCEPTED, OPERATION_CANCELLED):
+            if self.flavour is Flavour.PX4 \
+                    and int(msg.type) not in (mavlink.MAV_MISSION_ACCEPTED, mavlink.MAV_MISSION_OPERATION_CANCELLED):
                 # PX4 (mavlink_mission.cpp): an error answer to its request means "ask the other way":
                 # MAVSDK refuses the legacy MISSION_REQUEST, and PX4 asks again with MISSION_REQUEST_INT.
                 self._int_mode = not self._int_mode
                 self._request(up, now)
                 return
-            if int(msg.type) != ACCEPTED:
+            if int(msg.type) != mavlink.MAV_MISSION_ACCEPTED:
                 self.upload = None  # the ground station cancelled: keep the old mission
                 self.uploads_failed += 1
 
@@ -781,10 +782,10 @@ class MockVehicle:
     def _on_request_list(self, msg: Any, peer: tuple[int, int], now: float) -> None:
         mission_type = int(getattr(msg, "mission_type", 0))
         if mission_type not in self.stores:
-            self._ack(peer, mission_type, UNSUPPORTED)
+            self._ack(peer, mission_type, mavlink.MAV_MISSION_UNSUPPORTED)
             return
         if self._receiving(mission_type):  # "someone is uploading a mission; reject fetching of points"
-            self._ack(peer, mission_type, DENIED)
+            self._ack(peer, mission_type, mavlink.MAV_MISSION_DENIED)
             return
         self.mav.mission_count_send(peer[0], peer[1], len(self.stores[mission_type]), mission_type)
 
@@ -792,15 +793,15 @@ class MockVehicle:
         mission_type = int(getattr(msg, "mission_type", 0))
         store = self.stores.get(mission_type)
         if store is None:
-            self._ack(peer, mission_type, UNSUPPORTED)
+            self._ack(peer, mission_type, mavlink.MAV_MISSION_UNSUPPORTED)
             return
         seq = int(msg.seq)
         self._int_mode = msg.get_type() == "MISSION_REQUEST_INT"
         if self._int_mode and self._receiving(mission_type):  # ArduPilot checks this for the *_INT request only
-            self._ack(peer, mission_type, DENIED)
+            self._ack(peer, mission_type, mavlink.MAV_MISSION_DENIED)
             return
         if not 0 <= seq < len(store):
-            self._ack(peer, mission_type, INVALID_SEQUENCE)
+            self._ack(peer, mission_type, mavlink.MAV_MISSION_INVALID_SEQUENCE)
             return
         stored = self._home_item() if seq == 0 and self.flavour.has_home_item(mission_type) else store[seq]
         # ArduPilot marks no item current in a download; PX4 marks the one it is at (and item 0 of its
@@ -822,25 +823,25 @@ class MockVehicle:
         mission_type = int(getattr(msg, "mission_type", 0))
         types = list(self.stores) if mission_type == MissionType.ALL else [mission_type]
         if any(t not in self.stores for t in types):
-            self._ack(peer, mission_type, UNSUPPORTED)
+            self._ack(peer, mission_type, mavlink.MAV_MISSION_UNSUPPORTED)
             return
         up = self.upload
         if self.flavour is Flavour.ARDUPILOT and up is not None and up.mission_type in types:
             if up.peer != peer:  # MissionItemProtocol::handle_mission_clear_all: cancel_upload refused
                 self.denied_transfers += 1
-                self._ack(peer, mission_type, DENIED)
-                self._ack(peer, mission_type, ERROR)
+                self._ack(peer, mission_type, mavlink.MAV_MISSION_DENIED)
+                self._ack(peer, mission_type, mavlink.MAV_MISSION_ERROR)
                 return
             self.upload = None  # its own upload: cancelled, then cleared
         if self.flight.state.armed and self.flight.state.mode == "AUTO" and MissionType.MISSION in types:
-            self._ack(peer, mission_type, DENIED)  # not while flying it
+            self._ack(peer, mission_type, mavlink.MAV_MISSION_DENIED)  # not while flying it
             return
         for t in types:
             self.stores[t] = [self._home_item()] if self.flavour.has_home_item(t) else []
         if MissionType.MISSION in types:
             self.flight.state.current = self.first_mission_seq
             self._load_flight()
-        self._ack(peer, mission_type, ACCEPTED)
+        self._ack(peer, mission_type, mavlink.MAV_MISSION_ACCEPTED)
 
     def _replaced_in_flight(self, received: list[WireItem]) -> None:
         """A mission replaced while the vehicle flies (measured: docs/live-retasking.md). ArduPilot keeps
@@ -940,93 +941,101 @@ class MockVehicle:
 
     def _command(self, command: int, p: list[float], now: float) -> int:
         s = self.flight.state
-        if command == 400:  # COMPONENT_ARM_DISARM
+        if command == mavlink.MAV_CMD_COMPONENT_ARM_DISARM:
             if p[0] >= 0.5:
-                if not self.ready and int(p[1]) != 21196 and self.flavour is Flavour.PX4:
+                if not self.ready and int(p[1]) != FORCE_ARM_DISARM and self.flavour is Flavour.PX4:
                     for text in PX4_NOT_READY_TEXTS:  # PX4 before "Ready for takeoff!"
                         self._send_text(text)
-                    return CMD_TEMPORARILY_REJECTED
-                if not self.ready and int(p[1]) != 21196:  # ArduCopter before its EKF uses the GPS
+                    return mavlink.MAV_RESULT_TEMPORARILY_REJECTED
+                if not self.ready and int(p[1]) != FORCE_ARM_DISARM:  # ArduCopter before its EKF uses the GPS
                     for text in NOT_READY_TEXTS[:2]:
                         self._send_text(text)
-                    return CMD_FAILED
-                if (problem := self._battery_arming_problem()) and int(p[1]) != 21196:
+                    return mavlink.MAV_RESULT_FAILED
+                if (problem := self._battery_arming_problem()) and int(p[1]) != FORCE_ARM_DISARM:
                     self._send_text(f"PreArm: Battery 1 {problem}")  # AP_BattMonitor_Backend::arming_checks
-                    return CMD_FAILED
+                    return mavlink.MAV_RESULT_FAILED
                 s.armed = True
                 self.logs.on_armed("ArduCopter V4.7.0-dev (mock)", self._time_us(now))  # a new log (mock_log)
             else:
-                if not s.on_ground and int(p[1]) != 21196:  # 21196 forces a disarm in flight
-                    return CMD_DENIED
+                if not s.on_ground and int(p[1]) != FORCE_ARM_DISARM:  # a forced disarm stops it in flight
+                    return mavlink.MAV_RESULT_DENIED
                 s.armed = False
             self.send_heartbeat()
-            return CMD_ACCEPTED
-        if command == 176:  # DO_SET_MODE
+            return mavlink.MAV_RESULT_ACCEPTED
+        if command == mavlink.MAV_CMD_DO_SET_MODE:
             ok = self._apply_mode(int(p[1]), int(p[2]) if self.flavour is not Flavour.ARDUPILOT else None, now)
-            return CMD_ACCEPTED if ok else CMD_DENIED
-        if command == 300:  # MISSION_START
+            return mavlink.MAV_RESULT_ACCEPTED if ok else mavlink.MAV_RESULT_DENIED
+        if command == mavlink.MAV_CMD_MISSION_START:
             if len(self.stores[MissionType.MISSION]) <= self.first_mission_seq:
-                return CMD_DENIED
+                return mavlink.MAV_RESULT_DENIED
             if self.start_refusals() or now < self.mission_checked_at:  # PX4's mission checks (bridge.px4)
                 self._send_text(START_DENIED)
-                return CMD_DENIED
+                return mavlink.MAV_RESULT_DENIED
             if not s.armed:
-                return CMD_DENIED
+                return mavlink.MAV_RESULT_DENIED
             if s.mode == "AUTO" and not s.mission_done and not s.on_ground:
-                return CMD_ACCEPTED  # already flying it: like ArduCopter, a repeated start does not restart
+                # already flying it: like ArduCopter, a repeated start does not restart
+                return mavlink.MAV_RESULT_ACCEPTED
             first = int(p[0]) if p[0] > 0 else None
             last = int(p[1]) if p[1] > 0 else None
             self._publish(self.flight.start_mission(first, last))
             self.send_heartbeat()
-            return CMD_ACCEPTED
-        if command == 246 and self.options.sitl_like:  # PREFLIGHT_REBOOT_SHUTDOWN: param1 = 1 reboots
+            return mavlink.MAV_RESULT_ACCEPTED
+        if command == mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN and self.options.sitl_like:  # param1 = 1 reboots
             if int(p[0]) != 1:
-                return CMD_UNSUPPORTED
+                return mavlink.MAV_RESULT_UNSUPPORTED
             if s.armed:
-                return CMD_DENIED
+                return mavlink.MAV_RESULT_DENIED
             self._reboot_pending = True  # after the acknowledgement has gone out
-            return CMD_ACCEPTED
-        if command == 224:  # DO_SET_MISSION_CURRENT
-            return CMD_ACCEPTED if self._set_current(int(p[0])) else CMD_DENIED
-        if command == 20:  # NAV_RETURN_TO_LAUNCH
+            return mavlink.MAV_RESULT_ACCEPTED
+        if command == mavlink.MAV_CMD_DO_SET_MISSION_CURRENT:
+            return mavlink.MAV_RESULT_ACCEPTED if self._set_current(int(p[0])) else mavlink.MAV_RESULT_DENIED
+        if command == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             s.mode = "RTL"
-            return CMD_ACCEPTED
-        if command == 21:  # NAV_LAND
+            return mavlink.MAV_RESULT_ACCEPTED
+        if command == mavlink.MAV_CMD_NAV_LAND:
             s.mode = "LAND"
-            return CMD_ACCEPTED
-        if command == CMD_GET_HOME_POSITION or (command == 512 and int(p[0]) == MSG_HOME_POSITION):
-            return CMD_ACCEPTED if self._send_home() else CMD_FAILED  # no home yet: nothing to send
-        if command in (512, 520):  # REQUEST_MESSAGE (AUTOPILOT_VERSION), REQUEST_AUTOPILOT_CAPABILITIES
-            if command == 520 or int(p[0]) == 148:
+            return mavlink.MAV_RESULT_ACCEPTED
+        if command == mavlink.MAV_CMD_GET_HOME_POSITION or (command == mavlink.MAV_CMD_REQUEST_MESSAGE
+                                                             and int(p[0]) == mavlink.MAVLINK_MSG_ID_HOME_POSITION):
+            # no home yet: nothing to send
+            return mavlink.MAV_RESULT_ACCEPTED if self._send_home() else mavlink.MAV_RESULT_FAILED
+        if command in (mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES):
+            if command == mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES \
+                    or int(p[0]) == mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
                 self._send_version()
-                return CMD_ACCEPTED
-            if int(p[0]) == 0:
+                return mavlink.MAV_RESULT_ACCEPTED
+            if int(p[0]) == mavlink.MAVLINK_MSG_ID_HEARTBEAT:
                 self.send_heartbeat()
-                return CMD_ACCEPTED
-            if int(p[0]) == MSG_MISSION_CURRENT and self.flavour is Flavour.ARDUPILOT:  # as ArduPilot answers it
+                return mavlink.MAV_RESULT_ACCEPTED
+            # as ArduPilot answers it
+            if int(p[0]) == mavlink.MAVLINK_MSG_ID_MISSION_CURRENT and self.flavour is Flavour.ARDUPILOT:
                 self._send_mission_current()
-                return CMD_ACCEPTED
-            return CMD_UNSUPPORTED
-        if command == 511:  # SET_MESSAGE_INTERVAL
+                return mavlink.MAV_RESULT_ACCEPTED
+            return mavlink.MAV_RESULT_UNSUPPORTED
+        if command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
             msgid = int(p[0])
-            if msgid not in STREAMS or (msgid == MSG_EKF_STATUS_REPORT and self.flavour is not Flavour.ARDUPILOT):
-                return CMD_UNSUPPORTED
+            if msgid not in STREAMS or (msgid == mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT
+                                        and self.flavour is not Flavour.ARDUPILOT):
+                return mavlink.MAV_RESULT_UNSUPPORTED
             interval_us = p[1]
             if interval_us < 0:
                 self.intervals[msgid] = None
             elif interval_us == 0:  # the default rate
-                self.intervals[msgid] = 1.0 / self.options.telemetry_hz if msgid == MSG_GLOBAL_POSITION_INT else 1.0
+                position = msgid == mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
+                self.intervals[msgid] = 1.0 / self.options.telemetry_hz if position else 1.0
             else:
                 self.intervals[msgid] = max(interval_us / 1e6, MIN_STREAM_INTERVAL_S)
             self._next_due[msgid] = now
-            return CMD_ACCEPTED
+            return mavlink.MAV_RESULT_ACCEPTED
 
-        return CMD_UNSUPPORTED
+        return mavlink.MAV_RESULT_UNSUPPORTED
 
     # -- parameters
     def _send_param(self, name: str, peer: tuple[int, int]) -> None:
         names = sorted(self.params)
-        self.mav.param_value_send(name.encode(), float(self.params[name]), 9, len(names), names.index(name))
+        self.mav.param_value_send(name.encode(), float(self.params[name]), mavlink.MAV_PARAM_TYPE_REAL32, len(names),
+                                  names.index(name))
 
     def _on_param_read(self, msg: Any, peer: tuple[int, int], now: float) -> None:
         name = str(msg.param_id).rstrip("\x00")
@@ -1056,7 +1065,7 @@ class MockVehicle:
 def _next_nav(items: list[WireItem], index: int, count: int = 3) -> list[tuple[object, ...]]:
     """The next `count` navigation items from `index` on, as ArduPilot's AP_Mission_ChangeDetector
     compares them (a change in them while in AUTO restarts the current item)."""
-    nav = [it for it in items[index:] if it.command <= NAV_LAST]
+    nav = [it for it in items[index:] if it.command <= mavlink.MAV_CMD_NAV_LAST]
     return [(it.command, it.frame, it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z) for it in nav[:count]]
 
 

@@ -37,7 +37,7 @@ from typing import Any
 
 from .atomic import atomic_path
 from .errors import BridgeError
-from .link import AUTOPILOT_COMPONENT_ID
+from .link import AUTOPILOT_COMPONENT_ID, mavlink
 from .mission import Flavour
 
 ProgressFn = Callable[[int, int], None]  # (bytes received, bytes in all), over every log downloaded
@@ -50,7 +50,6 @@ MIN_QUIET_S = 0.05  # the shortest silence taken for that, however fast the chun
 DATA_TRIES = 6     # requests in a row that bring nothing new before the download fails
 COALESCE_CHUNKS = 16  # missing chunks this close together are asked for in one request
 WINDOW_BYTES = 512 * LOG_DATA_LEN  # asked for at a time (46 KB: a burst a UDP socket's buffer holds)
-MODE_FLAG_ARMED = 128
 DISARM_TEXT = "Disarm for log download"  # ArduPilot's answer, once per arming, to a log request while armed
 GPS_EPOCH_UNIX = 315_964_800  # 1980-01-06 00:00:00 UTC
 GPS_LEAP_SECONDS = 18  # GPS time runs ahead of UTC by this much (since 2017)
@@ -130,7 +129,7 @@ class LogClient:
                 continue
             kind = msg.get_type()
             if kind == "HEARTBEAT" and msg.get_srcComponent() == self.compid:
-                self.armed = bool(msg.base_mode & MODE_FLAG_ARMED)
+                self.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
             elif kind == "STATUSTEXT" and DISARM_TEXT in str(msg.text):
                 self.said_disarm = True
             return msg

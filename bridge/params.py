@@ -4,7 +4,7 @@ Owns:
 - ParamClient: read one parameter (PARAM_REQUEST_READ -> PARAM_VALUE) and set one (PARAM_SET, proved
   by the PARAM_VALUE the vehicle answers with), with retries and a bound, for one vehicle on a Link;
 - acceptance_radius_setting: what the upload does about a plan's waypoint acceptance radius. ArduCopter
-  does not store NAV_WAYPOINT's param2 (bridge.mission.ARDUPILOT_UNSTORED_PARAMS): it turns at every
+  does not store NAV_WAYPOINT's param2 (bridge.readback.ARDUPILOT_UNSTORED_PARAMS): it turns at every
   waypoint when within WPNAV_RADIUS (cm, default 200, legal range 5..1000). So for an ArduPilot
   multirotor the plan's radius (the smallest positive param2 of its waypoints) goes to WPNAV_RADIUS,
   clamped to that range. PX4 and other autopilots read param2 per waypoint: nothing to set.
@@ -19,10 +19,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from .errors import BridgeError
-from .link import Link, VehicleInfo
+from .link import Link, VehicleInfo, mavlink
 from .mission import CMD_NAV_WAYPOINT, Flavour, Mission
 
-MAV_PARAM_TYPE_REAL32 = 9
 PARAM_TRIES = 5
 PARAM_WAIT_S = 1.0  # per try: ArduPilot answers within a few ms, a radio within a second
 
@@ -81,7 +80,8 @@ class ParamClient:
         mav, sysid, compid = self.link.mav, self.vehicle.sysid, self.vehicle.compid
         target = _f32(value)
         got, ok = self._await_value(
-            name, lambda: mav.param_set_send(sysid, compid, name.encode(), float(value), MAV_PARAM_TYPE_REAL32),
+            name,
+            lambda: mav.param_set_send(sysid, compid, name.encode(), float(value), mavlink.MAV_PARAM_TYPE_REAL32),
             tries, wait_s, lambda v: math.isclose(v, target, rel_tol=1e-6, abs_tol=1e-6))
         if got is None:
             raise self._failure(f"vehicle {sysid} did not answer for parameter {name} ({tries} tries, {wait_s:g} s each)")

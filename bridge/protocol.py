@@ -25,36 +25,35 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from .errors import BridgeError
-from .link import Link, VehicleInfo
+from .link import Link, VehicleInfo, mavlink
 from .mission import MissionType, WireItem
 
 ProgressFn = Callable[[int, int], None]  # (items done, items in all)
 
-MAV_MISSION_ACCEPTED = 0
-MAV_MISSION_ERROR = 1
-MAV_MISSION_INVALID_SEQUENCE = 13
-MAV_MISSION_DENIED = 14
 DENIED_TRIES, DENIED_WAIT_S = 5, 2.0  # another ground station's transfer: how long to wait it out
-MAV_MISSION_OPERATION_CANCELLED = 15
 STRAY_ACK_S = 2.0  # after an upload, an ERROR / INVALID_SEQUENCE ack of its type is a late stray
 
 RESULT_TEXT: dict[int, str] = {
-    0: "accepted",
-    1: "generic error: the vehicle refused the mission (MAV_MISSION_ERROR)",
-    2: "an item uses a coordinate frame the vehicle does not support (MAV_MISSION_UNSUPPORTED_FRAME)",
-    3: "an item uses a command or mission type the vehicle does not support (MAV_MISSION_UNSUPPORTED)",
-    4: "the vehicle has no space for this many items (MAV_MISSION_NO_SPACE)",
-    5: "an item has an invalid parameter (MAV_MISSION_INVALID)",
-    6: "an item has an invalid param1 (MAV_MISSION_INVALID_PARAM1)",
-    7: "an item has an invalid param2 (MAV_MISSION_INVALID_PARAM2)",
-    8: "an item has an invalid param3 (MAV_MISSION_INVALID_PARAM3)",
-    9: "an item has an invalid param4 (MAV_MISSION_INVALID_PARAM4)",
-    10: "an item has an invalid x / latitude (MAV_MISSION_INVALID_PARAM5_X)",
-    11: "an item has an invalid y / longitude (MAV_MISSION_INVALID_PARAM6_Y)",
-    12: "an item has an invalid z / altitude (MAV_MISSION_INVALID_PARAM7)",
-    13: "items arrived out of sequence (MAV_MISSION_INVALID_SEQUENCE)",
-    14: "the vehicle denied the operation, e.g. busy with another transfer or flying (MAV_MISSION_DENIED)",
-    15: "the operation was cancelled, e.g. the vehicle timed out waiting for items (MAV_MISSION_OPERATION_CANCELLED)",
+    mavlink.MAV_MISSION_ACCEPTED: "accepted",
+    mavlink.MAV_MISSION_ERROR: "generic error: the vehicle refused the mission (MAV_MISSION_ERROR)",
+    mavlink.MAV_MISSION_UNSUPPORTED_FRAME:
+        "an item uses a coordinate frame the vehicle does not support (MAV_MISSION_UNSUPPORTED_FRAME)",
+    mavlink.MAV_MISSION_UNSUPPORTED:
+        "an item uses a command or mission type the vehicle does not support (MAV_MISSION_UNSUPPORTED)",
+    mavlink.MAV_MISSION_NO_SPACE: "the vehicle has no space for this many items (MAV_MISSION_NO_SPACE)",
+    mavlink.MAV_MISSION_INVALID: "an item has an invalid parameter (MAV_MISSION_INVALID)",
+    mavlink.MAV_MISSION_INVALID_PARAM1: "an item has an invalid param1 (MAV_MISSION_INVALID_PARAM1)",
+    mavlink.MAV_MISSION_INVALID_PARAM2: "an item has an invalid param2 (MAV_MISSION_INVALID_PARAM2)",
+    mavlink.MAV_MISSION_INVALID_PARAM3: "an item has an invalid param3 (MAV_MISSION_INVALID_PARAM3)",
+    mavlink.MAV_MISSION_INVALID_PARAM4: "an item has an invalid param4 (MAV_MISSION_INVALID_PARAM4)",
+    mavlink.MAV_MISSION_INVALID_PARAM5_X: "an item has an invalid x / latitude (MAV_MISSION_INVALID_PARAM5_X)",
+    mavlink.MAV_MISSION_INVALID_PARAM6_Y: "an item has an invalid y / longitude (MAV_MISSION_INVALID_PARAM6_Y)",
+    mavlink.MAV_MISSION_INVALID_PARAM7: "an item has an invalid z / altitude (MAV_MISSION_INVALID_PARAM7)",
+    mavlink.MAV_MISSION_INVALID_SEQUENCE: "items arrived out of sequence (MAV_MISSION_INVALID_SEQUENCE)",
+    mavlink.MAV_MISSION_DENIED:
+        "the vehicle denied the operation, e.g. busy with another transfer or flying (MAV_MISSION_DENIED)",
+    mavlink.MAV_MISSION_OPERATION_CANCELLED:
+        "the operation was cancelled, e.g. the vehicle timed out waiting for items (MAV_MISSION_OPERATION_CANCELLED)",
 }
 
 
@@ -213,7 +212,7 @@ class MissionClient:
             now = time.monotonic()
             if msg is None:
                 if now - last_progress >= step_limit:
-                    self._ack(mission_type, MAV_MISSION_OPERATION_CANCELLED)  # let the vehicle stop waiting
+                    self._ack(mission_type, mavlink.MAV_MISSION_OPERATION_CANCELLED)  # let the vehicle stop waiting
                     if self._rebooted_since(start_reboots):
                         raise MissionTransferError(f"{self._name} rebooted during the {label} upload (after {highest + 1} "
                                                    f"of {count} items); the upload did not complete")
@@ -251,37 +250,37 @@ class MissionClient:
                 if int(getattr(msg, "mission_type", 0)) != mission_type:
                     continue
                 result = int(msg.type)
-                if result == MAV_MISSION_ACCEPTED:
+                if result == mavlink.MAV_MISSION_ACCEPTED:
                     if count == 0 or highest == count - 1:
                         self._stray_until[mission_type] = now + STRAY_ACK_S
                         if progress is not None:
                             progress(count, count)
                         return
                     continue  # a late ACCEPTED from an earlier transfer
-                if result in (MAV_MISSION_ERROR, MAV_MISSION_INVALID_SEQUENCE) and self._stray(mission_type, now) \
-                        and not requested_any:
+                if result in (mavlink.MAV_MISSION_ERROR, mavlink.MAV_MISSION_INVALID_SEQUENCE) \
+                        and self._stray(mission_type, now) and not requested_any:
                     continue  # the late answer to a stray copy of the previous upload's items
-                if result == MAV_MISSION_INVALID_SEQUENCE and requested_any:
+                if result == mavlink.MAV_MISSION_INVALID_SEQUENCE and requested_any:
                     self.invalid_sequence_acks += 1
                     continue  # ArduPilot's mid-upload complaint about a repeated item: not the end
                 if self._rebooted_since(start_reboots):
                     raise MissionTransferError(f"{self._name} rebooted during the {label} upload (after {highest + 1} of "
                                                f"{count} items) and answered: {result_text(result)}; the upload did not "
                                                "complete", result)
-                if result == MAV_MISSION_ERROR and count > 0 and highest == count - 1:
+                if result == mavlink.MAV_MISSION_ERROR and count > 0 and highest == count - 1:
                     # ArduPilot answers an item it no longer expects with ERROR: our copy of the last
                     # item came after it had completed, and its ACCEPTED was lost. Only a read-back tells,
                     # and more such ERRORs (a duplicate, an answer to a nudge) may still be on their way.
                     self._stray_until[mission_type] = now + STRAY_ACK_S
                     raise UploadUnconfirmed(f"{self._name} received every {label} item but its acknowledgement was "
                                             "lost; only a read-back can tell whether it holds the upload", result)
-                if result == MAV_MISSION_ERROR and requested_any:
+                if result == mavlink.MAV_MISSION_ERROR and requested_any:
                     raise MissionTransferError(f"{self._name} dropped the {label} upload after {highest + 1} of {count} "
                                                "items (MAV_MISSION_ERROR: it no longer knows this transfer; did it "
                                                "reboot?); the upload did not complete", result)
                 error = MissionTransferError(f"{self._name} refused the {label} upload after {highest + 1} of {count} "
                                              f"items: {result_text(result)}", result)
-                error.denied_at_start = result == MAV_MISSION_DENIED and not requested_any
+                error.denied_at_start = result == mavlink.MAV_MISSION_DENIED and not requested_any
                 raise error
 
     def _stray(self, mission_type: int, now: float) -> bool:
@@ -314,7 +313,7 @@ class MissionClient:
             items.append(WireItem.from_message(msg))
             if progress is not None:
                 progress(seq + 1, total)
-        self._ack(mission_type, MAV_MISSION_ACCEPTED)
+        self._ack(mission_type, mavlink.MAV_MISSION_ACCEPTED)
         return items
 
     def _exchange(self, send: Callable[[], None], wanted: Callable[[object], bool], what: str,
@@ -342,9 +341,10 @@ class MissionClient:
                 return msg
             if msg.get_type() == "MISSION_ACK" and int(getattr(msg, "mission_type", 0)) == mission_type:
                 result = int(msg.type)  # type: ignore[attr-defined]
-                if result in (MAV_MISSION_ERROR, MAV_MISSION_INVALID_SEQUENCE) and self._stray(mission_type, now):
+                if result in (mavlink.MAV_MISSION_ERROR, mavlink.MAV_MISSION_INVALID_SEQUENCE) \
+                        and self._stray(mission_type, now):
                     continue  # a late answer to a stray item of the upload that just completed
-                if result not in (MAV_MISSION_ACCEPTED, MAV_MISSION_OPERATION_CANCELLED):
+                if result not in (mavlink.MAV_MISSION_ACCEPTED, mavlink.MAV_MISSION_OPERATION_CANCELLED):
                     # OPERATION_CANCELLED can be a late answer to an earlier transfer; ACCEPTED likewise.
                     raise MissionTransferError(f"{self._name} refused to send {what}: {result_text(result)}", result)
 
@@ -361,7 +361,7 @@ class MissionClient:
                              and int(getattr(m, "mission_type", 0)) == mission_type,
                              f"an answer to clearing the {MissionType(mission_type).label}", -1)
         result = int(msg.type)  # type: ignore[attr-defined]
-        if result != MAV_MISSION_ACCEPTED:
+        if result != mavlink.MAV_MISSION_ACCEPTED:
             raise MissionTransferError(f"{self._name} refused to clear the {MissionType(mission_type).label}: "
                                        f"{result_text(result)}", result)
 

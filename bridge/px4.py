@@ -7,8 +7,8 @@ Owns PX4's rules, as data and pure functions, for the mock's PX4 flavour and for
   radius dropped, fence items not auto-continued and without altitude);
 - start_refusals: PX4's mission feasibility check that refuses a start with "Mission start denied!
   No valid mission" when the first positional item is MIS_DIST_1WP (900 m) or more from the
-  vehicle's home - the cause of issue 16's refusals (a vehicle started elsewhere, e.g. at SIH's
-  default home in Montreal). PX4 gives the same answer to any start before it is ready;
+  vehicle's home (a vehicle started elsewhere, e.g. at SIH's default home in Montreal, is refused
+  so). PX4 gives the same answer to any start before it is ready;
 - fence_problems: a geofence that leaves the vehicle's home out ("Geofence invalid, doesn't contain
   Home position"): PX4 then ignores it and still starts the mission, unfenced;
 - reported_reached / reached_item / reported_items: which MISSION_ITEM_REACHED PX4 sends when it
@@ -28,10 +28,32 @@ import struct
 from dataclasses import replace
 
 from .mission import (
+    CMD_CONDITION_DELAY,
+    CMD_DO_CHANGE_SPEED,
+    CMD_DO_DIGICAM_CONTROL,
+    CMD_DO_GIMBAL_MANAGER_PITCHYAW,
+    CMD_DO_JUMP,
+    CMD_DO_LAND_START,
+    CMD_DO_MOUNT_CONTROL,
+    CMD_DO_SET_CAM_TRIGG_DIST,
+    CMD_DO_SET_CAM_TRIGG_INTERVAL,
+    CMD_DO_SET_ROI,
+    CMD_DO_SET_ROI_LOCATION,
+    CMD_DO_VTOL_TRANSITION,
     CMD_FENCE_CIRCLE_EXCLUSION,
     CMD_FENCE_CIRCLE_INCLUSION,
     CMD_FENCE_POLYGON_VERTEX_EXCLUSION,
     CMD_FENCE_POLYGON_VERTEX_INCLUSION,
+    CMD_IMAGE_START_CAPTURE,
+    CMD_IMAGE_STOP_CAPTURE,
+    CMD_NAV_DELAY,
+    CMD_NAV_LAND,
+    CMD_NAV_LAST,
+    CMD_NAV_LOITER_TIME,
+    CMD_NAV_LOITER_TO_ALT,
+    CMD_NAV_LOITER_UNLIM,
+    CMD_NAV_RETURN_TO_LAUNCH,
+    CMD_NAV_TAKEOFF,
     CMD_NAV_WAYPOINT,
     CMD_RALLY_POINT,
     FRAME_GLOBAL,
@@ -39,22 +61,26 @@ from .mission import (
     FRAME_GLOBAL_RELATIVE_ALT,
     FRAME_GLOBAL_RELATIVE_ALT_INT,
     FRAME_MISSION,
+    MAV_MISSION_ACCEPTED,
+    MAV_MISSION_ERROR,
+    MAV_MISSION_UNSUPPORTED,
+    MAV_MISSION_UNSUPPORTED_FRAME,
     MissionType,
     WireItem,
 )
 
-# MAV_MISSION_RESULT
-ACCEPTED, ERROR, UNSUPPORTED_FRAME, UNSUPPORTED = 0, 1, 2, 3
-
 PX4_GLOBAL_FRAMES = frozenset({FRAME_GLOBAL, FRAME_GLOBAL_RELATIVE_ALT, FRAME_GLOBAL_INT, FRAME_GLOBAL_RELATIVE_ALT_INT})
-# Commands PX4 takes in a global frame (a position): WAYPOINT, LOITER_UNLIM, LOITER_TIME, LAND, TAKEOFF,
-# LOITER_TO_ALT, DO_SET_ROI_LOCATION, DO_SET_ROI.
-GLOBAL_COMMANDS = frozenset({16, 17, 19, 21, 22, 31, 195, 201})
-# Commands PX4 takes in frame 2 (MAV_FRAME_MISSION): RTL, NAV_DELAY, CONDITION_DELAY, DO_JUMP, DO_CHANGE_SPEED,
-# DO_LAND_START, DO_SET_ROI, DO_DIGICAM_CONTROL, DO_MOUNT_CONTROL, DO_SET_CAM_TRIGG_DIST, DO_SET_CAM_TRIGG_INTERVAL,
-# DO_GIMBAL_MANAGER_PITCHYAW, IMAGE_START / STOP_CAPTURE, DO_VTOL_TRANSITION.
-MISSION_FRAME_COMMANDS = frozenset({20, 93, 112, 177, 178, 189, 201, 203, 205, 206, 214, 1000, 2000, 2001, 3000})
-YAW_COMMANDS = frozenset({16, 17, 19, 21, 22})  # param4 is a yaw PX4 keeps in radians
+# Commands PX4 takes in a global frame (a position).
+GLOBAL_COMMANDS = frozenset({CMD_NAV_WAYPOINT, CMD_NAV_LOITER_UNLIM, CMD_NAV_LOITER_TIME, CMD_NAV_LAND, CMD_NAV_TAKEOFF,
+                             CMD_NAV_LOITER_TO_ALT, CMD_DO_SET_ROI_LOCATION, CMD_DO_SET_ROI})
+# Commands PX4 takes in frame 2 (MAV_FRAME_MISSION).
+MISSION_FRAME_COMMANDS = frozenset({
+    CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_DELAY, CMD_CONDITION_DELAY, CMD_DO_JUMP, CMD_DO_CHANGE_SPEED, CMD_DO_LAND_START,
+    CMD_DO_SET_ROI, CMD_DO_DIGICAM_CONTROL, CMD_DO_MOUNT_CONTROL, CMD_DO_SET_CAM_TRIGG_DIST,
+    CMD_DO_SET_CAM_TRIGG_INTERVAL, CMD_DO_GIMBAL_MANAGER_PITCHYAW, CMD_IMAGE_START_CAPTURE, CMD_IMAGE_STOP_CAPTURE,
+    CMD_DO_VTOL_TRANSITION})
+# param4 is a yaw PX4 keeps in radians
+YAW_COMMANDS = frozenset({CMD_NAV_WAYPOINT, CMD_NAV_LOITER_UNLIM, CMD_NAV_LOITER_TIME, CMD_NAV_LAND, CMD_NAV_TAKEOFF})
 FENCE_COMMANDS = frozenset({CMD_FENCE_POLYGON_VERTEX_INCLUSION, CMD_FENCE_POLYGON_VERTEX_EXCLUSION,
                             CMD_FENCE_CIRCLE_INCLUSION, CMD_FENCE_CIRCLE_EXCLUSION})
 _INT_FRAMES = {FRAME_GLOBAL: FRAME_GLOBAL_INT, FRAME_GLOBAL_RELATIVE_ALT: FRAME_GLOBAL_RELATIVE_ALT_INT}
@@ -71,15 +97,15 @@ def item_result(item: WireItem) -> int:
     """The MISSION_ACK type PX4 answers this item with (ACCEPTED or why not)."""
     frame, command = item.frame, item.command
     if frame != FRAME_MISSION and frame not in PX4_GLOBAL_FRAMES:
-        return UNSUPPORTED_FRAME  # LOCAL_NED, TERRAIN_ALT(_INT), ...
+        return MAV_MISSION_UNSUPPORTED_FRAME  # LOCAL_NED, TERRAIN_ALT(_INT), ...
     if item.mission_type == MissionType.MISSION and command == CMD_RALLY_POINT and frame != FRAME_MISSION:
-        return ERROR
+        return MAV_MISSION_ERROR
     if item.mission_type == MissionType.FENCE:
-        return ACCEPTED if command in FENCE_COMMANDS and frame != FRAME_MISSION else UNSUPPORTED
+        return MAV_MISSION_ACCEPTED if command in FENCE_COMMANDS and frame != FRAME_MISSION else MAV_MISSION_UNSUPPORTED
     if item.mission_type == MissionType.RALLY:
-        return ACCEPTED if command == CMD_RALLY_POINT and frame != FRAME_MISSION else UNSUPPORTED
+        return MAV_MISSION_ACCEPTED if command == CMD_RALLY_POINT and frame != FRAME_MISSION else MAV_MISSION_UNSUPPORTED
     allowed = MISSION_FRAME_COMMANDS if frame == FRAME_MISSION else GLOBAL_COMMANDS
-    return ACCEPTED if command in allowed else UNSUPPORTED
+    return MAV_MISSION_ACCEPTED if command in allowed else MAV_MISSION_UNSUPPORTED
 
 
 def _f32(value: float) -> float:
@@ -199,8 +225,6 @@ def start_refusals(mission: list[WireItem], home: tuple[float, float],
     return problems
 
 
-CMD_NAV_TAKEOFF, CMD_NAV_RETURN_TO_LAUNCH = 22, 20
-NAV_LAST = 95  # MAV_CMD_NAV_LAST: commands up to it are navigation items, DO_ / CONDITION_ ones after it
 UNREPORTED = frozenset({CMD_NAV_TAKEOFF, CMD_NAV_RETURN_TO_LAUNCH})
 
 
@@ -212,7 +236,7 @@ def reported_reached(commands: list[int], seq: int) -> int | None:
     follow it, with the last of their seqs (waypoint 3, DO_SET_CAM_TRIGG_DIST 4: "reached 4")."""
     if not 0 <= seq < len(commands) or commands[seq] in UNREPORTED:
         return None
-    while seq + 1 < len(commands) and commands[seq + 1] > NAV_LAST:
+    while seq + 1 < len(commands) and commands[seq + 1] > CMD_NAV_LAST:
         seq += 1
     return seq
 
@@ -222,7 +246,7 @@ def reached_item(commands: list[int], reported: int) -> int:
     it. PX4 sends either the waypoint's own seq or, once it has run the DO_ items after it, the last of
     theirs (SIH: waypoint 11 of the fleet test came once as "reached 11" then "reached 12", usually as 12)."""
     seq = min(reported, len(commands) - 1)
-    while seq > 0 and commands[seq] > NAV_LAST:
+    while seq > 0 and commands[seq] > CMD_NAV_LAST:
         seq -= 1
     return seq
 
@@ -230,4 +254,4 @@ def reached_item(commands: list[int], reported: int) -> int:
 def reported_items(commands: list[int]) -> list[int]:
     """The navigation items PX4 reports reaching when it flies a whole mission (`commands` by seq), in
     order: every one but the NAV_TAKEOFF and the final RTL."""
-    return [k for k, command in enumerate(commands) if command <= NAV_LAST and command not in UNREPORTED]
+    return [k for k, command in enumerate(commands) if command <= CMD_NAV_LAST and command not in UNREPORTED]

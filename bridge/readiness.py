@@ -39,41 +39,39 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from .link import VehicleInfo
+from .link import VehicleInfo, mavlink
 from .mission import Flavour
 
-CMD_ARM, CMD_DO_SET_MODE, CMD_SET_MESSAGE_INTERVAL, CMD_REQUEST_MESSAGE = 400, 176, 511, 512
-MSG_SYS_STATUS, MSG_GPS_RAW_INT, MSG_GLOBAL_POSITION_INT, MSG_MISSION_CURRENT = 1, 24, 33, 42
-MSG_EKF_STATUS_REPORT, MSG_HOME_POSITION, MSG_EXTENDED_SYS_STATE = 193, 242, 245
-MAV_RESULT_ACCEPTED, MAV_RESULT_TEMPORARILY_REJECTED, MAV_RESULT_FAILED = 0, 1, 4
-MODE_FLAG_ARMED = 128
-GPS_FIX_3D = 3
-SENSOR_PREARM_CHECK = 0x1000_0000  # MAV_SYS_STATUS_PREARM_CHECK: set in health when pre-arm checks pass
 # EKF_STATUS_REPORT flags an ArduPilot EKF needs before it can fly a mission: attitude, horizontal
 # and vertical velocity, absolute horizontal and vertical position; and not in constant-position
 # mode (no GPS yet) nor uninitialised.
-EKF_NEEDED = 1 | 2 | 4 | 16 | 32
-EKF_BAD = 128 | 1024
+EKF_NEEDED = (mavlink.EKF_ATTITUDE | mavlink.EKF_VELOCITY_HORIZ | mavlink.EKF_VELOCITY_VERT | mavlink.EKF_POS_HORIZ_ABS
+              | mavlink.EKF_POS_VERT_ABS)
+EKF_BAD = mavlink.EKF_CONST_POS_MODE | mavlink.EKF_UNINITIALIZED
+# ArduCopter's custom_mode numbers (its own mode list, not a MAVLink enum) and PX4's main / sub modes
+# (px4_custom_mode.h): both autopilots' own numbering.
 ARDUPILOT_MODE_NAMES = {0: "STABILIZE", 2: "ALT_HOLD", 3: "AUTO", 4: "GUIDED", 5: "LOITER", 6: "RTL", 9: "LAND"}
-ARDUPILOT_AUTO, ARDUPILOT_LOITER = 3, 5
+ARDUPILOT_AUTO, ARDUPILOT_GUIDED, ARDUPILOT_LOITER = 3, 4, 5
 PX4_AUTO_MAIN, PX4_LOITER_SUB, PX4_MISSION_SUB = 4, 3, 4
 PX4_TAKEOFF_SUB, PX4_RTL_SUB, PX4_LAND_SUB = 2, 5, 6
 PX4_MAIN_NAMES = {1: "MANUAL", 2: "ALTCTL", 3: "POSCTL", 5: "ACRO", 6: "OFFBOARD", 7: "STABILIZED"}
 PX4_AUTO_NAMES = {PX4_TAKEOFF_SUB: "TAKEOFF", PX4_LOITER_SUB: "HOLD", PX4_MISSION_SUB: "MISSION",
                   PX4_RTL_SUB: "RTL", PX4_LAND_SUB: "LAND"}
-MAV_LANDED_STATE_ON_GROUND = 1
 STATUSTEXT_CHUNK = 50  # characters in one STATUSTEXT: a full one may be continued (same id, next chunk_seq)
 CHUNK_WAIT_S = 1.0     # a started text waits this long for its next chunk
 EARTH_RADIUS_M = 6_378_137.0
 DEFAULT_LAUNCH_OFFSET_M = 5.0  # plus the GPS's own horizontal error
 ARM_RETRY_S = 1.0
 HOME_ASK_S = 2.0   # re-ask for HOME_POSITION this often while it is unknown
-READY_RATES_HZ = {MSG_SYS_STATUS: 1.0, MSG_GPS_RAW_INT: 1.0, MSG_EKF_STATUS_REPORT: 1.0, MSG_HOME_POSITION: 0.5,
-                  MSG_MISSION_CURRENT: 2.0}
-STREAM_NAMES = {MSG_SYS_STATUS: "SYS_STATUS", MSG_GPS_RAW_INT: "GPS_RAW_INT", MSG_GLOBAL_POSITION_INT:
-                "GLOBAL_POSITION_INT", MSG_MISSION_CURRENT: "MISSION_CURRENT",
-                MSG_EKF_STATUS_REPORT: "EKF_STATUS_REPORT", MSG_HOME_POSITION: "HOME_POSITION",
-                MSG_EXTENDED_SYS_STATE: "EXTENDED_SYS_STATE"}
+READY_RATES_HZ = {mavlink.MAVLINK_MSG_ID_SYS_STATUS: 1.0, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
+                  mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT: 1.0, mavlink.MAVLINK_MSG_ID_HOME_POSITION: 0.5,
+                  mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 2.0}
+STREAM_NAMES = {mavlink.MAVLINK_MSG_ID_SYS_STATUS: "SYS_STATUS", mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: "GPS_RAW_INT",
+                mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: "GLOBAL_POSITION_INT",
+                mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: "MISSION_CURRENT",
+                mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT: "EKF_STATUS_REPORT",
+                mavlink.MAVLINK_MSG_ID_HOME_POSITION: "HOME_POSITION",
+                mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: "EXTENDED_SYS_STATE"}
 TEXTS_KEPT = 20
 # A vehicle is ready only once its position estimate stands still on the ground: moved at most STEADY_M
 # over the last STEADY_WINDOW_S of its own clock. Why: PX4 takes off towards where it believed it was at
@@ -100,10 +98,10 @@ def stream_rates(telemetry_hz: float, flavour: Flavour = Flavour.ARDUPILOT) -> d
     """Every stream fly reads, in Hz: readiness and progress at low rates, positions at telemetry_hz;
     on PX4 also EXTENDED_SYS_STATE (its landed state: PX4's relative altitude drifts by decimetres
     on the ground) and no EKF_STATUS_REPORT (an ArduPilot message)."""
-    rates = {**READY_RATES_HZ, MSG_GLOBAL_POSITION_INT: float(telemetry_hz)}
+    rates = {**READY_RATES_HZ, mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: float(telemetry_hz)}
     if flavour is Flavour.PX4:
-        del rates[MSG_EKF_STATUS_REPORT]
-        rates[MSG_EXTENDED_SYS_STATE] = 2.0
+        del rates[mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT]
+        rates[mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE] = 2.0
     return rates
 
 
@@ -112,14 +110,20 @@ def px4_mode(main: int, sub: int = 0) -> int:
     return (main << 16) | (sub << 24)
 
 
+def mode_params(*custom: int) -> list[float]:
+    """DO_SET_MODE's params for a custom mode: ArduPilot's mode number, or PX4's main and sub mode."""
+    return [float(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED), *map(float, custom)]
+
+
 def request_streams(link: Any, sysid: int, rates_hz: dict[int, float], deadline: float,
                     other: Callable[[Any], Any] | None = None) -> list[str]:
     """SET_MESSAGE_INTERVAL for each message id; the names of the streams the vehicle did not accept.
     The vehicle's other messages meanwhile go to `other` (the first of each stream among them)."""
     refused: list[str] = []
     for msgid, hz in rates_hz.items():
-        result = link.command_long(sysid, CMD_SET_MESSAGE_INTERVAL, [float(msgid), 1e6 / hz], deadline, other=other)
-        if result != MAV_RESULT_ACCEPTED:
+        result = link.command_long(sysid, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, [float(msgid), 1e6 / hz], deadline,
+                                   other=other)
+        if result != mavlink.MAV_RESULT_ACCEPTED:
             refused.append(STREAM_NAMES.get(msgid, str(msgid)))
     return refused
 
@@ -159,11 +163,11 @@ class VehicleState:
             if msg.latitude or msg.longitude:
                 self.home = (msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1000.0)
         elif kind == "SYS_STATUS":
-            if msg.onboard_control_sensors_present & SENSOR_PREARM_CHECK:
-                self.prearm_ok = bool(msg.onboard_control_sensors_health & SENSOR_PREARM_CHECK)
-        elif kind == "HEARTBEAT" and msg.type != 6:
+            if msg.onboard_control_sensors_present & mavlink.MAV_SYS_STATUS_PREARM_CHECK:
+                self.prearm_ok = bool(msg.onboard_control_sensors_health & mavlink.MAV_SYS_STATUS_PREARM_CHECK)
+        elif kind == "HEARTBEAT" and msg.type != mavlink.MAV_TYPE_GCS:
             self.base_mode = int(msg.base_mode)
-            self.armed = bool(msg.base_mode & MODE_FLAG_ARMED)
+            self.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
             self.custom_mode = int(msg.custom_mode)
         elif kind == "EXTENDED_SYS_STATE":
             self.landed_state = int(msg.landed_state)
@@ -226,7 +230,7 @@ class VehicleState:
         out: list[str] = []
         if self.fix_type is None:
             out.append("GPS (no GPS_RAW_INT yet)")
-        elif self.fix_type < GPS_FIX_3D:
+        elif self.fix_type < mavlink.GPS_FIX_TYPE_3D_FIX:
             out.append(f"a 3-D GPS fix (fix type {self.fix_type}, {self.satellites} satellites)")
         if self.flavour is Flavour.ARDUPILOT and not self.ekf_ok:
             out.append("the EKF (no EKF_STATUS_REPORT yet)" if self.ekf_flags is None
@@ -265,7 +269,9 @@ class VehicleState:
     @property
     def on_ground(self) -> bool | None:
         """What the vehicle's landed state says (None: it does not report one)."""
-        return None if self.landed_state in (None, 0) else self.landed_state == MAV_LANDED_STATE_ON_GROUND
+        if self.landed_state in (None, mavlink.MAV_LANDED_STATE_UNDEFINED):
+            return None
+        return self.landed_state == mavlink.MAV_LANDED_STATE_ON_GROUND
 
     @property
     def in_auto(self) -> bool:
@@ -304,8 +310,8 @@ class Vehicle:
             self.take(msg)
 
     def _ask_home(self) -> None:
-        self.link.mav.command_long_send(self.sysid, self.info.compid, CMD_REQUEST_MESSAGE, 0,
-                                        float(MSG_HOME_POSITION), 0, 0, 0, 0, 0, 0)
+        self.link.mav.command_long_send(self.sysid, self.info.compid, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
+                                        float(mavlink.MAVLINK_MSG_ID_HOME_POSITION), 0, 0, 0, 0, 0, 0)
 
     def wait_ready(self, deadline: float) -> list[str]:
         """Until ready or deadline: [] when ready, else what is still missing. Says what it waits for
@@ -353,11 +359,12 @@ class Vehicle:
         while True:
             tries += 1
             self.wait_still(deadline)
-            result = self.link.command_long(self.sysid, CMD_ARM, [1.0], deadline, other=self.take)
-            if result == MAV_RESULT_ACCEPTED:
+            result = self.link.command_long(self.sysid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, [1.0], deadline,
+                                            other=self.take)
+            if result == mavlink.MAV_RESULT_ACCEPTED:
                 return True, ""
             last = result
-            if result not in (None, MAV_RESULT_TEMPORARILY_REJECTED, MAV_RESULT_FAILED):
+            if result not in (None, mavlink.MAV_RESULT_TEMPORARILY_REJECTED, mavlink.MAV_RESULT_FAILED):
                 break  # DENIED / UNSUPPORTED: asking again will not help
             if time.monotonic() + ARM_RETRY_S >= deadline:
                 break
@@ -369,13 +376,14 @@ class Vehicle:
     def make_safe(self, deadline: float) -> str:
         """Disarm if armed, leave AUTO if in it; how the vehicle was left, as its last heartbeat says."""
         if self.state.armed:
-            self.link.command_long(self.sysid, CMD_ARM, [0.0], deadline, other=self.take)
+            self.link.command_long(self.sysid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, [0.0], deadline,
+                                   other=self.take)
         if self.state.in_auto:
             if self.info.flavour is Flavour.ARDUPILOT:
-                params = [1.0, float(ARDUPILOT_LOITER)]
+                params = mode_params(ARDUPILOT_LOITER)
             else:
-                params = [1.0, float(PX4_AUTO_MAIN), float(PX4_LOITER_SUB)]
-            self.link.command_long(self.sysid, CMD_DO_SET_MODE, params, deadline, other=self.take)
+                params = mode_params(PX4_AUTO_MAIN, PX4_LOITER_SUB)
+            self.link.command_long(self.sysid, mavlink.MAV_CMD_DO_SET_MODE, params, deadline, other=self.take)
         # The heartbeat after the commands says what really holds.
         until = min(deadline, time.monotonic() + 1.5)
         while (msg := self.link.recv(until)) is not None:

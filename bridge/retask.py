@@ -24,7 +24,7 @@ Neither uses MISSION_WRITE_PARTIAL_LIST: PX4 has no handler for it (no answer at
 writes in place like the full upload, cannot shorten a mission nor lengthen it by more than one item.
 
 Verification: the vehicle's MISSION_CURRENT must say resume_seq (or later), its HEARTBEAT armed and in
-mission mode again, and a read-back must equal `items` by the flavour's rule (bridge.mission.compare_wire).
+mission mode again, and a read-back must equal `items` by the flavour's rule (bridge.readback.compare_wire).
 A vehicle that is not flying its mission (not armed, or in another mode: RTL after a failsafe, say)
 is not touched: re-tasking must never override what the pilot or a failsafe chose.
 
@@ -44,15 +44,13 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from .errors import BridgeError
-from .link import AUTOPILOT_COMPONENT_ID, MAV_RESULT_ACCEPTED
-from .mission import Flavour, MissionType, WireItem, compare_wire
-from .px4 import NAV_LAST
+from .link import AUTOPILOT_COMPONENT_ID, mavlink
+from .mission import Flavour, MissionType, WireItem
+from .readback import compare_wire
 from .protocol import MissionClient, MissionTransferError
-from .readiness import (ARDUPILOT_AUTO, CMD_DO_SET_MODE, CMD_REQUEST_MESSAGE, MSG_MISSION_CURRENT, PX4_AUTO_MAIN,
-                        PX4_MISSION_SUB, VehicleState)
+from .readiness import ARDUPILOT_AUTO, ARDUPILOT_GUIDED, PX4_AUTO_MAIN, PX4_MISSION_SUB, VehicleState, mode_params
 from .uploader import MissionBackend
 
-ARDUPILOT_GUIDED = 4
 HEARTBEAT_WAIT_S = 2.5  # a HEARTBEAT comes every second: this long to learn the vehicle's mode
 CONFIRM_S = 5.0         # after the change: this long for MISSION_CURRENT and a HEARTBEAT that confirm it
 SET_CURRENT_TRIES, SET_CURRENT_WAIT_S = 3, 1.5  # PX4 says MISSION_CURRENT once a second when nothing changes
@@ -144,8 +142,8 @@ class _Watch:
 def _mission_mode(flavour: Flavour) -> list[float]:
     """DO_SET_MODE params of the mode a mission flies in: ArduPilot AUTO, PX4 AUTO.MISSION."""
     if flavour is Flavour.ARDUPILOT:
-        return [1.0, float(ARDUPILOT_AUTO)]
-    return [1.0, float(PX4_AUTO_MAIN), float(PX4_MISSION_SUB)]
+        return mode_params(ARDUPILOT_AUTO)
+    return mode_params(PX4_AUTO_MAIN, PX4_MISSION_SUB)
 
 
 def _check(items: list[WireItem], resume_seq: int, flavour: Flavour) -> None:
@@ -209,8 +207,9 @@ def replace_mission_in_flight(backend: MissionBackend, link: Any, sysid: int, fl
     ardupilot = flavour is Flavour.ARDUPILOT
     if ardupilot:
         # Stop the mission before touching it: GUIDED holds position (LOITER would follow the sticks).
-        result = link.command_long(sysid, CMD_DO_SET_MODE, [1.0, float(ARDUPILOT_GUIDED)], deadline, other=watch.take)
-        if result != MAV_RESULT_ACCEPTED:
+        result = link.command_long(sysid, mavlink.MAV_CMD_DO_SET_MODE, mode_params(ARDUPILOT_GUIDED), deadline,
+                                   other=watch.take)
+        if result != mavlink.MAV_RESULT_ACCEPTED:
             raise fail(f"GUIDED {_refused(result)}: nothing was changed, it flies on in AUTO")
         wire = items
     else:
@@ -218,8 +217,9 @@ def replace_mission_in_flight(backend: MissionBackend, link: Any, sysid: int, fl
         wire = [replace(it, current=int(it.seq == resume_seq)) for it in items]
 
     def back_to_auto() -> str:
-        result = link.command_long(sysid, CMD_DO_SET_MODE, _mission_mode(flavour), deadline, other=watch.take)
-        return "" if result == MAV_RESULT_ACCEPTED else f"its mission mode {_refused(result)}: left in " \
+        result = link.command_long(sysid, mavlink.MAV_CMD_DO_SET_MODE, _mission_mode(flavour), deadline,
+                                   other=watch.take)
+        return "" if result == mavlink.MAV_RESULT_ACCEPTED else f"its mission mode {_refused(result)}: left in " \
             f"{watch.state.mode_name()}"
 
     if fence is not None:
@@ -260,8 +260,9 @@ def replace_mission_in_flight(backend: MissionBackend, link: Any, sysid: int, fl
     if resume and (ardupilot or held) and (refusal := back_to_auto()):  # a held PX4 resumes at its flagged item
         problems.append(refusal)
     beats = watch.heartbeats
-    link.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, CMD_REQUEST_MESSAGE, 0, float(MSG_MISSION_CURRENT),
-                               0, 0, 0, 0, 0, 0)  # ArduPilot streams it only when asked
+    # ArduPilot streams MISSION_CURRENT only when asked
+    link.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
+                               float(mavlink.MAVLINK_MSG_ID_MISSION_CURRENT), 0, 0, 0, 0, 0, 0)
     watch.until(lambda: len(watch.currents) > currents and watch.heartbeats > beats,
                 min(deadline, time.monotonic() + CONFIRM_S))
     report.continued_at = watch.currents[currents] if len(watch.currents) > currents else None
@@ -287,7 +288,7 @@ def replace_mission_in_flight(backend: MissionBackend, link: Any, sysid: int, fl
 def _first_nav(items: list[WireItem], seq: int) -> int:
     """The first navigation item at or after `seq` (seq itself when there is none): what MISSION_CURRENT
     reports once a DO_ item was made current (ArduPilot loads the next navigation item at once)."""
-    return next((it.seq for it in items[seq:] if it.command <= NAV_LAST), seq)
+    return next((it.seq for it in items[seq:] if it.command <= mavlink.MAV_CMD_NAV_LAST), seq)
 
 
 def _set_current(watch: _Watch, seq: int, nav_seq: int, deadline: float) -> bool:

@@ -25,7 +25,7 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from .errors import BridgeError, BridgeUsageError
-from .link import (COMMAND_TRIES, COMMAND_WAIT_S, GCS_COMPONENT_ID, GCS_SYSTEM_ID, MAV_TYPE_GCS, Link, command_long,
+from .link import (COMMAND_TRIES, COMMAND_WAIT_S, GCS_COMPONENT_ID, GCS_SYSTEM_ID, Link, command_long, mavlink,
                    parse_sysid, parse_url)
 from .signing import SigningKey
 
@@ -66,7 +66,7 @@ class SharedLink:
                 continue
             src = (msg.get_srcSystem(), msg.get_srcComponent())
             with self._ready:
-                if msg.get_type() == "HEARTBEAT" and msg.type != MAV_TYPE_GCS:
+                if msg.get_type() == "HEARTBEAT" and msg.type != mavlink.MAV_TYPE_GCS:
                     self.heard[src] = time.monotonic()
                 queue = self._queues.get(src[0])
                 if queue is None:

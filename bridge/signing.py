@@ -9,7 +9,7 @@ Timestamps. A signature carries a 48-bit timestamp (10 us units since 2015-01-01
 each stream (link id, system, component); a receiver refuses a *new* stream whose timestamp is more
 than 60 s behind its own. pymavlink 2.4 sets its timestamp once (at setup) and then only adds 1 per
 packet sent, so a link that has been up for minutes sends timestamps minutes old, and every newcomer
-refuses it as a replay: that was issue 11's "signing breaks after 60 s". apply_key therefore brings
+refuses it as a replay (signing that "breaks after 60 s"). apply_key therefore brings
 the timestamp up to the wall clock before every send (never backwards: max with the last one used),
 and checks incoming signatures itself: the signature first, and only a good signature may advance a
 stream's timestamp (pymavlink records the timestamp of a forged packet before checking it, so one

@@ -23,15 +23,14 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from .errors import BridgeError, BridgeUsageError
-from .link import AUTOPILOT_COMPONENT_ID, GCS_COMPONENT_ID, GCS_SYSTEM_ID, Link, VehicleInfo, wait_vehicle
-from .mission import Flavour, Mission, MissionType, WireItem, compare_wire, from_wire, to_wire
+from .link import AUTOPILOT_COMPONENT_ID, GCS_COMPONENT_ID, GCS_SYSTEM_ID, Link, VehicleInfo, mavlink, wait_vehicle
+from .mission import Flavour, Mission, MissionType, WireItem, from_wire, to_wire
+from .readback import compare_wire
 from .params import ParamClient, ParamSetting, acceptance_radius_setting, set_param
 from .px4 import MIS_DIST_1WP_DEFAULT, START_DENIED, fence_problems, start_refusals
 from .protocol import MissionClient, MissionTransferError, ProgressFn, Timeouts, UploadUnconfirmed
 from .signing import SigningKey
 
-MAV_MISSION_UNSUPPORTED = 3
-MAV_CMD_REQUEST_MESSAGE, MSG_HOME_POSITION = 512, 242
 PLAN_TYPES = (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY)
 
 BACKENDS = ("pymavlink", "mavsdk")
@@ -179,7 +178,7 @@ ProgressFactory = Callable[[str, int], ProgressFn | None]  # (label, total) -> p
 def read_back_differences(backend: MissionBackend, mission_type: int, wire: list[WireItem],
                           progress: ProgressFn | None = None) -> list[str]:
     """Download what the vehicle holds and compare it with `wire` item by item by the flavour's rule
-    (bridge.mission.stored_form; ArduPilot's own home item skipped); an empty list when it holds
+    (bridge.readback.stored_form; ArduPilot's own home item skipped); an empty list when it holds
     exactly that."""
     got = backend.download(mission_type, progress)
     flavour = backend.vehicle.flavour
@@ -212,7 +211,7 @@ def _send_part(backend: MissionBackend, mtype: MissionType, part: Mission, wire:
     except UploadUnconfirmed:
         return False, True
     except MissionTransferError as err:
-        if not part.items and err.result == MAV_MISSION_UNSUPPORTED:
+        if not part.items and err.result == mavlink.MAV_MISSION_UNSUPPORTED:
             return True, False  # a vehicle without fences (rally points) holds none: that is what was asked
         raise
     return False, False
@@ -238,8 +237,8 @@ def vehicle_home(link: Any, sysid: int, seconds: float = HOME_WAIT_S) -> tuple[f
     asked = 0.0
     while time.monotonic() < deadline:
         if time.monotonic() - asked >= 0.5:
-            link.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, MAV_CMD_REQUEST_MESSAGE, 0,
-                                       MSG_HOME_POSITION, 0, 0, 0, 0, 0, 0)
+            link.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
+                                       mavlink.MAVLINK_MSG_ID_HOME_POSITION, 0, 0, 0, 0, 0, 0)
             asked = time.monotonic()
         msg = link.recv(min(deadline, asked + 0.5))
         if msg is not None and msg.get_srcSystem() == sysid and msg.get_type() == "HOME_POSITION":
@@ -279,14 +278,14 @@ def upload_plan(backend: MissionBackend, parts: list[Mission], verify: bool = Tr
                 progress: ProgressFactory | None = None, set_params: bool = True) -> UploadReport:
     """Upload mission, fence and rally (an absent or empty fence / rally list is cleared on the vehicle)
     and, with verify, prove by read-back that the vehicle holds exactly those three lists, by the
-    flavour's rule (bridge.mission.stored_form). With set_params, first set what the vehicle needs to
+    flavour's rule (bridge.readback.stored_form). With set_params, first set what the vehicle needs to
     fly the plan as written (bridge.params: WPNAV_RADIUS on ArduCopter)."""
     start = time.monotonic()
     vehicle = backend.vehicle
     report = UploadReport(sysid=vehicle.sysid, flavour=vehicle.flavour.value, backend=backend.name)
     parts = plan_parts(parts)
     # PX4 decides whether a mission can start when it gets it, from where it is: a plan for another
-    # site would verify and then be refused at MISSION_START with no reason given (issue 16).
+    # site would verify and then be refused at MISSION_START with no reason given.
     refusal = px4_start_problems(backend, parts)
     if refusal is not None:
         raise BridgeError(refusal)
@@ -337,7 +336,7 @@ def clear_plan(backend: MissionBackend) -> str:
         try:
             backend.clear(mtype)
         except MissionTransferError as err:
-            if err.result == MAV_MISSION_UNSUPPORTED and mtype != MissionType.MISSION:
+            if err.result == mavlink.MAV_MISSION_UNSUPPORTED and mtype != MissionType.MISSION:
                 continue
             raise
         left = download_plan(backend, [mtype])[0]

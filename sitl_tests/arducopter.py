@@ -34,6 +34,9 @@ from pathlib import Path
 import pytest
 from loopback import stop_process_group, wait_until
 
+from bridge.link import AUTOPILOT_COMPONENT_ID, mavlink
+from bridge.readiness import ARDUPILOT_GUIDED, mode_params
+
 REPO = Path(__file__).resolve().parent.parent
 SITL_DIR = REPO.parent / "shared" / "sitl"
 BINARY = SITL_DIR / "arducopter"
@@ -41,7 +44,6 @@ DEFAULTS = SITL_DIR / "copter.parm"
 SPEEDUP = 10  # stable on 2 shared cores (the SITL README)
 FIRST_INSTANCE = 20  # stay clear of the usual 0..9 a person would start by hand
 MAX_INSTANCE = 120
-CMD_REQUEST_MESSAGE, MSG_SYSTEM_TIME = 512, 2
 
 
 def sitl_or_skip() -> Path:
@@ -95,7 +97,8 @@ def wait_mission_ready(link: object, sysid: int, timeout: float = 30.0) -> None:
     deadline = time.monotonic() + timeout
     wait_vehicle(link, sysid, timeout=timeout)  # type: ignore[arg-type]
     while time.monotonic() < deadline:
-        link.mav.mission_request_list_send(sysid, 1, 0)  # type: ignore[attr-defined]
+        link.mav.mission_request_list_send(sysid, AUTOPILOT_COMPONENT_ID,  # type: ignore[attr-defined]
+                                           mavlink.MAV_MISSION_TYPE_MISSION)
         ask_again = min(time.monotonic() + 0.2, deadline)  # listen this long for the answer, then ask again
         while (msg := link.recv(ask_again)) is not None:  # type: ignore[attr-defined]
             if msg.get_srcSystem() == sysid and msg.get_type() == "MISSION_COUNT" and int(msg.count) >= 1:
@@ -106,7 +109,8 @@ def wait_mission_ready(link: object, sysid: int, timeout: float = 30.0) -> None:
 def boot_ms(link: object, sysid: int, deadline: float) -> int | None:
     """The vehicle's time_boot_ms, asked for now (MAV_CMD_REQUEST_MESSAGE SYSTEM_TIME): None when it
     does not answer by the deadline (rebooting)."""
-    link.mav.command_long_send(sysid, 1, CMD_REQUEST_MESSAGE, 0, MSG_SYSTEM_TIME, 0, 0, 0, 0, 0, 0)  # type: ignore
+    link.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID,  # type: ignore[attr-defined]
+                               mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mavlink.MAVLINK_MSG_ID_SYSTEM_TIME, 0, 0, 0, 0, 0, 0)
     while (msg := link.recv(deadline)) is not None:  # type: ignore[attr-defined]
         if msg.get_srcSystem() == sysid and msg.get_type() == "SYSTEM_TIME":
             return int(msg.time_boot_ms)
@@ -120,7 +124,8 @@ def reboot_and_wait(link: object, sysid: int, timeout: float = 60.0) -> None:
     before = boot_ms(link, sysid, min(deadline, time.monotonic() + 5.0))
     if before is None:
         raise RuntimeError(f"ArduCopter SITL system {sysid} did not say its clock before the reboot")
-    if link.command_long(sysid, CMD_REBOOT, [1.0], deadline) != 0:  # type: ignore[attr-defined]
+    if link.command_long(sysid, mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, [1.0],  # type: ignore[attr-defined]
+                         deadline) != mavlink.MAV_RESULT_ACCEPTED:
         raise RuntimeError(f"ArduCopter SITL system {sysid} refused the reboot")
     while time.monotonic() < deadline:
         now_ms = boot_ms(link, sysid, min(deadline, time.monotonic() + 0.5))
@@ -249,8 +254,6 @@ def arducopter():
             vehicle.stop()
 
 
-CMD_ARM, CMD_DO_SET_MODE, CMD_REBOOT = 400, 176, 246
-ARDUPILOT_GUIDED = 4
 ARM_RETRY_S = 1.0
 
 
@@ -268,9 +271,10 @@ def configure_camera_and_wait_ready(vehicle: ArduCopter, timeout: float = 240.0)
         ParamClient(link, info).set("CAM1_TYPE", 1.0)
         reboot_and_wait(link, vehicle.sysid, timeout=min(60.0, timeout))
         while time.monotonic() < deadline:
-            link.command_long(vehicle.sysid, CMD_DO_SET_MODE, [1.0, float(ARDUPILOT_GUIDED)], deadline)
-            if link.command_long(vehicle.sysid, CMD_ARM, [1.0], deadline) == 0:
-                link.command_long(vehicle.sysid, CMD_ARM, [0.0], deadline)
+            link.command_long(vehicle.sysid, mavlink.MAV_CMD_DO_SET_MODE, mode_params(ARDUPILOT_GUIDED), deadline)
+            arm = mavlink.MAV_CMD_COMPONENT_ARM_DISARM
+            if link.command_long(vehicle.sysid, arm, [1.0], deadline) == mavlink.MAV_RESULT_ACCEPTED:
+                link.command_long(vehicle.sysid, arm, [0.0], deadline)
                 return
             retry_at = min(deadline, time.monotonic() + ARM_RETRY_S)  # not ready yet: listen, then ask again
             while link.recv(retry_at) is not None:

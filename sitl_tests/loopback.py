@@ -60,11 +60,9 @@ def stop_process_group(proc: "subprocess.Popen[bytes]") -> None:
             continue
 
 
-MODE_FLAG_ARMED = 128  # HEARTBEAT base_mode: MAV_MODE_FLAG_SAFETY_ARMED
-
-
 def armed_ever(url: str, sysids: Iterable[int], seconds: float) -> set[int]:
     """System ids whose HEARTBEAT says armed at any time within `seconds` (a listener on the port)."""
+    from bridge.link import mavlink
     from bridge.shared_link import SharedLink
 
     armed: set[int] = set()
@@ -74,18 +72,19 @@ def armed_ever(url: str, sysids: Iterable[int], seconds: float) -> set[int]:
         while time.monotonic() < deadline:
             for sysid, view in views.items():
                 msg = view.recv(time.monotonic() + 0.05)
-                if msg is not None and msg.get_type() == "HEARTBEAT" and msg.base_mode & MODE_FLAG_ARMED:
+                if msg is not None and msg.get_type() == "HEARTBEAT" \
+                        and msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED:
                     armed.add(sysid)
     return armed
 
 
 RELAY_BUFFER = 4 << 20  # bytes asked for each relay socket's receive buffer (the kernel may give less)
-MSG_LOG_DATA = 120
 
 
-def _one_log_data(data: bytes) -> bool:
-    """Whether a datagram is exactly one MAVLink 2 LOG_DATA message (unsigned or signed)."""
-    if len(data) < 12 or data[0] != 0xFD or int.from_bytes(data[7:10], "little") != MSG_LOG_DATA:
+def _one_log_data(data: bytes, log_data_id: int) -> bool:
+    """Whether a datagram is exactly one MAVLink 2 LOG_DATA message (unsigned or signed), whose id is
+    log_data_id."""
+    if len(data) < 12 or data[0] != 0xFD or int.from_bytes(data[7:10], "little") != log_data_id:
         return False
     size = 12 + data[1] + (13 if data[2] & 1 else 0)
     return len(data) == size
@@ -154,7 +153,8 @@ class UdpRelay:
                 except OSError:
                     continue
                 if sock is self.listen:  # from a vehicle
-                    if not _one_log_data(data):  # a log's bulk is nothing to watch (and parsing it is slow)
+                    # a log's bulk is nothing to watch (and parsing it is slow)
+                    if not _one_log_data(data, self._mavlink.MAVLINK_MSG_ID_LOG_DATA):
                         self._watch(source, data)
                     out = self._sockets.get(source)
                     if out is None:
@@ -192,8 +192,8 @@ class UdpRelay:
             parser.robust_parsing = True  # type: ignore[attr-defined]
         for msg in parser.parse_buffer(data) or []:  # type: ignore[attr-defined]
             kind, state = msg.get_type(), self._states.setdefault(msg.get_srcSystem(), {})
-            if kind == "HEARTBEAT" and msg.type != 6:
-                armed = int(bool(msg.base_mode & 128))
+            if kind == "HEARTBEAT" and msg.type != self._mavlink.MAV_TYPE_GCS:
+                armed = int(bool(msg.base_mode & self._mavlink.MAV_MODE_FLAG_SAFETY_ARMED))
                 if state.get("armed") == 0 and armed:
                     state["arms"] = state.get("arms", 0) + 1
                 elif state.get("armed") == 1 and not armed:

@@ -18,7 +18,7 @@ import time
 from dataclasses import astuple, replace
 from typing import Any
 
-from bridge.link import Link
+from bridge.link import AUTOPILOT_COMPONENT_ID, Link, mavlink
 from bridge.mission import MissionType, WireItem
 from bridge.protocol import Timeouts
 from bridge.uploader import PymavlinkBackend, read_back_differences
@@ -75,7 +75,7 @@ def raw_upload(link: Link, sysid: int, items: list[WireItem], mission_type: int 
     """Upload item by item as asked; (type of the first request, final MISSION_ACK type or None)."""
     is_ack = lambda m: m.get_type() == "MISSION_ACK" and m.mission_type == mission_type  # noqa: E731
     is_request = lambda m: m.get_type() in ("MISSION_REQUEST", "MISSION_REQUEST_INT")  # noqa: E731
-    link.mav.mission_count_send(sysid, 1, len(items), mission_type)
+    link.mav.mission_count_send(sysid, AUTOPILOT_COMPONENT_ID, len(items), mission_type)
     first = _wait(link, sysid, lambda m: is_request(m) or is_ack(m))
     if first is None or is_ack(first):
         return None, None if first is None else int(first.type)
@@ -85,7 +85,7 @@ def raw_upload(link: Link, sysid: int, items: list[WireItem], mission_type: int 
             return first.get_type(), None
         if is_ack(msg):
             return first.get_type(), int(msg.type)
-        link.mav.mission_item_int_send(sysid, 1, **items[int(msg.seq)].fields())
+        link.mav.mission_item_int_send(sysid, AUTOPILOT_COMPONENT_ID, **items[int(msg.seq)].fields())
         msg = _wait(link, sysid, lambda m: is_request(m) or is_ack(m), 3.0)
     return first.get_type(), None
 
@@ -95,7 +95,7 @@ def _list_answered(link: Link, sysid: int, component: int) -> bool:
     closed with an ACK: PX4 refuses uploads with ERROR while a download is open)."""
     link.mav.mission_request_list_send(sysid, component, 0)
     answered = _wait(link, sysid, lambda m: m.get_type() == "MISSION_COUNT", 2.0) is not None
-    link.mav.mission_ack_send(sysid, 1, 0, 0)
+    link.mav.mission_ack_send(sysid, AUTOPILOT_COMPONENT_ID, mavlink.MAV_MISSION_ACCEPTED, MissionType.MISSION)
     return answered
 
 
@@ -148,7 +148,7 @@ def session(url: str, sysid: int) -> dict[str, Any]:
         out["after bad upload"] = [astuple(it) for it in backend.download(MissionType.MISSION)]
         out["count 0 ack"] = raw_upload(link, sysid, [])[1]
         out["after count 0"] = len(backend.download(MissionType.MISSION))
-        for mtype, items in ((0, MISSION), (1, FENCE), (2, RALLY)):
+        for mtype, items in ((MissionType.MISSION, MISSION), (MissionType.FENCE, FENCE), (MissionType.RALLY, RALLY)):
             backend.upload(mtype, items)
         out["mission"] = [astuple(it) for it in backend.download(MissionType.MISSION)]
         out["fence"] = [astuple(it) for it in backend.download(MissionType.FENCE)]
@@ -167,14 +167,12 @@ def wait_home(link: Link, sysid: int, seconds: float) -> Any:
     """The vehicle's HOME_POSITION (asked for with MAV_CMD_REQUEST_MESSAGE every second), or None."""
     deadline = time.monotonic() + seconds
     while time.monotonic() < deadline:
-        link.mav.command_long_send(sysid, 1, 512, 0, 242, 0, 0, 0, 0, 0, 0)
+        link.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
+                                   mavlink.MAVLINK_MSG_ID_HOME_POSITION, 0, 0, 0, 0, 0, 0)
         msg = _wait(link, sysid, lambda m: m.get_type() == "HOME_POSITION", 1.0)
         if msg is not None:
             return msg
     return None
-
-
-PREARM_CHECK = 0x1000_0000  # MAV_SYS_STATUS_PREARM_CHECK: in SYS_STATUS health once arming checks pass
 
 
 def wait_ready(link: Link, sysid: int, seconds: float) -> bool:
@@ -183,7 +181,7 @@ def wait_ready(link: Link, sysid: int, seconds: float) -> bool:
     deadline = time.monotonic() + seconds
     while (msg := link.recv(deadline)) is not None:
         if (msg.get_srcSystem() == sysid and msg.get_type() == "SYS_STATUS"
-                and msg.onboard_control_sensors_health & PREARM_CHECK):
+                and msg.onboard_control_sensors_health & mavlink.MAV_SYS_STATUS_PREARM_CHECK):
             return True
     return False
 
@@ -203,7 +201,7 @@ def _start(link: Link, sysid: int, ready_s: float) -> tuple[int | None, list[str
     deadline = time.monotonic() + ready_s
     while True:
         texts: list[str] = []
-        link.mav.command_long_send(sysid, 1, 300, 0, 0, 0, 0, 0, 0, 0, 0)
+        link.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, mavlink.MAV_CMD_MISSION_START, 0, 0, 0, 0, 0, 0, 0, 0)
         until = time.monotonic() + 2.0
         result = None
         while (msg := link.recv(until)) is not None:
@@ -211,11 +209,11 @@ def _start(link: Link, sysid: int, ready_s: float) -> tuple[int | None, list[str
                 continue
             if msg.get_type() == "STATUSTEXT":
                 texts.append(str(msg.text).rstrip("\t\x00 "))
-            elif msg.get_type() == "COMMAND_ACK" and int(msg.command) == 300:
+            elif msg.get_type() == "COMMAND_ACK" and int(msg.command) == mavlink.MAV_CMD_MISSION_START:
                 result = int(msg.result)
                 texts += _texts(link, sysid, 0.5)
                 break
-        if result != 1 or time.monotonic() > deadline:
+        if result != mavlink.MAV_RESULT_TEMPORARILY_REJECTED or time.monotonic() > deadline:
             return result, texts
         _texts(link, sysid, 2.0)  # not ready yet: listen, then ask again
 

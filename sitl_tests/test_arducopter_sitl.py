@@ -12,7 +12,9 @@ from pathlib import Path
 import pytest
 from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
 
-from bridge.mission import Flavour, Mission, MissionItem, MissionType, compare_wire, to_wire
+from bridge.link import mavlink
+from bridge.mission import Flavour, Mission, MissionItem, MissionType, to_wire
+from bridge.readback import compare_wire
 from bridge.missionfile import PlanFile, read_mission_file, write_plan
 from bridge.protocol import Timeouts
 from bridge.uploader import open_backend, upload_plan
@@ -83,7 +85,7 @@ def test_no_invalid_sequence_acks_and_wpnav_radius_is_set(arducopter, shipped_pl
         report = upload_plan(backend, plan.parts())
         assert report.verified and report.parts[0].items == len(plan.mission.items) >= 340
         assert backend.client.invalid_sequence_acks == 0  # type: ignore[attr-defined]
-        radius = min(it.param2 for it in plan.mission.items if it.command == 16)
+        radius = min(it.param2 for it in plan.mission.items if it.command == mavlink.MAV_CMD_NAV_WAYPOINT)
         assert backend.set_param("WPNAV_RADIUS", max(round(radius * 100), 5))[0] == max(round(radius * 100), 5)
 
 

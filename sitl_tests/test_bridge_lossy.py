@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from bridge.mission import Flavour, Mission, MissionItem, compare_wire, to_wire
+from bridge.mission import Flavour, Mission, MissionItem, to_wire
+from bridge.readback import compare_wire
 from bridge.mock import LinkFaults, MockAutopilot
 from bridge.protocol import Timeouts
 from bridge.uploader import open_backend, upload_plan

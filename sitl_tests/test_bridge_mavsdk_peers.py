@@ -11,7 +11,8 @@ from typing import Any
 import pytest
 from loopback import free_udp_port, wait_until
 
-from bridge.mission import Flavour, Mission, MissionItem, compare_wire, to_wire
+from bridge.mission import Flavour, Mission, MissionItem, to_wire
+from bridge.readback import compare_wire
 from bridge.mock import MockAutopilot
 from bridge.protocol import Timeouts
 from bridge.uploader import PymavlinkBackend, open_backend, upload_plan

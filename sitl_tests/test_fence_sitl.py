@@ -11,7 +11,8 @@ from __future__ import annotations
 import pytest
 from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
 
-from bridge.mission import CMD_FENCE_POLYGON_VERTEX_INCLUSION, Flavour, MissionType, to_wire
+from bridge.link import mavlink
+from bridge.mission import Flavour, MissionType, to_wire
 from bridge.missionfile import read_mission_file
 from bridge.protocol import Timeouts
 from bridge.uploader import open_backend, upload_plan
@@ -26,7 +27,8 @@ def test_planned_geofence_round_trips_through_arducopter(arducopter, tmp_path): 
     out = tmp_path / "plan"
     assert main(["plan", "--map", "leonardo", "--uavs", "3", "--out", str(out), "--quiet"]) == 0
     plan = read_mission_file(out / f"uav{sysid}.plan")
-    assert plan.fence.items and all(i.command == CMD_FENCE_POLYGON_VERTEX_INCLUSION for i in plan.fence.items)
+    assert plan.fence.items and all(i.command == mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+                                      for i in plan.fence.items)
     sent = to_wire(plan.fence, Flavour.ARDUPILOT)
 
     def fence_points(held: list) -> list[tuple]:

@@ -27,7 +27,7 @@ LAUNCH = (45.069450, 7.652588)  # a street corner of Cenisia (README's first lau
 # A block of streets south-east of it: about 150 x 160 m, one drone, some 40 waypoints.
 AREA = [[7.652188, 45.069850], [7.654088, 45.069850], [7.654088, 45.068250], [7.652188, 45.068250],
         [7.652188, 45.069850]]
-TOLERANCE = 0.15  # the goal: planned within 15 % of flown
+TOLERANCE = 0.15  # the promise: planned within 15 % of flown
 
 
 @pytest.fixture()

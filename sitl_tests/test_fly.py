@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bridge.link import mavlink
 from bridge.mission import to_wire
 from bridge.missionfile import read_mission_file
 from bridge.mock import LinkFaults
@@ -84,7 +85,7 @@ def _assert_holds_exactly_the_files(plan_dir: Path, mock, sysids) -> None:
             assert (ours.command, ours.x, ours.y) == (theirs.command, theirs.x, theirs.y)
             assert ours.z == pytest.approx(theirs.z, abs=0.01)
         # ArduCopter drops the waypoints' param2: the acceptance radius reached it as WPNAV_RADIUS.
-        radius = min(it.param2 for it in sent if it.command == 16 and it.param2 > 0)
+        radius = min(it.param2 for it in sent if it.command == mavlink.MAV_CMD_NAV_WAYPOINT and it.param2 > 0)
         assert vehicle.params["WPNAV_RADIUS"] == pytest.approx(max(round(radius * 100), 5))
 
 

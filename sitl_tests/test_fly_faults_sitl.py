@@ -43,9 +43,10 @@ from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
 from loopback import UdpRelay, free_udp_port, wait_until
 from plans import plan_area
 
-from bridge.link import Link, wait_vehicle
+from bridge.link import Link, mavlink, wait_vehicle
 from bridge.missionfile import read_mission_file
 from bridge.params import ParamClient
+from bridge.readiness import ARDUPILOT_AUTO
 from bridge.shared_link import SharedLink
 from missionplan.flight.journal import read_flight
 
@@ -63,14 +64,15 @@ LAUNCHES = ("45.4641,9.18926", "45.4641,9.19028", "45.4641,9.19131")
 SPEEDUP = 5
 FLY_TIMEOUT_S = 300.0  # wall seconds: generous, no test here should come near it
 START_S = 180.0  # wall seconds for a fleet to get from boot to flying (readiness, upload, arming)
-AUTO = 3  # ArduCopter custom_mode
-CMD_PREFLIGHT_REBOOT = 246
 # What fly must never send to a vehicle it did not start, or after Ctrl-C: an upload, a mode, arming,
-# a mission start, a parameter.
+# a mission start, a parameter (commands as the relay records them: "COMMAND_LONG <MAV_CMD number>").
 COMMANDING = ("MISSION_COUNT", "MISSION_ITEM", "MISSION_ITEM_INT", "MISSION_CLEAR_ALL", "MISSION_SET_CURRENT",
-              "SET_MODE", "PARAM_SET", "COMMAND_LONG 400", "COMMAND_INT 400", "COMMAND_LONG 176",
-              "COMMAND_INT 176", "COMMAND_LONG 300", "COMMAND_INT 300", "COMMAND_LONG 20", "COMMAND_LONG 21",
-              "COMMAND_INT 20", "COMMAND_INT 21", "COMMAND_LONG 246")
+              "SET_MODE", "PARAM_SET",
+              *(f"{kind} {command}" for kind in ("COMMAND_LONG", "COMMAND_INT")
+                for command in (mavlink.MAV_CMD_COMPONENT_ARM_DISARM, mavlink.MAV_CMD_DO_SET_MODE,
+                                mavlink.MAV_CMD_MISSION_START, mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH,
+                                mavlink.MAV_CMD_NAV_LAND)),
+              f"COMMAND_LONG {mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN}")
 LINK_DROP_S = 30.0
 BATTERY_LOW_V, BATTERY_SIM_V = 10.5, 10.0  # the failsafe's threshold, and what the low vehicle's battery reads
 LOW_BATTERY_SYSID = 2
@@ -145,8 +147,9 @@ def _configure(fleet: Fleet, params: dict[str, float] | None = None) -> None:
             for name, value in wanted.items():
                 assert client.set(name, value) == pytest.approx(value), (sysid, name)
         for sysid in SYSIDS:
-            result = shared.vehicle(sysid).command_long(sysid, CMD_PREFLIGHT_REBOOT, [1.0], time.monotonic() + 10.0)
-            assert result == 0, f"vehicle {sysid} refused the reboot (MAV_RESULT {result})"
+            result = shared.vehicle(sysid).command_long(sysid, mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, [1.0],
+                                                        time.monotonic() + 10.0)
+            assert result == mavlink.MAV_RESULT_ACCEPTED, f"vehicle {sysid} refused the reboot (MAV_RESULT {result})"
     fleet.relay.forget()
 
 
@@ -215,7 +218,8 @@ def runs():
 
 def _in_flight(relay: UdpRelay, item: int, timeout: float = START_S, sysids=SYSIDS) -> bool:
     """Until every vehicle is armed in AUTO at mission item `item` or later (as the relay saw them)."""
-    return bool(wait_until(lambda: all(relay.state(k).get("armed") == 1 and relay.state(k).get("custom_mode") == AUTO
+    return bool(wait_until(lambda: all(relay.state(k).get("armed") == 1
+                                       and relay.state(k).get("custom_mode") == ARDUPILOT_AUTO
                                        and relay.state(k).get("current", -1) >= item for k in sysids), timeout))
 
 
@@ -356,7 +360,7 @@ def test_ctrl_c_stops_following_writes_the_record_and_the_vehicles_fly_on(fleet:
     assert "stopped following: uav1, uav2, uav3 fly on with their missions" in run.out, run.out
     assert "Traceback" not in run.out
     assert took < 5.0 + 10.0  # the window for a second Ctrl-C, and the record
-    assert all(s["armed"] == 1 and s["custom_mode"] == AUTO for s in states.values()), states
+    assert all(s["armed"] == 1 and s["custom_mode"] == ARDUPILOT_AUTO for s in states.values()), states
     assert _commanding(relay) == [], relay.commands_sent()
     doc, rows = _flight(plan_dir)
     assert not any(rows[k]["finished"] for k in SYSIDS)

@@ -3,9 +3,9 @@
 Each vehicle is its own mock autopilot with its own socket, all sending to ONE ground-station port
 (`udpin:`), as SITL's `--serial0 udpclient:` or a radio fleet does; they stream nothing until asked
 and have no GPS fix, EKF position or home, and refuse arming with ArduCopter's PreArm reasons, for
-their first simulated seconds. fly is started right away. Before issue 12, fly opened one socket per
-drone on that port (only one heard anything), asked for no streams, and gave up at the first refused
-arming; and flew a plan for another site.
+their first simulated seconds. fly is started right away. What this guards against: one socket per
+drone on that port (only one would hear anything), no streams asked for, giving up at the first refused
+arming, and flying a plan for another site.
 """
 
 from __future__ import annotations

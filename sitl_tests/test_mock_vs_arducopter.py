@@ -20,7 +20,7 @@ from typing import Any
 import pytest
 from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
 
-from bridge.link import Link
+from bridge.link import AUTOPILOT_COMPONENT_ID, Link, mavlink
 from bridge.mission import MissionType, WireItem
 from bridge.mock import MockAutopilot
 from bridge.mock_vehicle import MockVehicle
@@ -72,26 +72,26 @@ def _out_of_turn_answers(link: Link, sysid: int) -> dict[str, Any]:
     """Raw upload of 3 items with an early item first, then a stray item after the end."""
     mav = link.mav
     items = MISSION[:3]
-    is_ack = lambda m: m.get_type() == "MISSION_ACK" and m.mission_type == 0  # noqa: E731
+    is_ack = lambda m: m.get_type() == "MISSION_ACK" and m.mission_type == MissionType.MISSION  # noqa: E731
     is_request = lambda m: m.get_type() in ("MISSION_REQUEST", "MISSION_REQUEST_INT")  # noqa: E731
-    mav.mission_count_send(sysid, 1, len(items), 0)
+    mav.mission_count_send(sysid, AUTOPILOT_COMPONENT_ID, len(items), MissionType.MISSION)
     first = _wait(link, sysid, is_request)
     answers: dict[str, Any] = {"request": first.get_type() if first else None}
-    mav.mission_item_int_send(sysid, 1, **items[2].fields())  # not asked for yet
+    mav.mission_item_int_send(sysid, AUTOPILOT_COMPONENT_ID, **items[2].fields())  # not asked for yet
     early = _wait(link, sysid, is_ack, 1.0)
     answers["early item"] = int(early.type) if early else None
     request, final = first, None
     for _ in range(10):  # answer what is asked until the end (bounded)
         if request is None:
             break
-        mav.mission_item_int_send(sysid, 1, **items[int(request.seq)].fields())
+        mav.mission_item_int_send(sysid, AUTOPILOT_COMPONENT_ID, **items[int(request.seq)].fields())
         msg = _wait(link, sysid, lambda m: is_request(m) or is_ack(m), 2.5)
         if msg is not None and msg.get_type() == "MISSION_ACK":
             final = int(msg.type)
             break
         request = msg
     answers["final"] = final
-    mav.mission_item_int_send(sysid, 1, **items[2].fields())  # after the end
+    mav.mission_item_int_send(sysid, AUTOPILOT_COMPONENT_ID, **items[2].fields())  # after the end
     stray = _wait(link, sysid, is_ack, 1.0)
     answers["stray item"] = int(stray.type) if stray else None
     return answers
@@ -113,7 +113,7 @@ def session(url: str, sysid: int) -> dict[str, Any]:
     out: dict[str, Any] = {}
     with PymavlinkBackend(url, sysid, timeouts=Timeouts(), connect_timeout=20) as backend:
         out["answers"] = _out_of_turn_answers(backend.link, sysid)
-        for mtype, items in ((0, MISSION), (1, FENCE), (2, RALLY)):
+        for mtype, items in ((MissionType.MISSION, MISSION), (MissionType.FENCE, FENCE), (MissionType.RALLY, RALLY)):
             backend.upload(mtype, items)
         out["invalid_sequence_acks"] = backend.client.invalid_sequence_acks
         out["fence"] = [astuple(it) for it in backend.download(MissionType.FENCE)]
@@ -121,7 +121,9 @@ def session(url: str, sysid: int) -> dict[str, Any]:
         out["mission"] = [astuple(it) for it in _home_known(backend, 60.0)]
         params = ParamClient(backend.link, backend.vehicle)
         out["WPNAV_RADIUS default"] = params.get("WPNAV_RADIUS")
-        params.link.mav.param_set_send(sysid, 1, b"WPNAV_RADIUS", 3.0, 9)  # below its documented range
+        # below its documented range
+        params.link.mav.param_set_send(sysid, AUTOPILOT_COMPONENT_ID, b"WPNAV_RADIUS", 3.0,
+                                       mavlink.MAV_PARAM_TYPE_REAL32)
         answer = _wait(backend.link, sysid, lambda m: m.get_type() == "PARAM_VALUE"
                        and str(m.param_id).rstrip("\x00") == "WPNAV_RADIUS", 5.0)  # what it made of it
         out["WPNAV_RADIUS answer to setting 3"] = None if answer is None else float(answer.param_value)

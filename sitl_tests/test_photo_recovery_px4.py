@@ -28,7 +28,8 @@ import pytest
 from px4 import PX4, px4_or_skip
 from test_photo_recovery_sitl import PAST_THE_END, _raw_data, _raw_list, _Tee
 
-from bridge.mission import Flavour, Mission, MissionItem, to_wire
+from bridge.link import AUTOPILOT_COMPONENT_ID, mavlink
+from bridge.mission import Flavour, Mission, MissionItem, MissionType, to_wire
 from bridge.mock import MockAutopilot
 from bridge.mock_flight import EARTH_RADIUS
 from bridge.onboard_log import LOG_DATA_LEN, recover_photos
@@ -40,9 +41,6 @@ pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"`
 
 HOME = (45.4641, 9.1891, 120.0)
 M_PER_DEG_LAT = math.radians(1.0) * EARTH_RADIUS
-CMD_ARM, CMD_MISSION_START, CMD_REQUEST_MESSAGE = 400, 300, 512
-MSG_CAMERA_IMAGE_CAPTURED = 263
-MAV_RESULT_ACCEPTED, MAV_RESULT_DENIED = 0, 2
 READY_TIMEOUT_S = 120.0
 FLIGHT_TIMEOUT_S = 240.0
 BOOT_PARAMS = {"SDLOG_MODE": 0.0, "TRIG_MODE": 4.0, "TRIG_INTERFACE": 3.0}
@@ -61,21 +59,22 @@ def _until_accepted(tee: _Tee, sysid: int, command: int, params: list[float], ti
     right after an upload), each refusal followed by a second of listening."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
-        if tee.link.command_long(sysid, command, params, deadline, other=tee.kept.append) == MAV_RESULT_ACCEPTED:
+        result = tee.link.command_long(sysid, command, params, deadline, other=tee.kept.append)
+        if result == mavlink.MAV_RESULT_ACCEPTED:
             return
         tee.collect(1.0)
     raise AssertionError(f"vehicle {sysid} did not accept command {command} within {timeout:g} s")
 
 
 def _armed(msg: Any) -> bool:
-    return bool(msg.base_mode & 128)
+    return bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
 
 
 def _disarmed(kept: list[Any]) -> bool:
     """The autopilot's latest HEARTBEAT says disarmed (PX4 sends many other messages, and other
     components' heartbeats, between two of its own)."""
     for msg in reversed(kept):
-        if msg.get_type() == "HEARTBEAT" and msg.get_srcComponent() == 1:
+        if msg.get_type() == "HEARTBEAT" and msg.get_srcComponent() == AUTOPILOT_COMPONENT_ID:
             return not _armed(msg)
     return False
 
@@ -85,18 +84,19 @@ def session(url: str, sysid: int, keep: Path) -> dict[str, Any]:
     with PymavlinkBackend(url, sysid, timeouts=Timeouts(), connect_timeout=30) as backend:
         tee = _Tee(backend.link, sysid)
         rec["fresh"] = _raw_list(tee, sysid)
-        backend.upload(0, to_wire(_mission(), Flavour.PX4))
-        _until_accepted(tee, sysid, CMD_ARM, [1.0], READY_TIMEOUT_S)
+        backend.upload(MissionType.MISSION, to_wire(_mission(), Flavour.PX4))
+        _until_accepted(tee, sysid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, [1.0], READY_TIMEOUT_S)
         rec["armed"] = _raw_list(tee, sysid)
-        _until_accepted(tee, sysid, CMD_MISSION_START, [0.0, 0.0], 10.0)
+        _until_accepted(tee, sysid, mavlink.MAV_CMD_MISSION_START, [0.0, 0.0], 10.0)
         deadline = time.monotonic() + FLIGHT_TIMEOUT_S
         while not _disarmed(tee.kept):
             assert time.monotonic() < deadline, "the vehicle did not land and disarm in time"
             tee.collect(0.5)
         landed_at = time.time()
         rec["reports"] = {int(m.image_index): m for m in tee.kept
-                          if m.get_type() == "CAMERA_IMAGE_CAPTURED" and int(m.capture_result) == 1}
-        tee.mav.command_long_send(sysid, 1, CMD_REQUEST_MESSAGE, 0, MSG_CAMERA_IMAGE_CAPTURED, 3, 0, 0, 0, 0, 0)
+                          if m.get_type() == "CAMERA_IMAGE_CAPTURED" and int(m.capture_result) == 1}  # 1: captured
+        tee.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
+                                  mavlink.MAVLINK_MSG_ID_CAMERA_IMAGE_CAPTURED, 3, 0, 0, 0, 0, 0)
         answer = [m for m in tee.collect(1.5) if m.get_type() in ("COMMAND_ACK", "CAMERA_IMAGE_CAPTURED")]
         rec["report 3 asked again"] = [(m.get_type(), int(getattr(m, "result", -1))) for m in answer]
         rec["landed"] = _raw_list(tee, sysid)
@@ -110,10 +110,10 @@ def session(url: str, sysid: int, keep: Path) -> dict[str, Any]:
         rec["short request"] = _raw_data(tee, sysid, newest, 0, 2 * LOG_DATA_LEN + 20)
         rec["past the end"] = _raw_data(tee, sysid, newest, PAST_THE_END, LOG_DATA_LEN)
         rec["no such log"] = _raw_data(tee, sysid, newest + 7, 0, LOG_DATA_LEN)
-        tee.mav.log_request_end_send(sysid, 1)
+        tee.mav.log_request_end_send(sysid, AUTOPILOT_COMPONENT_ID)
         rec["landed_at"] = landed_at
-        _until_accepted(tee, sysid, CMD_ARM, [1.0], 30.0)
-        tee.link.command_long(sysid, CMD_ARM, [0.0], time.monotonic() + 5.0)
+        _until_accepted(tee, sysid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, [1.0], 30.0)
+        tee.link.command_long(sysid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, [0.0], time.monotonic() + 5.0)
         tee.collect(1.0)
         rec["armed once more"] = _raw_list(tee, sysid)
         rec["logger says"] = [re.sub(r"\d", "#", str(m.text)) for m in tee.kept
@@ -143,7 +143,7 @@ def test_after_landing_the_ulog_photos_equal_the_camera_image_captured(px4_sessi
         assert px4_millimetres(p.alt_amsl) == int(m.alt) and px4_millimetres(p.alt_rel) == int(m.relative_alt)
         assert p.utc_s == pytest.approx(int(m.time_utc) / 1e6, abs=1e-6)
     # No report is sent again on request: PX4 refuses MAV_CMD_REQUEST_MESSAGE for it.
-    assert rec["report 3 asked again"] == [("COMMAND_ACK", MAV_RESULT_DENIED)]
+    assert rec["report 3 asked again"] == [("COMMAND_ACK", mavlink.MAV_RESULT_DENIED)]
 
 
 def _protocol(rec: dict[str, Any]) -> dict[str, Any]:

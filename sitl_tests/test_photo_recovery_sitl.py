@@ -24,12 +24,14 @@ from typing import Any
 import pytest
 from arducopter import SITL_DIR, ArduCopter, reboot_and_wait, sitl_or_skip
 
-from bridge.mission import Flavour, Mission, MissionItem, to_wire
+from bridge.link import AUTOPILOT_COMPONENT_ID, mavlink
+from bridge.mission import Flavour, Mission, MissionItem, MissionType, to_wire
 from bridge.mock import MockAutopilot
 from bridge.mock_flight import EARTH_RADIUS
 from bridge.onboard_log import LOG_DATA_LEN, recover_photos
 from bridge.params import ParamClient
 from bridge.protocol import Timeouts
+from bridge.readiness import ARDUPILOT_GUIDED, mode_params
 from bridge.uploader import PymavlinkBackend
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
@@ -37,11 +39,8 @@ pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"`
 SYSID = 5
 HOME = (45.4643, 9.1895, 120.0)
 M_PER_DEG_LAT = math.radians(1.0) * EARTH_RADIUS
-CMD_ARM, CMD_DO_SET_MODE, CMD_MISSION_START = 400, 176, 300
-GUIDED = 4
 FLIGHT_TIMEOUT_S = 150.0
 READY_TIMEOUT_S = 120.0
-MODE_FLAG_ARMED = 128
 PAST_THE_END = 1 << 30  # a byte offset beyond any log here (the listed size is not the end: the log grows)
 
 
@@ -85,7 +84,7 @@ class _Tee:
 
 def _raw_list(tee: _Tee, sysid: int, seconds: float = 1.5) -> dict[str, Any]:
     """LOG_REQUEST_LIST and what comes back within `seconds`: the LOG_ENTRY rows and any STATUSTEXT."""
-    tee.mav.log_request_list_send(sysid, 1, 0, 0xFFFF)
+    tee.mav.log_request_list_send(sysid, AUTOPILOT_COMPONENT_ID, 0, 0xFFFF)
     got = tee.collect(seconds)
     entries = [(int(m.id), int(m.num_logs), int(m.last_log_num)) for m in got if m.get_type() == "LOG_ENTRY"]
     sizes = [int(m.size) for m in got if m.get_type() == "LOG_ENTRY"]
@@ -99,7 +98,7 @@ def _raw_data(tee: _Tee, sysid: int, log_id: int, ofs: int, count: int,
               seconds: float = 1.0) -> list[tuple[int, int, int]]:
     """LOG_REQUEST_DATA and the (id, ofs, count) of every LOG_DATA within `seconds`; the padding of a
     short chunk must be zeros (checked here)."""
-    tee.mav.log_request_data_send(sysid, 1, log_id, ofs, count)
+    tee.mav.log_request_data_send(sysid, AUTOPILOT_COMPONENT_ID, log_id, ofs, count)
     rows = []
     for m in tee.collect(seconds):
         if m.get_type() == "LOG_DATA":
@@ -123,8 +122,9 @@ def _formats(path: Path) -> dict[str, tuple[int, int, str, str]]:
 def _arm_until_accepted(link: Any, sysid: int, timeout: float) -> None:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
-        link.command_long(sysid, CMD_DO_SET_MODE, [1.0, float(GUIDED)], deadline)
-        if link.command_long(sysid, CMD_ARM, [1.0], deadline) == 0:
+        link.command_long(sysid, mavlink.MAV_CMD_DO_SET_MODE, mode_params(ARDUPILOT_GUIDED), deadline)
+        armed = link.command_long(sysid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, [1.0], deadline)
+        if armed == mavlink.MAV_RESULT_ACCEPTED:
             return
         retry_at = min(deadline, time.monotonic() + 1.0)  # not ready yet: listen, then ask again
         while link.recv(retry_at) is not None:
@@ -133,11 +133,12 @@ def _arm_until_accepted(link: Any, sysid: int, timeout: float) -> None:
 
 
 def _disarm(link: Any, sysid: int) -> None:
-    assert link.command_long(sysid, CMD_ARM, [0.0], time.monotonic() + 5.0) == 0
+    result = link.command_long(sysid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, [0.0], time.monotonic() + 5.0)
+    assert result == mavlink.MAV_RESULT_ACCEPTED
 
 
 def _armed(msg: Any) -> bool:
-    return bool(msg.base_mode & MODE_FLAG_ARMED)
+    return bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
 
 
 def session(url: str, sysid: int, configure_camera: Callable[[Any, Any], None], keep: Path) -> dict[str, Any]:
@@ -152,9 +153,10 @@ def session(url: str, sysid: int, configure_camera: Callable[[Any, Any], None], 
         _arm_until_accepted(link, sysid, READY_TIMEOUT_S)
         _disarm(link, sysid)
         rec["after one arming"] = _raw_list(tee, sysid)
-        backend.upload(0, to_wire(_mission(), Flavour.ARDUPILOT))
+        backend.upload(MissionType.MISSION, to_wire(_mission(), Flavour.ARDUPILOT))
         _arm_until_accepted(link, sysid, 30.0)
-        assert link.command_long(sysid, CMD_MISSION_START, [0.0, 0.0], time.monotonic() + 5.0) == 0
+        start = link.command_long(sysid, mavlink.MAV_CMD_MISSION_START, [0.0, 0.0], time.monotonic() + 5.0)
+        assert start == mavlink.MAV_RESULT_ACCEPTED
         rec["armed"] = _raw_list(tee, sysid)
         rec["armed again"] = _raw_list(tee, sysid)  # ArduPilot warns once per arming
         deadline = time.monotonic() + FLIGHT_TIMEOUT_S
@@ -174,7 +176,7 @@ def session(url: str, sysid: int, configure_camera: Callable[[Any, Any], None], 
         rec["short request"] = _raw_data(tee, sysid, newest, 0, 2 * LOG_DATA_LEN + 20)
         rec["past the end"] = _raw_data(tee, sysid, newest, PAST_THE_END, LOG_DATA_LEN)
         rec["no such log"] = _raw_data(tee, sysid, newest + 7, 0, LOG_DATA_LEN)
-        tee.mav.log_request_end_send(sysid, 1)
+        tee.mav.log_request_end_send(sysid, AUTOPILOT_COMPONENT_ID)
         rec["landed_at"] = landed_at
         rec["formats"] = _formats(keep / f"log{newest}.BIN")
         for label in ("after a download, armed again", "armed once more"):

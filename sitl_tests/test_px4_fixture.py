@@ -11,11 +11,9 @@ import pytest
 from loopback import free_udp_port
 from px4 import PX4, e7, instance_free, px4, px4_or_skip  # noqa: F401  (the fixture)
 
-from bridge.link import Link, wait_vehicle
+from bridge.link import Link, mavlink, wait_vehicle
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
-
-MAV_AUTOPILOT_PX4 = 12
 
 
 def test_one_vehicle_boots_with_logging_off_and_its_boot_parameters(px4) -> None:  # noqa: F811
@@ -24,7 +22,7 @@ def test_one_vehicle_boots_with_logging_off_and_its_boot_parameters(px4) -> None
     folder, pid = vehicle.folder, vehicle.proc.pid
     with Link(vehicle.offboard_url) as link:
         info = wait_vehicle(link, vehicle.sysid, timeout=20.0)
-    assert info.autopilot == MAV_AUTOPILOT_PX4 and info.sysid == vehicle.instance + 1
+    assert info.autopilot == mavlink.MAV_AUTOPILOT_PX4 and info.sysid == vehicle.instance + 1
     assert f"SIH_LOC_LAT0: curr: 454671160 -> new: {e7(home[0])}" in vehicle.log_text()
     assert "logger" not in vehicle.client("logger", "status").replace("[logger] not running", "")
     assert "mode : 4" in vehicle.client("camera_trigger", "status")  # started at boot by TRIG_MODE
@@ -59,4 +57,4 @@ def test_a_fleet_vehicle_has_the_system_id_and_ground_station_port_asked_for(px4
     assert vehicle.gcs_url == f"udpin:127.0.0.1:{port}" and vehicle.offboard_url != vehicle.gcs_url
     with Link(vehicle.gcs_url) as link:  # its GCS link sends to our port, not to 14550
         info = wait_vehicle(link, 7, timeout=20.0)
-    assert info.autopilot == MAV_AUTOPILOT_PX4 and info.sysid == 7
+    assert info.autopilot == mavlink.MAV_AUTOPILOT_PX4 and info.sysid == 7

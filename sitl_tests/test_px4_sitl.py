@@ -1,6 +1,6 @@
 """Missions against real PX4 SIH (../shared/px4, v1.15.4) through the real CLI: a planned mission
 (the Leonardo map and a real street area, `plan --autopilot px4`) uploads, verifies, downloads the
-same and then STARTS (PX4 had answered "Mission start denied! No valid mission" in issue 16); the
+same and then STARTS (PX4 answers "Mission start denied! No valid mission" to a mission it finds infeasible); the
 same plan from the wrong place is refused by `upload` with PX4's reasons; a plan for ArduPilot is
 refused with exit 2; fence and rally round trips; a 1,000-item mission, and PX4's list limits.
 
@@ -19,8 +19,9 @@ import pytest
 from px4 import PX4, px4  # noqa: F401  (the fixture)
 from px4_session import wait_ready
 
-from bridge.link import Link, wait_vehicle
-from bridge.mission import Flavour, Mission, MissionItem, MissionType, compare_wire, to_wire
+from bridge.link import AUTOPILOT_COMPONENT_ID, Link, mavlink, wait_vehicle
+from bridge.mission import Flavour, Mission, MissionItem, MissionType, to_wire
+from bridge.readback import compare_wire
 from bridge.missionfile import PlanFile, read_mission_file, write_plan
 from missionplan.cli import main
 
@@ -37,7 +38,7 @@ def _plan(tmp: Path, where: str, autopilot: str) -> Path:
     out = tmp / f"{where}-{autopilot}"
     if where == "leonardo":
         args = ["--map", "leonardo", "--uavs", "5"]
-    else:  # a 20 m street plan over a Milan block, as in the issue
+    else:  # a 20 m street plan over a Milan block, as crews fly them
         area = tmp / "milan.geojson"
         area.write_text(json.dumps(MILAN_BLOCK))
         args = ["--area", str(area), "--altitude", "20", "--fov", "70", "--uavs", "1", "--launch", "45.46590,9.18610"]
@@ -51,10 +52,11 @@ def _start(url: str, sysid: int) -> tuple[int | None, list[str]]:
     texts: list[str] = []
     deadline = time.monotonic() + READY_S
     with Link(url) as link:
-        wait_vehicle(link, sysid, 1, 20)
+        wait_vehicle(link, sysid, AUTOPILOT_COMPONENT_ID, 20)
         assert wait_ready(link, sysid, READY_S), "PX4 never reported its pre-arm checks passing"
         while time.monotonic() < deadline:
-            link.mav.command_long_send(sysid, 1, 300, 0, 0, 0, 0, 0, 0, 0, 0)
+            link.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, mavlink.MAV_CMD_MISSION_START, 0,
+                                       0, 0, 0, 0, 0, 0, 0)
             result = None
             until = time.monotonic() + 2.0
             while (msg := link.recv(until)) is not None:
@@ -62,10 +64,11 @@ def _start(url: str, sysid: int) -> tuple[int | None, list[str]]:
                     continue
                 if msg.get_type() == "STATUSTEXT":
                     texts.append(str(msg.text).rstrip("\t"))
-                elif msg.get_type() == "COMMAND_ACK" and int(msg.command) == 300 and result is None:
+                elif msg.get_type() == "COMMAND_ACK" and int(msg.command) == mavlink.MAV_CMD_MISSION_START \
+                        and result is None:
                     result = int(msg.result)
                     until = time.monotonic() + 1.0  # the texts that follow it
-            if result not in (None, 1):
+            if result not in (None, mavlink.MAV_RESULT_TEMPORARILY_REJECTED):
                 return result, texts
             ask_again = min(deadline, time.monotonic() + 1.0)  # not ready yet: listen, then ask again
             while (msg := link.recv(ask_again)) is not None:
@@ -99,7 +102,7 @@ def test_a_planned_mission_uploads_verifies_downloads_and_starts(px4, tmp_path, 
                         flavour=Flavour.PX4) == []
     # And PX4 starts it (the vehicle arms itself on MISSION_START).
     result, texts = _start(url, vehicle.sysid)
-    assert result == 0 and "Executing Mission" in texts, (result, texts)
+    assert result == mavlink.MAV_RESULT_ACCEPTED and "Executing Mission" in texts, (result, texts)
 
 
 def test_upload_from_the_wrong_place_is_refused_with_pxs_reasons(px4, tmp_path, capsys) -> None:  # noqa: F811

@@ -29,7 +29,8 @@ from arducopter import arducopter  # noqa: F401  (the fixture)
 from px4 import px4  # noqa: F401  (the fixture)
 
 from bridge.link import Link
-from bridge.mission import Flavour, MissionType, WireItem, compare_wire
+from bridge.mission import Flavour, MissionType, WireItem
+from bridge.readback import compare_wire
 from bridge.mock import MockAutopilot
 from bridge.retask import RetaskReport, replace_mission_in_flight
 

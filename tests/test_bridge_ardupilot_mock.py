@@ -1,4 +1,4 @@
-"""The bridge against the ArduPilot-flavoured mock, where it behaves like ArduCopter (issue 11): no
+"""The bridge against the ArduPilot-flavoured mock, where it behaves like ArduCopter: no
 race with the vehicle's re-requests, stray acks after an upload, stale fence / rally cleared, the
 home item before a GPS fix, and the mock command's --home / --plan."""
 
@@ -11,6 +11,7 @@ import pytest
 
 from bridge import BridgeUsageError
 from bridge.commands import mock_homes
+from bridge.link import mavlink
 from bridge.mission import Flavour, Mission, MissionItem, MissionType, to_wire
 from bridge.missionfile import PlanFile, write_plan
 from bridge.mock import LinkFaults, MockAutopilot
@@ -126,10 +127,10 @@ def test_a_lost_final_accepted_is_settled_by_read_back(monkeypatch: pytest.Monke
     dropped: list[int] = []
 
     def lossy_ack(self, peer, mission_type, result):  # type: ignore[no-untyped-def]
-        if result == mock_vehicle.ACCEPTED and mission_type == 0 and not dropped:
+        if result == mavlink.MAV_MISSION_ACCEPTED and mission_type == 0 and not dropped:
             dropped.append(result)  # the ACCEPTED of the first mission upload never arrives
             return
-        for _ in range(2 if result == mock_vehicle.ERROR else 1):  # and every ERROR arrives twice
+        for _ in range(2 if result == mavlink.MAV_MISSION_ERROR else 1):  # and every ERROR arrives twice
             original(self, peer, mission_type, result)
 
     monkeypatch.setattr(mock_vehicle.MockVehicle, "_ack", lossy_ack)

@@ -1,4 +1,4 @@
-"""Field faults of issue 11 at the command line: bad numbers, empty files, `clear`, other file names, -o.
+"""Field faults at the command line: bad numbers, empty files, `clear`, other file names, -o.
 
 Each test drives the real `upload` / `download` / `clear` handlers against a mock autopilot on
 loopback and checks the one-line message, the exit code and what the vehicle holds afterwards.

@@ -13,11 +13,11 @@ from bridge.mission import (
     Mission,
     MissionItem,
     MissionType,
-    compare_wire,
     encode_xy,
     from_wire,
     to_wire,
 )
+from bridge.readback import compare_wire
 
 
 def _mission() -> Mission:

@@ -142,7 +142,7 @@ def test_missing_and_unknown_files(tmp_path: Path) -> None:
         write_mission_file(tmp_path / "m.kml", PlanFile(mission=_mission()))
 
 
-# ------------------------------------------------------------------ issue 11 item 5: numbers the wire cannot carry
+# ------------------------------------------------------------------------- numbers the wire cannot carry
 
 def _plan_with(params: list, command: int = 16, frame: int = 3) -> str:
     """A plan text with one item; json.dumps writes NaN / Infinity literals, as some tools do."""
@@ -226,7 +226,7 @@ def test_waypoints_non_finite_or_out_of_range_numbers_are_bad_input(tmp_path: Pa
         read_mission_file(path)
 
 
-# ------------------------------------------------------------- issue 11 item 9: versions and file names
+# -------------------------------------------------------------------------- versions and file names
 
 def test_plan_mission_version_other_than_2_is_refused(tmp_path: Path) -> None:
     doc = json.loads(_plan_with([0, 0, 0, 0, 45.07, 7.68, 30]))

@@ -1,4 +1,4 @@
-"""Property tests of the mission-file readers (issue 13): whatever the file holds, the reader either
+"""Property tests of the mission-file readers: whatever the file holds, the reader either
 returns a plan or raises BridgeUsageError, never anything else; and whatever it returns can go on the
 wire (every item packs into a MISSION_ITEM_INT for both flavours), so an upload cannot die later of a
 number the reader let through.
@@ -72,7 +72,7 @@ def mutated_plans(draw: st.DrawFn) -> dict[str, Any]:
     return doc
 
 
-# Found on the reader before issue 13 (each raised TypeError / ValueError / OverflowError / struct.error,
+# Found on earlier versions of the reader (each raised TypeError / ValueError / OverflowError / struct.error,
 # or was accepted and failed later on the wire): kept as fixed examples.
 REGRESSIONS: list[tuple[tuple[str | int, ...], Any]] = [
     (("geoFence", "polygons"), 5), (("rallyPoints", "points"), 5), (("geoFence", "circles"), True),

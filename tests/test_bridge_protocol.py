@@ -10,7 +10,8 @@ import pytest
 
 from bridge import BridgeError
 from bridge.link import Link, wait_vehicle
-from bridge.mission import Flavour, Mission, MissionItem, MissionType, compare_wire, to_wire
+from bridge.mission import Flavour, Mission, MissionItem, MissionType, to_wire
+from bridge.readback import compare_wire
 from bridge.mock import LinkFaults, MockAutopilot
 from bridge.protocol import MissionClient, MissionTransferError, Timeouts
 from bridge.uploader import PymavlinkBackend, upload_plan

@@ -11,7 +11,8 @@ from pathlib import Path
 import pytest
 
 from bridge.link import Link
-from bridge.mission import Flavour, Mission, MissionItem, MissionType, WireItem, compare_items, to_wire
+from bridge.mission import Flavour, Mission, MissionItem, MissionType, WireItem, to_wire
+from bridge.readback import compare_items
 from bridge.missionfile import FirmwareMismatch, PlanFile, check_firmware, read_plan, write_plan, write_waypoints
 from bridge.mock import MockAutopilot
 from bridge.protocol import Timeouts

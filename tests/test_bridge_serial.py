@@ -1,4 +1,4 @@
-"""Serial links for real (issue 11 item 6): a pseudo-terminal pair with the mock on one end.
+"""Serial links for real: a pseudo-terminal pair with the mock on one end.
 
 The mock keeps the pty master; `missionplan upload` opens the slave /dev/pts/N through pymavlink's
 serial driver (pyserial), exactly as it opens /dev/ttyUSB0 on a telemetry radio.

@@ -47,7 +47,7 @@ def _write(folder: Path, content: bytes) -> Path:
     return path
 
 
-# ------------------------------------------------ issue 11 item 7: signing after the vehicle has been up a while
+# ------------------------------------------------------------- signing after the vehicle has been up a while
 
 def _survey(n: int = 5) -> "Mission":
     from bridge.mission import Mission, MissionItem

@@ -1,4 +1,4 @@
-"""A TCP peer that goes away mid-upload (issue 11 item 8).
+"""A TCP peer that goes away mid-upload.
 
 pymavlink printed "EOF on TCP socket" on every read of the closed socket, and select() wakes at
 once for a closed socket, so one upload printed it over a million times. Now: nothing from

@@ -1,6 +1,6 @@
 """Coverage honesty (both coverage numbers, unreachable and small-share warnings,
 --unknown-building-height) and the plan command's input errors (negative coordinates,
-unwritable --out, structurally wrong files): issue 13.
+unwritable --out, structurally wrong files).
 
 The real-city cases read ../shared/maps/ (OpenStreetMap data, © OpenStreetMap contributors,
 ODbL) and skip when it is absent.

@@ -18,11 +18,11 @@ import pytest
 
 from bridge import copter_model as cm
 from bridge import px4_model as pm
+from bridge.link import mavlink
 from bridge.mission import Flavour
 from bridge.missionfile import read_mission_file
 from bridge.px4 import reported_items
-from bridge.readiness import (MSG_EKF_STATUS_REPORT, MSG_EXTENDED_SYS_STATE, VehicleState, px4_mode,
-                              stream_rates)
+from bridge.readiness import VehicleState, px4_mode, stream_rates
 from missionplan.cli import main
 from missionplan.flight.fly import fly
 from missionplan.flight.mock_fleet import start_mock_fleet
@@ -72,8 +72,9 @@ def test_px4_modes_are_named_from_main_and_sub_mode() -> None:
 
 def test_px4_streams_ask_for_the_landed_state_not_the_ardupilot_ekf() -> None:
     px4, ardupilot = stream_rates(10.0, Flavour.PX4), stream_rates(10.0, Flavour.ARDUPILOT)
-    assert MSG_EXTENDED_SYS_STATE in px4 and MSG_EKF_STATUS_REPORT not in px4
-    assert MSG_EKF_STATUS_REPORT in ardupilot and MSG_EXTENDED_SYS_STATE not in ardupilot
+    landed, ekf = mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT
+    assert landed in px4 and ekf not in px4
+    assert ekf in ardupilot and landed not in ardupilot
 
 
 def test_the_px4_model_turns_before_a_leg_and_lands_in_three_bands() -> None:

@@ -1,6 +1,6 @@
 """Structurally wrong and out-of-range input in every geo reader: one GeoError line naming the file.
 
-The cases a property-based fuzzer hit against the old readers (issue 13), each pinned here
+The cases a property-based fuzzer hit against earlier versions of the readers, each pinned here
 so it cannot come back even when the fuzzer's random draw misses it.
 """
 

@@ -1,4 +1,5 @@
-"""Imports run one way: cli -> flight -> mission -> learn -> grid -> maps; geo and bridge stand alone.
+"""Imports run one way: cli -> flight -> mission -> learn -> grid -> maps; geo and bridge stand alone;
+and no module imports itself round a circle (a -> b -> a), inside a layer or across the top.
 
 Every module is parsed with `ast` (imports inside functions included). A module's layer is the
 subpackage it sits in (missionplan/grid/world.py: grid); the modules at the top of the package (the
@@ -91,3 +92,61 @@ def test_a_wrong_way_import_is_found() -> None:
     assert wrong_way("from .grid.w import W\nfrom .flight import f\n", "missionplan.cli") == []
     assert imported_modules("from . import z\n", "missionplan.grid", is_package=True) == [
         "missionplan.grid", "missionplan.grid.z"]
+
+
+def import_graph(paths: list[Path], root: Path = ROOT) -> dict[str, set[str]]:
+    """module -> the modules of `paths` it imports (at any depth in the file; a package counts as its __init__)."""
+    names = {module_name(p, root): p for p in paths}
+    graph = {}
+    for name, path in names.items():
+        imports = imported_modules(path.read_text(encoding="utf-8"), name, path.name == "__init__.py")
+        graph[name] = {m for m in imports if m in names and m != name}
+    return graph
+
+
+def import_circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Every group of modules that import each other round a circle (strongly connected, 2 or more), sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    circles = []
+
+    def visit(module: str) -> None:  # Tarjan's algorithm; the graphs are a few hundred modules deep at most
+        index[module] = low[module] = len(index)
+        stack.append(module)
+        on_stack.add(module)
+        for other in sorted(graph[module]):
+            if other not in index:
+                visit(other)
+                low[module] = min(low[module], low[other])
+            elif other in on_stack:
+                low[module] = min(low[module], index[other])
+        if low[module] == index[module]:
+            group = []
+            while True:
+                member = stack.pop()
+                on_stack.discard(member)
+                group.append(member)
+                if member == module:
+                    break
+            if len(group) > 1:
+                circles.append(sorted(group))
+
+    for module in sorted(graph):
+        if module not in index:
+            visit(module)
+    return sorted(circles)
+
+
+def test_no_import_circles() -> None:
+    # A package importing its own modules is fine; a module importing its package's __init__ that imports it back
+    # is a circle like any other.
+    graph = import_graph(sources("missionplan") + sources("geo") + sources("bridge"))
+    assert import_circles(graph) == []
+
+
+def test_an_import_circle_is_found() -> None:
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a", "d"}, "d": set(), "e": {"d"}}
+    assert import_circles(graph) == [["a", "b", "c"]]
+    assert import_circles({"x": {"y"}, "y": set()}) == []

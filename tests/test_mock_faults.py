@@ -13,10 +13,9 @@ from typing import Any
 
 import pytest
 
-from bridge.link import Link, wait_vehicle
+from bridge.link import Link, mavlink, wait_vehicle
 from bridge.mission import Flavour, Mission, MissionItem, to_wire
 from bridge.mock import MockAutopilot
-from bridge.mock_vehicle import DENIED, ERROR, INVALID_SEQUENCE
 from bridge.protocol import MissionClient, MissionTransferError, Timeouts
 
 HOME = (45.0, 7.0, 200.0)
@@ -222,15 +221,15 @@ def test_another_ground_station_is_denied_while_one_uploads(monkeypatch: pytest.
         holder.mav.mission_count_send(1, 1, 3, MISSION_TYPE)  # and then silent
         assert mock.wait_until(lambda m: m.vehicle(1).upload is not None, 3.0)
         fly_link.mav.mission_count_send(1, 1, 5, MISSION_TYPE)
-        assert acks(fly_link, 1) == [DENIED]
+        assert acks(fly_link, 1) == [mavlink.MAV_MISSION_DENIED]
         fly_link.mav.mission_clear_all_send(1, 1, MISSION_TYPE)
-        assert acks(fly_link, 2) == [DENIED, ERROR]
+        assert acks(fly_link, 2) == [mavlink.MAV_MISSION_DENIED, mavlink.MAV_MISSION_ERROR]
         fly_link.mav.mission_request_list_send(1, 1, MISSION_TYPE)
-        assert acks(fly_link, 1) == [DENIED]
+        assert acks(fly_link, 1) == [mavlink.MAV_MISSION_DENIED]
         fly_link.mav.mission_item_int_send(1, 1, 0, 0, 16, 0, 1, 0, 0, 0, 0, 0, 0, 0, MISSION_TYPE)
-        assert acks(fly_link, 1) == [DENIED]  # the item it asks for, but from the wrong sender
+        assert acks(fly_link, 1) == [mavlink.MAV_MISSION_DENIED]  # the item it asks for, but from the wrong sender
         fly_link.mav.mission_item_int_send(1, 1, 2, 0, 16, 0, 1, 0, 0, 0, 0, 0, 0, 0, MISSION_TYPE)
-        assert acks(fly_link, 1) == [INVALID_SEQUENCE]  # not the one it asks for: that first
+        assert acks(fly_link, 1) == [mavlink.MAV_MISSION_INVALID_SEQUENCE]  # not the one it asks for: that first
         assert mock.vehicle(1).denied_transfers == 3  # count, clear-all, item (downloads are not counted)
         # Our client: denied at the start, tried again, then one line naming the other ground station.
         monkeypatch.setattr("bridge.protocol.DENIED_TRIES", 2)

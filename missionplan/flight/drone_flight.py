@@ -44,16 +44,16 @@ import numpy as np
 
 from bridge.copter_model import PARAMETERS as COPTER_PARAMETERS
 from bridge.errors import BridgeError
+from bridge.link import mavlink
 from bridge.mission import Flavour, to_wire
 from bridge.missionfile import check_firmware, read_mission_file
 from bridge.onboard_log import euler_degrees, recover_photos
 from bridge.params import ParamClient, read_params
-from bridge.px4 import NAV_LAST
 from bridge.protocol import Timeouts
 from bridge.px4_model import FLOAT_PARAMETERS as PX4_PARAMETERS
 from bridge.retask import replace_mission_in_flight
-from bridge.readiness import (ARDUPILOT_AUTO, DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_LOITER_SUB,
-                              PX4_MISSION_SUB, Vehicle, request_streams, site_problem, stream_rates)
+from bridge.readiness import (ARDUPILOT_AUTO, ARDUPILOT_GUIDED, DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_LOITER_SUB,
+                              PX4_MISSION_SUB, Vehicle, mode_params, request_streams, site_problem, stream_rates)
 from bridge.shared_link import LinkPool
 from bridge.signing import SigningKey
 from bridge.uploader import MissionBackend, open_backend, read_back_differences, set_plan_params, upload_plan
@@ -61,15 +61,9 @@ from bridge.uploader import MissionBackend, open_backend, read_back_differences,
 from .flight_report import vehicle_rate
 from .record import DroneRecord
 
-CMD_DO_SET_MODE, CMD_MISSION_START = 176, 300
-CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_LAND = 20, 21
-CAPTURE_OK = 1  # CAMERA_IMAGE_CAPTURED capture_result: 1 success
-MODE_FLAG_ARMED = 128
-MAV_TYPE_GCS = 6
-MISSION_STATE_ACTIVE, MISSION_STATE_COMPLETE = 3, 5
-LANDED_STATE_NAMES = {1: "on ground", 2: "in air", 3: "taking off", 4: "landing"}  # EXTENDED_SYS_STATE
-ARDUPILOT_GUIDED = 4
-MAV_RESULT_TEMPORARILY_REJECTED, MAV_RESULT_DENIED = 1, 2
+CAPTURE_OK = 1  # CAMERA_IMAGE_CAPTURED capture_result (a flag, not an enum): 1 success
+LANDED_STATE_NAMES = {mavlink.MAV_LANDED_STATE_ON_GROUND: "on ground", mavlink.MAV_LANDED_STATE_IN_AIR: "in air",
+                      mavlink.MAV_LANDED_STATE_TAKEOFF: "taking off", mavlink.MAV_LANDED_STATE_LANDING: "landing"}
 PX4_START_RETRY_S = 5.0   # MISSION_START retried this long while PX4 checks a new mission (see _mission_start)
 START_RETRY_WAIT_S = 0.5
 ON_GROUND_M = 0.3      # relative altitude under which a disarmed vehicle counts as landed
@@ -89,7 +83,7 @@ RETURN_MODES = {"RTL", "LAND", "SMART_RTL"}
 ALERT_WORDS = ("failsafe", "fence", "ekf", "crash", "battery", "low bat", "critical", "emergency", "lost")
 # ...said with a severity of WARNING or worse (MAV_SEVERITY 0-4): ArduCopter says "EKF3 IMU0 MAG0 in-flight
 # yaw alignment complete" at INFO on every take-off, which is no alert and no reason a flight ended.
-ALERT_SEVERITY = 4
+ALERT_SEVERITY = mavlink.MAV_SEVERITY_WARNING
 MISSION_STATE_WAIT_S = 3.0  # after a link gap, how long a landed vehicle's fresh MISSION_CURRENT is waited for
 USER_MODES = {"GUIDED"}  # what fly itself commands before the start
 
@@ -390,7 +384,7 @@ class DroneFlight:
             return False
         link = self.backend.link
         if self.backend.vehicle.flavour is Flavour.ARDUPILOT:  # arms in GUIDED, starts AUTO by MISSION_START
-            link.command_long(self.sysid, CMD_DO_SET_MODE, [1.0, float(ARDUPILOT_GUIDED)], self.deadline,
+            link.command_long(self.sysid, mavlink.MAV_CMD_DO_SET_MODE, mode_params(ARDUPILOT_GUIDED), self.deadline,
                               other=self.vehicle.take)
         armed, why = self.vehicle.arm(min(self.deadline, time.monotonic() + self.fleet.ready_s))
         if not armed:
@@ -407,15 +401,15 @@ class DroneFlight:
         self.said = (None, None, None, self.vehicle.state.texts_total)
         self.recording = True
         result = self._mission_start()
-        if result != 0 and self.backend.vehicle.flavour is Flavour.PX4:
+        if result != mavlink.MAV_RESULT_ACCEPTED and self.backend.vehicle.flavour is Flavour.PX4:
             # PX4 also starts a mission in its AUTO.MISSION mode (from the current item, 0 after an upload).
-            mode = link.command_long(self.sysid, CMD_DO_SET_MODE,
-                                     [1.0, float(PX4_AUTO_MAIN), float(PX4_MISSION_SUB)], self.deadline,
+            mode = link.command_long(self.sysid, mavlink.MAV_CMD_DO_SET_MODE,
+                                     mode_params(PX4_AUTO_MAIN, PX4_MISSION_SUB), self.deadline,
                                      other=self.vehicle.take)
-            if mode == 0:
+            if mode == mavlink.MAV_RESULT_ACCEPTED:
                 rec.add_note(f"{refused('MISSION_START', result)}; started in AUTO.MISSION mode")
-                result = 0
-        if result != 0:
+                result = mavlink.MAV_RESULT_ACCEPTED
+        if result != mavlink.MAV_RESULT_ACCEPTED:
             what = refused("mission start", result)
             self.problem(unanswered(what, link, self.sysid) if result is None else what)
             return False
@@ -439,14 +433,14 @@ class DroneFlight:
         tries = 0
         while True:
             tries += 1
-            result = link.command_long(self.sysid, CMD_MISSION_START, [0.0, 0.0], self.deadline,
+            result = link.command_long(self.sysid, mavlink.MAV_CMD_MISSION_START, [0.0, 0.0], self.deadline,
                                        other=self.vehicle.take,
-                                       done=lambda: rec.mission_state == MISSION_STATE_ACTIVE)
-            if result not in (MAV_RESULT_DENIED, MAV_RESULT_TEMPORARILY_REJECTED) or \
+                                       done=lambda: rec.mission_state == mavlink.MISSION_STATE_ACTIVE)
+            if result not in (mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_TEMPORARILY_REJECTED) or \
                     time.monotonic() + START_RETRY_WAIT_S >= until:
                 break
             self.vehicle.listen(time.monotonic() + START_RETRY_WAIT_S)
-        if tries > 1 and result == 0:
+        if tries > 1 and result == mavlink.MAV_RESULT_ACCEPTED:
             rec.add_note(f"MISSION_START accepted after {tries} tries (the vehicle had not yet taken the "
                          f"new mission: {self.vehicle.state.reasons(1)})")
         return result
@@ -572,12 +566,13 @@ class DroneFlight:
         Raises BridgeError when the vehicle refuses or does not stop in time."""
         assert self.backend is not None and self.vehicle is not None
         flavour = self.backend.vehicle.flavour
-        mode, params = (("GUIDED", [1.0, float(ARDUPILOT_GUIDED)]) if flavour is Flavour.ARDUPILOT else
-                        ("HOLD", [1.0, float(PX4_AUTO_MAIN), float(PX4_LOITER_SUB)]))
+        mode, params = (("GUIDED", mode_params(ARDUPILOT_GUIDED)) if flavour is Flavour.ARDUPILOT else
+                        ("HOLD", mode_params(PX4_AUTO_MAIN, PX4_LOITER_SUB)))
         self.commanded.add(mode)
         deadline = min(self.deadline, time.monotonic() + HOLD_S)
-        result = self.backend.link.command_long(self.sysid, CMD_DO_SET_MODE, params, deadline, other=self.vehicle.take)
-        if result != 0:
+        result = self.backend.link.command_long(self.sysid, mavlink.MAV_CMD_DO_SET_MODE, params, deadline,
+                                                other=self.vehicle.take)
+        if result != mavlink.MAV_RESULT_ACCEPTED:
             raise BridgeError(refused(f"{mode} (to hold it for the re-task)", result))
         rec = self.record
         while time.monotonic() < deadline:
@@ -595,12 +590,12 @@ class DroneFlight:
         old one where it was (a re-task refused after the hold)."""
         assert self.backend is not None and self.vehicle is not None
         flavour = self.backend.vehicle.flavour
-        params = ([1.0, float(ARDUPILOT_AUTO)] if flavour is Flavour.ARDUPILOT else
-                  [1.0, float(PX4_AUTO_MAIN), float(PX4_MISSION_SUB)])
-        result = self.backend.link.command_long(self.sysid, CMD_DO_SET_MODE, params,
+        params = (mode_params(ARDUPILOT_AUTO) if flavour is Flavour.ARDUPILOT else
+                  mode_params(PX4_AUTO_MAIN, PX4_MISSION_SUB))
+        result = self.backend.link.command_long(self.sysid, mavlink.MAV_CMD_DO_SET_MODE, params,
                                                 min(self.deadline, time.monotonic() + HOLD_S),
                                                 other=self.vehicle.take)
-        if result != 0:
+        if result != mavlink.MAV_RESULT_ACCEPTED:
             raise BridgeError(refused("its mission mode (released after a refused re-task)", result))
 
     def retask(self, request: RetaskRequest) -> str:
@@ -626,7 +621,7 @@ class DroneFlight:
         if not report.confirmed:
             self.problem(f"re-task failed: the new mission is on board but not confirmed: {report.problem}")
             raise BridgeError(f"the new mission is on board but not confirmed: {report.problem}")
-        rec.set(current=report.continued_at or resume, mission_state=MISSION_STATE_ACTIVE)
+        rec.set(current=report.continued_at or resume, mission_state=mavlink.MISSION_STATE_ACTIVE)
         rec.add_note(f"re-tasked in flight: {len(wire)} items, continued at item {report.continued_at} "
                      f"({report.strategy}, upload {report.upload_s:.2f} s)")
         if self.bar is not None:
@@ -639,9 +634,10 @@ class DroneFlight:
         it returns to launch (what --replan asks for), once."""
         assert self.backend is not None
         self.given_away = False
-        result = self.backend.link.command_long(self.sysid, CMD_NAV_RETURN_TO_LAUNCH, [],
+        result = self.backend.link.command_long(self.sysid, mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, [],
                                                 min(self.deadline, time.monotonic() + 5.0), other=self.vehicle.take)
-        self.alert("heard again after its share was re-tasked to the others: sent home (RTL)" if result == 0 else
+        self.alert("heard again after its share was re-tasked to the others: sent home (RTL)"
+                   if result == mavlink.MAV_RESULT_ACCEPTED else
                    f"heard again after its share was re-tasked: {refused('RTL', result)}; bring it home by hand")
 
     def _disarmed_on_ground(self) -> bool:
@@ -651,7 +647,7 @@ class DroneFlight:
     def _end(self, last_seq: int) -> None:
         """The vehicle is on the ground and disarmed: finished, or ended early and why."""
         rec = self.record
-        complete = (rec.mission_state == MISSION_STATE_COMPLETE or self.last_reached >= last_seq
+        complete = (rec.mission_state == mavlink.MISSION_STATE_COMPLETE or self.last_reached >= last_seq
                     or self._at_final_return(last_seq))
         if not complete and self.gaps and self.mission_heard_at <= self.back_at:
             # Found landed after a silence (it may have finished its mission meanwhile): what we know of its
@@ -660,7 +656,7 @@ class DroneFlight:
             while self.mission_heard_at <= self.back_at and (msg := self.backend.link.recv(until)) is not None:
                 if msg.get_srcSystem() == self.sysid:
                     self.vehicle.take(msg)
-            complete = (rec.mission_state == MISSION_STATE_COMPLETE or self.last_reached >= last_seq
+            complete = (rec.mission_state == mavlink.MISSION_STATE_COMPLETE or self.last_reached >= last_seq
                         or self._at_final_return(last_seq))
         if complete:
             rec.set(finished=True, t_end=rec.last_heard)
@@ -680,11 +676,12 @@ class DroneFlight:
         (nor a mission_state), it lands and disarms there."""
         rec = self.record
         if not (0 <= last_seq < len(rec.wire)
-                and int(rec.wire[last_seq].command) in (CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_LAND)):
+                and int(rec.wire[last_seq].command) in (mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH,
+                                                        mavlink.MAV_CMD_NAV_LAND)):
             return False
         # At it, or only DO_ items left before it (PX4 may switch to RTL while it still reports the
         # DO_SET_CAM_TRIGG_DIST after the last waypoint as its current item).
-        return all(int(item.command) > NAV_LAST for item in rec.wire[max(rec.current, 0) + 1:last_seq])
+        return all(int(item.command) > mavlink.MAV_CMD_NAV_LAST for item in rec.wire[max(rec.current, 0) + 1:last_seq])
 
     def _give_up_at(self) -> float:
         """Our monotonic time after which a silent vehicle's mission is surely over: its planned time
@@ -730,8 +727,8 @@ class DroneFlight:
                             msg.time_boot_ms / 1000.0, -msg.vz / 100.0))
             if not rec.last_position or t - rec.last_position[3] >= 1.0:  # journaled once a second
                 rec.set(last_position=[lat, lon, self.rel_alt, t])
-        elif kind == "HEARTBEAT" and msg.type != MAV_TYPE_GCS:
-            self.armed = bool(msg.base_mode & MODE_FLAG_ARMED)
+        elif kind == "HEARTBEAT" and msg.type != mavlink.MAV_TYPE_GCS:
+            self.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
         elif kind == "MISSION_CURRENT":
             self.mission_heard_at = time.monotonic()
             rec.set(current=int(msg.seq), mission_state=int(getattr(msg, "mission_state", 0) or 0))

@@ -38,6 +38,8 @@ from scipy.spatial import cKDTree
 
 from bridge.atomic import write_text_atomic
 from bridge.copter_model import CopterParams, Motion, total_time
+from bridge.mission import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND, CMD_NAV_TAKEOFF,
+                            CMD_NAV_WAYPOINT)
 from bridge.px4_model import Px4Params
 from geo.cells import cells_feature
 from geo.frame import GridFrame
@@ -51,10 +53,8 @@ from .plan_report import SLACK_CELLS, frame_of, target_cells, to_grid_m
 from .record import DroneRecord
 
 COVERAGE_OK = 99.0
-CMD_WAYPOINT, CMD_DO_CHANGE_SPEED, CMD_CAM_TRIGG_DIST = 16, 178, 206
 MIN_RATE_SPAN_S = 2.0  # of our time: a vehicle's clock rate is fitted over at least this long a record
 REAL_TIME_TOLERANCE = 0.05  # a clock within 5 % of ours runs in real time
-CMD_TAKEOFF, CMD_LAND = 22, 21
 # A vehicle has left the ground at the first sample this high (at most half the fleet's lowest take-off
 # altitude: liftoff_height) and
 # climbing this fast. PX4's estimate on the ground wanders by up to 0.8 m and 0.9 m/s (SIH): lower
@@ -168,9 +168,9 @@ def _survey_window(wire: list[Any]) -> tuple[int | None, int | None]:
     first = last = None
     on = False
     for item in wire:
-        if item.command == CMD_CAM_TRIGG_DIST:
+        if item.command == CMD_DO_SET_CAM_TRIGG_DIST:
             on = item.param1 > 0
-        elif item.command == CMD_WAYPOINT and on:
+        elif item.command == CMD_NAV_WAYPOINT and on:
             first = item.seq if first is None else first
             last = item.seq
     return first, last
@@ -231,7 +231,7 @@ def flown_seconds(rec: DroneRecord, scale: float) -> float:
 
 def takeoff_altitude(rec: DroneRecord) -> float:
     """The altitude of the uploaded mission's NAV_TAKEOFF (inf without one)."""
-    return next((float(it.z) for it in rec.wire if it.command == CMD_TAKEOFF), float("inf"))
+    return next((float(it.z) for it in rec.wire if it.command == CMD_NAV_TAKEOFF), float("inf"))
 
 
 def liftoff_height(records: list[DroneRecord]) -> float:
@@ -257,18 +257,18 @@ def mission_motions(frame: GridFrame, rec: DroneRecord) -> list[Motion] | None:
     the navigation parameters the vehicle reported (the model's defaults for those it did not).
     None when the mission has no take-off to start from."""
     items = list(rec.wire)
-    start = next((i for i, it in enumerate(items) if it.command == CMD_TAKEOFF), None)
+    start = next((i for i, it in enumerate(items) if it.command == CMD_NAV_TAKEOFF), None)
     if start is None:
         return None
     takeoff = items[start]
-    waypoints = [it for it in items[start + 1:] if it.command == CMD_WAYPOINT]
+    waypoints = [it for it in items[start + 1:] if it.command == CMD_NAV_WAYPOINT]
     copter = CopterParams.from_params(rec.params)
     px4 = Px4Params.from_params(rec.params) if rec.flavour == "px4" else None
     speed = next((float(it.param2) for it in items if it.command == CMD_DO_CHANGE_SPEED and it.param2 > 0),
                  copter.wp_speed if px4 is None else px4.xy_cruise)
     launch = to_grid_m(frame, [takeoff.x / 1e7], [takeoff.y / 1e7])[0]
     route = to_grid_m(frame, [w.x / 1e7 for w in waypoints], [w.y / 1e7 for w in waypoints])
-    end = "land" if items[-1].command == CMD_LAND else "rtl"
+    end = "land" if items[-1].command == CMD_NAV_LAND else "rtl"
     return planned_motions(launch, route, float(takeoff.z), end, FlightModel(speed, 0.0, copter, px4))
 
 
@@ -502,7 +502,7 @@ def _last_position(rec: DroneRecord) -> dict[str, Any] | None:
 def _flight_speed_and_acceptance(records: list[DroneRecord]) -> tuple[float, float]:
     speed = max((float(item.param2) for rec in records for item in rec.wire if item.command == CMD_DO_CHANGE_SPEED),
                 default=5.0)
-    acceptance = max((float(item.param2) for rec in records for item in rec.wire if item.command == CMD_WAYPOINT),
+    acceptance = max((float(item.param2) for rec in records for item in rec.wire if item.command == CMD_NAV_WAYPOINT),
                      default=0.0)
     return speed, acceptance
 

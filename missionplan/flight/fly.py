@@ -31,10 +31,11 @@ import numpy as np
 
 from bridge.commands import CONNECT_HELP, DEFAULT_CONNECT, add_gcs_arguments, gcs_identity, signing_key
 from bridge.errors import BridgeError, BridgeUsageError
-from bridge.link import GCS_COMPONENT_ID, GCS_SYSTEM_ID, parse_gcs_sysid
+from bridge.link import GCS_COMPONENT_ID, GCS_SYSTEM_ID, mavlink, parse_gcs_sysid
 from bridge.mission import Flavour
 from bridge.missionfile import read_mission_file
-from bridge.readiness import DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, ground_distance_m
+from bridge.readiness import (DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_LAND_SUB, PX4_RTL_SUB, ground_distance_m,
+                              mode_params)
 from bridge.shared_link import LinkPool
 from bridge.signing import SigningKey
 from bridge.uploader import check_gcs_identity
@@ -52,9 +53,8 @@ UPLOADERS = ("missionplan", "mavsdk")  # who reads the .plan files and uploads t
 ON_ABORT = ("none", "rtl", "land")
 ABORT_WINDOW_S = 5.0  # after a Ctrl-C, a second one this soon commands the fleet home
 WATCH_S = 1.0  # the live separation watch looks this often
-CMD_DO_SET_MODE = 176
-ARDUPILOT_MODES = {"rtl": 6, "land": 9}
-PX4_AUTO_SUBS = {"rtl": 5, "land": 6}
+ARDUPILOT_MODES = {"rtl": 6, "land": 9}  # ArduCopter's custom_mode numbers (its own, not a MAVLink enum)
+PX4_AUTO_SUBS = {"rtl": PX4_RTL_SUB, "land": PX4_LAND_SUB}
 
 
 def flight_view(plan_dir: Path, report: dict[str, Any], sortie: int) -> dict[str, Any]:
@@ -109,12 +109,12 @@ def _abort(flights: list[DroneFlight], action: str, alert: Any) -> None:
         if not rec.started or backend is None or flight.vehicle is None or not flight.armed:
             continue
         if backend.vehicle.flavour is Flavour.PX4:
-            params = [1.0, float(PX4_AUTO_MAIN), float(PX4_AUTO_SUBS[action])]
+            params = mode_params(PX4_AUTO_MAIN, PX4_AUTO_SUBS[action])
         else:
-            params = [1.0, float(ARDUPILOT_MODES[action])]
+            params = mode_params(ARDUPILOT_MODES[action])
         flight.commanded.update({action.upper(), "RTL", "LAND"})
-        result = backend.link.command_long(rec.id, CMD_DO_SET_MODE, params, time.monotonic() + 5.0)
-        text = f"commanded {action.upper()}: " + ("accepted" if result == 0 else
+        result = backend.link.command_long(rec.id, mavlink.MAV_CMD_DO_SET_MODE, params, time.monotonic() + 5.0)
+        text = f"commanded {action.upper()}: " + ("accepted" if result == mavlink.MAV_RESULT_ACCEPTED else
                                                  "not acknowledged" if result is None else f"refused ({result})")
         rec.add_event(time.time(), f"fly: {text}")
         alert(f"uav{rec.id}: {text}")

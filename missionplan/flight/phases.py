@@ -21,12 +21,11 @@ from typing import Any
 import numpy as np
 
 from bridge.copter_model import Motion
+from bridge.link import mavlink
 from bridge.px4 import reached_item
 
 from .record import DroneRecord
 
-MAV_LANDED_STATE_LANDING = 4
-CMD_WAYPOINT = 16
 PHASES = ("take-off", "survey", "return", "landing")
 MERGED = "return and landing"  # a vehicle that reports no landed state
 # The flight model's motion kinds (Motion.kind), by the phase they belong to.
@@ -58,10 +57,11 @@ def flown_bounds(rec: DroneRecord) -> list[float | None]:
     reached = [(t, seq) for t, seq in rec.reached if start <= t <= end]
     took_off = min((t for t, _ in reached), default=None)
     last_waypoint = max((int(getattr(item, "seq", k)) for k, item in enumerate(rec.wire)
-                         if int(item.command) == CMD_WAYPOINT), default=last_seq)
+                         if int(item.command) == mavlink.MAV_CMD_NAV_WAYPOINT), default=last_seq)
     surveyed = min((t for t, seq in reached if seq >= last_waypoint), default=None)
     after = surveyed if surveyed is not None else start
-    landing = next((t for t, state in rec.landed if after <= t <= end and state == MAV_LANDED_STATE_LANDING), None)
+    landing = next((t for t, state in rec.landed
+                    if after <= t <= end and state == mavlink.MAV_LANDED_STATE_LANDING), None)
     return [start, took_off, surveyed, landing, end]
 
 

@@ -28,7 +28,7 @@ import numpy as np
 
 from bridge.mission import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND,
                             CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT,
-                            FRAME_MISSION, Mission, MissionItem)
+                            FRAME_MISSION, SPEED_TYPE_GROUNDSPEED, Mission, MissionItem)
 
 DEFAULT_SPEED_M_S = 5.0
 # 8/9: a photo every cell (S/9), exactly what the grid world assumes when it photographs the
@@ -36,7 +36,6 @@ DEFAULT_SPEED_M_S = 5.0
 # coverage to the footprint's margin.
 DEFAULT_OVERLAP = 8 / 9
 END_ACTIONS = ("rtl", "land")
-SPEED_TYPE_GROUND = 1  # DO_CHANGE_SPEED param1: ground speed
 
 
 @dataclass(frozen=True)
@@ -101,7 +100,7 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
     lat0, lon0 = launch_latlon
     items = [
         MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=lat0, y=lon0, z=altitude),
-        MissionItem(CMD_DO_CHANGE_SPEED, FRAME_MISSION, param1=SPEED_TYPE_GROUND, param2=settings.speed_m_s,
+        MissionItem(CMD_DO_CHANGE_SPEED, FRAME_MISSION, param1=SPEED_TYPE_GROUNDSPEED, param2=settings.speed_m_s,
                     param3=-1.0),
         # param3 = 1: take the first photo at once, not only after the first trigger distance; a resumed
         # sortie keeps the camera off on its way out (the first waypoint's item below turns it on).

@@ -1,0 +1,198 @@
+"""MAVLink numbers come from pymavlink's generated enums (`mavutil.mavlink`), except in the modules that stay
+free of pymavlink (the planner's side of the bridge), and those take theirs from bridge/mission.py, the one
+module that writes MAVLink numbers down itself.
+
+- bridge/mission.py: every MAVLink number it holds (its module-level int constants named MAV_*, CMD_*,
+  FRAME_* or SPEED_TYPE_*, and MissionType) equals pymavlink's value of the same MAVLink name;
+  PYMAVLINK_NAMES says which name each one is, and a constant added there without an entry fails the test.
+- Everywhere else in bridge/, geo/, missionplan/, sitl_tests/ and bench/ (every .py file, parsed with
+  `ast`), no module-level assignment (tuple assignments included) binds an int literal (or an expression of
+  int literals only, such as `1 << 7`) to
+    * a name starting with MAV_ that pymavlink also defines (MAV_CMD_*, MAV_MODE_FLAG_*, MAV_LANDED_STATE_*,
+      MAV_MISSION_*, MAV_RESULT_*, MAV_SEVERITY_*, MAV_FRAME_*, MAV_TYPE_*, MAV_STATE_*, ...), whatever the
+      value; or
+    * a name starting with CMD_, MODE_FLAG_, FRAME_, LANDED_STATE_ or MSG_ whose value is one of pymavlink's
+      values of that family (MAV_CMD_*, MAV_MODE_FLAG_*, MAV_FRAME_*, MAV_LANDED_STATE_*, MAVLINK_MSG_ID_*):
+      `MODE_FLAG_ARMED = 128` is MAV_MODE_FLAG_SAFETY_ARMED under another name, `CMD_ARM = 400`
+      MAV_CMD_COMPONENT_ARM_DISARM.
+  Use `mavlink.<NAME>` there instead (bridge.link's `mavlink` is mavutil.mavlink), or, in a module free of
+  pymavlink, import the number from bridge.mission.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+from bridge import mission
+from bridge.link import mavlink
+
+ROOT = Path(__file__).resolve().parents[1]
+FOLDERS = ("bridge", "geo", "missionplan", "sitl_tests", "bench")
+THE_ONE_MODULE = ROOT / "bridge" / "mission.py"
+
+# bridge/mission.py's name -> pymavlink's name of the same number.
+PYMAVLINK_NAMES = {
+    "MAV_AUTOPILOT_GENERIC": "MAV_AUTOPILOT_GENERIC",
+    "MAV_AUTOPILOT_ARDUPILOTMEGA": "MAV_AUTOPILOT_ARDUPILOTMEGA",
+    "MAV_AUTOPILOT_INVALID": "MAV_AUTOPILOT_INVALID",
+    "MAV_AUTOPILOT_PX4": "MAV_AUTOPILOT_PX4",
+    "MAV_TYPE_QUADROTOR": "MAV_TYPE_QUADROTOR",
+    "MAV_MISSION_ACCEPTED": "MAV_MISSION_ACCEPTED",
+    "MAV_MISSION_ERROR": "MAV_MISSION_ERROR",
+    "MAV_MISSION_UNSUPPORTED_FRAME": "MAV_MISSION_UNSUPPORTED_FRAME",
+    "MAV_MISSION_UNSUPPORTED": "MAV_MISSION_UNSUPPORTED",
+    "FRAME_GLOBAL": "MAV_FRAME_GLOBAL",
+    "FRAME_MISSION": "MAV_FRAME_MISSION",
+    "FRAME_GLOBAL_RELATIVE_ALT": "MAV_FRAME_GLOBAL_RELATIVE_ALT",
+    "FRAME_GLOBAL_INT": "MAV_FRAME_GLOBAL_INT",
+    "FRAME_GLOBAL_RELATIVE_ALT_INT": "MAV_FRAME_GLOBAL_RELATIVE_ALT_INT",
+    "FRAME_GLOBAL_TERRAIN_ALT": "MAV_FRAME_GLOBAL_TERRAIN_ALT",
+    "FRAME_GLOBAL_TERRAIN_ALT_INT": "MAV_FRAME_GLOBAL_TERRAIN_ALT_INT",
+    "CMD_NAV_WAYPOINT": "MAV_CMD_NAV_WAYPOINT",
+    "CMD_NAV_LOITER_UNLIM": "MAV_CMD_NAV_LOITER_UNLIM",
+    "CMD_NAV_LOITER_TURNS": "MAV_CMD_NAV_LOITER_TURNS",
+    "CMD_NAV_LOITER_TIME": "MAV_CMD_NAV_LOITER_TIME",
+    "CMD_NAV_RETURN_TO_LAUNCH": "MAV_CMD_NAV_RETURN_TO_LAUNCH",
+    "CMD_NAV_LAND": "MAV_CMD_NAV_LAND",
+    "CMD_NAV_TAKEOFF": "MAV_CMD_NAV_TAKEOFF",
+    "CMD_NAV_LOITER_TO_ALT": "MAV_CMD_NAV_LOITER_TO_ALT",
+    "CMD_NAV_SPLINE_WAYPOINT": "MAV_CMD_NAV_SPLINE_WAYPOINT",
+    "CMD_NAV_VTOL_TAKEOFF": "MAV_CMD_NAV_VTOL_TAKEOFF",
+    "CMD_NAV_VTOL_LAND": "MAV_CMD_NAV_VTOL_LAND",
+    "CMD_NAV_DELAY": "MAV_CMD_NAV_DELAY",
+    "CMD_NAV_LAST": "MAV_CMD_NAV_LAST",
+    "CMD_CONDITION_DELAY": "MAV_CMD_CONDITION_DELAY",
+    "CMD_DO_JUMP": "MAV_CMD_DO_JUMP",
+    "CMD_DO_CHANGE_SPEED": "MAV_CMD_DO_CHANGE_SPEED",
+    "CMD_DO_LAND_START": "MAV_CMD_DO_LAND_START",
+    "CMD_NAV_LAND_LOCAL": "MAV_CMD_NAV_LAND_LOCAL",
+    "CMD_NAV_CONTINUE_AND_CHANGE_ALT": "MAV_CMD_NAV_CONTINUE_AND_CHANGE_ALT",
+    "CMD_NAV_PAYLOAD_PLACE": "MAV_CMD_NAV_PAYLOAD_PLACE",
+    "CMD_DO_SET_HOME": "MAV_CMD_DO_SET_HOME",
+    "CMD_DO_REPOSITION": "MAV_CMD_DO_REPOSITION",
+    "CMD_DO_SET_ROI_LOCATION": "MAV_CMD_DO_SET_ROI_LOCATION",
+    "CMD_DO_SET_ROI": "MAV_CMD_DO_SET_ROI",
+    "CMD_DO_DIGICAM_CONTROL": "MAV_CMD_DO_DIGICAM_CONTROL",
+    "CMD_DO_MOUNT_CONTROL": "MAV_CMD_DO_MOUNT_CONTROL",
+    "CMD_DO_SET_CAM_TRIGG_DIST": "MAV_CMD_DO_SET_CAM_TRIGG_DIST",
+    "CMD_DO_SET_CAM_TRIGG_INTERVAL": "MAV_CMD_DO_SET_CAM_TRIGG_INTERVAL",
+    "CMD_DO_GIMBAL_MANAGER_PITCHYAW": "MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW",
+    "CMD_IMAGE_START_CAPTURE": "MAV_CMD_IMAGE_START_CAPTURE",
+    "CMD_IMAGE_STOP_CAPTURE": "MAV_CMD_IMAGE_STOP_CAPTURE",
+    "CMD_DO_VTOL_TRANSITION": "MAV_CMD_DO_VTOL_TRANSITION",
+    "CMD_FENCE_POLYGON_VERTEX_INCLUSION": "MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION",
+    "CMD_FENCE_POLYGON_VERTEX_EXCLUSION": "MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION",
+    "CMD_FENCE_CIRCLE_INCLUSION": "MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION",
+    "CMD_FENCE_CIRCLE_EXCLUSION": "MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION",
+    "CMD_RALLY_POINT": "MAV_CMD_NAV_RALLY_POINT",
+    "SPEED_TYPE_GROUNDSPEED": "SPEED_TYPE_GROUNDSPEED",
+}
+
+# A local name with one of these prefixes holding a value of the pymavlink family is a re-declaration.
+FAMILIES = {"CMD_": "MAV_CMD_", "MODE_FLAG_": "MAV_MODE_FLAG_", "FRAME_": "MAV_FRAME_",
+            "LANDED_STATE_": "MAV_LANDED_STATE_", "MSG_": "MAVLINK_MSG_ID_"}
+
+
+def _int_value(node: ast.expr) -> int | None:
+    """The value of an int literal, or of an expression made of int literals only (`1 << 7`, `-1`)."""
+    if not all(isinstance(n, (ast.Constant, ast.BinOp, ast.UnaryOp, ast.operator, ast.unaryop))
+               for n in ast.walk(node)):
+        return None
+    if any(isinstance(n, ast.Constant) and type(n.value) is not int for n in ast.walk(node)):
+        return None
+    try:
+        value = eval(compile(ast.Expression(node), "<constant>", "eval"), {"__builtins__": {}})  # noqa: S307
+    except Exception:  # 1 << -1 and the like: no number
+        return None
+    return value if type(value) is int else None
+
+
+def module_ints(source: str) -> list[tuple[str, int, int]]:
+    """(name, value, line) of every module-level int constant, tuple assignments included."""
+    found = []
+    for node in ast.parse(source).body:
+        if isinstance(node, ast.Assign):
+            pairs = []
+            for target in node.targets:
+                if isinstance(target, ast.Name):
+                    pairs.append((target, node.value))
+                elif isinstance(target, ast.Tuple) and isinstance(node.value, ast.Tuple) \
+                        and len(target.elts) == len(node.value.elts):
+                    pairs += zip(target.elts, node.value.elts)
+        elif isinstance(node, ast.AnnAssign) and node.value is not None:
+            pairs = [(node.target, node.value)]
+        else:
+            continue
+        for target, value in pairs:
+            number = _int_value(value)
+            if isinstance(target, ast.Name) and number is not None:
+                found.append((target.id, number, node.lineno))
+    return found
+
+
+def _family_values(prefix: str) -> frozenset[int]:
+    return frozenset(v for name in dir(mavlink) if name.startswith(prefix)
+                     and type(v := getattr(mavlink, name)) is int)
+
+
+FAMILY_VALUES = {local: _family_values(theirs) for local, theirs in FAMILIES.items()}
+
+
+def re_declared(source: str) -> list[str]:
+    """The module-level constants of `source` that re-declare a pymavlink number (the module doc's rule)."""
+    out = []
+    for name, value, line in module_ints(source):
+        if name.startswith("MAV_") and hasattr(mavlink, name):
+            out.append(f"line {line}: {name} = {value} (mavlink.{name})")
+            continue
+        for prefix in FAMILIES:
+            if name.startswith(prefix) and value in FAMILY_VALUES[prefix]:
+                out.append(f"line {line}: {name} = {value} (a {FAMILIES[prefix]}* number)")
+                break
+    return out
+
+
+def sources() -> list[Path]:
+    return sorted(p for folder in FOLDERS for p in (ROOT / folder).rglob("*.py")
+                  if "__pycache__" not in p.parts and p != THE_ONE_MODULE)
+
+
+@pytest.mark.parametrize("local", sorted(PYMAVLINK_NAMES))
+def test_the_pymavlink_free_numbers_are_pymavlinks(local: str) -> None:
+    theirs = PYMAVLINK_NAMES[local]
+    assert getattr(mission, local) == getattr(mavlink, theirs), f"bridge.mission.{local} is not mavlink.{theirs}"
+
+
+def test_every_mavlink_number_of_the_one_module_is_checked() -> None:
+    held = {name for name, _, _ in module_ints(THE_ONE_MODULE.read_text(encoding="utf-8"))
+            if name.startswith(("MAV_", "CMD_", "FRAME_", "SPEED_TYPE_"))}
+    assert held == set(PYMAVLINK_NAMES), "map each MAVLink constant of bridge/mission.py to its pymavlink name"
+
+
+def test_mission_types_are_pymavlinks() -> None:
+    for kind in mission.MissionType:
+        assert int(kind) == getattr(mavlink, f"MAV_MISSION_TYPE_{kind.name}"), kind
+
+
+@pytest.mark.parametrize("path", sources(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_module_re_declares_a_mavlink_number(path: Path) -> None:
+    assert re_declared(path.read_text(encoding="utf-8")) == [], (
+        "use mavlink.<NAME> (bridge.link's mavutil.mavlink), or import the number from bridge/mission.py in a "
+        "module free of pymavlink")
+
+
+def test_the_rule_finds_a_re_declaration() -> None:
+    # The checker itself: a re-declared number is found under its own name, under another name of its
+    # family, in a tuple or an expression; other numbers, other names and non-literals are not.
+    assert re_declared("MAV_TYPE_GCS = 6\n") == ["line 1: MAV_TYPE_GCS = 6 (mavlink.MAV_TYPE_GCS)"]
+    assert re_declared("X = 1\nMODE_FLAG_ARMED = 1 << 7\n") == [
+        "line 2: MODE_FLAG_ARMED = 128 (a MAV_MODE_FLAG_* number)"]
+    assert [hit.split(":")[1] for hit in re_declared("TRIES, CMD_ARM, MSG_HOME = 5, 400, 242\n")] == [
+        " CMD_ARM = 400 (a MAV_CMD_* number)", " MSG_HOME = 242 (a MAVLINK_MSG_ID_* number)"]
+    assert re_declared("MAV_RESULT_ACCEPTED: int = 0\n") != []
+    assert re_declared("CMD_ARM = mavlink.MAV_CMD_COMPONENT_ARM_DISARM\nTIMEOUT_S = 6\nARDUPILOT_AUTO = 3\n"
+                       "FRAME_COUNT = 99999\nMAV_NOT_A_MAVLINK_NAME = 1\nCMD_TEXT = 'x'\n") == []
+    assert re_declared("def f():\n    CMD_ARM = 400\n") == []  # module level only
