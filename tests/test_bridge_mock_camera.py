@@ -12,7 +12,7 @@ from typing import Any
 
 import pytest
 
-from bridge.link import Link
+from bridge.link import Link, mavlink
 from bridge.mission import Flavour, Mission, MissionItem, to_wire
 from bridge.mock import MockAutopilot
 from bridge.mock_flight import EARTH_RADIUS, FlightSim
@@ -24,9 +24,6 @@ M_PER_DEG_LAT = math.radians(1.0) * EARTH_RADIUS
 FAST = Timeouts(item_timeout=0.2, retries=10)
 ALT = 10.0
 
-CMD_ARM, CMD_MISSION_START, CMD_SET_MESSAGE_INTERVAL = 400, 300, 511
-MSG_GLOBAL_POSITION_INT, MSG_ATTITUDE = 33, 30
-MAV_RESULT_ACCEPTED, MAV_RESULT_UNSUPPORTED = 0, 3
 DEFAULT_HZ = 4.0  # VehicleOptions.telemetry_hz
 
 
@@ -152,15 +149,15 @@ def test_set_message_interval_speeds_up_the_position_stream() -> None:
         backend = open_backend("pymavlink", mock.client_url, 1, timeouts=FAST, connect_timeout=3.0)
         try:
             link = backend.link
-            assert _command(link, CMD_SET_MESSAGE_INTERVAL, MSG_GLOBAL_POSITION_INT, 20_000.0) == MAV_RESULT_ACCEPTED
+            assert _command(link, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, 20_000.0) == mavlink.MAV_RESULT_ACCEPTED
             window = 1.0
             fast = _count(link, "GLOBAL_POSITION_INT", window)
             assert fast > 2 * DEFAULT_HZ * window  # 50 Hz asked for; the default is 4 Hz
             # Only the position stream can be changed.
-            assert _command(link, CMD_SET_MESSAGE_INTERVAL, MSG_ATTITUDE, 20_000.0) == MAV_RESULT_UNSUPPORTED
+            assert _command(link, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, 20_000.0) == mavlink.MAV_RESULT_UNSUPPORTED
             assert mock.vehicle(1).position_interval == pytest.approx(0.02)
             # Interval 0 puts the default back.
-            assert _command(link, CMD_SET_MESSAGE_INTERVAL, MSG_GLOBAL_POSITION_INT, 0.0) == MAV_RESULT_ACCEPTED
+            assert _command(link, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, 0.0) == mavlink.MAV_RESULT_ACCEPTED
             assert mock.vehicle(1).position_interval == pytest.approx(1.0 / DEFAULT_HZ)
         finally:
             backend.close()
@@ -176,8 +173,8 @@ def _survey(trigger_m: float, legs_north: list[float]) -> Mission:
 
 def _fly(link: Link, until: Any, timeout: float) -> list[Any]:
     """Arm, MISSION_START, and collect every message of system 1 until until(msgs) or the time-out."""
-    assert _command(link, CMD_ARM, 1.0) == MAV_RESULT_ACCEPTED
-    assert _command(link, CMD_MISSION_START, 0.0, 0.0) == MAV_RESULT_ACCEPTED
+    assert _command(link, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0) == mavlink.MAV_RESULT_ACCEPTED
+    assert _command(link, mavlink.MAV_CMD_MISSION_START, 0.0, 0.0) == mavlink.MAV_RESULT_ACCEPTED
     msgs: list[Any] = []
     deadline = time.monotonic() + timeout
     while (msg := link.recv(deadline)) is not None:
@@ -289,7 +286,7 @@ def test_a_repeated_mission_start_does_not_restart_a_running_mission() -> None:
 
             _fly(link, lambda msgs: any(x.get_type() == "MISSION_ITEM_REACHED" and x.seq == 3 for x in msgs), 8.0)
             assert mock.wait_until(past_first_waypoint, 2.0)
-            assert _command(link, CMD_MISSION_START, 0.0, 0.0) == MAV_RESULT_ACCEPTED
+            assert _command(link, mavlink.MAV_CMD_MISSION_START, 0.0, 0.0) == mavlink.MAV_RESULT_ACCEPTED
             current = mock.vehicle(1).flight.state.current
         finally:
             backend.close()

@@ -13,7 +13,7 @@ import pytest
 
 from bridge import copter_model as cm
 from bridge.copter_model import CopterParams
-from bridge.link import Link
+from bridge.link import Link, mavlink
 from bridge.mission import Flavour, Mission, MissionItem, to_wire
 from bridge.mock import MockAutopilot
 from bridge.mock_flight import EARTH_RADIUS, FlightSim
@@ -25,7 +25,6 @@ from missionplan.mission.timeline import FlightModel, planned_track
 HOME = (45.0, 7.0, 200.0)
 M_PER_DEG_LAT = math.radians(1.0) * EARTH_RADIUS
 FAST = Timeouts(item_timeout=0.2, retries=10)
-CMD_ARM, CMD_MISSION_START, CMD_REBOOT = 400, 300, 246
 
 
 def _at(north: float, east: float = 0.0) -> tuple[float, float]:
@@ -101,8 +100,8 @@ def _command(link: Link, command: int, *params: float) -> int | None:
 
 def _fly_and_collect(link: Link, timeout: float) -> list[Any]:
     """Arm, start, and collect CAMERA_FEEDBACK until the vehicle disarms after the mission (bounded)."""
-    assert _command(link, CMD_ARM, 1.0) == 0
-    assert _command(link, CMD_MISSION_START, 0.0, 0.0) == 0
+    assert _command(link, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0) == 0
+    assert _command(link, mavlink.MAV_CMD_MISSION_START, 0.0, 0.0) == 0
     feedback: list[Any] = []
     deadline = time.monotonic() + timeout
     flying = False
@@ -132,7 +131,7 @@ def test_no_camera_until_configured_then_img_idx_from_1_across_flights() -> None
             assert params.set("CAM1_TYPE", 1.0) == 1.0
             assert _fly_and_collect(link, 20.0) == []  # set, but it takes effect at boot
             reboots = link.reboots.get(1, 0)
-            assert _command(link, CMD_REBOOT, 1.0) == 0
+            assert _command(link, mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1.0) == 0
             deadline = time.monotonic() + 5.0
             while link.reboots.get(1, 0) == reboots and time.monotonic() < deadline:
                 link.recv(time.monotonic() + 0.1)

@@ -30,7 +30,7 @@ from bridge import mission
 from bridge.link import mavlink
 
 ROOT = Path(__file__).resolve().parents[1]
-FOLDERS = ("bridge", "geo", "missionplan", "sitl_tests", "bench")
+FOLDERS = ("bridge", "geo", "missionplan", "sitl_tests", "bench", "tests")
 THE_ONE_MODULE = ROOT / "bridge" / "mission.py"
 
 # bridge/mission.py's name -> pymavlink's name of the same number.

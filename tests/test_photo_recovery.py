@@ -20,7 +20,7 @@ from typing import Any
 import pytest
 from pymavlink import DFReader
 
-from bridge.link import Link
+from bridge.link import Link, mavlink
 from bridge.mission import Flavour, Mission, MissionItem
 from bridge.mock import LinkFaults, MockAutopilot
 from bridge.mock_flight import EARTH_RADIUS
@@ -36,7 +36,6 @@ HOME = (45.0, 7.0, 200.0)
 M_PER_DEG_LAT = math.radians(1.0) * EARTH_RADIUS
 FAST = Timeouts(item_timeout=0.2, retries=10)
 ALT = 10.0
-CMD_ARM, CMD_MISSION_START = 400, 300
 
 
 def _waypoint(north: float) -> MissionItem:
@@ -68,8 +67,8 @@ def _command(link: Any, command: int, *params: float, timeout: float = 3.0) -> i
 def _fly(mock: MockAutopilot, link: Any, timeout: float, while_flying: Any = None) -> list[Any]:
     """Arm, start, collect system 1's messages until it has finished its mission and disarmed;
     while_flying(msgs) is called with what came so far, after each message."""
-    assert _command(link, CMD_ARM, 1.0) == 0
-    assert _command(link, CMD_MISSION_START, 0.0, 0.0) == 0
+    assert _command(link, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0) == 0
+    assert _command(link, mavlink.MAV_CMD_MISSION_START, 0.0, 0.0) == 0
     msgs: list[Any] = []
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -249,7 +248,7 @@ def test_a_vehicle_without_a_log_says_so_in_one_line() -> None:
 
 def test_an_armed_vehicle_answers_disarm_for_log_download() -> None:
     with _mock() as mock, Link(mock.client_url) as link:
-        assert _command(link, CMD_ARM, 1.0) == 0
+        assert _command(link, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0) == 0
         assert mock.wait_until(lambda m: m.vehicle(1).logs.open_log is not None, timeout=2.0)
         started = time.monotonic()
         with pytest.raises(LogTransferError) as err:

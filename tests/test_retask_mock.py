@@ -19,10 +19,11 @@ from typing import Any
 
 import pytest
 
-from bridge.link import Link
+from bridge.link import Link, mavlink
 from bridge.mission import Flavour, Mission, MissionItem, WireItem, to_wire
 from bridge.mock import MockAutopilot
 from bridge.protocol import MissionClient, Timeouts
+from bridge.readiness import ARDUPILOT_GUIDED
 from bridge.retask import RetaskError, replace_mission_in_flight
 from bridge.uploader import PymavlinkBackend
 
@@ -33,8 +34,6 @@ LOST = [(20.0, -40.0), (80.0, -40.0), (80.0, -60.0)]
 RETASK_AT = 5  # A6: the waypoint flown to when the mission is replaced
 SPEEDUP = 50.0
 WAIT_S = 10.0  # wall seconds for any one thing the mock does (it flies a minute in about a second)
-ARDUPILOT_GUIDED, CMD_DO_SET_MODE, CMD_ARM, CMD_MISSION_START = 4, 176, 400, 300
-MODE_FLAG_ARMED = 128
 
 
 def _point(north: float, east: float) -> tuple[float, float]:
@@ -81,7 +80,7 @@ class Watched:
         elif kind == "STATUSTEXT":
             self.texts.append(str(msg.text).rstrip("\x00"))
         elif kind == "HEARTBEAT" and msg.type != 6:
-            self.armed.append(bool(msg.base_mode & MODE_FLAG_ARMED))
+            self.armed.append(bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED))
         elif kind == "GLOBAL_POSITION_INT":
             self.positions += 1
             self.lowest_m = min(self.lowest_m, msg.relative_alt / 1000.0)
@@ -133,9 +132,9 @@ def flying(flavour: Flavour) -> Iterator[Flying]:
             f = Flying(mock, link, backend, flavour, Watched(1))
             backend.upload(0, f.wire(survey()))
             if flavour is Flavour.ARDUPILOT:
-                assert f.command(CMD_DO_SET_MODE, 1, ARDUPILOT_GUIDED) == 0
-            assert f.command(CMD_ARM, 1) == 0
-            assert f.command(CMD_MISSION_START, 0, 0) == 0
+                assert f.command(mavlink.MAV_CMD_DO_SET_MODE, 1, ARDUPILOT_GUIDED) == 0
+            assert f.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == 0
+            assert f.command(mavlink.MAV_CMD_MISSION_START, 0, 0) == 0
             a5 = f.seq_of(RETASK_AT)  # A5 is Mission.items[5]
             assert f.listen(lambda: a5 in f.watched.reached), f.watched
             f.watched.clear()
