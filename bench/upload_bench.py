@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "sitl_tests"))
 
 from bridge.mission import Flavour, Mission, MissionItem, to_wire  # noqa: E402
-from bridge.readback import compare_wire
+from bridge.readback import compare_wire  # noqa: E402
 from bridge.mock import LinkFaults, MockAutopilot  # noqa: E402
 from bridge.protocol import MissionTransferError, Timeouts  # noqa: E402
 from bridge.uploader import open_backend  # noqa: E402

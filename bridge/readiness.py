@@ -115,6 +115,13 @@ def mode_params(*custom: int) -> list[float]:
     return [float(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED), *map(float, custom)]
 
 
+def mission_mode_params(flavour: Flavour) -> list[float]:
+    """DO_SET_MODE's params of the mode a mission flies in: ArduPilot AUTO, PX4 AUTO.MISSION."""
+    if flavour is Flavour.ARDUPILOT:
+        return mode_params(ARDUPILOT_AUTO)
+    return mode_params(PX4_AUTO_MAIN, PX4_MISSION_SUB)
+
+
 def request_streams(link: Any, sysid: int, rates_hz: dict[int, float], deadline: float,
                     other: Callable[[Any], Any] | None = None) -> list[str]:
     """SET_MESSAGE_INTERVAL for each message id; the names of the streams the vehicle did not accept.

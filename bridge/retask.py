@@ -48,7 +48,7 @@ from .link import AUTOPILOT_COMPONENT_ID, mavlink
 from .mission import Flavour, MissionType, WireItem
 from .readback import compare_wire
 from .protocol import MissionClient, MissionTransferError
-from .readiness import ARDUPILOT_AUTO, ARDUPILOT_GUIDED, PX4_AUTO_MAIN, PX4_MISSION_SUB, VehicleState, mode_params
+from .readiness import ARDUPILOT_GUIDED, VehicleState, mission_mode_params, mode_params
 from .uploader import MissionBackend
 
 HEARTBEAT_WAIT_S = 2.5  # a HEARTBEAT comes every second: this long to learn the vehicle's mode
@@ -139,13 +139,6 @@ class _Watch:
         return bool(self.state.armed) and self.state.in_auto
 
 
-def _mission_mode(flavour: Flavour) -> list[float]:
-    """DO_SET_MODE params of the mode a mission flies in: ArduPilot AUTO, PX4 AUTO.MISSION."""
-    if flavour is Flavour.ARDUPILOT:
-        return mode_params(ARDUPILOT_AUTO)
-    return mode_params(PX4_AUTO_MAIN, PX4_MISSION_SUB)
-
-
 def _check(items: list[WireItem], resume_seq: int, flavour: Flavour) -> None:
     if flavour not in STRATEGIES:
         raise ValueError(f"live re-tasking is measured for ArduPilot and PX4 only, not {flavour.value}")
@@ -217,7 +210,7 @@ def replace_mission_in_flight(backend: MissionBackend, link: Any, sysid: int, fl
         wire = [replace(it, current=int(it.seq == resume_seq)) for it in items]
 
     def back_to_auto() -> str:
-        result = link.command_long(sysid, mavlink.MAV_CMD_DO_SET_MODE, _mission_mode(flavour), deadline,
+        result = link.command_long(sysid, mavlink.MAV_CMD_DO_SET_MODE, mission_mode_params(flavour), deadline,
                                    other=watch.take)
         return "" if result == mavlink.MAV_RESULT_ACCEPTED else f"its mission mode {_refused(result)}: left in " \
             f"{watch.state.mode_name()}"

@@ -34,9 +34,9 @@ from .mission.missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
 from .mission.safety import DEFAULT_CLEARANCE_M
 from .mission.separation import DEFAULT_MAX_ALTITUDE_M
 from .mission.sorties import DEFAULT_ENDURANCE_MIN, DEFAULT_RESERVE
-from .pipeline import DEFAULT_POLICY, POLICIES, launch_cells
+from .pipeline import DEFAULT_POLICY, POLICIES
 from .plan_display import EXIT_FAILED, print_plan
-from .plan_folder import NO_UNKNOWN_HEIGHTS, PlanGround, PlanOptions, check_options, write_plan_folder
+from .plan_folder import NO_UNKNOWN_HEIGHTS, PlanGround, PlanOptions, grid_ground, write_plan_folder
 from .demo import register as register_demo_command
 from .replan import register as register_replan_command
 
@@ -198,8 +198,7 @@ def _cmd_maps() -> int:
 
 def _plan_ground(args: argparse.Namespace) -> PlanGround:
     """What `plan` is asked to plan: a shipped map or .map file (--map), or an area drawn to a grid (--area)."""
-    from .mission.georef import load_area_checked, mission_settings, shipped_frame
-    from .mission.safety import safety_settings
+    from .mission.georef import load_area_checked, shipped_frame
 
     if args.area is not None:
         gmap, frame, unknown, sources = load_area_checked(args)
@@ -211,24 +210,19 @@ def _plan_ground(args: argparse.Namespace) -> PlanGround:
             raise MapError("--unknown-building-height is for --area with --osm; a map's grid is already drawn")
         gmap = load_shipped(args.map)
         frame, unknown, sources = shipped_frame(gmap), NO_UNKNOWN_HEIGHTS, None
-    starts = launch_cells(gmap, args.uavs)
-    settings = safety = None
-    if frame is not None:
-        settings = mission_settings(gmap, speed=args.speed, overlap=args.overlap, end=args.end,
-                                    altitude_step=args.altitude_step, altitude=args.altitude, autopilot=args.autopilot)
-        safety = safety_settings(gmap, settings.altitude_m, min_separation=args.min_separation,
-                                 max_altitude=args.max_altitude, clearance=args.clearance, endurance=args.endurance,
-                                 reserve=args.reserve)
-    return PlanGround(gmap, starts, frame, settings, safety, unknown, sources,
-                      from_osm=args.area is not None and args.osm is not None,
-                      launch_labels=list(args.launch[:args.uavs]) if args.area is not None else None)
+    mission = {"speed": args.speed, "overlap": args.overlap, "end": args.end, "altitude_step": args.altitude_step,
+               "altitude": args.altitude, "autopilot": args.autopilot}
+    safety = {"min_separation": args.min_separation, "max_altitude": args.max_altitude, "clearance": args.clearance,
+              "endurance": args.endurance, "reserve": args.reserve}
+    return grid_ground(gmap, args.uavs, frame, mission, safety, unknown=unknown, sources=sources,
+                       from_osm=args.area is not None and args.osm is not None,
+                       launch_labels=list(args.launch[:args.uavs]) if args.area is not None else None)
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
     options = PlanOptions(policy=args.policy, weights=args.weights, zones=args.zones, balance_zones=not args.no_balance,
                           open_ground=args.open_ground, seed=args.seed, basemap=args.basemap,
                           progress=not args.quiet and sys.stderr.isatty())
-    check_options(options)  # a bad --basemap fails before an area is read
     folder = write_plan_folder(args.out, _plan_ground(args), options)
     print_plan(folder)
     return 0 if folder.success else EXIT_FAILED

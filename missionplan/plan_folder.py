@@ -8,8 +8,8 @@ folder that this plan does not write are removed. It prints nothing: the caller 
 `PlanFolder` (missionplan/plan_display.py).
 
 `PlanGround` is what is planned (the grid, its georeference, the mission and safety settings, the
-launch cells); `PlanOptions` is how (policy, zones, seed, autopilot files, basemap). Every input that
-can be wrong fails with MapError before the folder is made.
+launch cells: `grid_ground` makes it as `plan` does); `PlanOptions` is how (policy, zones, seed,
+basemap). Every input that can be wrong fails with MapError before the folder is made.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -69,6 +70,14 @@ class PlanOptions:
     drone_ids: list[int] | None = None  # system id of each drone, in launch order (default 1, 2, ...)
     survey: dict[str, Any] | None = None  # report.json `survey`: a re-plan's pointer to the survey it continues
 
+    def __post_init__(self) -> None:
+        # A basemap URL that is no tile server's fails here, before any area is read or folder made.
+        if self.basemap is not None:
+            from .mission.webmap import basemap_problem
+
+            if (problem := basemap_problem(self.basemap)) is not None:
+                raise MapError(f"--basemap {self.basemap}: {problem}")
+
 
 @dataclass
 class PlanFolder:
@@ -85,22 +94,23 @@ class PlanFolder:
         return bool(self.report["success"])
 
 
+def grid_ground(gmap: GridMap, uavs: int, frame: GridFrame | None, mission: Mapping[str, Any] | None = None,
+                safety: Mapping[str, Any] | None = None, **ground: Any) -> PlanGround:
+    """`gmap` flown from its first `uavs` launch cells; with a frame, the mission and safety settings as
+    `plan` makes them (`mission`: mission_settings' keywords, `safety`: safety_settings'; unset ones take
+    plan's defaults). `ground`: PlanGround's other fields."""
+    starts = launch_cells(gmap, uavs)
+    settings = safety_checked = None
+    if frame is not None:
+        settings = mission_settings(gmap, **(mission or {}))
+        safety_checked = safety_settings(gmap, settings.altitude_m, **(safety or {}))
+    return PlanGround(gmap, starts, frame, settings, safety_checked, **ground)
+
+
 def shipped_ground(name: str, uavs: int) -> PlanGround:
     """A shipped map (or a .map file) from its first `uavs` launch cells, with `plan`'s default settings."""
     gmap = load_shipped(name)
-    frame = shipped_frame(gmap)
-    settings = mission_settings(gmap) if frame is not None else None
-    safety = safety_settings(gmap, settings.altitude_m) if settings is not None else None
-    return PlanGround(gmap, launch_cells(gmap, uavs), frame, settings, safety)
-
-
-def check_options(options: PlanOptions) -> None:
-    """MapError for an option that cannot work (a basemap URL that is no tile server's)."""
-    if options.basemap is not None:
-        from .mission.webmap import basemap_problem
-
-        if (problem := basemap_problem(options.basemap)) is not None:
-            raise MapError(f"--basemap {options.basemap}: {problem}")
+    return grid_ground(gmap, uavs, shipped_frame(gmap))
 
 
 def _cell_mask(shape: tuple[int, int], cells: list[list[int]]) -> np.ndarray:
@@ -133,7 +143,6 @@ def write_plan_folder(out: Path, ground: PlanGround, options: PlanOptions = Plan
     from .mission.outputs import remove_stale_outputs
 
     gmap, frame, settings, safety, unknown = ground.gmap, ground.frame, ground.settings, ground.safety, ground.unknown
-    check_options(options)
     if safety is not None:  # a launch point inside the clearance band fails here, before any folder
         from .mission.clearance import flight_map
 

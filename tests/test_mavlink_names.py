@@ -5,7 +5,7 @@ module that writes MAVLink numbers down itself.
 - bridge/mission.py: every MAVLink number it holds (its module-level int constants named MAV_*, CMD_*,
   FRAME_* or SPEED_TYPE_*, and MissionType) equals pymavlink's value of the same MAVLink name;
   PYMAVLINK_NAMES says which name each one is, and a constant added there without an entry fails the test.
-- Everywhere else in bridge/, geo/, missionplan/, sitl_tests/ and bench/ (every .py file, parsed with
+- Everywhere else in bridge/, geo/, missionplan/, sitl_tests/, bench/ and tests/ (every .py file, parsed with
   `ast`), no module-level assignment (tuple assignments included) binds an int literal (or an expression of
   int literals only, such as `1 << 7`) to
     * a name starting with MAV_ that pymavlink also defines (MAV_CMD_*, MAV_MODE_FLAG_*, MAV_LANDED_STATE_*,

@@ -52,8 +52,8 @@ from bridge.params import ParamClient, read_params
 from bridge.protocol import Timeouts
 from bridge.px4_model import FLOAT_PARAMETERS as PX4_PARAMETERS
 from bridge.retask import replace_mission_in_flight
-from bridge.readiness import (ARDUPILOT_AUTO, ARDUPILOT_GUIDED, DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_LOITER_SUB,
-                              PX4_MISSION_SUB, Vehicle, mode_params, request_streams, site_problem, stream_rates)
+from bridge.readiness import (ARDUPILOT_GUIDED, DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_LOITER_SUB, Vehicle,
+                              mission_mode_params, mode_params, request_streams, site_problem, stream_rates)
 from bridge.shared_link import LinkPool
 from bridge.signing import SigningKey
 from bridge.uploader import MissionBackend, open_backend, read_back_differences, set_plan_params, upload_plan
@@ -403,8 +403,8 @@ class DroneFlight:
         result = self._mission_start()
         if result != mavlink.MAV_RESULT_ACCEPTED and self.backend.vehicle.flavour is Flavour.PX4:
             # PX4 also starts a mission in its AUTO.MISSION mode (from the current item, 0 after an upload).
-            mode = link.command_long(self.sysid, mavlink.MAV_CMD_DO_SET_MODE,
-                                     mode_params(PX4_AUTO_MAIN, PX4_MISSION_SUB), self.deadline,
+            mode = link.command_long(self.sysid, mavlink.MAV_CMD_DO_SET_MODE, mission_mode_params(Flavour.PX4),
+                                     self.deadline,
                                      other=self.vehicle.take)
             if mode == mavlink.MAV_RESULT_ACCEPTED:
                 rec.add_note(f"{refused('MISSION_START', result)}; started in AUTO.MISSION mode")
@@ -590,9 +590,7 @@ class DroneFlight:
         old one where it was (a re-task refused after the hold)."""
         assert self.backend is not None and self.vehicle is not None
         flavour = self.backend.vehicle.flavour
-        params = (mode_params(ARDUPILOT_AUTO) if flavour is Flavour.ARDUPILOT else
-                  mode_params(PX4_AUTO_MAIN, PX4_MISSION_SUB))
-        result = self.backend.link.command_long(self.sysid, mavlink.MAV_CMD_DO_SET_MODE, params,
+        result = self.backend.link.command_long(self.sysid, mavlink.MAV_CMD_DO_SET_MODE, mission_mode_params(flavour),
                                                 min(self.deadline, time.monotonic() + HOLD_S),
                                                 other=self.vehicle.take)
         if result != mavlink.MAV_RESULT_ACCEPTED:
