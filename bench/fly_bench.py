@@ -19,8 +19,8 @@ against the promise. Street plans read the Turin map in place from ../shared/map
 PX4 rows (`--px4 PLANS`, needs ../shared/px4/bin/px4): each plan made with `plan --autopilot px4`
 (report.json timed by PX4's flight model), flown by the PX4 flavour of the mock (PX4's flight model,
 CAMERA_IMAGE_CAPTURED) and by the whole fleet at once on PX4 SIH (real time, free instances with
-system ids 1-N, every GCS link into one free udpin port, TRIG_MODE 4 at boot, fly started right after boot; at most 3 drones: SIH
-runs in real time and the machine has 2 cores). Coverage from the vehicles' CAMERA_IMAGE_CAPTURED.
+system ids 1-N, every GCS link into one free udpin port, TRIG_MODE 4 at boot, fly started right after boot; at most 3
+drones: SIH runs in real time and the machine has 2 cores). Coverage from the vehicles' CAMERA_IMAGE_CAPTURED.
 
 Fault rows (`--faults sitl`, needs ../shared/sitl/arducopter): the fleet of sitl_tests/test_fly_faults_sitl.py
 (three ArduCopter SITL vehicles at 5x through a loopback relay, the 200 x 140 m Milan block from 20 m, fly as
@@ -146,7 +146,7 @@ def px4_row(name: str, uavs: int, plan_dir: Path) -> str:
     from loopback import free_udp_port
     from px4 import PX4
 
-    from bridge.missionfile import read_mission_file
+    from missionplan.bridge.formats.missionfile import read_mission_file
 
     if uavs > PX4_MAX_VEHICLES:
         return f"{'PX4 SIH':<16}{name:<11}{uavs:>3}  skipped: more than {PX4_MAX_VEHICLES} PX4 SIH at a time"
@@ -181,7 +181,7 @@ def _shifted(rec: Any, by: float) -> Any:
 def sitl_row(name: str, uavs: int, plan_dir: Path) -> str:
     from arducopter import ArduCopter, configure_camera_and_wait_ready
 
-    from bridge.missionfile import read_mission_file
+    from missionplan.bridge.formats.missionfile import read_mission_file
 
     report = json.loads((plan_dir / "report.json").read_text())
     records: list[Any] = []

@@ -16,8 +16,8 @@ dropped, as fly's re-plans are), so B1 (resume_seq) gets another seq than the it
 the new mission's end. Strategies:
 
 - `upload-only`: the whole new mission uploaded in AUTO (MISSION_COUNT + items), items as
-  bridge.mission.to_wire makes them (`current` = 1 on seq 0), and nothing more: what the autopilot does
-  with the upload alone;
+  missionplan.bridge.formats.mission_items.to_wire makes them (`current` = 1 on seq 0), and nothing more: what the
+  autopilot does with the upload alone;
 - `full`: the same, then MISSION_SET_CURRENT resume_seq (strategy a);
 - `full-cmd`: the same, then MAV_CMD_DO_SET_MISSION_CURRENT (224) instead of the message;
 - `full-flag` (PX4): the whole new mission with `current` = 1 on resume_seq instead, then
@@ -29,7 +29,7 @@ the new mission's end. Strategies:
 - `pause-guided`, `pause-brake` (ArduCopter), `pause-hold` (PX4): that mode first, the full replace,
   MISSION_SET_CURRENT, then AUTO / mission mode again (strategy c); `pause-guided-noset`: without
   MISSION_SET_CURRENT;
-- `product`: bridge.retask.replace_mission_in_flight, what the product does (timed from its call).
+- `product`: missionplan.bridge.transfer.retask.replace_mission_in_flight, what the product does (timed from its call).
 
 Columns: `ack` the upload's answer (MISSION_ACK result; `none`: no answer within 3 s); `heading path`
 where the vehicle flew from the upload's start until B1 (or the end of the watch), as what its velocity
@@ -65,13 +65,13 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "sitl_tests"))
 
-from bridge.link import AUTOPILOT_COMPONENT_ID, Link, VehicleInfo, mavlink  # noqa: E402
-from bridge.mission import Flavour, Mission, MissionItem, WireItem, to_wire  # noqa: E402
-from bridge.protocol import RESULT_TEXT, MissionTransferError, Timeouts  # noqa: E402
-from bridge.readiness import (ARDUPILOT_AUTO, ARDUPILOT_GUIDED, PX4_AUTO_MAIN, PX4_LOITER_SUB,  # noqa: E402
-                              PX4_MISSION_SUB, Vehicle, mode_params, request_streams, stream_rates)
-from bridge.retask import RetaskError, replace_mission_in_flight  # noqa: E402
-from bridge.uploader import PymavlinkBackend, upload_plan  # noqa: E402
+from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, Link, VehicleInfo, mavlink  # noqa: E402
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, WireItem, to_wire  # noqa: E402
+from missionplan.bridge.transfer.protocol import RESULT_TEXT, MissionTransferError, Timeouts  # noqa: E402
+from missionplan.bridge.link.readiness import (ARDUPILOT_AUTO, ARDUPILOT_GUIDED, PX4_AUTO_MAIN, PX4_LOITER_SUB,  # noqa: E402
+                                               PX4_MISSION_SUB, Vehicle, mode_params, request_streams, stream_rates)
+from missionplan.bridge.transfer.retask import RetaskError, replace_mission_in_flight  # noqa: E402
+from missionplan.bridge.transfer.uploader import PymavlinkBackend, upload_plan  # noqa: E402
 
 import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 
@@ -222,7 +222,7 @@ class ObservedLink:
     def command_long(self, sysid: int, command: int, params: list[float], deadline: float,
                      other: Callable[[Any], Any] | None = None, done: Callable[[], bool] | None = None,
                      tries: int = 5, wait_s: float = 0.5) -> int | None:
-        from bridge.link import command_long
+        from missionplan.bridge.link.connection import command_long
 
         return command_long(self, sysid, command, params, deadline, other, done, tries, wait_s)
 
@@ -446,8 +446,8 @@ def paused(flight: Flight, mode: str, set_current: bool = True) -> Outcome:
 
 
 def product(flight: Flight) -> Outcome:
-    """bridge.retask.replace_mission_in_flight; timed from its call (its HEARTBEAT wait and mode change
-    included), its upload seconds its own."""
+    """missionplan.bridge.transfer.retask.replace_mission_in_flight; timed from its call (its HEARTBEAT wait and mode
+    change included), its upload seconds its own."""
     f = flight
     start = time.monotonic()
     try:

@@ -43,7 +43,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 import doctable  # noqa: E402
 
-from bridge.missionfile import read_mission_file  # noqa: E402
+from missionplan.bridge.formats.missionfile import read_mission_file  # noqa: E402
 from missionplan.cli import main  # noqa: E402
 
 LOST = 2

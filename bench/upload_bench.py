@@ -13,7 +13,7 @@ SITL instance (../shared/sitl/arducopter, --speedup 10,
 sitl_tests/arducopter.py) over TCP, read back, verify by the ArduPilot rule, and count the
 INVALID_SEQUENCE acks it sent (the upload must not race its re-requests: 0 expected). The PX4 SIH
 rows (../shared/px4, sitl_tests/px4.py, a free instance, real time) use the same real-world
-timing over PX4's offboard UDP link, and verify by PX4's rule (bridge.px4.px4_stored).
+timing over PX4's offboard UDP link, and verify by PX4's rule (missionplan.bridge.formats.px4_rules.px4_stored).
 No assertions: this is a measurement, not a test.
 """
 
@@ -28,11 +28,11 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "sitl_tests"))
 
-from bridge.mission import Flavour, Mission, MissionItem, to_wire  # noqa: E402
-from bridge.readback import compare_wire  # noqa: E402
-from bridge.mock import LinkFaults, MockAutopilot  # noqa: E402
-from bridge.protocol import MissionTransferError, Timeouts  # noqa: E402
-from bridge.uploader import open_backend  # noqa: E402
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, to_wire  # noqa: E402
+from missionplan.bridge.formats.readback import compare_wire  # noqa: E402
+from missionplan.bridge.sim.mock import LinkFaults, MockAutopilot  # noqa: E402
+from missionplan.bridge.transfer.protocol import MissionTransferError, Timeouts  # noqa: E402
+from missionplan.bridge.transfer.uploader import open_backend  # noqa: E402
 
 import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 

@@ -26,12 +26,12 @@ sys.path.insert(0, str(ROOT / "sitl_tests"))
 
 from arducopter import ArduCopter, sitl_or_skip  # noqa: E402
 
-from bridge.link import mavlink  # noqa: E402
-from bridge.mission import Mission, MissionItem  # noqa: E402
-from bridge.params import ParamClient  # noqa: E402
-from bridge.protocol import Timeouts  # noqa: E402
-from bridge.readiness import ARDUPILOT_GUIDED, mode_params  # noqa: E402
-from bridge.uploader import PymavlinkBackend, upload_plan  # noqa: E402
+from missionplan.bridge.link.connection import mavlink  # noqa: E402
+from missionplan.bridge.formats.mission_items import Mission, MissionItem  # noqa: E402
+from missionplan.bridge.link.params import ParamClient  # noqa: E402
+from missionplan.bridge.transfer.protocol import Timeouts  # noqa: E402
+from missionplan.bridge.link.readiness import ARDUPILOT_GUIDED, mode_params  # noqa: E402
+from missionplan.bridge.transfer.uploader import PymavlinkBackend, upload_plan  # noqa: E402
 
 import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 

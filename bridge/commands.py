@@ -25,8 +25,8 @@ from pathlib import Path
 from typing import Any
 
 from .errors import BridgeError, BridgeUsageError
-from .link import GCS_COMPONENT_ID, GCS_SYSTEM_ID
-from .mission import Flavour, MissionType
+from .link.connection import GCS_COMPONENT_ID, GCS_SYSTEM_ID
+from .formats.mission_items import Flavour, MissionType
 
 DEFAULT_CONNECT = "udpin:0.0.0.0:14550"  # where ground stations listen for vehicles by convention (QGroundControl)
 CONNECT_HELP = (f"pymavlink connection string: udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT or a "
@@ -134,9 +134,9 @@ def _fail(command: str, err: BaseException) -> int:
 
 def _checked(args: argparse.Namespace) -> dict[str, Any]:
     """The options every vehicle command shares, checked before anything is opened."""
-    from .link import parse_compid, parse_sysid, parse_url
-    from .protocol import Timeouts
-    from .uploader import check_gcs_identity
+    from .link.connection import parse_compid, parse_sysid, parse_url
+    from .transfer.protocol import Timeouts
+    from .transfer.uploader import check_gcs_identity
 
     sysid = parse_sysid(args.sysid)
     compid = parse_compid(args.compid)
@@ -156,14 +156,14 @@ def _checked(args: argparse.Namespace) -> dict[str, Any]:
 
 def gcs_identity(args: argparse.Namespace, vehicles: list[int]) -> tuple[int, int]:
     """(--gcs-sysid, --gcs-compid), checked: one-line BridgeUsageError for a bad id or a vehicle's own."""
-    from .link import parse_compid, parse_gcs_sysid
+    from .link.connection import parse_compid, parse_gcs_sysid
 
     return parse_gcs_sysid(args.gcs_sysid, vehicles), parse_compid(args.gcs_compid, "--gcs-compid")
 
 
 def signing_key(args: argparse.Namespace) -> Any:
-    """The --signing-key file's key (bridge.signing.SigningKey), or None without the option."""
-    from .signing import load_key
+    """The --signing-key file's key (link.signing.SigningKey), or None without the option."""
+    from .link.signing import load_key
 
     return load_key(args.signing_key) if args.signing_key is not None else None
 
@@ -200,8 +200,8 @@ class _Bars:
 # ----------------------------------------------------------------------------------------- handlers
 
 def cmd_upload(args: argparse.Namespace) -> int:
-    from .missionfile import check_firmware, read_mission_file
-    from .uploader import open_backend, upload_plan
+    from .formats.missionfile import check_firmware, read_mission_file
+    from .transfer.uploader import open_backend, upload_plan
 
     opts = _checked(args)
     plan = read_mission_file(args.file)
@@ -232,10 +232,10 @@ def cmd_upload(args: argparse.Namespace) -> int:
 
 
 def cmd_download(args: argparse.Namespace) -> int:
-    from .missionfile import PlanFile, write_mission_file
-    from .uploader import download_plan, open_backend
+    from .formats.missionfile import PlanFile, write_mission_file
+    from .transfer.uploader import download_plan, open_backend
 
-    from .missionfile import output_format
+    from .formats.missionfile import output_format
 
     opts = _checked(args)
     out: Path = args.output
@@ -301,7 +301,7 @@ def _check_writable(out: Path) -> None:
 
 
 def cmd_clear(args: argparse.Namespace) -> int:
-    from .uploader import clear_plan, open_backend
+    from .transfer.uploader import clear_plan, open_backend
 
     opts = _checked(args)
     backend = None
@@ -333,8 +333,8 @@ def _home_value(text: str, option: str) -> tuple[float, float, float]:
 
 def mock_homes(sysids: list[int], homes: list[str], plan_dir: Path | None) -> dict[int, tuple[float, float, float]]:
     """Each vehicle's home from --home (all, or per SYSID=) and --plan DIR (uavK.plan's planned home)."""
-    from .link import parse_sysid
-    from .missionfile import read_mission_file
+    from .link.connection import parse_sysid
+    from .formats.missionfile import read_mission_file
 
     out: dict[int, tuple[float, float, float]] = {}
     if plan_dir is not None:
@@ -376,8 +376,8 @@ def parse_kills(texts: list[str], sysids: list[int]) -> dict[int, int]:
 
 
 def cmd_mock(args: argparse.Namespace) -> int:
-    from .link import parse_sysids
-    from .mock import LinkFaults, MockAutopilot
+    from .link.connection import parse_sysids
+    from .sim.mock import LinkFaults, MockAutopilot
 
     sysids = parse_sysids(args.sysid)
     key = signing_key(args)

@@ -2,18 +2,18 @@
 
 One job per module:
 
-* `geo.errors`  - `GeoError`, the one-line error for any wrong geographic input.
-* `geo.camera`  - footprint side S = 2*H*tan(FOV/2) and cell = S/9; `Camera` from FOV or sensor.
-* `geo.frame`   - `GridFrame`: the grid laid in the area's UTM zone, grid <-> lat/lon, map meta.
-* `geo.readers` - area / obstacle / no-fly polygons from GeoJSON, KML, QGroundControl .plan;
+* `missionplan.geo.errors`  - `GeoError`, the one-line error for any wrong geographic input.
+* `missionplan.geo.camera`  - footprint side S = 2*H*tan(FOV/2) and cell = S/9; `Camera` from FOV or sensor.
+* `missionplan.geo.frame`   - `GridFrame`: the grid laid in the area's UTM zone, grid <-> lat/lon, map meta.
+* `missionplan.geo.readers` - area / obstacle / no-fly polygons from GeoJSON, KML, QGroundControl .plan;
                   building footprints (+ heights) from OSM .osm / .osm.pbf or GeoJSON.
-* `geo.area`    - `build_grid_map`: rasterise area, obstacles, buildings, no-fly into an `AreaRaster`
+* `missionplan.geo.area`    - `build_grid_map`: rasterise area, obstacles, buildings, no-fly into an `AreaRaster`
                   (plain arrays, wrapped into a GridMap by the planner).
-* `geo.cells`   - grid cells back on the Earth: merged lon/lat polygons, a GeoJSON feature.
-* `geo.geojson_layers` - GeoJSON layers for GIS files: RFC 7946 ring order (`rfc7946`), a layer's
+* `missionplan.geo.cells`   - grid cells back on the Earth: merged lon/lat polygons, a GeoJSON feature.
+* `missionplan.geo.geojson_layers` - GeoJSON layers for GIS files: RFC 7946 ring order (`rfc7946`), a layer's
                   geometry type and property types.
-* `geo.gpkg`    - `write_geopackage`: the layers as an OGC GeoPackage 1.3 (sqlite3, no GDAL).
-* `geo.kml`     - `write_kmz`: the layers as a KMZ for Google Earth (a folder per layer, heights).
+* `missionplan.geo.gpkg`    - `write_geopackage`: the layers as an OGC GeoPackage 1.3 (sqlite3, no GDAL).
+* `missionplan.geo.kml`     - `write_kmz`: the layers as a KMZ for Google Earth (a folder per layer, heights).
 
 Grid coordinates are float (row, col) whose integer values are cell centres; row 0 is the top
 (north, before rotation) row; `rotation_deg` turns the grid clockwise from north.

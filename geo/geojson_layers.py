@@ -2,13 +2,13 @@
 
 A layer is a GeoJSON FeatureCollection (RFC 7946: EPSG:4326, [lon, lat] or [lon, lat, alt] positions);
 the plan's and the flight's layers come as a dict layer name -> collection, in drawing order. This
-module is what the code building them and the writers (geo.gpkg, geo.kml) share:
+module is what the code building them and the writers (missionplan.geo.gpkg, missionplan.geo.kml) share:
 
 * `rfc7946`       - a Polygon / MultiPolygon with RFC 7946's ring order (exteriors counter-clockwise,
                     holes clockwise, in the lon/lat plane), the order GeoJSON readers, GDAL and QGIS
                     agree on for inside and outside;
 * `layer_schema`  - the geometry type a layer is written as, whether it is 3-D, one type per property.
-The writers write atomically with bridge.atomic (bridge imports nothing from geo, so no circle).
+The writers write atomically with missionplan.bridge.atomic (bridge imports nothing from geo, so no circle).
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ import struct
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from bridge.atomic import atomic_path
+from missionplan.bridge.atomic import atomic_path
 
 from .geojson_layers import GEOMETRY_TYPES, LayerSchema, geometry_positions, layer_schema
 

@@ -33,7 +33,7 @@ import zipfile
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from bridge.atomic import atomic_path
+from missionplan.bridge.atomic import atomic_path
 
 from .geojson_layers import geometry_positions, layer_schema
 
@@ -155,7 +155,7 @@ def _text(value: Any, kind: str) -> str:
         return "1" if value else "0"
     if kind in ("int", "float"):
         return repr(int(value) if kind == "int" else float(value))
-    return value if isinstance(value, str) else json.dumps(value)  # as geo.gpkg writes it
+    return value if isinstance(value, str) else json.dumps(value)  # as missionplan.geo.gpkg writes it
 
 
 def _extrusion(props: Mapping[str, Any]) -> float | None:

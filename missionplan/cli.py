@@ -19,10 +19,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from bridge import BridgeUsageError
-from geo.errors import GeoError
-from bridge.atomic import probe_writable
-from bridge.commands import register as register_bridge_commands
+from missionplan.bridge import BridgeUsageError
+from missionplan.geo.errors import GeoError
+from missionplan.bridge.atomic import probe_writable
+from missionplan.bridge.commands import register as register_bridge_commands
 
 from .flight.fly import register as register_fly_command
 from .flight.survey_status import register as register_status_command
@@ -231,7 +231,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 def _cmd_train(args: argparse.Namespace) -> int:
     import json
 
-    from bridge.atomic import write_text_atomic
+    from missionplan.bridge.atomic import write_text_atomic
     from .learn.network import save_weights
     from .learn.training import DEFAULT_MAPS, train_policy
 

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from geo.frame import GridFrame
+from missionplan.geo.frame import GridFrame
 
 from .maps.gridmap import GridMap
 from .mission.clearance import band_coverage, flight_map, photograph_band

@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from bridge.atomic import probe_writable
-from geo.frame import GridFrame
+from missionplan.bridge.atomic import probe_writable
+from missionplan.geo.frame import GridFrame
 
 from .grid.zones import DEFAULT_ZONE_METHOD
 from .maps.catalog import load_shipped
@@ -173,7 +173,7 @@ def write_plan_folder(out: Path, ground: PlanGround, options: PlanOptions = Plan
     written: list[Path] = []
     sortie_starts = None
     if plans is not None and frame is not None and settings is not None:
-        from bridge.mission import Flavour
+        from missionplan.bridge.formats.mission_items import Flavour
 
         from .mission.flightplan import write_flight_files
 

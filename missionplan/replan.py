@@ -45,7 +45,7 @@ def stored_settings(survey: Survey) -> tuple[MissionSettings, SafetySettings, di
 
 def parse_assignments(texts: list[str]) -> dict[int, int]:
     """`--sysid K=ID` values -> {drone K: system id ID}."""
-    from bridge.link import parse_sysid
+    from missionplan.bridge.link.connection import parse_sysid
 
     out: dict[int, int] = {}
     for text in texts:
@@ -63,7 +63,7 @@ def parse_assignments(texts: list[str]) -> dict[int, int]:
 
 def launch_of_drones(survey: Survey, drones: str) -> tuple[list[tuple[int, int]], list[int]]:
     """`--drones 2,3`: the root plan's launch cells of those drones, and their ids."""
-    from bridge.link import parse_sysids
+    from missionplan.bridge.link.connection import parse_sysids
 
     ids = parse_sysids(drones, option="--drones")
     launch = survey.report.get("launch") or []

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from bridge.mission import Mission
+from missionplan.bridge.formats.mission_items import Mission
 
 from .fieldplan import plan_field
 from .flight.plan_report import frame_of, missing_map, planned_grid, target_cells, to_grid_m

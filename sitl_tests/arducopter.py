@@ -34,8 +34,8 @@ from pathlib import Path
 import pytest
 from loopback import stop_process_group, wait_until
 
-from bridge.link import AUTOPILOT_COMPONENT_ID, mavlink
-from bridge.readiness import ARDUPILOT_GUIDED, mode_params
+from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, mavlink
+from missionplan.bridge.link.readiness import ARDUPILOT_GUIDED, mode_params
 
 REPO = Path(__file__).resolve().parent.parent
 SITL_DIR = REPO.parent / "shared" / "sitl"
@@ -92,7 +92,7 @@ def free_instance(start: int = FIRST_INSTANCE, skip: set[int] | None = None) -> 
 def wait_mission_ready(link: object, sysid: int, timeout: float = 30.0) -> None:
     """Until vehicle sysid reports a mission of at least its home item. Just after start ArduCopter
     answers MISSION_COUNT 0 and refuses uploads with NO_SPACE: its mission store is not loaded yet."""
-    from bridge.link import wait_vehicle
+    from missionplan.bridge.link.connection import wait_vehicle
 
     deadline = time.monotonic() + timeout
     wait_vehicle(link, sysid, timeout=timeout)  # type: ignore[arg-type]
@@ -193,7 +193,7 @@ class ArduCopter:
     def wait_ready(self, timeout: float = 30.0) -> None:
         """Until its mission store is loaded: we connect (or, for udpclient, listen), ask, and let go.
         A caller that already holds the vehicle's udpin port uses wait_mission_ready on its own link."""
-        from bridge.link import Link
+        from missionplan.bridge.link.connection import Link
 
         with Link(self.gcs_url) as link:
             wait_mission_ready(link, self.sysid, timeout)
@@ -262,8 +262,8 @@ def configure_camera_and_wait_ready(vehicle: ArduCopter, timeout: float = 240.0)
     ArduCopter sends no CAMERA_FEEDBACK) and a reboot for it to take effect; then wait, with a bound,
     until the vehicle arms (its EKF has a GPS fix after ~35-40 simulated seconds), and disarm.
     (`fly` waits for readiness itself too; waiting here keeps the flight's own wait short.)"""
-    from bridge.link import Link, wait_vehicle
-    from bridge.params import ParamClient
+    from missionplan.bridge.link.connection import Link, wait_vehicle
+    from missionplan.bridge.link.params import ParamClient
 
     deadline = time.monotonic() + timeout
     with Link(vehicle.gcs_url) as link:

@@ -62,8 +62,8 @@ def stop_process_group(proc: "subprocess.Popen[bytes]") -> None:
 
 def armed_ever(url: str, sysids: Iterable[int], seconds: float) -> set[int]:
     """System ids whose HEARTBEAT says armed at any time within `seconds` (a listener on the port)."""
-    from bridge.link import mavlink
-    from bridge.shared_link import SharedLink
+    from missionplan.bridge.link.connection import mavlink
+    from missionplan.bridge.link.shared_link import SharedLink
 
     armed: set[int] = set()
     with SharedLink(url) as shared:

@@ -18,10 +18,10 @@ import time
 from dataclasses import astuple, replace
 from typing import Any
 
-from bridge.link import AUTOPILOT_COMPONENT_ID, Link, mavlink
-from bridge.mission import MissionType, WireItem
-from bridge.protocol import Timeouts
-from bridge.uploader import PymavlinkBackend, read_back_differences
+from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, Link, mavlink
+from missionplan.bridge.formats.mission_items import MissionType, WireItem
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.transfer.uploader import PymavlinkBackend, read_back_differences
 
 HOME = (45.4641, 9.1891, 120.0)
 LAT, LON = 454641000, 91891000

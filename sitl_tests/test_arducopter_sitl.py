@@ -12,12 +12,12 @@ from pathlib import Path
 import pytest
 from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
 
-from bridge.link import mavlink
-from bridge.mission import Flavour, Mission, MissionItem, MissionType, to_wire
-from bridge.readback import compare_wire
-from bridge.missionfile import PlanFile, read_mission_file, write_plan
-from bridge.protocol import Timeouts
-from bridge.uploader import open_backend, upload_plan
+from missionplan.bridge.link.connection import mavlink
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, MissionType, to_wire
+from missionplan.bridge.formats.readback import compare_wire
+from missionplan.bridge.formats.missionfile import PlanFile, read_mission_file, write_plan
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.transfer.uploader import open_backend, upload_plan
 from missionplan.cli import main
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import pytest
 
-from bridge.mission import Flavour, Mission, MissionItem, to_wire
-from bridge.readback import compare_wire
-from bridge.mock import LinkFaults, MockAutopilot
-from bridge.protocol import Timeouts
-from bridge.uploader import open_backend, upload_plan
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, to_wire
+from missionplan.bridge.formats.readback import compare_wire
+from missionplan.bridge.sim.mock import LinkFaults, MockAutopilot
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.transfer.uploader import open_backend, upload_plan
 
 
 def survey(n: int) -> Mission:

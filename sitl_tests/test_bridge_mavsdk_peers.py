@@ -11,11 +11,11 @@ from typing import Any
 import pytest
 from loopback import free_udp_port, wait_until
 
-from bridge.mission import Flavour, Mission, MissionItem, to_wire
-from bridge.readback import compare_wire
-from bridge.mock import MockAutopilot
-from bridge.protocol import Timeouts
-from bridge.uploader import PymavlinkBackend, open_backend, upload_plan
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, to_wire
+from missionplan.bridge.formats.readback import compare_wire
+from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.transfer.uploader import PymavlinkBackend, open_backend, upload_plan
 
 mavsdk = pytest.importorskip("mavsdk")
 from mavsdk.plugins.mission_raw import MissionItem as RawItem  # noqa: E402

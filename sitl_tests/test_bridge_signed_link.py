@@ -7,14 +7,14 @@ from pathlib import Path
 
 import pytest
 
-from bridge import BridgeError
-from bridge.commands import register
-from bridge.mission import Mission, MissionItem
-from bridge.missionfile import PlanFile, write_plan
-from bridge.mock import MockAutopilot
-from bridge.protocol import Timeouts
-from bridge.signing import SigningKey, new_key, write_key
-from bridge.uploader import open_backend, upload_plan
+from missionplan.bridge import BridgeError
+from missionplan.bridge.commands import register
+from missionplan.bridge.formats.mission_items import Mission, MissionItem
+from missionplan.bridge.formats.missionfile import PlanFile, write_plan
+from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.link.signing import SigningKey, new_key, write_key
+from missionplan.bridge.transfer.uploader import open_backend, upload_plan
 
 FAST = Timeouts(item_timeout=0.15, retries=3)
 

@@ -11,11 +11,11 @@ from __future__ import annotations
 import pytest
 from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
 
-from bridge.link import mavlink
-from bridge.mission import Flavour, MissionType, to_wire
-from bridge.missionfile import read_mission_file
-from bridge.protocol import Timeouts
-from bridge.uploader import open_backend, upload_plan
+from missionplan.bridge.link.connection import mavlink
+from missionplan.bridge.formats.mission_items import Flavour, MissionType, to_wire
+from missionplan.bridge.formats.missionfile import read_mission_file
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.transfer.uploader import open_backend, upload_plan
 from missionplan.cli import main
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out

@@ -22,10 +22,10 @@ import pytest
 from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
 from loopback import armed_ever, free_udp_port
 
-from bridge.link import mavlink, wait_vehicle
-from bridge.missionfile import read_mission_file
-from bridge.params import ParamClient
-from bridge.shared_link import SharedLink
+from missionplan.bridge.link.connection import mavlink, wait_vehicle
+from missionplan.bridge.formats.missionfile import read_mission_file
+from missionplan.bridge.link.params import ParamClient
+from missionplan.bridge.link.shared_link import SharedLink
 from missionplan.cli import main
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out

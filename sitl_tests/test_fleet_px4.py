@@ -27,8 +27,8 @@ import pytest
 from loopback import armed_ever, free_udp_port
 from px4 import px4, px4_or_skip  # noqa: F401  (the fixture)
 
-from bridge.missionfile import read_mission_file
-from bridge.px4 import reported_items
+from missionplan.bridge.formats.missionfile import read_mission_file
+from missionplan.bridge.formats.px4_rules import reported_items
 from missionplan.cli import main
 from missionplan.flight.phases import reached_navigation_items
 
@@ -51,7 +51,7 @@ def _plan(tmp_path: Path, name: str, ring: list[list[float]], launches: tuple[st
     area.write_text(json.dumps({"type": "Polygon", "coordinates": [ring]}))
     out = tmp_path / name
     args = ["plan", "--area", str(area), "--altitude", "20", "--fov", "84", "--out", str(out), "--quiet",
-            "--autopilot", "px4"]  # firmwareType 12, and report.json's times by PX4's flight (bridge.px4_model)
+            "--autopilot", "px4"]  # firmwareType 12, and report.json's times by PX4's flight (flight_models.px4_model)
     for point in launches:
         args += ["--launch", point]
     assert main(args) == 0

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from arducopter import arducopter, configure_camera_and_wait_ready  # noqa: F401  (the fixture)
 
-from bridge.missionfile import read_mission_file
+from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.cli import main
 from missionplan.flight.fly import fly
 

@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bridge.link import mavlink
-from bridge.mission import to_wire
-from bridge.missionfile import read_mission_file
-from bridge.mock import LinkFaults
+from missionplan.bridge.link.connection import mavlink
+from missionplan.bridge.formats.mission_items import to_wire
+from missionplan.bridge.formats.missionfile import read_mission_file
+from missionplan.bridge.sim.mock import LinkFaults
 from missionplan.flight import flight_report as fr
 from missionplan.cli import main
 from missionplan.flight.fly import fly
@@ -250,8 +250,8 @@ def test_flight_png_without_any_track_draws_no_empty_legend(planned, recwarn):
 def test_fly_retimes_the_plan_with_the_vehicles_own_parameters(planned):
     # The plan assumed ArduCopter's defaults; these vehicles loiter 0 s above home (RTL_LOIT_TIME) and
     # land at 1 m/s (LAND_SPEED): fly reads them (PARAM_REQUEST_READ) and re-times each mission.
-    from bridge.link import Link, wait_vehicle
-    from bridge.params import ParamClient
+    from missionplan.bridge.link.connection import Link, wait_vehicle
+    from missionplan.bridge.link.params import ParamClient
 
     plan_dir = planned("leonardo", 3)
     mock = start_mock_fleet(plan_dir, SPEEDUP["leonardo"])

@@ -43,11 +43,11 @@ from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
 from loopback import UdpRelay, free_udp_port, wait_until
 from plans import plan_area
 
-from bridge.link import Link, mavlink, wait_vehicle
-from bridge.missionfile import read_mission_file
-from bridge.params import ParamClient
-from bridge.readiness import ARDUPILOT_AUTO
-from bridge.shared_link import SharedLink
+from missionplan.bridge.link.connection import Link, mavlink, wait_vehicle
+from missionplan.bridge.formats.missionfile import read_mission_file
+from missionplan.bridge.link.params import ParamClient
+from missionplan.bridge.link.readiness import ARDUPILOT_AUTO
+from missionplan.bridge.link.shared_link import SharedLink
 from missionplan.flight.journal import read_flight
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out

@@ -18,8 +18,8 @@ import pytest
 from loopback import free_udp_port
 from plans import plan_area
 
-from bridge.missionfile import read_mission_file
-from bridge.mock import MockAutopilot
+from missionplan.bridge.formats.missionfile import read_mission_file
+from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.cli import main
 
 SYSIDS = (1, 2, 3)

@@ -20,13 +20,13 @@ from typing import Any
 import pytest
 from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
 
-from bridge.link import AUTOPILOT_COMPONENT_ID, Link, mavlink
-from bridge.mission import MissionType, WireItem
-from bridge.mock import MockAutopilot
-from bridge.mock_vehicle import MockVehicle
-from bridge.params import ParamClient
-from bridge.protocol import Timeouts
-from bridge.uploader import PymavlinkBackend
+from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, Link, mavlink
+from missionplan.bridge.formats.mission_items import MissionType, WireItem
+from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.bridge.sim.mock_vehicle import MockVehicle
+from missionplan.bridge.link.params import ParamClient
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.transfer.uploader import PymavlinkBackend
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 

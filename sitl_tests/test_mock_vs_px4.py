@@ -19,9 +19,9 @@ import pytest
 from px4 import PX4, px4  # noqa: F401  (the fixture)
 from px4_session import HOME, session, start_session
 
-from bridge.mission import WireItem
-from bridge.mock import MockAutopilot
-from bridge.mock_vehicle import MockVehicle
+from missionplan.bridge.formats.mission_items import WireItem
+from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.bridge.sim.mock_vehicle import MockVehicle
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 

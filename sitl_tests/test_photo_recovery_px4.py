@@ -6,8 +6,9 @@ reported. One session (`session`), run against PX4 SIH v1.15.4 (TRIG_MODE 4 at b
 mock's SITL-like PX4 flavour with its logging on: list the logs of a fresh vehicle; upload a short
 survey (take-off to 10 m, a photo every 2 m on a 30 m leg north and back, RTL); arm (retried while
 PX4 is not ready) and list while armed; fly it; after landing ask for one photo report again by index
-(MAV_CMD_REQUEST_MESSAGE, SIH only), list, recover the photos with bridge.onboard_log.recover_photos
-(timed), and probe the transfer's edges; arm and disarm once more and list again.
+(MAV_CMD_REQUEST_MESSAGE, SIH only), list, recover the photos with
+missionplan.bridge.transfer.onboard_log.recover_photos (timed), and probe the transfer's edges; arm and disarm once more
+and list again.
 
 Required: the log's photos equal the CAMERA_IMAGE_CAPTURED reports received (image_index, lat / lon
 to the unit of 1e-7 degree, altitudes to the millimetre); PX4 refuses the report by index; and the
@@ -28,14 +29,14 @@ import pytest
 from px4 import PX4, px4_or_skip
 from test_photo_recovery_sitl import PAST_THE_END, _raw_data, _raw_list, _Tee
 
-from bridge.link import AUTOPILOT_COMPONENT_ID, mavlink
-from bridge.mission import Flavour, Mission, MissionItem, MissionType, to_wire
-from bridge.mock import MockAutopilot
-from bridge.mock_flight import EARTH_RADIUS
-from bridge.onboard_log import LOG_DATA_LEN, recover_photos
-from bridge.protocol import Timeouts
-from bridge.px4 import px4_millimetres
-from bridge.uploader import PymavlinkBackend
+from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, mavlink
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, MissionType, to_wire
+from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.bridge.sim.mock_flight import EARTH_RADIUS
+from missionplan.bridge.transfer.onboard_log import LOG_DATA_LEN, recover_photos
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.formats.px4_rules import px4_millimetres
+from missionplan.bridge.transfer.uploader import PymavlinkBackend
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 

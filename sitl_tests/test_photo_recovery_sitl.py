@@ -4,7 +4,7 @@ One session (`session`), run against real ArduCopter SITL and against the mock's
 flavour: list the logs of a fresh vehicle; configure the camera (CAM1_TYPE = 1 and a reboot); arm and
 disarm once (readiness); upload a short survey (take-off to 10 m, a photo every 2 m on a 30 m leg north
 and back, RTL) and fly it, asking for the log list while armed; after landing list the logs, recover
-the photos with bridge.onboard_log.recover_photos (timed), and probe the transfer's edges (a short
+the photos with missionplan.bridge.transfer.onboard_log.recover_photos (timed), and probe the transfer's edges (a short
 request, a request past the end, a log that does not exist); arm and disarm twice more and list again.
 
 Required: after landing, the log's CAM photos equal the CAMERA_FEEDBACK reports received (img_idx,
@@ -24,15 +24,15 @@ from typing import Any
 import pytest
 from arducopter import SITL_DIR, ArduCopter, reboot_and_wait, sitl_or_skip
 
-from bridge.link import AUTOPILOT_COMPONENT_ID, mavlink
-from bridge.mission import Flavour, Mission, MissionItem, MissionType, to_wire
-from bridge.mock import MockAutopilot
-from bridge.mock_flight import EARTH_RADIUS
-from bridge.onboard_log import LOG_DATA_LEN, recover_photos
-from bridge.params import ParamClient
-from bridge.protocol import Timeouts
-from bridge.readiness import ARDUPILOT_GUIDED, mode_params
-from bridge.uploader import PymavlinkBackend
+from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, mavlink
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, MissionType, to_wire
+from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.bridge.sim.mock_flight import EARTH_RADIUS
+from missionplan.bridge.transfer.onboard_log import LOG_DATA_LEN, recover_photos
+from missionplan.bridge.link.params import ParamClient
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.link.readiness import ARDUPILOT_GUIDED, mode_params
+from missionplan.bridge.transfer.uploader import PymavlinkBackend
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 

@@ -11,7 +11,7 @@ import pytest
 from loopback import free_udp_port
 from px4 import PX4, e7, instance_free, px4, px4_or_skip  # noqa: F401  (the fixture)
 
-from bridge.link import Link, mavlink, wait_vehicle
+from missionplan.bridge.link.connection import Link, mavlink, wait_vehicle
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 

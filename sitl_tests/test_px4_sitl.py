@@ -19,10 +19,10 @@ import pytest
 from px4 import PX4, px4  # noqa: F401  (the fixture)
 from px4_session import wait_ready
 
-from bridge.link import AUTOPILOT_COMPONENT_ID, Link, mavlink, wait_vehicle
-from bridge.mission import Flavour, Mission, MissionItem, MissionType, to_wire
-from bridge.readback import compare_wire
-from bridge.missionfile import PlanFile, read_mission_file, write_plan
+from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, Link, mavlink, wait_vehicle
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, MissionType, to_wire
+from missionplan.bridge.formats.readback import compare_wire
+from missionplan.bridge.formats.missionfile import PlanFile, read_mission_file, write_plan
 from missionplan.cli import main
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out

@@ -1,5 +1,5 @@
-"""Live re-tasking on real autopilots: bridge.retask.replace_mission_in_flight on one ArduCopter SITL vehicle
-and one PX4 SIH vehicle flying a survey, and the mock compared with them.
+"""Live re-tasking on real autopilots: missionplan.bridge.transfer.retask.replace_mission_in_flight on one ArduCopter
+SITL vehicle and one PX4 SIH vehicle flying a survey, and the mock compared with them.
 
 Each vehicle (a free instance, its own temp folder, killed in teardown: sitl_tests/arducopter.py,
 sitl_tests/px4.py) flies take-off, A1..A8 (a 60 x 60 m lawnmower north of home), RTL in AUTO / mission
@@ -28,11 +28,11 @@ import pytest
 from arducopter import arducopter  # noqa: F401  (the fixture)
 from px4 import px4  # noqa: F401  (the fixture)
 
-from bridge.link import Link
-from bridge.mission import Flavour, MissionType, WireItem
-from bridge.readback import compare_wire
-from bridge.mock import MockAutopilot
-from bridge.retask import RetaskReport, replace_mission_in_flight
+from missionplan.bridge.link.connection import Link
+from missionplan.bridge.formats.mission_items import Flavour, MissionType, WireItem
+from missionplan.bridge.formats.readback import compare_wire
+from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.bridge.transfer.retask import RetaskReport, replace_mission_in_flight
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "bench"))
 import retask_bench as rb  # noqa: E402  (the harness: fly to mid-leg, watch, judge)

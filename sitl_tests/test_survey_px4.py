@@ -21,7 +21,7 @@ from loopback import free_udp_port, wait_until
 from px4 import px4, px4_or_skip  # noqa: F401  (the fixture)
 from test_fleet_px4 import AREA, CAMERA, LAUNCHES, TELEMETRY_HZ, _home, _plan
 
-from bridge.missionfile import read_mission_file
+from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.flight.journal import JournalError, read_flight
 
 pytestmark = pytest.mark.sitl

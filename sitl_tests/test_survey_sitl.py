@@ -25,7 +25,7 @@ from arducopter import arducopter  # noqa: F401  (the fixture)
 from test_fly_faults_sitl import (FLY_TIMEOUT_S, ROOT, SPEEDUP, Fleet, _configure, _flight, _in_flight,  # noqa: F401
                                   _summary, block, fleet, runs)
 
-from bridge.missionfile import read_mission_file
+from missionplan.bridge.formats.missionfile import read_mission_file
 
 pytestmark = pytest.mark.sitl
 

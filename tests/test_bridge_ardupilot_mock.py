@@ -9,14 +9,14 @@ from pathlib import Path
 
 import pytest
 
-from bridge import BridgeUsageError
-from bridge.commands import mock_homes
-from bridge.link import mavlink
-from bridge.mission import Flavour, Mission, MissionItem, MissionType, to_wire
-from bridge.missionfile import PlanFile, write_plan
-from bridge.mock import LinkFaults, MockAutopilot
-from bridge.protocol import Timeouts
-from bridge.uploader import PymavlinkBackend, upload_plan
+from missionplan.bridge import BridgeUsageError
+from missionplan.bridge.commands import mock_homes
+from missionplan.bridge.link.connection import mavlink
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, MissionType, to_wire
+from missionplan.bridge.formats.missionfile import PlanFile, write_plan
+from missionplan.bridge.sim.mock import LinkFaults, MockAutopilot
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.transfer.uploader import PymavlinkBackend, upload_plan
 
 
 def survey(n: int, lat: float = 45.07) -> Mission:
@@ -91,10 +91,10 @@ def test_mock_homes_from_the_command_line_and_from_plans(tmp_path: Path) -> None
 
 def test_wpnav_radius_from_the_plan_clamped_to_its_range_and_proven_by_param_value(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    from bridge.errors import BridgeError
-    from bridge.link import VehicleInfo
-    from bridge import mock_vehicle
-    from bridge.params import acceptance_radius_setting
+    from missionplan.bridge.errors import BridgeError
+    from missionplan.bridge.link.connection import VehicleInfo
+    from missionplan.bridge.sim import mock_vehicle
+    from missionplan.bridge.link.params import acceptance_radius_setting
 
     copter = VehicleInfo(1, 1, 3, 2, Flavour.ARDUPILOT, False)
     assert acceptance_radius_setting(copter, survey(3)).value == 50.0  # type: ignore[union-attr]
@@ -121,7 +121,7 @@ def test_wpnav_radius_from_the_plan_clamped_to_its_range_and_proven_by_param_val
 
 
 def test_a_lost_final_accepted_is_settled_by_read_back(monkeypatch: pytest.MonkeyPatch) -> None:
-    from bridge import mock_vehicle
+    from missionplan.bridge.sim import mock_vehicle
 
     original = mock_vehicle.MockVehicle._ack
     dropped: list[int] = []
@@ -145,7 +145,7 @@ def test_a_lost_final_accepted_is_settled_by_read_back(monkeypatch: pytest.Monke
 def test_a_late_param_value_with_the_old_value_does_not_fail_the_set(monkeypatch: pytest.MonkeyPatch) -> None:
     # Through a lossy link a PARAM_VALUE answering an earlier read (the old value) can arrive after
     # our PARAM_SET went out; the vehicle's answer to the set follows it.
-    from bridge import mock_vehicle
+    from missionplan.bridge.sim import mock_vehicle
 
     original = mock_vehicle._HANDLERS["PARAM_SET"]
 

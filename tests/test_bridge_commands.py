@@ -13,11 +13,11 @@ import pytest
 
 from loopback import udp_port_free, wait_until
 
-from bridge import BridgeUsageError
-from bridge.commands import register
-from bridge.mission import Flavour, Mission, MissionItem
-from bridge.missionfile import PlanFile, read_plan, write_plan, write_waypoints
-from bridge.mock import MockAutopilot
+from missionplan.bridge import BridgeUsageError
+from missionplan.bridge.commands import register
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem
+from missionplan.bridge.formats.missionfile import PlanFile, read_plan, write_plan, write_waypoints
+from missionplan.bridge.sim.mock import MockAutopilot
 
 
 def run(argv: list[str]) -> int:

@@ -12,10 +12,10 @@ from pathlib import Path
 
 import pytest
 
-from bridge import BridgeUsageError
-from bridge.mission import Mission, MissionItem, MissionType
-from bridge.missionfile import PlanFile, write_plan, write_waypoints
-from bridge.mock import MockAutopilot
+from missionplan.bridge import BridgeUsageError
+from missionplan.bridge.formats.mission_items import Mission, MissionItem, MissionType
+from missionplan.bridge.formats.missionfile import PlanFile, write_plan, write_waypoints
+from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.cli import main
 
 from test_bridge_commands import FAST, run  # noqa: E402  (tests/ is on sys.path under pytest)
@@ -135,12 +135,12 @@ def test_download_whose_write_fails_late_is_one_line_exit_1(tmp_path: Path, mock
     """The folder took the probe but the write itself fails (disk full): one line, exit 1, no file."""
     import errno
 
-    import bridge.missionfile
+    import missionplan.bridge.formats.missionfile
 
     def full(path: object, text: str) -> None:
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(bridge.missionfile, "write_text_atomic", full)
+    monkeypatch.setattr(missionplan.bridge.formats.missionfile, "write_text_atomic", full)
     out = tmp_path / "m.plan"
     assert main(["download", "--sysid", "1", "--connect", mock.client_url, "-o", str(out)] + FAST) == 1
     err = capsys.readouterr().err.strip().splitlines()

@@ -1,11 +1,12 @@
-"""bridge.mission: wire conversion by flavour, DO_JUMP numbering, and the read-back comparison."""
+"""missionplan.bridge.formats.mission_items: wire conversion by flavour, DO_JUMP numbering, and the read-back
+comparison."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import replace
 
-from bridge.mission import (
+from missionplan.bridge.formats.mission_items import (
     CMD_DO_JUMP,
     CMD_NAV_TAKEOFF,
     CMD_NAV_WAYPOINT,
@@ -17,7 +18,7 @@ from bridge.mission import (
     from_wire,
     to_wire,
 )
-from bridge.readback import compare_wire
+from missionplan.bridge.formats.readback import compare_wire
 
 
 def _mission() -> Mission:

@@ -1,4 +1,5 @@
-"""bridge.missionfile: .plan and .waypoints readers and writers, checked against pymavlink's mavwp."""
+"""missionplan.bridge.formats.missionfile: .plan and .waypoints readers and writers, checked against pymavlink's
+mavwp."""
 
 from __future__ import annotations
 
@@ -12,9 +13,9 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavwp  # noqa: E402
 
-from bridge import BridgeUsageError  # noqa: E402
-from bridge.mission import CMD_DO_JUMP, Mission, MissionItem, MissionType  # noqa: E402
-from bridge.missionfile import (  # noqa: E402
+from missionplan.bridge import BridgeUsageError  # noqa: E402
+from missionplan.bridge.formats.mission_items import CMD_DO_JUMP, Mission, MissionItem, MissionType  # noqa: E402
+from missionplan.bridge.formats.missionfile import (  # noqa: E402
     PlanFile,
     read_mission_file,
     read_plan,

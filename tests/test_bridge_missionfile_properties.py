@@ -21,9 +21,9 @@ from hypothesis import strategies as st
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
-from bridge import BridgeUsageError  # noqa: E402
-from bridge.mission import Flavour, to_wire  # noqa: E402
-from bridge.missionfile import PlanFile, read_mission_file  # noqa: E402
+from missionplan.bridge import BridgeUsageError  # noqa: E402
+from missionplan.bridge.formats.mission_items import Flavour, to_wire  # noqa: E402
+from missionplan.bridge.formats.missionfile import PlanFile, read_mission_file  # noqa: E402
 
 SETTINGS = settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

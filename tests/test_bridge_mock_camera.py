@@ -12,12 +12,12 @@ from typing import Any
 
 import pytest
 
-from bridge.link import Link, mavlink
-from bridge.mission import Flavour, Mission, MissionItem, to_wire
-from bridge.mock import MockAutopilot
-from bridge.mock_flight import EARTH_RADIUS, FlightSim
-from bridge.protocol import Timeouts
-from bridge.uploader import open_backend, upload_plan
+from missionplan.bridge.link.connection import Link, mavlink
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, to_wire
+from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.bridge.sim.mock_flight import EARTH_RADIUS, FlightSim
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.transfer.uploader import open_backend, upload_plan
 
 HOME = (45.0, 7.0, 200.0)
 M_PER_DEG_LAT = math.radians(1.0) * EARTH_RADIUS

@@ -7,11 +7,11 @@ import math
 import time
 from typing import Any
 
-from bridge.link import Link, wait_vehicle
-from bridge.mission import Flavour, Mission, MissionItem, to_wire
-from bridge.mock import MockAutopilot
-from bridge.mock_flight import FlightSim
-from bridge.protocol import MissionClient, Timeouts
+from missionplan.bridge.link.connection import Link, wait_vehicle
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, to_wire
+from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.bridge.sim.mock_flight import FlightSim
+from missionplan.bridge.transfer.protocol import MissionClient, Timeouts
 
 HOME = (45.0, 7.0, 200.0)
 M_PER_DEG_LAT = 111_319.49

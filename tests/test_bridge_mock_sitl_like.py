@@ -1,6 +1,7 @@
-"""The mock autopilot's SITL-like mode: ArduCopter's flight (the planner's timeline, bridge.copter_model),
-no camera until CAM1_TYPE is set and the vehicle rebooted, img_idx from 1 and counting on across
-flights, ArduCopter's navigation parameters. Mocks listen on 127.0.0.1 only; every wait is bounded."""
+"""The mock autopilot's SITL-like mode: ArduCopter's flight (the planner's timeline,
+missionplan.bridge.flight_models.copter_model), no camera until CAM1_TYPE is set and the vehicle rebooted, img_idx from
+1 and counting on across flights, ArduCopter's navigation parameters. Mocks listen on 127.0.0.1 only; every wait is
+bounded."""
 
 from __future__ import annotations
 
@@ -11,15 +12,15 @@ from typing import Any
 import numpy as np
 import pytest
 
-from bridge import copter_model as cm
-from bridge.copter_model import CopterParams
-from bridge.link import Link, mavlink
-from bridge.mission import Flavour, Mission, MissionItem, to_wire
-from bridge.mock import MockAutopilot
-from bridge.mock_flight import EARTH_RADIUS, FlightSim
-from bridge.params import ParamClient
-from bridge.protocol import Timeouts
-from bridge.uploader import open_backend, upload_plan
+from missionplan.bridge.flight_models import copter_model as cm
+from missionplan.bridge.flight_models.copter_model import CopterParams
+from missionplan.bridge.link.connection import Link, mavlink
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, to_wire
+from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.bridge.sim.mock_flight import EARTH_RADIUS, FlightSim
+from missionplan.bridge.link.params import ParamClient
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.transfer.uploader import open_backend, upload_plan
 from missionplan.mission.timeline import FlightModel, planned_track
 
 HOME = (45.0, 7.0, 200.0)

@@ -8,13 +8,13 @@ import time
 
 import pytest
 
-from bridge import BridgeError
-from bridge.link import Link, wait_vehicle
-from bridge.mission import Flavour, Mission, MissionItem, MissionType, to_wire
-from bridge.readback import compare_wire
-from bridge.mock import LinkFaults, MockAutopilot
-from bridge.protocol import MissionClient, MissionTransferError, Timeouts
-from bridge.uploader import PymavlinkBackend, upload_plan
+from missionplan.bridge import BridgeError
+from missionplan.bridge.link.connection import Link, wait_vehicle
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, MissionType, to_wire
+from missionplan.bridge.formats.readback import compare_wire
+from missionplan.bridge.sim.mock import LinkFaults, MockAutopilot
+from missionplan.bridge.transfer.protocol import MissionClient, MissionTransferError, Timeouts
+from missionplan.bridge.transfer.uploader import PymavlinkBackend, upload_plan
 
 FAST = Timeouts(item_timeout=0.2, retries=4)
 
@@ -175,8 +175,8 @@ def test_download_survives_out_of_order_requests() -> None:
 
 def test_uploader_serves_out_of_order_and_repeated_requests() -> None:
     """A scripted vehicle asks 0, 2, 1, 1 (legacy), 3, 3 and acknowledges: each answer is the item asked for."""
-    from bridge.link import parse_url
-    from bridge.mock import MockAutopilot as _Probe
+    from missionplan.bridge.link.connection import parse_url
+    from missionplan.bridge.sim.mock import MockAutopilot as _Probe
 
     probe = _Probe(listen="udpin:127.0.0.1:0")
     port = probe.port
@@ -221,8 +221,8 @@ def test_uploader_serves_out_of_order_and_repeated_requests() -> None:
 
 
 def test_connection_strings() -> None:
-    from bridge import BridgeUsageError
-    from bridge.link import parse_sysids, parse_url
+    from missionplan.bridge import BridgeUsageError
+    from missionplan.bridge.link.connection import parse_sysids, parse_url
 
     assert parse_url("udpin:0.0.0.0:14550").url == "udpin:0.0.0.0:14550"
     assert parse_url("udp:127.0.0.1:14550").scheme == "udpin"

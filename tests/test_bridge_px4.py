@@ -1,4 +1,4 @@
-"""PX4 missions without PX4: bridge.px4's rules, the mock's PX4 flavour that follows them, the
+"""PX4 missions without PX4: missionplan.bridge.formats.px4_rules's rules, the mock's PX4 flavour that follows them, the
 firmwareType check of `upload` and `plan --autopilot` (what PX4 SIH showed: docs/px4-missions.md)."""
 
 from __future__ import annotations
@@ -10,15 +10,16 @@ from pathlib import Path
 
 import pytest
 
-from bridge.link import Link
-from bridge.mission import Flavour, Mission, MissionItem, MissionType, WireItem, to_wire
-from bridge.readback import compare_items
-from bridge.missionfile import FirmwareMismatch, PlanFile, check_firmware, read_plan, write_plan, write_waypoints
-from bridge.mock import MockAutopilot
-from bridge.protocol import Timeouts
-from bridge.px4 import (GEOFENCE_WITHOUT_HOME, START_DENIED, fence_problems, home_in_fence, item_result, px4_millimetres,
-                        px4_stored, px4_yaw, start_refusals)
-from bridge.uploader import PymavlinkBackend, upload_plan
+from missionplan.bridge.link.connection import Link
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, MissionType, WireItem, to_wire
+from missionplan.bridge.formats.readback import compare_items
+from missionplan.bridge.formats.missionfile import (FirmwareMismatch, PlanFile, check_firmware, read_plan, write_plan,
+                                                    write_waypoints)
+from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.formats.px4_rules import (GEOFENCE_WITHOUT_HOME, START_DENIED, fence_problems, home_in_fence,
+                                                  item_result, px4_millimetres, px4_stored, px4_yaw, start_refusals)
+from missionplan.bridge.transfer.uploader import PymavlinkBackend, upload_plan
 from missionplan.cli import main
 
 HOME = (45.4641, 9.1891, 120.0)

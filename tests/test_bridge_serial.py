@@ -15,11 +15,11 @@ from pathlib import Path
 
 import pytest
 
-from bridge import BridgeUsageError
-from bridge.link import Link, parse_url
-from bridge.mission import Mission, MissionItem
-from bridge.missionfile import PlanFile, read_plan, write_plan
-from bridge.mock import MockAutopilot
+from missionplan.bridge import BridgeUsageError
+from missionplan.bridge.link.connection import Link, parse_url
+from missionplan.bridge.formats.mission_items import Mission, MissionItem
+from missionplan.bridge.formats.missionfile import PlanFile, read_plan, write_plan
+from missionplan.bridge.sim.mock import MockAutopilot
 
 from test_bridge_commands import FAST, run  # noqa: E402  (tests/ is on sys.path under pytest)
 
@@ -118,7 +118,7 @@ def test_mock_serves_a_serial_device_by_name() -> None:
     try:
         with MockAutopilot(f"{name},57600") as mock:
             assert mock.device == name
-            parser = __import__("bridge.link", fromlist=["mavlink"]).mavlink.MAVLink(None)
+            parser = __import__("missionplan.bridge.link.connection", fromlist=["mavlink"]).mavlink.MAVLink(None)
             parser.robust_parsing = True
             deadline = time.monotonic() + 5
             kinds: list[str] = []

@@ -1,4 +1,4 @@
-"""bridge.signing: key files in both formats, and a key that never shows."""
+"""missionplan.bridge.link.signing: key files in both formats, and a key that never shows."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from bridge import BridgeUsageError
-from bridge.signing import load_key, new_key, write_key
+from missionplan.bridge import BridgeUsageError
+from missionplan.bridge.link.signing import load_key, new_key, write_key
 
 
 def test_raw_and_hex_key_files(tmp_path: Path) -> None:
@@ -50,7 +50,7 @@ def _write(folder: Path, content: bytes) -> Path:
 # ------------------------------------------------------------- signing after the vehicle has been up a while
 
 def _survey(n: int = 5) -> "Mission":
-    from bridge.mission import Mission, MissionItem
+    from missionplan.bridge.formats.mission_items import Mission, MissionItem
 
     return Mission([MissionItem(22, 3, z=30.0)] + [MissionItem(16, 3, x=45.07 + i * 1e-4, y=7.68, z=30.0)
                                                    for i in range(n)], home=(45.07, 7.68, 240.0))
@@ -76,10 +76,10 @@ def test_right_key_still_works_when_the_vehicle_has_been_up_for_minutes(monkeypa
     and blamed the key. The vehicle boots at clock time T - uptime; the ground station comes at T."""
     import types
 
-    import bridge.signing as signing
-    from bridge.mock import MockAutopilot
-    from bridge.protocol import Timeouts
-    from bridge.uploader import open_backend, upload_plan
+    import missionplan.bridge.link.signing as signing
+    from missionplan.bridge.sim.mock import MockAutopilot
+    from missionplan.bridge.transfer.protocol import Timeouts
+    from missionplan.bridge.transfer.uploader import open_backend, upload_plan
 
     clock = _Clock(-uptime_s)
     monkeypatch.setattr(signing, "time", types.SimpleNamespace(time=clock.time))
@@ -97,10 +97,10 @@ def test_a_vehicle_whose_signing_clock_lags_is_blamed_on_the_clock_not_the_key()
     rule for a new stream); the message must say so instead of suggesting a wrong key."""
     import time
 
-    from bridge import BridgeError
-    from bridge.mock import MockAutopilot
-    from bridge.protocol import Timeouts
-    from bridge.uploader import open_backend
+    from missionplan.bridge import BridgeError
+    from missionplan.bridge.sim.mock import MockAutopilot
+    from missionplan.bridge.transfer.protocol import Timeouts
+    from missionplan.bridge.transfer.uploader import open_backend
 
     key = new_key()
     with MockAutopilot(key=key, request_interval=0.02, clock=lambda: time.time() - 300) as mock:
@@ -119,7 +119,7 @@ def test_a_forged_packet_does_not_lock_out_the_stream_it_imitates() -> None:
     os.environ.setdefault("MAVLINK20", "1")
     from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-    from bridge.signing import apply_key
+    from missionplan.bridge.link.signing import apply_key
 
     class Sink:
         def __init__(self) -> None:
@@ -147,9 +147,9 @@ def test_a_forged_packet_does_not_lock_out_the_stream_it_imitates() -> None:
 def test_a_key_for_a_vehicle_that_does_not_sign_says_so() -> None:
     """Seen on ArduCopter SITL after a wipe: with --signing-key and an unsigned vehicle the message was
     "nothing was received at all" (pymavlink does not count unsigned packets it drops)."""
-    from bridge import BridgeError
-    from bridge.mock import MockAutopilot
-    from bridge.uploader import open_backend
+    from missionplan.bridge import BridgeError
+    from missionplan.bridge.sim.mock import MockAutopilot
+    from missionplan.bridge.transfer.uploader import open_backend
 
     with MockAutopilot(request_interval=0.02) as mock:
         with pytest.raises(BridgeError) as err:

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from bridge.mission import Mission, MissionItem
-from bridge.missionfile import PlanFile, write_plan
-from bridge.mock import MockAutopilot
+from missionplan.bridge.formats.mission_items import Mission, MissionItem
+from missionplan.bridge.formats.missionfile import PlanFile, write_plan
+from missionplan.bridge.sim.mock import MockAutopilot
 
 from test_bridge_commands import FAST, run  # noqa: E402  (tests/ is on sys.path under pytest)
 
@@ -79,8 +79,8 @@ def test_a_clean_close_is_reported_once(capfd: pytest.CaptureFixture[str]) -> No
     (28 501 lines in one second of waiting on the old code)."""
     import socket
 
-    from bridge import BridgeError
-    from bridge.link import Link, mavlink
+    from missionplan.bridge import BridgeError
+    from missionplan.bridge.link.connection import Link, mavlink
 
     server = socket.socket()
     server.bind(("127.0.0.1", 0))

@@ -2,7 +2,7 @@
 the ground-station identity and signing options, progress that suits where stderr goes, and signing
 named when it is why a vehicle does not answer.
 
-Vehicles are in-process mock autopilots on 127.0.0.1 at ports the system picks (bridge.mock); every
+Vehicles are in-process mock autopilots on 127.0.0.1 at ports the system picks (missionplan.bridge.sim.mock); every
 command is given an explicit loopback --connect (never the 14550 default); every wait is bounded.
 """
 
@@ -20,13 +20,13 @@ from typing import Any
 
 import pytest
 
-from bridge.commands import CONNECT_HELP, DEFAULT_CONNECT, register
-from bridge.link import Link, VehicleInfo, wait_vehicle
-from bridge.mission import Flavour, Mission, MissionItem
-from bridge.missionfile import PlanFile, write_plan
-from bridge.mock import MockAutopilot
-from bridge.params import ParamClient
-from bridge.signing import SigningKey, new_key, write_key
+from missionplan.bridge.commands import CONNECT_HELP, DEFAULT_CONNECT, register
+from missionplan.bridge.link.connection import Link, VehicleInfo, wait_vehicle
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem
+from missionplan.bridge.formats.missionfile import PlanFile, write_plan
+from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.bridge.link.params import ParamClient
+from missionplan.bridge.link.signing import SigningKey, new_key, write_key
 from missionplan import cli
 from missionplan.flight import fly as fly_module
 from missionplan.flight.display import progress_display
@@ -189,7 +189,7 @@ def test_fly_takes_the_default_only_when_no_connect_is_given(monkeypatch: pytest
                                                              capsys: pytest.CaptureFixture[str]) -> None:
     """An argparse append with a default list appends to that list (and keeps it between parses):
     fly's default is applied after parsing, when no --connect came. No socket is opened here."""
-    from bridge.errors import BridgeError
+    from missionplan.bridge.errors import BridgeError
 
     (tmp_path / "report.json").write_text("{}")
     asked: list[Any] = []
@@ -286,7 +286,7 @@ def test_no_signing_hint_when_the_vehicle_does_not_sign() -> None:
 
 def test_a_wrong_key_is_named_when_the_vehicle_does_not_answer(key_file: tuple[SigningKey, Path]) -> None:
     """We sign with another key: the vehicle's packets fail our check, and what it does not answer says so."""
-    from bridge.errors import BridgeError
+    from missionplan.bridge.errors import BridgeError
 
     with MockAutopilot(key=key_file[0], request_interval=0.02) as mock, Link(mock.client_url, new_key()) as link:
         deadline = time.monotonic() + 3.0

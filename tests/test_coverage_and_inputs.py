@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geo.readers import read_buildings
+from missionplan.geo.readers import read_buildings
 from missionplan.cli import attach_negative_values, main
 from missionplan.grid.world import reachable_targets
 from missionplan.mission.coverage_check import coverage_report

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import shapely
 
-from bridge.mission import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_FENCE_POLYGON_VERTEX_INCLUSION, CMD_NAV_LAND,
-                            CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, MissionType)
-from bridge.missionfile import read_mission_file
+from missionplan.bridge.formats.mission_items import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_FENCE_POLYGON_VERTEX_INCLUSION,
+                                                      CMD_NAV_LAND, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, MissionType)
+from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.cli import main
 from missionplan.flight.plan_report import frame_of, to_grid_m
 from missionplan.mission.sorties import split_sorties
@@ -213,10 +213,10 @@ def test_every_point_of_the_flight_lies_inside_the_drones_fence(leonardo_sorties
 
 
 def test_fence_round_trips_through_the_mock(leonardo5):
-    from bridge.mission import Flavour, to_wire
-    from bridge.mock import MockAutopilot
-    from bridge.protocol import Timeouts
-    from bridge.uploader import open_backend, upload_plan
+    from missionplan.bridge.formats.mission_items import Flavour, to_wire
+    from missionplan.bridge.sim.mock import MockAutopilot
+    from missionplan.bridge.transfer.protocol import Timeouts
+    from missionplan.bridge.transfer.uploader import open_backend, upload_plan
 
     out, _ = leonardo5
     plan = read_mission_file(out / "uav2.plan")
@@ -263,7 +263,7 @@ TURIN_OSM = Path(__file__).resolve().parent.parent.parent / "shared" / "maps" / 
 
 @pytest.mark.skipif(not TURIN_OSM.is_file(), reason="../shared/maps/turin_cenisia_osm_buildings.geojson is absent")
 def test_reported_clearance_is_a_true_lower_bound_against_the_buffered_buildings(tmp_path):
-    from geo.readers import read_buildings
+    from missionplan.geo.readers import read_buildings
 
     repo = Path(__file__).resolve().parent.parent
     out = tmp_path / "turin"
@@ -379,7 +379,7 @@ def test_an_older_report_without_a_file_list_names_its_drones_files(tmp_path):
 
 
 def test_a_fence_round_a_ragged_zone_stays_small_and_holds_every_point():
-    from geo.frame import GridFrame
+    from missionplan.geo.frame import GridFrame
     from missionplan.mission.geofence import MAX_VERTICES, drone_fence
 
     frame = GridFrame.at(45.0, 7.0, 2.0, 100, 100)

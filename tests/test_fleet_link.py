@@ -1,5 +1,6 @@
-"""A fleet on one link (bridge.shared_link, bridge.link's udpin routing), readiness and the site check
-(bridge.readiness) against the mock made like ArduCopter SITL, and the judge's small honesty fixes."""
+"""A fleet on one link (missionplan.bridge.link.shared_link, missionplan.bridge.link.connection's udpin routing),
+readiness and the site check (missionplan.bridge.link.readiness) against the mock made like ArduCopter SITL, and the
+judge's small honesty fixes."""
 
 from __future__ import annotations
 
@@ -10,12 +11,13 @@ import pytest
 
 from loopback import free_udp_port, wait_until
 
-from bridge.errors import BridgeUsageError
-from bridge.link import Link, wait_vehicle
-from bridge.mission import Flavour
-from bridge.mock import MockAutopilot
-from bridge.readiness import Vehicle, VehicleState, launch_offset_m, request_streams, site_problem, stream_rates
-from bridge.shared_link import SharedLink, parse_connects
+from missionplan.bridge.errors import BridgeUsageError
+from missionplan.bridge.link.connection import Link, wait_vehicle
+from missionplan.bridge.formats.mission_items import Flavour
+from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.bridge.link.readiness import (Vehicle, VehicleState, launch_offset_m, request_streams, site_problem,
+                                               stream_rates)
+from missionplan.bridge.link.shared_link import SharedLink, parse_connects
 from missionplan.flight import flight_report as fr
 
 MILAN = (45.4643, 9.1895, 120.0)
@@ -56,8 +58,8 @@ def test_one_udpin_port_answers_each_vehicle_at_its_own_address() -> None:
 
 
 def test_cli_upload_to_one_vehicle_of_a_fleet_on_one_udpin_port(tmp_path, capsys) -> None:
-    from bridge.mission import Mission, MissionItem
-    from bridge.missionfile import PlanFile, write_plan
+    from missionplan.bridge.formats.mission_items import Mission, MissionItem
+    from missionplan.bridge.formats.missionfile import PlanFile, write_plan
     from missionplan.cli import main
 
     lat, lon, _ = MILAN
@@ -103,8 +105,8 @@ def test_wait_vehicle_on_a_view_names_the_systems_heard_instead() -> None:
 
 
 def test_a_link_pool_finds_each_vehicle_on_the_link_that_carries_its_heartbeat() -> None:
-    from bridge.errors import BridgeError
-    from bridge.shared_link import LinkPool
+    from missionplan.bridge.errors import BridgeError
+    from missionplan.bridge.link.shared_link import LinkPool
 
     ports = [free_udp_port(), free_udp_port()]
     mocks = [_senders(port, (k,))[0] for port, k in zip(ports, (1, 2))]
@@ -201,7 +203,7 @@ def test_only_a_streams_clock_starting_again_is_a_reboot() -> None:
     # seconds old: those must not look like a clock that started again. GLOBAL_POSITION_INT's does.
     from types import SimpleNamespace
 
-    from bridge.link import Link
+    from missionplan.bridge.link.connection import Link
 
     link = Link.__new__(Link)  # the boot tracking alone, without a connection
     link._boot_epoch, link._boot_ms, link._status, link.reboots = {}, {}, {}, {}

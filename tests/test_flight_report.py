@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from bridge.mission import WireItem
-from geo.frame import GridFrame
+from missionplan.bridge.formats.mission_items import WireItem
+from missionplan.geo.frame import GridFrame
 from missionplan.flight import flight_report as fr
 from missionplan.flight.record import DroneRecord
 

@@ -7,10 +7,10 @@ import math
 import pytest
 from pymavlink import mavwp
 
-from bridge.mission import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND, CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF,
-                            CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT)
-from bridge.missionfile import read_mission_file
-from bridge import copter_model as cm
+from missionplan.bridge.formats.mission_items import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND, CMD_NAV_RETURN_TO_LAUNCH,
+                                                      CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT)
+from missionplan.bridge.formats.missionfile import read_mission_file
+from missionplan.bridge.flight_models import copter_model as cm
 from missionplan.cli import main
 from missionplan.flight.plan_report import frame_of, to_grid_m
 from missionplan.mission.timeline import FlightModel, planned_seconds
@@ -83,14 +83,16 @@ def test_plan_files_read_back_to_the_mission_shape(leonardo_run):
         assert items[0].command == CMD_NAV_TAKEOFF and items[0].z == pytest.approx(report["drones"][k - 1]["altitude_m"])
         assert items[2].command == CMD_DO_SET_CAM_TRIGG_DIST and items[2].param1 > 0
         assert items[-1].command == CMD_NAV_RETURN_TO_LAUNCH
-        # The camera stops after the last survey waypoint; then only the way home round the walls, over the launch point.
+        # The camera stops after the last survey waypoint; then only the way home round the walls, over the launch
+        # point.
         stop = max(i for i, item in enumerate(items) if item.command == CMD_DO_SET_CAM_TRIGG_DIST)
         assert items[stop].param1 == 0
         home_way = items[stop + 1:-1]
         assert all(item.command == CMD_NAV_WAYPOINT for item in home_way)
         if home_way:
             assert (home_way[-1].x, home_way[-1].y) == pytest.approx(plan.mission.home[:2], abs=1e-7)
-        # every survey waypoint is followed by "trigger once now" (a photo at each corner), the last one stopping the camera
+        # every survey waypoint is followed by "trigger once now" (a photo at each corner), the last one stopping the
+        # camera
         for index, item in enumerate(items[:stop]):
             if item.command == CMD_NAV_WAYPOINT:
                 after = items[index + 1]

@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 from loopback import wait_until
 
-from bridge.mock import LinkFaults
+from missionplan.bridge.sim.mock import LinkFaults
 from missionplan.cli import main
 from missionplan.flight.fly import fly
 from missionplan.flight.journal import read_flight
@@ -185,9 +185,9 @@ def test_flight_json_is_judged_from_the_journal(leonardo: Path, tmp_path: Path) 
 
 
 # ------------------------------------------------------------------------------ the faults real autopilots have
-# (bridge.mock: kill, ArduCopter's battery failsafe, another ground station's upload; tests/test_mock_faults.py
-# checks them at the MAVLink level). A high speedup: fly waits planned x 1.5 + 60 s of vehicle time for a
-# silent vehicle, and the failsafe's timer and RTL run on the vehicle's clock.
+# (missionplan.bridge.sim.mock: kill, ArduCopter's battery failsafe, another ground station's upload;
+# tests/test_mock_faults.py checks them at the MAVLink level). A high speedup: fly waits planned x 1.5 + 60 s of vehicle
+# time for a silent vehicle, and the failsafe's timer and RTL run on the vehicle's clock.
 FAST = 10.0
 OTHER_GCS = 250  # another ground station's system id (fly speaks as 255)
 
@@ -218,7 +218,7 @@ KILLED_TIMEOUT_S = 40.0  # fly's --timeout here: well above the give-up time of 
 
 def test_a_vehicle_killed_in_flight_is_link_lost_and_the_others_finish(
         leonardo: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from bridge.readiness import ground_distance_m
+    from missionplan.bridge.link.readiness import ground_distance_m
 
     plan_dir = _copy(leonardo, tmp_path)
     planned = {int(d["id"]): float(d["flight_s"]) for d in json.loads((plan_dir / "report.json").read_text())["drones"]}
@@ -255,7 +255,7 @@ def test_a_vehicle_killed_in_flight_is_link_lost_and_the_others_finish(
 
 def test_a_battery_failsafe_ends_that_drone_at_its_landing_with_the_reason(
         leonardo: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from bridge.link import Link, wait_vehicle
+    from missionplan.bridge.link.connection import Link, wait_vehicle
 
     plan_dir = _copy(leonardo, tmp_path)
     mock = start_mock_fleet(plan_dir, FAST)
@@ -296,7 +296,7 @@ def test_a_battery_failsafe_ends_that_drone_at_its_landing_with_the_reason(
 def _hold_upload(mock, sysid: int):
     """Another ground station (system OTHER_GCS) starts a mission upload to `sysid` and then says nothing:
     the vehicle keeps that transfer (its upload time-out set long) and denies everybody else's."""
-    from bridge.link import Link, wait_vehicle
+    from missionplan.bridge.link.connection import Link, wait_vehicle
 
     holder = Link(mock.client_url, source_system=OTHER_GCS)
     info = wait_vehicle(holder, sysid, timeout=5)
@@ -307,7 +307,7 @@ def _hold_upload(mock, sysid: int):
 
 def test_another_ground_station_holding_the_upload_is_named_after_the_retries(
         leonardo: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from bridge.protocol import DENIED_TRIES
+    from missionplan.bridge.transfer.protocol import DENIED_TRIES
 
     plan_dir = _copy(leonardo, tmp_path)
     mock = start_mock_fleet(plan_dir, FAST, upload_timeout=60.0)
@@ -332,8 +332,8 @@ def test_another_ground_station_holding_the_upload_is_named_after_the_retries(
 
 def test_another_ground_stations_upload_that_finishes_meanwhile_lets_flys_through(
         leonardo: Path, tmp_path: Path) -> None:
-    from bridge.mission import Flavour, Mission, MissionItem, to_wire
-    from bridge.protocol import MissionClient, Timeouts
+    from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, to_wire
+    from missionplan.bridge.transfer.protocol import MissionClient, Timeouts
 
     plan_dir = _copy(leonardo, tmp_path)
     mock = start_mock_fleet(plan_dir, FAST, upload_timeout=60.0)
@@ -351,7 +351,7 @@ def test_another_ground_stations_upload_that_finishes_meanwhile_lets_flys_throug
         vehicle = mock.vehicle(2)
     finally:
         mock.stop()
-    from bridge.protocol import DENIED_TRIES
+    from missionplan.bridge.transfer.protocol import DENIED_TRIES
 
     doc, drones = _drones(plan_dir)
     assert result and result[0].ok, doc["problems"]

@@ -16,13 +16,13 @@ from types import SimpleNamespace
 
 import pytest
 
-from bridge import copter_model as cm
-from bridge import px4_model as pm
-from bridge.link import mavlink
-from bridge.mission import Flavour
-from bridge.missionfile import read_mission_file
-from bridge.px4 import reported_items
-from bridge.readiness import VehicleState, px4_mode, stream_rates
+from missionplan.bridge.flight_models import copter_model as cm
+from missionplan.bridge.flight_models import px4_model as pm
+from missionplan.bridge.link.connection import mavlink
+from missionplan.bridge.formats.mission_items import Flavour
+from missionplan.bridge.formats.missionfile import read_mission_file
+from missionplan.bridge.formats.px4_rules import reported_items
+from missionplan.bridge.link.readiness import VehicleState, px4_mode, stream_rates
 from missionplan.cli import main
 from missionplan.flight.fly import fly
 from missionplan.flight.mock_fleet import start_mock_fleet

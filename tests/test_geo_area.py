@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 import shapely
 
-from geo.area import build_grid_map, cells_centred_in, cells_touching
-from geo.camera import cell_size_m
-from geo.errors import GeoError
-from geo.frame import GridFrame
-from geo.readers import Building, read_buildings, read_features
+from missionplan.geo.area import build_grid_map, cells_centred_in, cells_touching
+from missionplan.geo.camera import cell_size_m
+from missionplan.geo.errors import GeoError
+from missionplan.geo.frame import GridFrame
+from missionplan.geo.readers import Building, read_buildings, read_features
 
 MAPS = Path(__file__).resolve().parents[1].parent / "shared" / "maps"
 needs_maps = pytest.mark.skipif(not MAPS.is_dir(), reason=f"shared OSM test data not found at {MAPS}")

@@ -4,8 +4,8 @@ import math
 
 import pytest
 
-from geo.camera import Camera, cell_size_m, footprint_side_m
-from geo.errors import GeoError
+from missionplan.geo.camera import Camera, cell_size_m, footprint_side_m
+from missionplan.geo.errors import GeoError
 
 
 def test_fov_90_at_50m_gives_100m_footprint_and_11_11m_cell():

@@ -5,8 +5,8 @@ import pytest
 import shapely
 from pyproj import Geod
 
-from geo.errors import GeoError
-from geo.frame import GridFrame, utm_epsg_for
+from missionplan.geo.errors import GeoError
+from missionplan.geo.frame import GridFrame, utm_epsg_for
 
 GEOD = Geod(ellps="WGS84")
 TURIN = (45.07, 7.652)

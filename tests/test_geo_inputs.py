@@ -9,8 +9,8 @@ import json
 import pytest
 from shapely.geometry import Polygon
 
-from geo.errors import GeoError
-from geo.readers import read_area, read_buildings, read_features, read_polygons
+from missionplan.geo.errors import GeoError
+from missionplan.geo.readers import read_area, read_buildings, read_features, read_polygons
 from missionplan.maps.gridmap import MapError, load_map
 
 OUTER = [[7.650, 45.060], [7.660, 45.060], [7.660, 45.070], [7.650, 45.070], [7.650, 45.060]]

@@ -7,8 +7,8 @@ import pytest
 import shapely
 from shapely.geometry import MultiPolygon, Polygon
 
-from geo.errors import GeoError
-from geo.readers import (building_height, parse_height, read_area, read_buildings, read_features,
+from missionplan.geo.errors import GeoError
+from missionplan.geo.readers import (building_height, parse_height, read_area, read_buildings, read_features,
                          read_osm_buildings, read_polygons)
 
 MAPS = Path(__file__).resolve().parents[1].parent / "shared" / "maps"

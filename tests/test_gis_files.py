@@ -1,4 +1,4 @@
-"""The GIS files a crew carries away (geo.gpkg's GeoPackage, geo.kml's KMZ), read back by GDAL.
+"""The GIS files a crew carries away (missionplan.geo.gpkg's GeoPackage, missionplan.geo.kml's KMZ), read back by GDAL.
 
 The reader is independent of the writers: GDAL through pyogrio (its GPKG, LIBKML, KML and ESRI
 Shapefile drivers), plus GDAL's command-line tools where they are on PATH. GDAL's warnings (an
@@ -25,9 +25,9 @@ import numpy as np
 import pytest
 import shapely
 
-from geo.geojson_layers import LayerSchema, layer_schema, rfc7946
-from geo.gpkg import write_geopackage
-from geo.kml import write_kmz
+from missionplan.geo.geojson_layers import LayerSchema, layer_schema, rfc7946
+from missionplan.geo.gpkg import write_geopackage
+from missionplan.geo.kml import write_kmz
 
 KML = "{http://www.opengis.net/kml/2.2}"
 LON, LAT = 7.65, 45.07

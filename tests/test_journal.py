@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from bridge.mission import WireItem
+from missionplan.bridge.formats.mission_items import WireItem
 from missionplan.flight.journal import COMMIT_S, Journal, JournalError, read_flight
 from missionplan.flight.record import DroneRecord
 

@@ -1,9 +1,11 @@
-"""Imports run one way: cli -> flight -> mission -> learn -> grid -> maps; geo and bridge stand alone;
-and no module imports itself round a circle (a -> b -> a), inside a layer or across the top.
+"""Imports run one way: cli -> flight -> mission -> learn -> grid -> maps -> geo -> bridge, inside bridge/ from
+the commands down to the flight models, inside missionplan/flight/ from fly down to the records; and no module
+imports itself round a circle (a -> b -> a), inside a layer or across the top.
 
 Every module is parsed with `ast` (imports inside functions included). A module's layer is the
-subpackage it sits in (missionplan/grid/world.py: grid); the modules at the top of the package (the
-CLI and the entry points plan_map / plan_field) may import anything, nothing below may import them.
+subpackage it sits in (missionplan/grid/world.py: grid; geo/ and bridge/ install as missionplan.geo and
+missionplan.bridge); the modules at the top of the package (the CLI and the entry points plan_map / plan_field)
+may import anything, nothing below may import them.
 """
 
 from __future__ import annotations
@@ -15,12 +17,16 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 # Lowest first: a module may import its own layer and the layers before it.
-LAYERS = ("maps", "grid", "learn", "mission", "flight")
+LAYERS = ("bridge", "geo", "maps", "grid", "learn", "mission", "flight")
 TOP = len(LAYERS)  # the modules directly in missionplan/
+# The source folders outside missionplan/ and the package each installs as (pyproject.toml's package-dir).
+INSTALLED_AS = {"geo": "missionplan.geo", "bridge": "missionplan.bridge"}
 
 
 def module_name(path: Path, root: Path = ROOT) -> str:
     parts = list(path.relative_to(root).with_suffix("").parts)
+    if parts[0] in INSTALLED_AS:
+        parts[:1] = INSTALLED_AS[parts[0]].split(".")
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
@@ -68,17 +74,20 @@ def sources(folder: str) -> list[Path]:
     return sorted(p for p in (ROOT / folder).rglob("*.py") if "__pycache__" not in p.parts)
 
 
-@pytest.mark.parametrize("path", sources("missionplan"), ids=lambda p: str(p.relative_to(ROOT)))
-def test_missionplan_imports_run_one_way(path: Path) -> None:
+ALL_SOURCES = sources("missionplan") + sources("geo") + sources("bridge")
+
+
+@pytest.mark.parametrize("path", ALL_SOURCES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_imports_run_one_way(path: Path) -> None:
     name = module_name(path)
     assert wrong_way(path.read_text(encoding="utf-8"), name, path.name == "__init__.py") == []
 
 
-@pytest.mark.parametrize("path", sources("geo") + sources("bridge"), ids=lambda p: str(p.relative_to(ROOT)))
-def test_geo_and_bridge_import_nothing_from_missionplan(path: Path) -> None:
-    name = module_name(path)
-    imports = imported_modules(path.read_text(encoding="utf-8"), name, path.name == "__init__.py")
-    assert [m for m in imports if m.split(".")[0] == "missionplan"] == []
+def test_nothing_imports_geo_or_bridge_by_a_top_level_name() -> None:
+    # `import bridge` works from the repository root by accident (the folder is there); installed, it does not exist.
+    for path in ALL_SOURCES:
+        imports = imported_modules(path.read_text(encoding="utf-8"), module_name(path), path.name == "__init__.py")
+        assert [m for m in imports if m.split(".")[0] in INSTALLED_AS] == [], path
 
 
 def test_a_wrong_way_import_is_found() -> None:
@@ -89,6 +98,8 @@ def test_a_wrong_way_import_is_found() -> None:
         "missionplan.flight", "missionplan.flight.flyer"]
     assert wrong_way("from ..cli import main\n", "missionplan.mission.x") == ["missionplan.cli", "missionplan.cli.main"]
     assert wrong_way("from ..maps.m import M\nfrom .w import W\nimport numpy\n", "missionplan.grid.x") == []
+    assert wrong_way("from ..grid import w\n", "missionplan.geo.x") == ["missionplan.grid", "missionplan.grid.w"]
+    assert wrong_way("from missionplan.bridge.atomic import a\n", "missionplan.geo.x") == []
     assert wrong_way("from .grid.w import W\nfrom .flight import f\n", "missionplan.cli") == []
     assert imported_modules("from . import z\n", "missionplan.grid", is_package=True) == [
         "missionplan.grid", "missionplan.grid.z"]
@@ -142,7 +153,7 @@ def import_circles(graph: dict[str, set[str]]) -> list[list[str]]:
 def test_no_import_circles() -> None:
     # A package importing its own modules is fine; a module importing its package's __init__ that imports it back
     # is a circle like any other.
-    graph = import_graph(sources("missionplan") + sources("geo") + sources("bridge"))
+    graph = import_graph(ALL_SOURCES)
     assert import_circles(graph) == []
 
 
@@ -150,3 +161,91 @@ def test_an_import_circle_is_found() -> None:
     graph = {"a": {"b"}, "b": {"c"}, "c": {"a", "d"}, "d": set(), "e": {"d"}}
     assert import_circles(graph) == [["a", "b", "c"]]
     assert import_circles({"x": {"y"}, "y": set()}) == []
+
+
+# Inside bridge/: the part a module belongs to (its subpackage, or its own name directly in bridge/) and the parts
+# it may import besides its own; each subpackage's __init__ says the same in words. The package itself
+# (missionplan.bridge: the two errors) may be imported from anywhere.
+BRIDGE_MAY_IMPORT = {
+    "errors": set(),
+    "atomic": set(),
+    "flight_models": set(),
+    "formats": {"errors", "atomic"},
+    "link": {"errors", "formats"},
+    "transfer": {"errors", "atomic", "formats", "link"},
+    "sim": {"errors", "formats", "link", "flight_models"},
+    "commands": {"errors", "formats", "link", "transfer", "sim"},
+}
+
+
+def bridge_part(module: str) -> str | None:
+    """The part of bridge/ a module is in ("link" for missionplan.bridge.link.params), None outside bridge/."""
+    parts = module.split(".")
+    if parts[:2] != ["missionplan", "bridge"] or len(parts) == 2:
+        return None
+    return parts[2]
+
+
+def bridge_wrong_way(source: str, name: str, is_package: bool = False) -> list[str]:
+    own = bridge_part(name)
+    assert own in BRIDGE_MAY_IMPORT, f"{name}: a part of bridge/ that BRIDGE_MAY_IMPORT does not place"
+    return sorted({m for m in imported_modules(source, name, is_package)
+                   if (part := bridge_part(m)) in BRIDGE_MAY_IMPORT  # not a name from the package: BridgeError
+                   and part != own and part not in BRIDGE_MAY_IMPORT[own]})
+
+
+@pytest.mark.parametrize("path", [p for p in sources("bridge") if p != ROOT / "bridge" / "__init__.py"],
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_bridge_imports_run_one_way(path: Path) -> None:
+    assert bridge_wrong_way(path.read_text(encoding="utf-8"), module_name(path), path.name == "__init__.py") == []
+
+
+def test_a_wrong_way_import_inside_bridge_is_found() -> None:
+    assert bridge_wrong_way("from ..transfer.uploader import upload\n", "missionplan.bridge.sim.mock") == [
+        "missionplan.bridge.transfer.uploader", "missionplan.bridge.transfer.uploader.upload"]
+    assert bridge_wrong_way("from ..link import connection\nfrom .. import BridgeError\n",
+                            "missionplan.bridge.transfer.protocol") == []
+    with pytest.raises(AssertionError):
+        bridge_wrong_way("", "missionplan.bridge.newpart.x")
+
+
+# Inside missionplan/flight/: tiers, lowest first; a module imports only modules of lower tiers, and every module
+# has a tier (a new one is placed here).
+FLIGHT_TIERS = (
+    ("record", "plan_report", "flight_layers", "flight_plot", "mock_fleet"),  # what was planned and recorded
+    ("ledger", "phases", "journal"),  # the photos, the flight's phases, the journal on disk
+    ("geotag", "survey_status"),  # what the photos and the survey come to
+    ("flight_report",),  # judging a flown fleet
+    ("drone_flight", "display"),  # one drone's flight; what a crew sees
+    ("live_replan",),  # taking over a lost drone's cells in flight
+    ("fly",),  # the fleet's flight
+)
+
+
+def flight_tier(module: str) -> int | None:
+    parts = module.split(".")
+    if parts[:2] != ["missionplan", "flight"] or len(parts) < 3:
+        return None
+    tiers = [i for i, tier in enumerate(FLIGHT_TIERS) if parts[2] in tier]
+    assert tiers, f"{module}: not in FLIGHT_TIERS"
+    return tiers[0]
+
+
+def flight_wrong_way(source: str, name: str) -> list[str]:
+    own = flight_tier(name)
+    return sorted({m for m in imported_modules(source, name)
+                   if (tier := flight_tier(m)) is not None and m != name and tier >= own})
+
+
+@pytest.mark.parametrize("path", [p for p in sources("missionplan/flight") if p.name != "__init__.py"],
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_flight_imports_run_one_way(path: Path) -> None:
+    assert flight_wrong_way(path.read_text(encoding="utf-8"), module_name(path)) == []
+
+
+def test_a_wrong_way_import_inside_flight_is_found() -> None:
+    assert flight_wrong_way("from .fly import fly\n", "missionplan.flight.record") == [
+        "missionplan.flight.fly", "missionplan.flight.fly.fly"]
+    assert flight_wrong_way("from .phases import p\n", "missionplan.flight.ledger") == [
+        "missionplan.flight.phases", "missionplan.flight.phases.p"]
+    assert flight_wrong_way("from .record import DroneRecord\n", "missionplan.flight.fly") == []

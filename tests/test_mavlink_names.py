@@ -1,8 +1,8 @@
 """MAVLink numbers come from pymavlink's generated enums (`mavutil.mavlink`), except in the modules that stay
-free of pymavlink (the planner's side of the bridge), and those take theirs from bridge/mission.py, the one
-module that writes MAVLink numbers down itself.
+free of pymavlink (the planner's side of the bridge), and those take theirs from bridge/formats/mission_items.py, the
+one module that writes MAVLink numbers down itself.
 
-- bridge/mission.py: every MAVLink number it holds (its module-level int constants named MAV_*, CMD_*,
+- bridge/formats/mission_items.py: every MAVLink number it holds (its module-level int constants named MAV_*, CMD_*,
   FRAME_* or SPEED_TYPE_*, and MissionType) equals pymavlink's value of the same MAVLink name;
   PYMAVLINK_NAMES says which name each one is, and a constant added there without an entry fails the test.
 - Everywhere else in bridge/, geo/, missionplan/, sitl_tests/, bench/ and tests/ (every .py file, parsed with
@@ -15,8 +15,8 @@ module that writes MAVLink numbers down itself.
       values of that family (MAV_CMD_*, MAV_MODE_FLAG_*, MAV_FRAME_*, MAV_LANDED_STATE_*, MAVLINK_MSG_ID_*):
       `MODE_FLAG_ARMED = 128` is MAV_MODE_FLAG_SAFETY_ARMED under another name, `CMD_ARM = 400`
       MAV_CMD_COMPONENT_ARM_DISARM.
-  Use `mavlink.<NAME>` there instead (bridge.link's `mavlink` is mavutil.mavlink), or, in a module free of
-  pymavlink, import the number from bridge.mission.
+  Use `mavlink.<NAME>` there instead (missionplan.bridge.link.connection's `mavlink` is mavutil.mavlink), or, in a
+  module free of pymavlink, import the number from missionplan.bridge.formats.mission_items.
 """
 
 from __future__ import annotations
@@ -26,14 +26,14 @@ from pathlib import Path
 
 import pytest
 
-from bridge import mission
-from bridge.link import mavlink
+from missionplan.bridge.formats import mission_items as mission
+from missionplan.bridge.link.connection import mavlink
 
 ROOT = Path(__file__).resolve().parents[1]
 FOLDERS = ("bridge", "geo", "missionplan", "sitl_tests", "bench", "tests")
-THE_ONE_MODULE = ROOT / "bridge" / "mission.py"
+THE_ONE_MODULE = ROOT / "bridge" / "formats" / "mission_items.py"
 
-# bridge/mission.py's name -> pymavlink's name of the same number.
+# bridge/formats/mission_items.py's name -> pymavlink's name of the same number.
 PYMAVLINK_NAMES = {
     "MAV_AUTOPILOT_GENERIC": "MAV_AUTOPILOT_GENERIC",
     "MAV_AUTOPILOT_ARDUPILOTMEGA": "MAV_AUTOPILOT_ARDUPILOTMEGA",
@@ -163,13 +163,14 @@ def sources() -> list[Path]:
 @pytest.mark.parametrize("local", sorted(PYMAVLINK_NAMES))
 def test_the_pymavlink_free_numbers_are_pymavlinks(local: str) -> None:
     theirs = PYMAVLINK_NAMES[local]
-    assert getattr(mission, local) == getattr(mavlink, theirs), f"bridge.mission.{local} is not mavlink.{theirs}"
+    assert getattr(mission, local) == getattr(mavlink, theirs), f"mission_items.{local} is not mavlink.{theirs}"
 
 
 def test_every_mavlink_number_of_the_one_module_is_checked() -> None:
     held = {name for name, _, _ in module_ints(THE_ONE_MODULE.read_text(encoding="utf-8"))
             if name.startswith(("MAV_", "CMD_", "FRAME_", "SPEED_TYPE_"))}
-    assert held == set(PYMAVLINK_NAMES), "map each MAVLink constant of bridge/mission.py to its pymavlink name"
+    assert held == set(PYMAVLINK_NAMES), (
+        "map each MAVLink constant of bridge/formats/mission_items.py to its pymavlink name")
 
 
 def test_mission_types_are_pymavlinks() -> None:
@@ -180,8 +181,8 @@ def test_mission_types_are_pymavlinks() -> None:
 @pytest.mark.parametrize("path", sources(), ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_module_re_declares_a_mavlink_number(path: Path) -> None:
     assert re_declared(path.read_text(encoding="utf-8")) == [], (
-        "use mavlink.<NAME> (bridge.link's mavutil.mavlink), or import the number from bridge/mission.py in a "
-        "module free of pymavlink")
+        "use mavlink.<NAME> (missionplan.bridge.link.connection's mavutil.mavlink), or import the number from "
+        "bridge/formats/mission_items.py in a module free of pymavlink")
 
 
 def test_the_rule_finds_a_re_declaration() -> None:

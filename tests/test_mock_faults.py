@@ -13,10 +13,10 @@ from typing import Any
 
 import pytest
 
-from bridge.link import Link, mavlink, wait_vehicle
-from bridge.mission import Flavour, Mission, MissionItem, to_wire
-from bridge.mock import MockAutopilot
-from bridge.protocol import MissionClient, MissionTransferError, Timeouts
+from missionplan.bridge.link.connection import Link, mavlink, wait_vehicle
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, to_wire
+from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.bridge.transfer.protocol import MissionClient, MissionTransferError, Timeouts
 
 HOME = (45.0, 7.0, 200.0)
 M_PER_DEG_LAT = 111_319.49
@@ -232,8 +232,8 @@ def test_another_ground_station_is_denied_while_one_uploads(monkeypatch: pytest.
         assert acks(fly_link, 1) == [mavlink.MAV_MISSION_INVALID_SEQUENCE]  # not the one it asks for: that first
         assert mock.vehicle(1).denied_transfers == 3  # count, clear-all, item (downloads are not counted)
         # Our client: denied at the start, tried again, then one line naming the other ground station.
-        monkeypatch.setattr("bridge.protocol.DENIED_TRIES", 2)
-        monkeypatch.setattr("bridge.protocol.DENIED_WAIT_S", 0.2)
+        monkeypatch.setattr("missionplan.bridge.transfer.protocol.DENIED_TRIES", 2)
+        monkeypatch.setattr("missionplan.bridge.transfer.protocol.DENIED_WAIT_S", 0.2)
         with pytest.raises(MissionTransferError, match="another ground station"):
             MissionClient(fly_link, vehicle, Timeouts(item_timeout=0.3)).upload(
                 MISSION_TYPE, to_wire(_survey(), Flavour.ARDUPILOT))

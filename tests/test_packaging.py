@@ -34,7 +34,7 @@ def _python(code: str, cwd: Path) -> subprocess.CompletedProcess:
 def test_planning_help_and_every_module_but_training_run_without_torch(tmp_path):
     code = _WITHOUT_TORCH + f"""
 import importlib, pkgutil
-import bridge, geo, missionplan
+import missionplan, missionplan.bridge, missionplan.geo
 from missionplan.cli import main
 try:
     main(["--help"])
@@ -42,7 +42,7 @@ except SystemExit as done:
     assert done.code == 0, done.code
 assert main(["plan", "--map", "leonardo", "--uavs", "3", "--policy", "nn", "--out", {str(tmp_path / "nn")!r},
              "--quiet"]) == 0
-for package in (missionplan, geo, bridge):
+for package in (missionplan, missionplan.geo, missionplan.bridge):
     for module in pkgutil.walk_packages(package.__path__, package.__name__ + "."):
         if module.name != "missionplan.learn.training":
             importlib.import_module(module.name)
@@ -78,19 +78,26 @@ raise SystemExit(main(["train", "--out", {str(tmp_path / "w.npz")!r}, "--maps", 
 
 
 def _package_folder(package: str) -> Path:
+    """The folder setuptools packs `package` from: under its longest package-dir prefix, else its dotted path."""
     mapped = PYPROJECT["tool"]["setuptools"].get("package-dir", {})
-    return ROOT / mapped.get(package, package.replace(".", "/"))
+    parts = package.split(".")
+    for cut in range(len(parts), 0, -1):
+        prefix = ".".join(parts[:cut])
+        if prefix in mapped:
+            return ROOT.joinpath(mapped[prefix], *parts[cut:])
+    return ROOT.joinpath(*parts)
 
 
 def test_every_source_folder_and_data_file_goes_into_the_wheel():
     setuptools = PYPROJECT["tool"]["setuptools"]
     packages = set(setuptools["packages"])
-    # Every folder of the three top-level packages that holds files is a listed package
+    # Every folder of the three source folders that holds files is a listed package's folder
     # (an unlisted one is left out of the wheel, with a build warning at best).
+    package_folders = {_package_folder(package) for package in packages}
     for top in ("missionplan", "geo", "bridge"):
         for folder in [ROOT / top, *(ROOT / top).rglob("*")]:
             if folder.is_dir() and folder.name != "__pycache__" and any(p.is_file() for p in folder.iterdir()):
-                assert ".".join(folder.relative_to(ROOT).parts) in packages, folder
+                assert folder in package_folders, folder
     # Every listed package's data file matches a package-data pattern (a .py file is code, always in).
     for package in packages:
         patterns = setuptools["package-data"].get(package, [])
@@ -101,7 +108,7 @@ def test_every_source_folder_and_data_file_goes_into_the_wheel():
 
 def test_the_shipped_maps_and_weights_are_package_data():
     setuptools = PYPROJECT["tool"]["setuptools"]
-    assert setuptools["package-dir"] == {"missionplan.maps.shipped": "maps"}  # the maps stay in the top-level maps/
+    assert setuptools["package-dir"]["missionplan.maps.shipped"] == "maps"  # the maps stay in the top-level maps/
     from missionplan.maps.catalog import MAPS_DIR, shipped_map_names
 
     shipped = sorted(p.stem for p in (ROOT / "maps").glob("*.map"))
@@ -109,6 +116,26 @@ def test_the_shipped_maps_and_weights_are_package_data():
     assert shipped_map_names() == shipped and MAPS_DIR.is_dir()
     weights = sorted(p.name for p in (ROOT / "missionplan" / "learn" / "weights").iterdir() if p.is_file())
     assert weights == ["policy.json", "policy.npz"]  # one copy of the weights, the one numpy reads
+
+
+def test_geo_and_bridge_install_inside_missionplan_only(tmp_path):
+    """The folders geo/ and bridge/ import as missionplan.geo and missionplan.bridge, from the repository's files,
+    and under no top-level name another distribution could also install (the wheel: .ci/wheel-check)."""
+    assert PYPROJECT["tool"]["setuptools"]["package-dir"] == {
+        "missionplan.maps.shipped": "maps", "missionplan.geo": "geo", "missionplan.bridge": "bridge"}
+    code = """
+import importlib.util
+import missionplan.bridge.sim.mock, missionplan.geo.frame
+print(importlib.util.find_spec("bridge"), importlib.util.find_spec("geo"))
+print(missionplan.bridge.sim.mock.__file__)
+print(missionplan.geo.frame.__file__)
+"""
+    env = {key: value for key, value in os.environ.items() if key != "PYTHONPATH"}  # only what is installed
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=tmp_path,
+                         env=env)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines() == ["None None", str(ROOT / "bridge" / "sim" / "mock.py"),
+                                       str(ROOT / "geo" / "frame.py")]
 
 
 def _lock() -> dict[str, str]:

@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bridge import px4_model as pm
+from missionplan.bridge.flight_models import px4_model as pm
 from missionplan.flight import phases
 from missionplan.flight.flight_report import flown_seconds
 from missionplan.flight.record import DroneRecord

@@ -1,6 +1,6 @@
-"""Photos recovered from the vehicle's onboard log (bridge.onboard_log) against the mock autopilot.
+"""Photos recovered from the vehicle's onboard log (missionplan.bridge.transfer.onboard_log) against the mock autopilot.
 
-The mock's ArduPilot flavour keeps a DataFlash log of its flights (bridge.mock_log: one CAM per
+The mock's ArduPilot flavour keeps a DataFlash log of its flights (missionplan.bridge.sim.mock_log: one CAM per
 photo) and serves it as ArduCopter does (LOG_REQUEST_LIST / DATA / END). A flight whose
 CAMERA_FEEDBACK reports are lost for a while (the link drops every packet the vehicle sends) still
 yields every photo, at the very position the mock took it; lost LOG_DATA chunks and lost requests are
@@ -20,17 +20,17 @@ from typing import Any
 import pytest
 from pymavlink import DFReader
 
-from bridge.link import Link, mavlink
-from bridge.mission import Flavour, Mission, MissionItem
-from bridge.mock import LinkFaults, MockAutopilot
-from bridge.mock_flight import EARTH_RADIUS
-from bridge.mock_log import CAM, DataFlashWriter, gps_week_ms
-from bridge.onboard_log import (LogClient, LoggedPhoto, LogTransferError, read_dataflash_photos,
+from missionplan.bridge.link.connection import Link, mavlink
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem
+from missionplan.bridge.sim.mock import LinkFaults, MockAutopilot
+from missionplan.bridge.sim.mock_flight import EARTH_RADIUS
+from missionplan.bridge.sim.mock_log import CAM, DataFlashWriter, gps_week_ms
+from missionplan.bridge.transfer.onboard_log import (LogClient, LoggedPhoto, LogTransferError, read_dataflash_photos,
                                 recover_photos)
-from bridge.protocol import Timeouts
-from bridge.px4 import px4_millimetres
-from bridge.shared_link import SharedLink
-from bridge.uploader import open_backend, upload_plan
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.formats.px4_rules import px4_millimetres
+from missionplan.bridge.link.shared_link import SharedLink
+from missionplan.bridge.transfer.uploader import open_backend, upload_plan
 
 HOME = (45.0, 7.0, 200.0)
 M_PER_DEG_LAT = math.radians(1.0) * EARTH_RADIUS

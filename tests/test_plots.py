@@ -16,7 +16,7 @@ from matplotlib.colors import to_rgb
 from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 from pyproj import Transformer
 
-from geo.frame import GridFrame
+from missionplan.geo.frame import GridFrame
 from missionplan.flight.flight_plot import COVERED, MISSED, flight_figure
 from missionplan.maps.gridmap import GridMap
 from missionplan.mission import plot

@@ -1,4 +1,5 @@
-"""QGroundControl's own files read the way QGroundControl reads them (bridge.missionfile, bridge.qgc_legacy).
+"""QGroundControl's own files read the way QGroundControl reads them (missionplan.bridge.formats.missionfile,
+missionplan.bridge.formats.qgc_legacy).
 
 Two kinds of fixture: copies of QGroundControl's and MAVSDK's own test plans in tests/data/qgc/ (their
 sources and licences in tests/data/qgc/NOTICE), whose expected contents come from those projects' own
@@ -22,9 +23,10 @@ from hypothesis import strategies as st
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
-from bridge import BridgeUsageError  # noqa: E402
-from bridge.mission import Flavour, to_wire  # noqa: E402
-from bridge.missionfile import PlanFile, read_mission_file, read_plan, read_qgc_mission  # noqa: E402
+from missionplan.bridge import BridgeUsageError  # noqa: E402
+from missionplan.bridge.formats.mission_items import Flavour, to_wire  # noqa: E402
+from missionplan.bridge.formats.missionfile import (PlanFile, read_mission_file, read_plan,  # noqa: E402
+                                                    read_qgc_mission)
 
 DATA = Path(__file__).resolve().parent / "data" / "qgc"
 
@@ -338,13 +340,13 @@ def test_complex_items_without_stored_waypoints_are_refused_with_what_to_do(tmp_
 
 def test_upload_reports_a_refusal_in_one_line_with_exit_2_before_connecting(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
-    import bridge.uploader
+    import missionplan.bridge.transfer.uploader
     from missionplan.cli import main
 
     def never(*args: Any, **kwargs: Any) -> None:
         raise AssertionError("upload opened a link for a file it should have refused")
 
-    monkeypatch.setattr(bridge.uploader, "open_backend", never)
+    monkeypatch.setattr(missionplan.bridge.transfer.uploader, "open_backend", never)
     survey = _write(tmp_path, "survey.plan", _plan([_complex("survey", 5, None)]))
     for path, words in ((DATA / "TerrainTest-ArduCopter.plan", "mission item 6: altitude is terrain-relative"),
                         (survey, "mission item 1 is a survey ComplexItem")):

@@ -1,7 +1,7 @@
 """Property tests: every reader of user files (GeoJSON, KML, .plan as area, OSM, .map) meets
 arbitrary and structurally wrong input with its own one-line error naming the file, never
 another exception. The bridge's .plan / .waypoints mission readers are tested beside them
-(bridge/missionfile.py).
+(bridge/formats/missionfile.py).
 
 Each example writes one small file; max_examples keeps the whole module to seconds. For a
 longer hunt: MISSIONPLAN_FUZZ_EXAMPLES=5000 pytest tests/test_readers_fuzz.py
@@ -21,8 +21,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from geo.errors import GeoError
-from geo.readers import read_area, read_buildings, read_features, read_osm_buildings, read_polygons
+from missionplan.geo.errors import GeoError
+from missionplan.geo.readers import read_area, read_buildings, read_features, read_osm_buildings, read_polygons
 from missionplan.maps.gridmap import MapError, load_map, parse_map
 
 FUZZ = settings(max_examples=int(os.environ.get("MISSIONPLAN_FUZZ_EXAMPLES", "150")), deadline=None, database=None,

@@ -1,4 +1,4 @@
-"""bridge.readiness's waits on the vehicle's own estimate before it flies: a position that stands still
+"""missionplan.bridge.link.readiness's waits on the vehicle's own estimate before it flies: a position that stands still
 (STEADY_M over STEADY_WINDOW_S) and, at arming, a vertical velocity at rest (QUIET_CLIMB_M_S). Both
 from PX4 SIH: a take-off started while the position still converged sat armed on the ground for 220 s;
 one armed while the vertical estimate moved was flown as a plain climb."""
@@ -10,8 +10,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bridge.mission import Flavour
-from bridge.readiness import QUIET_CLIMB_M_S, STEADY_M, STEADY_WINDOW_S, Vehicle, VehicleState
+from missionplan.bridge.formats.mission_items import Flavour
+from missionplan.bridge.link.readiness import QUIET_CLIMB_M_S, STEADY_M, STEADY_WINDOW_S, Vehicle, VehicleState
 
 
 def _position(boot_s: float, east_m: float, climb_m_s: float = 0.0) -> SimpleNamespace:
@@ -53,7 +53,7 @@ def test_positions_of_zero_are_no_estimate() -> None:
 
 
 class _Clock:
-    """bridge.readiness's clock in these tests: time moves only when the link delivers a message, so
+    """missionplan.bridge.link.readiness's clock in these tests: time moves only when the link delivers a message, so
     the waits are measured exactly, whatever else the machine is doing."""
 
     def __init__(self) -> None:
@@ -86,7 +86,7 @@ class _Link:
 @pytest.fixture()
 def clock(monkeypatch) -> _Clock:
     fake = _Clock()
-    monkeypatch.setattr("bridge.readiness.time", fake)
+    monkeypatch.setattr("missionplan.bridge.link.readiness.time", fake)
     return fake
 
 

@@ -1,5 +1,5 @@
-"""Live re-tasking against the mock autopilot: bridge.retask.replace_mission_in_flight on a vehicle that
-flies its survey, and the mock's own answer to a mission replaced in flight, as ArduCopter SITL and PX4
+"""Live re-tasking against the mock autopilot: missionplan.bridge.transfer.retask.replace_mission_in_flight on a vehicle
+that flies its survey, and the mock's own answer to a mission replaced in flight, as ArduCopter SITL and PX4
 SIH answered it (docs/live-retasking.md; sitl_tests/test_retask_sitl.py runs the same on them).
 
 The vehicle flies take-off, A1..A8, RTL; flying to A6 its mission becomes take-off, A1..A5, B1..B3,
@@ -19,13 +19,13 @@ from typing import Any
 
 import pytest
 
-from bridge.link import Link, mavlink
-from bridge.mission import Flavour, Mission, MissionItem, WireItem, to_wire
-from bridge.mock import MockAutopilot
-from bridge.protocol import MissionClient, Timeouts
-from bridge.readiness import ARDUPILOT_GUIDED
-from bridge.retask import RetaskError, replace_mission_in_flight
-from bridge.uploader import PymavlinkBackend
+from missionplan.bridge.link.connection import Link, mavlink
+from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, WireItem, to_wire
+from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.bridge.transfer.protocol import MissionClient, Timeouts
+from missionplan.bridge.link.readiness import ARDUPILOT_GUIDED
+from missionplan.bridge.transfer.retask import RetaskError, replace_mission_in_flight
+from missionplan.bridge.transfer.uploader import PymavlinkBackend
 
 HOME = (45.0, 7.0, 200.0)
 EARTH_RADIUS = 6_378_137.0

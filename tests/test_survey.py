@@ -259,7 +259,7 @@ def test_nothing_to_retask_when_everything_is_photographed(leonardo_3: Path) -> 
 
 def test_fly_replan_re_tasks_when_a_battery_failsafe_sends_a_drone_home(
         leonardo_3: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from bridge.link import Link, wait_vehicle
+    from missionplan.bridge.link.connection import Link, wait_vehicle
 
     plan = _copy(leonardo_3, tmp_path / "plan")
     mock = start_mock_fleet(plan, RETASK_SPEEDUP)

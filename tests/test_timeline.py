@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from bridge import copter_model as cm
-from bridge.copter_model import CopterParams, Motion
+from missionplan.bridge.flight_models import copter_model as cm
+from missionplan.bridge.flight_models.copter_model import CopterParams, Motion
 from missionplan.mission.timeline import FlightModel, closest_approach, planned_seconds, planned_track
 
 LAUNCH = np.array([10.0, 20.0])

@@ -4,7 +4,7 @@ A fresh flight (`fly DIR`):
 1. find the vehicle on its link and hear its HEARTBEAT. A vehicle that is ARMED was not started by
    this run of fly: nothing is sent to it (no upload, mode or arming), it vetoes the fleet's arming, and
    fly says so (`fly --resume DIR` follows a flight this folder started);
-2. ask for every stream fly reads (bridge.readiness: ArduPilot sends nothing until asked) and wait,
+2. ask for every stream fly reads (missionplan.bridge.link.readiness: ArduPilot sends nothing until asked) and wait,
    bounded by --ready-timeout, until it has a GPS fix, an EKF solution, a home position and passing
    pre-arm checks, saying what it waits for and what the vehicle says (STATUSTEXT);
 3. site check: its home within --max-launch-offset (plus its GPS error) of the plan's launch point,
@@ -27,7 +27,8 @@ with the reason (the failsafe it reported, the mode it was switched to, or the i
 silent vehicle is "link lost", not gone, until its mission would be long over (LINK_WAIT_FACTOR times
 its planned time plus LINK_MARGIN_S, on its clock) or the time-out; heard again, it is followed again.
 After landing: the photos whose reports never arrived are read from the vehicle's log where the
-autopilot keeps one (bridge.onboard_log), and the mission is read back once more (still the one uploaded).
+autopilot keeps one (missionplan.bridge.transfer.onboard_log), and the mission is read back once more (still the one
+uploaded).
 """
 
 from __future__ import annotations
@@ -42,21 +43,23 @@ from typing import Any, Callable
 
 import numpy as np
 
-from bridge.copter_model import PARAMETERS as COPTER_PARAMETERS
-from bridge.errors import BridgeError
-from bridge.link import mavlink
-from bridge.mission import Flavour, to_wire
-from bridge.missionfile import check_firmware, read_mission_file
-from bridge.onboard_log import euler_degrees, recover_photos
-from bridge.params import ParamClient, read_params
-from bridge.protocol import Timeouts
-from bridge.px4_model import FLOAT_PARAMETERS as PX4_PARAMETERS
-from bridge.retask import replace_mission_in_flight
-from bridge.readiness import (ARDUPILOT_GUIDED, DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_LOITER_SUB, Vehicle,
-                              mission_mode_params, mode_params, request_streams, site_problem, stream_rates)
-from bridge.shared_link import LinkPool
-from bridge.signing import SigningKey
-from bridge.uploader import MissionBackend, open_backend, read_back_differences, set_plan_params, upload_plan
+from missionplan.bridge.flight_models.copter_model import PARAMETERS as COPTER_PARAMETERS
+from missionplan.bridge.errors import BridgeError
+from missionplan.bridge.link.connection import mavlink
+from missionplan.bridge.formats.mission_items import Flavour, to_wire
+from missionplan.bridge.formats.missionfile import check_firmware, read_mission_file
+from missionplan.bridge.transfer.onboard_log import euler_degrees, recover_photos
+from missionplan.bridge.link.params import ParamClient, read_params
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.flight_models.px4_model import FLOAT_PARAMETERS as PX4_PARAMETERS
+from missionplan.bridge.transfer.retask import replace_mission_in_flight
+from missionplan.bridge.link.readiness import (ARDUPILOT_GUIDED, DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_LOITER_SUB,
+                                               Vehicle, mission_mode_params, mode_params, request_streams, site_problem,
+                                               stream_rates)
+from missionplan.bridge.link.shared_link import LinkPool
+from missionplan.bridge.link.signing import SigningKey
+from missionplan.bridge.transfer.uploader import (MissionBackend, open_backend, read_back_differences, set_plan_params,
+                                                  upload_plan)
 
 from .flight_report import vehicle_rate
 from .record import DroneRecord
@@ -94,7 +97,7 @@ def refused(what: str, result: int | None) -> str:
 
 def unanswered(text: str, link: Any, sysid: int) -> str:
     """text, with MAVLink 2 signing named when it is the likely reason the vehicle did not answer
-    (bridge.link.Link.signing_hint decides)."""
+    (missionplan.bridge.link.connection.Link.signing_hint decides)."""
     hint = link.signing_hint(sysid)
     return f"{text}: {hint}" if hint else text
 
@@ -145,8 +148,8 @@ class ArmGate:
 class RetaskRequest:
     """fly --replan's new mission for one vehicle in flight (missionplan.retask.RetaskPlan's share)."""
 
-    mission: Any  # bridge.mission.Mission
-    fence: Any  # bridge.mission.Mission (inclusion fence) or None
+    mission: Any  # missionplan.bridge.formats.mission_items.Mission
+    fence: Any  # missionplan.bridge.formats.mission_items.Mission (inclusion fence) or None
     resume_index: int  # index in mission.items to continue at
     photos: int  # photos the new mission plans
 
@@ -289,7 +292,7 @@ class DroneFlight:
         return True
 
     def _ready(self) -> bool:
-        """Bounded wait for GPS, EKF, home and pre-arm checks (bridge.readiness)."""
+        """Bounded wait for GPS, EKF, home and pre-arm checks (missionplan.bridge.link.readiness)."""
         assert self.vehicle is not None
         missing = self.vehicle.wait_ready(min(self.deadline, time.monotonic() + self.fleet.ready_s))
         if missing:
@@ -598,9 +601,10 @@ class DroneFlight:
 
     def retask(self, request: RetaskRequest) -> str:
         """Put a re-task's mission and fence on the held vehicle, current at its first item after the
-        take-off, and leave it holding (bridge.retask: the way each autopilot takes it, confirmed by the
-        vehicle; what it says meanwhile is recorded): release() then starts it, with the others. The record's mission becomes the new one, so its end and its photos are
-        judged against it. Returns what to say; raises BridgeError when it is not confirmed."""
+        take-off, and leave it holding (missionplan.bridge.transfer.retask: the way each autopilot takes it, confirmed
+        by the vehicle; what it says meanwhile is recorded): release() then starts it, with the others. The record's
+        mission becomes the new one, so its end and its photos are judged against it. Returns what to say; raises
+        BridgeError when it is not confirmed."""
         assert self.backend is not None and self.vehicle is not None
         rec = self.record
         flavour = self.backend.vehicle.flavour
@@ -793,9 +797,9 @@ class DroneFlight:
     # ------------------------------------------------------------------ after landing
     def _recover_photos(self) -> None:
         """The photos whose reports were lost (a gap in the indices, or fewer reports than the camera
-        counted), read from the vehicle's own log where its autopilot keeps one (bridge.onboard_log:
-        ArduPilot's DataFlash log, served once the vehicle is disarmed). The logs read are kept in
-        DIR/logs/uavK/ with the flight."""
+        counted), read from the vehicle's own log where its autopilot keeps one
+        (missionplan.bridge.transfer.onboard_log: ArduPilot's DataFlash log, served once the vehicle is disarmed). The
+        logs read are kept in DIR/logs/uavK/ with the flight."""
         rec = self.record
         if self.backend is None or not (rec.camera or self.gaps):
             return

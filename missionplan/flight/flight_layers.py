@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from geo.frame import GridFrame
+from missionplan.geo.frame import GridFrame
 
 from ..mission.layers import Layers, cells_geometry, collection, feature, layers_from_geojson, uav_colour
 

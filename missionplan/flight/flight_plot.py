@@ -15,12 +15,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from bridge.atomic import atomic_path
+from missionplan.bridge.atomic import atomic_path
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from geo.frame import GridFrame
+    from missionplan.geo.frame import GridFrame
 
 BUILDING = (0.25, 0.25, 0.25)
 FREE = (1.0, 1.0, 1.0)

@@ -36,13 +36,13 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from bridge.atomic import write_text_atomic
-from bridge.copter_model import CopterParams, Motion, total_time
-from bridge.mission import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND, CMD_NAV_TAKEOFF,
-                            CMD_NAV_WAYPOINT)
-from bridge.px4_model import Px4Params
-from geo.cells import cells_feature
-from geo.frame import GridFrame
+from missionplan.bridge.atomic import write_text_atomic
+from missionplan.bridge.flight_models.copter_model import CopterParams, Motion, total_time
+from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND,
+                                                      CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT)
+from missionplan.bridge.flight_models.px4_model import Px4Params
+from missionplan.geo.cells import cells_feature
+from missionplan.geo.frame import GridFrame
 
 from ..mission.timeline import FlightModel, closest_approach, planned_motions
 from ..mission.layers import Layers, drone_paths_latlon, planned_photos
@@ -298,7 +298,8 @@ def sortie_view(report: dict[str, Any], sortie: int, missions: dict[int, dict[in
     spare (SLACK_CELLS, the acceptance radius a vehicle may cut), or hold it at all and no other sortie's
     planned photos do. A cell held only at the edge of J's last photo and again by the next sortie's
     first is not J's alone to hold. `missions`: sortie -> sysid -> that sortie's mission items
-    (bridge.mission.MissionItem, latitude / longitude in degrees); needed only with several sorties."""
+    (missionplan.bridge.formats.mission_items.MissionItem, latitude / longitude in degrees); needed only with several
+    sorties."""
     view = dict(report)
     drones = []
     for drone in report["drones"]:

@@ -1,6 +1,6 @@
 """`missionplan fly DIR`: fly a planned fleet over MAVLink, keep its journal, judge it.
 
-Owns the fleet: one connection per --connect URL, shared by the vehicles on it (bridge.shared_link: one
+Owns the fleet: one connection per --connect URL, shared by the vehicles on it (missionplan.bridge.link.shared_link: one
 udpin port all vehicles send to, a TCP port, a radio); one thread per drone (drone_flight.DroneFlight:
 readiness, site check, upload, arming, the common start, following, the end); the journal every drone
 writes to as things happen (journal.Journal, DIR/journal.sqlite); the live separation watch; what
@@ -13,7 +13,7 @@ record is written from the journal and fly says so. A second Ctrl-C within ABORT
 `fly --resume DIR` re-attaches to the flight a killed or stopped run left (drone_flight: only vehicles
 holding this flight's mission, and nothing commanded) and judges the whole flight, with the photos of
 both runs. Every link fly opens signs with --signing-key when given and speaks as ground station
---gcs-sysid / --gcs-compid (bridge.commands.add_gcs_arguments).
+--gcs-sysid / --gcs-compid (missionplan.bridge.commands.add_gcs_arguments).
 """
 
 from __future__ import annotations
@@ -29,16 +29,16 @@ from typing import Any, Callable
 
 import numpy as np
 
-from bridge.commands import CONNECT_HELP, DEFAULT_CONNECT, add_gcs_arguments, gcs_identity, signing_key
-from bridge.errors import BridgeError, BridgeUsageError
-from bridge.link import GCS_COMPONENT_ID, GCS_SYSTEM_ID, mavlink, parse_gcs_sysid
-from bridge.mission import Flavour
-from bridge.missionfile import read_mission_file
-from bridge.readiness import (DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_LAND_SUB, PX4_RTL_SUB, ground_distance_m,
-                              mode_params)
-from bridge.shared_link import LinkPool
-from bridge.signing import SigningKey
-from bridge.uploader import check_gcs_identity
+from missionplan.bridge.commands import CONNECT_HELP, DEFAULT_CONNECT, add_gcs_arguments, gcs_identity, signing_key
+from missionplan.bridge.errors import BridgeError, BridgeUsageError
+from missionplan.bridge.link.connection import GCS_COMPONENT_ID, GCS_SYSTEM_ID, mavlink, parse_gcs_sysid
+from missionplan.bridge.formats.mission_items import Flavour
+from missionplan.bridge.formats.missionfile import read_mission_file
+from missionplan.bridge.link.readiness import (DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_LAND_SUB, PX4_RTL_SUB,
+                                               ground_distance_m, mode_params)
+from missionplan.bridge.link.shared_link import LinkPool
+from missionplan.bridge.link.signing import SigningKey
+from missionplan.bridge.transfer.uploader import check_gcs_identity
 
 from ..mission.sorties import sortie_file
 from .display import print_flight, progress_display
@@ -132,7 +132,7 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     left), journal it as it happens, and judge it from the journal: flight.json, flight.png,
     missed.geojson.
 
-    connect: one URL or several (each URL, or SYSID=URL; bridge.shared_link.parse_connects): one
+    connect: one URL or several (each URL, or SYSID=URL; missionplan.bridge.link.shared_link.parse_connects): one
     connection per URL, shared by the vehicles on it, signed with `key` when given, and speaking as
     ground station (source_system, source_component).
     progress: one bar per drone on stderr when it is a terminal, else plain lines (a log); False: none

@@ -22,7 +22,7 @@ import json
 from datetime import datetime, timezone
 from pathlib import Path
 
-from bridge.atomic import write_text_atomic
+from missionplan.bridge.atomic import write_text_atomic
 
 from .ledger import LedgerPhoto
 

@@ -27,7 +27,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from bridge.mission import WireItem
+from missionplan.bridge.formats.mission_items import WireItem
 
 from .record import DroneRecord, Sink
 

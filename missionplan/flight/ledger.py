@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from geo.frame import GridFrame
+from missionplan.geo.frame import GridFrame
 
 from ..maps.gridmap import MapError
 from .plan_report import SLACK_CELLS, frame_of, target_cells  # the judge's rule, one place

@@ -10,7 +10,8 @@ Then, once per gone drone:
 2. the planner fly was handed (missionplan.retask.plan_retask, through the CLI: this layer plans
    nothing itself) plans what no confirmed photo has covered yet for them, from there, checked for
    endurance, separation and fences;
-3. each survivor's own thread puts its new mission on its vehicle (DroneFlight.retask, bridge.retask),
+3. each survivor's own thread puts its new mission on its vehicle (DroneFlight.retask,
+missionplan.bridge.transfer.retask),
    the main thread waiting, bounded, for all of them; then all are released to their mission mode at
    once, so the new tracks start together. One whose upload failed keeps holding, and the crew is told.
 A refusal (a survivor that cannot be held, a plan that fails a check) is said with its reason and the
@@ -32,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from bridge.missionfile import read_mission_file
+from missionplan.bridge.formats.missionfile import read_mission_file
 
 from .drone_flight import HOLD_S, RETASK_UPLOAD_S, RETURN_MODES, DroneFlight, RetaskRequest
 from .flight_report import vehicle_rate

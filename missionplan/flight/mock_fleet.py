@@ -1,13 +1,13 @@
 """The mock fleet `missionplan demo` and the integration tests fly against: one in-process mock
-autopilot (bridge.mock) per drone of a plan folder, on 127.0.0.1, each at its drone's launch point."""
+autopilot (missionplan.bridge.sim.mock) per drone of a plan folder, on 127.0.0.1, each at its drone's launch point."""
 
 from __future__ import annotations
 
 from pathlib import Path
 from typing import Any
 
-from bridge.errors import BridgeUsageError
-from bridge.missionfile import read_mission_file
+from missionplan.bridge.errors import BridgeUsageError
+from missionplan.bridge.formats.missionfile import read_mission_file
 
 
 def start_mock_fleet(plan_dir: Path, speedup: float, flavour: str = "ardupilot", faults: Any = None,
@@ -17,7 +17,7 @@ def start_mock_fleet(plan_dir: Path, speedup: float, flavour: str = "ardupilot",
     sitl_like: they fly like ArduCopter SITL (the plan's timeline); cameras: each has its camera
     configured (CAM1_TYPE and a reboot, as a team does once), else it reports no photos; options go
     to MockAutopilot (gps_fix_after, streams_until_asked: SITL-like readiness and streams; homes)."""
-    from bridge.mock import MockAutopilot
+    from missionplan.bridge.sim.mock import MockAutopilot
 
     homes: dict[int, tuple[float, float, float]] = {}
     for path in sorted(Path(plan_dir).glob("uav*.plan")):

@@ -9,9 +9,10 @@ A survey flight has four phases, each ended by something the vehicle itself repo
 A vehicle that reports no landed state has one phase "return and landing" instead of the last two.
 
 Flown times are on the vehicle's own clock (its time_boot_ms, the ruler of flight_s: the phases add up
-to it); the planned ones are the flight model's motions (bridge.copter_model, bridge.px4_model) for
-the mission as uploaded, grouped by their kind, with the parameters the vehicle reported. A flight that
-took far longer than planned then says where: a landing that took minutes is not a slow survey.
+to it); the planned ones are the flight model's motions (missionplan.bridge.flight_models.copter_model,
+missionplan.bridge.flight_models.px4_model) for the mission as uploaded, grouped by their kind, with the parameters the
+vehicle reported. A flight that took far longer than planned then says where: a landing that took minutes is not a slow
+survey.
 """
 
 from __future__ import annotations
@@ -20,9 +21,9 @@ from typing import Any
 
 import numpy as np
 
-from bridge.copter_model import Motion
-from bridge.link import mavlink
-from bridge.px4 import reached_item
+from missionplan.bridge.flight_models.copter_model import Motion
+from missionplan.bridge.link.connection import mavlink
+from missionplan.bridge.formats.px4_rules import reached_item
 
 from .record import DroneRecord
 
@@ -146,8 +147,8 @@ def reached_items(row: dict[str, Any]) -> list[int]:
 
 
 def reached_navigation_items(row: dict[str, Any], commands: list[int]) -> list[int]:
-    """The navigation items a flight.json drone row's MISSION_ITEM_REACHED were about (bridge.px4.reached_item:
-    PX4 may report a waypoint by the seq of the DO_ items after it), in order, each once; `commands`: the
-    uploaded mission's commands by seq."""
+    """The navigation items a flight.json drone row's MISSION_ITEM_REACHED were about
+    (missionplan.bridge.formats.px4_rules.reached_item: PX4 may report a waypoint by the seq of the DO_ items after it),
+    in order, each once; `commands`: the uploaded mission's commands by seq."""
     items = [reached_item(commands, seq) for seq in reached_items(row)]
     return [k for i, k in enumerate(items) if i == 0 or k != items[i - 1]]

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from geo.frame import GridFrame
+from missionplan.geo.frame import GridFrame
 
 from ..maps.gridmap import GridMap
 

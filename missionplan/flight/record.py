@@ -37,7 +37,7 @@ class DroneRecord:
     mission_state: int = 0
     current: int = 0
     captures: int = 0  # photos the camera says it took (completed_captures / highest img_idx + 1)
-    wire: list[Any] = field(default_factory=list)  # the mission as uploaded (bridge.mission.WireItem)
+    wire: list[Any] = field(default_factory=list)  # the mission as uploaded (mission_items.WireItem)
     reached: list[tuple[float, int]] = field(default_factory=list)  # arrival time, seq
     landed: list[tuple[float, int]] = field(default_factory=list)  # EXTENDED_SYS_STATE landed state, at each change
     events: list[tuple[float, str]] = field(default_factory=list)  # mode, arming, landed state, STATUSTEXT, alerts
@@ -47,7 +47,7 @@ class DroneRecord:
     photo_source: dict[int, str] = field(default_factory=dict)  # img_idx -> "camera" or "log"
     attitude: dict[int, tuple[float, float, float]] = field(default_factory=dict)  # img_idx -> roll, pitch, yaw deg
     params: dict[str, float] = field(default_factory=dict)  # navigation parameters the vehicle reported
-    flavour: str = ""  # the autopilot's conventions (bridge.mission.Flavour value): which flight model times it
+    flavour: str = ""  # the autopilot's conventions (a mission_items.Flavour value): which flight model times it
     t_start: float | None = None
     t_end: float | None = None
     ended_early: str = ""  # why the vehicle ended its mission before its last item (a failsafe, a landing)

@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from bridge.atomic import atomic_path, write_text_atomic
-from geo.cells import cells_feature
+from missionplan.bridge.atomic import atomic_path, write_text_atomic
+from missionplan.geo.cells import cells_feature
 
 from .plan_report import planned_grid
 from .ledger import Ledger, Survey

@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from bridge.mission import Flavour
-from bridge.missionfile import PlanFile, write_mission_file
-from geo.frame import GridFrame
+from missionplan.bridge.formats.mission_items import Flavour
+from missionplan.bridge.formats.missionfile import PlanFile, write_mission_file
+from missionplan.geo.frame import GridFrame
 
 from ..grid.planresult import PlanResult
 from ..grid.world import FOOTPRINT_RADIUS

@@ -19,8 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bridge.mission import CMD_FENCE_POLYGON_VERTEX_INCLUSION, FRAME_GLOBAL, Mission, MissionItem, MissionType
-from geo.frame import GridFrame
+from missionplan.bridge.formats.mission_items import (CMD_FENCE_POLYGON_VERTEX_INCLUSION, FRAME_GLOBAL, Mission,
+                                                      MissionItem, MissionType)
+from missionplan.geo.frame import GridFrame
 
 MAX_VERTICES = 24
 

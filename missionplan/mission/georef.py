@@ -15,11 +15,11 @@ from typing import Any
 
 import shapely
 
-from geo.area import build_grid_map
-from geo.camera import Camera
-from geo.errors import GeoError
-from geo.frame import GridFrame
-from geo.readers import Building, read_area, read_buildings, read_polygons
+from missionplan.geo.area import build_grid_map
+from missionplan.geo.camera import Camera
+from missionplan.geo.errors import GeoError
+from missionplan.geo.frame import GridFrame
+from missionplan.geo.readers import Building, read_area, read_buildings, read_polygons
 
 from ..maps.gridmap import GridMap
 from .missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, MissionSettings

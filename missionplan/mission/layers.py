@@ -22,11 +22,11 @@ import numpy as np
 import shapely
 from shapely.geometry import mapping
 
-from bridge.mission import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND, CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF,
-                            CMD_NAV_WAYPOINT, MissionItem)
-from geo.cells import cells_polygons
-from geo.geojson_layers import rfc7946
-from geo.frame import GridFrame
+from missionplan.bridge.formats.mission_items import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND, CMD_NAV_RETURN_TO_LAUNCH,
+                                                      CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, MissionItem)
+from missionplan.geo.cells import cells_polygons
+from missionplan.geo.geojson_layers import rfc7946
+from missionplan.geo.frame import GridFrame
 
 from ..grid.planresult import PlanResult
 from ..maps.gridmap import GridMap

@@ -13,9 +13,9 @@ import json
 from pathlib import Path
 from typing import Any
 
-from bridge.atomic import write_text_atomic
-from geo.gpkg import write_geopackage
-from geo.kml import write_kmz
+from missionplan.bridge.atomic import write_text_atomic
+from missionplan.geo.gpkg import write_geopackage
+from missionplan.geo.kml import write_kmz
 
 from .layers import LAYER_GEOMETRY, Layers, one_collection
 from .webmap import write_html_map

@@ -15,7 +15,7 @@ flies at altitude H + k * altitude_step: layers go up from H, never below it, so
 footprint (and the coverage) never shrinks. The trigger distance is the footprint side
 times (1 - frontal overlap); the default overlap 8/9 gives one photo per grid cell.
 
-The result is a `bridge.mission.Mission`, a plain list of items: bridge/ uploads it without
+The result is a `missionplan.bridge.formats.mission_items.Mission`, a plain list of items: bridge/ uploads it without
 knowing anything about grids.
 """
 
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bridge.mission import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND,
+from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND,
                             CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT,
                             FRAME_MISSION, SPEED_TYPE_GROUNDSPEED, Mission, MissionItem)
 
@@ -46,7 +46,7 @@ class MissionSettings:
     overlap: float = DEFAULT_OVERLAP
     end: str = "rtl"
     altitude_step_m: float = 0.0
-    autopilot: str = "ardupilot"  # `plan --autopilot`: whose flight the timeline times (px4: bridge.px4_model)
+    autopilot: str = "ardupilot"  # `plan --autopilot`: whose flight the timeline times (px4: flight_models.px4_model)
 
     @property
     def acceptance_m(self) -> float:

@@ -30,8 +30,8 @@ from matplotlib.patches import Patch  # noqa: E402
 from matplotlib.transforms import ScaledTranslation  # noqa: E402
 from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar  # noqa: E402
 
-from bridge.atomic import atomic_path  # noqa: E402
-from geo.frame import GridFrame  # noqa: E402
+from missionplan.bridge.atomic import atomic_path  # noqa: E402
+from missionplan.geo.frame import GridFrame  # noqa: E402
 from ..grid.planresult import PlanResult  # noqa: E402
 
 TRACK_COLOURS = plt.get_cmap("tab10").colors  # drone k draws in TRACK_COLOURS[k % 10]

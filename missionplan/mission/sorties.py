@@ -11,9 +11,9 @@ caller measures it along free cells, flightplan routes them the same way); by de
 line. The cut is greedy along the route: as many points as fit, where the points are the route's
 waypoints plus every `step_m` along its axis-aligned legs (grid cell centres, so a cut never falls
 where a drone could not be routed from). Times are the timeline's model of the plan's autopilot
-(bridge.copter_model for ArduCopter: spool-up and climb, legs from rest to rest, RTL with its loiter
-and slow final descent; bridge.px4_model for PX4: the same plus a turn of the nose before every leg,
-PX4's RTL and landing), with a stop at every cut point too, and on PX4 a half turn where a sortie's
+(missionplan.bridge.flight_models.copter_model for ArduCopter: spool-up and climb, legs from rest to rest, RTL with its
+loiter and slow final descent; missionplan.bridge.flight_models.px4_model for PX4: the same plus a turn of the nose
+before every leg, PX4's RTL and landing), with a stop at every cut point too, and on PX4 a half turn where a sortie's
 survey starts: the sortie flies fewer stops and smaller turns, so the estimate is an upper bound of
 its planned time.
 
@@ -27,8 +27,8 @@ from typing import Callable
 
 import numpy as np
 
-from bridge import copter_model as cm
-from bridge import px4_model
+from missionplan.bridge.flight_models import copter_model as cm
+from missionplan.bridge.flight_models import px4_model
 
 from ..maps.gridmap import MapError
 from .timeline import FlightModel

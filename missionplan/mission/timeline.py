@@ -1,15 +1,15 @@
 """Where every drone is when: planned missions as timed 3-D tracks, and the closest approach of two tracks.
 
 The plan's separation promise and planned times come from here. All drones start their missions
-together and fly them the way ArduCopter does (bridge.copter_model, measured on ArduCopter SITL; the
-mock autopilot's SITL-like mode flies the same model): spool up and climb at the launch point, fly
+together and fly them the way ArduCopter does (missionplan.bridge.flight_models.copter_model, measured on ArduCopter
+SITL; the mock autopilot's SITL-like mode flies the same model): spool up and climb at the launch point, fly
 every leg from rest to rest at the cruise speed with the copter's acceleration, and at the end
 return (RTL: climb to RTL_ALT, home at RTL_SPEED, loiter, land) or land where the track ends (LAND),
 the last LAND_ALT_LOW metres at LAND_SPEED. `plan` uses ArduCopter's documented defaults; `fly`
 re-times each plan with the parameters its vehicle reports. A FlightModel with `px4` set times the
-flight as PX4 flies it instead (bridge.px4_model: take-off at MPC_TKO_SPEED, a turn of the nose at
-every corner, RTL and PX4's three landing speeds), for plans made for PX4 and PX4 vehicles. `closest_approach` measures any set of
-timed tracks, planned or flown, on one time base, so plan and flight are judged by the same ruler.
+flight as PX4 flies it instead (missionplan.bridge.flight_models.px4_model: take-off at MPC_TKO_SPEED, a turn of the
+nose at every corner, RTL and PX4's three landing speeds), for plans made for PX4 and PX4 vehicles. `closest_approach`
+measures any set of timed tracks, planned or flown, on one time base, so plan and flight are judged by the same ruler.
 
 Positions are in one local metric frame (the grid frame in metres: row axis, column axis, up).
 """
@@ -21,17 +21,19 @@ from typing import Any
 
 import numpy as np
 
-from bridge import copter_model as cm
-from bridge import px4_model
-from bridge.copter_model import CopterParams
-from bridge.px4_model import Px4Params
+from missionplan.bridge.flight_models import copter_model as cm
+from missionplan.bridge.flight_models import px4_model
+from missionplan.bridge.flight_models.copter_model import CopterParams
+from missionplan.bridge.flight_models.px4_model import Px4Params
 
-ASSUMES = ("all missions start together; ArduCopter's flight (bridge.copter_model): spool-up and climb at "
+ASSUMES = ("all missions start together; ArduCopter's flight (missionplan.bridge.flight_models.copter_model): "
+           "spool-up and climb at "
            "WPNAV_SPEED_UP, legs from rest to rest at the cruise speed with WPNAV_ACCEL, RTL at RTL_ALT and "
            "RTL_SPEED then RTL_LOIT_TIME, descent at WPNAV_SPEED_DN, the last LAND_ALT_LOW at LAND_SPEED")
 
 
-PX4_ASSUMES = ("all missions start together; PX4's flight (bridge.px4_model): spool-up and climb at MPC_TKO_SPEED, "
+PX4_ASSUMES = ("all missions start together; PX4's flight (missionplan.bridge.flight_models.px4_model): "
+               "spool-up and climb at MPC_TKO_SPEED, "
                "a turn of the nose at MPC_YAWRAUTO_MAX before each leg, legs from rest to rest at the cruise speed "
                "with MPC_ACC_HOR, RTL, descent at MPC_Z_V_AUTO_DN then MPC_LAND_SPEED below MPC_LAND_ALT2")
 
@@ -41,7 +43,7 @@ class FlightModel:
     speed_m_s: float
     acceptance_m: float
     copter: CopterParams = field(default_factory=CopterParams)
-    px4: Px4Params | None = None  # set: the flight is timed as PX4 flies it (bridge.px4_model)
+    px4: Px4Params | None = None  # set: the flight is timed as PX4 flies it (flight_models.px4_model)
 
     @classmethod
     def for_autopilot(cls, autopilot: str, speed_m_s: float, acceptance_m: float) -> FlightModel:
@@ -66,7 +68,7 @@ class FlightModel:
 
 def planned_motions(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: float, end: str,
                     model: FlightModel) -> list[cm.Motion]:
-    """The phases of one drone's planned flight (bridge.copter_model.Motion), in order."""
+    """The phases of one drone's planned flight (missionplan.bridge.flight_models.copter_model.Motion), in order."""
     ground = (float(launch_m[0]), float(launch_m[1]), 0.0)
     if model.px4 is not None:
         targets = [(float(w[0]), float(w[1]), float(altitude_m)) for w in np.asarray(waypoints_m, dtype=float).reshape(-1, 2)]

@@ -3,7 +3,7 @@
 A fleet usually reaches its ground station over one link: every vehicle sends to one UDP port
 (`udpin:`), a SITL or mavlink-router TCP port serves one client, a telemetry radio is one serial
 device. Opening one connection per vehicle then fails (the second socket cannot bind the port, the
-second TCP client is refused, the device is busy). Here one bridge.link.Link is opened per URL and:
+second TCP client is refused, the device is busy). Here one link.connection.Link is opened per URL and:
 
 - a reader thread takes every packet off it and routes it by source system id into that vehicle's
   queue (bounded: the oldest packets go first when a vehicle's thread does not keep up, counted);
@@ -11,7 +11,7 @@ second TCP client is refused, the device is busy). Here one bridge.link.Link is 
   deadline, mav for sending, command_long, reboots, heartbeat, the signing diagnosis), so a
   PymavlinkBackend, a MissionClient or a ParamClient runs over it unchanged, one thread per vehicle;
 - sends go straight to the Link, which serialises them and, on udpin, sends each packet to the
-  address its target vehicle's packets come from (bridge.link);
+  address its target vehicle's packets come from (link.connection);
 - LinkPool opens the links of a fleet (`--connect URL` repeated, or `SYSID=URL`) and finds which link a
   system id is on (by its HEARTBEAT) when the URL was not given per system id.
 """
@@ -24,8 +24,8 @@ from collections import deque
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from .errors import BridgeError, BridgeUsageError
-from .link import (COMMAND_TRIES, COMMAND_WAIT_S, GCS_COMPONENT_ID, GCS_SYSTEM_ID, Link, command_long, mavlink,
+from ..errors import BridgeError, BridgeUsageError
+from .connection import (COMMAND_TRIES, COMMAND_WAIT_S, GCS_COMPONENT_ID, GCS_SYSTEM_ID, Link, command_long, mavlink,
                    parse_sysid, parse_url)
 from .signing import SigningKey
 

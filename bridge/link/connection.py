@@ -10,14 +10,14 @@ Owns:
   reboot is noticed;
 - a lost transport: pymavlink prints "EOF on TCP socket" on every read of a closed TCP connection
   (and `select` wakes at once for it, so a read loop printed it a million times). Link takes those
-  hooks over: it says once (log warning on "bridge.link") that the peer closed the connection,
+  hooks over: it says once (log warning on "missionplan.bridge.link.connection") that the peer closed the connection,
   reconnects a bounded number of times, and otherwise raises one BridgeError. A serial device that
   vanishes (unplugged) is a BridgeError too; one that does not exist is a BridgeUsageError;
 - several vehicles on one `udpin:` port (a fleet that all sends to one ground-station port): each
   datagram's sender is remembered per source system, and every packet we send goes to the address of
   the vehicle it is for (its target_system), not to the last sender; packets for no one in particular
   (our heartbeat) go to every vehicle heard. Sends are serialised (one lock around pack and write),
-  so several threads may send on one Link (bridge.shared_link reads for them);
+  so several threads may send on one Link (link.shared_link reads for them);
 - wait_vehicle: the HEARTBEAT of the requested system (and component) and what it tells: the flavour;
 - the signing diagnosis (Link.signing_hint): the one place that says whether MAVLink 2 signing is the
   likely reason a vehicle ignores us (it signs and we do not; or we sign and its packets are refused),
@@ -42,8 +42,8 @@ os.environ.setdefault("MAVLINK20", "1")  # before pymavlink is imported: MAVLink
 
 from pymavlink import mavutil  # noqa: E402
 
-from .errors import BridgeError, BridgeUsageError  # noqa: E402
-from .mission import Flavour  # noqa: E402
+from ..errors import BridgeError, BridgeUsageError  # noqa: E402
+from ..formats.mission_items import Flavour  # noqa: E402
 from .signing import SigningKey, apply_key, refused_packets  # noqa: E402
 
 if mavutil.mavlink.WIRE_PROTOCOL_VERSION != "2.0":  # someone imported pymavlink before us without MAVLINK20
@@ -70,7 +70,7 @@ RECONNECT_TRIES = 4      # TCP connects after the peer closed the connection, be
 RECONNECT_WAIT_S = 0.5   # between them (and the connect time-out of each)
 MAX_RECONNECTS = 5       # closed connections one Link survives; a peer that keeps dropping us is broken
 
-log = logging.getLogger("bridge.link")
+log = logging.getLogger(__name__)
 
 _HOST_PORT = re.compile(r"^(?P<host>[A-Za-z0-9_.\-]+|\[[0-9A-Fa-f:]+\]):(?P<port>\d{1,5})$")
 _SERIAL = re.compile(r"^(/dev/\S+|COM\d+([,:]\S*)?)$", re.IGNORECASE)
@@ -196,7 +196,7 @@ def is_signed(msg: Any) -> bool:
 
 class Link:
     """One pymavlink connection with our ground-station identity. Reads from one thread at a time;
-    sends from any thread (bridge.shared_link shares one Link among several vehicles' threads)."""
+    sends from any thread (link.shared_link shares one Link among several vehicles' threads)."""
 
     def __init__(self, url: str, key: SigningKey | None = None, source_system: int = GCS_SYSTEM_ID,
                  source_component: int = GCS_COMPONENT_ID) -> None:
@@ -422,7 +422,7 @@ class Link:
 
     @property
     def stale_signatures(self) -> int:
-        """Packets signed with our key but refused for an old timestamp (see bridge.signing)."""
+        """Packets signed with our key but refused for an old timestamp (see link.signing)."""
         return refused_packets(self.mav)[2]
 
     def signing_problem(self) -> str:
@@ -467,10 +467,10 @@ class Link:
 def command_long(link: Any, sysid: int, command: int, params: list[float], deadline: float,
                  other: Callable[[Any], Any] | None = None, done: Callable[[], bool] | None = None,
                  tries: int = COMMAND_TRIES, wait_s: float = COMMAND_WAIT_S) -> int | None:
-    """COMMAND_LONG over `link` (a Link, or a bridge.shared_link.VehicleLink) to (sysid, autopilot) with
-    retries, the confirmation counting up; the MAV_RESULT of its COMMAND_ACK, or None without one. Other messages of that vehicle that arrive meanwhile
-    go to `other`, when given. `done` says the command has visibly taken effect: then a lost
-    acknowledgement is not worth a repeat (MAVLink repeats are executed again, and a repeated
+    """COMMAND_LONG over `link` (a Link, or a link.shared_link.VehicleLink) to (sysid, autopilot) with
+    retries, the confirmation counting up; the MAV_RESULT of its COMMAND_ACK, or None without one. Other messages of
+    that vehicle that arrive meanwhile go to `other`, when given. `done` says the command has visibly taken effect: then
+    a lost acknowledgement is not worth a repeat (MAVLink repeats are executed again, and a repeated
     mission start may restart the mission on some autopilots), and the answer is ACCEPTED."""
     padded = (list(params) + [0.0] * 7)[:7]
     for attempt in range(tries):

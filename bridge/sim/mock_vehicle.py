@@ -3,11 +3,11 @@
 Owns the vehicle side of the mission protocol for every mission_type (mission, fence, rally):
 upload with re-requests on a timer and a give-up time-out (the old mission stays until an upload
 completes), download of any in-range item in any order, clear-all, set-current. The ArduPilot flavour
-does what ArduCopter SITL does: it stores items as bridge.readback.ardupilot_stored says (NAV_WAYPOINT
+does what ArduCopter SITL does: it stores items as formats.readback.ardupilot_stored says (NAV_WAYPOINT
 keeps only param1, DO_* come back in frame 0, ...), keeps its home as item 0 (0, 0, 0 until its GPS
 has a fix), re-requests after 1 s, answers an item it did not ask for with INVALID_SEQUENCE and one
 after the upload completed with ERROR, and flies every waypoint to WPNAV_RADIUS (PARAM_SET /
-PARAM_REQUEST_READ), not to param2. The PX4 flavour does what PX4 SIH does with missions (bridge.px4,
+PARAM_REQUEST_READ), not to param2. The PX4 flavour does what PX4 SIH does with missions (formats.px4_rules,
 measured; sitl_tests/test_mock_vs_px4.py keeps it honest): PX4's frame / command matrix and result
 codes, its stored form (3 -> 6, 0 -> 5, no pass radius, float32-radian yaws), the `current` flag on
 its active item and on item 0 of fence and rally, the legacy MISSION_REQUEST until the ground
@@ -42,9 +42,9 @@ The SITL-like mode (VehicleOptions.sitl_like) adds what ArduCopter SITL does in 
 CAMERA_FEEDBACK until a camera is configured (CAM1_TYPE set, then a reboot:
 MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN), img_idx from 1 and counting on across flights until a reboot,
 ArduCopter's navigation parameters (PARAM_REQUEST_READ / PARAM_SET) and its flight
-(bridge.copter_model: acceleration, stops at corners, RTL_ALT climb, slow final descent). The flight itself is mock_flight's; the link and the other
-faults are mock's; the onboard log (a DataFlash log with one CAM per photo, and the LOG_REQUEST_*
-transfer) is mock_log's. Everything here runs on the mock's one loop thread.
+(flight_models.copter_model: acceleration, stops at corners, RTL_ALT climb, slow final descent). The flight itself is
+mock_flight's; the link and the other faults are mock's; the onboard log (a DataFlash log with one CAM per photo, and
+the LOG_REQUEST_* transfer) is mock_log's. Everything here runs on the mock's one loop thread.
 """
 
 from __future__ import annotations
@@ -53,14 +53,14 @@ import math
 from dataclasses import dataclass, replace
 from typing import Any
 
-from .copter_model import CopterParams
-from .link import mavlink
-from .px4_model import Px4Params
-from .mission import GLOBAL_FRAMES, Flavour, MissionType, WireItem, encode_xy
-from .readback import ardupilot_stored
+from ..flight_models.copter_model import CopterParams
+from ..link.connection import mavlink
+from ..flight_models.px4_model import Px4Params
+from ..formats.mission_items import GLOBAL_FRAMES, Flavour, MissionType, WireItem, encode_xy
+from ..formats.readback import ardupilot_stored
 from .mock_flight import FlightEvent, FlightSim
 from .mock_log import OnboardLogs
-from .px4 import (GEOFENCE_WITHOUT_HOME, MIS_DIST_1WP_DEFAULT, START_DENIED, fence_problems, item_result,
+from ..formats.px4_rules import (GEOFENCE_WITHOUT_HOME, MIS_DIST_1WP_DEFAULT, START_DENIED, fence_problems, item_result,
                   px4_millimetres, px4_stored, reported_reached, start_refusals)
 
 CAPABILITIES = (mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
@@ -185,7 +185,7 @@ class MockVehicle:
         self.battery_failsafe = 0  # 0 none, 1 low, 2 critical (the highest reached since boot)
         self.consumed_mah = 0.0
         if self.flavour is Flavour.PX4:
-            self.params["MIS_DIST_1WP"] = MIS_DIST_1WP_DEFAULT  # its mission feasibility check (bridge.px4)
+            self.params["MIS_DIST_1WP"] = MIS_DIST_1WP_DEFAULT  # its mission feasibility check (formats.px4_rules)
         if self.options.sitl_like and self.flavour is Flavour.PX4:
             self.params.update({**Px4Params().as_params(), PX4_CAMERA_PARAM: 0.0})
         elif self.options.sitl_like:
@@ -569,7 +569,7 @@ class MockVehicle:
             elif event.kind == "reached":
                 self.reached.append(event.seq)
                 seq: int | None = event.seq
-                if self.flavour is Flavour.PX4:  # PX4's own way of reporting it (bridge.px4.reported_reached)
+                if self.flavour is Flavour.PX4:  # PX4's own way of reporting it (formats.px4_rules.reported_reached)
                     seq = reported_reached([int(item.command) for item in self.flight.items], event.seq)
                 if seq is not None:
                     self.mav.mission_item_reached_send(seq)
@@ -742,15 +742,15 @@ class MockVehicle:
             self._send_text(GEOFENCE_WITHOUT_HOME)  # as PX4 says it right after such a fence upload
 
     def _stored(self, item: WireItem) -> WireItem:
-        # ArduPilot keeps what its storage has room for (bridge.readback.ardupilot_stored, measured on
-        # ArduCopter SITL: no NAV_WAYPOINT param2, frame 0 for DO_* ...); PX4 what bridge.px4.px4_stored
+        # ArduPilot keeps what its storage has room for (formats.readback.ardupilot_stored, measured on
+        # ArduCopter SITL: no NAV_WAYPOINT param2, frame 0 for DO_* ...); PX4 what formats.px4_rules.px4_stored
         # says (frames 3 -> 6, 0 -> 5, no pass radius; measured on PX4 SIH); others keep what they got.
         if self.flavour is Flavour.ARDUPILOT:
             return ardupilot_stored(item)
         return px4_stored(item) if self.flavour is Flavour.PX4 else item
 
     def start_refusals(self) -> list[str]:
-        """Why PX4 would refuse to start the stored mission (bridge.px4), from this vehicle's home;
+        """Why PX4 would refuse to start the stored mission (formats.px4_rules), from this vehicle's home;
         empty for other flavours and for a mission PX4 would start."""
         if self.flavour is not Flavour.PX4:
             return []
@@ -968,7 +968,7 @@ class MockVehicle:
         if command == mavlink.MAV_CMD_MISSION_START:
             if len(self.stores[MissionType.MISSION]) <= self.first_mission_seq:
                 return mavlink.MAV_RESULT_DENIED
-            if self.start_refusals() or now < self.mission_checked_at:  # PX4's mission checks (bridge.px4)
+            if self.start_refusals() or now < self.mission_checked_at:  # PX4's mission checks (formats.px4_rules)
                 self._send_text(START_DENIED)
                 return mavlink.MAV_RESULT_DENIED
             if not s.armed:

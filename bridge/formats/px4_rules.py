@@ -27,7 +27,7 @@ import math
 import struct
 from dataclasses import replace
 
-from .mission import (
+from .mission_items import (
     CMD_CONDITION_DELAY,
     CMD_DO_CHANGE_SPEED,
     CMD_DO_DIGICAM_CONTROL,

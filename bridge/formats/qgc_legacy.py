@@ -1,4 +1,4 @@
-"""QGroundControl's older JSON layouts, rewritten into the current `.plan` shapes bridge.missionfile reads.
+"""QGroundControl's older JSON layouts, rewritten into the current `.plan` shapes formats.missionfile reads.
 
 Owns the two translations QGroundControl itself applies when it loads its own files, and nothing else
 (no numbers are checked here: the rewritten shapes go through missionfile's checks like any plan):
@@ -22,7 +22,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from .errors import BridgeUsageError
+from ..errors import BridgeUsageError
 
 V1_PARAM_KEYS = ("param1", "param2", "param3", "param4")
 MISSION_FILE_TYPE = "Mission"  # QGroundControl's fileType for .mission files (absent in version 1 files)

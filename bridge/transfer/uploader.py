@@ -10,9 +10,9 @@ Owns:
   upload each (clear the fence / rally when the file has none), read each back and compare item by
   item by the flavour's rule (ArduPilot's item 0 is its home and is skipped). It succeeds only when
   the vehicle holds exactly what was sent. It also sets the parameters the vehicle needs to fly the
-  plan as written (bridge.params: WPNAV_RADIUS on ArduCopter), unless told not to. A PX4 vehicle is
+  plan as written (link.params: WPNAV_RADIUS on ArduCopter), unless told not to. A PX4 vehicle is
   first asked for its home: a plan PX4 would refuse to start from there, or fly without its
-  geofence (bridge.px4), is not uploaded.
+  geofence (formats.px4_rules), is not uploaded.
 """
 
 from __future__ import annotations
@@ -22,14 +22,15 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from .errors import BridgeError, BridgeUsageError
-from .link import AUTOPILOT_COMPONENT_ID, GCS_COMPONENT_ID, GCS_SYSTEM_ID, Link, VehicleInfo, mavlink, wait_vehicle
-from .mission import Flavour, Mission, MissionType, WireItem, from_wire, to_wire
-from .readback import compare_wire
-from .params import ParamClient, ParamSetting, acceptance_radius_setting, set_param
-from .px4 import MIS_DIST_1WP_DEFAULT, START_DENIED, fence_problems, start_refusals
+from ..errors import BridgeError, BridgeUsageError
+from ..link.connection import (AUTOPILOT_COMPONENT_ID, GCS_COMPONENT_ID, GCS_SYSTEM_ID, Link, VehicleInfo, mavlink,
+                               wait_vehicle)
+from ..formats.mission_items import Flavour, Mission, MissionType, WireItem, from_wire, to_wire
+from ..formats.readback import compare_wire
+from ..link.params import ParamClient, ParamSetting, acceptance_radius_setting, set_param
+from ..formats.px4_rules import MIS_DIST_1WP_DEFAULT, START_DENIED, fence_problems, start_refusals
 from .protocol import MissionClient, MissionTransferError, ProgressFn, Timeouts, UploadUnconfirmed
-from .signing import SigningKey
+from ..link.signing import SigningKey
 
 PLAN_TYPES = (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY)
 
@@ -56,14 +57,14 @@ class MissionBackend(Protocol):
 
 
 class PymavlinkBackend:
-    """The default backend: our own mission protocol (bridge.protocol) over a pymavlink link."""
+    """The default backend: our own mission protocol (transfer.protocol) over a pymavlink link."""
 
     name = "pymavlink"
 
     def __init__(self, url: str, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID, key: SigningKey | None = None,
                  timeouts: Timeouts | None = None, connect_timeout: float = 10.0, link: Any = None,
                  source_system: int = GCS_SYSTEM_ID, source_component: int = GCS_COMPONENT_ID) -> None:
-        """link: an open link to use instead of opening url (a bridge.shared_link.VehicleLink of a
+        """link: an open link to use instead of opening url (a link.shared_link.VehicleLink of a
         fleet's shared connection, which has its own key and identity); close() then closes only the
         view. source_system, source_component: our ground-station identity on a link we open."""
         self.link = link if link is not None else Link(url, key, source_system, source_component)
@@ -101,7 +102,7 @@ class PymavlinkBackend:
 
 
 def check_gcs_identity(backend: str, source_system: int, source_component: int, option: str = "--backend") -> None:
-    """MAVSDK speaks as its own ground station (system 245, component 190: bridge.mavsdk_backend) and
+    """MAVSDK speaks as its own ground station (system 245, component 190: transfer.mavsdk_backend) and
     takes no other identity: asking for one with it is bad input, not silently ignored."""
     if backend == "mavsdk" and (source_system, source_component) != (GCS_SYSTEM_ID, GCS_COMPONENT_ID):
         raise BridgeUsageError(f"{option} mavsdk: MAVSDK sends as its own ground station (system 245), so "
@@ -178,7 +179,7 @@ ProgressFactory = Callable[[str, int], ProgressFn | None]  # (label, total) -> p
 def read_back_differences(backend: MissionBackend, mission_type: int, wire: list[WireItem],
                           progress: ProgressFn | None = None) -> list[str]:
     """Download what the vehicle holds and compare it with `wire` item by item by the flavour's rule
-    (bridge.readback.stored_form; ArduPilot's own home item skipped); an empty list when it holds
+    (formats.readback.stored_form; ArduPilot's own home item skipped); an empty list when it holds
     exactly that."""
     got = backend.download(mission_type, progress)
     flavour = backend.vehicle.flavour
@@ -218,7 +219,7 @@ def _send_part(backend: MissionBackend, mtype: MissionType, part: Mission, wire:
 
 
 def set_plan_params(backend: MissionBackend, mission: Mission) -> list[str]:
-    """Set what the vehicle needs to fly `mission` as written (bridge.params: WPNAV_RADIUS on an
+    """Set what the vehicle needs to fly `mission` as written (link.params: WPNAV_RADIUS on an
     ArduPilot multirotor); one phrase per parameter set, for the report."""
     setting: ParamSetting | None = acceptance_radius_setting(backend.vehicle, mission)
     if setting is None:
@@ -247,7 +248,7 @@ def vehicle_home(link: Any, sysid: int, seconds: float = HOME_WAIT_S) -> tuple[f
 
 
 def px4_start_problems(backend: MissionBackend, parts: list[Mission]) -> str | None:
-    """What a PX4 vehicle would do wrong with this plan from where it is (bridge.px4: refuse to start
+    """What a PX4 vehicle would do wrong with this plan from where it is (formats.px4_rules: refuse to start
     it, the first waypoint being MIS_DIST_1WP or more away; ignore its geofence, which leaves the
     vehicle's home out), as one phrase; None when all is well, or when the vehicle's home is not
     known (no link, no fix)."""
@@ -278,8 +279,8 @@ def upload_plan(backend: MissionBackend, parts: list[Mission], verify: bool = Tr
                 progress: ProgressFactory | None = None, set_params: bool = True) -> UploadReport:
     """Upload mission, fence and rally (an absent or empty fence / rally list is cleared on the vehicle)
     and, with verify, prove by read-back that the vehicle holds exactly those three lists, by the
-    flavour's rule (bridge.readback.stored_form). With set_params, first set what the vehicle needs to
-    fly the plan as written (bridge.params: WPNAV_RADIUS on ArduCopter)."""
+    flavour's rule (formats.readback.stored_form). With set_params, first set what the vehicle needs to
+    fly the plan as written (link.params: WPNAV_RADIUS on ArduCopter)."""
     start = time.monotonic()
     vehicle = backend.vehicle
     report = UploadReport(sysid=vehicle.sysid, flavour=vehicle.flavour.value, backend=backend.name)

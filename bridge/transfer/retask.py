@@ -2,7 +2,7 @@
 
 Owns replace_mission_in_flight, what the product calls when a drone of a flying fleet is lost and a
 survivor takes over its work: the survivor's mission is replaced in flight by `items` (wire items as
-bridge.mission.to_wire makes them: ArduPilot's seq 0 is home) and it continues at `resume_seq`,
+formats.mission_items.to_wire makes them: ArduPilot's seq 0 is home) and it continues at `resume_seq`,
 without landing, disarming or flying back to its first item. Per autopilot it uses the strategy
 measured best on ArduCopter SITL and PX4 SIH (docs/live-retasking.md, bench/retask_bench.py):
 
@@ -24,12 +24,12 @@ Neither uses MISSION_WRITE_PARTIAL_LIST: PX4 has no handler for it (no answer at
 writes in place like the full upload, cannot shorten a mission nor lengthen it by more than one item.
 
 Verification: the vehicle's MISSION_CURRENT must say resume_seq (or later), its HEARTBEAT armed and in
-mission mode again, and a read-back must equal `items` by the flavour's rule (bridge.readback.compare_wire).
+mission mode again, and a read-back must equal `items` by the flavour's rule (formats.readback.compare_wire).
 A vehicle that is not flying its mission (not armed, or in another mode: RTL after a failsafe, say)
 is not touched: re-tasking must never override what the pilot or a failsafe chose.
 
 In `fly` each vehicle's link is a view of a shared link read by that drone's thread
-(bridge.shared_link.VehicleLink): call this from that thread with its backend and view, and pass
+(link.shared_link.VehicleLink): call this from that thread with its backend and view, and pass
 `observe` (DroneFlight's `vehicle.take`) to keep every message of the vehicle that arrives meanwhile
 (positions, MISSION_ITEM_REACHED, STATUSTEXT) in the flight's record. A new geofence (`fence`) goes
 up before the mission (ArduPilot: during the pause), so the vehicle never flies the new mission inside
@@ -43,12 +43,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from .errors import BridgeError
-from .link import AUTOPILOT_COMPONENT_ID, mavlink
-from .mission import Flavour, MissionType, WireItem
-from .readback import compare_wire
+from ..errors import BridgeError
+from ..link.connection import AUTOPILOT_COMPONENT_ID, mavlink
+from ..formats.mission_items import Flavour, MissionType, WireItem
+from ..formats.readback import compare_wire
 from .protocol import MissionClient, MissionTransferError
-from .readiness import ARDUPILOT_GUIDED, VehicleState, mission_mode_params, mode_params
+from ..link.readiness import ARDUPILOT_GUIDED, VehicleState, mission_mode_params, mode_params
 from .uploader import MissionBackend
 
 HEARTBEAT_WAIT_S = 2.5  # a HEARTBEAT comes every second: this long to learn the vehicle's mode
@@ -165,7 +165,7 @@ def replace_mission_in_flight(backend: MissionBackend, link: Any, sysid: int, fl
     """Replace the mission of vehicle `sysid`, flying it in AUTO (ArduPilot) / mission mode (PX4), by
     `items` and have it continue at `resume_seq`; `deadline` (time.monotonic()) bounds it all.
 
-    backend: the vehicle's mission backend (bridge.uploader) over `link` (a Link or, in fly, the
+    backend: the vehicle's mission backend (transfer.uploader) over `link` (a Link or, in fly, the
     vehicle's view of a shared link). fence: a new geofence (wire items of mission_type 1) to put up
     first; None leaves the fence as it is. observe: gets every message of the vehicle read meanwhile.
     held: the caller has already stopped the vehicle (ArduPilot GUIDED, PX4 HOLD, to plan from where it
@@ -190,7 +190,7 @@ def replace_mission_in_flight(backend: MissionBackend, link: Any, sysid: int, fl
         state = "no HEARTBEAT" if watch.heartbeats == seen_from else (
             f"{'armed' if watch.state.armed else 'disarmed'} in {watch.state.mode_name()}")
         raise fail(f"not flying its mission ({state}): nothing was sent to it")
-    # The transfers go through bridge.protocol's client (the pymavlink backend's own protocol, its time-outs)
+    # The transfers go through transfer.protocol's client (the pymavlink backend's own protocol, its time-outs)
     # on a tee of the link: what the vehicle says meanwhile (STATUSTEXT, MISSION_ITEM_REACHED, positions) is
     # read here and handed to `observe`, not dropped. Another backend (MAVSDK) does its own transfers.
     transfers: Any = backend
@@ -287,7 +287,7 @@ def _first_nav(items: list[WireItem], seq: int) -> int:
 def _set_current(watch: _Watch, seq: int, nav_seq: int, deadline: float) -> bool:
     """MISSION_SET_CURRENT seq until MISSION_CURRENT says seq (or nav_seq, the navigation item it leads
     to); sent again only while no such MISSION_CURRENT came (it is not repeated once taken: a vehicle
-    already past seq would be sent back). bridge.protocol's set_current waits for seq exactly, which a
+    already past seq would be sent back). transfer.protocol's set_current waits for seq exactly, which a
     DO_ item at seq (fly resumes at the DO_CHANGE_SPEED after the take-off) is never reported as."""
     for _ in range(SET_CURRENT_TRIES):
         heard = len(watch.currents)

@@ -24,9 +24,9 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from .errors import BridgeError
-from .link import Link, VehicleInfo, mavlink
-from .mission import MissionType, WireItem
+from ..errors import BridgeError
+from ..link.connection import Link, VehicleInfo, mavlink
+from ..formats.mission_items import MissionType, WireItem
 
 ProgressFn = Callable[[int, int], None]  # (items done, items in all)
 
@@ -141,7 +141,7 @@ class MissionClient:
                 return msg
 
     def _silence_hint(self) -> str:
-        """': <why>' when MAVLink 2 signing explains the vehicle's silence (bridge.link decides), else ''."""
+        """': <why>' when MAVLink 2 signing explains the vehicle's silence (link.connection decides), else ''."""
         hint = self.link.signing_hint(self.vehicle.sysid)
         return f": {hint}" if hint else ""
 

@@ -1,12 +1,12 @@
 """Mission files: QGroundControl `.plan` (JSON) and QGC WPL 110 `.waypoints`, read and written;
 QGroundControl's legacy `.mission` read.
 
-Owns the translation between those formats and bridge.mission's model:
+Owns the translation between those formats and formats.mission_items's model:
 - `.plan`: fileType "Plan", version 1; mission.items of SimpleItem (command, frame, params[7] with
   null for NaN, autoContinue, doJumpId), plannedHomePosition; geoFence polygons and circles become
   fence items (MAV_CMD_NAV_FENCE_*), rallyPoints become rally items (MAV_CMD_NAV_RALLY_POINT).
   Items are read as QGroundControl reads them: the older item layouts and the legacy `.mission`
-  file go through bridge.qgc_legacy; a survey or corridor-scan ComplexItem contributes the
+  file go through formats.qgc_legacy; a survey or corridor-scan ComplexItem contributes the
   waypoints QGroundControl stored in it ("TransectStyleComplexItem".Items, the ones QGroundControl
   flies from a loaded plan); a ComplexItem without stored waypoints (structure scan, landing
   pattern, old surveys), whose waypoints QGroundControl generates on load, is refused, as is an item
@@ -36,11 +36,11 @@ from pathlib import Path
 from typing import Any
 
 # A leaf utility with no planner imports: bridge still knows nothing about grids.
-from .atomic import write_text_atomic
+from ..atomic import write_text_atomic
 
 from . import qgc_legacy
-from .errors import BridgeError, BridgeUsageError
-from .mission import (
+from ..errors import BridgeError, BridgeUsageError
+from .mission_items import (
     CMD_DO_JUMP,
     CMD_DO_SET_ROI,
     CMD_DO_SET_ROI_LOCATION,
@@ -146,7 +146,7 @@ def check_firmware(plan: PlanFile, path: str | os.PathLike[str], flavour: Flavou
 # ---------------------------------------------------------------------------------------------- I/O
 
 def _write_atomic(path: Path, text: str) -> None:
-    """Temp file beside the target then rename (bridge.atomic): a reader never sees half a file."""
+    """Temp file beside the target then rename (atomic): a reader never sees half a file."""
     if not path.parent.is_dir():
         raise BridgeUsageError(f"{path}: folder {path.parent} does not exist")
     write_text_atomic(path, text)

@@ -1,12 +1,12 @@
 """The read-back rule: what a vehicle may legally change in the mission items it stores, per flavour.
 
 - ardupilot_stored: what ArduCopter hands back for an item (measured on ArduCopter SITL: it keeps only
-  what its storage format has room for); PX4's rule is bridge.px4.px4_stored (measured on PX4 SIH);
+  what its storage format has room for); PX4's rule is formats.px4_rules.px4_stored (measured on PX4 SIH);
 - stored_form: that rule for any flavour;
 - compare_items / compare_wire: the item-by-item check an upload's verify and a re-task's read-back
   make: every field equal to what was sent or to the flavour's stored form of it, within the wire's rounding.
 
-Pure Python with no MAVLink library, like bridge.mission and bridge.px4 it builds on.
+Pure Python with no MAVLink library, like formats.mission_items and formats.px4_rules it builds on.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from .mission import (
+from .mission_items import (
     CMD_DO_CHANGE_SPEED,
     CMD_DO_LAND_START,
     CMD_DO_REPOSITION,
@@ -44,7 +44,7 @@ from .mission import (
     _f32,
     normalize_frame,
 )
-from .px4 import px4_stored
+from .px4_rules import px4_stored
 
 
 # ------------------------------------------------------------------------------------------------
@@ -53,7 +53,7 @@ from .px4 import px4_stored
 # Measured on ArduCopter 4.7-dev SITL (docs/autopilots.md has the table and how): it keeps only
 # what its storage format has room for and hands the rest back as fixed values. Verify accepts, field
 # by field, either the value sent or the value ArduPilot's storage turns it into; nothing else.
-# PX4 (measured on PX4 SIH v1.15.4): bridge.px4.px4_stored. Other autopilots: the value sent
+# PX4 (measured on PX4 SIH v1.15.4): formats.px4_rules.px4_stored. Other autopilots: the value sent
 # (deprecated *_INT frames read as their plain number).
 
 # Commands that carry a position (x, y, z). Everything else in a mission (DO_*, CONDITION_*, RTL,
@@ -68,7 +68,7 @@ POSITIONAL_COMMANDS = frozenset({
 # Params ArduCopter does not store, per command: the vehicle returns the value given here instead.
 # Only what was seen on SITL (docs/autopilots.md); a param not listed must come back as sent.
 # NAV_WAYPOINT keeps only param1 (the hold time, in whole seconds); its param2 (acceptance radius) is
-# dropped: the copter flies WPNAV_RADIUS instead (see bridge.params).
+# dropped: the copter flies WPNAV_RADIUS instead (see link.params).
 ARDUPILOT_UNSTORED_PARAMS: dict[int, dict[str, float]] = {
     CMD_NAV_WAYPOINT: {"param2": 0.0, "param3": 0.0, "param4": 0.0},
     CMD_NAV_TAKEOFF: {"param4": 0.0},
@@ -88,7 +88,8 @@ def is_positional(command: int) -> bool:
 def ardupilot_stored(item: WireItem) -> WireItem:
     """The item as ArduCopter stores it and returns it on download (its seq and mission_type kept).
 
-    - altitudes: whole centimetres (truncated, and returned as cm * 0.01 in float32) in a mission, whole metres for rally points, none for
+    - altitudes: whole centimetres (truncated, and returned as cm * 0.01 in float32) in a mission, whole metres for
+    rally points, none for
       fence vertices; latitude and longitude: the 1e-7 degree integers as sent;
     - non-positional mission items: frame 0 (MAV_FRAME_GLOBAL), x = y = z = 0;
     - deprecated *_INT frames: their plain number (6 -> 3, 5 -> 0, 11 -> 10);

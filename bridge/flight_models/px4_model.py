@@ -1,6 +1,6 @@
 """How a PX4 multicopter flies a mission, in time: its navigation parameters and the timed phases.
 
-The PX4 counterpart of bridge.copter_model (ArduCopter), built from the same Motion pieces so that the
+The PX4 counterpart of flight_models.copter_model (ArduCopter), built from the same Motion pieces so that the
 planner's timeline (missionplan.mission.timeline, with FlightModel.px4) and the judge's re-timing use one
 ruler. Measured on PX4 v1.15.4 SIH (../shared/px4, docs/px4-flight.md) flying our 20 m survey missions:
 

@@ -20,14 +20,14 @@ import threading
 import time
 from typing import Any
 
-from .errors import BridgeError
-from .link import AUTOPILOT_COMPONENT_ID, Link, VehicleInfo, mavlink, wait_vehicle
-from .mission import MissionType, WireItem
-from .params import ParamClient, set_param
+from ..errors import BridgeError
+from ..link.connection import AUTOPILOT_COMPONENT_ID, Link, VehicleInfo, mavlink, wait_vehicle
+from ..formats.mission_items import MissionType, WireItem
+from ..link.params import ParamClient, set_param
 from .protocol import MissionClient, MissionTransferError, ProgressFn, Timeouts
-from .signing import SigningKey, apply_key
+from ..link.signing import SigningKey, apply_key
 
-log = logging.getLogger("bridge.mavsdk")
+log = logging.getLogger(__name__)
 
 MAVSDK_SYSTEM_ID = 245  # MAVSDK's default ground-station identity
 MAVSDK_COMPONENT_ID = mavlink.MAV_COMP_ID_MISSIONPLANNER

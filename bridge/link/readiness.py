@@ -1,6 +1,6 @@
 """Before a vehicle flies: its telemetry streams, its readiness, its launch site, arming, a safe stop.
 
-Owns, for one vehicle on a link (a Link or a bridge.shared_link.VehicleLink):
+Owns, for one vehicle on a link (a Link or a link.shared_link.VehicleLink):
 - request_streams: ArduPilot sends nothing beyond HEARTBEAT until asked (all MAVn_* stream rates are
   0), so every message the ground station reads is asked for by MAV_CMD_SET_MESSAGE_INTERVAL:
   SYS_STATUS, GPS_RAW_INT, EKF_STATUS_REPORT, HOME_POSITION (readiness), GLOBAL_POSITION_INT and
@@ -39,8 +39,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from .link import VehicleInfo, mavlink
-from .mission import Flavour
+from .connection import VehicleInfo, mavlink
+from ..formats.mission_items import Flavour
 
 # EKF_STATUS_REPORT flags an ArduPilot EKF needs before it can fly a mission: attitude, horizontal
 # and vertical velocity, absolute horizontal and vertical position; and not in constant-position

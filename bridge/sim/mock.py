@@ -38,11 +38,11 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
-from .errors import BridgeUsageError
-from .link import ConnectionSpec, mavlink, parse_url
-from .mission import Flavour
+from ..errors import BridgeUsageError
+from ..link.connection import ConnectionSpec, mavlink, parse_url
+from ..formats.mission_items import Flavour
 from .mock_vehicle import MockVehicle, VehicleOptions
-from .signing import SigningKey, apply_key
+from ..link.signing import SigningKey, apply_key
 
 TICK = 0.005  # loop period when nothing arrives: timers and flight advance at least this often
 MAX_PEERS = 32

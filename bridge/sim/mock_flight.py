@@ -3,11 +3,11 @@
 Owns the flight of one vehicle in simulated time: takeoff climb, straight legs at the cruise speed
 (DO_CHANGE_SPEED changes it), the acceptance radius and hold time of waypoints, DO_JUMP, camera
 triggering by distance (DO_SET_CAM_TRIGG_DIST: photos counted, their positions and altitudes kept), land and
-return-to-launch, and the flown track. With `copter` (bridge.copter_model.CopterParams: the
+return-to-launch, and the flown track. With `copter` (flight_models.copter_model.CopterParams: the
 SITL-like mode) it flies as ArduCopter does instead, on the very model the planner's timeline uses:
 spool-up and a climb with acceleration, every leg from rest to rest with WPNAV_ACCEL, RTL's climb to
 RTL_ALT, its return at RTL_SPEED / WPNAV_SPEED and loiter, the slow last LAND_ALT_LOW metres of the
-landing, and a touchdown pause before disarming. With `px4` (bridge.px4_model.Px4Params, the PX4
+landing, and a touchdown pause before disarming. With `px4` (flight_models.px4_model.Px4Params, the PX4
 flavour's SITL-like mode) it flies as PX4 SIH does: take-off at MPC_TKO_SPEED, a turn of the nose
 before every leg, PX4's RTL and its three landing speeds. No MAVLink here: the vehicle (mock_vehicle) feeds it the
 stored wire items and publishes the events it returns (current item changed, item reached).
@@ -22,11 +22,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import copter_model as cm
-from . import px4_model
-from .copter_model import CopterParams
-from .px4_model import Px4Params
-from .mission import (
+from ..flight_models import copter_model as cm
+from ..flight_models import px4_model
+from ..flight_models.copter_model import CopterParams
+from ..flight_models.px4_model import Px4Params
+from ..formats.mission_items import (
     CMD_DO_CHANGE_SPEED,
     CMD_DO_JUMP,
     CMD_DO_SET_CAM_TRIGG_DIST,

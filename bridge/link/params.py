@@ -4,7 +4,7 @@ Owns:
 - ParamClient: read one parameter (PARAM_REQUEST_READ -> PARAM_VALUE) and set one (PARAM_SET, proved
   by the PARAM_VALUE the vehicle answers with), with retries and a bound, for one vehicle on a Link;
 - acceptance_radius_setting: what the upload does about a plan's waypoint acceptance radius. ArduCopter
-  does not store NAV_WAYPOINT's param2 (bridge.readback.ARDUPILOT_UNSTORED_PARAMS): it turns at every
+  does not store NAV_WAYPOINT's param2 (formats.readback.ARDUPILOT_UNSTORED_PARAMS): it turns at every
   waypoint when within WPNAV_RADIUS (cm, default 200, legal range 5..1000). So for an ArduPilot
   multirotor the plan's radius (the smallest positive param2 of its waypoints) goes to WPNAV_RADIUS,
   clamped to that range. PX4 and other autopilots read param2 per waypoint: nothing to set.
@@ -18,9 +18,9 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from .errors import BridgeError
-from .link import Link, VehicleInfo, mavlink
-from .mission import CMD_NAV_WAYPOINT, Flavour, Mission
+from ..errors import BridgeError
+from .connection import Link, VehicleInfo, mavlink
+from ..formats.mission_items import CMD_NAV_WAYPOINT, Flavour, Mission
 
 PARAM_TRIES = 5
 PARAM_WAIT_S = 1.0  # per try: ArduPilot answers within a few ms, a radio within a second
@@ -63,7 +63,7 @@ class ParamClient:
 
     def _failure(self, text: str) -> BridgeError:
         """The error for an unanswered or ignored request, with MAVLink 2 signing named when it is the
-        likely cause (bridge.link decides)."""
+        likely cause (link.connection decides)."""
         hint = self.link.signing_hint(self.vehicle.sysid)
         return BridgeError(f"{text}: {hint}" if hint else text)
 

@@ -9,7 +9,7 @@ Owns:
   the mission (an upload sends a placeholder there, a download returns the real home), PX4 does not;
   DO_JUMP targets are counted with home as item 0 on ArduPilot and without it on PX4.
 The read-back rule (what a vehicle may legally change in what it stores, per flavour) builds on this
-module: bridge.readback.
+module: formats.readback.
 
 Model convention for DO_JUMP: param1 is the 1-based number of the target in Mission.items (the same
 number as QGroundControl's doJumpId for plain missions and as the line number in a .waypoints file).
@@ -70,8 +70,8 @@ class Flavour(str, Enum):
         return self is Flavour.ARDUPILOT and mission_type == MissionType.MISSION
 
 
-# MAVLink numbers for the modules that stay free of pymavlink (this one, bridge.px4, bridge.missionfile,
-# bridge.mock_flight and the planner): written down here and nowhere else, under their MAVLink names (CMD_
+# MAVLink numbers for the modules that stay free of pymavlink (this one, formats.px4_rules, formats.missionfile,
+# sim.mock_flight and the planner): written down here and nowhere else, under their MAVLink names (CMD_
 # for MAV_CMD_, FRAME_ for MAV_FRAME_); tests/test_mavlink_names.py checks them against pymavlink. A module
 # that imports pymavlink takes its numbers from mavutil.mavlink instead.
 

@@ -31,8 +31,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from .link import mavlink
-from .mission import Flavour
+from ..link.connection import mavlink
+from ..formats.mission_items import Flavour
 
 HEAD = b"\xa3\x95"
 FMT_TYPE = 128  # DataFlash's own numbering, not MAVLink's

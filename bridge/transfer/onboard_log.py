@@ -4,8 +4,8 @@ A photo report lost on the link (CAMERA_FEEDBACK, CAMERA_IMAGE_CAPTURED) is gone
 nor PX4 sends one again, nor answers a request for it by index. What the vehicle keeps is its log.
 This module owns:
 
-- LogClient: the ground-station side of MAVLink's log transfer with one vehicle over a bridge.link.Link
-  or a bridge.shared_link.VehicleLink: LOG_REQUEST_LIST -> one LOG_ENTRY per log (re-asked for the
+- LogClient: the ground-station side of MAVLink's log transfer with one vehicle over a link.connection.Link
+  or a link.shared_link.VehicleLink: LOG_REQUEST_LIST -> one LOG_ENTRY per log (re-asked for the
   entries that did not arrive), LOG_REQUEST_DATA -> LOG_DATA in 90-byte chunks (the missing chunks
   asked for again, a gap at a time, once the vehicle has gone quiet), LOG_REQUEST_END. Every wait is
   bounded by the caller's deadline; a vehicle that stops answering is a LogTransferError naming what
@@ -35,10 +35,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .atomic import atomic_path
-from .errors import BridgeError
-from .link import AUTOPILOT_COMPONENT_ID, mavlink
-from .mission import Flavour
+from ..atomic import atomic_path
+from ..errors import BridgeError
+from ..link.connection import AUTOPILOT_COMPONENT_ID, mavlink
+from ..formats.mission_items import Flavour
 
 ProgressFn = Callable[[int, int], None]  # (bytes received, bytes in all), over every log downloaded
 
@@ -420,7 +420,7 @@ def recover_photos(link: Any, sysid: int, flavour: Flavour | str, deadline: floa
                    max_logs: int = 3) -> list[LoggedPhoto]:
     """The photos the vehicle logged, read from its onboard log after landing (it must be disarmed).
 
-    link: a bridge.link.Link or a bridge.shared_link.VehicleLink for system `sysid`; deadline:
+    link: a link.connection.Link or a link.shared_link.VehicleLink for system `sysid`; deadline:
     time.monotonic() by which to give up (LogTransferError). wanted: the img_idx values to find (the
     ones whose reports were lost); None: every photo of the newest log.
 
