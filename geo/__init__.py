@@ -1,6 +1,7 @@
-"""geo: world <-> grid (camera footprint, projection, rasterising, area files).
+"""missionplan.geo: world <-> grid (camera footprint, projection, rasterising, area files, GIS files).
 
-One job per module:
+Installed as missionplan.geo from the repository's geo/ folder. May import: missionplan.bridge.atomic (atomic
+writes), nothing else from missionplan. One job per module:
 
 * `missionplan.geo.errors`  - `GeoError`, the one-line error for any wrong geographic input.
 * `missionplan.geo.camera`  - footprint side S = 2*H*tan(FOV/2) and cell = S/9; `Camera` from FOV or sensor.

@@ -3,7 +3,7 @@
 Flying the planned missions: fly (upload, start, record), the flight report (flight.json, flight.png),
 the mock fleet the demo flies.
 
-May import: missionplan.mission, .learn, .grid, .maps; geo; bridge.
+May import: missionplan.mission, .learn, .grid, .maps, .geo, .bridge.
 Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_layers.py).
 
   display         What a crew sees while flying: progress bars or plain lines, alerts, the final summary.

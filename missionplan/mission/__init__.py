@@ -4,7 +4,7 @@ Georeferenced missions from a grid plan: georeference, corrector, clearance, sor
 separation, geofence, timeline, the .plan / .waypoints files, report.json, and the maps a crew
 looks at: plan.png, plan.html, plan.gpkg, plan.kmz, tracks.geojson.
 
-May import: missionplan.learn, .grid, .maps; geo; bridge (the mission model, files, copter model).
+May import: missionplan.learn, .grid, .maps, .geo, .bridge (the mission model and files, the flight models).
 Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_layers.py).
 
   clearance       Clearance from obstacles: the band drones may not fly in, and how far each track
