@@ -144,7 +144,7 @@ def mock_row(name: str, uavs: int, plan_dir: Path, flavour: str = "ardupilot") -
 def px4_row(name: str, uavs: int, plan_dir: Path) -> str:
     """The whole fleet at once on PX4 SIH, as sitl_tests/test_fleet_px4.py flies it."""
     from loopback import free_udp_port
-    from px4 import PX4
+    from px4_sih import PX4
 
     from missionplan.bridge.formats.missionfile import read_mission_file
 

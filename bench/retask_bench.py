@@ -658,7 +658,7 @@ def fly_one(flavour: Flavour, row_name: str, say: Callable[[str], None]) -> Row:
         vehicle.start()
         home, url, speedup = vehicle.home[:3], vehicle.url, float(ARDUCOPTER_SPEEDUP)
     else:
-        from px4 import PX4
+        from px4_sih import PX4
 
         vehicle = PX4()
         vehicle.start()

@@ -12,7 +12,7 @@ timing (1.5 s item time-out), next to the ArduPilot-flavoured mock with the same
 SITL instance (../shared/sitl/arducopter, --speedup 10,
 sitl_tests/arducopter.py) over TCP, read back, verify by the ArduPilot rule, and count the
 INVALID_SEQUENCE acks it sent (the upload must not race its re-requests: 0 expected). The PX4 SIH
-rows (../shared/px4, sitl_tests/px4.py, a free instance, real time) use the same real-world
+rows (../shared/px4, sitl_tests/px4_sih.py, a free instance, real time) use the same real-world
 timing over PX4's offboard UDP link, and verify by PX4's rule (missionplan.bridge.formats.px4_rules.px4_stored).
 No assertions: this is a measurement, not a test.
 """
@@ -99,8 +99,8 @@ def measure_ardupilot(size: int, sitl: bool) -> dict[str, object]:
 
 def measure_px4(size: int, backend: str) -> dict[str, object]:
     """One upload and read-back with real-world timing to a fresh PX4 SIH (../shared/px4, v1.15.4;
-    sitl_tests/px4.py, a free instance, its offboard UDP link), verified by PX4's rule."""
-    from px4 import PX4  # sitl_tests/px4.py: own temp folder and session, logging off, killed at exit
+    sitl_tests/px4_sih.py, a free instance, its offboard UDP link), verified by PX4's rule."""
+    from px4_sih import PX4  # sitl_tests/px4_sih.py: own temp folder and session, logging off, killed at exit
 
     home = (45.07, 7.68, 240.0)
     mission = survey(size)

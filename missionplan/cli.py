@@ -30,7 +30,7 @@ from .grid.lanes import MAX_OBSTACLE_SHARE
 from .grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 from .maps.catalog import load_shipped, shipped_map_names
 from .maps.gridmap import MapError
-from .mission.missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
+from .mission.drone_missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
 from .mission.safety import DEFAULT_CLEARANCE_M
 from .mission.separation import DEFAULT_MAX_ALTITUDE_M
 from .mission.sorties import DEFAULT_ENDURANCE_MIN, DEFAULT_RESERVE

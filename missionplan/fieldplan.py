@@ -20,7 +20,7 @@ from missionplan.geo.frame import GridFrame
 
 from .maps.gridmap import GridMap
 from .mission.clearance import band_coverage, flight_map, photograph_band
-from .mission.missions import MissionSettings
+from .mission.drone_missions import MissionSettings
 from .mission.safety import SafetySettings
 from .mission.sorties import sortie_shares
 from .pipeline import PlanResult, plan_map

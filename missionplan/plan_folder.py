@@ -29,7 +29,7 @@ from .grid.zones import DEFAULT_ZONE_METHOD
 from .maps.catalog import load_shipped
 from .maps.gridmap import GridMap, MapError
 from .mission.georef import AreaSources, UnknownHeights, mission_settings, shipped_frame
-from .mission.missions import MissionSettings
+from .mission.drone_missions import MissionSettings
 from .mission.safety import SafetySettings, safety_settings
 from .pipeline import DEFAULT_POLICY, launch_cells, make_policy
 

@@ -27,7 +27,7 @@ from .flight.plan_report import missing_map
 from .flight.ledger import Ledger, LedgerError, Survey
 from .grid.world import check_starts
 from .maps.gridmap import MapError
-from .mission.missions import MissionSettings
+from .mission.drone_missions import MissionSettings
 from .mission.safety import SafetySettings
 from .pipeline import DEFAULT_POLICY, POLICIES
 from .plan_display import EXIT_FAILED, print_plan

@@ -35,7 +35,7 @@ from .maps.gridmap import MapError
 from .mission.clearance import clearance_band
 from .mission.flightplan import _Homing, _latlon
 from .mission.geofence import drone_fence
-from .mission.missions import MissionSettings, build_mission
+from .mission.drone_missions import MissionSettings, build_mission
 from .mission.safety import SafetySettings
 from .mission.timeline import FlightModel, closest_approach, planned_track
 

@@ -1,7 +1,7 @@
 """A fleet of 3 PX4 SIH vehicles flown as a field team wires PX4: every GCS link into one udpin port.
 
 Each vehicle (a free instance number, system ids 1-3 set at boot, its own temp PX4_WORKDIR, logging off,
-killed in teardown; sitl_tests/px4.py) starts at its plan's launch point and sends its GCS link to one
+killed in teardown; sitl_tests/px4_sih.py) starts at its plan's launch point and sends its GCS link to one
 UDP port picked free at run time, where `missionplan fly --connect udpin:127.0.0.1:PORT` listens. The camera is set
 up at boot (TRIG_MODE 4: camera_trigger and camera_feedback start, distance-triggered by the
 mission's DO_SET_CAM_TRIGG_DIST; TRIG_INTERFACE 3, the SITL default): PX4 then reports each photo
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pytest
 from loopback import armed_ever, free_udp_port
-from px4 import px4, px4_or_skip  # noqa: F401  (the fixture)
+from px4_sih import px4, px4_or_skip  # noqa: F401  (the fixture)
 
 from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.bridge.formats.px4_rules import reported_items

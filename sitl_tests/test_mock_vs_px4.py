@@ -1,7 +1,7 @@
 """Differential test: the same mission sessions against the mock's PX4 flavour and against real PX4
 SIH (v1.15.4) must draw the same answers and leave the same stored lists, field by field.
 
-The sessions are sitl_tests/px4_session.py's: the request type of the first uploads after start,
+The sessions are sitl_tests/px4_mission_session.py's: the request type of the first uploads after start,
 MISSION_REQUEST_LIST by target component, every frame and a list of commands in frames 3 and 2 (the
 MISSION_ACK of each single-item upload), a rejected upload that must keep the previous mission, a
 count of 0, a mission with every item kind we write plus odd values, a fence and rally points
@@ -16,8 +16,8 @@ import math
 from typing import Any
 
 import pytest
-from px4 import PX4, px4  # noqa: F401  (the fixture)
-from px4_session import HOME, session, start_session
+from px4_sih import PX4, px4  # noqa: F401  (the fixture)
+from px4_mission_session import HOME, session, start_session
 
 from missionplan.bridge.formats.mission_items import WireItem
 from missionplan.bridge.sim.mock import MockAutopilot

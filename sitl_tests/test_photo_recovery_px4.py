@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from px4 import PX4, px4_or_skip
+from px4_sih import PX4, px4_or_skip
 from test_photo_recovery_sitl import PAST_THE_END, _raw_data, _raw_list, _Tee
 
 from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, mavlink

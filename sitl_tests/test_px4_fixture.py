@@ -1,4 +1,4 @@
-"""The PX4 SIH fixture itself (sitl_tests/px4.py): it boots where asked, logging off, boot
+"""The PX4 SIH fixture itself (sitl_tests/px4_sih.py): it boots where asked, logging off, boot
 parameters applied, heard on its offboard port, with the system id and ground-station port asked for,
 and leaves nothing running or on disk.
 Skipped with a reason when ../shared/px4/bin/px4 is absent."""
@@ -9,7 +9,7 @@ import os
 
 import pytest
 from loopback import free_udp_port
-from px4 import PX4, e7, instance_free, px4, px4_or_skip  # noqa: F401  (the fixture)
+from px4_sih import PX4, e7, instance_free, px4, px4_or_skip  # noqa: F401  (the fixture)
 
 from missionplan.bridge.link.connection import Link, mavlink, wait_vehicle
 

@@ -4,7 +4,7 @@ same and then STARTS (PX4 answers "Mission start denied! No valid mission" to a 
 same plan from the wrong place is refused by `upload` with PX4's reasons; a plan for ArduPilot is
 refused with exit 2; fence and rally round trips; a 1,000-item mission, and PX4's list limits.
 
-Each test starts its own PX4 instance (sitl_tests/px4.py: a free instance number, its offboard link
+Each test starts its own PX4 instance (sitl_tests/px4_sih.py: a free instance number, its offboard link
 sending to a free port of its own, own temp folder and session, logging off, killed in teardown) and
 skips when ../shared/px4/bin/px4 is absent.
 """
@@ -16,8 +16,8 @@ import time
 from pathlib import Path
 
 import pytest
-from px4 import PX4, px4  # noqa: F401  (the fixture)
-from px4_session import wait_ready
+from px4_sih import PX4, px4  # noqa: F401  (the fixture)
+from px4_mission_session import wait_ready
 
 from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, Link, mavlink, wait_vehicle
 from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, MissionType, to_wire

@@ -2,7 +2,7 @@
 SITL vehicle and one PX4 SIH vehicle flying a survey, and the mock compared with them.
 
 Each vehicle (a free instance, its own temp folder, killed in teardown: sitl_tests/arducopter.py,
-sitl_tests/px4.py) flies take-off, A1..A8 (a 60 x 60 m lawnmower north of home), RTL in AUTO / mission
+sitl_tests/px4_sih.py) flies take-off, A1..A8 (a 60 x 60 m lawnmower north of home), RTL in AUTO / mission
 mode, flown and watched by bench/retask_bench.py's harness (the bench measures every strategy with it:
 docs/live-retasking.md). Mid-leg to A6 its mission is replaced, as fly's re-plans do it, by take-off,
 DO_CHANGE_SPEED, B1..B3 (a lost drone's waypoints, west of it and behind it), RTL, to continue at the
@@ -26,7 +26,7 @@ from typing import Any
 
 import pytest
 from arducopter import arducopter  # noqa: F401  (the fixture)
-from px4 import px4  # noqa: F401  (the fixture)
+from px4_sih import px4  # noqa: F401  (the fixture)
 
 from missionplan.bridge.link.connection import Link
 from missionplan.bridge.formats.mission_items import Flavour, MissionType, WireItem

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 from loopback import free_udp_port, wait_until
-from px4 import px4, px4_or_skip  # noqa: F401  (the fixture)
+from px4_sih import px4, px4_or_skip  # noqa: F401  (the fixture)
 from test_fleet_px4 import AREA, CAMERA, LAUNCHES, TELEMETRY_HZ, _home, _plan
 
 from missionplan.bridge.formats.missionfile import read_mission_file

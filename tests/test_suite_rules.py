@@ -3,7 +3,7 @@
 - no test synchronises by sleeping: it waits for the event with a bound (a message on the link, a
   thread's join, a port bound). The one sleep allowed is between the polls of `wait_until`
   (sitl_tests/loopback.py), for events that come with nothing to block on (a simulator's log line);
-- a module that starts a real autopilot (it imports sitl_tests/arducopter.py or px4.py) is marked
+- a module that starts a real autopilot (it imports sitl_tests/arducopter.py or px4_sih.py) is marked
   `sitl`, so that `pytest -m "not sitl"` is a quick subset without them, while `make test` runs all.
 """
 
@@ -15,7 +15,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 SUITES = (ROOT / "tests", ROOT / "sitl_tests")
 ALLOWED_SLEEPS = {("loopback.py", "wait_until")}  # (file, enclosing function)
-REAL_AUTOPILOT_HELPERS = {"arducopter", "px4"}
+REAL_AUTOPILOT_HELPERS = {"arducopter", "px4_sih"}
 
 
 def _modules() -> list[Path]:

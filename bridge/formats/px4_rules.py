@@ -16,7 +16,7 @@ Owns PX4's rules, as data and pure functions, for the mock's PX4 flavour and for
   the DO_ items right after it), and back from a report to the item it is about;
 - px4_millimetres: a photo's altitude as PX4's CAMERA_IMAGE_CAPTURED rounds it.
 Each problem is PX4's own console / STATUSTEXT line.
-Everything here was measured (sitl_tests/px4_session.py, docs/px4-missions.md).
+Everything here was measured (sitl_tests/px4_mission_session.py, docs/px4-missions.md).
 
 Pure Python, no MAVLink library: the mock and the uploader both use it.
 """

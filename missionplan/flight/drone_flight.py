@@ -102,29 +102,13 @@ def unanswered(text: str, link: Any, sysid: int) -> str:
     return f"{text}: {hint}" if hint else text
 
 
-class StartGate:
-    """Drones start their missions together. Every drone's thread checks in once: a ready one
-    waits there for all the others; one that failed (upload refused, arming denied) checks in
-    without waiting, so the rest are not held up by it."""
-
-    def __init__(self, parties: int) -> None:
-        self._waiting_for = parties
-        self._all_in = threading.Condition()
-
-    def check_in(self, wait_s: float) -> None:
-        with self._all_in:
-            self._waiting_for -= 1
-            if self._waiting_for <= 0:
-                self._all_in.notify_all()
-            elif wait_s > 0:
-                self._all_in.wait_for(lambda: self._waiting_for <= 0, timeout=wait_s)
-
-
-class ArmGate:
-    """Nobody arms before every drone has checked in here (ready, uploaded, site checked, or failed).
-    A drone that failed the site check, or was found armed, vetoes arming for all: a wrong site,
-    swapped system ids or a vehicle already flying is a fleet problem, and the fleet starts together
-    or not at all."""
+class FleetGate:
+    """Where the drones' threads meet: nobody goes on before every drone has checked in once (or the wait ran
+    out). fly has two: nobody arms before every drone is ready, uploaded and site-checked (arm_gate), and the
+    armed drones start their missions together (start_gate). A drone that failed checks in without waiting,
+    so the rest are not held up by it. A drone may check in with a veto (its site check failed, it was found
+    armed): a wrong site, swapped system ids or a vehicle already flying is a fleet problem, and every drone
+    hears the vetoes, so the fleet starts together or not at all."""
 
     def __init__(self, parties: int) -> None:
         self._waiting_for = parties
@@ -132,7 +116,7 @@ class ArmGate:
         self._all_in = threading.Condition()
 
     def check_in(self, wait_s: float, veto: str = "") -> list[str]:
-        """Check in (waiting up to wait_s for the others); the vetoes heard, [] when arming may go on."""
+        """Check in (waiting up to wait_s for the others); the vetoes heard, [] when the fleet may go on."""
         with self._all_in:
             self._waiting_for -= 1
             if veto:
@@ -159,8 +143,8 @@ class FleetStart:
     """What the drones' threads share: the links, both gates, the stop flag, how to say things."""
 
     pool: LinkPool
-    arm_gate: ArmGate
-    gate: StartGate
+    arm_gate: FleetGate  # nobody arms before all are ready (or vetoed)
+    start_gate: FleetGate  # the armed drones start together
     stop: threading.Event  # set on Ctrl-C: stop following, command nothing
     key: SigningKey | None = None  # for the links fly opens beside the pool (MAVSDK's upload)
     ready_s: float = DEFAULT_READY_S
@@ -185,7 +169,7 @@ class DroneFlight:
                  telemetry_hz: float, bar: Any, upload_with: str = "missionplan") -> None:
         self.fleet, self.record, self.plan_path, self.deadline = fleet, record, plan_path, deadline
         self.upload_with = upload_with
-        self.telemetry_hz, self.gate, self.stop, self.bar = telemetry_hz, fleet.gate, fleet.stop, bar
+        self.telemetry_hz, self.stop, self.bar = telemetry_hz, fleet.stop, bar
         self.backend: MissionBackend | None = None
         self.vehicle: Vehicle | None = None
         self.url = ""
@@ -238,7 +222,7 @@ class DroneFlight:
                 if not self.arm_checked_in:  # failed before the arm gate: the others need not wait for us
                     self.fleet.arm_gate.check_in(0.0)
                 if not self.checked_in:  # failed before the start: let the others go without us
-                    self.gate.check_in(0.0)
+                    self.fleet.start_gate.check_in(0.0)
                 if not self.record.started and self.vehicle is not None and not self.found_armed:
                     self._leave_safe()  # a vehicle this run got ready (or armed) but will not fly
             if self.backend is not None:
@@ -398,7 +382,7 @@ class DroneFlight:
     def _start(self) -> bool:
         rec, link = self.record, self.backend.link
         self.checked_in = True
-        self.gate.check_in(self.deadline - time.monotonic())
+        self.fleet.start_gate.check_in(self.deadline - time.monotonic())
         # The first positions may come before the acknowledgement: keep them (and what the vehicle says
         # from now on, not before).
         self.said = (None, None, None, self.vehicle.state.texts_total)

@@ -42,7 +42,7 @@ from missionplan.bridge.transfer.uploader import check_gcs_identity
 
 from ..mission.sorties import sortie_file
 from .display import print_flight, progress_display
-from .drone_flight import DEFAULT_READY_S, ArmGate, DroneFlight, FleetStart, StartGate
+from .drone_flight import DEFAULT_READY_S, DroneFlight, FleetGate, FleetStart
 from .flight_report import FlightResult, judge, live_tolerance, sortie_view
 from .journal import Journal, JournalError
 from .live_replan import DEFAULT_REPLAN_AFTER_S, Retasker
@@ -202,7 +202,7 @@ def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journ
         pool.open_all()
         pool.register(rec.id for rec in runnable)
         planned_s = {int(d["id"]): float(d.get("flight_s", 0.0)) for d in report["drones"]}
-        fleet = FleetStart(pool, ArmGate(len(runnable)), StartGate(len(runnable)), threading.Event(), key=key,
+        fleet = FleetStart(pool, FleetGate(len(runnable)), FleetGate(len(runnable)), threading.Event(), key=key,
                            ready_s=ready_s, max_offset_m=max_launch_offset_m, say=say, alert=alert, resume=resume,
                            time_scale=time_scale, planned_s=planned_s)
         flights = [DroneFlight(fleet, rec, files[rec.id], deadline, telemetry_hz, bars.get(rec.id), upload_with)

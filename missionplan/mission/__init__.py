@@ -13,6 +13,7 @@ Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_l
                   (SPEC section 8).
   coverage_check  Coverage honesty: what a plan covers of ALL the targets, and warnings when that is
                   much less.
+  drone_missions  From a smoothed track to one MAVLink mission per drone (SPEC section 9).
   flightplan      Grid plan -> smoothed tracks -> missions -> mission files (`uavK.plan`,
                   `uavK.waypoints`).
   geofence        Each drone's geofence: an inclusion polygon around its whole flight, and a ceiling.
@@ -21,7 +22,6 @@ Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_l
   layers          A plan's map layers: what plan.html, plan.gpkg, plan.kmz and tracks.geojson draw.
   mapfiles        The map files a crew opens and carries away, written from a plan's (or a flight's)
                   layers.
-  missions        From a smoothed track to one MAVLink mission per drone (SPEC section 9).
   outputs         A plan folder's own files: which ones a previous `plan` wrote there, so a re-plan
                   leaves none stale.
   plot            plan.png: zones, every drone's track in its own colour, and how coverage grew.

@@ -24,7 +24,7 @@ from ..grid.world import FOOTPRINT_RADIUS
 from ..maps.gridmap import GridMap, MapError
 from .corrector import MARGIN_CELLS, CorrectedPath, correct_path
 from .geofence import Fence, drone_fence
-from .missions import DroneMission, MissionSettings, build_mission
+from .drone_missions import DroneMission, MissionSettings, build_mission
 from .safety import SafetySettings
 from .separation import Layering, SeparationError, choose_layers, closest_over_sorties, position_at
 from .sorties import Sortie, sortie_file, split_sorties

@@ -22,7 +22,7 @@ from missionplan.geo.frame import GridFrame
 from missionplan.geo.readers import Building, read_area, read_buildings, read_polygons
 
 from ..maps.gridmap import GridMap
-from .missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, MissionSettings
+from .drone_missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, MissionSettings
 
 
 def parse_latlon(text: str) -> tuple[float, float]:

@@ -236,7 +236,7 @@ def start_session(url: str, sysid: int, ready_s: float = 90.0) -> dict[str, Any]
     return out
 
 
-if __name__ == "__main__":  # by hand: python sitl_tests/px4_session.py URL SYSID
+if __name__ == "__main__":  # by hand: python sitl_tests/px4_mission_session.py URL SYSID
     import json
     import sys
 

@@ -206,7 +206,7 @@ class PX4:
     def _write_start_scripts(self) -> None:
         """px4-rc.params and px4-rc.mavlink on PATH: the start-up script sources them, the parameters
         before the modules start, the links after."""
-        lines = ["#!/bin/sh", "# written by sitl_tests/px4.py: this vehicle's boot parameters"]
+        lines = ["#!/bin/sh", "# written by sitl_tests/px4_sih.py: this vehicle's boot parameters"]
         lines += [f"param set SIH_LOC_H0 {self.home[2]:g}"]
         if self.wanted_sysid is not None:
             lines += [f"param set MAV_SYS_ID {self.wanted_sysid}"]
