@@ -124,14 +124,15 @@ def local(home: tuple[float, float], lat: float, lon: float) -> tuple[float, flo
 
 def waypoint(home: tuple[float, float], north: float, east: float) -> MissionItem:
     lat, lon = offset(home, north, east)
-    return MissionItem(16, 3, x=lat, y=lon, z=ALT_M)
+    return MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=lat, y=lon, z=ALT_M)
 
 
 def survey(home: tuple[float, float, float]) -> Mission:
     """Take-off, A1..A8, RTL."""
-    items = [MissionItem(22, 3, x=home[0], y=home[1], z=ALT_M)]
+    items = [MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=home[0], y=home[1],
+                         z=ALT_M)]
     items += [waypoint(home[:2], n, e) for n, e in OWN]
-    items.append(MissionItem(20, 2))
+    items.append(MissionItem(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_FRAME_MISSION))
     return Mission(items, home=home)
 
 
@@ -141,9 +142,10 @@ def retasked(home: tuple[float, float, float], short: bool = False, speed: float
     `speed`: a DO_CHANGE_SPEED to it before B1 (as fly's re-plans begin), the item to resume at."""
     items = survey(home).items[:1 if short else 1 + RETASK_AT]
     if speed is not None:
-        items.append(MissionItem(178, 2, param1=1.0, param2=speed, param3=-1.0))
+        items.append(MissionItem(mavlink.MAV_CMD_DO_CHANGE_SPEED, mavlink.MAV_FRAME_MISSION, param1=1.0, param2=speed,
+                                 param3=-1.0))
     items += [waypoint(home[:2], n, e) for n, e in LOST]
-    items.append(MissionItem(20, 2))
+    items.append(MissionItem(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_FRAME_MISSION))
     return Mission(items, home=home)
 
 

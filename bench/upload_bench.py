@@ -28,7 +28,17 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "sitl_tests"))
 
-from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, to_wire  # noqa: E402
+from missionplan.bridge.formats.mission_items import (  # noqa: E402
+    CMD_NAV_RETURN_TO_LAUNCH,
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_MISSION,
+    Flavour,
+    Mission,
+    MissionItem,
+    to_wire,
+)
 from missionplan.bridge.formats.readback import compare_wire  # noqa: E402
 from missionplan.bridge.sim.mock import LinkFaults, MockAutopilot  # noqa: E402
 from missionplan.bridge.transfer.protocol import MissionTransferError, Timeouts  # noqa: E402
@@ -38,10 +48,11 @@ import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 
 
 def survey(n: int) -> Mission:
-    items = [MissionItem(22, 3, z=30.0)]
-    items += [MissionItem(16, 3, param2=1.0, x=45.07 + (i // 25) * 2e-4, y=7.68 + (i % 25) * 1e-4, z=30.0)
+    items = [MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, z=30.0)]
+    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=1.0, x=45.07 + (i // 25) * 2e-4,
+                          y=7.68 + (i % 25) * 1e-4, z=30.0)
               for i in range(n - 2)]
-    return Mission(items + [MissionItem(20, 2)], home=(45.07, 7.68, 240.0))
+    return Mission(items + [MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION)], home=(45.07, 7.68, 240.0))
 
 
 def measure(backend: str, size: int, loss: float, seed: int) -> dict[str, object]:
@@ -104,7 +115,8 @@ def measure_px4(size: int, backend: str) -> dict[str, object]:
 
     home = (45.07, 7.68, 240.0)
     mission = survey(size)
-    mission.items[0] = MissionItem(22, 3, x=home[0], y=home[1], z=30.0)  # PX4 refuses a take-off at 0, 0
+    # PX4 refuses a take-off at 0, 0
+    mission.items[0] = MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=home[0], y=home[1], z=30.0)
     with contextlib.ExitStack() as stack:
         vehicle = stack.enter_context(PX4(home=home))
         b = stack.enter_context(open_backend(backend, vehicle.offboard_url, vehicle.sysid, timeouts=Timeouts(),

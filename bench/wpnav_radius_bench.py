@@ -63,10 +63,14 @@ def fly_once(radius_m: float | None, leg: float, timeout: float = 180.0) -> dict
     corner = _offset(leg, 0.0)
     end = _offset(leg, leg)  # a right-angle turn at the corner
     param2 = radius_m or 0.0
-    mission = Mission([MissionItem(22, 3, x=HOME[0], y=HOME[1], z=10.0),
-                       MissionItem(16, 3, param2=param2, x=corner[0], y=corner[1], z=10.0),
-                       MissionItem(16, 3, param2=param2, x=end[0], y=end[1], z=10.0),
-                       MissionItem(21, 3, x=end[0], y=end[1], z=0.0)], home=HOME[:3])
+    mission = Mission([MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=HOME[0],
+                                   y=HOME[1], z=10.0),
+                       MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, param2=param2,
+                                   x=corner[0], y=corner[1], z=10.0),
+                       MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, param2=param2,
+                                   x=end[0], y=end[1], z=10.0),
+                       MissionItem(mavlink.MAV_CMD_NAV_LAND, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=end[0], y=end[1],
+                                   z=0.0)], home=HOME[:3])
     with ArduCopter(sysid=1, home=HOME) as sitl, PymavlinkBackend(sitl.url, 1, timeouts=Timeouts(),
                                                                     connect_timeout=20) as b:
         report = upload_plan(b, [mission], set_params=radius_m is not None)

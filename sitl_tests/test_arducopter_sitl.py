@@ -43,10 +43,14 @@ def _fenced(mission: Mission) -> PlanFile:
     lat, lon = mission.home[0], mission.home[1]  # type: ignore[index]
     square = [(lat - 0.001, lon - 0.001), (lat - 0.001, lon + 0.001), (lat + 0.001, lon + 0.001),
               (lat + 0.001, lon - 0.001)]
-    fence = Mission([MissionItem(5001, 0, param1=4.0, x=a, y=b) for a, b in square]
-                    + [MissionItem(5004, 0, param1=15.0, x=lat + 0.0002, y=lon + 0.0002)], MissionType.FENCE)
-    rally = Mission([MissionItem(5100, 3, x=lat + 0.0003, y=lon - 0.0003, z=20.0),
-                     MissionItem(5100, 3, x=lat - 0.0004, y=lon + 0.0001, z=25.0)], MissionType.RALLY)
+    fence = Mission([MissionItem(mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, mavlink.MAV_FRAME_GLOBAL,
+                                 param1=4.0, x=a, y=b) for a, b in square]
+                    + [MissionItem(mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, mavlink.MAV_FRAME_GLOBAL, param1=15.0,
+                                   x=lat + 0.0002, y=lon + 0.0002)], MissionType.FENCE)
+    rally = Mission([MissionItem(mavlink.MAV_CMD_NAV_RALLY_POINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=lat + 0.0003,
+                                 y=lon - 0.0003, z=20.0),
+                     MissionItem(mavlink.MAV_CMD_NAV_RALLY_POINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=lat - 0.0004,
+                                 y=lon + 0.0001, z=25.0)], MissionType.RALLY)
     return PlanFile(mission=mission, fence=fence, rally=rally)
 
 

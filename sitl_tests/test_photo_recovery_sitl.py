@@ -46,9 +46,14 @@ PAST_THE_END = 1 << 30  # a byte offset beyond any log here (the listed size is 
 
 def _mission() -> Mission:
     north = HOME[0] + 30.0 / M_PER_DEG_LAT
-    items = [MissionItem(22, 3, z=10.0), MissionItem(206, 2, param1=2.0),
-             MissionItem(16, 3, x=north, y=HOME[1], z=10.0), MissionItem(16, 3, x=HOME[0], y=HOME[1], z=10.0),
-             MissionItem(206, 2, param1=0.0), MissionItem(20, 2)]
+    items = [MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, z=10.0),
+             MissionItem(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mavlink.MAV_FRAME_MISSION, param1=2.0),
+             MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=north, y=HOME[1],
+                         z=10.0),
+             MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=HOME[0], y=HOME[1],
+                         z=10.0),
+             MissionItem(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mavlink.MAV_FRAME_MISSION, param1=0.0),
+             MissionItem(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_FRAME_MISSION)]
     return Mission(items, home=HOME)
 
 

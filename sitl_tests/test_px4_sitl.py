@@ -118,17 +118,23 @@ def test_upload_from_the_wrong_place_is_refused_with_pxs_reasons(px4, tmp_path, 
 
 def _small_plan(home: tuple[float, float, float], fence_and_rally: bool) -> PlanFile:
     lat, lon, _ = home
-    items = [MissionItem(22, 3, x=lat, y=lon, z=10.0)]
-    items += [MissionItem(16, 3, param2=0.5, x=lat + i * 2e-5, y=lon, z=10.0) for i in range(1, 6)]
-    plan = PlanFile(mission=Mission(items + [MissionItem(20, 2)], home=home), firmware=Flavour.PX4)
+    items = [MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=lat, y=lon, z=10.0)]
+    items += [MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, param2=0.5,
+                          x=lat + i * 2e-5, y=lon, z=10.0) for i in range(1, 6)]
+    plan = PlanFile(mission=Mission(items + [MissionItem(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH,
+                                                         mavlink.MAV_FRAME_MISSION)], home=home), firmware=Flavour.PX4)
     if fence_and_rally:
         square = [(lat - 0.001, lon - 0.001), (lat - 0.001, lon + 0.001), (lat + 0.001, lon + 0.001),
                   (lat + 0.001, lon - 0.001)]
-        plan.fence = Mission([MissionItem(5001, 0, param1=4.0, x=a, y=b, autocontinue=False) for a, b in square]
-                             + [MissionItem(5004, 0, param1=15.0, x=lat + 0.0005, y=lon + 0.0005, autocontinue=False)],
+        plan.fence = Mission([MissionItem(mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, mavlink.MAV_FRAME_GLOBAL,
+                                          param1=4.0, x=a, y=b, autocontinue=False) for a, b in square]
+                             + [MissionItem(mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, mavlink.MAV_FRAME_GLOBAL,
+                                            param1=15.0, x=lat + 0.0005, y=lon + 0.0005, autocontinue=False)],
                              MissionType.FENCE)
-        plan.rally = Mission([MissionItem(5100, 3, x=lat + 0.0003, y=lon - 0.0003, z=20.0),
-                              MissionItem(5100, 3, x=lat - 0.0004, y=lon + 0.0001, z=25.5)], MissionType.RALLY)
+        plan.rally = Mission([MissionItem(mavlink.MAV_CMD_NAV_RALLY_POINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                                          x=lat + 0.0003, y=lon - 0.0003, z=20.0),
+                              MissionItem(mavlink.MAV_CMD_NAV_RALLY_POINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                                          x=lat - 0.0004, y=lon + 0.0001, z=25.5)], MissionType.RALLY)
     return plan
 
 
@@ -158,21 +164,26 @@ def test_a_1000_item_mission_and_pxs_list_limits(px4, tmp_path, capsys) -> None:
     vehicle: PX4 = px4(home=home)
     url, sysid = vehicle.offboard_url, str(vehicle.sysid)
     lat, lon, _ = home
-    items = [MissionItem(22, 3, x=lat, y=lon, z=10.0)]
-    items += [MissionItem(16, 3, param2=0.5, x=lat + (i % 40) * 1e-5, y=lon + (i // 40) * 1e-5, z=10.0 + i % 7)
+    items = [MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=lat, y=lon, z=10.0)]
+    items += [MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, param2=0.5,
+                          x=lat + (i % 40) * 1e-5, y=lon + (i // 40) * 1e-5, z=10.0 + i % 7)
               for i in range(1, 999)]
     path = tmp_path / "big.plan"
-    write_plan(path, PlanFile(mission=Mission(items + [MissionItem(20, 2)], home=home), firmware=Flavour.PX4))
+    write_plan(path, PlanFile(mission=Mission(items + [MissionItem(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH,
+                                                                   mavlink.MAV_FRAME_MISSION)], home=home),
+                              firmware=Flavour.PX4))
     assert main(["upload", str(path), "--sysid", sysid, "--connect", url, *CLI]) == 0
     assert "uploaded 1000 items (1000 mission, no fence, no rally)" in capsys.readouterr().out
     # PX4 holds at most 64 fence items and 32 rally points: one more is refused as NO_SPACE, by name.
     for kind, most in ((MissionType.FENCE, 64), (MissionType.RALLY, 32)):
         plan = PlanFile(mission=Mission(items[:3], home=home), firmware=Flavour.PX4)
         if kind == MissionType.FENCE:
-            plan.fence = Mission([MissionItem(5003, 0, param1=500.0 + i, x=lat, y=lon, autocontinue=False)
+            plan.fence = Mission([MissionItem(mavlink.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, mavlink.MAV_FRAME_GLOBAL,
+                                              param1=500.0 + i, x=lat, y=lon, autocontinue=False)
                                   for i in range(most + 1)], kind)
         else:
-            plan.rally = Mission([MissionItem(5100, 3, x=lat + i * 1e-5, y=lon, z=20.0) for i in range(most + 1)], kind)
+            plan.rally = Mission([MissionItem(mavlink.MAV_CMD_NAV_RALLY_POINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                                              x=lat + i * 1e-5, y=lon, z=20.0) for i in range(most + 1)], kind)
         write_plan(path, plan)
         assert main(["upload", str(path), "--sysid", sysid, "--connect", url, *CLI]) == 1
         assert "no space for this many items (MAV_MISSION_NO_SPACE)" in capsys.readouterr().err

@@ -29,7 +29,13 @@ from arducopter import arducopter  # noqa: F401  (the fixture)
 from px4_sih import px4  # noqa: F401  (the fixture)
 
 from missionplan.bridge.link.connection import Link
-from missionplan.bridge.formats.mission_items import Flavour, MissionType, WireItem
+from missionplan.bridge.formats.mission_items import (
+    CMD_FENCE_POLYGON_VERTEX_INCLUSION,
+    FRAME_GLOBAL,
+    Flavour,
+    MissionType,
+    WireItem,
+)
 from missionplan.bridge.formats.readback import compare_wire
 from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.bridge.transfer.retask import RetaskReport, replace_mission_in_flight
@@ -48,7 +54,8 @@ def square_fence(home: tuple[float, float, float]) -> list[WireItem]:
     """An inclusion polygon (MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION) 2 x FENCE_HALF_M wide around home."""
     h = FENCE_HALF_M
     corners = [rb.offset(home[:2], n, e) for n, e in ((-h, -h), (-h, h), (h, h), (h, -h))]
-    return [WireItem(k, 0, 5001, 0, 1, 4.0, 0.0, 0.0, 0.0, round(lat * 1e7), round(lon * 1e7), 0.0, 1)
+    return [WireItem(k, FRAME_GLOBAL, CMD_FENCE_POLYGON_VERTEX_INCLUSION, 0, 1, 4.0, 0.0, 0.0, 0.0, round(lat * 1e7),
+                     round(lon * 1e7), 0.0, MissionType.FENCE)
             for k, (lat, lon) in enumerate(corners)]
 
 

@@ -20,9 +20,11 @@ from missionplan.bridge.transfer.uploader import PymavlinkBackend, upload_plan
 
 
 def survey(n: int, lat: float = 45.07) -> Mission:
-    items = [MissionItem(22, 3, z=30.0)]
-    items += [MissionItem(16, 3, param2=0.5, x=lat + i * 1e-4, y=7.68, z=30.0) for i in range(n)]
-    return Mission(items + [MissionItem(20, 2)], home=(lat, 7.68, 240.0))
+    items = [MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, z=30.0)]
+    items += [MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, param2=0.5,
+                          x=lat + i * 1e-4, y=7.68, z=30.0) for i in range(n)]
+    return Mission(items + [MissionItem(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_FRAME_MISSION)],
+                   home=(lat, 7.68, 240.0))
 
 
 def test_upload_waits_for_the_vehicle_instead_of_racing_its_re_requests() -> None:
@@ -52,8 +54,10 @@ def test_a_late_error_ack_after_accepted_does_not_fail_what_follows() -> None:
 
 
 def test_an_upload_without_fence_or_rally_clears_the_old_ones(tmp_path: Path) -> None:
-    fence = Mission([MissionItem(5003, 0, param1=300.0, x=45.07, y=7.68)], MissionType.FENCE)
-    rally = Mission([MissionItem(5100, 3, x=45.071, y=7.681, z=20.0)], MissionType.RALLY)
+    fence = Mission([MissionItem(mavlink.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, mavlink.MAV_FRAME_GLOBAL, param1=300.0,
+                                 x=45.07, y=7.68)], MissionType.FENCE)
+    rally = Mission([MissionItem(mavlink.MAV_CMD_NAV_RALLY_POINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=45.071,
+                                 y=7.681, z=20.0)], MissionType.RALLY)
     with MockAutopilot(flavour="ardupilot", request_interval=0.05) as mock:
         with PymavlinkBackend(mock.client_url, 1, timeouts=Timeouts(item_timeout=0.3), connect_timeout=5) as b:
             assert upload_plan(b, [survey(5), fence, rally]).verified
@@ -98,14 +102,18 @@ def test_wpnav_radius_from_the_plan_clamped_to_its_range_and_proven_by_param_val
 
     copter = VehicleInfo(1, 1, 3, 2, Flavour.ARDUPILOT, False)
     assert acceptance_radius_setting(copter, survey(3)).value == 50.0  # type: ignore[union-attr]
-    tiny = Mission([MissionItem(16, 3, param2=0.01, x=45.0, y=7.0, z=5.0)])
+    tiny = Mission([MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, param2=0.01,
+                                x=45.0, y=7.0, z=5.0)])
     setting = acceptance_radius_setting(copter, tiny)
     assert setting is not None and setting.value == 5.0 and "clamped from 1" in setting.describe(200.0)
-    huge = Mission([MissionItem(16, 3, param2=25.0, x=45.0, y=7.0, z=5.0)])
+    huge = Mission([MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, param2=25.0,
+                                x=45.0, y=7.0, z=5.0)])
     assert acceptance_radius_setting(copter, huge).value == 1000.0  # type: ignore[union-attr]
     assert acceptance_radius_setting(VehicleInfo(1, 1, 12, 2, Flavour.PX4, False), survey(3)) is None
     assert acceptance_radius_setting(VehicleInfo(1, 1, 3, 1, Flavour.ARDUPILOT, False), survey(3)) is None  # plane
-    assert acceptance_radius_setting(copter, Mission([MissionItem(16, 3, x=45.0, y=7.0, z=5.0)])) is None
+    plain = Mission([MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=45.0, y=7.0,
+                                 z=5.0)])
+    assert acceptance_radius_setting(copter, plain) is None
     with MockAutopilot(flavour="ardupilot", request_interval=0.05) as mock:
         with PymavlinkBackend(mock.client_url, 1, timeouts=Timeouts(item_timeout=0.3), connect_timeout=5) as b:
             report = upload_plan(b, [survey(3)], set_params=False)
@@ -117,7 +125,9 @@ def test_wpnav_radius_from_the_plan_clamped_to_its_range_and_proven_by_param_val
             monkeypatch.setitem(mock_vehicle._HANDLERS, "PARAM_SET",
                                 lambda self, msg, peer, now: self._send_param("WPNAV_RADIUS", peer))
             with pytest.raises(BridgeError, match="kept WPNAV_RADIUS = 50 when set to 20"):
-                upload_plan(b, [Mission([MissionItem(16, 3, param2=0.2, x=45.0, y=7.0, z=5.0)])])
+                upload_plan(b, [Mission([MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT,
+                                                     mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, param2=0.2, x=45.0, y=7.0,
+                                                     z=5.0)])])
 
 
 def test_a_lost_final_accepted_is_settled_by_read_back(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -15,7 +15,16 @@ from loopback import udp_port_free, wait_until
 
 from missionplan.bridge import BridgeUsageError
 from missionplan.bridge.commands import register
-from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem
+from missionplan.bridge.formats.mission_items import (
+    CMD_NAV_RETURN_TO_LAUNCH,
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_MISSION,
+    Flavour,
+    Mission,
+    MissionItem,
+)
 from missionplan.bridge.formats.missionfile import PlanFile, read_plan, write_plan, write_waypoints
 from missionplan.bridge.sim.mock import MockAutopilot
 
@@ -28,9 +37,10 @@ def run(argv: list[str]) -> int:
 
 
 def _mission(n: int = 12) -> Mission:
-    items = [MissionItem(22, 3, x=45.07, y=7.68, z=25.0)]
-    items += [MissionItem(16, 3, param2=1.0, param4=math.nan, x=45.07 + i * 1e-4, y=7.68, z=25.0) for i in range(n)]
-    return Mission(items + [MissionItem(20, 2)], home=(45.07, 7.68, 240.0))
+    items = [MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=45.07, y=7.68, z=25.0)]
+    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=1.0, param4=math.nan, x=45.07 + i * 1e-4,
+                          y=7.68, z=25.0) for i in range(n)]
+    return Mission(items + [MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION)], home=(45.07, 7.68, 240.0))
 
 
 FAST = ["--timeout", "2", "--item-timeout", "0.2", "--retries", "3", "--quiet"]

@@ -13,7 +13,19 @@ from pathlib import Path
 import pytest
 
 from missionplan.bridge import BridgeUsageError
-from missionplan.bridge.formats.mission_items import Mission, MissionItem, MissionType
+from missionplan.bridge.formats.mission_items import (
+    CMD_FENCE_POLYGON_VERTEX_INCLUSION,
+    CMD_NAV_RETURN_TO_LAUNCH,
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
+    CMD_RALLY_POINT,
+    FRAME_GLOBAL,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_MISSION,
+    Mission,
+    MissionItem,
+    MissionType,
+)
 from missionplan.bridge.formats.missionfile import PlanFile, write_plan, write_waypoints
 from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.cli import main
@@ -22,16 +34,20 @@ from test_bridge_commands import FAST, run  # noqa: E402  (tests/ is on sys.path
 
 
 def _mission(n: int = 8) -> Mission:
-    items = [MissionItem(22, 3, z=25.0)]
-    items += [MissionItem(16, 3, param1=1.0, x=45.07 + i * 1e-4, y=7.68, z=25.0) for i in range(n)]
-    return Mission(items + [MissionItem(20, 2)], home=(45.07, 7.68, 240.0))
+    items = [MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, z=25.0)]
+    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param1=1.0, x=45.07 + i * 1e-4, y=7.68,
+                          z=25.0) for i in range(n)]
+    return Mission(items + [MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION)], home=(45.07, 7.68, 240.0))
 
 
 def _fenced(n: int = 8) -> PlanFile:
     plan = PlanFile(mission=_mission(n))
-    plan.fence = Mission([MissionItem(5001, 0, param1=3, x=45.0, y=7.0), MissionItem(5001, 0, param1=3, x=45.1, y=7.0),
-                          MissionItem(5001, 0, param1=3, x=45.1, y=7.1)], MissionType.FENCE)
-    plan.rally = Mission([MissionItem(5100, 3, x=45.02, y=7.03, z=20)], MissionType.RALLY)
+    plan.fence = Mission([MissionItem(CMD_FENCE_POLYGON_VERTEX_INCLUSION, FRAME_GLOBAL, param1=3, x=45.0, y=7.0),
+                          MissionItem(CMD_FENCE_POLYGON_VERTEX_INCLUSION, FRAME_GLOBAL, param1=3, x=45.1, y=7.0),
+                          MissionItem(CMD_FENCE_POLYGON_VERTEX_INCLUSION, FRAME_GLOBAL, param1=3, x=45.1, y=7.1)],
+                         MissionType.FENCE)
+    plan.rally = Mission([MissionItem(CMD_RALLY_POINT, FRAME_GLOBAL_RELATIVE_ALT, x=45.02, y=7.03, z=20)],
+                         MissionType.RALLY)
     return plan
 
 

@@ -5,7 +5,18 @@ from __future__ import annotations
 
 import pytest
 
-from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, to_wire
+from missionplan.bridge.formats.mission_items import (
+    CMD_DO_SET_CAM_TRIGG_DIST,
+    CMD_NAV_RETURN_TO_LAUNCH,
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_MISSION,
+    Flavour,
+    Mission,
+    MissionItem,
+    to_wire,
+)
 from missionplan.bridge.formats.readback import compare_wire
 from missionplan.bridge.sim.mock import LinkFaults, MockAutopilot
 from missionplan.bridge.transfer.protocol import Timeouts
@@ -13,10 +24,13 @@ from missionplan.bridge.transfer.uploader import open_backend, upload_plan
 
 
 def survey(n: int) -> Mission:
-    items = [MissionItem(22, 3, x=45.07, y=7.68, z=30.0), MissionItem(206, 2, param1=8.0)]  # not at 0, 0 (PX4)
-    items += [MissionItem(16, 3, param2=1.0, x=45.07 + (i // 20) * 2e-4, y=7.68 + (i % 20) * 1e-4, z=30.0)
+    items = [MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=45.07, y=7.68, z=30.0),
+             MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=8.0)]  # not at 0, 0 (PX4)
+    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=1.0, x=45.07 + (i // 20) * 2e-4,
+                          y=7.68 + (i % 20) * 1e-4, z=30.0)
               for i in range(n - 4)]
-    items += [MissionItem(206, 2, param1=0.0), MissionItem(20, 2)]
+    items += [MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0),
+              MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION)]
     return Mission(items, home=(45.07, 7.68, 240.0))
 
 

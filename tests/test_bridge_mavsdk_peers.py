@@ -11,7 +11,19 @@ from typing import Any
 import pytest
 from loopback import free_udp_port, wait_until
 
-from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, to_wire
+from missionplan.bridge.formats.mission_items import (
+    CMD_FENCE_CIRCLE_INCLUSION,
+    CMD_NAV_LAND,
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
+    FRAME_GLOBAL,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    Flavour,
+    Mission,
+    MissionItem,
+    MissionType,
+    to_wire,
+)
 from missionplan.bridge.formats.readback import compare_wire
 from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.bridge.transfer.protocol import Timeouts
@@ -24,10 +36,12 @@ from mavsdk.plugins.mission_raw_server import MissionRawServer  # noqa: E402
 
 
 def survey(n: int) -> Mission:
-    items = [MissionItem(22, 3, x=45.07, y=7.68, z=30.0)]  # PX4 refuses to start a take-off at 0, 0
-    items += [MissionItem(16, 3, param2=1.0, param4=float(i % 360), x=45.07 + i * 1e-4, y=7.68, z=30.0 + i % 4)
+    # PX4 refuses to start a take-off at 0, 0
+    items = [MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=45.07, y=7.68, z=30.0)]
+    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=1.0, param4=float(i % 360),
+                          x=45.07 + i * 1e-4, y=7.68, z=30.0 + i % 4)
               for i in range(n - 2)]
-    return Mission(items + [MissionItem(21, 3)], home=(45.07, 7.68, 240.0))
+    return Mission(items + [MissionItem(CMD_NAV_LAND, FRAME_GLOBAL_RELATIVE_ALT)], home=(45.07, 7.68, 240.0))
 
 
 def _system(sdk: Any, sysid: int, autopilot: int, timeout: float = 5.0) -> Any:
@@ -63,7 +77,8 @@ def test_mavsdk_own_transport_uploads_and_downloads_to_the_mock(flavour: str, au
 
 
 def test_mavsdk_backend_over_tcp_with_fence() -> None:
-    fence = Mission([MissionItem(5003, 0, param1=1000.0, x=45.07, y=7.68)], mission_type=1)  # round the home
+    fence = Mission([MissionItem(CMD_FENCE_CIRCLE_INCLUSION, FRAME_GLOBAL, param1=1000.0, x=45.07, y=7.68)],
+                    mission_type=MissionType.FENCE)  # round the home
     with MockAutopilot(listen="tcpin:127.0.0.1:0", flavour="px4", request_interval=0.05) as mock:
         with open_backend("mavsdk", mock.client_url, 1, timeouts=Timeouts(item_timeout=0.3), connect_timeout=5) as b:
             report = upload_plan(b, [survey(30), fence])

@@ -10,6 +10,9 @@ from missionplan.bridge.formats.mission_items import (
     CMD_DO_JUMP,
     CMD_NAV_TAKEOFF,
     CMD_NAV_WAYPOINT,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_GLOBAL_RELATIVE_ALT_INT,
+    FRAME_MISSION,
     Flavour,
     Mission,
     MissionItem,
@@ -22,10 +25,11 @@ from missionplan.bridge.formats.readback import compare_wire
 
 
 def _mission() -> Mission:
-    return Mission(items=[MissionItem(CMD_NAV_TAKEOFF, 3, z=30.0),
-                          MissionItem(CMD_NAV_WAYPOINT, 3, param2=2.0, param4=math.nan, x=45.12345678, y=7.65432109, z=30),
-                          MissionItem(CMD_NAV_WAYPOINT, 3, x=45.2, y=7.7, z=35),
-                          MissionItem(CMD_DO_JUMP, 2, param1=2, param2=3)],
+    return Mission(items=[MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, z=30.0),
+                          MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=2.0, param4=math.nan,
+                                      x=45.12345678, y=7.65432109, z=30),
+                          MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, x=45.2, y=7.7, z=35),
+                          MissionItem(CMD_DO_JUMP, FRAME_MISSION, param1=2, param2=3)],
                    home=(45.0, 7.6, 240.0))
 
 
@@ -82,7 +86,8 @@ def test_compare_finds_each_kind_of_difference_and_skips_home() -> None:
     # NaN only equals NaN; a deprecated frame equals its plain number (ArduPilot answers 6 as 3).
     nan_lost = [replace(w, param4=0.0) if w.seq == 2 else w for w in sent]
     assert compare_wire(sent, nan_lost, skip_home=True)
-    frame6 = [replace(w, frame=6) if w.frame == 3 else w for w in sent]
+    frame6 = [replace(w, frame=FRAME_GLOBAL_RELATIVE_ALT_INT) if w.frame == FRAME_GLOBAL_RELATIVE_ALT else w
+              for w in sent]
     assert compare_wire(frame6, sent, skip_home=True) == []
 
 

@@ -14,7 +14,23 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavwp  # noqa: E402
 
 from missionplan.bridge import BridgeUsageError  # noqa: E402
-from missionplan.bridge.formats.mission_items import CMD_DO_JUMP, Mission, MissionItem, MissionType  # noqa: E402
+from missionplan.bridge.formats.mission_items import (  # noqa: E402
+    CMD_DO_CHANGE_SPEED,
+    CMD_DO_JUMP,
+    CMD_DO_SET_CAM_TRIGG_DIST,
+    CMD_FENCE_CIRCLE_EXCLUSION,
+    CMD_FENCE_POLYGON_VERTEX_INCLUSION,
+    CMD_NAV_RETURN_TO_LAUNCH,
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
+    CMD_RALLY_POINT,
+    FRAME_GLOBAL,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_MISSION,
+    Mission,
+    MissionItem,
+    MissionType,
+)
 from missionplan.bridge.formats.missionfile import (  # noqa: E402
     PlanFile,
     read_mission_file,
@@ -27,19 +43,26 @@ from missionplan.bridge.formats.missionfile import (  # noqa: E402
 
 
 def _mission(n: int = 6) -> Mission:
-    items = [MissionItem(22, 3, z=30.0), MissionItem(206, 2, param1=12.5)]
-    items += [MissionItem(16, 3, param2=2.0, param4=math.nan, x=45.07 + i * 1e-4, y=7.68 - i * 1e-4, z=30.0 + i)
+    items = [MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, z=30.0),
+             MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=12.5)]
+    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=2.0, param4=math.nan, x=45.07 + i * 1e-4,
+                          y=7.68 - i * 1e-4, z=30.0 + i)
               for i in range(n)]
-    items += [MissionItem(CMD_DO_JUMP, 2, param1=3, param2=1), MissionItem(206, 2), MissionItem(20, 2)]
+    items += [MissionItem(CMD_DO_JUMP, FRAME_MISSION, param1=3, param2=1),
+              MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION),
+              MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION)]
     return Mission(items=items, home=(45.07, 7.68, 241.5))
 
 
 def test_plan_round_trip_keeps_every_item(tmp_path: Path) -> None:
     plan = PlanFile(mission=_mission())
-    plan.fence = Mission([MissionItem(5001, 0, param1=3, x=45.0, y=7.0), MissionItem(5001, 0, param1=3, x=45.1, y=7.0),
-                          MissionItem(5001, 0, param1=3, x=45.1, y=7.1), MissionItem(5004, 0, param1=25, x=45.05, y=7.05)],
+    plan.fence = Mission([MissionItem(CMD_FENCE_POLYGON_VERTEX_INCLUSION, FRAME_GLOBAL, param1=3, x=45.0, y=7.0),
+                          MissionItem(CMD_FENCE_POLYGON_VERTEX_INCLUSION, FRAME_GLOBAL, param1=3, x=45.1, y=7.0),
+                          MissionItem(CMD_FENCE_POLYGON_VERTEX_INCLUSION, FRAME_GLOBAL, param1=3, x=45.1, y=7.1),
+                          MissionItem(CMD_FENCE_CIRCLE_EXCLUSION, FRAME_GLOBAL, param1=25, x=45.05, y=7.05)],
                          MissionType.FENCE)
-    plan.rally = Mission([MissionItem(5100, 3, x=45.02, y=7.03, z=20)], MissionType.RALLY)
+    plan.rally = Mission([MissionItem(CMD_RALLY_POINT, FRAME_GLOBAL_RELATIVE_ALT, x=45.02, y=7.03, z=20)],
+                         MissionType.RALLY)
     path = tmp_path / "m.plan"
     write_plan(path, plan)
     doc = json.loads(path.read_text())
@@ -56,7 +79,8 @@ def test_plan_round_trip_keeps_every_item(tmp_path: Path) -> None:
     for a, b in zip(plan.mission.items, back.mission.items):
         assert a.command == b.command and a.frame == b.frame
         assert all((math.isnan(x) and math.isnan(y)) or x == y for x, y in zip(a.params, b.params))
-    assert [i.command for i in back.fence.items] == [5001, 5001, 5001, 5004]
+    assert [i.command for i in back.fence.items] == [CMD_FENCE_POLYGON_VERTEX_INCLUSION] * 3 + [
+        CMD_FENCE_CIRCLE_EXCLUSION]
     assert back.rally.items[0].z == 20
     assert [p.mission_type for p in back.parts()] == [MissionType.MISSION, MissionType.FENCE, MissionType.RALLY]
 
@@ -64,12 +88,12 @@ def test_plan_round_trip_keeps_every_item(tmp_path: Path) -> None:
 def test_plan_do_jump_targets_follow_do_jump_ids(tmp_path: Path) -> None:
     doc = {"fileType": "Plan", "version": 1, "groundStation": "QGroundControl",
            "mission": {"version": 2, "firmwareType": 12, "plannedHomePosition": [45, 7, 200], "items": [
-               {"type": "SimpleItem", "command": 22, "frame": 3, "doJumpId": 10, "autoContinue": True,
-                "params": [0, 0, 0, None, 0, 0, 30]},
-               {"type": "SimpleItem", "command": 16, "frame": 3, "doJumpId": 20, "autoContinue": True,
-                "params": [0, 0, 0, None, 45.1, 7.1, 30]},
-               {"type": "SimpleItem", "command": 177, "frame": 2, "doJumpId": 30, "autoContinue": True,
-                "params": [20, 2, 0, 0, 0, 0, 0]}]},
+               {"type": "SimpleItem", "command": CMD_NAV_TAKEOFF, "frame": FRAME_GLOBAL_RELATIVE_ALT, "doJumpId": 10,
+                "autoContinue": True, "params": [0, 0, 0, None, 0, 0, 30]},
+               {"type": "SimpleItem", "command": CMD_NAV_WAYPOINT, "frame": FRAME_GLOBAL_RELATIVE_ALT, "doJumpId": 20,
+                "autoContinue": True, "params": [0, 0, 0, None, 45.1, 7.1, 30]},
+               {"type": "SimpleItem", "command": CMD_DO_JUMP, "frame": FRAME_MISSION, "doJumpId": 30,
+                "autoContinue": True, "params": [20, 2, 0, 0, 0, 0, 0]}]},
            "geoFence": {"version": 2, "polygons": [], "circles": []}, "rallyPoints": {"version": 2, "points": []}}
     path = tmp_path / "jump.plan"
     path.write_text(json.dumps(doc))
@@ -78,7 +102,7 @@ def test_plan_do_jump_targets_follow_do_jump_ids(tmp_path: Path) -> None:
     assert plan.firmware is not None and plan.firmware.value == "px4"
 
 
-@pytest.mark.parametrize("content, message", [
+@pytest.mark.parametrize("content, message", [  # file texts as on disk: their MAVLink numbers stay raw
     ("{not json", "not valid JSON"),
     ('{"fileType": "Mission"}', "not a QGroundControl plan"),
     ('{"fileType": "Plan", "version": 1, "mission": {"items": [{"type": "ComplexItem", '
@@ -145,12 +169,12 @@ def test_missing_and_unknown_files(tmp_path: Path) -> None:
 
 # ------------------------------------------------------------------------- numbers the wire cannot carry
 
-def _plan_with(params: list, command: int = 16, frame: int = 3) -> str:
+def _plan_with(params: list, command: int = CMD_NAV_WAYPOINT, frame: int = FRAME_GLOBAL_RELATIVE_ALT) -> str:
     """A plan text with one item; json.dumps writes NaN / Infinity literals, as some tools do."""
     return json.dumps({"fileType": "Plan", "version": 1, "groundStation": "QGroundControl",
                        "mission": {"version": 2, "plannedHomePosition": [45, 7, 200], "items": [
-                           {"type": "SimpleItem", "command": 22, "frame": 3, "doJumpId": 1, "autoContinue": True,
-                            "params": [0, 0, 0, None, 45.0, 7.0, 30]},
+                           {"type": "SimpleItem", "command": CMD_NAV_TAKEOFF, "frame": FRAME_GLOBAL_RELATIVE_ALT,
+                            "doJumpId": 1, "autoContinue": True, "params": [0, 0, 0, None, 45.0, 7.0, 30]},
                            {"type": "SimpleItem", "command": command, "frame": frame, "doJumpId": 2,
                             "autoContinue": True, "params": params}]},
                        "geoFence": {"version": 2, "polygons": [], "circles": []},
@@ -181,7 +205,7 @@ def test_plan_nan_where_nan_is_meaningful_is_kept(tmp_path: Path) -> None:
     path = tmp_path / "ok.plan"
     path.write_text(_plan_with([0, 2.0, 0, None, 45.07, 7.68, 30]))
     assert math.isnan(read_plan(path).mission.items[1].param4)
-    path.write_text(_plan_with([1, 5.0, -1, 0, None, None, None], command=178, frame=2))
+    path.write_text(_plan_with([1, 5.0, -1, 0, None, None, None], command=CMD_DO_CHANGE_SPEED, frame=FRAME_MISSION))
     item = read_plan(path).mission.items[1]
     assert (item.x, item.y) == (0.0, 0.0)
 

@@ -36,14 +36,17 @@ json_values = st.recursive(scalars, lambda inner: st.lists(inner, max_size=5)
 
 
 def _valid_doc() -> dict[str, Any]:
-    item = {"type": "SimpleItem", "command": 16, "frame": 3, "doJumpId": 2, "autoContinue": True,
+    item = {"type": "SimpleItem", "command": mavlink.MAV_CMD_NAV_WAYPOINT,
+            "frame": mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, "doJumpId": 2, "autoContinue": True,
             "params": [0, 2, 0, None, 45.07, 7.68, 30]}
     return {"fileType": "Plan", "version": 1, "groundStation": "QGroundControl",
             "mission": {"version": 2, "firmwareType": 3, "plannedHomePosition": [45.07, 7.68, 240],
                         "cruiseSpeed": 5, "hoverSpeed": 5,
-                        "items": [{"type": "SimpleItem", "command": 22, "frame": 3, "doJumpId": 1,
+                        "items": [{"type": "SimpleItem", "command": mavlink.MAV_CMD_NAV_TAKEOFF,
+                                   "frame": mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, "doJumpId": 1,
                                    "autoContinue": True, "params": [0, 0, 0, None, 45.07, 7.68, 30]}, item,
-                                  {"type": "SimpleItem", "command": 177, "frame": 2, "doJumpId": 3,
+                                  {"type": "SimpleItem", "command": mavlink.MAV_CMD_DO_JUMP,
+                                   "frame": mavlink.MAV_FRAME_MISSION, "doJumpId": 3,
                                    "autoContinue": True, "params": [2, 1, 0, 0, 0, 0, 0]}]},
             "geoFence": {"version": 2, "circles": [{"inclusion": False, "circle": {"center": [45.07, 7.68],
                                                                                      "radius": 20}, "version": 1}],

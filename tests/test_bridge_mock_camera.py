@@ -46,7 +46,8 @@ def _wire_local(sim: FlightSim, seq: int) -> tuple[float, float]:
 
 def _waypoint(north: float, east: float = 0.0, radius: float = 0.0) -> MissionItem:
     lat, lon = _at(north, east)
-    return MissionItem(16, 3, param2=radius, x=lat, y=lon, z=ALT)
+    return MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, param2=radius, x=lat,
+                       y=lon, z=ALT)
 
 
 # ------------------------------------------------------------------------------------------- FlightSim
@@ -60,7 +61,9 @@ def _sim(items: list[MissionItem]) -> FlightSim:
 
 def test_photos_of_one_long_step_are_placed_at_their_trigger_distances() -> None:
     # Takeoff to 10 m, trigger every 1 m with a photo right away (param3 = 1), a 10.5 m leg north.
-    sim = _sim([MissionItem(22, 3, z=ALT), MissionItem(206, 2, param1=1.0, param3=1.0), _waypoint(10.5)])
+    sim = _sim([MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, z=ALT),
+                MissionItem(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mavlink.MAV_FRAME_MISSION, param1=1.0, param3=1.0),
+                _waypoint(10.5)])
     sim.advance(30.0)  # climb (4 s), leg (2.1 s) and the end of the mission in one step
     s = sim.state
     assert s.mission_done
@@ -74,7 +77,9 @@ def test_photos_of_one_long_step_are_placed_at_their_trigger_distances() -> None
 
 def test_photos_keep_their_spacing_across_a_corner_within_one_step() -> None:
     # 10.5 m north, then 4 m east: the trigger distance runs on around the corner.
-    sim = _sim([MissionItem(22, 3, z=ALT), MissionItem(206, 2, param1=1.0), _waypoint(10.5),
+    sim = _sim([MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, z=ALT),
+                MissionItem(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mavlink.MAV_FRAME_MISSION, param1=1.0),
+                _waypoint(10.5),
                 _waypoint(10.5, 4.0)])
     sim.advance(4.0)  # the climb alone
     assert sim.state.photos == 0
@@ -92,7 +97,9 @@ def test_photos_keep_their_spacing_across_a_corner_within_one_step() -> None:
 
 
 def test_photos_of_many_small_steps_match_one_long_step() -> None:
-    items = [MissionItem(22, 3, z=ALT), MissionItem(206, 2, param1=1.5), _waypoint(11.0, radius=0.01)]
+    items = [MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, z=ALT),
+             MissionItem(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mavlink.MAV_FRAME_MISSION, param1=1.5),
+             _waypoint(11.0, radius=0.01)]
     long_step, small_steps = _sim(items), _sim(items)
     long_step.advance(30.0)
     for _ in range(3000):
@@ -105,7 +112,8 @@ def test_photos_of_many_small_steps_match_one_long_step() -> None:
 
 
 def test_nav_land_touches_down_and_disarms() -> None:
-    sim = _sim([MissionItem(22, 3, z=ALT), MissionItem(21, 3)])
+    sim = _sim([MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, z=ALT),
+                MissionItem(mavlink.MAV_CMD_NAV_LAND, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT)])
     sim.advance(ALT / 2.5)  # the climb: takeoff reached, LAND is current
     assert sim.state.current == 1 and sim.state.alt == pytest.approx(ALT)
     events = sim.advance((ALT - 0.005) / 1.5)  # a descent that stops 5 mm above the ground
@@ -164,10 +172,12 @@ def test_set_message_interval_speeds_up_the_position_stream() -> None:
 
 
 def _survey(trigger_m: float, legs_north: list[float]) -> Mission:
-    items = [MissionItem(22, 3, z=ALT), MissionItem(206, 2, param1=trigger_m)]
+    items = [MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, z=ALT),
+             MissionItem(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mavlink.MAV_FRAME_MISSION, param1=trigger_m)]
     items += [_waypoint(north, radius=0.5) for north in legs_north]
     # Trigger off, return to launch. (Not NAV_LAND: see test_nav_land_touches_down_and_disarms below.)
-    items += [MissionItem(206, 2, param1=0.0), MissionItem(20, 2)]
+    items += [MissionItem(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mavlink.MAV_FRAME_MISSION, param1=0.0),
+              MissionItem(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_FRAME_MISSION)]
     return Mission(items, home=HOME)
 
 
@@ -259,7 +269,7 @@ def test_reboot_in_flight_after_an_item() -> None:
         assert mock.wait_until(lambda m: m.vehicle(1).reboots == 1, timeout=2.0)
         held = mock.mission(1)
     # The mission is forgotten: only ArduPilot's own home item is left.
-    assert len(held) == 1 and held[0].seq == 0 and held[0].command == 16
+    assert len(held) == 1 and held[0].seq == 0 and held[0].command == mavlink.MAV_CMD_NAV_WAYPOINT
     vehicle = mock.vehicle(1)
     assert vehicle.reboots == 1 and vehicle.reboot_at_item is None
     state = vehicle.flight.state

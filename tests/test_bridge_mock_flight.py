@@ -8,7 +8,20 @@ import time
 from typing import Any
 
 from missionplan.bridge.link.connection import Link, wait_vehicle
-from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, to_wire
+from missionplan.bridge.formats.mission_items import (
+    CMD_DO_CHANGE_SPEED,
+    CMD_DO_SET_CAM_TRIGG_DIST,
+    CMD_NAV_LAND,
+    CMD_NAV_RETURN_TO_LAUNCH,
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_MISSION,
+    Flavour,
+    Mission,
+    MissionItem,
+    to_wire,
+)
 from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.bridge.sim.mock_flight import FlightSim
 from missionplan.bridge.transfer.protocol import MissionClient, Timeouts
@@ -19,12 +32,15 @@ M_PER_DEG_LAT = 111_319.49
 
 def _survey() -> Mission:
     legs = [(0.0, 0.0), (100.0, 0.0), (100.0, 50.0), (0.0, 50.0)]  # metres north, east of home
-    items = [MissionItem(22, 3, z=20.0), MissionItem(178, 2, param1=1, param2=10.0), MissionItem(206, 2, param1=10.0)]
+    items = [MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, z=20.0),
+             MissionItem(CMD_DO_CHANGE_SPEED, FRAME_MISSION, param1=1, param2=10.0),
+             MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=10.0)]
     for north, east in legs:
         lat = HOME[0] + north / M_PER_DEG_LAT
         lon = HOME[1] + east / (M_PER_DEG_LAT * math.cos(math.radians(HOME[0])))
-        items.append(MissionItem(16, 3, param2=1.0, x=lat, y=lon, z=20.0))
-    items += [MissionItem(206, 2, param1=0.0), MissionItem(20, 2)]
+        items.append(MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=1.0, x=lat, y=lon, z=20.0))
+    items += [MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0),
+              MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION)]
     return Mission(items, home=HOME)
 
 
@@ -90,8 +106,10 @@ def test_flight_model_speed_acceptance_and_hold() -> None:
     sim = FlightSim(HOME, cruise_speed=5.0, climb_rate=2.0)
     north = 50.0
     lat = HOME[0] + north / M_PER_DEG_LAT
-    mission = Mission([MissionItem(22, 3, z=10.0), MissionItem(16, 3, param1=4.0, param2=2.0, x=lat, y=HOME[1], z=10.0),
-                       MissionItem(21, 3)])
+    mission = Mission([MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, z=10.0),
+                       MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param1=4.0, param2=2.0, x=lat,
+                                   y=HOME[1], z=10.0),
+                       MissionItem(CMD_NAV_LAND, FRAME_GLOBAL_RELATIVE_ALT)])
     sim.load(_items(mission), 0)
     sim.state.armed = True
     sim.start_mission()

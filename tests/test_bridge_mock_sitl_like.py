@@ -35,17 +35,20 @@ def _at(north: float, east: float = 0.0) -> tuple[float, float]:
 
 
 def _mission(alt: float, points: list[tuple[float, float]], trigger_m: float = 0.0, end: int = 20) -> Mission:
-    items = [MissionItem(22, 3, z=alt), MissionItem(178, 2, param1=1, param2=5.0, param3=-1),
-             MissionItem(206, 2, param1=trigger_m, param3=1.0 if trigger_m else 0.0)]
+    items = [MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, z=alt),
+             MissionItem(mavlink.MAV_CMD_DO_CHANGE_SPEED, mavlink.MAV_FRAME_MISSION, param1=1, param2=5.0, param3=-1),
+             MissionItem(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mavlink.MAV_FRAME_MISSION, param1=trigger_m,
+                         param3=1.0 if trigger_m else 0.0)]
     for north, east in points:
         lat, lon = _at(north, east)
-        items.append(MissionItem(16, 3, param2=0.5, x=lat, y=lon, z=alt))
-    items.append(MissionItem(206, 2, param1=0.0))
+        items.append(MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, param2=0.5, x=lat,
+                                 y=lon, z=alt))
+    items.append(MissionItem(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mavlink.MAV_FRAME_MISSION, param1=0.0))
     if end == 21:
         lat, lon = _at(*points[-1])
-        items.append(MissionItem(21, 3, x=lat, y=lon, z=0.0))
+        items.append(MissionItem(mavlink.MAV_CMD_NAV_LAND, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=lat, y=lon, z=0.0))
     else:
-        items.append(MissionItem(20, 2))
+        items.append(MissionItem(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_FRAME_MISSION))
     return Mission(items, home=HOME)
 
 

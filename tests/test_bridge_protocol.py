@@ -10,7 +10,21 @@ import pytest
 
 from missionplan.bridge import BridgeError
 from missionplan.bridge.link.connection import Link, wait_vehicle
-from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, MissionType, to_wire
+from missionplan.bridge.formats.mission_items import (
+    CMD_FENCE_POLYGON_VERTEX_INCLUSION,
+    CMD_NAV_RETURN_TO_LAUNCH,
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
+    CMD_RALLY_POINT,
+    FRAME_GLOBAL,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_MISSION,
+    Flavour,
+    Mission,
+    MissionItem,
+    MissionType,
+    to_wire,
+)
 from missionplan.bridge.formats.readback import compare_wire
 from missionplan.bridge.sim.mock import LinkFaults, MockAutopilot
 from missionplan.bridge.transfer.protocol import MissionClient, MissionTransferError, Timeouts
@@ -20,10 +34,12 @@ FAST = Timeouts(item_timeout=0.2, retries=4)
 
 
 def mission(n: int, lat: float = 45.07, alt: float = 30.0) -> Mission:
-    items = [MissionItem(22, 3, x=lat, y=7.68, z=alt)]  # PX4 refuses to start a take-off at 0, 0 (5000 km away)
-    items += [MissionItem(16, 3, param2=1.5, x=lat + i * 1e-4, y=7.68 + (i % 7) * 1e-4, z=alt + i % 3)
+    # PX4 refuses to start a take-off at 0, 0 (5000 km away)
+    items = [MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=lat, y=7.68, z=alt)]
+    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=1.5, x=lat + i * 1e-4,
+                          y=7.68 + (i % 7) * 1e-4, z=alt + i % 3)
               for i in range(n - 2)]
-    items.append(MissionItem(20, 2))
+    items.append(MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION))
     return Mission(items=items, home=(lat, 7.68, 240.0))
 
 
@@ -48,9 +64,11 @@ def test_upload_and_read_back(flavour: str) -> None:
 
 
 def test_fence_rally_clear_and_set_current() -> None:
-    fence = Mission([MissionItem(5001, 0, param1=3, x=45.0, y=7.6), MissionItem(5001, 0, param1=3, x=45.1, y=7.6),
-                     MissionItem(5001, 0, param1=3, x=45.1, y=7.8)], MissionType.FENCE)  # round the mock's home
-    rally = Mission([MissionItem(5100, 3, x=45.05, y=7.05, z=25)], MissionType.RALLY)
+    fence = Mission([MissionItem(CMD_FENCE_POLYGON_VERTEX_INCLUSION, FRAME_GLOBAL, param1=3, x=45.0, y=7.6),
+                     MissionItem(CMD_FENCE_POLYGON_VERTEX_INCLUSION, FRAME_GLOBAL, param1=3, x=45.1, y=7.6),
+                     MissionItem(CMD_FENCE_POLYGON_VERTEX_INCLUSION, FRAME_GLOBAL, param1=3, x=45.1, y=7.8)],
+                    MissionType.FENCE)  # round the mock's home
+    rally = Mission([MissionItem(CMD_RALLY_POINT, FRAME_GLOBAL_RELATIVE_ALT, x=45.05, y=7.05, z=25)], MissionType.RALLY)
     with mock(flavour="px4") as m, PymavlinkBackend(m.client_url, 1, timeouts=FAST, connect_timeout=3) as b:
         report = upload_plan(b, [mission(10), fence, rally])
         assert [p.mission_type for p in report.parts] == [0, 1, 2] and report.verified
@@ -95,9 +113,12 @@ def test_result_codes_become_clear_messages() -> None:
         before = m.mission(1)
         cases = [
             (mission(30), 4, "no space for this many items"),
-            (Mission([MissionItem(16, 99, x=1, y=1)]), 2, "coordinate frame the vehicle does not support"),
-            (Mission([MissionItem(16, 3, x=95.0, y=7.0)]), 10, "invalid x / latitude"),
-            (Mission([MissionItem(999, 3, x=45.0, y=7.0)]), 3, "command or mission type the vehicle does not support"),
+            (Mission([MissionItem(CMD_NAV_WAYPOINT, 99, x=1, y=1)]), 2,  # raw: no MAV_FRAME is 99
+             "coordinate frame the vehicle does not support"),
+            (Mission([MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, x=95.0, y=7.0)]), 10,
+             "invalid x / latitude"),
+            (Mission([MissionItem(999, FRAME_GLOBAL_RELATIVE_ALT, x=45.0, y=7.0)]), 3,  # raw: not a command PX4 knows
+             "command or mission type the vehicle does not support"),
         ]
         for bad, code, text in cases:
             with pytest.raises(MissionTransferError) as err:

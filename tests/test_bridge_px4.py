@@ -11,7 +11,21 @@ from pathlib import Path
 import pytest
 
 from missionplan.bridge.link.connection import Link
-from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, MissionType, WireItem, to_wire
+from missionplan.bridge.formats.mission_items import (
+    CMD_FENCE_POLYGON_VERTEX_INCLUSION,
+    CMD_NAV_RETURN_TO_LAUNCH,
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
+    FRAME_GLOBAL,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_MISSION,
+    Flavour,
+    Mission,
+    MissionItem,
+    MissionType,
+    WireItem,
+    to_wire,
+)
 from missionplan.bridge.formats.readback import compare_items
 from missionplan.bridge.formats.missionfile import (FirmwareMismatch, PlanFile, check_firmware, read_plan, write_plan,
                                                     write_waypoints)
@@ -35,9 +49,10 @@ def _w(frame: int, command: int, mission_type: int = 0, **kw: float) -> WireItem
 
 def _near_mission(n: int = 5) -> Mission:
     lat, lon = HOME[:2]
-    items = [MissionItem(22, 3, x=lat, y=lon, z=10.0)]
-    items += [MissionItem(16, 3, param2=0.5, x=lat + i * 1e-5, y=lon, z=10.0) for i in range(1, n)]
-    return Mission(items + [MissionItem(20, 2)], home=HOME)
+    items = [MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=lat, y=lon, z=10.0)]
+    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=0.5, x=lat + i * 1e-5, y=lon,
+                          z=10.0) for i in range(1, n)]
+    return Mission(items + [MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION)], home=HOME)
 
 
 # ------------------------------------------------------------------------------------ the rules
@@ -119,7 +134,8 @@ def test_mock_px4_asks_legacy_first_stores_like_px4_and_refuses_a_start_like_px4
             down = b.download(MissionType.MISSION)
             assert down[0].current == 1 and all(it.current == 0 for it in down[1:])  # the active item
             # A first waypoint 2.2 km away: the upload is refused before anything is sent ...
-            far = Mission([MissionItem(22, 3, x=HOME[0] + 0.02, y=HOME[1], z=10.0)], home=HOME)
+            far = Mission([MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=HOME[0] + 0.02, y=HOME[1],
+                                       z=10.0)], home=HOME)
             with pytest.raises(Exception) as err:
                 upload_plan(b, [far])
             assert "would refuse to start this mission" in str(err.value) and "First waypoint too far away" in str(
@@ -132,7 +148,8 @@ def test_mock_px4_asks_legacy_first_stores_like_px4_and_refuses_a_start_like_px4
 
 
 def test_mock_px4_says_when_a_fence_leaves_its_home_out() -> None:
-    fence = Mission([MissionItem(5001, 0, param1=4, x=HOME[0] + 0.01 + dx, y=HOME[1] + dy)
+    fence = Mission([MissionItem(CMD_FENCE_POLYGON_VERTEX_INCLUSION, FRAME_GLOBAL, param1=4, x=HOME[0] + 0.01 + dx,
+                                 y=HOME[1] + dy)
                      for dx, dy in ((0, 0), (0, 0.01), (0.01, 0.01), (0.01, 0))], MissionType.FENCE)
     with MockAutopilot(sysids=[3], flavour="px4", homes={3: HOME}, request_interval=0.02) as mock:
         with PymavlinkBackend(mock.client_url, 3, timeouts=FAST, connect_timeout=3) as b:

@@ -17,7 +17,15 @@ import pytest
 
 from missionplan.bridge import BridgeUsageError
 from missionplan.bridge.link.connection import Link, parse_url
-from missionplan.bridge.formats.mission_items import Mission, MissionItem
+from missionplan.bridge.formats.mission_items import (
+    CMD_NAV_RETURN_TO_LAUNCH,
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_MISSION,
+    Mission,
+    MissionItem,
+)
 from missionplan.bridge.formats.missionfile import PlanFile, read_plan, write_plan
 from missionplan.bridge.sim.mock import MockAutopilot
 
@@ -27,9 +35,10 @@ pytestmark = pytest.mark.skipif(not hasattr(os, "openpty"), reason="needs POSIX 
 
 
 def _mission(n: int = 30) -> Mission:
-    items = [MissionItem(22, 3, z=25.0)]
-    items += [MissionItem(16, 3, param1=1.0, x=45.07 + i * 1e-4, y=7.68, z=25.0) for i in range(n)]
-    return Mission(items + [MissionItem(20, 2)], home=(45.07, 7.68, 240.0))
+    items = [MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, z=25.0)]
+    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param1=1.0, x=45.07 + i * 1e-4, y=7.68,
+                          z=25.0) for i in range(n)]
+    return Mission(items + [MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION)], home=(45.07, 7.68, 240.0))
 
 
 def test_serial_urls_parse() -> None:
@@ -75,8 +84,9 @@ def test_a_serial_line_that_goes_away_mid_upload_is_one_line(tmp_path: Path,
     """The far end of the line disappears (the mock closes its pty: a radio unplugged)."""
     import threading
 
-    items = [MissionItem(22, 3, z=25.0)] + [MissionItem(16, 3, x=45.07 + i * 1e-5, y=7.68, z=25.0)
-                                            for i in range(300)]
+    items = [MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, z=25.0)]
+    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, x=45.07 + i * 1e-5, y=7.68, z=25.0)
+              for i in range(300)]
     plan_path = tmp_path / "long.plan"
     write_plan(plan_path, PlanFile(mission=Mission(items, home=(45.07, 7.68, 240.0))))
     mock = MockAutopilot("pty", request_interval=0.05).start()

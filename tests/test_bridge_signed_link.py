@@ -9,7 +9,13 @@ import pytest
 
 from missionplan.bridge import BridgeError
 from missionplan.bridge.commands import register
-from missionplan.bridge.formats.mission_items import Mission, MissionItem
+from missionplan.bridge.formats.mission_items import (
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    Mission,
+    MissionItem,
+)
 from missionplan.bridge.formats.missionfile import PlanFile, write_plan
 from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.bridge.transfer.protocol import Timeouts
@@ -20,7 +26,9 @@ FAST = Timeouts(item_timeout=0.15, retries=3)
 
 
 def survey(n: int, alt: float) -> Mission:
-    items = [MissionItem(22, 3, x=45.07, y=7.68, z=alt)] + [MissionItem(16, 3, x=45.07 + i * 1e-4, y=7.68, z=alt) for i in range(n)]
+    items = [MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=45.07, y=7.68, z=alt)]
+    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, x=45.07 + i * 1e-4, y=7.68, z=alt)
+              for i in range(n)]
     return Mission(items, home=(45.07, 7.68, 240.0))
 
 

@@ -50,10 +50,17 @@ def _write(folder: Path, content: bytes) -> Path:
 # ------------------------------------------------------------- signing after the vehicle has been up a while
 
 def _survey(n: int = 5) -> "Mission":
-    from missionplan.bridge.formats.mission_items import Mission, MissionItem
+    from missionplan.bridge.formats.mission_items import (
+        CMD_NAV_TAKEOFF,
+        CMD_NAV_WAYPOINT,
+        FRAME_GLOBAL_RELATIVE_ALT,
+        Mission,
+        MissionItem,
+    )
 
-    return Mission([MissionItem(22, 3, z=30.0)] + [MissionItem(16, 3, x=45.07 + i * 1e-4, y=7.68, z=30.0)
-                                                   for i in range(n)], home=(45.07, 7.68, 240.0))
+    return Mission([MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, z=30.0)]
+                   + [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, x=45.07 + i * 1e-4, y=7.68, z=30.0)
+                      for i in range(n)], home=(45.07, 7.68, 240.0))
 
 
 class _Clock:

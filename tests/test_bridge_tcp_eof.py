@@ -13,7 +13,13 @@ from pathlib import Path
 
 import pytest
 
-from missionplan.bridge.formats.mission_items import Mission, MissionItem
+from missionplan.bridge.formats.mission_items import (
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    Mission,
+    MissionItem,
+)
 from missionplan.bridge.formats.missionfile import PlanFile, write_plan
 from missionplan.bridge.sim.mock import MockAutopilot
 
@@ -21,8 +27,9 @@ from test_bridge_commands import FAST, run  # noqa: E402  (tests/ is on sys.path
 
 
 def _plan(tmp_path: Path, n: int = 300) -> Path:
-    items = [MissionItem(22, 3, z=25.0)]
-    items += [MissionItem(16, 3, param1=1.0, x=45.07 + i * 1e-5, y=7.68, z=25.0) for i in range(n)]
+    items = [MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, z=25.0)]
+    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param1=1.0, x=45.07 + i * 1e-5, y=7.68,
+                          z=25.0) for i in range(n)]
     path = tmp_path / "long.plan"
     write_plan(path, PlanFile(mission=Mission(items, home=(45.07, 7.68, 240.0))))
     return path

@@ -22,7 +22,16 @@ import pytest
 
 from missionplan.bridge.commands import CONNECT_HELP, DEFAULT_CONNECT, register
 from missionplan.bridge.link.connection import Link, VehicleInfo, wait_vehicle
-from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem
+from missionplan.bridge.formats.mission_items import (
+    CMD_NAV_RETURN_TO_LAUNCH,
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_MISSION,
+    Flavour,
+    Mission,
+    MissionItem,
+)
 from missionplan.bridge.formats.missionfile import PlanFile, write_plan
 from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.bridge.link.params import ParamClient
@@ -62,9 +71,11 @@ def one_line_exit_2(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
 
 
 def survey_plan(path: Path) -> Path:
-    items = [MissionItem(22, 3, x=45.07, y=7.68, z=25.0)]
-    items += [MissionItem(16, 3, param2=1.0, x=45.07 + i * 1e-4, y=7.68, z=25.0) for i in range(6)]
-    write_plan(path, PlanFile(mission=Mission(items + [MissionItem(20, 2)], home=(45.07, 7.68, 240.0))))
+    items = [MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=45.07, y=7.68, z=25.0)]
+    items += [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=1.0, x=45.07 + i * 1e-4, y=7.68,
+                          z=25.0) for i in range(6)]
+    write_plan(path, PlanFile(mission=Mission(items + [MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION)],
+                                              home=(45.07, 7.68, 240.0))))
     return path
 
 

@@ -58,13 +58,23 @@ def test_one_udpin_port_answers_each_vehicle_at_its_own_address() -> None:
 
 
 def test_cli_upload_to_one_vehicle_of_a_fleet_on_one_udpin_port(tmp_path, capsys) -> None:
-    from missionplan.bridge.formats.mission_items import Mission, MissionItem
+    from missionplan.bridge.formats.mission_items import (
+        CMD_NAV_RETURN_TO_LAUNCH,
+        CMD_NAV_TAKEOFF,
+        CMD_NAV_WAYPOINT,
+        FRAME_GLOBAL_RELATIVE_ALT,
+        FRAME_MISSION,
+        Mission,
+        MissionItem,
+    )
     from missionplan.bridge.formats.missionfile import PlanFile, write_plan
     from missionplan.cli import main
 
     lat, lon, _ = MILAN
-    mission = Mission([MissionItem(22, 3, z=10.0)] + [MissionItem(16, 3, x=lat + 0.0001 * k, y=lon, z=10.0)
-                                                      for k in range(1, 6)] + [MissionItem(20, 2)], home=MILAN)
+    mission = Mission([MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, z=10.0)]
+                      + [MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, x=lat + 0.0001 * k, y=lon, z=10.0)
+                         for k in range(1, 6)]
+                      + [MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION)], home=MILAN)
     path = tmp_path / "one.plan"
     write_plan(path, PlanFile(mission=mission))
     port = free_udp_port()

@@ -8,7 +8,15 @@ import math
 import numpy as np
 import pytest
 
-from missionplan.bridge.formats.mission_items import WireItem
+from missionplan.bridge.formats.mission_items import (
+    CMD_DO_SET_CAM_TRIGG_DIST,
+    CMD_NAV_RETURN_TO_LAUNCH,
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    MissionType,
+    WireItem,
+)
 from missionplan.geo.frame import GridFrame
 from missionplan.flight import flight_report as fr
 from missionplan.flight.record import DroneRecord
@@ -168,15 +176,17 @@ def test_lost_camera_reports_are_placed_in_proportion_when_reports_arrive_late(f
 
 
 def _wire(seq: int, command: int, param1: float = 0.0) -> WireItem:
-    return WireItem(seq=seq, frame=3, command=command, current=0, autocontinue=1, param1=param1, param2=0.0,
-                    param3=0.0, param4=0.0, x=0, y=0, z=0.0, mission_type=0)
+    return WireItem(seq=seq, frame=FRAME_GLOBAL_RELATIVE_ALT, command=command, current=0, autocontinue=1,
+                    param1=param1, param2=0.0, param3=0.0, param4=0.0, x=0, y=0, z=0.0,
+                    mission_type=MissionType.MISSION)
 
 
 def test_without_camera_reports_photos_only_when_asked_every_trigger_distance_along_the_survey(frame: GridFrame) -> None:
     # Mission: home, takeoff, trigger on, WP 3 (survey start), WP 4, WP 5 (survey end), trigger off, RTL.
     rec = DroneRecord(id=2)
-    rec.wire = [_wire(0, 16), _wire(1, 22), _wire(2, 206, TRIGGER), _wire(3, 16), _wire(4, 16), _wire(5, 16),
-                _wire(6, 206, 0.0), _wire(7, 20)]
+    rec.wire = [_wire(0, CMD_NAV_WAYPOINT), _wire(1, CMD_NAV_TAKEOFF), _wire(2, CMD_DO_SET_CAM_TRIGG_DIST, TRIGGER),
+                _wire(3, CMD_NAV_WAYPOINT), _wire(4, CMD_NAV_WAYPOINT), _wire(5, CMD_NAV_WAYPOINT),
+                _wire(6, CMD_DO_SET_CAM_TRIGG_DIST, 0.0), _wire(7, CMD_NAV_RETURN_TO_LAUNCH)]
     # An L-shaped track at 2 m/s, one sample a second: along the columns to (8, 20), then down the rows.
     # The survey runs from t = 5 s (reached WP 3 at (8, 10)) to t = 15 s (reached WP 5 at (18, 20)).
     t = np.arange(21, dtype=float)
@@ -266,8 +276,9 @@ def test_estimate_time_scale_defaults_to_real_time_without_enough_motion() -> No
 def test_lift_off_is_not_taken_from_an_estimate_wandering_on_the_ground() -> None:
     # PX4 SIH on the ground: relative altitude up to 0.8 m and climb rate up to 0.9 m/s, then at t = 10 s
     # it climbs at 1.5 m/s to its 20 m take-off altitude.
-    rec = DroneRecord(id=1, wire=[WireItem(seq=0, frame=3, command=22, current=0, autocontinue=1, param1=0.0,
-                                           param2=0.0, param3=0.0, param4=0.0, x=0, y=0, z=20.0, mission_type=0)])
+    rec = DroneRecord(id=1, wire=[WireItem(seq=0, frame=FRAME_GLOBAL_RELATIVE_ALT, command=CMD_NAV_TAKEOFF, current=0,
+                                           autocontinue=1, param1=0.0, param2=0.0, param3=0.0, param4=0.0, x=0,
+                                           y=0, z=20.0, mission_type=MissionType.MISSION)])
     t = np.arange(0.0, 20.0, 0.1)
     up = np.where(t < 10.0, 0.8 * np.abs(np.sin(t)), 1.5 * (t - 10.0))
     climb = np.where(t < 10.0, 0.9 * np.cos(t), 1.5)
@@ -275,8 +286,9 @@ def test_lift_off_is_not_taken_from_an_estimate_wandering_on_the_ground() -> Non
     assert fr.liftoff_height([rec]) == fr.LIFTOFF_M
     assert fr.lifted_off_at(samples, t, 1.0, fr.liftoff_height([rec])) == pytest.approx(10.0, abs=0.05)
     # A fleet with a low flight (the demo's 1.2 m layer): every drone counts from half that altitude.
-    low = DroneRecord(id=2, wire=[WireItem(seq=0, frame=3, command=22, current=0, autocontinue=1, param1=0.0,
-                                           param2=0.0, param3=0.0, param4=0.0, x=0, y=0, z=1.2, mission_type=0)])
+    low = DroneRecord(id=2, wire=[WireItem(seq=0, frame=FRAME_GLOBAL_RELATIVE_ALT, command=CMD_NAV_TAKEOFF, current=0,
+                                           autocontinue=1, param1=0.0, param2=0.0, param3=0.0, param4=0.0, x=0,
+                                           y=0, z=1.2, mission_type=MissionType.MISSION)])
     flat = np.column_stack([t, np.full_like(t, 45.0), np.full_like(t, 7.0), np.clip(1.5 * (t - 10.0), 0, 1.2),
                             np.zeros_like(t), t, np.where((t > 10.0) & (t < 10.8), 1.5, 0.0)])
     assert fr.liftoff_height([rec, low]) == pytest.approx(0.6)

@@ -7,8 +7,9 @@ import math
 import pytest
 from pymavlink import mavwp
 
-from missionplan.bridge.formats.mission_items import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND, CMD_NAV_RETURN_TO_LAUNCH,
-                                                      CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT)
+from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND,
+                                                      CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT,
+                                                      FRAME_GLOBAL_RELATIVE_ALT)
 from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.bridge.flight_models import copter_model as cm
 from missionplan.cli import main
@@ -23,7 +24,7 @@ def _timeline_of_file(out: Path, report: dict, sysid: int) -> float:
     points = [(it.x, it.y) for it in mission.items if it.command == CMD_NAV_WAYPOINT]
     waypoints = to_grid_m(frame, [p[0] for p in points], [p[1] for p in points])
     launch = to_grid_m(frame, [mission.home[0]], [mission.home[1]])[0]
-    speed = next(it.param2 for it in mission.items if it.command == 178)
+    speed = next(it.param2 for it in mission.items if it.command == CMD_DO_CHANGE_SPEED)
     end = "land" if mission.items[-1].command == CMD_NAV_LAND else "rtl"
     return planned_seconds(launch, waypoints, mission.items[0].z, end,
                            FlightModel(speed, report["georeference"]["footprint_m"] / 36))

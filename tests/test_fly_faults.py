@@ -332,7 +332,14 @@ def test_another_ground_station_holding_the_upload_is_named_after_the_retries(
 
 def test_another_ground_stations_upload_that_finishes_meanwhile_lets_flys_through(
         leonardo: Path, tmp_path: Path) -> None:
-    from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, to_wire
+    from missionplan.bridge.formats.mission_items import (
+        CMD_NAV_WAYPOINT,
+        FRAME_GLOBAL_RELATIVE_ALT,
+        Flavour,
+        Mission,
+        MissionItem,
+        to_wire,
+    )
     from missionplan.bridge.transfer.protocol import MissionClient, Timeouts
 
     plan_dir = _copy(leonardo, tmp_path)
@@ -345,7 +352,8 @@ def test_another_ground_stations_upload_that_finishes_meanwhile_lets_flys_throug
             assert mock.wait_until(lambda m: m.vehicle(2).denied_transfers >= 1, 30.0), "fly was never denied"
             # The other ground station now sends its whole mission (a restart of its own transfer).
             home = mock.vehicle(2).options.home
-            theirs = Mission([MissionItem(16, 3, x=home[0], y=home[1], z=10.0)], home=home)
+            theirs = Mission([MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, x=home[0], y=home[1], z=10.0)],
+                             home=home)
             MissionClient(holder, info, Timeouts(item_timeout=0.3)).upload(0, to_wire(theirs, Flavour.ARDUPILOT))
             flying.join(120)
         vehicle = mock.vehicle(2)

@@ -10,6 +10,7 @@ from shapely.geometry import MultiPolygon, Polygon
 from missionplan.geo.errors import GeoError
 from missionplan.geo.readers import (building_height, parse_height, read_area, read_buildings, read_features,
                          read_osm_buildings, read_polygons)
+from missionplan.bridge.formats.mission_items import CMD_NAV_TAKEOFF
 
 MAPS = Path(__file__).resolve().parents[1].parent / "shared" / "maps"
 needs_maps = pytest.mark.skipif(not MAPS.is_dir(), reason=f"shared OSM test data not found at {MAPS}")
@@ -133,7 +134,8 @@ def test_plan_survey_polygon_wins_over_geofence(tmp_path):
     survey = {"type": "ComplexItem", "complexItemType": "survey", "polygon": _latlon(OUTER)}
     fence_in = {"inclusion": True, "polygon": _latlon([[x + 1, y] for x, y in OUTER]), "version": 1}
     fence_out = {"inclusion": False, "polygon": _latlon(HOLE), "version": 1}
-    p = _write(tmp_path, "m.plan", _plan([{"type": "SimpleItem", "command": 22}, survey], [fence_in, fence_out]))
+    p = _write(tmp_path, "m.plan", _plan([{"type": "SimpleItem", "command": CMD_NAV_TAKEOFF}, survey],
+                                         [fence_in, fence_out]))
     area = read_area(p)
     assert area.equals(Polygon(OUTER))
     no_fly = read_polygons(p)

@@ -15,7 +15,13 @@ from pathlib import Path
 
 import pytest
 
-from missionplan.bridge.formats.mission_items import WireItem
+from missionplan.bridge.formats.mission_items import (
+    CMD_NAV_TAKEOFF,
+    CMD_NAV_WAYPOINT,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    MissionType,
+    WireItem,
+)
 from missionplan.flight.journal import COMMIT_S, Journal, JournalError, read_flight
 from missionplan.flight.record import DroneRecord
 
@@ -23,8 +29,10 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def _wire() -> list[WireItem]:
-    return [WireItem(0, 3, 22, 1, 1, 0.0, 0.0, 0.0, math.nan, 454641000, 91891000, 20.0, 0),
-            WireItem(1, 3, 16, 0, 1, 0.0, 0.06, 0.0, math.nan, 454642000, 91892000, 20.0, 0)]
+    return [WireItem(0, FRAME_GLOBAL_RELATIVE_ALT, CMD_NAV_TAKEOFF, 1, 1, 0.0, 0.0, 0.0, math.nan, 454641000, 91891000,
+                     20.0, MissionType.MISSION),
+            WireItem(1, FRAME_GLOBAL_RELATIVE_ALT, CMD_NAV_WAYPOINT, 0, 1, 0.0, 0.06, 0.0, math.nan, 454642000,
+                     91892000, 20.0, MissionType.MISSION)]
 
 
 def _fill(rec: DroneRecord) -> None:

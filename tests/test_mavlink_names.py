@@ -17,11 +17,19 @@ one module that writes MAVLink numbers down itself.
       MAV_CMD_COMPONENT_ARM_DISARM.
   Use `mavlink.<NAME>` there instead (missionplan.bridge.link.connection's `mavlink` is mavutil.mavlink), or, in a
   module free of pymavlink, import the number from missionplan.bridge.formats.mission_items.
+- In the same files, the command and frame of a `MissionItem(...)` or `WireItem(...)` call (positional, in the
+  field order of bridge/formats/mission_items.py: MissionItem(command, frame, ...), WireItem(seq, frame, command,
+  ...); or keyword command= / frame=) are not int literals (nor expressions of int literals only): write
+  `MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, ...)` or `mavlink.MAV_CMD_NAV_WAYPOINT`, not
+  `MissionItem(16, 3, ...)`. A number that is deliberately a raw wire value under test (an unknown command, a
+  frame the vehicle refuses) is allowed by a comment starting `# raw` on the line of that number.
 """
 
 from __future__ import annotations
 
 import ast
+import io
+import tokenize
 from pathlib import Path
 
 import pytest
@@ -197,3 +205,57 @@ def test_the_rule_finds_a_re_declaration() -> None:
     assert re_declared("CMD_ARM = mavlink.MAV_CMD_COMPONENT_ARM_DISARM\nTIMEOUT_S = 6\nARDUPILOT_AUTO = 3\n"
                        "FRAME_COUNT = 99999\nMAV_NOT_A_MAVLINK_NAME = 1\nCMD_TEXT = 'x'\n") == []
     assert re_declared("def f():\n    CMD_ARM = 400\n") == []  # module level only
+
+
+# The fields of bridge/formats/mission_items.py's dataclasses that hold a MAV_CMD or a MAV_FRAME, with their
+# positional index: MissionItem(command, frame, ...), WireItem(seq, frame, command, ...).
+ITEM_FIELDS = {"MissionItem": {"command": 0, "frame": 1}, "WireItem": {"frame": 1, "command": 2}}
+RAW_MARK = "# raw"  # a comment starting so, on the line of a number, allows it as a deliberate raw wire value
+
+
+def _raw_lines(source: str) -> set[int]:
+    """The lines holding a comment that starts with RAW_MARK."""
+    return {tok.start[0] for tok in tokenize.generate_tokens(io.StringIO(source).readline)
+            if tok.type == tokenize.COMMENT and tok.string.startswith(RAW_MARK)}
+
+
+def bare_item_numbers(source: str) -> list[str]:
+    """The int literals written as the command or frame of a MissionItem / WireItem call (the module doc's rule)."""
+    out = []
+    raw = _raw_lines(source)
+    for node in ast.walk(ast.parse(source)):
+        if not isinstance(node, ast.Call):
+            continue
+        called = node.func.attr if isinstance(node.func, ast.Attribute) else getattr(node.func, "id", "")
+        if called not in ITEM_FIELDS:
+            continue
+        fields = ITEM_FIELDS[called]
+        given = {name: node.args[index] for name, index in fields.items() if index < len(node.args)}
+        given |= {kw.arg: kw.value for kw in node.keywords if kw.arg in fields}
+        for name, value in sorted(given.items(), key=lambda pair: pair[1].lineno):
+            number = _int_value(value)
+            if number is not None and value.lineno not in raw:
+                out.append(f"line {value.lineno}: {called} {name} {number}")
+    return out
+
+
+@pytest.mark.parametrize("path", sources(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_mission_item_has_a_bare_command_or_frame(path: Path) -> None:
+    assert bare_item_numbers(path.read_text(encoding="utf-8")) == [], (
+        "name the command and frame (mavlink.MAV_CMD_* / MAV_FRAME_*, or CMD_* / FRAME_* of "
+        f"bridge/formats/mission_items.py), or mark a deliberate raw wire value with a trailing `{RAW_MARK}` comment")
+
+
+def test_the_rule_finds_a_bare_item_number() -> None:
+    # The checker itself: positional and keyword numbers of both dataclasses are found (WireItem's seq is not
+    # a command), names and non-literals are not, and a `# raw` comment allows the numbers of its line.
+    assert bare_item_numbers("MissionItem(16, 3)\n") == ["line 1: MissionItem command 16",
+                                                         "line 1: MissionItem frame 3"]
+    assert bare_item_numbers("MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT)\n") == []
+    assert bare_item_numbers("m.MissionItem(command=mavlink.MAV_CMD_NAV_LAND, frame=-1 + 4, z=5)\n") == [
+        "line 1: MissionItem frame 3"]
+    assert bare_item_numbers("WireItem(0, 3, 16, 0, 1, 0, 0, 0, 0, 0, 0, 0.0, 0)\n") == [
+        "line 1: WireItem frame 3", "line 1: WireItem command 16"]
+    assert bare_item_numbers("WireItem(seq=1, frame=f, command=c)\nMissionItem(CMD_NAV_LAND, frame)\n") == []
+    assert bare_item_numbers("MissionItem(31000, FRAME_MISSION)  # raw: an unknown command\n"
+                             "MissionItem(16,\n            99)  # raw\n") == ["line 2: MissionItem command 16"]

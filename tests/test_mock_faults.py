@@ -20,17 +20,18 @@ from missionplan.bridge.transfer.protocol import MissionClient, MissionTransferE
 
 HOME = (45.0, 7.0, 200.0)
 M_PER_DEG_LAT = 111_319.49
-MISSION_TYPE = 0
+MISSION_TYPE = mavlink.MAV_MISSION_TYPE_MISSION
 
 
 def _survey(legs: int = 4, side_m: float = 100.0) -> Mission:
-    items = [MissionItem(22, 3, z=20.0)]
+    items = [MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, z=20.0)]
     for k in range(legs):
         north, east = (side_m if k % 2 else 0.0), 20.0 * k
         lat = HOME[0] + north / M_PER_DEG_LAT
         lon = HOME[1] + east / (M_PER_DEG_LAT * math.cos(math.radians(HOME[0])))
-        items.append(MissionItem(16, 3, x=lat, y=lon, z=20.0))
-    items.append(MissionItem(20, 2))
+        items.append(MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=lat, y=lon,
+                                 z=20.0))
+    items.append(MissionItem(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_FRAME_MISSION))
     return Mission(items, home=HOME)
 
 
@@ -43,9 +44,9 @@ def _start(link: Link, sysid: int, mission: Mission) -> None:
     """Upload, arm, AUTO, MISSION_START (ArduCopter's way)."""
     vehicle = wait_vehicle(link, sysid, timeout=3)
     MissionClient(link, vehicle, Timeouts(item_timeout=0.3)).upload(MISSION_TYPE, to_wire(mission, Flavour.ARDUPILOT))
-    assert _command(link, sysid, 400, 1) == 0
-    assert _command(link, sysid, 176, 1, 3) == 0
-    assert _command(link, sysid, 300) == 0
+    assert _command(link, sysid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mavlink.MAV_RESULT_ACCEPTED
+    assert _command(link, sysid, mavlink.MAV_CMD_DO_SET_MODE, 1, 3) == mavlink.MAV_RESULT_ACCEPTED
+    assert _command(link, sysid, mavlink.MAV_CMD_MISSION_START) == mavlink.MAV_RESULT_ACCEPTED
 
 
 def _until(link: Link, seconds: float, stop: Any) -> list[Any]:
@@ -77,13 +78,14 @@ def test_a_killed_vehicle_goes_silent_for_good_and_the_others_fly_on() -> None:
         killed_at = mock.vehicle(2).flight.state
         assert killed_at.armed and killed_at.alt > 1.0 and mock.killed(2)
         # A marker: what was sent before the kill (still on its way) comes before this command's answer.
-        assert _command(link, 1, 512, 148) == 0
+        assert _command(link, 1, mavlink.MAV_CMD_REQUEST_MESSAGE,
+                        mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION) == mavlink.MAV_RESULT_ACCEPTED
         # Four heartbeats of the living vehicle (about 4 s): not one message of the killed one.
         heard = _until(link, 8.0, lambda msg, heard: _heartbeats(heard, 1) >= 4)
         assert _heartbeats(heard, 1) >= 4
         assert [m.get_type() for m in heard if m.get_srcSystem() == 2] == []
         # It hears nothing either: an RTL command gets no answer and changes nothing.
-        assert _command(link, 2, 20) is None
+        assert _command(link, 2, mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH) is None
         assert mock.vehicle(2).flight.state.mode == "AUTO"
 
 
@@ -97,7 +99,8 @@ def test_a_vehicle_killed_at_a_mission_item_stops_there() -> None:
         assert state.armed and state.alt > 1.0 and max(reached) == 3
         while link.recv(time.monotonic()) is not None:  # what it sent before (on its way already)
             pass
-        link.mav.command_long_send(1, 1, 512, 0, 148, 0, 0, 0, 0, 0, 0)
+        link.mav.command_long_send(1, 1, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION,
+                                   0, 0, 0, 0, 0, 0)
         heard = _until(link, 3.0, lambda msg, heard: False)  # the wait runs out: nothing more heard
         assert [m for m in heard if m.get_srcSystem() == 1] == []
         assert mock.vehicle(1).reached == reached  # frozen where it was killed
@@ -191,7 +194,8 @@ def test_a_battery_failsafe_on_the_ground_disarms() -> None:
     with MockAutopilot(homes={1: HOME}, speedup=20.0) as mock, Link(mock.client_url) as link:
         wait_vehicle(link, 1, timeout=3)
         assert _param_set(link, 1, "BATT_FS_LOW_ACT", 2) == 2.0
-        assert _command(link, 1, 400, 1) == 0  # armed on the ground, no mission started
+        # armed on the ground, no mission started
+        assert _command(link, 1, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mavlink.MAV_RESULT_ACCEPTED
         assert _param_set(link, 1, "SIM_BATT_VOLTAGE", 10.0) == 10.0
         heard = _until(link, 10.0, lambda msg, heard: msg.get_type() == "HEARTBEAT" and msg.get_srcSystem() == 1
                        and not msg.base_mode & 128)
@@ -226,9 +230,11 @@ def test_another_ground_station_is_denied_while_one_uploads(monkeypatch: pytest.
         assert acks(fly_link, 2) == [mavlink.MAV_MISSION_DENIED, mavlink.MAV_MISSION_ERROR]
         fly_link.mav.mission_request_list_send(1, 1, MISSION_TYPE)
         assert acks(fly_link, 1) == [mavlink.MAV_MISSION_DENIED]
-        fly_link.mav.mission_item_int_send(1, 1, 0, 0, 16, 0, 1, 0, 0, 0, 0, 0, 0, 0, MISSION_TYPE)
+        fly_link.mav.mission_item_int_send(1, 1, 0, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_NAV_WAYPOINT, 0, 1, 0, 0,
+                                           0, 0, 0, 0, 0, MISSION_TYPE)
         assert acks(fly_link, 1) == [mavlink.MAV_MISSION_DENIED]  # the item it asks for, but from the wrong sender
-        fly_link.mav.mission_item_int_send(1, 1, 2, 0, 16, 0, 1, 0, 0, 0, 0, 0, 0, 0, MISSION_TYPE)
+        fly_link.mav.mission_item_int_send(1, 1, 2, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_NAV_WAYPOINT, 0, 1, 0, 0,
+                                           0, 0, 0, 0, 0, MISSION_TYPE)
         assert acks(fly_link, 1) == [mavlink.MAV_MISSION_INVALID_SEQUENCE]  # not the one it asks for: that first
         assert mock.vehicle(1).denied_transfers == 3  # count, clear-all, item (downloads are not counted)
         # Our client: denied at the start, tried again, then one line naming the other ground station.
@@ -245,7 +251,8 @@ def test_another_ground_station_is_denied_while_one_uploads(monkeypatch: pytest.
         assert heard and heard[-1].seq == 0
         # Silent for upload_timeout: the vehicle gives the holder up (OPERATION_CANCELLED) ...
         heard = _until(holder, 6.0, lambda msg, heard: msg.get_type() == "MISSION_ACK" and msg.target_system == 250)
-        assert heard and heard[-1].get_type() == "MISSION_ACK" and heard[-1].type == 15
+        assert heard and heard[-1].get_type() == "MISSION_ACK"
+        assert heard[-1].type == mavlink.MAV_MISSION_OPERATION_CANCELLED
         # ... and the other ground station's upload goes through.
         MissionClient(fly_link, vehicle, Timeouts(item_timeout=0.3)).upload(
             MISSION_TYPE, to_wire(_survey(), Flavour.ARDUPILOT))
@@ -261,7 +268,8 @@ def test_no_arming_below_the_failsafe_voltage() -> None:
             if msg.get_type() == "STATUSTEXT":
                 texts.append(msg.text)
 
-        assert link.command_long(1, 400, [1.0] + [0.0] * 6, time.monotonic() + 3.0, other=note) == 4  # FAILED
+        assert link.command_long(1, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, [1.0] + [0.0] * 6, time.monotonic() + 3.0,
+                                 other=note) == mavlink.MAV_RESULT_FAILED
         assert "PreArm: Battery 1 low voltage failsafe" in texts
         assert _param_set(link, 1, "SIM_BATT_VOLTAGE", 12.6) == pytest.approx(12.6)
-        assert _command(link, 1, 400, 1) == 0
+        assert _command(link, 1, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mavlink.MAV_RESULT_ACCEPTED

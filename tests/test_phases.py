@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from missionplan.bridge.flight_models import px4_model as pm
+from missionplan.bridge.formats.mission_items import CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT
 from missionplan.flight import phases
 from missionplan.flight.flight_report import flown_seconds
 from missionplan.flight.record import DroneRecord
@@ -17,7 +18,7 @@ from missionplan.flight.record import DroneRecord
 T0 = 5000.0  # our clock at the mission start
 BOOT0 = 40.0  # the vehicle's clock then
 # take-off, the 4 waypoints, RTL: the end is the last item (5), the last waypoint 4
-WIRE = [SimpleNamespace(command=c) for c in (22, 16, 16, 16, 16, 20)]
+WIRE = [SimpleNamespace(command=c) for c in (CMD_NAV_TAKEOFF, *[CMD_NAV_WAYPOINT] * 4, CMD_NAV_RETURN_TO_LAUNCH)]
 
 
 def _record(durations: tuple[float, float, float, float], landed_states: bool = True,

@@ -39,14 +39,19 @@ ALT = 10.0
 
 
 def _waypoint(north: float) -> MissionItem:
-    return MissionItem(16, 3, param2=0.5, x=HOME[0] + north / M_PER_DEG_LAT, y=HOME[1], z=ALT)
+    return MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, param2=0.5,
+                       x=HOME[0] + north / M_PER_DEG_LAT, y=HOME[1], z=ALT)
 
 
 def _survey(trigger_m: float, north: float) -> Mission:
     """Take off, photos every trigger_m metres on a leg north and back, return to launch."""
-    items = [MissionItem(22, 3, x=HOME[0], y=HOME[1], z=ALT), MissionItem(206, 2, param1=trigger_m), _waypoint(north),
+    items = [MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=HOME[0], y=HOME[1],
+                         z=ALT),
+             MissionItem(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mavlink.MAV_FRAME_MISSION, param1=trigger_m),
+             _waypoint(north),
              _waypoint(0.0),
-             MissionItem(206, 2, param1=0.0), MissionItem(20, 2)]
+             MissionItem(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mavlink.MAV_FRAME_MISSION, param1=0.0),
+             MissionItem(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_FRAME_MISSION)]
     return Mission(items, home=HOME)
 
 

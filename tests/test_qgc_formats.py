@@ -88,7 +88,9 @@ def test_legacy_mission_is_read_under_other_names_and_a_plan_named_mission_is_a_
     text = (DATA / "OldFileFormat.mission").read_text()
     other = tmp_path / "old.txt"  # any other name: recognised by its content, as .plan and QGC WPL files are
     other.write_text(text)
-    assert [i.command for i in read_mission_file(other).mission.items] == [22, 18, 18, 16, 16, 21]
+    commands = [i.command for i in read_mission_file(other).mission.items]
+    assert commands == [mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_CMD_NAV_LOITER_TURNS, mavlink.MAV_CMD_NAV_LOITER_TURNS,
+                        mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_LAND]
     misnamed = tmp_path / "old.plan"  # QGroundControl reads a .plan only if fileType is "Plan"
     misnamed.write_text(text)
     message = _refusal(misnamed)
@@ -106,13 +108,14 @@ def _mission_v2(items: list[Any]) -> dict[str, Any]:
 
 def test_legacy_mission_v2_resolves_do_jump_ids_like_a_plan(tmp_path: Path) -> None:
     path = _write(tmp_path, "jump.mission", _mission_v2([
-        {"type": "SimpleItem", "autoContinue": True, "command": 22, "doJumpId": 7, "frame": 3,
-         "coordinate": [45.07, 7.68, 30], "params": [0, 0, 0, None]},
-        {"type": "SimpleItem", "autoContinue": True, "command": 16, "doJumpId": 8, "frame": 3,
-         "coordinate": [45.071, 7.681, 35], "params": [0, 2, 0, None]},
-        _simple(177, 9, 2, [8, 3, 0, 0, 0, 0, 0])]))
+        {"type": "SimpleItem", "autoContinue": True, "command": mavlink.MAV_CMD_NAV_TAKEOFF, "doJumpId": 7,
+         "frame": mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, "coordinate": [45.07, 7.68, 30], "params": [0, 0, 0, None]},
+        {"type": "SimpleItem", "autoContinue": True, "command": mavlink.MAV_CMD_NAV_WAYPOINT, "doJumpId": 8,
+         "frame": mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, "coordinate": [45.071, 7.681, 35], "params": [0, 2, 0, None]},
+        _simple(mavlink.MAV_CMD_DO_JUMP, 9, mavlink.MAV_FRAME_MISSION, [8, 3, 0, 0, 0, 0, 0])]))
     plan = read_mission_file(path)
-    assert [i.command for i in plan.mission.items] == [22, 16, 177]
+    assert [i.command for i in plan.mission.items] == [mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_CMD_NAV_WAYPOINT,
+                                                       mavlink.MAV_CMD_DO_JUMP]
     assert plan.mission.items[2].param1 == 2 and plan.mission.items[2].param2 == 3  # doJumpId 8 is item 2
     assert (plan.mission.items[1].x, plan.mission.items[1].z, plan.mission.items[1].param2) == (45.071, 35, 2)
     assert math.isnan(plan.mission.items[1].param4)
@@ -123,9 +126,9 @@ def _mission_v1(items: list[Any], complex_items: list[Any] | None = None) -> dic
     """A version 1 .mission: version "1.0", MAV_AUTOPILOT, home as an item, items with id and param1-4."""
     return {"MAV_AUTOPILOT": 3, "complexItems": complex_items or [], "groundStation": "QGroundControl",
             "items": items, "version": "1.0",
-            "plannedHomePosition": {"autoContinue": True, "command": 16, "coordinate": [45.07, 7.68, 240.0],
-                                    "frame": 0, "id": 0, "param1": 0, "param2": 0, "param3": 0, "param4": 0,
-                                    "type": "missionItem"}}
+            "plannedHomePosition": {"autoContinue": True, "command": mavlink.MAV_CMD_NAV_WAYPOINT,
+                                    "coordinate": [45.07, 7.68, 240.0], "frame": mavlink.MAV_FRAME_GLOBAL, "id": 0,
+                                    "param1": 0, "param2": 0, "param3": 0, "param4": 0, "type": "missionItem"}}
 
 
 def _v1_item(item_id: int, command: int, frame: int, p1: float, coordinate: list[float]) -> dict[str, Any]:
@@ -135,28 +138,34 @@ def _v1_item(item_id: int, command: int, frame: int, p1: float, coordinate: list
 
 def test_legacy_mission_v1_reads_its_items_home_firmware_and_jump_by_id(tmp_path: Path) -> None:
     path = _write(tmp_path, "v1.mission", _mission_v1([
-        _v1_item(1, 22, 3, 0, [45.07, 7.68, 25]),
-        _v1_item(2, 16, 3, 4, [45.072, 7.682, 25]),
-        _v1_item(3, 16, 3, 0, [45.073, 7.683, 30]),
-        _v1_item(4, 177, 2, 2, [0, 0, 0]),  # version 1 DO_JUMP: param1 is the target's id
-        _v1_item(5, 20, 2, 0, [0, 0, 0])]))
+        _v1_item(1, mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, 0, [45.07, 7.68, 25]),
+        _v1_item(2, mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, 4, [45.072, 7.682, 25]),
+        _v1_item(3, mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, 0, [45.073, 7.683, 30]),
+        # version 1 DO_JUMP: param1 is the target's id
+        _v1_item(4, mavlink.MAV_CMD_DO_JUMP, mavlink.MAV_FRAME_MISSION, 2, [0, 0, 0]),
+        _v1_item(5, mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_FRAME_MISSION, 0, [0, 0, 0])]))
     plan = read_mission_file(path)
     items = plan.mission.items
-    assert [i.command for i in items] == [22, 16, 16, 177, 20]
+    assert [i.command for i in items] == [mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_CMD_NAV_WAYPOINT,
+                                          mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_DO_JUMP,
+                                          mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH]
     assert (items[1].param1, items[1].x, items[1].y, items[1].z) == (4, 45.072, 7.682, 25)  # hold 4 s
     assert items[3].param1 == 2
     assert plan.mission.home == (45.07, 7.68, 240.0) and plan.firmware is Flavour.ARDUPILOT
     _uploadable(plan)
-    doc = _mission_v1([_v1_item(1, 22, 3, 0, [45.07, 7.68, 25]), _v1_item(2, 177, 2, 9, [0, 0, 0])])
+    doc = _mission_v1([_v1_item(1, mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, 0,
+                                [45.07, 7.68, 25]),
+                       _v1_item(2, mavlink.MAV_CMD_DO_JUMP, mavlink.MAV_FRAME_MISSION, 9, [0, 0, 0])])
     assert "mission item 2: DO_JUMP to doJumpId 9, which no item has" in _refusal(_write(tmp_path, "j.mission", doc))
 
 
 def test_legacy_mission_v1_survey_and_bad_shapes_are_refused_in_one_line(tmp_path: Path) -> None:
     survey = {"id": 2, "type": "survey", "version": 1, "polygon": [[45.0, 7.0], [45.1, 7.0], [45.1, 7.1]]}
-    message = _refusal(_write(tmp_path, "s.mission", _mission_v1([_v1_item(1, 22, 3, 0, [45, 7, 20])], [survey])))
+    takeoff = _v1_item(1, mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, 0, [45, 7, 20])
+    message = _refusal(_write(tmp_path, "s.mission", _mission_v1([takeoff], [survey])))
     assert "complexItems item 1 is a QGroundControl survey pattern" in message
     assert "generates when it loads the file" in message and "save it as a .plan" in message
-    missing = _v1_item(1, 16, 3, 0, [45, 7, 20])
+    missing = _v1_item(1, mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, 0, [45, 7, 20])
     del missing["param3"]
     assert "mission item 1: a version 1 item needs param1 to param4, param3 missing" in _refusal(
         _write(tmp_path, "p.mission", _mission_v1([missing])))
@@ -192,7 +201,8 @@ def test_qgc_section_test_plan_items_with_coordinate_and_four_params() -> None:
 ])
 def test_section_test_style_items_with_a_wrong_shape_are_refused(tmp_path: Path, item: dict[str, Any],
                                                                  message: str) -> None:
-    entry = {"type": "SimpleItem", "autoContinue": True, "command": 16, "doJumpId": 1, "frame": 3, **item}
+    entry = {"type": "SimpleItem", "autoContinue": True, "command": mavlink.MAV_CMD_NAV_WAYPOINT, "doJumpId": 1,
+             "frame": mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, **item}
     assert message in _refusal(_write(tmp_path, "section.plan", _plan([entry])))
 
 
@@ -212,22 +222,27 @@ def test_qgc_terrain_test_plan_is_refused_at_its_calc_above_terrain_item() -> No
 
 
 def test_terrain_items_refused_unless_the_vehicle_gets_a_number_it_can_fly(tmp_path: Path) -> None:
-    takeoff = _simple(22, 1, 3, [0, 0, 0, None, 47.633, -122.086, 30])
-    calc = _simple(16, 2, 0, [0, 0, 0, None, 47.6035618, -122.046391, 240.5], AltitudeMode=3, Altitude=80,
+    takeoff = _simple(mavlink.MAV_CMD_NAV_TAKEOFF, 1, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                      [0, 0, 0, None, 47.633, -122.086, 30])
+    calc = _simple(mavlink.MAV_CMD_NAV_WAYPOINT, 2, mavlink.MAV_FRAME_GLOBAL,
+                   [0, 0, 0, None, 47.6035618, -122.046391, 240.5], AltitudeMode=3, Altitude=80,
                    AMSLAltAboveTerrain=240.5)  # a number from QGC's terrain data at save time: still refused
     message = _refusal(_write(tmp_path, "calc.plan", _plan([takeoff, calc])))
     assert "mission item 2: altitude is terrain-relative (QGroundControl's AltitudeMode 3" in message
     for frame, name in ((10, "MAV_FRAME_GLOBAL_TERRAIN_ALT"), (11, "MAV_FRAME_GLOBAL_TERRAIN_ALT_INT")):
-        blank = _simple(16, 2, frame, [0, 0, 0, None, 47.6035618, -122.1263702, None], AltitudeMode=4)
+        blank = _simple(mavlink.MAV_CMD_NAV_WAYPOINT, 2, frame, [0, 0, 0, None, 47.6035618, -122.1263702, None],
+                        AltitudeMode=4)
         message = _refusal(_write(tmp_path, f"blank{frame}.plan", _plan([takeoff, blank])))
         assert f"mission item 2: altitude is terrain-relative (frame {frame}, {name}) and has no value" in message
         assert all(words in message for words in TERRAIN_WORDS[1:]), message
     # QGroundControl's AltitudeMode 4 (terrain frame) with a height: sent as it is, the autopilot follows terrain.
-    follow = _simple(16, 2, 10, [0, 0, 0, None, 47.6035618, -122.1263702, 50], AltitudeMode=4, Altitude=50,
+    follow = _simple(mavlink.MAV_CMD_NAV_WAYPOINT, 2, mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT,
+                     [0, 0, 0, None, 47.6035618, -122.1263702, 50], AltitudeMode=4, Altitude=50,
                      AMSLAltAboveTerrain=None)
     item = read_mission_file(_write(tmp_path, "follow.plan", _plan([takeoff, follow]))).mission.items[1]
     assert (item.frame, item.z, item.x) == (10, 50, 47.6035618)
-    relative = _simple(16, 2, 3, [0, 0, 0, None, 47.6, -122.1, None], AltitudeMode=1)
+    relative = _simple(mavlink.MAV_CMD_NAV_WAYPOINT, 2, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                       [0, 0, 0, None, 47.6, -122.1, None], AltitudeMode=1)
     assert "mission item 2: altitude is nan" in _refusal(_write(tmp_path, "rel.plan", _plan([takeoff, relative])))
 
 
@@ -246,6 +261,7 @@ def test_terrain_frame_without_altitude_in_waypoints_is_refused(tmp_path: Path) 
 
 # MAVSDK's mission_import_test.cpp, ImportSamplePlanWithComplexMissionSurvey: the 13 items MAVSDK uploads
 # from its qgroundcontrol_sample_with_survey.plan (waypoint positions in degE7, as MISSION_ITEM_INT).
+# SET_CAMERA_MODE, then waypoints and DO_SET_CAM_TRIGG_DIST (the commands of the data file's items, as stored)
 MAVSDK_SURVEY_COMMANDS = [530, 16, 206, 16, 206, 16, 16, 16, 16, 206, 16, 16, 206]
 MAVSDK_SURVEY_WAYPOINTS = [(473977060, 85463397), (473977060, 85462068), (473977060, 85457443),
                            (473977060, 85456115), (473974811, 85456316), (473974811, 85457645),
@@ -256,10 +272,11 @@ def test_mavsdk_survey_plan_expands_into_the_items_qgc_stored() -> None:
     plan = read_mission_file(DATA / "qgroundcontrol_sample_with_survey.plan")
     items = plan.mission.items
     assert [i.command for i in items] == MAVSDK_SURVEY_COMMANDS
-    waypoints = [i for i in items if i.command == 16]
+    waypoints = [i for i in items if i.command == mavlink.MAV_CMD_NAV_WAYPOINT]
     assert [(round(i.x * 1e7), round(i.y * 1e7)) for i in waypoints] == MAVSDK_SURVEY_WAYPOINTS
     assert {(i.frame, i.z) for i in waypoints} == {(3, 50)} and all(math.isnan(i.param4) for i in waypoints)
-    assert [i.param1 for i in items if i.command == 206] == [25, 25, 25, 0]  # trigger distance; 0 = stop
+    # the trigger distance; 0 = stop
+    assert [i.param1 for i in items if i.command == mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST] == [25, 25, 25, 0]
     assert items[0].param2 == 2 and math.isnan(items[0].param3)  # SET_CAMERA_MODE 2 (survey), nulls are NaN
     assert plan.firmware is Flavour.PX4
     _uploadable(plan)
@@ -267,9 +284,14 @@ def test_mavsdk_survey_plan_expands_into_the_items_qgc_stored() -> None:
 
 def _transect_items() -> list[dict[str, Any]]:
     """A survey's stored items as QGroundControl saves them (doJumpId = their sequence number then)."""
-    return [_simple(16, 2, 3, [0, 0, 0, None, 45.0700, 7.6800, 40]), _simple(206, 3, 2, [12, 0, 1, 0, 0, 0, 0]),
-            _simple(16, 4, 3, [0, 0, 0, None, 45.0710, 7.6800, 40]),
-            _simple(16, 5, 3, [0, 0, 0, None, 45.0710, 7.6805, 40]), _simple(206, 6, 2, [0, 0, 1, 0, 0, 0, 0])]
+    return [_simple(mavlink.MAV_CMD_NAV_WAYPOINT, 2, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                    [0, 0, 0, None, 45.0700, 7.6800, 40]),
+            _simple(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, 3, mavlink.MAV_FRAME_MISSION, [12, 0, 1, 0, 0, 0, 0]),
+            _simple(mavlink.MAV_CMD_NAV_WAYPOINT, 4, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                    [0, 0, 0, None, 45.0710, 7.6800, 40]),
+            _simple(mavlink.MAV_CMD_NAV_WAYPOINT, 5, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                    [0, 0, 0, None, 45.0710, 7.6805, 40]),
+            _simple(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, 6, mavlink.MAV_FRAME_MISSION, [0, 0, 1, 0, 0, 0, 0])]
 
 
 def _complex(kind: str, version: int, stored: list[Any] | None) -> dict[str, Any]:
@@ -287,17 +309,27 @@ def _complex(kind: str, version: int, stored: list[Any] | None) -> dict[str, Any
 
 def test_survey_and_corridor_items_expand_in_place_and_jumps_count_them(tmp_path: Path) -> None:
     for kind, version in (("survey", 4), ("CorridorScan", 3)):
-        items = [_simple(22, 1, 3, [0, 0, 0, None, 45.07, 7.68, 40]), _complex(kind, version, _transect_items()),
-                 _simple(177, 7, 2, [8, 1, 0, 0, 0, 0, 0]), _simple(16, 8, 3, [0, 0, 0, None, 45.0705, 7.6802, 40]),
-                 _simple(20, 9, 2, [0, 0, 0, 0, 0, 0, 0])]
+        items = [_simple(mavlink.MAV_CMD_NAV_TAKEOFF, 1, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                         [0, 0, 0, None, 45.07, 7.68, 40]),
+                 _complex(kind, version, _transect_items()),
+                 _simple(mavlink.MAV_CMD_DO_JUMP, 7, mavlink.MAV_FRAME_MISSION, [8, 1, 0, 0, 0, 0, 0]),
+                 _simple(mavlink.MAV_CMD_NAV_WAYPOINT, 8, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                         [0, 0, 0, None, 45.0705, 7.6802, 40]),
+                 _simple(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, 9, mavlink.MAV_FRAME_MISSION, [0, 0, 0, 0, 0, 0, 0])]
         plan = read_mission_file(_write(tmp_path, f"{kind}.plan", _plan(items)))
         got = plan.mission.items
-        assert [i.command for i in got] == [22, 16, 206, 16, 16, 206, 177, 16, 20], kind
+        assert [i.command for i in got] == [mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_CMD_NAV_WAYPOINT,
+                                            mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mavlink.MAV_CMD_NAV_WAYPOINT,
+                                            mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST,
+                                            mavlink.MAV_CMD_DO_JUMP, mavlink.MAV_CMD_NAV_WAYPOINT,
+                                            mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH], kind
         assert got[6].param1 == 8  # doJumpId 8 is the model's item 8: after the 5 stored items
         assert (got[3].x, got[3].y, got[3].z, got[2].param1) == (45.0710, 7.6800, 40, 12)
     # QGroundControl finds DO_JUMP targets among SimpleItems only: a stored item's doJumpId is none.
-    items = [_simple(22, 1, 3, [0, 0, 0, None, 45.07, 7.68, 40]), _complex("survey", 5, _transect_items()),
-             _simple(177, 7, 2, [4, 1, 0, 0, 0, 0, 0])]
+    items = [_simple(mavlink.MAV_CMD_NAV_TAKEOFF, 1, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                     [0, 0, 0, None, 45.07, 7.68, 40]),
+             _complex("survey", 5, _transect_items()),
+             _simple(mavlink.MAV_CMD_DO_JUMP, 7, mavlink.MAV_FRAME_MISSION, [4, 1, 0, 0, 0, 0, 0])]
     assert "mission item 3: DO_JUMP to doJumpId 4, which no item has" in _refusal(
         _write(tmp_path, "inner.plan", _plan(items)))
     bad = _transect_items()
@@ -312,7 +344,8 @@ SURVEY_WORDS = ("a QGroundControl survey pattern whose waypoints QGroundControl 
 
 
 def test_complex_items_without_stored_waypoints_are_refused_with_what_to_do(tmp_path: Path) -> None:
-    takeoff = _simple(22, 1, 3, [0, 0, 0, None, 45.07, 7.68, 40])
+    takeoff = _simple(mavlink.MAV_CMD_NAV_TAKEOFF, 1, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                      [0, 0, 0, None, 45.07, 7.68, 40])
     for name, survey in (("empty", _complex("survey", 5, [])), ("none", _complex("survey", 5, None)),
                          ("v3", {"type": "ComplexItem", "complexItemType": "survey", "version": 3,
                                  "polygon": [[45.07, 7.68], [45.071, 7.68], [45.071, 7.681]],
@@ -375,8 +408,12 @@ def _places(node: Any, out: list[tuple[Any, Any]]) -> list[tuple[Any, Any]]:
 
 
 def _documents() -> list[tuple[str, dict[str, Any]]]:
-    legacy = _mission_v1([_v1_item(1, 22, 3, 0, [45.07, 7.68, 25]), _v1_item(2, 177, 2, 1, [0, 0, 0])])
-    survey = _plan([_simple(22, 1, 3, [0, 0, 0, None, 45.07, 7.68, 40]), _complex("survey", 5, _transect_items())])
+    legacy = _mission_v1([_v1_item(1, mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, 0,
+                                   [45.07, 7.68, 25]),
+                          _v1_item(2, mavlink.MAV_CMD_DO_JUMP, mavlink.MAV_FRAME_MISSION, 1, [0, 0, 0])])
+    survey = _plan([_simple(mavlink.MAV_CMD_NAV_TAKEOFF, 1, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                            [0, 0, 0, None, 45.07, 7.68, 40]),
+                    _complex("survey", 5, _transect_items())])
     return [("v1.mission", legacy), ("old.mission", json.loads((DATA / "OldFileFormat.mission").read_text())),
             ("survey.plan", survey)]
 

@@ -24,6 +24,7 @@ from hypothesis import strategies as st
 from missionplan.geo.errors import GeoError
 from missionplan.geo.readers import read_area, read_buildings, read_features, read_osm_buildings, read_polygons
 from missionplan.maps.gridmap import MapError, load_map, parse_map
+from missionplan.bridge.formats.mission_items import CMD_NAV_TAKEOFF
 
 FUZZ = settings(max_examples=int(os.environ.get("MISSIONPLAN_FUZZ_EXAMPLES", "150")), deadline=None, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
@@ -46,7 +47,7 @@ VALID_GEOJSON = {"type": "FeatureCollection", "features": [
      "geometry": {"type": "MultiPolygon", "coordinates": [[OUTER]]}}]}
 VALID_PLAN = {"fileType": "Plan", "version": 1, "groundStation": "QGroundControl",
               "mission": {"version": 2, "items": [
-                  {"type": "SimpleItem", "command": 22},
+                  {"type": "SimpleItem", "command": CMD_NAV_TAKEOFF},
                   {"type": "ComplexItem", "complexItemType": "survey", "polygon": [[y, x] for x, y in OUTER[:-1]]},
                   {"type": "ComplexItem", "complexItemType": "CorridorScan", "CorridorWidth": 20,
                    "polyline": [[45.06, 7.65], [45.06, 7.66]]}]},

@@ -42,19 +42,25 @@ def _point(north: float, east: float) -> tuple[float, float]:
 
 
 def _waypoints(points: list[tuple[float, float]]) -> list[MissionItem]:
-    return [MissionItem(16, 3, x=_point(n, e)[0], y=_point(n, e)[1], z=20.0) for n, e in points]
+    return [MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=_point(n, e)[0],
+                        y=_point(n, e)[1], z=20.0) for n, e in points]
 
 
 def survey() -> Mission:
-    return Mission([MissionItem(22, 3, x=HOME[0], y=HOME[1], z=20.0), *_waypoints(OWN), MissionItem(20, 2)], home=HOME)
+    return Mission([MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=HOME[0],
+                                y=HOME[1], z=20.0),
+                    *_waypoints(OWN),
+                    MissionItem(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_FRAME_MISSION)], home=HOME)
 
 
 def retasked(renumbered: bool = False, speed: bool = False) -> Mission:
     """The flown part (none when renumbered), B1..B3, RTL; `speed`: a DO_CHANGE_SPEED before B1, as fly's
     re-plans begin (take-off, speed, survey), to resume at."""
     kept = survey().items[:1 if renumbered else 1 + RETASK_AT]
-    change = [MissionItem(178, 2, param1=1.0, param2=5.0, param3=-1.0)] if speed else []
-    return Mission([*kept, *change, *_waypoints(LOST), MissionItem(20, 2)], home=HOME)
+    change = [MissionItem(mavlink.MAV_CMD_DO_CHANGE_SPEED, mavlink.MAV_FRAME_MISSION, param1=1.0, param2=5.0,
+                          param3=-1.0)] if speed else []
+    rtl = MissionItem(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_FRAME_MISSION)
+    return Mission([*kept, *change, *_waypoints(LOST), rtl], home=HOME)
 
 
 @dataclass
@@ -247,7 +253,7 @@ def test_a_vehicle_not_flying_its_mission_is_not_touched(flavour: Flavour) -> No
 def test_a_refused_mission_raises_and_px4_flies_on_with_its_old_one() -> None:
     with flying(Flavour.PX4) as f:
         bad = f.wire(retasked())
-        bad[3] = replace(bad[3], frame=1)  # MAV_FRAME_LOCAL_NED: PX4 refuses it (UNSUPPORTED_FRAME)
+        bad[3] = replace(bad[3], frame=mavlink.MAV_FRAME_LOCAL_NED)  # PX4 refuses it (UNSUPPORTED_FRAME)
         with pytest.raises(RetaskError, match="flies on with its previous mission"):
             replace_mission_in_flight(f.backend, f.link, 1, Flavour.PX4, bad, _b_seqs(f)[0], time.monotonic() + WAIT_S)
         a6 = f.seq_of(1 + RETASK_AT)
@@ -257,7 +263,8 @@ def test_a_refused_mission_raises_and_px4_flies_on_with_its_old_one() -> None:
 def test_a_fence_goes_up_before_the_mission() -> None:
     with flying(Flavour.ARDUPILOT) as f:
         corners = [_point(-100, -100), _point(-100, 100), _point(150, 100), _point(150, -100)]
-        fence = [WireItem(k, 0, 5001, 0, 1, 4.0, 0, 0, 0, round(lat * 1e7), round(lon * 1e7), 0.0, 1)
+        fence = [WireItem(k, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, 0, 1, 4.0,
+                          0, 0, 0, round(lat * 1e7), round(lon * 1e7), 0.0, mavlink.MAV_MISSION_TYPE_FENCE)
                  for k, (lat, lon) in enumerate(corners)]
         b = _b_seqs(f)
         report = replace_mission_in_flight(f.backend, f.link, 1, Flavour.ARDUPILOT, f.wire(retasked()), b[0],

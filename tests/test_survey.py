@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from missionplan.bridge.formats.mission_items import CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF
 from missionplan.cli import main
 from missionplan.flight.plan_report import SLACK_CELLS, frame_of, target_cells, to_grid_m
 from missionplan.flight.ledger import LEDGER_NAME, Ledger
@@ -242,7 +243,8 @@ def test_a_retask_beyond_the_battery_is_refused_with_the_reason(leonardo_3: Path
     # Each new mission starts where its drone is, ends with RTL, and its fence holds its new track.
     for k in (1, 3):
         items = plan.missions[k].items
-        assert items[0].command == 22 and items[-1].command == 20 and plan.resume_index[k] == 1
+        assert items[0].command == CMD_NAV_TAKEOFF and items[-1].command == CMD_NAV_RETURN_TO_LAUNCH
+        assert plan.resume_index[k] == 1
         assert plan.fences[k].items
 
 
