@@ -227,8 +227,8 @@ body { display: flex; font: 13px/1.4 system-ui, -apple-system, "Segoe UI", Robot
 .mp-kind { margin: 0; font-size: 11px; text-transform: uppercase; letter-spacing: .08em; color: #8a939c; }
 .mp-scroll { overflow-x: auto; }
 .mp-table { border-collapse: collapse; width: 100%; }
-.mp-table th, .mp-table td { padding: 2px 6px 2px 0; text-align: left; vertical-align: top; border-bottom: 1px solid
-#e6e9ed; } .mp-table th { font-weight: 600; white-space: nowrap; }
+.mp-table th, .mp-table td { padding: 2px 6px 2px 0; text-align: left; vertical-align: top; border-bottom: 1px solid #e6e9ed; }
+.mp-table th { font-weight: 600; white-space: nowrap; }
 .mp-table td { font-variant-numeric: tabular-nums; }
 .mp-fleet { font-size: 11px; }
 .mp-fleet th, .mp-fleet td { padding-right: 3px; }
@@ -247,8 +247,8 @@ body { display: flex; font: 13px/1.4 system-ui, -apple-system, "Segoe UI", Robot
 .mp-launch-icon { background: none; border: none; }
 .mp-launch-icon .mp-launch-label { position: absolute; left: 18px; top: -1px; white-space: nowrap; font-weight: 700;
                                    font-size: 12px; text-shadow: 0 0 2px #fff, 0 0 2px #fff, 0 0 3px #fff; }
-.mp-north { background: #fff; padding: 3px 4px 1px; border-radius: 4px; border: 2px solid rgba(0,0,0,.2); line-height:
-0; } .mp-mouse { background: rgba(255,255,255,.85); padding: 1px 6px; font: 12px/1.5 ui-monospace, monospace; }
+.mp-north { background: #fff; padding: 3px 4px 1px; border-radius: 4px; border: 2px solid rgba(0,0,0,.2); line-height: 0; }
+.mp-mouse { background: rgba(255,255,255,.85); padding: 1px 6px; font: 12px/1.5 ui-monospace, monospace; }
 /* Leaflet's CSS points these at image files the page does not carry: no requests for them. */
 .leaflet-control-layers-toggle, .leaflet-retina .leaflet-control-layers-toggle,
 .leaflet-default-icon-path { background-image: none; }
@@ -345,8 +345,7 @@ _MAP_JS = r"""
           case "covered":
             return {className, stroke: false, fillColor: COVERED, fillOpacity: 0.25, interactive: false};
           default:
-            return {className, renderer, radius: 4, color: GENERIC, weight: 1.5, fillColor: "#90a4ae", fillOpacity:
-            0.3};
+            return {className, renderer, radius: 4, color: GENERIC, weight: 1.5, fillColor: "#90a4ae", fillOpacity: 0.3};
         }
       };
     }
@@ -494,8 +493,7 @@ _MAP_JS = r"""
         case "missed": {
           const cells = sum(props, "cells"), area = sum(props, "area_m2");
           return [row(name, sw.fill(MISSED, null, 0.55),
-                      `Missed cells: ${cells} cell${cells === 1 ? "" : "s"}` + (area ? `, ${fmt(area, 0)} m\u00b2` :
-                      ""))];
+                      `Missed cells: ${cells} cell${cells === 1 ? "" : "s"}` + (area ? `, ${fmt(area, 0)} m\u00b2` : ""))];
         }
         case "covered":
           return [row(name, sw.fill(COVERED, null, 0.25), `Covered cells: ${sum(props, "cells")}`)];
@@ -636,8 +634,8 @@ _MAP_JS = r"""
   function knownHeight(p) { return !!p && p.known_height !== false && isNum(p.height_m); }
   function isNum(v) { return typeof v === "number" && isFinite(v); }
   function sum(props, key) { return props.reduce((s, p) => s + (isNum(p[key]) ? p[key] : 0), 0); }
-  function fmt(v, digits) { return isNum(v) ? v.toFixed(digits == null ? (Number.isInteger(v) ? 0 : 1) : digits) : "-";
-  } function metres(m) { return !isNum(m) ? "-" : m >= 1000 ? (m / 1000).toFixed(2) + " km" : m.toFixed(0) + " m"; }
+  function fmt(v, digits) { return isNum(v) ? v.toFixed(digits == null ? (Number.isInteger(v) ? 0 : 1) : digits) : "-"; }
+  function metres(m) { return !isNum(m) ? "-" : m >= 1000 ? (m / 1000).toFixed(2) + " km" : m.toFixed(0) + " m"; }
   function duration(s) {
     if (!isNum(s)) return "-";
     s = Math.round(s);
@@ -649,8 +647,7 @@ _MAP_JS = r"""
     return "#" + a.map((v, i) => Math.round(v + (b[i] - v) * t).toString(16).padStart(2, "0")).join("");
   }
   function esc(s) {
-    return String(s).replace(/[&<>"']/g, c => ({"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'":
-    "&#39;"})[c]);
+    return String(s).replace(/[&<>"']/g, c => ({"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#39;"})[c]);
   }
   function el(tag, className, text) {
     const e = document.createElement(tag);
