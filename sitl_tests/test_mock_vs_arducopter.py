@@ -22,8 +22,8 @@ from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
 
 from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, Link, mavlink
 from missionplan.bridge.formats.mission_items import MissionType, WireItem
+from missionplan.bridge.sim.mission_server import MissionServer
 from missionplan.bridge.sim.mock import MockAutopilot
-from missionplan.bridge.sim.mock_vehicle import MockVehicle
 from missionplan.bridge.link.params import ParamClient
 from missionplan.bridge.transfer.protocol import Timeouts
 from missionplan.bridge.transfer.uploader import PymavlinkBackend
@@ -180,7 +180,7 @@ def test_the_comparison_catches_a_mock_that_stores_verbatim(monkeypatch: pytest.
     out-of-turn items like PX4 differ exactly where ArduCopter and the old mock did."""
     faithful = _mock_session()
     assert faithful["answers"] == {"request": "MISSION_REQUEST", "early item": 13, "final": 0, "stray item": 1}
-    monkeypatch.setattr(MockVehicle, "_stored", lambda self, item: item)
+    monkeypatch.setattr(MissionServer, "_stored", lambda self, item: item)
     verbatim = _mock_session()
     found = drift(faithful, verbatim)
     assert any(line.startswith("mission item 4 param2: ArduCopter 0.0, mock 0.0595") for line in found), found

@@ -20,8 +20,8 @@ from px4_sih import PX4, px4  # noqa: F401  (the fixture)
 from px4_mission_session import HOME, session, start_session
 
 from missionplan.bridge.formats.mission_items import WireItem
+from missionplan.bridge.sim.mission_server import MissionServer
 from missionplan.bridge.sim.mock import MockAutopilot
-from missionplan.bridge.sim.mock_vehicle import MockVehicle
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
@@ -87,8 +87,8 @@ def test_the_comparison_catches_a_mock_that_stores_verbatim(monkeypatch: pytest.
     """Without PX4: the faithful mock against one that stores what it got (the old PX4 mock) and asks
     with MISSION_REQUEST_INT from the start differ where PX4 and the old mock did."""
     faithful, faithful_starts = _mock(session), _mock(start_session)
-    monkeypatch.setattr(MockVehicle, "_stored", lambda self, item: item)
-    monkeypatch.setattr(MockVehicle, "start_refusals", lambda self: [])
+    monkeypatch.setattr(MissionServer, "_stored", lambda self, item: item)
+    monkeypatch.setattr(MissionServer, "start_refusals", lambda self: [])
     verbatim, verbatim_starts = _mock(session), _mock(start_session)
     found = drift(faithful, verbatim)
     assert "mission item 3 frame: PX4 6, mock 3" in found, found

@@ -97,7 +97,7 @@ def test_wpnav_radius_from_the_plan_clamped_to_its_range_and_proven_by_param_val
         monkeypatch: pytest.MonkeyPatch) -> None:
     from missionplan.bridge.errors import BridgeError
     from missionplan.bridge.link.connection import VehicleInfo
-    from missionplan.bridge.sim import mock_vehicle
+    from missionplan.bridge.sim import vehicle_params
     from missionplan.bridge.link.params import acceptance_radius_setting
 
     copter = VehicleInfo(1, 1, 3, 2, Flavour.ARDUPILOT, False)
@@ -122,8 +122,8 @@ def test_wpnav_radius_from_the_plan_clamped_to_its_range_and_proven_by_param_val
                 "WPNAV_RADIUS = 50 cm (was 200): the plan's acceptance radius (ArduCopter ignores the waypoints' param2)"]
             assert mock.vehicle(1).flight.default_acceptance == 0.5  # and the mock flies it
             # A vehicle that keeps another value fails the upload instead of flying a radius nobody chose.
-            monkeypatch.setitem(mock_vehicle._HANDLERS, "PARAM_SET",
-                                lambda self, msg, peer, now: self._send_param("WPNAV_RADIUS", peer))
+            monkeypatch.setitem(vehicle_params._HANDLERS, "PARAM_SET",
+                                lambda self, msg, peer, now: self._send_value("WPNAV_RADIUS", peer))
             with pytest.raises(BridgeError, match="kept WPNAV_RADIUS = 50 when set to 20"):
                 upload_plan(b, [Mission([MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT,
                                                      mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, param2=0.2, x=45.0, y=7.0,
@@ -131,9 +131,9 @@ def test_wpnav_radius_from_the_plan_clamped_to_its_range_and_proven_by_param_val
 
 
 def test_a_lost_final_accepted_is_settled_by_read_back(monkeypatch: pytest.MonkeyPatch) -> None:
-    from missionplan.bridge.sim import mock_vehicle
+    from missionplan.bridge.sim.mission_server import MissionServer
 
-    original = mock_vehicle.MockVehicle._ack
+    original = MissionServer._ack
     dropped: list[int] = []
 
     def lossy_ack(self, peer, mission_type, result):  # type: ignore[no-untyped-def]
@@ -143,7 +143,7 @@ def test_a_lost_final_accepted_is_settled_by_read_back(monkeypatch: pytest.Monke
         for _ in range(2 if result == mavlink.MAV_MISSION_ERROR else 1):  # and every ERROR arrives twice
             original(self, peer, mission_type, result)
 
-    monkeypatch.setattr(mock_vehicle.MockVehicle, "_ack", lossy_ack)
+    monkeypatch.setattr(MissionServer, "_ack", lossy_ack)
     with MockAutopilot(flavour="ardupilot", request_interval=0.05) as mock:
         with PymavlinkBackend(mock.client_url, 1, timeouts=Timeouts(item_timeout=0.3), connect_timeout=5) as b:
             report = upload_plan(b, [survey(5)], verify=False)
@@ -155,15 +155,15 @@ def test_a_lost_final_accepted_is_settled_by_read_back(monkeypatch: pytest.Monke
 def test_a_late_param_value_with_the_old_value_does_not_fail_the_set(monkeypatch: pytest.MonkeyPatch) -> None:
     # Through a lossy link a PARAM_VALUE answering an earlier read (the old value) can arrive after
     # our PARAM_SET went out; the vehicle's answer to the set follows it.
-    from missionplan.bridge.sim import mock_vehicle
+    from missionplan.bridge.sim import vehicle_params
 
-    original = mock_vehicle._HANDLERS["PARAM_SET"]
+    original = vehicle_params._HANDLERS["PARAM_SET"]
 
     def stale_first(self, msg, peer, now):  # type: ignore[no-untyped-def]
-        self._send_param("WPNAV_RADIUS", peer)  # the old value, late
+        self._send_value("WPNAV_RADIUS", peer)  # the old value, late
         original(self, msg, peer, now)
 
-    monkeypatch.setitem(mock_vehicle._HANDLERS, "PARAM_SET", stale_first)
+    monkeypatch.setitem(vehicle_params._HANDLERS, "PARAM_SET", stale_first)
     with MockAutopilot(flavour="ardupilot", request_interval=0.05) as mock:
         with PymavlinkBackend(mock.client_url, 1, timeouts=Timeouts(item_timeout=0.3), connect_timeout=5) as b:
             assert b.set_param("WPNAV_RADIUS", 25.0) == (200.0, 25.0)

@@ -1,8 +1,12 @@
 """sim: the pure-Python mock autopilot, made to behave like ArduCopter SITL and PX4 SIH.
 
 May import: missionplan.bridge.errors, .formats, .link (pymavlink's set-up and URL parsing), .flight_models.
-  mock           the mock's link: one process or thread serving one or many system ids, and link faults
-  mock_vehicle   one simulated vehicle: telemetry, the mission protocol, commands, parameters
-  mock_flight    its kinematics: a point that flies a mission, on the autopilots' flight models
-  mock_log       its onboard DataFlash log, served over MAVLink
+  mock              the mock's link: one process or thread serving one or many system ids, and link faults
+  mock_vehicle      one simulated vehicle: its state, clock, battery and faults, handing each message to its parts
+  telemetry         what it sends about itself: heartbeat, streams and their intervals, texts, photos
+  mission_server    its side of the mission protocol: the stored mission, fence and rally lists and their transfers
+  vehicle_commands  its answers to COMMAND_LONG / COMMAND_INT and SET_MODE
+  vehicle_params    its parameter table: PARAM_REQUEST_READ / PARAM_SET
+  mock_flight       its kinematics: a point that flies a mission, on the autopilots' flight models
+  mock_log          its onboard DataFlash log, served over MAVLink
 """

@@ -1,0 +1,84 @@
+"""The mock vehicle's parameters: its table and the PARAM_REQUEST_READ / PARAM_SET / PARAM_VALUE exchange.
+
+Owns, for one mock vehicle (mock_vehicle), the parameter table and the ground station's access to it. The table
+survives a reboot, like ArduPilot's EEPROM, and holds only what the bridge and the tests set or read: the
+ArduPilot flavour's WPNAV_RADIUS (200 cm; every waypoint is flown to it, not to param2) and its battery monitor
+and failsafe (ARDUPILOT_BATTERY_PARAMS, SITL's SIM_BATT_VOLTAGE among them), the PX4 flavour's MIS_DIST_1WP
+(formats.px4_rules); in the SITL-like mode also the autopilot's navigation parameters (flight_models:
+copter_model.CopterParams, px4_model.Px4Params) and its camera parameter (CAM1_TYPE, PX4's TRIG_MODE), 0.
+PARAM_REQUEST_READ of a name is answered with its PARAM_VALUE, an unknown name not at all (as on ArduPilot);
+PARAM_SET stores the value as given, out of range or not (as ArduCopter SITL does), answers with PARAM_VALUE,
+and the navigation parameters take effect in the flight at once; the camera parameter only at the next boot.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..flight_models.copter_model import CopterParams
+from ..flight_models.px4_model import Px4Params
+from ..formats.mission_items import Flavour
+from ..formats.px4_rules import MIS_DIST_1WP_DEFAULT
+from ..link.connection import mavlink
+
+PX4_CAMERA_PARAM, ARDUPILOT_CAMERA_PARAM = "TRIG_MODE", "CAM1_TYPE"  # read at boot: the camera reports only then
+# ArduPilot's battery monitor and its failsafe (AP_BattMonitor_Params.cpp: BATT_LOW_VOLT 10.5 V on copters,
+# BATT_LOW_TIMER 10 s, actions 0 = none; copter.parm sets BATT_MONITOR 4; SITL's SIM_BATT_VOLTAGE 12.6 V).
+ARDUPILOT_BATTERY_PARAMS = {"BATT_MONITOR": 4.0, "BATT_LOW_VOLT": 10.5, "BATT_LOW_TIMER": 10.0, "BATT_FS_LOW_ACT": 0.0,
+                            "BATT_CRT_VOLT": 0.0, "BATT_FS_CRT_ACT": 0.0, "SIM_BATT_VOLTAGE": 12.6}
+
+
+class ParamServer:
+    """One vehicle's parameter table and its answers to PARAM_REQUEST_READ and PARAM_SET."""
+
+    def __init__(self, vehicle: Any) -> None:
+        # The MockVehicle whose parameters these are (Any: mock_vehicle imports this module, not the other way).
+        self.vehicle = vehicle
+        self.mav = vehicle.mav
+        flavour, sitl_like = vehicle.flavour, vehicle.options.sitl_like
+        self.values: dict[str, float] = {"WPNAV_RADIUS": 200.0} if flavour is Flavour.ARDUPILOT else {}
+        if flavour is Flavour.ARDUPILOT:
+            self.values.update(ARDUPILOT_BATTERY_PARAMS)
+        if flavour is Flavour.PX4:
+            self.values["MIS_DIST_1WP"] = MIS_DIST_1WP_DEFAULT  # its mission feasibility check (formats.px4_rules)
+        if sitl_like and flavour is Flavour.PX4:
+            self.values.update({**Px4Params().as_params(), PX4_CAMERA_PARAM: 0.0})
+        elif sitl_like:
+            self.values.update({**CopterParams().as_params(), ARDUPILOT_CAMERA_PARAM: 0.0})
+
+    def handle(self, msg: Any, peer: tuple[int, int], now: float) -> bool:
+        """Answer PARAM_REQUEST_READ or PARAM_SET; False for any other message."""
+        handler = _HANDLERS.get(msg.get_type())
+        if handler is None:
+            return False
+        handler(self, msg, peer, now)
+        return True
+
+    def _send_value(self, name: str, peer: tuple[int, int]) -> None:
+        names = sorted(self.values)
+        self.mav.param_value_send(name.encode(), float(self.values[name]), mavlink.MAV_PARAM_TYPE_REAL32, len(names),
+                                  names.index(name))
+
+    def _on_read(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        name = str(msg.param_id).rstrip("\x00")
+        if name in self.values:
+            self._send_value(name, peer)  # an unknown name gets no answer, as on ArduPilot
+
+    def _on_set(self, msg: Any, peer: tuple[int, int], now: float) -> None:
+        name = str(msg.param_id).rstrip("\x00")
+        if name not in self.values:
+            return
+        value = float(msg.param_value)
+        self.values[name] = value  # stored as given, out of range or not (ArduCopter SITL does the same)
+        flight = self.vehicle.flight
+        if name == "WPNAV_RADIUS":
+            flight.default_acceptance = max(value, 5.0) / 100.0  # AC_WPNav flies at least 5 cm
+        if flight.copter is not None:  # navigation parameters take effect at once (CAM1_TYPE at boot)
+            flight.copter = CopterParams.from_params(self.values)
+        self._send_value(name, peer)
+
+
+_HANDLERS = {
+    "PARAM_REQUEST_READ": ParamServer._on_read,
+    "PARAM_SET": ParamServer._on_set,
+}
