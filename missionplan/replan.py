@@ -85,7 +85,7 @@ def launch_at(survey: Survey, launch: list[str], sysid: list[str]) -> tuple[list
     missing = [k for k in range(1, len(launch) + 1) if k not in assignment]
     extra = sorted(k for k in assignment if not 1 <= k <= len(launch))
     if missing or extra:
-        raise MapError(f"--sysid: say which vehicle flies each --launch point: "
+        raise MapError("--sysid: say which vehicle flies each --launch point: "
                        + (f"no --sysid for drone {', '.join(map(str, missing))}" if missing else
                           f"drone {extra[0]} has no --launch point ({len(launch)} given)"))
     cells = []

@@ -154,8 +154,8 @@ def is_global(frame: int) -> bool:
     return frame in GLOBAL_FRAMES
 
 
-def _f32(value: float) -> float:
-    """The value as a MAVLink float field carries it."""
+def as_float32(value: float) -> float:
+    """The value as a MAVLink float field carries it (and PX4 computes in: single precision)."""
     return struct.unpack("<f", struct.pack("<f", value))[0]
 
 

@@ -24,7 +24,6 @@ Pure Python, no MAVLink library: the mock and the uploader both use it.
 from __future__ import annotations
 
 import math
-import struct
 from dataclasses import replace
 
 from .mission_items import (
@@ -67,6 +66,7 @@ from .mission_items import (
     MAV_MISSION_UNSUPPORTED_FRAME,
     MissionType,
     WireItem,
+    as_float32,
 )
 
 PX4_GLOBAL_FRAMES = frozenset({FRAME_GLOBAL, FRAME_GLOBAL_RELATIVE_ALT, FRAME_GLOBAL_INT, FRAME_GLOBAL_RELATIVE_ALT_INT})
@@ -108,19 +108,15 @@ def item_result(item: WireItem) -> int:
     return MAV_MISSION_ACCEPTED if command in allowed else MAV_MISSION_UNSUPPORTED
 
 
-def _f32(value: float) -> float:
-    return struct.unpack("<f", struct.pack("<f", value))[0]
-
-
-_PI_F = _f32(math.pi)
-_DEG_TO_RAD_F, _RAD_TO_DEG_F = _f32(_PI_F / 180.0), _f32(180.0 / _PI_F)
-_TWO_PI_F = _f32(2.0 * math.pi)
+_PI_F = as_float32(math.pi)
+_DEG_TO_RAD_F, _RAD_TO_DEG_F = as_float32(_PI_F / 180.0), as_float32(180.0 / _PI_F)
+_TWO_PI_F = as_float32(2.0 * math.pi)
 
 
 def px4_millimetres(metres: float) -> int:
     """An altitude as CAMERA_IMAGE_CAPTURED carries it: camera_capture keeps metres in a float32 and
     PX4's stream multiplies by 1e3f in float32, then truncates (209.99999 m -> 210000 mm, not 209999)."""
-    return int(_f32(_f32(metres) * 1000.0))
+    return int(as_float32(as_float32(metres) * 1000.0))
 
 
 def px4_yaw(degrees: float) -> float:
@@ -128,11 +124,11 @@ def px4_yaw(degrees: float) -> float:
     again (7 -> 6.9999995, -90 -> 270; NaN stays NaN)."""
     if not math.isfinite(degrees):
         return degrees
-    radians = _f32(_f32(degrees) * _DEG_TO_RAD_F)
-    radians = _f32(math.fmod(radians, _TWO_PI_F))
+    radians = as_float32(as_float32(degrees) * _DEG_TO_RAD_F)
+    radians = as_float32(math.fmod(radians, _TWO_PI_F))
     if radians < 0:
-        radians = _f32(radians + _TWO_PI_F)
-    return _f32(radians * _RAD_TO_DEG_F)
+        radians = as_float32(radians + _TWO_PI_F)
+    return as_float32(radians * _RAD_TO_DEG_F)
 
 
 def px4_stored(item: WireItem) -> WireItem:

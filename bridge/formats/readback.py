@@ -41,7 +41,7 @@ from .mission_items import (
     Flavour,
     MissionType,
     WireItem,
-    _f32,
+    as_float32,
     normalize_frame,
 )
 from .px4_rules import px4_stored
@@ -107,12 +107,12 @@ def ardupilot_stored(item: WireItem) -> WireItem:
         frame, z, autocontinue = FRAME_GLOBAL, 0.0, 0
     elif item.mission_type == MissionType.RALLY:
         autocontinue = 0
-        z = float(math.trunc(_f32(z))) if math.isfinite(z) else z
+        z = float(math.trunc(as_float32(z))) if math.isfinite(z) else z
     elif not is_positional(item.command):
         frame, x, y, z = FRAME_GLOBAL, 0, 0, 0.0
     else:
         if math.isfinite(z):  # int32 centimetres, truncated; returned as cm * 0.01f (float32 maths, as on board)
-            z = _f32(_f32(math.trunc(_f32(_f32(z) * 100.0))) * _f32(0.01))
+            z = as_float32(as_float32(math.trunc(as_float32(as_float32(z) * 100.0))) * as_float32(0.01))
     if item.command == CMD_NAV_WAYPOINT and item.mission_type == MissionType.MISSION:
         hold = item.param1
         if math.isfinite(hold) and 0.0 <= hold < UINT16_SECONDS:
@@ -131,7 +131,7 @@ def stored_form(item: WireItem, flavour: Flavour) -> WireItem:
 
 
 def _same_float(sent: float, got: float, abs_tol: float) -> bool:
-    a, b = _f32(sent), _f32(got)
+    a, b = as_float32(sent), as_float32(got)
     if math.isnan(a) or math.isnan(b):
         return math.isnan(a) and math.isnan(b)
     return math.isclose(a, b, rel_tol=1e-6, abs_tol=abs_tol)

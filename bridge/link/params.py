@@ -13,14 +13,13 @@ Owns:
 from __future__ import annotations
 
 import math
-import struct
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
 from ..errors import BridgeError
 from .connection import Link, VehicleInfo, mavlink
-from ..formats.mission_items import CMD_NAV_WAYPOINT, Flavour, Mission
+from ..formats.mission_items import CMD_NAV_WAYPOINT, Flavour, Mission, as_float32
 
 PARAM_TRIES = 5
 PARAM_WAIT_S = 1.0  # per try: ArduPilot answers within a few ms, a radio within a second
@@ -30,10 +29,6 @@ WPNAV_RADIUS_RANGE_CM = (5.0, 1000.0)  # ArduCopter's AC_WPNav: @Range 5 1000, m
 # MAV_TYPE of the multirotors ArduCopter flies (quad, coaxial, helicopter, hexa, octo, tri, dodeca,
 # deca): they all navigate with AC_WPNav.
 MULTIROTOR_TYPES = frozenset({2, 3, 4, 13, 14, 15, 29, 35})
-
-
-def _f32(value: float) -> float:
-    return struct.unpack("<f", struct.pack("<f", value))[0]
 
 
 class ParamClient:
@@ -78,7 +73,7 @@ class ParamClient:
     def set(self, name: str, value: float, tries: int = PARAM_TRIES, wait_s: float = PARAM_WAIT_S) -> float:
         """Set and return the value the vehicle then reports; BridgeError when it keeps another one."""
         mav, sysid, compid = self.link.mav, self.vehicle.sysid, self.vehicle.compid
-        target = _f32(value)
+        target = as_float32(value)
         got, ok = self._await_value(
             name,
             lambda: mav.param_set_send(sysid, compid, name.encode(), float(value), mavlink.MAV_PARAM_TYPE_REAL32),

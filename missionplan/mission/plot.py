@@ -253,7 +253,7 @@ def plan_figure(result: PlanResult, sortie_starts: list[np.ndarray] | None = Non
     drone_handles: list[Any] = [Line2D([], [], color=colours[k], lw=1.6, label=f"UAV {k + 1}")
                                 for k in range(min(num, len(TRACK_COLOURS)))]
     if num > len(TRACK_COLOURS):
-        drone_handles.append(Line2D([], [], color="none", label=f"UAV k: colour of UAV (k-1) mod 10 + 1"))
+        drone_handles.append(Line2D([], [], color="none", label="UAV k: colour of UAV (k-1) mod 10 + 1"))
     drone_handles.append(Line2D([], [], color="0.3", marker="^", mec="black", ls="none", label="launch point"))
     if sortie_starts and any(len(s) > 1 for s in sortie_starts):
         drone_handles.append(Line2D([], [], color="white", marker="o", mec="0.3", mew=2, ls="none",
