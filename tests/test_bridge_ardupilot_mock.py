@@ -122,7 +122,7 @@ def test_wpnav_radius_from_the_plan_clamped_to_its_range_and_proven_by_param_val
                 "WPNAV_RADIUS = 50 cm (was 200): the plan's acceptance radius (ArduCopter ignores the waypoints' param2)"]
             assert mock.vehicle(1).flight.default_acceptance == 0.5  # and the mock flies it
             # A vehicle that keeps another value fails the upload instead of flying a radius nobody chose.
-            monkeypatch.setitem(vehicle_params._HANDLERS, "PARAM_SET",
+            monkeypatch.setattr(vehicle_params.ParamServer, "_on_set",
                                 lambda self, msg, peer, now: self._send_value("WPNAV_RADIUS", peer))
             with pytest.raises(BridgeError, match="kept WPNAV_RADIUS = 50 when set to 20"):
                 upload_plan(b, [Mission([MissionItem(mavlink.MAV_CMD_NAV_WAYPOINT,
@@ -157,13 +157,13 @@ def test_a_late_param_value_with_the_old_value_does_not_fail_the_set(monkeypatch
     # our PARAM_SET went out; the vehicle's answer to the set follows it.
     from missionplan.bridge.sim import vehicle_params
 
-    original = vehicle_params._HANDLERS["PARAM_SET"]
+    original = vehicle_params.ParamServer._on_set
 
     def stale_first(self, msg, peer, now):  # type: ignore[no-untyped-def]
         self._send_value("WPNAV_RADIUS", peer)  # the old value, late
         original(self, msg, peer, now)
 
-    monkeypatch.setitem(vehicle_params._HANDLERS, "PARAM_SET", stale_first)
+    monkeypatch.setattr(vehicle_params.ParamServer, "_on_set", stale_first)
     with MockAutopilot(flavour="ardupilot", request_interval=0.05) as mock:
         with PymavlinkBackend(mock.client_url, 1, timeouts=Timeouts(item_timeout=0.3), connect_timeout=5) as b:
             assert b.set_param("WPNAV_RADIUS", 25.0) == (200.0, 25.0)

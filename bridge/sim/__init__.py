@@ -1,4 +1,4 @@
-"""sim: the pure-Python mock autopilot, made to behave like ArduCopter SITL and PX4 SIH.
+"""missionplan.bridge.sim: the pure-Python mock autopilot, made to behave like ArduCopter SITL and PX4 SIH.
 
 May import: missionplan.bridge.errors, .formats, .link (pymavlink's set-up and URL parsing), .flight_models.
   mock              the mock's link: one process or thread serving one or many system ids, and link faults
@@ -7,6 +7,7 @@ May import: missionplan.bridge.errors, .formats, .link (pymavlink's set-up and U
   mission_server    its side of the mission protocol: the stored mission, fence and rally lists and their transfers
   vehicle_commands  its answers to COMMAND_LONG / COMMAND_INT and SET_MODE
   vehicle_params    its parameter table: PARAM_REQUEST_READ / PARAM_SET
+  vehicle_part      what those parts share: the vehicle they belong to, the messages each answers
   mock_flight       its kinematics: a point that flies a mission, on the autopilots' flight models
   mock_log          its onboard DataFlash log, served over MAVLink
 """

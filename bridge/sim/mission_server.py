@@ -34,6 +34,7 @@ from ..formats.px4_rules import (GEOFENCE_WITHOUT_HOME, MIS_DIST_1WP_DEFAULT, fe
                                  px4_stored, start_refusals)
 from ..formats.readback import ardupilot_stored
 from ..link.connection import mavlink
+from .vehicle_part import VehiclePart
 
 MISSION_COMMANDS_REJECTED = range(5000, 6000)  # fence and rally commands do not belong in a mission
 FENCE_COMMANDS = frozenset({mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
@@ -53,15 +54,23 @@ class Upload:
     last_progress: float
 
 
-class MissionServer:
+class MissionServer(VehiclePart):
     """One vehicle's stored mission, fence and rally lists, and its side of their transfers."""
 
+    HANDLERS = {
+        "MISSION_COUNT": "_on_count",
+        "MISSION_ITEM_INT": "_on_item",
+        "MISSION_ITEM": "_on_item",
+        "MISSION_ACK": "_on_gcs_ack",
+        "MISSION_REQUEST_LIST": "_on_request_list",
+        "MISSION_REQUEST_INT": "_on_request",
+        "MISSION_REQUEST": "_on_request",
+        "MISSION_CLEAR_ALL": "_on_clear_all",
+        "MISSION_SET_CURRENT": "_on_set_current",
+    }
+
     def __init__(self, vehicle: Any) -> None:
-        # The MockVehicle whose lists these are (Any: mock_vehicle imports this module, not the other way).
-        self.vehicle = vehicle
-        self.flavour: Flavour = vehicle.flavour
-        self.options = vehicle.options
-        self.mav = vehicle.mav
+        super().__init__(vehicle)
         # Counted for the tests and the bench; a reboot keeps them.
         self.uploads_completed = 0
         self.uploads_failed = 0
@@ -82,14 +91,6 @@ class MissionServer:
         self._int_mode = False
         self.last_completed: tuple[int, int, tuple[int, int]] | None = None  # type, count, peer
         self.load_flight()
-
-    def handle(self, msg: Any, peer: tuple[int, int], now: float) -> bool:
-        """Answer a message of the mission protocol; False for any other message."""
-        handler = _HANDLERS.get(msg.get_type())
-        if handler is None:
-            return False
-        handler(self, msg, peer, now)
-        return True
 
     def tick(self, now: float) -> None:
         """The upload's timers: give a stalled upload up, or ask again for the item it waits for."""
@@ -446,15 +447,3 @@ def _next_nav(items: list[WireItem], index: int, count: int = 3) -> list[tuple[o
     nav = [it for it in items[index:] if it.command <= mavlink.MAV_CMD_NAV_LAST]
     return [(it.command, it.frame, it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z) for it in nav[:count]]
 
-
-_HANDLERS = {
-    "MISSION_COUNT": MissionServer._on_count,
-    "MISSION_ITEM_INT": MissionServer._on_item,
-    "MISSION_ITEM": MissionServer._on_item,
-    "MISSION_ACK": MissionServer._on_gcs_ack,
-    "MISSION_REQUEST_LIST": MissionServer._on_request_list,
-    "MISSION_REQUEST_INT": MissionServer._on_request,
-    "MISSION_REQUEST": MissionServer._on_request,
-    "MISSION_CLEAR_ALL": MissionServer._on_clear_all,
-    "MISSION_SET_CURRENT": MissionServer._on_set_current,
-}

@@ -270,7 +270,7 @@ class MockVehicle:
         if msg.get_type() in LOG_REQUESTS:
             self.logs.handle(msg, peer, self.flight.state.armed)
             return
-        # Each part answers its own messages and passes on the others (which message is whose: its _HANDLERS).
+        # Each part answers its own messages and passes on the others (which message is whose: its HANDLERS).
         for part in (self.mission_server, self.command_handler, self.param_server):
             if part.handle(msg, peer, now):
                 return

@@ -24,6 +24,7 @@ from ..formats.px4_rules import px4_millimetres, reported_reached
 from ..link.connection import mavlink
 from .mock_flight import FlightEvent
 from .vehicle_params import ARDUPILOT_CAMERA_PARAM, PX4_CAMERA_PARAM
+from .vehicle_part import VehiclePart
 
 CAPABILITIES = (mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
                 | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
@@ -57,15 +58,11 @@ PX4_MODES = {"MANUAL": 1 << 16, "GUIDED": (4 << 16) | (8 << 24), "LOITER": (4 <<
              "AUTO": (4 << 16) | (4 << 24), "RTL": (4 << 16) | (5 << 24), "LAND": (4 << 16) | (6 << 24)}
 
 
-class Telemetry:
+class Telemetry(VehiclePart):
     """What one vehicle sends about itself: its streams at their intervals, its texts, its flight's events."""
 
     def __init__(self, vehicle: Any) -> None:
-        # The MockVehicle it reports on (Any: mock_vehicle imports this module, not the other way).
-        self.vehicle = vehicle
-        self.flavour: Flavour = vehicle.flavour
-        self.options = vehicle.options
-        self.mav = vehicle.mav
+        super().__init__(vehicle)
         # Sends CAMERA_FEEDBACK (PX4: CAMERA_IMAGE_CAPTURED); SITL-like: only when the camera parameter
         # (CAM1_TYPE, PX4's TRIG_MODE) was set at boot.
         self.camera = True

@@ -21,6 +21,7 @@ from ..formats.mission_items import Flavour
 from ..formats.px4_rules import START_DENIED
 from ..link.connection import mavlink
 from .telemetry import ARDUPILOT_MODES, NOT_READY_TEXTS, PX4_MODES
+from .vehicle_part import VehiclePart
 
 # COMPONENT_ARM_DISARM's param2 that forces arming or disarming: a magic number of the command's
 # definition, not an enum.
@@ -32,24 +33,14 @@ PX4_NOT_READY_TEXTS = ("Arming denied: Resolve system health failures first", "P
 PX4_MISSION_MODE_REFUSED = "Switching to Mission is currently not available"  # AUTO.MISSION asked meanwhile
 
 
-class CommandHandler:
+class CommandHandler(VehiclePart):
     """One vehicle's answers to COMMAND_LONG / COMMAND_INT and SET_MODE."""
 
-    def __init__(self, vehicle: Any) -> None:
-        # The MockVehicle it commands (Any: mock_vehicle imports this module, not the other way).
-        self.vehicle = vehicle
-        self.flavour: Flavour = vehicle.flavour
-        self.options = vehicle.options
-        self.mav = vehicle.mav
-        self._reboot_pending = False  # a reboot command acknowledged: reboot once the ack is out
+    HANDLERS = {"SET_MODE": "_on_set_mode", "COMMAND_LONG": "_on_command", "COMMAND_INT": "_on_command"}
 
-    def handle(self, msg: Any, peer: tuple[int, int], now: float) -> bool:
-        """Answer a command or SET_MODE; False for any other message."""
-        handler = _HANDLERS.get(msg.get_type())
-        if handler is None:
-            return False
-        handler(self, msg, peer, now)
-        return True
+    def __init__(self, vehicle: Any) -> None:
+        super().__init__(vehicle)
+        self._reboot_pending = False  # a reboot command acknowledged: reboot once the ack is out
 
     def _on_set_mode(self, msg: Any, peer: tuple[int, int], now: float) -> None:
         self._apply_mode(int(msg.custom_mode), None, now)
@@ -173,9 +164,3 @@ class CommandHandler:
 
         return mavlink.MAV_RESULT_UNSUPPORTED
 
-
-_HANDLERS = {
-    "SET_MODE": CommandHandler._on_set_mode,
-    "COMMAND_LONG": CommandHandler._on_command,
-    "COMMAND_INT": CommandHandler._on_command,
-}

@@ -20,6 +20,7 @@ from ..flight_models.px4_model import Px4Params
 from ..formats.mission_items import Flavour
 from ..formats.px4_rules import MIS_DIST_1WP_DEFAULT
 from ..link.connection import mavlink
+from .vehicle_part import VehiclePart
 
 PX4_CAMERA_PARAM, ARDUPILOT_CAMERA_PARAM = "TRIG_MODE", "CAM1_TYPE"  # read at boot: the camera reports only then
 # ArduPilot's battery monitor and its failsafe (AP_BattMonitor_Params.cpp: BATT_LOW_VOLT 10.5 V on copters,
@@ -28,13 +29,13 @@ ARDUPILOT_BATTERY_PARAMS = {"BATT_MONITOR": 4.0, "BATT_LOW_VOLT": 10.5, "BATT_LO
                             "BATT_CRT_VOLT": 0.0, "BATT_FS_CRT_ACT": 0.0, "SIM_BATT_VOLTAGE": 12.6}
 
 
-class ParamServer:
+class ParamServer(VehiclePart):
     """One vehicle's parameter table and its answers to PARAM_REQUEST_READ and PARAM_SET."""
 
+    HANDLERS = {"PARAM_REQUEST_READ": "_on_read", "PARAM_SET": "_on_set"}
+
     def __init__(self, vehicle: Any) -> None:
-        # The MockVehicle whose parameters these are (Any: mock_vehicle imports this module, not the other way).
-        self.vehicle = vehicle
-        self.mav = vehicle.mav
+        super().__init__(vehicle)
         flavour, sitl_like = vehicle.flavour, vehicle.options.sitl_like
         self.values: dict[str, float] = {"WPNAV_RADIUS": 200.0} if flavour is Flavour.ARDUPILOT else {}
         if flavour is Flavour.ARDUPILOT:
@@ -45,14 +46,6 @@ class ParamServer:
             self.values.update({**Px4Params().as_params(), PX4_CAMERA_PARAM: 0.0})
         elif sitl_like:
             self.values.update({**CopterParams().as_params(), ARDUPILOT_CAMERA_PARAM: 0.0})
-
-    def handle(self, msg: Any, peer: tuple[int, int], now: float) -> bool:
-        """Answer PARAM_REQUEST_READ or PARAM_SET; False for any other message."""
-        handler = _HANDLERS.get(msg.get_type())
-        if handler is None:
-            return False
-        handler(self, msg, peer, now)
-        return True
 
     def _send_value(self, name: str, peer: tuple[int, int]) -> None:
         names = sorted(self.values)
@@ -77,8 +70,3 @@ class ParamServer:
             flight.copter = CopterParams.from_params(self.values)
         self._send_value(name, peer)
 
-
-_HANDLERS = {
-    "PARAM_REQUEST_READ": ParamServer._on_read,
-    "PARAM_SET": ParamServer._on_set,
-}
