@@ -28,6 +28,7 @@ one module that writes MAVLink numbers down itself.
 from __future__ import annotations
 
 import ast
+import dataclasses
 import io
 import tokenize
 from pathlib import Path
@@ -208,8 +209,10 @@ def test_the_rule_finds_a_re_declaration() -> None:
 
 
 # The fields of bridge/formats/mission_items.py's dataclasses that hold a MAV_CMD or a MAV_FRAME, with their
-# positional index: MissionItem(command, frame, ...), WireItem(seq, frame, command, ...).
-ITEM_FIELDS = {"MissionItem": {"command": 0, "frame": 1}, "WireItem": {"frame": 1, "command": 2}}
+# positional index, read from the dataclasses: MissionItem(command, frame, ...), WireItem(seq, frame, command, ...).
+ITEM_FIELDS = {item.__name__: {field.name: index for index, field in enumerate(dataclasses.fields(item))
+                               if field.name in ("command", "frame")}
+               for item in (mission.MissionItem, mission.WireItem)}
 RAW_MARK = "# raw"  # a comment starting so, on the line of a number, allows it as a deliberate raw wire value
 
 

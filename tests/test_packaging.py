@@ -25,9 +25,12 @@ sys.modules["torch"] = None
 """
 
 
-def _python(code: str, cwd: Path) -> subprocess.CompletedProcess:
-    """`code` in a child Python, in `cwd`, importing this tree's missionplan however it is installed."""
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+def _python(code: str, cwd: Path, installed_only: bool = False) -> subprocess.CompletedProcess:
+    """`code` in a child Python, in `cwd`, importing this tree's missionplan however it is installed (with
+    installed_only, only as installed: the repository is not put on its path)."""
+    env = {key: value for key, value in os.environ.items() if key != "PYTHONPATH"}
+    if not installed_only:
+        env["PYTHONPATH"] = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=cwd, env=env)
 
 
@@ -130,9 +133,7 @@ print(importlib.util.find_spec("bridge"), importlib.util.find_spec("geo"))
 print(missionplan.bridge.sim.mock.__file__)
 print(missionplan.geo.frame.__file__)
 """
-    env = {key: value for key, value in os.environ.items() if key != "PYTHONPATH"}  # only what is installed
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=tmp_path,
-                         env=env)
+    out = _python(code, tmp_path, installed_only=True)
     assert out.returncode == 0, out.stderr
     assert out.stdout.splitlines() == ["None None", str(ROOT / "bridge" / "sim" / "mock.py"),
                                        str(ROOT / "geo" / "frame.py")]
