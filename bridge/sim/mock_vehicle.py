@@ -143,8 +143,9 @@ class MockVehicle:
         self.reboots += 1
         if self.mission_server.upload is not None:
             self.mission_server.uploads_failed += 1
-        self._boot(now + (self.reboot_offline if offline is None else offline))
-        self.offline_until = now + (self.reboot_offline if offline is None else offline)
+        back_at = now + (self.reboot_offline if offline is None else offline)
+        self._boot(back_at)
+        self.offline_until = back_at
 
     def kill(self) -> None:
         """Silent for good, as a killed SITL process: no message sent, none heard, nothing flown."""
