@@ -34,8 +34,8 @@ from missionplan.bridge.errors import BridgeError, BridgeUsageError
 from missionplan.bridge.link.connection import GCS_COMPONENT_ID, GCS_SYSTEM_ID, mavlink, parse_gcs_sysid
 from missionplan.bridge.formats.mission_items import Flavour
 from missionplan.bridge.formats.missionfile import read_mission_file
-from missionplan.bridge.link.readiness import (DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN, PX4_LAND_SUB, PX4_RTL_SUB,
-                                               ground_distance_m, mode_params)
+from missionplan.bridge.link.readiness import (ARDUPILOT_LAND, ARDUPILOT_RTL, DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN,
+                                               PX4_LAND_SUB, PX4_RTL_SUB, ground_distance_m, mode_params)
 from missionplan.bridge.link.shared_link import LinkPool
 from missionplan.bridge.link.signing import SigningKey
 from missionplan.bridge.transfer.uploader import check_gcs_identity
@@ -53,7 +53,7 @@ UPLOADERS = ("missionplan", "mavsdk")  # who reads the .plan files and uploads t
 ON_ABORT = ("none", "rtl", "land")
 ABORT_WINDOW_S = 5.0  # after a Ctrl-C, a second one this soon commands the fleet home
 WATCH_S = 1.0  # the live separation watch looks this often
-ARDUPILOT_MODES = {"rtl": 6, "land": 9}  # ArduCopter's custom_mode numbers (its own, not a MAVLink enum)
+ARDUPILOT_MODES = {"rtl": ARDUPILOT_RTL, "land": ARDUPILOT_LAND}
 PX4_AUTO_SUBS = {"rtl": PX4_RTL_SUB, "land": PX4_LAND_SUB}
 
 
