@@ -7,7 +7,8 @@ import math
 import time
 from typing import Any
 
-from missionplan.bridge.link.connection import Link, wait_vehicle
+from missionplan.bridge.link.connection import Link, mavlink, wait_vehicle
+from missionplan.bridge.link.readiness import ARDUPILOT_AUTO, mode_params
 from missionplan.bridge.formats.mission_items import (
     CMD_DO_CHANGE_SPEED,
     CMD_DO_SET_CAM_TRIGG_DIST,
@@ -60,13 +61,14 @@ def test_arm_mode_start_fly_and_land() -> None:
         with Link(mock.client_url) as link:
             vehicle = wait_vehicle(link, 1, timeout=3)
             client = MissionClient(link, vehicle, Timeouts(item_timeout=0.2))
-            assert _command(link, 300) == 2  # MISSION_START without a mission: denied
+            assert _command(link, mavlink.MAV_CMD_MISSION_START) == mavlink.MAV_RESULT_DENIED  # no mission yet
             client.upload(0, to_wire(_survey(), Flavour.ARDUPILOT))
-            assert _command(link, 300) == 2  # not armed yet: denied
-            assert _command(link, 400, 1) == 0  # arm
-            assert _command(link, 176, 1, 3) == 0  # DO_SET_MODE AUTO (ArduCopter custom mode 3)
-            assert _command(link, 300) == 0  # MISSION_START
-            assert _command(link, 31337) == 3  # unknown command: unsupported
+            assert _command(link, mavlink.MAV_CMD_MISSION_START) == mavlink.MAV_RESULT_DENIED  # not armed yet
+            assert _command(link, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mavlink.MAV_RESULT_ACCEPTED
+            auto = mode_params(ARDUPILOT_AUTO)
+            assert _command(link, mavlink.MAV_CMD_DO_SET_MODE, *auto) == mavlink.MAV_RESULT_ACCEPTED
+            assert _command(link, mavlink.MAV_CMD_MISSION_START) == mavlink.MAV_RESULT_ACCEPTED
+            assert _command(link, 31337) == mavlink.MAV_RESULT_UNSUPPORTED  # raw: a command no one defines
             reached: list[int] = []
             currents: set[int] = set()
             armed_seen = landed = False
