@@ -37,9 +37,10 @@ COMMANDS = (16, 17, 19, 20, 21, 22, 31, 82, 93, 112, 115, 177, 178, 183, 189, 19
 
 
 def w(seq: int, frame: int, cmd: int, p1: float = 0.0, p2: float = 0.0, p3: float = 0.0, p4: float = 0.0,
-      x: int = 0, y: int = 0, z: float = 0.0, mission_type: int = 0, autocontinue: int = 1) -> WireItem:
-    return WireItem(seq, frame, cmd, 1 if seq == 0 and mission_type == 0 else 0, autocontinue, p1, p2, p3, p4,
-                    x, y, z, mission_type)
+      x: int = 0, y: int = 0, z: float = 0.0, mission_type: int = MissionType.MISSION,
+      autocontinue: int = 1) -> WireItem:
+    current = 1 if seq == 0 and mission_type == MissionType.MISSION else 0
+    return WireItem(seq, frame, cmd, current, autocontinue, p1, p2, p3, p4, x, y, z, int(mission_type))
 
 
 # Every item kind our plans hold (PX4 has no home item: seq 0 is the take-off), plus odd values.

@@ -137,7 +137,7 @@ def test_a_lost_final_accepted_is_settled_by_read_back(monkeypatch: pytest.Monke
     dropped: list[int] = []
 
     def lossy_ack(self, peer, mission_type, result):  # type: ignore[no-untyped-def]
-        if result == mavlink.MAV_MISSION_ACCEPTED and mission_type == 0 and not dropped:
+        if result == mavlink.MAV_MISSION_ACCEPTED and mission_type == MissionType.MISSION and not dropped:
             dropped.append(result)  # the ACCEPTED of the first mission upload never arrives
             return
         for _ in range(2 if result == mavlink.MAV_MISSION_ERROR else 1):  # and every ERROR arrives twice

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from missionplan.bridge.link.connection import Link
+from missionplan.bridge.link.connection import Link, mavlink
 from missionplan.bridge.formats.mission_items import (
     CMD_FENCE_POLYGON_VERTEX_INCLUSION,
     CMD_NAV_RETURN_TO_LAUNCH,
@@ -143,8 +143,8 @@ def test_mock_px4_asks_legacy_first_stores_like_px4_and_refuses_a_start_like_px4
             assert mock.mission(3) == held
             # ... and when it gets there anyway (a raw upload), the mock refuses the start as PX4 does.
             b.upload(0, to_wire(far, Flavour.PX4))
-            result, texts = _texts_and_ack(link, 3, 300)
-            assert result == 2 and START_DENIED in texts
+            result, texts = _texts_and_ack(link, 3, mavlink.MAV_CMD_MISSION_START)
+            assert result == mavlink.MAV_RESULT_DENIED and START_DENIED in texts
 
 
 def test_mock_px4_says_when_a_fence_leaves_its_home_out() -> None:
