@@ -1,10 +1,12 @@
-"""Plans for the real-autopilot tests: a small area given as a GeoJSON ring, planned by the CLI."""
+"""Plans for the real-autopilot tests: a small area given as a GeoJSON ring, planned by the CLI, and single
+mission items on the wire for the mission-protocol sessions."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
+from missionplan.bridge.formats.mission_items import MissionType, WireItem
 from missionplan.cli import main
 
 
@@ -19,3 +21,11 @@ def plan_area(base: Path, ring: list[list[float]], launches: tuple[str, ...], al
         args += ["--launch", point]
     assert main(args) == 0
     return base / "plan"
+
+
+def wire_item(seq: int, frame: int, cmd: int, p1: float = 0.0, p2: float = 0.0, p3: float = 0.0, p4: float = 0.0,
+              x: int = 0, y: int = 0, z: float = 0.0, mission_type: int = MissionType.MISSION,
+              autocontinue: int = 1) -> WireItem:
+    """One item as sent: the mission's seq 0 flagged current, as to_wire does."""
+    current = 1 if seq == 0 and mission_type == MissionType.MISSION else 0
+    return WireItem(seq, frame, cmd, current, autocontinue, p1, p2, p3, p4, x, y, z, int(mission_type))

@@ -18,6 +18,8 @@ import time
 from dataclasses import astuple, replace
 from typing import Any
 
+from plans import wire_item as w
+
 from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, Link, mavlink
 from missionplan.bridge.formats.mission_items import MissionType, WireItem
 from missionplan.bridge.transfer.protocol import Timeouts
@@ -34,13 +36,6 @@ FRAMES = (0, 1, 2, 3, 5, 6, 10, 11)
 # IMAGE_START / STOP_CAPTURE, 3000 DO_VTOL_TRANSITION, 5100 RALLY_POINT (not a mission item), 31000 USER_1, 999
 COMMANDS = (16, 17, 19, 20, 21, 22, 31, 82, 93, 112, 115, 177, 178, 183, 189, 195, 201, 203, 205, 206, 214, 1000,
             2000, 2001, 3000, 5100, 31000, 999)
-
-
-def w(seq: int, frame: int, cmd: int, p1: float = 0.0, p2: float = 0.0, p3: float = 0.0, p4: float = 0.0,
-      x: int = 0, y: int = 0, z: float = 0.0, mission_type: int = MissionType.MISSION,
-      autocontinue: int = 1) -> WireItem:
-    current = 1 if seq == 0 and mission_type == MissionType.MISSION else 0
-    return WireItem(seq, frame, cmd, current, autocontinue, p1, p2, p3, p4, x, y, z, int(mission_type))
 
 
 # Every item kind our plans hold (PX4 has no home item: seq 0 is the take-off), plus odd values.

@@ -19,6 +19,7 @@ from typing import Any
 
 import pytest
 from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
+from plans import wire_item as _w
 
 from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, Link, mavlink
 from missionplan.bridge.formats.mission_items import MissionType, WireItem
@@ -32,13 +33,6 @@ pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"`
 
 HOME = (45.4643, 9.1895, 120.0)
 LAT, LON = 454643000, 91895000
-
-
-def _w(seq: int, frame: int, cmd: int, p1: float = 0.0, p2: float = 0.0, p3: float = 0.0, p4: float = 0.0,
-       x: int = 0, y: int = 0, z: float = 0.0, mission_type: int = MissionType.MISSION,
-       autocontinue: int = 1) -> WireItem:
-    current = 1 if seq == 0 and mission_type == MissionType.MISSION else 0
-    return WireItem(seq, frame, cmd, current, autocontinue, p1, p2, p3, p4, x, y, z, int(mission_type))
 
 
 MISSION = [
