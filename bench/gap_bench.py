@@ -9,10 +9,13 @@ shipped network, and the network is judged on the mean makespan.
 
 Maps: the MovingAI street maps in ../shared/maps/movingai/ (real OpenStreetMap cities, 256 x 256,
 none of them seen in training). Per map and fleet it prints the expert's and the network's mean
-makespan with their least and most, the gap of the means (network over expert), the least and most
-gap of a single seed, and on how many seeds the network was within GAP_GOAL_PERCENT of the expert;
-then the mean gap over every row. Plans run in parallel worker processes (--workers); the plans do
-not depend on it. Run by hand:
+makespan with their least and most, the gap of the means (network over expert), a 95 % interval for
+that gap, the least and most gap of a single seed, and on how many seeds the network was within
+GAP_GOAL_PERCENT of the expert; then the mean gap over every row, with its interval, and what the
+interval says of the goal. The intervals come from a paired bootstrap over the seeds (each resample
+draws seeds with replacement and keeps both policies' plans of a seed together), so they say how far
+another set of seeds could move the gap; they narrow as --seeds grows. Plans run in parallel worker
+processes (--workers); the plans do not depend on it. Run by hand:
 
     .venv/bin/python bench/gap_bench.py [--seeds 5] [--uavs 6,20] [--workers 2]
                                         [--movingai-dir ../shared/maps/movingai] [--weights FILE]
@@ -41,16 +44,19 @@ ROOT = Path(__file__).resolve().parent.parent
 MOVINGAI_DIR = ROOT.parent / "shared" / "maps" / "movingai"
 GAP_GOAL_PERCENT = 3.0  # the network's makespan at most this much above the expert's
 POLICIES = ("expert", "nn")
+BOOTSTRAP_RESAMPLES = 10_000
+BOOTSTRAP_SEED = 0  # the intervals are part of the printed table, so they repeat run to run
 
-_ready: dict[str, object] = {}  # each worker's loaded policies, made once
+_ready: dict[tuple[str, str | None], object] = {}  # each worker's loaded policies, made once per weights file
 
 
 def plan_makespan(path: str, uavs: int, seed: int, policy: str, weights: str | None) -> tuple[int, float]:
     """The makespan of one plan, and its coverage of the reachable targets in percent."""
-    if policy not in _ready:
-        _ready[policy] = make_policy(policy, weights if policy == "nn" else None)
+    key = (policy, weights if policy == "nn" else None)
+    if key not in _ready:
+        _ready[key] = make_policy(*key)
     gmap = parse_movingai(read_map_text(path), path, launches=uavs)
-    run = plan_map(gmap, uavs, policy=_ready[policy], seed=seed).run  # type: ignore[arg-type]
+    run = plan_map(gmap, uavs, policy=_ready[key], seed=seed).run  # type: ignore[arg-type]
     return int(run.metrics["makespan"]), float(run.metrics["coverage"])
 
 
@@ -76,31 +82,63 @@ def spread(values: np.ndarray) -> str:
     return f"{values.mean():>7.1f} ({values.min():>4}-{values.max():>4})"
 
 
+def gap_percent(expert: np.ndarray, network: np.ndarray) -> np.ndarray:
+    """The gap of the mean makespans in percent, along the last axis (the seeds)."""
+    return 100 * (network.mean(axis=-1) / expert.mean(axis=-1) - 1)
+
+
+def resampled_gaps(expert: np.ndarray, network: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """BOOTSTRAP_RESAMPLES gaps of one row, each from its seeds drawn with replacement (pairs kept)."""
+    picks = rng.integers(0, len(expert), size=(BOOTSTRAP_RESAMPLES, len(expert)))
+    return gap_percent(expert[picks], network[picks])
+
+
+def interval(samples: np.ndarray) -> tuple[float, float]:
+    """The central 95 % of bootstrap samples."""
+    low, high = np.percentile(samples, [2.5, 97.5])
+    return float(low), float(high)
+
+
+def verdict(low: float, high: float) -> str:
+    """What a 95 % interval of the gap says of the goal."""
+    if high <= GAP_GOAL_PERCENT:
+        return f"met, the whole interval of the mean gap is within {GAP_GOAL_PERCENT:g} %"
+    if low > GAP_GOAL_PERCENT:
+        return f"not met, the whole interval of the mean gap is above {GAP_GOAL_PERCENT:g} %"
+    return f"undecided, the interval of the mean gap spans {GAP_GOAL_PERCENT:g} % (more seeds narrow it)"
+
+
 def table(maps: list[Path], fleets: list[int], seeds: int, workers: int, weights: str | None) -> int:
     header = (f"{'map':<14} {'A':>3} {'expert mkspan':>19} {'network mkspan':>19} {'gap':>7} "
-              f"{'seed gaps':>15} {'within':>7} {'cov %':>6}")
+              f"{'95 % interval':>15} {'seed gaps':>15} {'within':>7} {'cov %':>6}")
     print(header)
     print("-" * len(header), flush=True)
     rows = [(path, uavs) for uavs in fleets for path in maps]
     jobs = [(str(path), uavs, seed, policy, weights) for path, uavs in rows for policy in POLICIES for seed in range(seeds)]
     with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
         results = iter(list(pool.map(plan_makespan, *zip(*jobs))))
-    gaps = []
+    gaps, resamples = [], []
+    rng = np.random.default_rng(BOOTSTRAP_SEED)
     for path, uavs in rows:
         makespan = {policy: np.array([next(results) for _ in range(seeds)]) for policy in POLICIES}
         expert, network = makespan["expert"][:, 0].astype(int), makespan["nn"][:, 0].astype(int)
         coverage = min(makespan["expert"][:, 1].min(), makespan["nn"][:, 1].min())
-        gap = 100 * (network.mean() / expert.mean() - 1)
+        gap = float(gap_percent(expert, network))
         per_seed = 100 * (network / expert - 1)
         gaps.append(gap)
+        resamples.append(resampled_gaps(expert, network, rng))
+        low, high = interval(resamples[-1])
         within = int((per_seed <= GAP_GOAL_PERCENT).sum())
 
         print(f"{path.stem:<14} {uavs:>3} {spread(expert):>19} {spread(network):>19} {gap:>+6.1f}% "
-              f"{f'{per_seed.min():+.1f}..{per_seed.max():+.1f}%':>15} {f'{within}/{seeds}':>7} {coverage:>6.1f}",
-              flush=True)
+              f"{f'{low:+.1f}..{high:+.1f}%':>15} {f'{per_seed.min():+.1f}..{per_seed.max():+.1f}%':>15} "
+              f"{f'{within}/{seeds}':>7} {coverage:>6.1f}", flush=True)
     met = sum(g <= GAP_GOAL_PERCENT for g in gaps)
-    print(f"mean gap {np.mean(gaps):+.1f} %; {met} of {len(gaps)} map x fleet rows within "
-          f"{GAP_GOAL_PERCENT:g} % on the mean of {seeds} seeds")
+    # The rows' seeds are drawn independently, so the mean gap's resamples are the rows' resamples averaged.
+    low, high = interval(np.mean(resamples, axis=0))
+    print(f"mean gap {np.mean(gaps):+.1f} % (95 % interval {low:+.1f}..{high:+.1f} %); {met} of {len(gaps)} "
+          f"map x fleet rows within {GAP_GOAL_PERCENT:g} % on the mean of {seeds} seeds")
+    print(f"goal: {verdict(low, high)}")
     return 0
 
 
