@@ -469,7 +469,6 @@ class FlightSim:
 
     def _step_copter_item(self, item: WireItem, dt: float, events: list[FlightEvent]) -> float:
         """One positional mission item flown as ArduCopter (copter_model) or PX4 (px4_model) does."""
-        s = self.state
         assert self.copter is not None
         key = ("AUTO", self._entries)
         here = self._here()
