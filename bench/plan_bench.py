@@ -5,7 +5,10 @@ the thesis's cases, not copies of them, so the comparison is a yardstick, not a 
 the same grid. Run by hand:
 
     .venv/bin/python bench/plan_bench.py [--policy nn,expert] [--zones geodesic] [--maps leonardo,old-town]
-                                         [--write-doc docs/measured-numbers.md]
+                                         [--weights FILE] [--write-doc docs/measured-numbers.md]
+
+--weights plans the nn rows with another network (a retrained one, before it ships) instead of the
+shipped weights.
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from missionplan.maps.catalog import load_shipped, shipped_map_names  # noqa: E402
-from missionplan.pipeline import POLICIES, plan_map  # noqa: E402
+from missionplan.pipeline import POLICIES, make_policy, plan_map  # noqa: E402
 from missionplan.grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS  # noqa: E402
 
 import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
@@ -47,6 +50,7 @@ def main() -> int:
     parser.add_argument("--maps", default=",".join(shipped_map_names()))
     parser.add_argument("--uavs", default="3,4,5,6")
     parser.add_argument("--balance", default="on", help="zone balancing: on, off or on,off")
+    parser.add_argument("--weights", help="the network's weights for the nn rows (default: the shipped ones)")
     doctable.add_option(parser)
     args = parser.parse_args()
     with doctable.Recorder(args.write_doc, __file__):
@@ -61,12 +65,13 @@ def table(args: argparse.Namespace) -> int:
     print(header)
     print("-" * len(header))
     started = time.perf_counter()
+    policies = {name: make_policy(name, args.weights if name == "nn" else None) for name in args.policy.split(",")}
     for name in args.maps.split(","):
         gmap = load_shipped(name)
         for uavs in (int(u) for u in args.uavs.split(",")):
             for zones, balance in [(z, b) for z in args.zones.split(",") for b in args.balance.split(",")]:
-                for policy in args.policy.split(","):
-                    result = plan_map(gmap, uavs, policy=policy, zone_method=zones, balance_zones=balance == "on")
+                for policy in policies:
+                    result = plan_map(gmap, uavs, policy=policies[policy], zone_method=zones, balance_zones=balance == "on")
                     m, world = result.run.metrics, result.world
                     floor = world.num_targets / (9 * uavs)
                     seconds = result.zone_seconds + result.run.plan_seconds
