@@ -25,6 +25,7 @@ processes (--workers); the plans do not depend on it. Run by hand:
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import sys
 from concurrent.futures import ProcessPoolExecutor
@@ -34,6 +35,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from missionplan.grid.planner import Policy  # noqa: E402
 from missionplan.maps.gridmap import read_map_text  # noqa: E402
 from missionplan.maps.movingai import parse_movingai  # noqa: E402
 from missionplan.pipeline import make_policy, plan_map  # noqa: E402
@@ -47,16 +49,17 @@ POLICIES = ("expert", "nn")
 BOOTSTRAP_RESAMPLES = 10_000
 BOOTSTRAP_SEED = 0  # the intervals are part of the printed table, so they repeat run to run
 
-_ready: dict[tuple[str, str | None], object] = {}  # each worker's loaded policies, made once per weights file
+@functools.cache
+def loaded_policy(policy: str, weights: str | None) -> Policy:
+    """A worker's policy, loaded once per policy and weights file."""
+    return make_policy(policy, weights)
 
 
 def plan_makespan(path: str, uavs: int, seed: int, policy: str, weights: str | None) -> tuple[int, float]:
     """The makespan of one plan, and its coverage of the reachable targets in percent."""
-    key = (policy, weights if policy == "nn" else None)
-    if key not in _ready:
-        _ready[key] = make_policy(*key)
     gmap = parse_movingai(read_map_text(path), path, launches=uavs)
-    run = plan_map(gmap, uavs, policy=_ready[key], seed=seed).run  # type: ignore[arg-type]
+    planner = loaded_policy(policy, weights if policy == "nn" else None)
+    run = plan_map(gmap, uavs, policy=planner, seed=seed).run
     return int(run.metrics["makespan"]), float(run.metrics["coverage"])
 
 

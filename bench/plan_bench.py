@@ -70,8 +70,8 @@ def table(args: argparse.Namespace) -> int:
         gmap = load_shipped(name)
         for uavs in (int(u) for u in args.uavs.split(",")):
             for zones, balance in [(z, b) for z in args.zones.split(",") for b in args.balance.split(",")]:
-                for policy in policies:
-                    result = plan_map(gmap, uavs, policy=policies[policy], zone_method=zones, balance_zones=balance == "on")
+                for policy, planner in policies.items():
+                    result = plan_map(gmap, uavs, policy=planner, zone_method=zones, balance_zones=balance == "on")
                     m, world = result.run.metrics, result.world
                     floor = world.num_targets / (9 * uavs)
                     seconds = result.zone_seconds + result.run.plan_seconds
