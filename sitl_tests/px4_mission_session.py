@@ -182,19 +182,46 @@ def wait_ready(link: Link, sysid: int, seconds: float) -> bool:
     return False
 
 
-def _texts(link: Link, sysid: int, seconds: float) -> list[str]:
+# STATUSTEXT is best effort on PX4: a line is queued through uORB and can come a second or more after
+# the answer it belongs to, or be lost when the log queue overflows (a loaded machine, a burst of
+# health messages). The session so waits for the line it is about (bounded), asks again when it
+# never came (bounded), and keeps only lines on its subject, not the health chatter around them.
+TEXT_WAIT_S = 3.0
+TEXT_TRIES = 3
+
+
+def _texts(link: Link, sysid: int, seconds: float, about: str | None = None) -> list[str]:
+    """STATUSTEXT lines from `sysid` for `seconds`; with `about`, only lines containing it, and back
+    as soon as one came."""
     out = []
     deadline = time.monotonic() + seconds
     while (msg := link.recv(deadline)) is not None:
         if msg.get_srcSystem() == sysid and msg.get_type() == "STATUSTEXT":
-            out.append(str(msg.text).rstrip("\t\x00 "))
+            text = str(msg.text).rstrip("\t\x00 ")
+            if about is None or about in text:
+                out.append(text)
+                if about is not None:
+                    break
     return out
 
 
+def _fence_texts(backend: PymavlinkBackend, fence: list[WireItem]) -> list[str]:
+    """What PX4 says of an uploaded fence (its geofence checks the fence when it loads it): the
+    upload is repeated up to TEXT_TRIES times while no geofence line comes."""
+    texts: list[str] = []
+    for _ in range(TEXT_TRIES):
+        backend.upload(MissionType.FENCE, fence)
+        if texts := _texts(backend.link, backend.vehicle.sysid, TEXT_WAIT_S, about="eofence"):
+            break
+    return texts
+
+
 def _start(link: Link, sysid: int, ready_s: float) -> tuple[int | None, list[str]]:
-    """MISSION_START, repeated while the vehicle is not ready yet (TEMPORARILY_REJECTED) up to ready_s:
-    (its final MAV_RESULT, the STATUSTEXT lines that came with it)."""
+    """MISSION_START, repeated while the vehicle is not ready yet (TEMPORARILY_REJECTED) up to ready_s,
+    and up to TEXT_TRIES times while a refusal comes without its reason: (the final MAV_RESULT, the
+    STATUSTEXT lines about the mission that came with it)."""
     deadline = time.monotonic() + ready_s
+    tries = 0
     while True:
         texts: list[str] = []
         link.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, mavlink.MAV_CMD_MISSION_START, 0, 0, 0, 0, 0, 0, 0, 0)
@@ -207,8 +234,13 @@ def _start(link: Link, sysid: int, ready_s: float) -> tuple[int | None, list[str
                 texts.append(str(msg.text).rstrip("\t\x00 "))
             elif msg.get_type() == "COMMAND_ACK" and int(msg.command) == mavlink.MAV_CMD_MISSION_START:
                 result = int(msg.result)
-                texts += _texts(link, sysid, 0.5)
                 break
+        texts = [t for t in texts if "ission" in t]
+        if result is not None and not texts:
+            texts = _texts(link, sysid, TEXT_WAIT_S, about="ission")
+        tries += result == mavlink.MAV_RESULT_DENIED
+        if result == mavlink.MAV_RESULT_DENIED and not texts and tries < TEXT_TRIES:
+            continue  # refused, its reason lost or late: ask again
         if result != mavlink.MAV_RESULT_TEMPORARILY_REJECTED or time.monotonic() > deadline:
             return result, texts
         _texts(link, sysid, 2.0)  # not ready yet: listen, then ask again
@@ -225,8 +257,7 @@ def start_session(url: str, sysid: int, ready_s: float = 90.0) -> dict[str, Any]
         backend.upload(MissionType.MISSION, FAR)
         _texts(link, sysid, 3.0)  # PX4 SIH drops STATUSTEXT in its first seconds: let it settle
         out["far: start"] = _start(link, sysid, ready_s)
-        backend.upload(MissionType.FENCE, AWAY_FENCE)
-        out["fence upload texts"] = [t for t in _texts(link, sysid, 1.0) if "eofence" in t]
+        out["fence upload texts"] = _fence_texts(backend, AWAY_FENCE)
         # (With that fence PX4 still starts a near mission - it arms and flies, unfenced - measured by
         # hand: docs/px4-missions.md. The mock does not fly by itself, so it is not part of the session.)
     return out
