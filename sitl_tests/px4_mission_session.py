@@ -190,19 +190,22 @@ TEXT_WAIT_S = 3.0
 TEXT_TRIES = 3
 
 
-def _texts(link: Link, sysid: int, seconds: float, about: str | None = None) -> list[str]:
-    """STATUSTEXT lines from `sysid` for `seconds`; with `about`, only lines containing it, and back
-    as soon as one came."""
+def _texts(link: Link, sysid: int, seconds: float) -> list[str]:
     out = []
     deadline = time.monotonic() + seconds
     while (msg := link.recv(deadline)) is not None:
         if msg.get_srcSystem() == sysid and msg.get_type() == "STATUSTEXT":
-            text = str(msg.text).rstrip("\t\x00 ")
-            if about is None or about in text:
-                out.append(text)
-                if about is not None:
-                    break
+            out.append(str(msg.text).rstrip("\t\x00 "))
     return out
+
+
+def _text_about(link: Link, sysid: int, about: str) -> list[str]:
+    """The first STATUSTEXT line from `sysid` containing `about` within TEXT_WAIT_S, as a list ([] if none)."""
+    deadline = time.monotonic() + TEXT_WAIT_S
+    while (msg := link.recv(deadline)) is not None:
+        if msg.get_srcSystem() == sysid and msg.get_type() == "STATUSTEXT" and about in (text := str(msg.text)):
+            return [text.rstrip("\t\x00 ")]
+    return []
 
 
 def _fence_texts(backend: PymavlinkBackend, fence: list[WireItem]) -> list[str]:
@@ -211,7 +214,7 @@ def _fence_texts(backend: PymavlinkBackend, fence: list[WireItem]) -> list[str]:
     texts: list[str] = []
     for _ in range(TEXT_TRIES):
         backend.upload(MissionType.FENCE, fence)
-        if texts := _texts(backend.link, backend.vehicle.sysid, TEXT_WAIT_S, about="eofence"):
+        if texts := _text_about(backend.link, backend.vehicle.sysid, "eofence"):
             break
     return texts
 
@@ -237,7 +240,7 @@ def _start(link: Link, sysid: int, ready_s: float) -> tuple[int | None, list[str
                 break
         texts = [t for t in texts if "ission" in t]
         if result is not None and not texts:
-            texts = _texts(link, sysid, TEXT_WAIT_S, about="ission")
+            texts = _text_about(link, sysid, "ission")
         tries += result == mavlink.MAV_RESULT_DENIED
         if result == mavlink.MAV_RESULT_DENIED and not texts and tries < TEXT_TRIES:
             continue  # refused, its reason lost or late: ask again
