@@ -75,6 +75,27 @@ def test_a_policy_that_stops_photographing_is_handed_to_the_path_finder():
     assert run.pathfinder_decisions.sum() > 0
 
 
+def test_patience_is_how_long_a_fruitless_policy_keeps_the_drone():
+    gmap = corridor_map(width=3)
+
+    class CountingDither:
+        name = "dither"
+        calls = 0
+
+        def action_scores(self, world, drones):
+            self.calls += len(drones)
+            return np.array([[1.0 if world.t % 2 == 0 else 0.0, -1, 1.0 if world.t % 2 else 0.0, -1]] * len(drones))
+
+    runs = {}
+    for patience in (1, 8):
+        policy = CountingDither()
+        run = Planner(CoverageWorld(gmap, [(4, 2)]), policy, patience=patience).run()
+        assert run.success, run.failure
+        runs[patience] = (policy.calls, run.metrics["MMN"])
+    assert runs[1][0] < runs[8][0]  # a longer patience asks the dithering policy more often
+    assert runs[1][1] < runs[8][1]  # and lets it waste moves
+
+
 def test_expert_tables_cover_every_sequence_inside_the_view():
     tables = sequence_tables()
     assert tables.new_weights.shape == (4 ** 5, 361)

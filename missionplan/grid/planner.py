@@ -25,7 +25,10 @@ Beyond the thesis:
   the per-region counts current with every photo);
 - a policy-driven drone that photographs nothing new for POLICY_PATIENCE steps (it dithers
   next to cells it cannot reach inside its view) is handed to the path-finder until that
-  goal is photographed, so the loop is safe with any policy, an imperfect network too;
+  goal is photographed, so the loop is safe with any policy, an imperfect network too.
+  One step is the default: a step that photographs nothing is one the path-finder would
+  have spent better, and every longer patience measured made plans longer, with either
+  policy (docs/neural-policy.md);
 - with `lanes`, a drone whose zone lies on open ground (grid.lanes: nothing blocked in the box
   of its zone and launch cell) sweeps it in footprint-wide lanes instead of exploring cell by
   cell, then helps or parks like any drone done with its zone; it waits, yields and steps aside
@@ -54,7 +57,7 @@ from .world import ACTION_DELTAS, ACTION_OF_DELTA, HOVER, PAD, CoverageWorld
 
 DEADLOCK_STEPS = 3
 MAX_GOAL_TRIES = 4
-POLICY_PATIENCE = 8
+POLICY_PATIENCE = 1  # measured best: bench/gap_bench.py, docs/neural-policy.md
 REFUGE_SEARCH_LIMIT = 4000  # cells examined when looking for a place to let another drone pass
 # Cells a busy drone photographs per move, to turn its zone backlog into steps of work
 # (about 9 x a typical trajectory efficiency of 35 %).
@@ -116,8 +119,9 @@ class Planner:
     """Drives a CoverageWorld with a policy and the path-finders until full coverage."""
 
     def __init__(self, world: CoverageWorld, policy: Policy, seed: int = 0, progress: bool = False,
-                 stall_limit: int | None = None, lanes: bool = False) -> None:
+                 stall_limit: int | None = None, lanes: bool = False, patience: int = POLICY_PATIENCE) -> None:
         self.world = world
+        self.patience = patience
         self.lanes = lanes
         self.policy = policy
         self.rng = np.random.default_rng(seed)
@@ -293,7 +297,7 @@ class Planner:
             nav = self.nav[k]
             if sees[k] and (nav.retreating or (nav.forced and nav.goal is not None and world.unexplored[nav.goal])):
                 sees[k] = False  # keeps to the path it is on
-            elif sees[k] and nav.fruitless_steps >= POLICY_PATIENCE:
+            elif sees[k] and nav.fruitless_steps >= self.patience:
                 nav.clear()
                 nav.forced = True
                 nav.fruitless_steps = 0

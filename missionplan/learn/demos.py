@@ -35,6 +35,12 @@ from ..maps.launches import spread_launches
 from .features import STATE_SIZE, encode_states
 from .network import NeuralPolicy, PolicyWeights
 
+# Training's runs (recorded, and those judging a network) let a policy go this many
+# fruitless steps before the path-finder takes over, where planning allows one: the states
+# met while dithering are the ones DAgger must label for the network to learn its way out
+# of them. The shipped weights were trained so.
+ROLLOUT_PATIENCE = 8
+
 
 @dataclass
 class Demonstrations:
@@ -126,7 +132,7 @@ def play_map(gmap: GridMap, driver: Policy | None = None, expert_share: float = 
         starts = fleet_starts(gmap, uavs)
         zones = split_zones(reachable_targets(gmap, starts), gmap.free, starts, balance=True)
         world = CoverageWorld(gmap, starts, zones.zone)
-    run = Planner(world, policy).run()
+    run = Planner(world, policy, patience=ROLLOUT_PATIENCE).run()
     if isinstance(policy, LabellingPolicy) and policy.states:
         states, actions = np.concatenate(policy.states), np.concatenate(policy.actions)
     else:
