@@ -19,7 +19,10 @@ processes (--workers); the plans do not depend on it. Run by hand:
 
     .venv/bin/python bench/gap_bench.py [--seeds 5] [--uavs 6,20] [--workers 2]
                                         [--movingai-dir ../shared/maps/movingai] [--weights FILE]
-                                        [--write-doc FILE]
+                                        [--patience N] [--write-doc FILE]
+
+`--patience N` plans both policies with another patience than the planner's (how many steps a
+policy may photograph nothing before the path-finder takes the drone over), to measure what it costs.
 """
 
 from __future__ import annotations
@@ -35,7 +38,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from missionplan.grid.planner import Policy  # noqa: E402
+from missionplan.grid.planner import POLICY_PATIENCE, Policy  # noqa: E402
 from missionplan.maps.gridmap import read_map_text  # noqa: E402
 from missionplan.maps.movingai import parse_movingai  # noqa: E402
 from missionplan.pipeline import make_policy, plan_map  # noqa: E402
@@ -55,11 +58,12 @@ def loaded_policy(policy: str, weights: str | None) -> Policy:
     return make_policy(policy, weights)
 
 
-def plan_makespan(path: str, uavs: int, seed: int, policy: str, weights: str | None) -> tuple[int, float]:
+def plan_makespan(path: str, uavs: int, seed: int, policy: str, weights: str | None,
+                  patience: int) -> tuple[int, float]:
     """The makespan of one plan, and its coverage of the reachable targets in percent."""
     gmap = parse_movingai(read_map_text(path), path, launches=uavs)
     planner = loaded_policy(policy, weights if policy == "nn" else None)
-    run = plan_map(gmap, uavs, policy=planner, seed=seed).run
+    run = plan_map(gmap, uavs, policy=planner, seed=seed, patience=patience).run
     return int(run.metrics["makespan"]), float(run.metrics["coverage"])
 
 
@@ -70,6 +74,8 @@ def main() -> int:
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="planning processes")
     parser.add_argument("--movingai-dir", default=str(MOVINGAI_DIR))
     parser.add_argument("--weights", help="the network's weights (default: the shipped ones), to judge a retrained network")
+    parser.add_argument("--patience", type=int, default=POLICY_PATIENCE,
+                        help=f"fruitless policy steps before the path-finder takes over (default {POLICY_PATIENCE})")
     doctable.add_option(parser)
     args = parser.parse_args()
     maps = sorted(Path(args.movingai_dir).glob("*.map"))
@@ -77,7 +83,8 @@ def main() -> int:
         print(f"gap_bench: no .map files in {args.movingai_dir}", file=sys.stderr)
         return 2
     with doctable.Recorder(args.write_doc, __file__):
-        return table(maps, [int(u) for u in args.uavs.split(",")], args.seeds, args.workers, args.weights)
+        return table(maps, [int(u) for u in args.uavs.split(",")], args.seeds, args.workers, args.weights,
+                     args.patience)
 
 
 def spread(values: np.ndarray) -> str:
@@ -111,13 +118,14 @@ def verdict(low: float, high: float) -> str:
     return f"undecided, the interval of the mean gap spans {GAP_GOAL_PERCENT:g} % (more seeds narrow it)"
 
 
-def table(maps: list[Path], fleets: list[int], seeds: int, workers: int, weights: str | None) -> int:
+def table(maps: list[Path], fleets: list[int], seeds: int, workers: int, weights: str | None,
+          patience: int = POLICY_PATIENCE) -> int:
     header = (f"{'map':<14} {'A':>3} {'expert mkspan':>19} {'network mkspan':>19} {'gap':>7} "
               f"{'95 % interval':>15} {'seed gaps':>15} {'within':>7} {'cov %':>6}")
     print(header)
     print("-" * len(header), flush=True)
     rows = [(path, uavs) for uavs in fleets for path in maps]
-    jobs = [(str(path), uavs, seed, policy, weights) for path, uavs in rows for policy in POLICIES for seed in range(seeds)]
+    jobs = [(str(path), uavs, seed, policy, weights, patience) for path, uavs in rows for policy in POLICIES for seed in range(seeds)]
     with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
         results = iter(list(pool.map(plan_makespan, *zip(*jobs))))
     gaps, resamples = [], []

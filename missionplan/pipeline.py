@@ -14,7 +14,7 @@ import numpy as np
 
 from .grid.expert import ExpertPolicy
 from .grid.lanes import fleet_zones, open_zones
-from .grid.planner import Planner, Policy
+from .grid.planner import POLICY_PATIENCE, Planner, Policy
 from .grid.planresult import PlanResult
 from .grid.world import CoverageWorld, check_starts, reachable_targets
 from .grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS, split_zones
@@ -52,11 +52,13 @@ def launch_cells(gmap: GridMap, uavs: int) -> list[Cell]:
 def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
              zone_method: str = DEFAULT_ZONE_METHOD, seed: int = 0, starts: list[Cell] | None = None,
              progress: bool = False, balance_zones: bool = True, weights: str | Path | None = None,
-             zone_shares: np.ndarray | None = None, lanes: bool = True) -> PlanResult:
+             zone_shares: np.ndarray | None = None, lanes: bool = True,
+             patience: int = POLICY_PATIENCE) -> PlanResult:
     """Plan full coverage of `gmap` for `uavs` drones; `policy` is a name or a ready Policy; `zone_shares`:
     the fraction of the targets each balanced zone gets (default equal); `lanes`: a drone whose zone
     lies on open ground sweeps it in footprint-wide lanes (grid.lanes) instead of exploring it, and
-    when every zone does (and no shares are asked), the zones are redrawn block by block for it."""
+    when every zone does (and no shares are asked), the zones are redrawn block by block for it;
+    `patience`: fruitless policy steps before the path-finder takes a drone over (grid.planner)."""
     if zone_method not in ZONE_METHODS:
         raise MapError(f"unknown zone method {zone_method!r} (choose {', '.join(ZONE_METHODS)})")
     chosen = make_policy(policy, weights) if isinstance(policy, str) else policy
@@ -73,5 +75,5 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
             zones = replace(zones, zone=redrawn)
     zone_seconds = time.perf_counter() - began
     world = CoverageWorld(gmap, starts, zones.zone)
-    run = Planner(world, chosen, seed=seed, progress=progress, lanes=lanes).run()
+    run = Planner(world, chosen, seed=seed, progress=progress, lanes=lanes, patience=patience).run()
     return PlanResult(gmap, starts, policy, zones, world, run, zone_seconds)

@@ -4,7 +4,8 @@ import numpy as np
 
 from missionplan.grid.expert import ExpertPolicy, sequence_tables
 from missionplan.maps.gridmap import GridMap
-from missionplan.grid.planner import Planner
+from missionplan.grid import planner as planner_module
+from missionplan.grid.planner import POLICY_PATIENCE, Planner
 from missionplan.grid.world import DOWN, HOVER, RIGHT, UP, CoverageWorld
 from replay_check import replay
 
@@ -94,6 +95,23 @@ def test_patience_is_how_long_a_fruitless_policy_keeps_the_drone():
         runs[patience] = (policy.calls, run.metrics["MMN"])
     assert runs[1][0] < runs[8][0]  # a longer patience asks the dithering policy more often
     assert runs[1][1] < runs[8][1]  # and lets it waste moves
+
+
+def test_plan_map_hands_its_patience_to_the_planner(monkeypatch):
+    from missionplan import pipeline
+    from missionplan.maps.catalog import load_shipped
+
+    seen = []
+    original = planner_module.Planner.__init__
+
+    def recording_init(self, *args, **kwargs):
+        seen.append(kwargs.get("patience"))
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(planner_module.Planner, "__init__", recording_init)
+    pipeline.plan_map(load_shipped("leonardo"), 3, policy="expert")
+    pipeline.plan_map(load_shipped("leonardo"), 3, policy="expert", patience=5)
+    assert seen == [POLICY_PATIENCE, 5]
 
 
 def test_expert_tables_cover_every_sequence_inside_the_view():
