@@ -39,9 +39,17 @@ def _launch(plan_dir: Path, sysid: int) -> tuple[float, float, float]:
     return float(lat), float(lon), float(alt)
 
 
+def _vehicle(url: str, sysid: int, home: tuple[float, float, float]) -> MockAutopilot:
+    """One vehicle made like ArduCopter SITL: its readiness and streams, its flight (the plan's timeline,
+    which the separation promise rests on) and its camera, configured as a team does once."""
+    mock = MockAutopilot(url, sysids=[sysid], homes={sysid: home}, speedup=SPEEDUP, gps_fix_after=READY_AFTER_S,
+                         streams_until_asked=True, sitl_like=True).start()
+    mock.configure_camera(sysid)
+    return mock
+
+
 def _fleet(port: int, homes: dict[int, tuple[float, float, float]]) -> list[MockAutopilot]:
-    return [MockAutopilot(f"udpout:127.0.0.1:{port}", sysids=[k], homes={k: homes[k]}, speedup=SPEEDUP,
-                          gps_fix_after=READY_AFTER_S, streams_until_asked=True).start() for k in SYSIDS]
+    return [_vehicle(f"udpout:127.0.0.1:{port}", k, homes[k]) for k in SYSIDS]
 
 
 def test_a_fleet_on_one_udpin_port_waits_until_ready_and_flies(plan_dir, tmp_path, capsys) -> None:
@@ -68,9 +76,7 @@ def test_a_fleet_on_several_ports_each_vehicle_found_by_its_heartbeat(plan_dir, 
     plan = Path(shutil.copytree(plan_dir, tmp_path / "plan"))
     ports = [free_udp_port(), free_udp_port()]
     homes = {k: _launch(plan, k) for k in SYSIDS}
-    mocks = [MockAutopilot(f"udpout:127.0.0.1:{ports[0] if k < 3 else ports[1]}", sysids=[k], homes={k: homes[k]},
-                           speedup=SPEEDUP, gps_fix_after=READY_AFTER_S, streams_until_asked=True).start()
-             for k in SYSIDS]
+    mocks = [_vehicle(f"udpout:127.0.0.1:{ports[0] if k < 3 else ports[1]}", k, homes[k]) for k in SYSIDS]
     try:
         # Vehicles 1 and 2 on the first port, 3 on the second: the first two found by their heartbeats,
         # the third named with SYSID=URL.
