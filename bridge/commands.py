@@ -96,6 +96,9 @@ def register(subparsers: Any) -> None:
                       help="behave like ArduCopter SITL: no camera until CAM1_TYPE is set and the vehicle rebooted, "
                            "img_idx from 1 across flights, ArduCopter's navigation parameters and flight "
                            "(docs/flight-timeline.md)")
+    mock.add_argument("--camera-configured", action="store_true",
+                      help="with --sitl-like: each vehicle's camera set up as a team does once (ArduPilot CAM1_TYPE 1, "
+                           "PX4 TRIG_MODE 4, and a reboot), so it reports its photos from the start")
     mock.add_argument("--kill", action="append", default=[], metavar="SYSID@ITEM",
                       help="vehicle SYSID goes silent for good once it reaches mission item ITEM, as a SITL process "
                            "killed in flight; repeatable")
@@ -389,6 +392,8 @@ def cmd_mock(args: argparse.Namespace) -> int:
     kills = parse_kills(args.kill, sysids)
     if args.ready_after < 0:
         raise BridgeUsageError(f"--ready-after must not be negative, got {args.ready_after}")
+    if args.camera_configured and not args.sitl_like:
+        raise BridgeUsageError("--camera-configured needs --sitl-like (without it every mock vehicle's camera works)")
     mock = MockAutopilot(args.listen, sysids=sysids, flavour=args.flavour, speedup=args.speedup, faults=faults,
                          key=key, request_interval=args.request_interval, homes=homes,
                          gps_fix_after=args.ready_after, streams_until_asked=args.streams_until_asked,
@@ -407,6 +412,9 @@ def cmd_mock(args: argparse.Namespace) -> int:
     for sysid, item in kills.items():
         mock.kill(sysid, at_item=item)
     mock.start()
+    if args.camera_configured:
+        for sysid in sysids:
+            mock.configure_camera(sysid)
     try:
         deadline = None if args.duration is None else time.monotonic() + args.duration
         while deadline is None or time.monotonic() < deadline:

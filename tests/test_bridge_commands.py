@@ -141,3 +141,20 @@ def test_mock_command_serves_until_its_duration(tmp_path: Path, capsys: pytest.C
         thread.join(10)
     assert codes == [0]
     assert "mock autopilot stopped: 1 uploads completed" in capsys.readouterr().out
+
+
+def test_mock_command_configures_the_cameras_of_a_sitl_like_fleet(monkeypatch: pytest.MonkeyPatch) -> None:
+    configured: list[int] = []
+    original = MockAutopilot.configure_camera
+
+    def recording(self: MockAutopilot, sysid: int, offline: float = 0.05) -> None:
+        original(self, sysid, offline)
+        configured.append(sysid)
+        assert self.vehicles[sysid].params["CAM1_TYPE"] == 1.0
+
+    monkeypatch.setattr(MockAutopilot, "configure_camera", recording)
+    assert run(["mock", "--sysid", "2,3", "--listen", "udpin:127.0.0.1:0", "--sitl-like", "--camera-configured",
+                "--duration", "0.3"]) == 0
+    assert configured == [2, 3]
+    with pytest.raises(BridgeUsageError, match="--camera-configured needs --sitl-like"):
+        run(["mock", "--sysid", "2", "--listen", "udpin:127.0.0.1:0", "--camera-configured", "--duration", "0.3"])
