@@ -27,8 +27,7 @@ Beyond the thesis:
   next to cells it cannot reach inside its view) is handed to the path-finder until that
   goal is photographed, so the loop is safe with any policy, an imperfect network too.
   One step is the default: a step that photographs nothing is one the path-finder would
-  have spent better, and every longer patience measured made plans longer, with either
-  policy (docs/neural-policy.md);
+  have spent better (8 steps made plans longer with either policy: docs/neural-policy.md);
 - with `lanes`, a drone whose zone lies on open ground (grid.lanes: nothing blocked in the box
   of its zone and launch cell) sweeps it in footprint-wide lanes instead of exploring cell by
   cell, then helps or parks like any drone done with its zone; it waits, yields and steps aside
@@ -57,7 +56,7 @@ from .world import ACTION_DELTAS, ACTION_OF_DELTA, HOVER, PAD, CoverageWorld
 
 DEADLOCK_STEPS = 3
 MAX_GOAL_TRIES = 4
-POLICY_PATIENCE = 1  # measured best: bench/gap_bench.py, docs/neural-policy.md
+POLICY_PATIENCE = 1  # bench/gap_bench.py --patience N measures another
 REFUGE_SEARCH_LIMIT = 4000  # cells examined when looking for a place to let another drone pass
 # Cells a busy drone photographs per move, to turn its zone backlog into steps of work
 # (about 9 x a typical trajectory efficiency of 35 %).
