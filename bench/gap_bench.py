@@ -119,7 +119,7 @@ def verdict(low: float, high: float) -> str:
 
 
 def table(maps: list[Path], fleets: list[int], seeds: int, workers: int, weights: str | None,
-          patience: int = POLICY_PATIENCE) -> int:
+          patience: int) -> int:
     header = (f"{'map':<14} {'A':>3} {'expert mkspan':>19} {'network mkspan':>19} {'gap':>7} "
               f"{'95 % interval':>15} {'seed gaps':>15} {'within':>7} {'cov %':>6}")
     print(header)

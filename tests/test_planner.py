@@ -61,16 +61,22 @@ def test_step_cap_is_reported_as_failure():
     assert run.metrics["coverage"] < 100
 
 
+class Dither:
+    """Up/down forever: photographs nothing new after a while. Counts the drones it was asked about."""
+
+    name = "dither"
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def action_scores(self, world, drones):
+        self.calls += len(drones)
+        return np.array([[1.0 if world.t % 2 == 0 else 0.0, -1, 1.0 if world.t % 2 else 0.0, -1]] * len(drones))
+
+
 def test_a_policy_that_stops_photographing_is_handed_to_the_path_finder():
     gmap = corridor_map(width=3)
     world = CoverageWorld(gmap, [(4, 2)])
-
-    class Dither:
-        name = "dither"
-
-        def action_scores(self, world, drones):  # up/down forever: photographs nothing new after a while
-            return np.array([[1.0 if world.t % 2 == 0 else 0.0, -1, 1.0 if world.t % 2 else 0.0, -1]] * len(drones))
-
     run = Planner(world, Dither()).run()
     assert run.success, run.failure
     assert run.pathfinder_decisions.sum() > 0
@@ -78,18 +84,9 @@ def test_a_policy_that_stops_photographing_is_handed_to_the_path_finder():
 
 def test_patience_is_how_long_a_fruitless_policy_keeps_the_drone():
     gmap = corridor_map(width=3)
-
-    class CountingDither:
-        name = "dither"
-        calls = 0
-
-        def action_scores(self, world, drones):
-            self.calls += len(drones)
-            return np.array([[1.0 if world.t % 2 == 0 else 0.0, -1, 1.0 if world.t % 2 else 0.0, -1]] * len(drones))
-
     runs = {}
     for patience in (1, 8):
-        policy = CountingDither()
+        policy = Dither()
         run = Planner(CoverageWorld(gmap, [(4, 2)]), policy, patience=patience).run()
         assert run.success, run.failure
         runs[patience] = (policy.calls, run.metrics["MMN"])
