@@ -10,9 +10,9 @@ survivor's new mission: its camera on where it is, its survey, the way home roun
 (flightplan's homing) to its real home, RTL. Before anything is uploaded:
 - endurance: each survivor's new flight, on the timeline, fits in what its battery budget (the
   plan's endurance less the reserve) has left after the time it has flown;
-- separation: the new tracks, all starting now from the survivors' positions, never come closer
-  than the plan's minimum separation plus two acceptance radii (a corner cut by each); the altitude
-  layers are chosen for it as `plan` chooses them (timeline.closest_approach);
+- separation: the new tracks, all starting now from the survivors' positions in the air, never come
+  closer than the plan's minimum separation plus two acceptance radii (a corner cut by each); the
+  altitude layers are chosen on those tracks as `plan` chooses them (separation.choose_layers);
 - geofence: a new fence per survivor around its new zone, its track, its position and its home.
 Any of these failing ends the re-task with the reason (RetaskError); the survivors fly on with the
 missions they have, and `missionplan replan` plans the rest after landing.
@@ -37,7 +37,8 @@ from .mission.flightplan import _Homing, _latlon
 from .mission.geofence import drone_fence
 from .mission.drone_missions import MissionSettings, build_mission
 from .mission.safety import SafetySettings
-from .mission.timeline import FlightModel, closest_approach, planned_track
+from .mission.separation import SeparationError, choose_layers
+from .mission.timeline import FlightModel, planned_track
 
 
 class RetaskError(MapError):
@@ -115,60 +116,68 @@ def plan_retask(plan_dir: Path, report: dict[str, Any], survivors: list[Survivor
         starts.append(_free_cell(flyable, (int(np.rint(np.atleast_1d(r)[0])), int(np.rint(np.atleast_1d(c)[0]))),
                                  set(starts)))
     gmap = missing_map(report, left, starts, suffix="retask")
-    # Endurance is checked below against what each survivor has left; the planner itself plans one flight.
-    # The separation gets a margin for what the timeline cannot know: each may cut a corner by its
-    # acceptance radius (the survivors are released together, so their tracks start at one moment).
-    margin = 2.0 * settings.acceptance_m
-    required = safety.min_separation_m + margin
+    # Endurance and separation are checked below, on the tracks the survivors will fly: plan_field's own
+    # checks model drones taking off from the ground where they start, and these are in the air.
     field = plan_field(gmap, len(survivors), frame, settings,
-                       replace(safety, endurance_s=None, min_separation_m=required),
+                       replace(safety, endurance_s=None, min_separation_m=0.0),
                        policy=policy or stored.get("policy", "expert"), zone_method=stored.get("zones", "geodesic"),
                        seed=0, progress=False, balance_zones=bool(stored.get("balance_zones", True)),
                        lanes=stored.get("open_ground", "lanes") == "lanes")
     if field.plans is None:
         raise RetaskError(f"the re-task could not be planned: {field.result.run.failure}")
     plans = field.plans
-    layered = plans.settings
-    model = FlightModel.for_autopilot(layered.autopilot, layered.speed_m_s, layered.acceptance_m)
+    model = FlightModel.for_autopilot(settings.autopilot, settings.speed_m_s, settings.acceptance_m)
     margin = max(0.5, safety.clearance_m / cell)
-    missions, fences, resume, flight_s, tracks, photos = {}, {}, {}, {}, {}, {}
+    here, homes, surveys, backs, routes = [], [], [], [], []
     for k, s in enumerate(survivors):
-        here_m = to_grid_m(frame, [s.lat], [s.lon])[0]
-        home_m = to_grid_m(frame, [s.home[0]], [s.home[1]])[0]
-        home_cell = _free_cell(flyable, (int(np.rint(home_m[0] / cell)), int(np.rint(home_m[1] / cell))), set())
-        waypoints_m = np.asarray(plans.corrected[k].waypoints, dtype=float) * cell
+        here.append(to_grid_m(frame, [s.lat], [s.lon])[0])
+        homes.append(to_grid_m(frame, [s.home[0]], [s.home[1]])[0])
+        home_cell = _free_cell(flyable, (int(np.rint(homes[k][0] / cell)), int(np.rint(homes[k][1] / cell))), set())
+        surveys.append(np.asarray(plans.corrected[k].waypoints, dtype=float) * cell)
         homing = _Homing(flyable, home_cell, base.obstacle, margin, cell)
-        back_m = homing.way(waypoints_m[-1], outbound=False) if len(waypoints_m) else np.zeros((0, 2))
-        altitude = layered.altitude_of(k)
-        route = np.vstack([waypoints_m, back_m, home_m[None, :]])
-        # From where it is, already in the air: the timeline's climb from the ground is cut off (its
-        # length differs between altitude layers, and would shift the tracks against each other); it
-        # lands at home (RTL).
-        track = airborne(planned_track(here_m, route, altitude, "land", model), altitude)
-        tracks[s.sysid] = track
-        flight_s[s.sysid] = float(track[-1, 0])
+        backs.append(homing.way(surveys[k][-1], outbound=False) if len(surveys[k]) else np.zeros((0, 2)))
+        routes.append(np.vstack([surveys[k], backs[k], homes[k][None, :]]))
+
+    def tracks_for(step: float) -> list[dict[int, np.ndarray]]:
+        """The survivors' new flights with drone k at altitude + k * step, started together now. From where
+        each is, already in the air: the timeline's climb from the ground is cut off (its length differs
+        between layers and would shift the tracks against each other); each lands at home (RTL)."""
+        altitude = replace(settings, altitude_step_m=step).altitude_of
+        return [{s.sysid: airborne(planned_track(here[k], routes[k], altitude(k), "land", model), altitude(k))
+                 for k, s in enumerate(survivors)}]
+
+    # Each may cut a corner by its acceptance radius, which the timeline cannot know: a margin for both.
+    corners = 2.0 * settings.acceptance_m
+    try:
+        layering = choose_layers(tracks_for, len(survivors), settings.altitude_m, settings.altitude_step_m,
+                                 safety.min_separation_m + corners, safety.max_altitude_m)
+    except SeparationError as failure:
+        if failure.layering is None:
+            raise RetaskError(f"the re-task's altitude layers would not fit under the ceiling{failure.ceiling}") from None
+        approach = failure.layering.approach
+        a, b = approach["pair_3d"]
+        raise RetaskError(f"the re-task would bring uav{a} and uav{b} within {approach['3d']:.2f} m of each other "
+                          f"(at {approach['at_s']} s), under the minimum separation {safety.min_separation_m:g} m "
+                          f"plus {corners:.2f} m for the corners each may cut") from None
+    layered = replace(plans.settings, altitude_step_m=layering.step_m)
+    tracks = tracks_for(layering.step_m)[0]
+    missions, fences, resume, flight_s, photos = {}, {}, {}, {}, {}
+    for k, s in enumerate(survivors):
+        flight_s[s.sysid] = float(tracks[s.sysid][-1, 0])
         if safety.budget_s is not None and s.flown_s + flight_s[s.sysid] > safety.budget_s:
             raise RetaskError(f"uav{s.sysid} would need {flight_s[s.sysid]:.0f} s more; its battery budget has "
                               f"{max(safety.budget_s - s.flown_s, 0.0):.0f} s left ({safety.budget_s:.0f} s less "
                               f"{s.flown_s:.0f} s flown): the rest is for `missionplan replan` after landing")
-        mission = build_mission(k, (s.lat, s.lon), _latlon(frame, waypoints_m), waypoints_m, here_m, layered,
-                                flight_s=flight_s[s.sysid], end="rtl", back=(_latlon(frame, back_m), back_m))
+        mission = build_mission(k, (s.lat, s.lon), _latlon(frame, surveys[k]), surveys[k], here[k], layered,
+                                flight_s=flight_s[s.sysid], end="rtl", back=(_latlon(frame, backs[k]), backs[k]))
         missions[s.sysid] = Mission(items=mission.mission.items, home=(s.home[0], s.home[1], 0.0))
         photos[s.sysid] = mission.photos
         resume[s.sysid] = 1  # after the NAV_TAKEOFF: the speed, the camera, then the survey
         zone = np.argwhere(field.result.zones.zone == k)
-        points = np.vstack([here_m[None, :], route])
-        fences[s.sysid] = drone_fence(frame, zone, points, altitude, safety.fence_margin_m,
+        points = np.vstack([here[k][None, :], routes[k]])
+        fences[s.sysid] = drone_fence(frame, zone, points, layered.altitude_of(k), safety.fence_margin_m,
                                       safety.max_altitude_m).mission()
-    separation = None
-    if len(tracks) > 1:
-        approach = closest_approach(tracks)
-        separation = approach["3d"]
-        if separation is not None and separation < required - 1e-6:
-            a, b = approach["pair_3d"]
-            raise RetaskError(f"the re-task would bring uav{a} and uav{b} within {separation:.2f} m of each other "
-                              f"(at {approach['at_s']} s), under the minimum separation {safety.min_separation_m:g} m "
-                              f"plus {margin:.2f} m for the corners each may cut")
+    separation = layering.approach["3d"]
     return RetaskPlan(missions, fences, resume, flight_s, photos, int(len(left)), separation,
                       time.monotonic() - started)
 

@@ -248,6 +248,29 @@ def test_a_retask_beyond_the_battery_is_refused_with_the_reason(leonardo_3: Path
         assert plan.fences[k].items
 
 
+def test_survivors_side_by_side_in_the_air_are_re_tasked_on_their_layers(leonardo_3: Path) -> None:
+    """Two survivors held a metre apart, one above the other: the re-task's separation is measured on
+    the tracks they fly from there, in the air (not as if both took off from that spot), and its layers
+    keep them the minimum separation plus a corner each apart."""
+    from missionplan.mission.drone_missions import MissionSettings
+    from missionplan.retask import Survivor, plan_retask
+
+    report = json.loads((leonardo_3 / "report.json").read_text())
+    frame = frame_of(report)
+    home1, home3 = (tuple(json.loads((leonardo_3 / f"uav{k}.plan").read_text())["mission"]["plannedHomePosition"][:2])
+                    for k in (1, 3))
+    lat, lon = home1
+    r, c = (float(v) for v in np.ravel(frame.latlon_to_grid(np.array([lat]), np.array([lon]))))
+    beside = frame.cell_to_latlon(np.array([round(r)]), np.array([round(c) + 1]))
+    side_by_side = [Survivor(1, lat, lon, 30.0, home1, 0.0),
+                    Survivor(3, float(beside[0][0]), float(beside[1][0]), 32.0, home3, 0.0)]
+    plan = plan_retask(leonardo_3, report, side_by_side, np.zeros((0, 2)))
+    assert plan is not None and set(plan.missions) == {1, 3}
+    stored = report["settings"]
+    required = stored["safety"]["min_separation_m"] + 2 * MissionSettings(**stored["mission"]).acceptance_m
+    assert plan.separation_m is not None and plan.separation_m >= required - 1e-6
+
+
 def test_nothing_to_retask_when_everything_is_photographed(leonardo_3: Path) -> None:
     from missionplan.retask import Survivor, plan_retask
 
