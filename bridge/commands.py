@@ -413,8 +413,7 @@ def cmd_mock(args: argparse.Namespace) -> int:
         mock.kill(sysid, at_item=item)
     mock.start()
     if args.camera_configured:
-        for sysid in sysids:
-            mock.configure_camera(sysid)
+        mock.configure_cameras()
     try:
         deadline = None if args.duration is None else time.monotonic() + args.duration
         while deadline is None or time.monotonic() < deadline:

@@ -42,10 +42,8 @@ def _launch(plan_dir: Path, sysid: int) -> tuple[float, float, float]:
 def _vehicle(url: str, sysid: int, home: tuple[float, float, float]) -> MockAutopilot:
     """One vehicle made like ArduCopter SITL: its readiness and streams, its flight (the plan's timeline,
     which the separation promise rests on) and its camera, configured as a team does once."""
-    mock = MockAutopilot(url, sysids=[sysid], homes={sysid: home}, speedup=SPEEDUP, gps_fix_after=READY_AFTER_S,
-                         streams_until_asked=True, sitl_like=True).start()
-    mock.configure_camera(sysid)
-    return mock
+    return MockAutopilot(url, sysids=[sysid], homes={sysid: home}, speedup=SPEEDUP, gps_fix_after=READY_AFTER_S,
+                         streams_until_asked=True, sitl_like=True).start().configure_cameras()
 
 
 def _fleet(port: int, homes: dict[int, tuple[float, float, float]]) -> list[MockAutopilot]:

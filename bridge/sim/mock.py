@@ -538,6 +538,12 @@ class MockAutopilot:
                 vehicle.params["CAM1_TYPE"] = 1.0
             vehicle.reboot(time.monotonic(), offline)
 
+    def configure_cameras(self) -> MockAutopilot:
+        """configure_camera on every vehicle: a fleet as a team has set it up before its first survey."""
+        for sysid in list(self.vehicles):
+            self.configure_camera(sysid)
+        return self
+
     def wait_until(self, predicate: Any, timeout: float) -> bool:
         """Poll predicate(self) under the lock until true or timeout; returns the last value."""
         deadline = time.monotonic() + timeout

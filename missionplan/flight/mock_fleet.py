@@ -33,6 +33,5 @@ def start_mock_fleet(plan_dir: Path, speedup: float, flavour: str = "ardupilot",
                          faults=faults, homes=homes, sitl_like=sitl_like, **options)
     mock.start()
     if sitl_like and cameras:
-        for sysid in homes:
-            mock.configure_camera(sysid)
+        mock.configure_cameras()
     return mock
