@@ -138,13 +138,17 @@ def plan_retask(plan_dir: Path, report: dict[str, Any], survivors: list[Survivor
         backs.append(homing.way(surveys[k][-1], outbound=False) if len(surveys[k]) else np.zeros((0, 2)))
         routes.append(np.vstack([surveys[k], backs[k], homes[k][None, :]]))
 
+    timed: dict[float, list[dict[int, np.ndarray]]] = {}  # per layer step: the chosen one is needed again
+
     def tracks_for(step: float) -> list[dict[int, np.ndarray]]:
         """The survivors' new flights with drone k at altitude + k * step, started together now. From where
         each is, already in the air: the timeline's climb from the ground is cut off (its length differs
         between layers and would shift the tracks against each other); each lands at home (RTL)."""
-        altitude = replace(settings, altitude_step_m=step).altitude_of
-        return [{s.sysid: airborne(planned_track(here[k], routes[k], altitude(k), "land", model), altitude(k))
-                 for k, s in enumerate(survivors)}]
+        if step not in timed:
+            altitude = replace(settings, altitude_step_m=step).altitude_of
+            timed[step] = [{s.sysid: airborne(planned_track(here[k], routes[k], altitude(k), "land", model),
+                                              altitude(k)) for k, s in enumerate(survivors)}]
+        return timed[step]
 
     # Each may cut a corner by its acceptance radius, which the timeline cannot know: a margin for both.
     corners = 2.0 * settings.acceptance_m
@@ -159,7 +163,7 @@ def plan_retask(plan_dir: Path, report: dict[str, Any], survivors: list[Survivor
         raise RetaskError(f"the re-task would bring uav{a} and uav{b} within {approach['3d']:.2f} m of each other "
                           f"(at {approach['at_s']} s), under the minimum separation {safety.min_separation_m:g} m "
                           f"plus {corners:.2f} m for the corners each may cut") from None
-    layered = replace(plans.settings, altitude_step_m=layering.step_m)
+    layered = replace(settings, altitude_step_m=layering.step_m)
     tracks = tracks_for(layering.step_m)[0]
     missions, fences, resume, flight_s, photos = {}, {}, {}, {}, {}
     for k, s in enumerate(survivors):
