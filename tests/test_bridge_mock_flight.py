@@ -100,6 +100,25 @@ def test_arm_mode_start_fly_and_land() -> None:
     assert len(state.track) > 10
 
 
+def test_a_repeated_mission_start_restarts_nothing(monkeypatch) -> None:
+    """Like ArduCopter (GCS_MAVLINK_Copter::handle_MAV_CMD_MISSION_START starts the mission only when it
+    is not running): a start repeated while the vehicle still climbs off the ground is accepted and
+    leaves the running mission alone. fly repeats a start whose acknowledgement was lost."""
+    with MockAutopilot(homes={1: HOME}, speedup=1.0, request_interval=0.02).start() as mock:
+        flight = mock.vehicle(1).flight
+        starts: list[int] = []
+        monkeypatch.setattr(flight, "start_mission", lambda *a, run=flight.start_mission: starts.append(1) or run(*a))
+        with Link(mock.client_url) as link:
+            vehicle = wait_vehicle(link, 1, timeout=3)
+            MissionClient(link, vehicle, Timeouts(item_timeout=0.2)).upload(0, to_wire(_survey(), Flavour.ARDUPILOT))
+            assert _command(link, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mavlink.MAV_RESULT_ACCEPTED
+            assert _command(link, mavlink.MAV_CMD_MISSION_START) == mavlink.MAV_RESULT_ACCEPTED
+            assert flight.state.alt < 1.0  # 20 m take-off at real time: still near the ground
+            assert _command(link, mavlink.MAV_CMD_MISSION_START) == mavlink.MAV_RESULT_ACCEPTED
+            assert flight.state.alt < 1.0
+    assert starts == [1]
+
+
 def _items(mission: Mission) -> list[Any]:
     return to_wire(mission, Flavour.PX4)
 

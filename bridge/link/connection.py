@@ -256,6 +256,9 @@ class Link:
         self.reboots: dict[int, int] = {}
         self.received = 0
         self.signed_from: set[int] = set()  # system ids whose packets arrived signed
+        # The slowest COMMAND_ACK round trip seen from each vehicle (command_long): how long a command
+        # that needs a quick repeat (fly's mission start) waits before taking it for lost.
+        self.ack_rtt_s: dict[int, float] = {}
 
     # -- several vehicles on one udpin port
     def _udpin_recv_msg(self) -> Any | None:
@@ -477,17 +480,27 @@ def command_long(link: Any, sysid: int, command: int, params: list[float], deadl
         if attempt and done is not None and done():
             return mavlink.MAV_RESULT_ACCEPTED
         link.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, command, attempt, *padded)
-        wait_until = min(time.monotonic() + wait_s, deadline)
+        sent_at = time.monotonic()
+        wait_until = min(sent_at + wait_s, deadline)
         while (msg := link.recv(wait_until)) is not None:
             if msg.get_srcSystem() != sysid:
                 continue
             if msg.get_type() == "COMMAND_ACK" and int(msg.command) == command:
+                if attempt == 0:  # after a repeat, whose answer this is cannot be told
+                    _note_ack_rtt(link, sysid, time.monotonic() - sent_at)
                 return int(msg.result)
             if other is not None:
                 other(msg)
         if time.monotonic() >= deadline:
             break
     return None
+
+
+def _note_ack_rtt(link: Any, sysid: int, seconds: float) -> None:
+    """Remember the slowest acknowledgement round trip of `sysid` on `link` (Link.ack_rtt_s)."""
+    rtts = getattr(link, "ack_rtt_s", None)
+    if rtts is not None:
+        rtts[sysid] = max(rtts.get(sysid, 0.0), seconds)
 
 
 def _open_serial(spec: ConnectionSpec, url: str, source_system: int, source_component: int) -> Any:

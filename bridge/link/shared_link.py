@@ -138,6 +138,10 @@ class VehicleLink:
         return self.link.received
 
     @property
+    def ack_rtt_s(self) -> dict[int, float]:
+        return self.link.ack_rtt_s
+
+    @property
     def dropped(self) -> int:
         """Packets of this vehicle lost because its queue was full."""
         return self.shared.dropped.get(self.sysid, 0)

@@ -118,8 +118,10 @@ class CommandHandler(VehiclePart):
                 return mavlink.MAV_RESULT_DENIED
             if not s.armed:
                 return mavlink.MAV_RESULT_DENIED
-            if s.mode == "AUTO" and not s.mission_done and not s.on_ground:
-                # already flying it: like ArduCopter, a repeated start does not restart
+            if s.mode == "AUTO" and not s.mission_done:
+                # Already flying it, or spooling up to: like ArduCopter (GCS_MAVLINK_Copter starts the
+                # mission only when it is not running), a repeated start restarts nothing; fly repeats a
+                # start whose acknowledgement was lost. (PX4 would go back to param1's item.)
                 return mavlink.MAV_RESULT_ACCEPTED
             first = int(p[0]) if p[0] > 0 else None
             last = int(p[1]) if p[1] > 0 else None

@@ -33,6 +33,7 @@ uploaded).
 
 from __future__ import annotations
 
+import math
 import queue
 import threading
 import time
@@ -45,7 +46,7 @@ import numpy as np
 
 from missionplan.bridge.flight_models.copter_model import PARAMETERS as COPTER_PARAMETERS
 from missionplan.bridge.errors import BridgeError
-from missionplan.bridge.link.connection import mavlink
+from missionplan.bridge.link.connection import COMMAND_TRIES, COMMAND_WAIT_S, mavlink
 from missionplan.bridge.formats.mission_items import Flavour, to_wire
 from missionplan.bridge.formats.missionfile import check_firmware, read_mission_file
 from missionplan.bridge.transfer.onboard_log import euler_degrees, recover_photos
@@ -69,6 +70,11 @@ LANDED_STATE_NAMES = {mavlink.MAV_LANDED_STATE_ON_GROUND: "on ground", mavlink.M
                       mavlink.MAV_LANDED_STATE_TAKEOFF: "taking off", mavlink.MAV_LANDED_STATE_LANDING: "landing"}
 PX4_START_RETRY_S = 5.0   # MISSION_START retried this long while PX4 checks a new mission (see _mission_start)
 START_RETRY_WAIT_S = 0.5
+# A lost MISSION_START is sent again after a few of the vehicle's acknowledgement round trips (the
+# slowest seen on its link), within these bounds, not after the usual half second: the plan's
+# separation assumes the missions start together, and half a second lost in a sped-up simulator, or
+# on a radio, shifts one drone's whole track against the others'.
+START_ACK_RTTS, START_WAIT_MIN_S = 4.0, 0.1
 ON_GROUND_M = 0.3      # relative altitude under which a disarmed vehicle counts as landed
 DEFAULT_READY_S = 120.0  # a real vehicle's GPS and EKF may take a minute or two after power-on
 LINK_LOST_S = 5.0      # a vehicle silent this long has lost its link (said at once; followed on)
@@ -417,12 +423,15 @@ class DroneFlight:
         rec, link = self.record, self.backend.link
         px4 = self.backend.vehicle.flavour is Flavour.PX4
         until = min(self.deadline, time.monotonic() + (PX4_START_RETRY_S if px4 else 0.0))
+        wait_s = self._start_wait_s()
+        sends = math.ceil(COMMAND_TRIES * COMMAND_WAIT_S / wait_s)  # as long in all as any other command
         tries = 0
         while True:
             tries += 1
             result = link.command_long(self.sysid, mavlink.MAV_CMD_MISSION_START, [0.0, 0.0], self.deadline,
                                        other=self.vehicle.take,
-                                       done=lambda: rec.mission_state == mavlink.MISSION_STATE_ACTIVE)
+                                       done=lambda: rec.mission_state == mavlink.MISSION_STATE_ACTIVE,
+                                       tries=sends, wait_s=wait_s)
             if result not in (mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_TEMPORARILY_REJECTED) or \
                     time.monotonic() + START_RETRY_WAIT_S >= until:
                 break
@@ -431,6 +440,15 @@ class DroneFlight:
             rec.add_note(f"MISSION_START accepted after {tries} tries (the vehicle had not yet taken the "
                          f"new mission: {self.vehicle.state.reasons(1)})")
         return result
+
+    def _start_wait_s(self) -> float:
+        """How long a MISSION_START waits for its acknowledgement before it is sent again: START_ACK_RTTS of
+        the slowest round trip this vehicle's link has shown (its mode and arming commands were acknowledged
+        just before), never under START_WAIT_MIN_S nor over the usual COMMAND_WAIT_S."""
+        rtt = getattr(self.backend.link, "ack_rtt_s", {}).get(self.sysid)
+        if rtt is None:
+            return COMMAND_WAIT_S
+        return min(COMMAND_WAIT_S, max(START_WAIT_MIN_S, START_ACK_RTTS * rtt))
 
     # ------------------------------------------------------------------ a resumed flight
     def _attach(self) -> bool:
