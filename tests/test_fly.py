@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any, Callable
 
 import numpy as np
 import pytest
@@ -52,10 +53,13 @@ def planned(tmp_path_factory: pytest.TempPathFactory):
 
 
 def _fly(plan_dir: Path, name: str, faults: LinkFaults | None = None, reboot: tuple[int, int] | None = None,
-         upload_with: str = "missionplan"):
+         upload_with: str = "missionplan", prepare: Callable[[Any], None] | None = None):
+    """Fly plan_dir on a mock fleet; `prepare(mock)` may tamper with the mock before fly starts."""
     mock = start_mock_fleet(plan_dir, SPEEDUP[name], faults=faults)
     if reboot is not None:
         mock.reboot_in_flight(*reboot)
+    if prepare is not None:
+        prepare(mock)
     try:
         result = fly(plan_dir, mock.client_url, timeout_s=TIMEOUT_S, progress=False, time_scale=SPEEDUP[name],
                      telemetry_hz=TELEMETRY_HZ, upload_with=upload_with)
@@ -132,26 +136,23 @@ def test_a_lost_mission_start_is_sent_again_within_a_few_round_trips(planned, mo
     """The plan's separation assumes the missions start together: a MISSION_START lost on the way to one
     vehicle is repeated after a few of its acknowledgement round trips (on loopback the 0.1 s floor), not
     after the half second other commands wait (a whole second of the mock's doubled time)."""
-    plan_dir = planned("leonardo", 3)
-    mock = start_mock_fleet(plan_dir, SPEEDUP["leonardo"])
     arrived: dict[int, list[float]] = {1: [], 2: [], 3: []}  # the MISSION_STARTs sent to each, wall clock
-    for sysid, times in arrived.items():
-        vehicle = mock.vehicle(sysid)
 
-        def starts_arrive(msg, now, handle=vehicle.handle, sysid=sysid, times=times):
-            if (msg.get_type() == "COMMAND_LONG" and msg.command == mavlink.MAV_CMD_MISSION_START
-                    and msg.target_system == sysid):
-                times.append(now)
-                if sysid == 2 and len(times) == 1:
-                    return  # uav2's first one is lost on the way
-            handle(msg, now)
+    def lose_uav2s_first_start(mock) -> None:
+        for sysid, times in arrived.items():
+            vehicle = mock.vehicle(sysid)
 
-        monkeypatch.setattr(vehicle, "handle", starts_arrive)
-    try:
-        result = fly(plan_dir, mock.client_url, timeout_s=TIMEOUT_S, progress=False, time_scale=SPEEDUP["leonardo"],
-                     telemetry_hz=TELEMETRY_HZ)
-    finally:
-        mock.stop()
+            def starts_arrive(msg, now, handle=vehicle.handle, sysid=sysid, times=times):
+                if (msg.get_type() == "COMMAND_LONG" and msg.command == mavlink.MAV_CMD_MISSION_START
+                        and msg.target_system == sysid):
+                    times.append(now)
+                    if sysid == 2 and len(times) == 1:
+                        return  # uav2's first one is lost on the way
+                handle(msg, now)
+
+            monkeypatch.setattr(vehicle, "handle", starts_arrive)
+
+    result, _ = _fly(planned("leonardo", 3), "leonardo", prepare=lose_uav2s_first_start)
     assert result.problems == [] and result.separation["kept"]
     assert len(arrived[2]) == 2 and len(arrived[1]) == len(arrived[3]) == 1  # once more, and only to uav2
     repeat_after = arrived[2][1] - arrived[2][0]

@@ -474,7 +474,8 @@ def command_long(link: Any, sysid: int, command: int, params: list[float], deadl
     retries, the confirmation counting up; the MAV_RESULT of its COMMAND_ACK, or None without one. Other messages of
     that vehicle that arrive meanwhile go to `other`, when given. `done` says the command has visibly taken effect: then
     a lost acknowledgement is not worth a repeat (MAVLink repeats are executed again, and a repeated
-    mission start may restart the mission on some autopilots), and the answer is ACCEPTED."""
+    mission start may restart the mission on some autopilots), and the answer is ACCEPTED. An answer to
+    the first send updates link.ack_rtt_s, the vehicle's slowest round trip."""
     padded = (list(params) + [0.0] * 7)[:7]
     for attempt in range(tries):
         if attempt and done is not None and done():
@@ -487,20 +488,13 @@ def command_long(link: Any, sysid: int, command: int, params: list[float], deadl
                 continue
             if msg.get_type() == "COMMAND_ACK" and int(msg.command) == command:
                 if attempt == 0:  # after a repeat, whose answer this is cannot be told
-                    _note_ack_rtt(link, sysid, time.monotonic() - sent_at)
+                    link.ack_rtt_s[sysid] = max(link.ack_rtt_s.get(sysid, 0.0), time.monotonic() - sent_at)
                 return int(msg.result)
             if other is not None:
                 other(msg)
         if time.monotonic() >= deadline:
             break
     return None
-
-
-def _note_ack_rtt(link: Any, sysid: int, seconds: float) -> None:
-    """Remember the slowest acknowledgement round trip of `sysid` on `link` (Link.ack_rtt_s)."""
-    rtts = getattr(link, "ack_rtt_s", None)
-    if rtts is not None:
-        rtts[sysid] = max(rtts.get(sysid, 0.0), seconds)
 
 
 def _open_serial(spec: ConnectionSpec, url: str, source_system: int, source_component: int) -> Any:

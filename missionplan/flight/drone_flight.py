@@ -445,7 +445,7 @@ class DroneFlight:
         """How long a MISSION_START waits for its acknowledgement before it is sent again: START_ACK_RTTS of
         the slowest round trip this vehicle's link has shown (its mode and arming commands were acknowledged
         just before), never under START_WAIT_MIN_S nor over the usual COMMAND_WAIT_S."""
-        rtt = getattr(self.backend.link, "ack_rtt_s", {}).get(self.sysid)
+        rtt = self.backend.link.ack_rtt_s.get(self.sysid)
         if rtt is None:
             return COMMAND_WAIT_S
         return min(COMMAND_WAIT_S, max(START_WAIT_MIN_S, START_ACK_RTTS * rtt))
