@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from missionplan.bridge.formats.mission_items import CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF
+from missionplan.bridge.formats.mission_items import CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT
 from missionplan.cli import main
 from missionplan.flight.plan_report import SLACK_CELLS, frame_of, target_cells, to_grid_m
 from missionplan.flight.ledger import LEDGER_NAME, Ledger
@@ -269,6 +269,35 @@ def test_survivors_side_by_side_in_the_air_are_re_tasked_on_their_layers(leonard
     stored = report["settings"]
     required = stored["safety"]["min_separation_m"] + 2 * MissionSettings(**stored["mission"]).acceptance_m
     assert plan.separation_m is not None and plan.separation_m >= required - 1e-6
+
+
+def test_a_retasks_promise_holds_with_the_survivors_out_of_step(leonardo_3: Path,
+                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    """The re-task's separation is measured with the survivors ahead of or behind each other by their
+    autopilot's slack (retask.OUT_OF_STEP): the more slack, the smaller the promise, and once it would
+    fall under the minimum separation the survivors fly on altitude layers instead."""
+    from missionplan.mission.drone_missions import MissionSettings
+    from missionplan.retask import OUT_OF_STEP, Survivor, plan_retask
+
+    report = json.loads((leonardo_3 / "report.json").read_text())
+    launch = [json.loads((leonardo_3 / f"uav{k}.plan").read_text())["mission"]["plannedHomePosition"][:2]
+              for k in (1, 3)]
+    fresh = [Survivor(k, lat, lon, 1.2, (lat, lon), flown_s=0.0) for k, (lat, lon) in zip((1, 3), launch)]
+    stored = report["settings"]
+    assert stored["mission"]["autopilot"] == "ardupilot"
+    required = stored["safety"]["min_separation_m"] + 2 * MissionSettings(**stored["mission"]).acceptance_m
+
+    def retask(floor_s: float, rate: float) -> tuple[float, float]:
+        """The promise and the second survivor's survey altitude with that slack."""
+        monkeypatch.setitem(OUT_OF_STEP, "ardupilot", (floor_s, rate))
+        plan = plan_retask(leonardo_3, report, fresh, np.zeros((0, 2)))
+        assert plan is not None and plan.separation_m is not None
+        return plan.separation_m, max(item.z for item in plan.missions[3].items if item.command == CMD_NAV_WAYPOINT)
+
+    in_step, ardupilot, px4_like, loose = retask(0.0, 0.0), retask(0.5, 0.05), retask(3.0, 0.1), retask(5.0, 0.2)
+    assert in_step[0] > ardupilot[0] > px4_like[0] >= required  # all on one altitude (1.2 m)
+    assert in_step[1] == ardupilot[1] == px4_like[1] == pytest.approx(1.2)
+    assert loose[1] > 1.2 + required - 1e-6 and loose[0] >= required  # on its layer
 
 
 def test_nothing_to_retask_when_everything_is_photographed(leonardo_3: Path) -> None:

@@ -9,7 +9,8 @@ import pytest
 
 from missionplan.bridge.flight_models import copter_model as cm
 from missionplan.bridge.flight_models.copter_model import CopterParams, Motion
-from missionplan.mission.timeline import FlightModel, closest_approach, planned_seconds, planned_track
+from missionplan.mission.timeline import (FlightModel, closest_approach, closest_approach_out_of_step, planned_seconds,
+                                         planned_track)
 
 LAUNCH = np.array([10.0, 20.0])
 # Two waypoints due "south" of the launch point along the row axis: a straight survey line.
@@ -172,6 +173,39 @@ def test_tracks_that_do_not_overlap_in_time() -> None:
     assert got == {"horizontal": None, "3d": None, "pair_horizontal": [], "pair_3d": [], "at_s": None}
     assert closest_approach({1: tracks[1]})["3d"] is None
     assert closest_approach({})["horizontal"] is None
+
+
+def _follower(lag_s: float) -> dict[int, np.ndarray]:
+    """Drone 2 flies drone 1's straight 5 m/s line lag_s seconds behind it (5 * lag_s metres back)."""
+    return {1: _line(0.0, 20.0, (0.0, 0.0, 10.0), (100.0, 0.0, 10.0)),
+            2: _line(0.0, 20.0, (-5.0 * lag_s, 0.0, 10.0), (100.0 - 5.0 * lag_s, 0.0, 10.0))}
+
+
+def test_out_of_step_a_follower_may_catch_up_by_the_slack() -> None:
+    tracks = _follower(2.0)
+    assert closest_approach(tracks)["3d"] == pytest.approx(10.0, abs=1e-3)  # in step: 2 s = 10 m apart
+    # Up to 1 s out of step: half the gap; 2 s: the follower may be where the leader is.
+    assert closest_approach_out_of_step(tracks, 1.0, 0.0)["3d"] == pytest.approx(5.0, abs=1e-3)
+    assert closest_approach_out_of_step(tracks, 2.0, 0.0)["3d"] == pytest.approx(0.0, abs=1e-3)
+    # The slack grows with time: 0.1 s per second reaches 2 s only at 20 s, where the lines end: the
+    # follower's end is where the leader was at 18 s (at_s: the first-named drone's time).
+    grown = closest_approach_out_of_step(tracks, 0.0, 0.1)
+    assert grown["3d"] == pytest.approx(0.0, abs=1e-3) and grown["at_s"] == pytest.approx(18.0)
+    assert closest_approach_out_of_step(tracks, 0.0, 0.09)["3d"] > 0.5  # 1.8 s: not caught up
+
+
+def test_out_of_step_without_slack_is_the_closest_approach() -> None:
+    for tracks in (_crossing_tracks(t0=0.0), _follower(2.0)):
+        exact, stepped = closest_approach(tracks), closest_approach_out_of_step(tracks, 0.0, 0.0, step_s=0.1)
+        assert stepped["3d"] == pytest.approx(exact["3d"], abs=0.1) and stepped["pair_3d"] == exact["pair_3d"]
+
+
+def test_out_of_step_is_the_same_whichever_drone_is_named_first() -> None:
+    tracks = _follower(3.0)
+    swapped = {1: tracks[2], 2: tracks[1]}
+    for floor_s, rate in ((1.0, 0.0), (0.0, 0.1), (0.5, 0.05)):
+        assert (closest_approach_out_of_step(tracks, floor_s, rate)["3d"]
+                == closest_approach_out_of_step(swapped, floor_s, rate)["3d"])
 
 
 def test_planned_tracks_of_two_drones_on_one_time_base() -> None:

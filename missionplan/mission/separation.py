@@ -36,13 +36,15 @@ class Layering:
     method: str
 
 
-def closest_over_sorties(sortie_tracks: list[dict[int, np.ndarray]]) -> dict[str, Any]:
-    """closest_approach of each sortie's tracks (started together), the smallest of them; `sortie` is
-    the 1-based sortie of the 3-D minimum (None when no two drones fly the same sortie)."""
+def closest_over_sorties(sortie_tracks: list[dict[int, np.ndarray]],
+                         measure: Callable[[dict[int, np.ndarray]], dict[str, Any]] = closest_approach) -> dict[str, Any]:
+    """`measure` (closest_approach, or another with its keys) of each sortie's tracks (started together),
+    the smallest of them; `sortie` is the 1-based sortie of the 3-D minimum (None when no two drones fly
+    the same sortie)."""
     best: dict[str, Any] | None = None
     horizontal: tuple[float, list[int]] | None = None
     for index, tracks in enumerate(sortie_tracks):
-        approach = closest_approach(tracks)
+        approach = measure(tracks)
         if approach["3d"] is None:
             continue
         if best is None or approach["3d"] < best["3d"]:
@@ -61,11 +63,13 @@ def position_at(track: np.ndarray, t: float) -> np.ndarray:
 
 
 def choose_layers(tracks_for: Callable[[float], list[dict[int, np.ndarray]]], uavs: int, altitude_m: float,
-                  asked_step_m: float, min_separation_m: float, max_altitude_m: float) -> Layering:
+                  asked_step_m: float, min_separation_m: float, max_altitude_m: float,
+                  measure: Callable[[dict[int, np.ndarray]], dict[str, Any]] = closest_approach) -> Layering:
     """The first candidate (see the module docstring) that keeps `min_separation_m`; SeparationError
     otherwise, carrying the last candidate tried (the caller names its closest pair and the place).
 
-    tracks_for(step) gives, per sortie, sysid -> timed track with drone k at altitude + k * step."""
+    tracks_for(step) gives, per sortie, sysid -> timed track with drone k at altitude + k * step;
+    `measure` says how close a candidate's tracks come (closest_approach: flown exactly in step)."""
     candidates = [(asked_step_m, "altitudes as asked" if asked_step_m > 0 else "one altitude, horizontal spacing")]
     if uavs > 1 and min_separation_m > asked_step_m:
         candidates.append((min_separation_m, f"altitude layers {min_separation_m:g} m apart"))
@@ -77,7 +81,7 @@ def choose_layers(tracks_for: Callable[[float], list[dict[int, np.ndarray]]], ua
             ceiling = (f"; layers {step:g} m apart would put uav{uavs} at {top:g} m, above --max-altitude "
                        f"{max_altitude_m:g} m")
             continue
-        layering = Layering(step, closest_over_sorties(tracks_for(step)), method)
+        layering = Layering(step, closest_over_sorties(tracks_for(step), measure), method)
         if layering.approach["3d"] is None or layering.approach["3d"] >= min_separation_m - 1e-6:
             return layering
         last = layering

@@ -129,3 +129,50 @@ def closest_approach(tracks: dict[int, np.ndarray], step_s: float = 0.02) -> dic
         return {"horizontal": None, "3d": None, "pair_horizontal": [], "pair_3d": [], "at_s": None}
     return {"horizontal": round(best["horizontal"][0], 3), "3d": round(best["3d"][0], 3),
             "pair_horizontal": best["horizontal"][1], "pair_3d": best["3d"][1], "at_s": round(best["3d"][2], 2)}
+
+
+def closest_approach_out_of_step(tracks: dict[int, np.ndarray], floor_s: float, rate: float,
+                                 step_s: float = 0.25) -> dict[str, Any]:
+    """closest_approach of tracks that may run out of step with each other: at time t after their
+    common start, any drone may be up to floor_s + rate * t seconds ahead of or behind any other (t:
+    the later of the two planned times compared).
+
+    A timeline cannot know how much faster or slower each vehicle flies its corners, and on one altitude
+    the separation of two drones rests on their timing: this is the distance they keep whatever their
+    timing within that slack. Positions on a step_s grid; a track that has ended (or not started) is not
+    compared. Same keys as closest_approach; `at_s` is the earlier drone's time."""
+    best = {"horizontal": (np.inf, [], 0.0), "3d": (np.inf, [], 0.0)}
+    ids = sorted(k for k, v in tracks.items() if len(v) >= 1)
+    origin = min((float(tracks[k][0, 0]) for k in ids), default=0.0)
+    end = max((float(tracks[k][-1, 0]) for k in ids), default=origin)
+    times = np.arange(origin, end + step_s, step_s)
+    grid = {}
+    for k in ids:
+        track = tracks[k]
+        inside = (times >= track[0, 0] - 1e-9) & (times <= track[-1, 0] + 1e-9)
+        grid[k] = (np.column_stack([np.interp(times, track[:, 0], track[:, j]) for j in (1, 2, 3)]), inside)
+    slack = floor_s + rate * (times - origin)
+    most = int(np.ceil(slack.max() / step_s)) if len(times) else 0
+    for i, a in enumerate(ids):
+        for b in ids[i + 1:]:
+            (pa, ina), (pb, inb) = grid[a], grid[b]
+            for shift in range(-most, most + 1):
+                # a at its planned time i against b at its time i + shift, where the slack allows it
+                lo, hi = max(0, -shift), min(len(times), len(times) - shift)
+                if hi <= lo:
+                    continue
+                ia = np.arange(lo, hi)
+                ib = ia + shift
+                ok = ina[ia] & inb[ib] & (abs(shift) * step_s <= slack[np.maximum(ia, ib)] + 1e-9)
+                if not ok.any():
+                    continue
+                gap = pa[ia[ok]] - pb[ib[ok]]
+                horizontal = np.hypot(gap[:, 0], gap[:, 1])
+                for name, dist in (("horizontal", horizontal), ("3d", np.hypot(horizontal, gap[:, 2]))):
+                    at = int(np.argmin(dist))
+                    if dist[at] < best[name][0]:
+                        best[name] = (float(dist[at]), [a, b], float(times[ia[ok][at]]) - origin)
+    if not np.isfinite(best["horizontal"][0]):
+        return {"horizontal": None, "3d": None, "pair_horizontal": [], "pair_3d": [], "at_s": None}
+    return {"horizontal": round(best["horizontal"][0], 3), "3d": round(best["3d"][0], 3),
+            "pair_horizontal": best["horizontal"][1], "pair_3d": best["3d"][1], "at_s": round(best["3d"][2], 2)}
