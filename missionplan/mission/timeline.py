@@ -100,6 +100,9 @@ def planned_seconds(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: f
     return cm.total_time(planned_motions(launch_m, waypoints_m, altitude_m, end, model))
 
 
+Closest = dict[str, tuple[float, list[int], float]]  # "horizontal" / "3d" -> (distance, pair, at_s)
+
+
 def closest_approach(tracks: dict[int, np.ndarray], step_s: float = 0.02) -> dict[str, Any]:
     """Closest approach between any two drones, horizontally and in 3-D.
 
@@ -107,7 +110,7 @@ def closest_approach(tracks: dict[int, np.ndarray], step_s: float = 0.02) -> dic
     clock). Each pair is compared while both were recorded, at every recorded time of either and
     every `step_s` in between, positions interpolated linearly. `at_s`: when the 3-D minimum
     happened, in seconds from the earliest start of any track."""
-    best = {"horizontal": (np.inf, [], 0.0), "3d": (np.inf, [], 0.0)}
+    best: Closest = {"horizontal": (np.inf, [], 0.0), "3d": (np.inf, [], 0.0)}
     ids = sorted(k for k, v in tracks.items() if len(v) >= 1)
     origin = min((float(tracks[k][0, 0]) for k in ids), default=0.0)
     for i, a in enumerate(ids):
@@ -120,11 +123,21 @@ def closest_approach(tracks: dict[int, np.ndarray], step_s: float = 0.02) -> dic
             times = times[(times >= t0) & (times <= t1)]
             gap = np.column_stack([np.interp(times, ta[:, 0], ta[:, k]) - np.interp(times, tb[:, 0], tb[:, k])
                                    for k in (1, 2, 3)])
-            horizontal = np.hypot(gap[:, 0], gap[:, 1])
-            for name, dist in (("horizontal", horizontal), ("3d", np.hypot(horizontal, gap[:, 2]))):
-                at = int(np.argmin(dist))
-                if dist[at] < best[name][0]:
-                    best[name] = (float(dist[at]), [a, b], float(times[at]) - origin)
+            _keep_closest(best, [a, b], gap, times - origin)
+    return _approach(best)
+
+
+def _keep_closest(best: Closest, pair: list[int], gap: np.ndarray, at_s: np.ndarray) -> None:
+    """Update `best` with the pair's gaps (n, 3: row, col, up metres) at the times at_s."""
+    horizontal = np.hypot(gap[:, 0], gap[:, 1])
+    for name, dist in (("horizontal", horizontal), ("3d", np.hypot(horizontal, gap[:, 2]))):
+        at = int(np.argmin(dist))
+        if dist[at] < best[name][0]:
+            best[name] = (float(dist[at]), pair, float(at_s[at]))
+
+
+def _approach(best: Closest) -> dict[str, Any]:
+    """closest_approach's answer from its bookkeeping (all None when no two tracks were compared)."""
     if not np.isfinite(best["horizontal"][0]):
         return {"horizontal": None, "3d": None, "pair_horizontal": [], "pair_3d": [], "at_s": None}
     return {"horizontal": round(best["horizontal"][0], 3), "3d": round(best["3d"][0], 3),
@@ -140,8 +153,8 @@ def closest_approach_out_of_step(tracks: dict[int, np.ndarray], floor_s: float, 
     A timeline cannot know how much faster or slower each vehicle flies its corners, and on one altitude
     the separation of two drones rests on their timing: this is the distance they keep whatever their
     timing within that slack. Positions on a step_s grid; a track that has ended (or not started) is not
-    compared. Same keys as closest_approach; `at_s` is the earlier drone's time."""
-    best = {"horizontal": (np.inf, [], 0.0), "3d": (np.inf, [], 0.0)}
+    compared. Same keys as closest_approach; `at_s` is the first-named drone's planned time."""
+    best: Closest = {"horizontal": (np.inf, [], 0.0), "3d": (np.inf, [], 0.0)}
     ids = sorted(k for k, v in tracks.items() if len(v) >= 1)
     origin = min((float(tracks[k][0, 0]) for k in ids), default=0.0)
     end = max((float(tracks[k][-1, 0]) for k in ids), default=origin)
@@ -166,13 +179,5 @@ def closest_approach_out_of_step(tracks: dict[int, np.ndarray], floor_s: float, 
                 ok = ina[ia] & inb[ib] & (abs(shift) * step_s <= slack[np.maximum(ia, ib)] + 1e-9)
                 if not ok.any():
                     continue
-                gap = pa[ia[ok]] - pb[ib[ok]]
-                horizontal = np.hypot(gap[:, 0], gap[:, 1])
-                for name, dist in (("horizontal", horizontal), ("3d", np.hypot(horizontal, gap[:, 2]))):
-                    at = int(np.argmin(dist))
-                    if dist[at] < best[name][0]:
-                        best[name] = (float(dist[at]), [a, b], float(times[ia[ok][at]]) - origin)
-    if not np.isfinite(best["horizontal"][0]):
-        return {"horizontal": None, "3d": None, "pair_horizontal": [], "pair_3d": [], "at_s": None}
-    return {"horizontal": round(best["horizontal"][0], 3), "3d": round(best["3d"][0], 3),
-            "pair_horizontal": best["horizontal"][1], "pair_3d": best["3d"][1], "at_s": round(best["3d"][2], 2)}
+                _keep_closest(best, [a, b], pa[ia[ok]] - pb[ib[ok]], times[ia[ok]] - origin)
+    return _approach(best)
