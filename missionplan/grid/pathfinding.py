@@ -35,6 +35,8 @@ from ..maps.gridmap import Cell
 
 EXPLORED_PENALTY = 0.5
 CONGESTION_RADIUS = 4  # goals within this Chebyshev distance of another drone's goal are skipped
+_NEVER = np.iinfo(np.int32).max  # FlightSearch's visit stamp of a blocked cell
+_NO_ORDER = np.iinfo(np.int64).max
 
 
 def astar(free: np.ndarray, start: Cell, goal: Cell, max_expansions: int | None = None) -> list[Cell] | None:
@@ -126,8 +128,12 @@ class FlightSearch:
         self._free_view = self._free.data  # Python-level reads: several times faster than numpy's
         # Ascending index order = up, left, right, down: the order of the CSR rows of grid_graph.
         self._steps = np.array([-self.width, -1, 1, self.width], dtype=np.int64)
-        self._stamp = np.zeros(self._free.size, dtype=np.int32)
+        # A visit stamp per cell: the search that last met it. Blocked cells hold the largest
+        # stamp for good, so one read (stamp < generation) asks "free and not met yet".
+        self._stamp = np.where(self._free, 0, _NEVER).astype(np.int32)
         self._generation = 0
+        # Where each cell of a ring's neighbour list was first listed; _NO_ORDER between rings.
+        self._first = np.full(self._free.size, _NO_ORDER, dtype=np.int64)
 
     def flat_index(self, cells: np.ndarray) -> np.ndarray:
         """Padded flat numbers of (n, 2) cells."""
@@ -169,16 +175,22 @@ class FlightSearch:
     def rings(self, start: Cell) -> Iterator[np.ndarray]:
         """Yield padded flat numbers of the cells at flight distance 0, 1, 2, ... in BFS queue order."""
         self._generation += 1
-        stamp, generation = self._stamp, self._generation
+        stamp, generation, first = self._stamp, self._generation, self._first
         ring = self.flat_index(np.array([start]))
-        stamp[ring] = generation
+        if self._free[ring[0]]:  # a blocked start keeps its mark
+            stamp[ring] = generation
         while ring.size:
             yield ring
             nxt = (ring[:, None] + self._steps[None, :]).ravel()
-            nxt = nxt[self._free[nxt] & (stamp[nxt] != generation)]
-            if nxt.size > 1:  # keep each cell's first discovery, in discovery order
-                _, first = np.unique(nxt, return_index=True)
-                nxt = nxt[np.sort(first)]
+            nxt = nxt[stamp[nxt] < generation]
+            if nxt.size > 1:
+                # Keep each cell's first listing, in listing order: each cell records the
+                # smallest position it was listed at (in O(n), where np.unique sorts).
+                order = np.arange(nxt.size)
+                np.minimum.at(first, nxt, order)
+                keep = first[nxt] == order
+                first[nxt] = _NO_ORDER
+                nxt = nxt[keep]
             stamp[nxt] = generation
             ring = nxt
 

@@ -27,6 +27,7 @@ HOVER = -1
 ACTION_NAMES = ("up", "right", "down", "left")
 ACTION_DELTAS = np.array([[-1, 0], [0, 1], [1, 0], [0, -1]], dtype=np.int64)
 ACTION_OF_DELTA = {(int(dr), int(dc)): action for action, (dr, dc) in enumerate(ACTION_DELTAS)}
+_DELTA_TUPLES = [tuple(d) for d in ACTION_DELTAS.tolist()]
 
 
 def turn_weight(a: int, b: int) -> float:
@@ -39,7 +40,6 @@ FOOTPRINT_RADIUS = 4  # 9 x 9 cells centred on the drone
 VIEW_RADIUS = 9  # 19 x 19 local view
 EXPLORED = -2  # _pad_open_zone of a cell that is not (or no longer) an unexplored target
 PAD = 32  # padding of the internal arrays, so any window up to this radius is one slice
-_VIEW_DR, _VIEW_DC = np.mgrid[-VIEW_RADIUS:VIEW_RADIUS + 1, -VIEW_RADIUS:VIEW_RADIUS + 1]
 
 
 def launch_regions(free: np.ndarray, starts: list[Cell]) -> tuple[np.ndarray, np.ndarray]:
@@ -126,6 +126,13 @@ class CoverageWorld:
             (self.zone_of >= 0) & (self.zone_of < self.num_drones), self.zone_of, self.num_drones)
         self._pad_slot = np.full(self._pad_obstacle.shape, -1, dtype=np.int32)
         self._pad_slot[PAD:-PAD, PAD:-PAD] = np.where(self.reachable, slot, -1)
+        # Windows read as flat takes from the padded arrays: about twice as fast as indexing by
+        # row and column arrays, on the few hundred cells of a step.
+        self._pad_width = cols + 2 * PAD
+        span = np.arange(-FOOTPRINT_RADIUS, FOOTPRINT_RADIUS + 1)
+        self._footprint = (span[:, None] * self._pad_width + span[None, :]).ravel()  # offsets from its centre
+        self._view_offsets: dict[int, np.ndarray] = {}  # radius -> the same for a view (_view_cells)
+        self._scratch = np.zeros(self._pad_obstacle.size, dtype=np.int64)  # _explore_footprints' overlap check
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -152,7 +159,7 @@ class CoverageWorld:
         initial = np.zeros(self.num_drones, dtype=np.int64)
         for k in range(self.num_drones):
             self._mark_visit(k)
-            initial[k] = self._explore_footprint(k)
+            initial[k] = self._explore_footprints(np.array([k]))[0]
         self.initial_new_cells = initial
 
     @property
@@ -187,44 +194,55 @@ class CoverageWorld:
     def sees_unexplored(self) -> np.ndarray:
         """(K,) bool: whether each drone's 19 x 19 view holds a cell it sees as unexplored."""
         drones = np.arange(self.num_drones)
-        return self.seen_unexplored_at(drones, self.positions[:, 0, None, None] + _VIEW_DR + PAD,
-                                       self.positions[:, 1, None, None] + _VIEW_DC + PAD).any(axis=(1, 2))
+        gathered = self._pad_open_zone.reshape(-1).take(self._view_cells(drones, VIEW_RADIUS))
+        return self._seen_in(drones, gathered).any(axis=1)
 
     def seen_unexplored_at(self, drones: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """Whether each of `drones` sees padded cells (rows, cols) as unexplored; rows/cols are (n, ...)."""
-        extra = (1,) * (rows.ndim - 1)
+        return self._seen_in(drones, self._pad_open_zone[rows, cols])
+
+    def _seen_in(self, drones: np.ndarray, open_zone: np.ndarray) -> np.ndarray:
+        """Whether each of `drones` sees as unexplored the cells whose `_pad_open_zone` values, (n, ...),
+        were gathered for it: its own zone's, or any zone's once its zone is done."""
+        extra = (1,) * (open_zone.ndim - 1)
         zone_done = (self.num_drones == 1) | (self.zone_remaining[drones] == 0) | \
             (self.region_zone_remaining[self.drone_region[drones], drones] == 0)
-        open_zone = self._pad_open_zone[rows, cols]
         seen = open_zone == drones.reshape(-1, *extra)
         if zone_done.any():
             seen |= (open_zone != EXPLORED) & zone_done.reshape(-1, *extra)
         return seen
 
+    def _view_cells(self, drones: np.ndarray, radius: int) -> np.ndarray:
+        """(n, (2r+1)^2) flat numbers, in the padded arrays, of each drone's view, row-major."""
+        offsets = self._view_offsets.get(radius)
+        if offsets is None:
+            span = np.arange(-radius, radius + 1)
+            offsets = self._view_offsets[radius] = (span[:, None] * self._pad_width + span[None, :]).ravel()
+        centres = (self.positions[drones, 0] + PAD) * self._pad_width + self.positions[drones, 1] + PAD
+        return centres[:, None] + offsets[None, :]
+
     def views(self, drones: np.ndarray | list[int], radius: int = VIEW_RADIUS) -> tuple[np.ndarray, np.ndarray]:
         """Batched view_unexplored and view_blocked: two (n, 2r+1, 2r+1) bool arrays, one gather each."""
         drones = np.asarray(drones, dtype=np.int64).reshape(-1)
-        span = np.arange(-radius, radius + 1)
-        centre = self.positions[drones] + PAD
-        rows = centre[:, 0, None, None] + span[None, :, None]
-        cols = centre[:, 1, None, None] + span[None, None, :]
-        unexplored = self.seen_unexplored_at(drones, rows, cols)
-        blocked = self._pad_obstacle[rows, cols]
+        side = 2 * radius + 1
+        cells = self._view_cells(drones, radius)
+        unexplored = self._seen_in(drones, self._pad_open_zone.reshape(-1).take(cells)).reshape(-1, side, side)
+        blocked = self._pad_obstacle.reshape(-1).take(cells).reshape(-1, side, side)
         # Other drones are blocked too: every (drone i, other j) pair inside i's view.
-        offsets = self.positions[None, :, :] - self.positions[drones][:, None, :] + radius  # (n, K, 2)
-        in_view = np.all((offsets >= 0) & (offsets <= 2 * radius), axis=2)
-        in_view &= drones[:, None] != np.arange(self.num_drones)[None, :]
+        offsets = self.positions[None, :, :] - self.positions[drones][:, None, :]  # (n, K, 2)
+        in_view = (np.abs(offsets) <= radius).all(axis=2)
+        in_view[np.arange(len(drones)), drones] = False
         i, j = np.nonzero(in_view)
-        blocked[i, offsets[i, j, 0], offsets[i, j, 1]] = True
+        blocked[i, offsets[i, j, 0] + radius, offsets[i, j, 1] + radius] = True
         return unexplored, blocked
 
     def flown_views(self, drones: np.ndarray, radius: int = VIEW_RADIUS) -> np.ndarray:
         """(n, 2r+1, 2r+1) bool: where each of `drones` has already flown, around itself (outside
         the map: never)."""
-        span = np.arange(-radius, radius + 1)
-        centre = self.positions[drones] + PAD
-        return self._pad_flown[drones[:, None, None], centre[:, 0, None, None] + span[None, :, None],
-                               centre[:, 1, None, None] + span[None, None, :]]
+        side = 2 * radius + 1
+        plane = self._pad_obstacle.size
+        cells = self._view_cells(drones, radius) + (drones * plane)[:, None]
+        return self._pad_flown.reshape(-1).take(cells).reshape(-1, side, side)
 
     # ---------------------------------------------------------------- windows
     def _window(self, array: np.ndarray, k: int, radius: int) -> np.ndarray:
@@ -286,58 +304,81 @@ class CoverageWorld:
         if self.truncated:
             raise RuntimeError("step() after the step cap; call reset()")
         actions = np.asarray(actions, dtype=np.int64).reshape(self.num_drones)
-        wants = actions != HOVER
-        targets = self.positions.copy()
-        targets[wants] += ACTION_DELTAS[actions[wants]]
-        occupied = {tuple(p): k for k, p in enumerate(self.positions)}
+        moved = self._resolve_moves(actions)
+        self.t += 1
+        new_cells = np.zeros(self.num_drones, dtype=np.int64)
+        movers = np.flatnonzero(moved)
+        if movers.size:
+            self.last_actions[movers, 1] = self.last_actions[movers, 0]
+            self.last_actions[movers, 0] = actions[movers]
+            self._pad_flown[movers, self.positions[movers, 0] + PAD, self.positions[movers, 1] + PAD] = True
+            new_cells[movers] = self._explore_footprints(movers)
+        if self.t >= self.step_cap and not self.done:
+            self.truncated = True
+        return StepOutcome(moved=moved, blocked=(actions != HOVER) & ~moved, new_cells=new_cells,
+                           done=self.done, truncated=self.truncated)
+
+    def _resolve_moves(self, actions: np.ndarray) -> np.ndarray:
+        """Move the drones whose target cell is free (see `step`); (K,) bool, which moved.
+
+        Plain Python on tuples: a handful of drones, where numpy's per-call cost would dominate."""
+        positions = [tuple(p) for p in self.positions.tolist()]
+        occupied = {cell: k for k, cell in enumerate(positions)}
+        obstacle = self._pad_obstacle
+        targets: dict[int, Cell] = {}
+        for k, action in enumerate(actions.tolist()):
+            if action != HOVER:
+                dr, dc = _DELTA_TUPLES[action]
+                cell = (positions[k][0] + dr, positions[k][1] + dc)
+                if not obstacle[cell[0] + PAD, cell[1] + PAD]:
+                    targets[k] = cell
         moved = np.zeros(self.num_drones, dtype=bool)
-        pending = [k for k in range(self.num_drones) if wants[k] and self.is_free(tuple(targets[k]))]
+        pending = list(targets)  # index order: two drones asking for one cell, the lower index gets it
         progress = True
         while pending and progress:
             progress = False
             for k in list(pending):
-                cell = tuple(targets[k])
+                cell = targets[k]
                 if cell in occupied:
                     continue
-                del occupied[tuple(self.positions[k])]
+                del occupied[positions[k]]
                 occupied[cell] = k
-                self.positions[k] = targets[k]
+                positions[k] = cell
                 moved[k] = True
                 pending.remove(k)
                 progress = True
-        self.t += 1
-        new_cells = np.zeros(self.num_drones, dtype=np.int64)
-        for k in range(self.num_drones):
-            if moved[k]:
-                self.last_actions[k] = (actions[k], self.last_actions[k, 0])
-                self._mark_visit(k)
-                new_cells[k] = self._explore_footprint(k)
-        if self.t >= self.step_cap and not self.done:
-            self.truncated = True
-        return StepOutcome(moved=moved, blocked=wants & ~moved, new_cells=new_cells,
-                           done=self.done, truncated=self.truncated)
+        if targets:
+            self.positions[:] = positions
+        return moved
 
     def _mark_visit(self, k: int) -> None:
         self._pad_flown[k, int(self.positions[k, 0]) + PAD, int(self.positions[k, 1]) + PAD] = True
 
-    def _explore_footprint(self, k: int) -> int:
-        r, c = int(self.positions[k, 0]) + PAD, int(self.positions[k, 1]) + PAD
-        f = FOOTPRINT_RADIUS
-        under = (slice(r - f, r + f + 1), slice(c - f, c + f + 1))  # the footprint, in the padded arrays
-        window = self._pad_unexplored[under]
-        if not np.count_nonzero(window):  # far cheaper than any() on a 9 x 9 window
-            return 0
-        zones = self._pad_zone[under][window]
-        count = int(zones.size)
-        counted = zones[zones < self.num_drones]
-        if counted.size and counted.min() >= 0:
-            self.zone_remaining -= np.bincount(counted, minlength=self.num_drones)
-        else:  # ufunc.at is slow, but wraps a -1 zone the way it always did
-            np.subtract.at(self.zone_remaining, counted, 1)
-        slots = self._pad_slot[under][window]
-        self.region_zone_remaining -= np.bincount(slots, minlength=self.region_zone_remaining.size).reshape(
-            self.region_zone_remaining.shape)
-        window[:] = False  # a view into _pad_unexplored: marks the cells explored
-        self._pad_open_zone[under] = EXPLORED
-        self.remaining -= count
-        return count
+    def _explore_footprints(self, drones: np.ndarray) -> np.ndarray:
+        """Photograph under each of `drones` (in index order: a cell two footprints share counts
+        for the first); the cells each newly explored. One gather for all of them."""
+        centres = (self.positions[drones, 0] + PAD) * self._pad_width + self.positions[drones, 1] + PAD
+        under = centres[:, None] + self._footprint[None, :]  # (n, 81) flat, padded
+        unexplored = self._pad_unexplored.reshape(-1)  # views: writes below mark the world
+        hit = unexplored[under]
+        counts = hit.sum(axis=1)
+        cells = under[hit]  # drone by drone, in index order
+        if not cells.size:
+            return counts
+        if len(drones) > 1:
+            # A cell listed twice fails this check whichever write lands (cheaper than np.unique).
+            order = np.arange(cells.size)
+            self._scratch[cells] = order
+            if not (self._scratch[cells] == order).all():  # footprints overlap: a shared cell is the first drone's
+                _, first = np.unique(cells, return_index=True)
+                owner = np.repeat(np.arange(len(drones)), counts)[first]
+                counts = np.bincount(owner, minlength=len(drones))
+                cells = cells[first]
+        slots = self._pad_slot.reshape(-1)[cells]
+        done = np.bincount(slots, minlength=self.region_zone_remaining.size).reshape(self.region_zone_remaining.shape)
+        self.region_zone_remaining -= done
+        self.zone_remaining -= done[:, : self.num_drones].sum(axis=0)  # every region's share of each drone's zone
+        unexplored[cells] = False
+        self._pad_open_zone.reshape(-1)[cells] = EXPLORED
+        self.remaining -= len(cells)
+        return counts
