@@ -129,10 +129,8 @@ class CoverageWorld:
         # Windows read as flat takes from the padded arrays: about twice as fast as indexing by
         # row and column arrays, on the few hundred cells of a step.
         self._pad_width = cols + 2 * PAD
-        span = np.arange(-FOOTPRINT_RADIUS, FOOTPRINT_RADIUS + 1)
-        self._footprint = (span[:, None] * self._pad_width + span[None, :]).ravel()  # offsets from its centre
-        self._view_offsets: dict[int, np.ndarray] = {}  # radius -> the same for a view (_view_cells)
-        self._scratch = np.zeros(self._pad_obstacle.size, dtype=np.int64)  # _explore_footprints' overlap check
+        self._window_offsets: dict[int, np.ndarray] = {}  # radius -> flat offsets from the centre (_view_cells)
+        self._scratch = np.zeros(self._pad_obstacle.size, dtype=np.int32)  # _explore_footprints' overlap check
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -158,7 +156,7 @@ class CoverageWorld:
         self.truncated = False
         initial = np.zeros(self.num_drones, dtype=np.int64)
         for k in range(self.num_drones):
-            self._mark_visit(k)
+            self._mark_visits(np.array([k]))
             initial[k] = self._explore_footprints(np.array([k]))[0]
         self.initial_new_cells = initial
 
@@ -213,11 +211,12 @@ class CoverageWorld:
         return seen
 
     def _view_cells(self, drones: np.ndarray, radius: int) -> np.ndarray:
-        """(n, (2r+1)^2) flat numbers, in the padded arrays, of each drone's view, row-major."""
-        offsets = self._view_offsets.get(radius)
+        """(n, (2r+1)^2) flat numbers, in the padded arrays, of the window of radius r around each
+        drone, row-major: its view, or its footprint."""
+        offsets = self._window_offsets.get(radius)
         if offsets is None:
             span = np.arange(-radius, radius + 1)
-            offsets = self._view_offsets[radius] = (span[:, None] * self._pad_width + span[None, :]).ravel()
+            offsets = self._window_offsets[radius] = (span[:, None] * self._pad_width + span[None, :]).ravel()
         centres = (self.positions[drones, 0] + PAD) * self._pad_width + self.positions[drones, 1] + PAD
         return centres[:, None] + offsets[None, :]
 
@@ -311,7 +310,7 @@ class CoverageWorld:
         if movers.size:
             self.last_actions[movers, 1] = self.last_actions[movers, 0]
             self.last_actions[movers, 0] = actions[movers]
-            self._pad_flown[movers, self.positions[movers, 0] + PAD, self.positions[movers, 1] + PAD] = True
+            self._mark_visits(movers)
             new_cells[movers] = self._explore_footprints(movers)
         if self.t >= self.step_cap and not self.done:
             self.truncated = True
@@ -351,14 +350,13 @@ class CoverageWorld:
             self.positions[:] = positions
         return moved
 
-    def _mark_visit(self, k: int) -> None:
-        self._pad_flown[k, int(self.positions[k, 0]) + PAD, int(self.positions[k, 1]) + PAD] = True
+    def _mark_visits(self, drones: np.ndarray) -> None:
+        self._pad_flown[drones, self.positions[drones, 0] + PAD, self.positions[drones, 1] + PAD] = True
 
     def _explore_footprints(self, drones: np.ndarray) -> np.ndarray:
         """Photograph under each of `drones` (in index order: a cell two footprints share counts
         for the first); the cells each newly explored. One gather for all of them."""
-        centres = (self.positions[drones, 0] + PAD) * self._pad_width + self.positions[drones, 1] + PAD
-        under = centres[:, None] + self._footprint[None, :]  # (n, 81) flat, padded
+        under = self._view_cells(drones, FOOTPRINT_RADIUS)  # (n, 81)
         unexplored = self._pad_unexplored.reshape(-1)  # views: writes below mark the world
         hit = unexplored[under]
         counts = hit.sum(axis=1)
