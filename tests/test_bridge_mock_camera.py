@@ -7,11 +7,14 @@ Mocks listen on 127.0.0.1 only; every wait is bounded."""
 from __future__ import annotations
 
 import math
+import random
 import time
 from typing import Any
 
 import pytest
 
+from missionplan.bridge.flight_models.copter_model import CopterParams
+from missionplan.bridge.flight_models.px4_model import Px4Params
 from missionplan.bridge.link.connection import Link, mavlink
 from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, to_wire
 from missionplan.bridge.sim.mock import MockAutopilot
@@ -109,6 +112,37 @@ def test_photos_of_many_small_steps_match_one_long_step() -> None:
     assert len(a) == len(b) == 7  # 1.5, 3.0, ..., 10.5 m
     for (n1, e1), (n2, e2) in zip(a, b):
         assert n1 == pytest.approx(n2, abs=1e-6) and e1 == pytest.approx(e2, abs=1e-6)
+
+
+@pytest.mark.parametrize("model", ["straight", "arducopter", "px4"])
+def test_photos_do_not_depend_on_the_ticks(model: str) -> None:
+    """A street survey as the planner writes it: corners, an acceptance radius, legs that are whole
+    multiples of the trigger distance (a photo due exactly at every corner). Flown in even ticks and in
+    irregular ones (a loaded machine), every photo is the same: `fly` against a mock measures the plan,
+    not the scheduler."""
+    corners = [(0.0, 0.0), (12.0, 0.0), (12.0, 6.0), (3.0, 6.0), (3.0, 10.5), (13.5, 10.5)]
+    items = [MissionItem(mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, z=ALT),
+             MissionItem(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mavlink.MAV_FRAME_MISSION, param1=1.5, param3=1.0),
+             *[_waypoint(north, east, radius=0.4) for north, east in corners],
+             MissionItem(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mavlink.MAV_FRAME_MISSION, param1=0.0),
+             MissionItem(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_FRAME_MISSION)]
+    flavour = Flavour.PX4 if model == "px4" else Flavour.ARDUPILOT
+    rng = random.Random(7)
+    photos = []
+    for ticks in (lambda: 0.01, lambda: rng.uniform(0.005, 0.7)):
+        sim = FlightSim(HOME, cruise_speed=5.0, copter=CopterParams() if model != "straight" else None,
+                        px4=Px4Params() if model == "px4" else None)
+        sim.load(to_wire(Mission(items, home=HOME), Flavour.PX4), 0)  # no home item: seq 0 is the takeoff
+        sim.state.armed = True
+        sim.start_mission()
+        while sim.state.armed and sim.state.sim_time < 300.0:
+            sim.advance(ticks())
+        assert sim.state.mission_done and not sim.state.armed, flavour
+        photos.append([(*_local(lat, lon), alt) for lat, lon, alt in sim.state.photo_points])
+    even, irregular = photos
+    assert len(even) == len(irregular) == 1 + 42 / 1.5  # at the trigger item, then every 1.5 m of the 42 m
+    for a, b in zip(even, irregular):
+        assert a == pytest.approx(b, abs=1e-6)
 
 
 def test_nav_land_touches_down_and_disarms() -> None:

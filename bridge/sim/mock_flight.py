@@ -1,9 +1,10 @@
 """Kinematics of the mock autopilot: a point that flies a mission.
 
 Owns the flight of one vehicle in simulated time: takeoff climb, straight legs at the cruise speed
-(DO_CHANGE_SPEED changes it), the acceptance radius and hold time of waypoints, DO_JUMP, camera
-triggering by distance (DO_SET_CAM_TRIGG_DIST: photos counted, their positions and altitudes kept), land and
-return-to-launch, and the flown track. With `copter` (flight_models.copter_model.CopterParams: the
+(DO_CHANGE_SPEED changes it) to every waypoint itself (one already within its acceptance radius is
+reached at once), hold times, DO_JUMP, camera triggering by distance (DO_SET_CAM_TRIGG_DIST: photos
+counted, their positions and altitudes kept), land and return-to-launch, and the flown track: the same
+whatever the lengths of the ticks that advance it. With `copter` (flight_models.copter_model.CopterParams: the
 SITL-like mode) it flies as ArduCopter does instead, on the very model the planner's timeline uses:
 spool-up and a climb with acceleration, every leg from rest to rest with WPNAV_ACCEL, RTL's climb to
 RTL_ALT, its return at RTL_SPEED / WPNAV_SPEED and loiter, the slow last LAND_ALT_LOW metres of the
@@ -45,6 +46,7 @@ from ..formats.mission_items import (
 )
 
 EARTH_RADIUS = 6_378_137.0
+TRIGGER_TOLERANCE_M = 1e-6  # a photo this close to its trigger distance is due now
 NAV_COMMANDS_WITH_POSITION = frozenset({CMD_NAV_WAYPOINT, CMD_NAV_LOITER_UNLIM, CMD_NAV_LOITER_TURNS,
                                         CMD_NAV_LOITER_TIME, CMD_NAV_LAND, CMD_NAV_TAKEOFF, CMD_NAV_LOITER_TO_ALT})
 
@@ -103,6 +105,7 @@ class FlightSim:
         self.first_seq = 0
         self.last_seq: int | None = None
         self._hold_left = 0.0
+        self._accepted_at_entry: bool | None = None  # a waypoint within its acceptance radius when entered
         self._entered = False
         self._trigger_dist = 0.0
         self._trigger_acc = 0.0
@@ -232,6 +235,7 @@ class FlightSim:
             self._entered = True
             self._entries += 1
             self._hold_left = float(item.param1) if cmd == CMD_NAV_WAYPOINT and item.param1 > 0 else 0.0
+            self._accepted_at_entry = None
             if cmd == CMD_DO_CHANGE_SPEED:
                 if item.param2 > 0:
                     s.speed = float(item.param2)
@@ -274,7 +278,7 @@ class FlightSim:
             return used
         if cmd == CMD_NAV_LAND:
             lat, lon, _ = self._target_of(item)
-            used, arrived = self._fly_to(lat, lon, s.alt, dt, 0.05)
+            used, arrived = self._fly_to(lat, lon, s.alt, dt)
             if not arrived:
                 return used
             used2 = self._descend(dt - used, events)
@@ -284,8 +288,10 @@ class FlightSim:
             return used + used2
         # waypoint (and loiter commands, flown as waypoints)
         lat, lon, alt = self._target_of(item)
-        radius = float(item.param2) if item.param2 > 0 else self.default_acceptance
-        used, arrived = self._fly_to(lat, lon, alt, dt, radius)
+        if self._accepted_at_entry is None:  # the item's first tick
+            radius = float(item.param2) if item.param2 > 0 else self.default_acceptance
+            self._accepted_at_entry = self._distance_to(lat, lon, alt) <= radius
+        used, arrived = (0.0, True) if self._accepted_at_entry else self._fly_to(lat, lon, alt, dt)
         if not arrived:
             return used
         return self._hold_then_advance(events, used, dt)
@@ -312,7 +318,7 @@ class FlightSim:
     def _climb_to(self, target_alt: float, dt: float) -> tuple[float, bool]:
         s = self.state
         delta = target_alt - s.alt
-        if abs(delta) <= 0.05:
+        if abs(delta) <= 1e-9:  # exactly: stopping wherever a tick got close would depend on the ticks
             return 0.0, True
         step = self.climb_rate * dt
         if abs(delta) <= step:
@@ -322,21 +328,27 @@ class FlightSim:
         s.vz = -math.copysign(self.climb_rate, delta)  # NED: down positive
         return dt, False
 
-    def _fly_to(self, lat: float, lon: float, alt: float, dt: float, radius: float) -> tuple[float, bool]:
-        """Straight 3-D leg at the cruise speed; stops exactly at the target once within reach."""
+    def _distance_to(self, lat: float, lon: float, alt: float) -> float:
+        north, east = self._to_local(lat, lon)
+        here_north, here_east = self._to_local(self.state.lat, self.state.lon)
+        return math.dist((here_north, here_east, self.state.alt), (north, east, alt))
+
+    def _fly_to(self, lat: float, lon: float, alt: float, dt: float) -> tuple[float, bool]:
+        """Straight 3-D leg at the cruise speed to the target itself. ArduCopter all but stops at every
+        corner of our missions (copter_model); a leg that ended wherever a tick first got inside the
+        acceptance radius would make the track, and every photo, depend on the ticks' lengths."""
         s = self.state
         n0, e0 = self._to_local(s.lat, s.lon)
         n1, e1 = self._to_local(lat, lon)
         dn, de, du = n1 - n0, e1 - e0, alt - s.alt
         dist = math.sqrt(dn * dn + de * de + du * du)
-        if dist <= max(radius, 0.01):
+        if dist <= 1e-9:
             return 0.0, True
         speed = max(s.speed, 0.1)
-        step = speed * dt
-        if step >= dist:
-            frac, used = 1.0, dist / speed
+        if speed * dt >= dist:
+            frac, used, arrived = 1.0, dist / speed, True
         else:
-            frac, used = step / dist, dt
+            frac, used, arrived = speed * dt / dist, dt, False
         horizontal = math.hypot(dn, de) * frac
         alt0 = s.alt
         s.lat, s.lon = self._to_global(n0 + dn * frac, e0 + de * frac)
@@ -347,8 +359,7 @@ class FlightSim:
         if horizontal > 0:
             s.heading = math.degrees(math.atan2(de, dn)) % 360
         self._count_photos(horizontal, (n0, e0, alt0), (dn * frac, de * frac, du * frac))
-        # Arrived once the remaining distance is inside the acceptance radius.
-        return used, frac >= 1.0 or dist * (1 - frac) <= radius
+        return used, arrived
 
     def _count_photos(self, horizontal: float, start: tuple[float, float, float],
                       step: tuple[float, float, float]) -> None:
@@ -357,8 +368,10 @@ class FlightSim:
         if self._trigger_dist <= 0 or horizontal <= 0:
             return
         self._trigger_acc += horizontal
-        while self._trigger_acc >= self._trigger_dist:
-            self._trigger_acc -= self._trigger_dist
+        # The tolerance makes a photo due exactly at a step's end fire in that step, however the
+        # rounding of a sum of steps fell: the same photos whatever the ticks' lengths.
+        while self._trigger_acc >= self._trigger_dist - TRIGGER_TOLERANCE_M:
+            self._trigger_acc = max(self._trigger_acc - self._trigger_dist, 0.0)
             frac = 1.0 - self._trigger_acc / horizontal
             lat, lon = self._to_global(start[0] + step[0] * frac, start[1] + step[1] * frac)
             self._photo_at(lat, lon, start[2] + step[2] * frac)
@@ -390,7 +403,7 @@ class FlightSim:
 
     def _fly_home_and_land(self, dt: float, events: list[FlightEvent]) -> float:
         s = self.state
-        used, arrived = self._fly_to(s.home[0], s.home[1], s.alt, dt, 0.05)
+        used, arrived = self._fly_to(s.home[0], s.home[1], s.alt, dt)
         if not arrived:
             return used
         return used + self._descend(dt - used, events)
