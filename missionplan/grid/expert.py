@@ -24,6 +24,7 @@ Sequences that hit an obstacle, another drone or the map edge are discarded.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Sequence
@@ -94,19 +95,27 @@ def flight_distance_field(goals: np.ndarray, blocked: np.ndarray, limit: int,
     (rows, cols) mask), the search stops once every needed open cell has its distance:
     the field is then exact on the needed cells only.
     """
-    # A cell's distance is the number of rings grown before it was reached, so each ring
-    # adds one to every open cell still unreached (one add, not a masked write per ring).
-    dist = np.zeros(goals.shape, dtype=np.float32)
-    # The frontier lives inside a zero border, so its four shifts are plain slices (views,
-    # made once: the loop runs a few numpy calls per ring and their count is its cost).
-    padded = np.zeros(goals.shape[:-2] + (goals.shape[-2] + 2, goals.shape[-1] + 2), dtype=bool)
-    frontier = padded[..., 1:-1, 1:-1]
-    up, down, left, right = padded[..., :-2, 1:-1], padded[..., 2:, 1:-1], padded[..., 1:-1, :-2], padded[..., 1:-1, 2:]
-    open_cells = ~blocked
-    np.logical_and(goals, open_cells, out=frontier)
+    *stack, rows, cols = goals.shape
+    count, width = math.prod(stack), cols + 1
+    # Every grid laid out flat, row after row, each row followed by one closed cell and the
+    # stack framed by a closed row of `width` above and below: the four neighbours of every
+    # cell are then the flat array shifted by 1 or `width`, so each shift is a contiguous
+    # slice (several times faster per call than 2-D strided slices; the loop is all calls).
+    size = count * (rows + 1) * width + 2 * width
+    padded = np.zeros(size + 2 * width, dtype=bool)  # the frontier, with a margin for the shifts
+    frontier = padded[width: width + size]
+    up, down = padded[:size], padded[2 * width:]
+    left, right = padded[width - 1: width - 1 + size], padded[width + 1: width + 1 + size]
+    open_cells = np.zeros(size, dtype=bool)
+    np.logical_not(blocked.reshape(count, rows, cols), out=_grids(open_cells, count, rows, cols))
+    np.logical_and(goals.reshape(count, rows, cols), _grids(open_cells, count, rows, cols),
+                   out=_grids(frontier, count, rows, cols))
     fresh = open_cells ^ frontier  # open cells not reached yet
     grown = np.empty_like(fresh)
-    pending = None if needed is None else needed & open_cells
+    # A cell's distance is the number of rings grown before it was reached, so each ring
+    # adds one to every open cell still unreached (one add, not a masked write per ring).
+    dist = np.zeros(size, dtype=np.uint8 if limit < 256 else np.int32)
+    pending = None if needed is None else _needed_layout(np.asarray(needed, dtype=bool).tobytes(), count, rows, cols) & open_cells
     for ring in range(limit):
         # The early stops are checked every other ring: stopping a ring late changes no
         # distance the field promises, and saves three calls on every other ring.
@@ -124,8 +133,25 @@ def flight_distance_field(goals: np.ndarray, blocked: np.ndarray, limit: int,
         grown &= fresh
         fresh ^= grown
         frontier[...] = grown
-    dist[fresh | blocked] = limit  # never reached (or not searched for: only `needed` is exact)
-    return dist
+    dist[fresh] = limit  # never reached (or not searched for: only `needed` is exact)
+    field = _grids(dist, count, rows, cols).astype(np.float32).reshape(goals.shape)
+    field[blocked] = limit
+    return field
+
+
+def _grids(flat: np.ndarray, count: int, rows: int, cols: int) -> np.ndarray:
+    """The (count, rows, cols) cells of flight_distance_field's flat layout, as a view."""
+    width = cols + 1
+    return flat[width: width + count * (rows + 1) * width].reshape(count, rows + 1, width)[:, :rows, :cols]
+
+
+@lru_cache(maxsize=64)
+def _needed_layout(needed: bytes, count: int, rows: int, cols: int) -> np.ndarray:
+    """A (rows, cols) `needed` mask (as bytes: hashable) repeated over `count` grids of the flat layout."""
+    layout = np.zeros(count * (rows + 1) * (cols + 1) + 2 * (cols + 1), dtype=bool)
+    _grids(layout, count, rows, cols)[...] = np.frombuffer(needed, dtype=bool).reshape(rows, cols)
+    layout.flags.writeable = False
+    return layout
 
 
 def visited_views(world: CoverageWorld, drones: np.ndarray) -> np.ndarray:

@@ -138,6 +138,7 @@ class CoverageWorld:
         rows, cols = self._shape
         self.t = 0
         self.positions = np.array(self.starts, dtype=np.int64).reshape(-1, 2)
+        self._windows: dict[int, np.ndarray] = {}  # radius -> every drone's window (_view_cells), until a move
         self._pad_unexplored = np.zeros((rows + 2 * PAD, cols + 2 * PAD), dtype=bool)
         self._pad_unexplored[PAD:-PAD, PAD:-PAD] = self.reachable
         # The zone of each unexplored cell, EXPLORED elsewhere: "does drone k see this cell"
@@ -213,12 +214,17 @@ class CoverageWorld:
     def _view_cells(self, drones: np.ndarray, radius: int) -> np.ndarray:
         """(n, (2r+1)^2) flat numbers, in the padded arrays, of the window of radius r around each
         drone, row-major: its view, or its footprint."""
-        offsets = self._window_offsets.get(radius)
-        if offsets is None:
-            span = np.arange(-radius, radius + 1)
-            offsets = self._window_offsets[radius] = (span[:, None] * self._pad_width + span[None, :]).ravel()
-        centres = (self.positions[drones, 0] + PAD) * self._pad_width + self.positions[drones, 1] + PAD
-        return centres[:, None] + offsets[None, :]
+        # Made for every drone once per radius between moves: a step asks for the views three
+        # times (who sees something, the policy's views, where it has flown).
+        windows = self._windows.get(radius)
+        if windows is None:
+            offsets = self._window_offsets.get(radius)
+            if offsets is None:
+                span = np.arange(-radius, radius + 1)
+                offsets = self._window_offsets[radius] = (span[:, None] * self._pad_width + span[None, :]).ravel()
+            centres = (self.positions[:, 0] + PAD) * self._pad_width + self.positions[:, 1] + PAD
+            windows = self._windows[radius] = centres[:, None] + offsets[None, :]
+        return windows[drones]
 
     def views(self, drones: np.ndarray | list[int], radius: int = VIEW_RADIUS) -> tuple[np.ndarray, np.ndarray]:
         """Batched view_unexplored and view_blocked: two (n, 2r+1, 2r+1) bool arrays, one gather each."""
@@ -348,6 +354,7 @@ class CoverageWorld:
                 progress = True
         if targets:
             self.positions[:] = positions
+            self._windows.clear()
         return moved
 
     def _mark_visits(self, drones: np.ndarray) -> None:
