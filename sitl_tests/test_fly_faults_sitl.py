@@ -243,6 +243,22 @@ def _summary(fleet: Fleet, run: FlyRun | None = None) -> str:
     return f"states {states}\n" + (run.out if run is not None else "")
 
 
+def _onboard_logs(fleet: Fleet) -> str:
+    """For assertion messages about photos read back from the logs: each vehicle's DataFlash files as
+    ArduCopter left them (name and size; LASTLOG.TXT names the log it writes), so a vehicle that did
+    not log its flight can be told from a log fly failed to read."""
+    lines = []
+    for vehicle in fleet.vehicles:
+        folder = vehicle.workdir / "logs" if vehicle.workdir is not None else None
+        if folder is None or not folder.is_dir():
+            lines.append(f"uav{vehicle.sysid}: no logs folder")
+            continue
+        files = ", ".join(f"{f.name} {f.stat().st_size} B" for f in sorted(folder.glob("*.BIN")))
+        last = (folder / "LASTLOG.TXT").read_text().strip() if (folder / "LASTLOG.TXT").exists() else "-"
+        lines.append(f"uav{vehicle.sysid}: {files or 'no .BIN'} (LASTLOG {last})")
+    return "onboard logs: " + "; ".join(lines)
+
+
 # ------------------------------------------------------------------------------ the tests
 def test_a_killed_fly_leaves_the_fleet_flying_a_plain_fly_commands_nothing_and_resume_judges_it_all(
         fleet: Fleet, runs) -> None:
@@ -269,7 +285,7 @@ def test_a_killed_fly_leaves_the_fleet_flying_a_plain_fly_commands_nothing_and_r
     code = resumed.finish(FLY_TIMEOUT_S)
     doc, rows = _flight(plan_dir)
     print(resumed.out, {k: (rows[k]["photos"], rows[k]["photos_from_log"], relay.state(k)) for k in SYSIDS})
-    assert code == 0, (resumed.out, doc["problems"])
+    assert code == 0, (resumed.out, doc["problems"], _onboard_logs(fleet))
     assert _commanding(relay) == [], relay.commands_sent()
     assert _landed(relay, timeout=10.0), _summary(fleet)
     assert all(relay.state(k)["arms"] == 1 for k in SYSIDS), _summary(fleet)  # nobody re-armed, nothing re-flown
