@@ -126,7 +126,6 @@ def test_photos_do_not_depend_on_the_ticks(model: str) -> None:
              *[_waypoint(north, east, radius=0.4) for north, east in corners],
              MissionItem(mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mavlink.MAV_FRAME_MISSION, param1=0.0),
              MissionItem(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_FRAME_MISSION)]
-    flavour = Flavour.PX4 if model == "px4" else Flavour.ARDUPILOT
     rng = random.Random(7)
     photos = []
     for ticks in (lambda: 0.01, lambda: rng.uniform(0.005, 0.7)):
@@ -137,7 +136,7 @@ def test_photos_do_not_depend_on_the_ticks(model: str) -> None:
         sim.start_mission()
         while sim.state.armed and sim.state.sim_time < 300.0:
             sim.advance(ticks())
-        assert sim.state.mission_done and not sim.state.armed, flavour
+        assert sim.state.mission_done and not sim.state.armed, model
         photos.append([(*_local(lat, lon), alt) for lat, lon, alt in sim.state.photo_points])
     even, irregular = photos
     assert len(even) == len(irregular) == 1 + 42 / 1.5  # at the trigger item, then every 1.5 m of the 42 m

@@ -290,7 +290,7 @@ class FlightSim:
         lat, lon, alt = self._target_of(item)
         if self._accepted_at_entry is None:  # the item's first tick
             radius = float(item.param2) if item.param2 > 0 else self.default_acceptance
-            self._accepted_at_entry = self._distance_to(lat, lon, alt) <= radius
+            self._accepted_at_entry = math.hypot(*self._leg_to(lat, lon, alt)[2:]) <= radius
         used, arrived = (0.0, True) if self._accepted_at_entry else self._fly_to(lat, lon, alt, dt)
         if not arrived:
             return used
@@ -328,19 +328,18 @@ class FlightSim:
         s.vz = -math.copysign(self.climb_rate, delta)  # NED: down positive
         return dt, False
 
-    def _distance_to(self, lat: float, lon: float, alt: float) -> float:
-        north, east = self._to_local(lat, lon)
-        here_north, here_east = self._to_local(self.state.lat, self.state.lon)
-        return math.dist((here_north, here_east, self.state.alt), (north, east, alt))
+    def _leg_to(self, lat: float, lon: float, alt: float) -> tuple[float, float, float, float, float]:
+        """Here (north, east of home) and the way to the point (north, east, up), in metres."""
+        n0, e0 = self._to_local(self.state.lat, self.state.lon)
+        n1, e1 = self._to_local(lat, lon)
+        return n0, e0, n1 - n0, e1 - e0, alt - self.state.alt
 
     def _fly_to(self, lat: float, lon: float, alt: float, dt: float) -> tuple[float, bool]:
         """Straight 3-D leg at the cruise speed to the target itself. ArduCopter all but stops at every
         corner of our missions (copter_model); a leg that ended wherever a tick first got inside the
         acceptance radius would make the track, and every photo, depend on the ticks' lengths."""
         s = self.state
-        n0, e0 = self._to_local(s.lat, s.lon)
-        n1, e1 = self._to_local(lat, lon)
-        dn, de, du = n1 - n0, e1 - e0, alt - s.alt
+        n0, e0, dn, de, du = self._leg_to(lat, lon, alt)
         dist = math.sqrt(dn * dn + de * de + du * du)
         if dist <= 1e-9:
             return 0.0, True

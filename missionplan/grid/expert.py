@@ -107,15 +107,18 @@ def flight_distance_field(goals: np.ndarray, blocked: np.ndarray, limit: int,
     up, down = padded[:size], padded[2 * width:]
     left, right = padded[width - 1: width - 1 + size], padded[width + 1: width + 1 + size]
     open_cells = np.zeros(size, dtype=bool)
-    np.logical_not(blocked.reshape(count, rows, cols), out=_grids(open_cells, count, rows, cols))
-    np.logical_and(goals.reshape(count, rows, cols), _grids(open_cells, count, rows, cols),
-                   out=_grids(frontier, count, rows, cols))
+    open_grids = _grids(open_cells, count, rows, cols)
+    np.logical_not(blocked.reshape(count, rows, cols), out=open_grids)
+    np.logical_and(goals.reshape(count, rows, cols), open_grids, out=_grids(frontier, count, rows, cols))
     fresh = open_cells ^ frontier  # open cells not reached yet
     grown = np.empty_like(fresh)
     # A cell's distance is the number of rings grown before it was reached, so each ring
     # adds one to every open cell still unreached (one add, not a masked write per ring).
     dist = np.zeros(size, dtype=np.uint8 if limit < 256 else np.int32)
-    pending = None if needed is None else _needed_layout(np.asarray(needed, dtype=bool).tobytes(), count, rows, cols) & open_cells
+    pending = None
+    if needed is not None:
+        pending = np.zeros(size, dtype=bool)
+        np.logical_and(needed, open_grids, out=_grids(pending, count, rows, cols))
     for ring in range(limit):
         # The early stops are checked every other ring: stopping a ring late changes no
         # distance the field promises, and saves three calls on every other ring.
@@ -143,15 +146,6 @@ def _grids(flat: np.ndarray, count: int, rows: int, cols: int) -> np.ndarray:
     """The (count, rows, cols) cells of flight_distance_field's flat layout, as a view."""
     width = cols + 1
     return flat[width: width + count * (rows + 1) * width].reshape(count, rows + 1, width)[:, :rows, :cols]
-
-
-@lru_cache(maxsize=64)
-def _needed_layout(needed: bytes, count: int, rows: int, cols: int) -> np.ndarray:
-    """A (rows, cols) `needed` mask (as bytes: hashable) repeated over `count` grids of the flat layout."""
-    layout = np.zeros(count * (rows + 1) * (cols + 1) + 2 * (cols + 1), dtype=bool)
-    _grids(layout, count, rows, cols)[...] = np.frombuffer(needed, dtype=bool).reshape(rows, cols)
-    layout.flags.writeable = False
-    return layout
 
 
 def visited_views(world: CoverageWorld, drones: np.ndarray) -> np.ndarray:
