@@ -47,6 +47,7 @@ from missionplan.learn.trainmaps import TARGET, kind_of, random_city  # noqa: E4
 
 import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 from child_row import peak_rss_mb, run_child_row  # noqa: E402
+from machine import machine_line  # noqa: E402
 from streets import street_width_summary  # noqa: E402
 
 SIZES = (256, 512, 1024, 2048)
@@ -191,6 +192,7 @@ def table(args: argparse.Namespace) -> int:
     if street_maps:
         print("" if not cities else "\n", end="")
         print_rows(args, f"{'MovingAI map':<16}", street_maps, drones)
+    print(machine_line())  # CPU seconds drift between hours: the table says how fast this one was
     return 0
 
 

@@ -42,6 +42,7 @@ from missionplan.pipeline import POLICIES, make_policy, plan_map  # noqa: E402
 
 import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 from child_row import run_child_row  # noqa: E402
+from machine import machine_line  # noqa: E402
 from unseen_cities import random_free_launches, voronoi_city  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -139,6 +140,7 @@ def table(args: argparse.Namespace) -> int:
                     f"{versus} {r['coverage']:>6.1f} "
                     f"{r['steps']:>6} {r['load']:>5.1f}")
             print(line + ("" if r["success"] else f"  FAILED: {r['failure']}"), flush=True)
+    print(machine_line())  # CPU seconds drift between hours: the table says how fast this one was
     return 0
 
 
