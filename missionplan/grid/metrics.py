@@ -93,9 +93,18 @@ def mean_distance_to_nearest(unexplored: np.ndarray, positions: np.ndarray) -> f
 def _mean_distance_direct(unexplored: np.ndarray, positions: np.ndarray) -> float:
     """mean_distance_to_nearest by squared integer distances from every cell to every drone."""
     cell_rows, cell_cols = np.nonzero(unexplored)  # row-major, as the transform's mask reads them
+    # In place and in int32 where the squares fit (a third faster than int64 temporaries); the
+    # integers, and so the float, are the same.
+    span = max(unexplored.shape) + int(np.abs(positions).max())
+    kind = np.int32 if span < 2 ** 15 else np.int64
+    cell_rows, cell_cols = cell_rows.astype(kind), cell_cols.astype(kind)
     nearest = None
-    for r, c in positions:
-        d = (cell_rows - r) ** 2 + (cell_cols - c) ** 2
+    for r, c in positions.tolist():
+        d = cell_rows - r
+        d *= d
+        across = cell_cols - c
+        across *= across
+        d += across
         nearest = d if nearest is None else np.minimum(nearest, d, out=nearest)
     return float(np.sqrt(nearest.astype(np.float64)).mean())
 

@@ -39,6 +39,7 @@ coverage stops growing for too long (both reported, never called success).
 
 from __future__ import annotations
 
+import math
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -107,6 +108,9 @@ class PlanRun:
     deadlocks_broken: int
     plan_seconds: float
     lane_drones: int = 0  # drones that swept an open-ground zone in lanes (grid.lanes)
+
+
+_DELTAS = [tuple(d) for d in ACTION_DELTAS.tolist()]  # (dr, dc) per action, as Python ints
 
 
 def _action_towards(position: np.ndarray, cell: Cell) -> int:
@@ -302,19 +306,23 @@ class Planner:
                 nav.fruitless_steps = 0
                 sees[k] = False
         policy_drones = [k for k in range(num) if sees[k]]
-        scores = self.policy.action_scores(world, policy_drones) if policy_drones else None
+        scores = self.policy.action_scores(world, policy_drones).tolist() if policy_drones else []
         actions = np.full(num, HOVER, dtype=np.int64)
         claimed: set[Cell] = set()
-        occupied = {tuple(p) for p in world.positions}
+        positions = [tuple(p) for p in world.positions.tolist()]  # Python ints: a handful of drones
+        occupied = set(positions)
         row_of = {k: i for i, k in enumerate(policy_drones)}
         for k in range(num):
             if sees[k]:
                 self.nav[k].clear()
                 row = scores[row_of[k]]
-                for action in np.argsort(-row, kind="stable"):
-                    if not np.isfinite(row[action]):
+                r, c = positions[k]
+                # Best first, ties in action order (a stable sort, as argsort's); a blocked move is -inf.
+                for action in sorted(range(4), key=lambda a: -row[a]):
+                    if not math.isfinite(row[action]):
                         break
-                    cell = tuple(world.positions[k] + ACTION_DELTAS[action])
+                    dr, dc = _DELTAS[action]
+                    cell = (r + dr, c + dc)
                     if world.is_free(cell) and cell not in occupied and cell not in claimed:
                         actions[k] = action
                         claimed.add(cell)
@@ -330,7 +338,8 @@ class Planner:
             elif not parked[k]:
                 action = self._path_action(k)
                 if action != HOVER:
-                    cell = tuple(world.positions[k] + ACTION_DELTAS[action])
+                    dr, dc = _DELTAS[action]
+                    cell = (positions[k][0] + dr, positions[k][1] + dc)
                     if cell in claimed:
                         action = HOVER
                     else:
@@ -391,12 +400,14 @@ class Planner:
                 if self.nav[k].blocked_steps >= DEADLOCK_STEPS:
                     self._break_deadlock(k, actions)
             outcome = world.step(actions)
+            blocked, by_policy_now, new_cells, moved = (outcome.blocked.tolist(), self._by_policy.tolist(),
+                                                         outcome.new_cells.tolist(), outcome.moved.tolist())
             for k in range(num):
                 nav = self.nav[k]
-                nav.blocked_steps = nav.blocked_steps + 1 if outcome.blocked[k] else 0
-                if self._by_policy[k]:
-                    nav.fruitless_steps = 0 if outcome.new_cells[k] else nav.fruitless_steps + 1
-                if outcome.moved[k] and nav.path and nav.path[0] == tuple(world.positions[k]):
+                nav.blocked_steps = nav.blocked_steps + 1 if blocked[k] else 0
+                if by_policy_now[k]:
+                    nav.fruitless_steps = 0 if new_cells[k] else nav.fruitless_steps + 1
+                if moved[k] and nav.path and nav.path[0] == tuple(world.positions[k].tolist()):
                     nav.path.pop(0)
             hover_steps += int((~outcome.moved).sum())
             path_log.append(world.positions.copy())
