@@ -245,17 +245,21 @@ def _summary(fleet: Fleet, run: FlyRun | None = None) -> str:
 
 def _onboard_logs(fleet: Fleet) -> str:
     """For assertion messages about photos read back from the logs: each vehicle's DataFlash files as
-    ArduCopter left them (name and size; LASTLOG.TXT names the log it writes), so a vehicle that did
-    not log its flight can be told from a log fly failed to read."""
+    ArduCopter left them (name and size; LASTLOG.TXT names the log it writes), and what its console
+    said about logging (AP_Logger prints there when it cannot open, write or keep a log), so a
+    vehicle that did not log its flight can be told from a log fly failed to read."""
     lines = []
     for vehicle in fleet.vehicles:
         folder = vehicle.workdir / "logs" if vehicle.workdir is not None else None
+        console = [line.strip() for line in vehicle.log_bytes().decode(errors="replace").splitlines()
+                   if "log" in line.lower() or "stuck" in line.lower()]
+        said = f"; console: {' | '.join(console[-8:])}" if console else ""
         if folder is None or not folder.is_dir():
-            lines.append(f"uav{vehicle.sysid}: no logs folder")
+            lines.append(f"uav{vehicle.sysid}: no logs folder{said}")
             continue
         files = ", ".join(f"{f.name} {f.stat().st_size} B" for f in sorted(folder.glob("*.BIN")))
         last = (folder / "LASTLOG.TXT").read_text().strip() if (folder / "LASTLOG.TXT").exists() else "-"
-        lines.append(f"uav{vehicle.sysid}: {files or 'no .BIN'} (LASTLOG {last})")
+        lines.append(f"uav{vehicle.sysid}: {files or 'no .BIN'} (LASTLOG {last}){said}")
     return "onboard logs: " + "; ".join(lines)
 
 
