@@ -53,7 +53,7 @@ from ..maps.gridmap import Cell
 from .metrics import SteadyStateSampler, compute_metrics, mdu_stride
 from .lanes import LaneSweep, obstacle_shares, sweepable
 from .pathfinding import FlightSearch, find_goal
-from .world import ACTION_DELTAS, ACTION_OF_DELTA, HOVER, PAD, CoverageWorld
+from .world import ACTION_DELTAS, ACTION_OF_DELTA, ACTION_STEPS, HOVER, PAD, CoverageWorld
 
 DEADLOCK_STEPS = 3
 MAX_GOAL_TRIES = 4
@@ -108,9 +108,6 @@ class PlanRun:
     deadlocks_broken: int
     plan_seconds: float
     lane_drones: int = 0  # drones that swept an open-ground zone in lanes (grid.lanes)
-
-
-_DELTAS = [tuple(d) for d in ACTION_DELTAS.tolist()]  # (dr, dc) per action, as Python ints
 
 
 def _action_towards(position: np.ndarray, cell: Cell) -> int:
@@ -321,7 +318,7 @@ class Planner:
                 for action in sorted(range(4), key=lambda a: -row[a]):
                     if not math.isfinite(row[action]):
                         break
-                    dr, dc = _DELTAS[action]
+                    dr, dc = ACTION_STEPS[action]
                     cell = (r + dr, c + dc)
                     if world.is_free(cell) and cell not in occupied and cell not in claimed:
                         actions[k] = action
@@ -338,7 +335,7 @@ class Planner:
             elif not parked[k]:
                 action = self._path_action(k)
                 if action != HOVER:
-                    dr, dc = _DELTAS[action]
+                    dr, dc = ACTION_STEPS[action]
                     cell = (positions[k][0] + dr, positions[k][1] + dc)
                     if cell in claimed:
                         action = HOVER
@@ -402,12 +399,13 @@ class Planner:
             outcome = world.step(actions)
             blocked, by_policy_now, new_cells, moved = (outcome.blocked.tolist(), self._by_policy.tolist(),
                                                          outcome.new_cells.tolist(), outcome.moved.tolist())
+            positions = world.positions.tolist()
             for k in range(num):
                 nav = self.nav[k]
                 nav.blocked_steps = nav.blocked_steps + 1 if blocked[k] else 0
                 if by_policy_now[k]:
                     nav.fruitless_steps = 0 if new_cells[k] else nav.fruitless_steps + 1
-                if moved[k] and nav.path and nav.path[0] == tuple(world.positions[k].tolist()):
+                if moved[k] and nav.path and nav.path[0] == tuple(positions[k]):
                     nav.path.pop(0)
             hover_steps += int((~outcome.moved).sum())
             path_log.append(world.positions.copy())

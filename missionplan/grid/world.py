@@ -27,7 +27,7 @@ HOVER = -1
 ACTION_NAMES = ("up", "right", "down", "left")
 ACTION_DELTAS = np.array([[-1, 0], [0, 1], [1, 0], [0, -1]], dtype=np.int64)
 ACTION_OF_DELTA = {(int(dr), int(dc)): action for action, (dr, dc) in enumerate(ACTION_DELTAS)}
-_DELTA_TUPLES = [tuple(d) for d in ACTION_DELTAS.tolist()]
+ACTION_STEPS = [tuple(d) for d in ACTION_DELTAS.tolist()]  # (dr, dc) per action, as Python ints
 
 
 def turn_weight(a: int, b: int) -> float:
@@ -333,7 +333,7 @@ class CoverageWorld:
         targets: dict[int, Cell] = {}
         for k, action in enumerate(actions.tolist()):
             if action != HOVER:
-                dr, dc = _DELTA_TUPLES[action]
+                dr, dc = ACTION_STEPS[action]
                 cell = (positions[k][0] + dr, positions[k][1] + dc)
                 if not obstacle[cell[0] + PAD, cell[1] + PAD]:
                     targets[k] = cell
