@@ -12,8 +12,8 @@ Within one process the lock is re-entrant for the thread that holds it (`replan`
 folder and calls write_plan_folder, which holds it too; `demo` plans, then flies, one after the
 other); another thread of the same process is refused like another process.
 
-flock is advisory and local: it keeps missionplan processes on one machine (or one host's view of a
-network share) apart, not other programs. Lives in bridge, the lowest layer that writes files, beside
+flock is advisory and local: it keeps missionplan processes on one machine apart, not other programs,
+nor two machines sharing the folder over a network. Lives in bridge, the lowest layer that writes files, beside
 atomic.py, so flight/ and the top level share it.
 """
 
@@ -67,12 +67,22 @@ class Holder:
         if not isinstance(doc, dict):
             return None
         pid = doc.get("pid")
-        return cls(pid if isinstance(pid, int) else None, str(doc.get("host", "")), str(doc.get("command", "")),
-                   str(doc.get("started", "")))
+        host, command, started = (_printable(doc.get(key, "")) for key in ("host", "command", "started"))
+        return cls(pid if isinstance(pid, int) and not isinstance(pid, bool) else None, host, command, started)
 
     @classmethod
     def this_process(cls) -> Holder:
         return cls(os.getpid(), socket.gethostname(), _command_line(), time.strftime("%Y-%m-%dT%H:%M:%S%z"))
+
+
+MAX_FIELD = 300  # characters of a holder's field shown: the message stays one readable line
+
+
+def _printable(value: Any) -> str:
+    """A field of a lock file as it may be printed: control characters (a newline, a terminal escape)
+    escaped, and at most MAX_FIELD characters."""
+    text = "".join(ch if ch.isprintable() else ch.encode("unicode_escape").decode("ascii") for ch in str(value))
+    return text if len(text) <= MAX_FIELD else text[:MAX_FIELD] + "..."
 
 
 def _command_line() -> str:
@@ -179,7 +189,7 @@ def hold_folder(folder: str | os.PathLike[str], say: Callable[[str], None] = _sa
             raise FolderBusy(f"{folder} is in use by another thread of this process, {held.holder.describe()}")
         else:
             holder = Holder.this_process()
-            held = _held[key] = _Held(_lock(folder, holder, say), folder / LOCK_NAME, holder)
+            held = _held[key] = _Held(_lock(folder, holder, say), key / LOCK_NAME, holder)
     try:
         yield folder
     finally:

@@ -169,19 +169,25 @@ def _new_folder_like(out: Path) -> Path:
 
 def check_out_folder(out: Path) -> None:
     """MapError when `out` may not take a plan: the root folder, the user's home, or a folder that holds a
-    flight (a plan there would replace the plan that flight was flown and judged against)."""
+    survey's record: a flight's (its journal, fly's record) or the survey's ledger, which `status` and
+    `replan` open too (a plan there would replace the plan that record belongs to: the grid its cells mean,
+    the plan its flights were judged against)."""
     where = out.resolve()
     if where == Path(where.anchor):
         raise MapError(f"--out {out}: the root folder is no plan folder (a plan writes and replaces files in "
                        f"--out); give a folder of its own, e.g. --out {where / 'survey-1'}")
-    if where == Path.home().resolve():
+    try:
+        home: Path | None = Path.home().resolve()
+    except (RuntimeError, KeyError):  # no HOME and no password entry: no home folder to protect
+        home = None
+    if where == home:
         raise MapError(f"--out {out}: your home folder is no plan folder (a plan writes and replaces files in "
                        f"--out); give a folder of its own, e.g. --out {where / 'survey-1'}")
     flown = flight_record(out)
     if flown:
         shown = ", ".join(flown[:3]) + (f" and {len(flown) - 3} more" if len(flown) > 3 else "")
-        raise MapError(f"--out {out}: holds a flight ({shown}): a plan here would replace the plan it was flown "
-                       f"against; plan into a new folder, e.g. --out {_new_folder_like(out)}")
+        raise MapError(f"--out {out}: holds a survey's record ({shown}): a plan here would replace the plan it "
+                       f"belongs to; plan into a new folder, e.g. --out {_new_folder_like(out)}")
 
 
 def _make_folder(out: Path) -> Path | None:

@@ -203,6 +203,28 @@ def test_the_lock_is_the_holding_threads_alone(tmp_path: Path) -> None:
         pass
 
 
+def test_a_lock_files_text_is_printed_escaped_in_one_line(tmp_path: Path) -> None:
+    import fcntl
+
+    (tmp_path / LOCK_NAME).write_text(json.dumps({"pid": 7, "host": "evil\nhost", "command": "fly \x1b[2Jx",
+                                                  "started": "2025-06-02T09:14:03+0200"}))
+    fd = os.open(tmp_path / LOCK_NAME, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH)  # as its holder would
+        with pytest.raises(FolderBusy) as busy:
+            with hold_folder(tmp_path):
+                pass
+    finally:
+        os.close(fd)
+    assert str(busy.value).startswith(f"{tmp_path} is in use by pid 7 on evil\\nhost (`fly \\x1b[2Jx`, "
+                                      f"started 2025-06-02T09:14:03+0200): "), str(busy.value)
+    said: list[str] = []
+    with hold_folder(tmp_path, say=said.append):  # no holder any more: taken over, said escaped
+        pass
+    assert said == [f"{tmp_path}: took over the lock left by pid 7 on evil\\nhost (`fly \\x1b[2Jx`, started "
+                    f"2025-06-02T09:14:03+0200), which no longer runs"]
+
+
 def test_demo_plans_then_flies_in_one_process_and_a_second_demo_there_is_refused(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "demo"
@@ -212,7 +234,7 @@ def test_demo_plans_then_flies_in_one_process_and_a_second_demo_there_is_refused
     before = _hashes(out)
     assert main(["demo", "--out", str(out), "--uavs", "2", "--speedup", str(FAST), "--quiet"]) == 2
     captured = capsys.readouterr()
-    assert captured.out == "" and "holds a flight" in _one_line(captured.err)
+    assert captured.out == "" and "holds a survey's record" in _one_line(captured.err)
     assert _hashes(out) == before
 
 
@@ -232,9 +254,9 @@ def test_plan_into_a_flown_folder_is_refused_and_changes_nothing(
     captured = capsys.readouterr()
     line = _one_line(captured.err)
     assert captured.out == ""
-    assert line == (f"missionplan: --out {folder}: holds a flight (journal.sqlite, ledger.sqlite, flight.json and "
-                    f"{len(flight_record(folder)) - 3} more): a plan here would replace the plan it was flown "
-                    f"against; plan into a new folder, e.g. --out {folder}-2"), line
+    assert line == (f"missionplan: --out {folder}: holds a survey's record (journal.sqlite, ledger.sqlite, "
+                    f"flight.json and {len(flight_record(folder)) - 3} more): a plan here would replace the plan it "
+                    f"belongs to; plan into a new folder, e.g. --out {folder}-2"), line
     assert _hashes(folder) == before
     assert main(["status", str(folder)]) == 0  # the survey reads as it did
 
@@ -246,7 +268,7 @@ def test_replan_into_another_surveys_flown_folder_is_refused(
     before = _hashes(other)
     assert main(["replan", str(survey), "--out", str(other), "--drones", "1"]) == 2
     captured = capsys.readouterr()
-    assert captured.out == "" and "holds a flight (journal.sqlite, ledger.sqlite" in _one_line(captured.err)
+    assert captured.out == "" and "holds a survey's record (journal.sqlite, ledger.sqlite" in _one_line(captured.err)
     assert _hashes(other) == before
 
 
