@@ -28,6 +28,7 @@ $(TEST_STAMP): pyproject.toml constraints.txt | $(BIN)/python
 	touch $@ $(DEMO_STAMP)
 
 demo: $(DEMO_STAMP)
+	rm -rf demo-out  # the last demo's plan and flight: a plan is never written over a flight
 	$(BIN)/missionplan demo --out demo-out
 
 test: $(TEST_STAMP)

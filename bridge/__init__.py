@@ -6,6 +6,7 @@ Parts, lowest first; each subpackage's __init__ says what it owns and may import
   errors         BridgeUsageError (bad input, exit 2) and BridgeError (operational failure, exit 1)
   atomic         atomic file output (temp file, then rename), shared with the planner and geo: the lowest
                  layer that writes files
+  folder_lock    one owner per folder: the OS lock fly, plan and replan hold on their folder, naming its holder
   flight_models  how ArduCopter and PX4 fly a mission, in time (the planner's timeline and the mock share them)
   formats        the mission model, the per-autopilot rules of what a vehicle stores and accepts, mission files
   link           the ground station's MAVLink link: connections, signing, parameters, readiness and arming

@@ -13,11 +13,13 @@ Shapefile takes it as it is. A null or empty geometry is a NULL `geom`. A layer 
 go by is declared as `geometry_types` names it, else GEOMETRY. No spatial index: the layers are a
 few thousand features at most, which GDAL and QGIS read without one.
 
-The file is written beside the target and renamed over it only when complete.
+The file is written beside the target and renamed over it only when complete; a full disk or an
+I/O error is an OSError naming the file, as for any other file written.
 """
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
@@ -108,6 +110,13 @@ def write_geopackage(path: str | os.PathLike[str], layers: Mapping[str, dict[str
             for name, collection in layers.items():
                 _write_layer(con, name, collection, (geometry_types or {}).get(name))
             con.execute("COMMIT")
+        except sqlite3.OperationalError as err:
+            # SQLite's "database or disk is full" and I/O errors are the disk's: an OSError like any other write's
+            cause = {sqlite3.SQLITE_FULL: errno.ENOSPC, sqlite3.SQLITE_IOERR: errno.EIO}.get(
+                getattr(err, "sqlite_errorcode", 0) & 0xFF)
+            if cause is None:
+                raise
+            raise OSError(cause, os.strerror(cause), os.fspath(path)) from err
         finally:
             con.close()
 

@@ -6,7 +6,12 @@ autopilot per drone on 127.0.0.1 (SITL-like: ArduCopter's flight, each camera co
 does, CAM1_TYPE and a reboot, so the judge has the vehicles' own photo reports), and flies the missions
 against them with `fly` at a speed-up, which prints the flown coverage, the closest approach against
 the plan's promise, and each vehicle's flight.
-Nothing leaves the machine. Exit 0 only when the flight is judged good (fly's rule)."""
+Nothing leaves the machine. Exit 0 only when the flight is judged good (fly's rule).
+
+The plan and the flight each hold the folder while they run (write_plan_folder, fly: one after the
+other in this one process). A plan never lands over a flight, so --out must not hold an earlier
+demo's flight: that is refused in one line before anything is printed (`make demo` starts from an
+empty demo-out/)."""
 
 from __future__ import annotations
 
@@ -17,7 +22,7 @@ from typing import Any
 
 from .maps.gridmap import MapError
 from .plan_display import EXIT_FAILED, print_plan
-from .plan_folder import PlanOptions, shipped_ground, write_plan_folder
+from .plan_folder import PlanOptions, check_out_folder, shipped_ground, write_plan_folder
 
 DEMO_MAP, DEMO_UAVS, DEMO_POLICY = "leonardo", 5, "nn"
 # Leonardo is a 20 x 10 m arena flown at 5 m/s: 2x keeps the telemetry (50 Hz) within a cell of flight.
@@ -36,6 +41,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     # Progress on stderr: bars on a terminal, plain lines in a log (plan and fly each decide which).
     quiet = args.quiet
     out = Path(args.out)
+    check_out_folder(out)  # an earlier demo's flight there: one line, before the first heading
     # The `plan` command this step is, for a crew who wants to run it alone.
     print(f"== 1/2 plan: missionplan plan --map {DEMO_MAP} --uavs {args.uavs} --policy {DEMO_POLICY} --out {out}")
     options = PlanOptions(policy=DEMO_POLICY, progress=not quiet and sys.stderr.isatty())

@@ -69,6 +69,9 @@ def print_plan(folder: PlanFolder) -> None:
                   f"courtyards); counted unreachable", file=sys.stderr)
     for warning in report["coverage"]["warnings"]:
         print(f"missionplan: warning: {warning}", file=sys.stderr)
+    for path in folder.kept:
+        print(f"missionplan: warning: kept {path}: the earlier plan listed it, but it is not what that plan wrote "
+              f"(changed since, or no checksum recorded); not removed", file=sys.stderr)
     missions = [p.name for p in written if p.suffix in (".plan", ".waypoints")]
     maps = [p.name for p in written if p.name not in missions]
     listed = ", ".join(["report.json", "plan.png", *maps])

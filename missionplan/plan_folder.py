@@ -3,9 +3,19 @@
 `write_plan_folder(out, ground, options)` plans the ground (missionplan/fieldplan.py: zones, the
 drones' paths, the clearance band, flight plans, sorties, separation, geofences) and writes the folder:
 report.json, plan.png, one mission per drone (.plan, .waypoints) and the map files (plan.html,
-plan.gpkg, plan.kmz, GeoJSON), each written whole or not at all; files of an earlier plan in the same
-folder that this plan does not write are removed. It prints nothing: the caller prints the returned
-`PlanFolder` (missionplan/plan_display.py).
+plan.gpkg, plan.kmz, GeoJSON). It prints nothing: the caller prints the returned `PlanFolder`
+(missionplan/plan_display.py).
+
+The folder is the run's alone and a plan never lands over a flight: `out` is held for the whole run
+(missionplan.bridge.folder_lock: a second process gets one line naming this one), and a folder that
+holds a flight (a journal, a ledger, fly's record), the root folder or the user's home is refused
+before anything is written (`check_out_folder`). Every file is first written into a hidden staging
+folder inside `out` (same filesystem), then renamed into place, report.json last, so report.json lists
+only files that exist; a write that fails (a full disk, a quota, a read-only mount) removes the staging
+folder, and `out` itself when this run made it, leaves the previous plan as it was, and is one MapError
+naming the folder, the file and the cause. Files of an earlier plan that this plan does not write are
+removed only when they are exactly what that plan wrote (missionplan/mission/outputs.py); changed ones
+are kept and listed in `PlanFolder.kept`.
 
 `PlanGround` is what is planned (the grid, its georeference, the mission and safety settings, the
 launch cells: `grid_ground` makes it as `plan` does); `PlanOptions` is how (policy, zones, seed,
@@ -15,6 +25,9 @@ basemap). Every input that can be wrong fails with MapError before the folder is
 from __future__ import annotations
 
 import dataclasses
+import os
+import shutil
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from collections.abc import Mapping
@@ -23,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from missionplan.bridge.atomic import probe_writable
+from missionplan.bridge.folder_lock import hold_folder
 from missionplan.geo.frame import GridFrame
 
 from .grid.zones import DEFAULT_ZONE_METHOD
@@ -88,6 +102,7 @@ class PlanFolder:
     options: PlanOptions
     report: dict[str, Any]
     written: list[Path] = field(default_factory=list)  # missions and map files, report.json and plan.png aside
+    kept: list[Path] = field(default_factory=list)  # an earlier plan's files, changed since: not removed
 
     @property
     def success(self) -> bool:
@@ -122,7 +137,62 @@ def _cell_mask(shape: tuple[int, int], cells: list[list[int]]) -> np.ndarray:
     return mask
 
 
-def _make_folder(out: Path) -> None:
+STAGING_PREFIX = ".plan-staging-"  # the hidden folder inside --out a plan is written into before it is renamed
+# What fly writes into a folder it flies (missionplan/flight/: the journal, the judged record, the geotags)
+# besides the survey's ledger; any of them, or a file named flight.*, means the folder holds a flight.
+FLIGHT_RECORD_FILES = ("missed.geojson",)
+
+
+def flight_record(out: Path) -> list[str]:
+    """The names of the files in `out` that say a flight was flown or judged there: the journal, the ledger
+    and flight.json first, then the rest by name (empty when none, or when `out` is no folder)."""
+    from .flight.geotag import GEOTAG_FILES
+    from .flight.journal import JOURNAL_NAME
+    from .flight.ledger import LEDGER_NAME
+
+    first = [JOURNAL_NAME, LEDGER_NAME, "flight.json"]
+    names = {*first, f"{JOURNAL_NAME}-wal", *GEOTAG_FILES, *FLIGHT_RECORD_FILES}
+    try:
+        found = [p.name for p in out.iterdir() if p.name in names or p.name.startswith("flight.")]
+    except OSError:  # no folder yet (or none to read): nothing flown there
+        return []
+    return sorted(found, key=lambda name: (first.index(name) if name in first else len(first), name))
+
+
+def _new_folder_like(out: Path) -> Path:
+    """A sibling of `out` that does not exist yet: out-2, out-3, ..."""
+    k = 2
+    while (candidate := out.with_name(f"{out.name}-{k}")).exists():
+        k += 1
+    return candidate
+
+
+def check_out_folder(out: Path) -> None:
+    """MapError when `out` may not take a plan: the root folder, the user's home, or a folder that holds a
+    survey's record: a flight's (its journal, fly's record) or the survey's ledger, which `status` and
+    `replan` open too (a plan there would replace the plan that record belongs to: the grid its cells mean,
+    the plan its flights were judged against)."""
+    where = out.resolve()
+    if where == Path(where.anchor):
+        raise MapError(f"--out {out}: the root folder is no plan folder (a plan writes and replaces files in "
+                       f"--out); give a folder of its own, e.g. --out {where / 'survey-1'}")
+    try:
+        home: Path | None = Path.home().resolve()
+    except (RuntimeError, KeyError):  # no HOME and no password entry: no home folder to protect
+        home = None
+    if where == home:
+        raise MapError(f"--out {out}: your home folder is no plan folder (a plan writes and replaces files in "
+                       f"--out); give a folder of its own, e.g. --out {where / 'survey-1'}")
+    flown = flight_record(out)
+    if flown:
+        shown = ", ".join(flown[:3]) + (f" and {len(flown) - 3} more" if len(flown) > 3 else "")
+        raise MapError(f"--out {out}: holds a survey's record ({shown}): a plan here would replace the plan it "
+                       f"belongs to; plan into a new folder, e.g. --out {_new_folder_like(out)}")
+
+
+def _make_folder(out: Path) -> Path | None:
+    """Create `out` if missing and check that it takes files; the outermost folder this made (None: none)."""
+    made = next((p for p in reversed([out, *out.parents]) if not p.exists()), None)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
@@ -130,25 +200,52 @@ def _make_folder(out: Path) -> None:
     try:
         probe_writable(out)
     except OSError as err:
+        _remove_made(out, made)
         raise MapError(f"--out {out}: cannot write files there ({err.strerror})") from None
+    return made
+
+
+def _remove_made(out: Path, made: Path | None) -> None:
+    """Remove the folders _make_folder made, from `out` up to `made`, each only when empty."""
+    if made is None:
+        return
+    for folder in [out, *out.parents]:
+        try:
+            folder.rmdir()
+        except OSError:
+            return  # not empty: something else is in it, which is not ours to remove
+        if folder == made:
+            return
 
 
 def write_plan_folder(out: Path, ground: PlanGround, options: PlanOptions = PlanOptions()) -> PlanFolder:
     """Plan `ground` and write the plan folder `out` (created if missing); see the module docstring."""
+    out = Path(out)
+    if ground.safety is not None:  # a launch point inside the clearance band fails here, before any folder
+        from .mission.clearance import flight_map
+
+        flight_map(ground.gmap, ground.safety.clearance_m, ground.uavs)
+    policy = make_policy(options.policy, options.weights)
+    check_out_folder(out)
+    made = _make_folder(out)
+    try:
+        with hold_folder(out):
+            check_out_folder(out)  # again, held: no fly can have started here since
+            return _plan_into(out, ground, options, policy)
+    except BaseException:
+        _remove_made(out, made)
+        raise
+
+
+def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any) -> PlanFolder:
+    """Plan, write every file into a staging folder inside `out`, then rename them into place."""
     from .mission.plot import draw_plan  # matplotlib only when a picture is drawn
     from .mission.report import build_report, write_report
 
     from .fieldplan import plan_field
     from .mission.coverage_check import coverage_report, unreachable_causes
-    from .mission.outputs import remove_stale_outputs
 
     gmap, frame, settings, safety, unknown = ground.gmap, ground.frame, ground.settings, ground.safety, ground.unknown
-    if safety is not None:  # a launch point inside the clearance band fails here, before any folder
-        from .mission.clearance import flight_map
-
-        flight_map(gmap, safety.clearance_m, ground.uavs)
-    policy = make_policy(options.policy, options.weights)
-    _make_folder(out)
     # Clearance band, band detours, flight plans, sorties, separation, geofences (missionplan/fieldplan.py).
     field_plan = plan_field(gmap, ground.uavs, frame, settings, safety, balance_zones=options.balance_zones,
                             policy=policy, zone_method=options.zones, seed=options.seed, progress=options.progress,
@@ -170,41 +267,95 @@ def write_plan_folder(out: Path, ground: PlanGround, options: PlanOptions = Plan
         report["basemap"] = options.basemap
     if gmap.meta.get("credit"):  # the map data's credit, for every picture and page drawn from it
         report["credit"] = gmap.meta["credit"]
-    written: list[Path] = []
-    sortie_starts = None
-    if plans is not None and frame is not None and settings is not None:
-        from missionplan.bridge.formats.mission_items import Flavour
+    staging = _staging_folder(out)
+    try:
+        written: list[Path] = []
+        sortie_starts = None
+        if plans is not None and frame is not None and settings is not None:
+            from missionplan.bridge.formats.mission_items import Flavour
 
-        from .mission.flightplan import write_flight_files
+            from .mission.flightplan import write_flight_files
 
-        report["georeference"] = {**frame.to_meta(), "altitude_m": settings.altitude_m,
-                                  "footprint_m": settings.footprint_m, "trigger_distance_m": settings.trigger_distance_m}
-        written = write_flight_files(out, plans, Flavour(settings.autopilot))
-        sortie_starts = plans.sortie_starts
-    unreachable_mask = _cell_mask(gmap.shape, report["unreachable_cells"])
-    clearance_m = float(report.get("clearance", {}).get("required_m") or 0.0)
-    # Why each unreachable target is unreachable: the warnings count them, the pictures colour them.
-    osm = ground.from_osm
-    crossed = unknown.if_overflown() if osm and unknown.if_overflown is not None and unreachable_mask.any() else None
-    causes = unreachable_causes(gmap, ground.starts, unreachable_mask, clearance_m, crossed)
-    report["coverage"] = coverage_report(
-        gmap, ground.starts, report["targets"], report["unreachable"], report["metrics"]["coverage"],
-        report["zone_sizes"], unknown_buildings=unknown.buildings if osm else None,
-        total_buildings=unknown.total if osm else None, assumed_height_m=unknown.assumed_m,
-        if_overflown=unknown.if_overflown, launch_labels=ground.launch_labels, unreachable_mask=unreachable_mask,
-        clearance_m=clearance_m, causes=causes)
-    paths_latlon = None
-    if plans is not None and frame is not None:
-        from .mission.layers import drone_paths_latlon, plan_layers, plan_summary
-        from .mission.mapfiles import write_map_files
+            report["georeference"] = {**frame.to_meta(), "altitude_m": settings.altitude_m,
+                                      "footprint_m": settings.footprint_m,
+                                      "trigger_distance_m": settings.trigger_distance_m}
+            written = write_flight_files(staging, plans, Flavour(settings.autopilot))
+            sortie_starts = plans.sortie_starts
+        unreachable_mask = _cell_mask(gmap.shape, report["unreachable_cells"])
+        clearance_m = float(report.get("clearance", {}).get("required_m") or 0.0)
+        # Why each unreachable target is unreachable: the warnings count them, the pictures colour them.
+        osm = ground.from_osm
+        crossed = (unknown.if_overflown() if osm and unknown.if_overflown is not None and unreachable_mask.any()
+                   else None)
+        causes = unreachable_causes(gmap, ground.starts, unreachable_mask, clearance_m, crossed)
+        report["coverage"] = coverage_report(
+            gmap, ground.starts, report["targets"], report["unreachable"], report["metrics"]["coverage"],
+            report["zone_sizes"], unknown_buildings=unknown.buildings if osm else None,
+            total_buildings=unknown.total if osm else None, assumed_height_m=unknown.assumed_m,
+            if_overflown=unknown.if_overflown, launch_labels=ground.launch_labels, unreachable_mask=unreachable_mask,
+            clearance_m=clearance_m, causes=causes)
+        paths_latlon = None
+        if plans is not None and frame is not None:
+            from .mission.layers import drone_paths_latlon, plan_layers, plan_summary
+            from .mission.mapfiles import write_map_files
 
-        layers = plan_layers(result, frame, plans, gmap, band=field_plan.band, causes=causes, sources=ground.sources,
-                             launch_labels=ground.launch_labels)
-        written += write_map_files(out, "plan", layers, plan_summary(report, layers), basemap=options.basemap)
-        paths_latlon = drone_paths_latlon(layers)
-    report["files"] = sorted({p.name for p in written} | {"report.json", "plan.png"})
-    remove_stale_outputs(out, keep=report["files"])  # before the new report.json replaces the old list
-    write_report(report, out / "report.json")
-    draw_plan(result, out / "plan.png", sortie_starts=sortie_starts, frame=frame, paths_latlon=paths_latlon,
-              obstacle=gmap.obstacle, band=field_plan.band, unreachable_causes=causes)
-    return PlanFolder(out, ground, options, report, written)
+            layers = plan_layers(result, frame, plans, gmap, band=field_plan.band, causes=causes,
+                                 sources=ground.sources, launch_labels=ground.launch_labels)
+            written += write_map_files(staging, "plan", layers, plan_summary(report, layers), basemap=options.basemap)
+            paths_latlon = drone_paths_latlon(layers)
+        draw_plan(result, staging / "plan.png", sortie_starts=sortie_starts, frame=frame, paths_latlon=paths_latlon,
+                  obstacle=gmap.obstacle, band=field_plan.band, unreachable_causes=causes)
+        report["files"] = sorted({p.name for p in written} | {"report.json", "plan.png"})
+        report["files_sha256"] = _sha256_of(staging, report["files"])
+        write_report(report, staging / "report.json")  # in staging: it goes into place last
+        kept = _into_place(staging, out, report["files"])
+    except OSError as err:
+        raise _write_failed(out, err) from None
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    return PlanFolder(out, ground, options, report, [out / p.name for p in written], kept)
+
+
+def _staging_folder(out: Path) -> Path:
+    try:
+        return Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=out))
+    except OSError as err:
+        raise MapError(f"--out {out}: cannot write files there ({err.strerror})") from None
+
+
+def _sha256_of(staging: Path, names: list[str]) -> dict[str, str]:
+    """Each staged file's sha256, report.json aside (a later plan removes a stale file only if it still matches)."""
+    from .mission.outputs import file_sha256
+
+    return {name: file_sha256(staging / name) for name in names if name != "report.json"}
+
+
+class _Committing(OSError):
+    """A staged file that could not be renamed into place: part of the new plan is in the folder."""
+
+
+def _into_place(staging: Path, out: Path, names: list[str]) -> list[Path]:
+    """Rename the staged files into `out`, then remove the earlier plan's stale files (outputs.py) and put
+    report.json in place last; the earlier plan's files kept because they changed since it wrote them."""
+    from .mission.outputs import remove_stale_outputs
+
+    try:
+        for name in names:
+            if name != "report.json":
+                os.replace(staging / name, out / name)
+        stale = remove_stale_outputs(out, keep=names)  # reads the earlier report.json, still in place
+        os.replace(staging / "report.json", out / "report.json")
+    except OSError as err:
+        raise _Committing(err.errno, err.strerror, err.filename) from None
+    return stale.kept
+
+
+def _write_failed(out: Path, err: OSError) -> MapError:
+    """One line naming the folder, the file and the cause of a failed write."""
+    name = Path(err.filename).name if err.filename else "the plan's files"
+    cause = err.strerror or str(err)
+    if isinstance(err, _Committing):
+        return MapError(f"--out {out}: cannot put {name} in place ({cause}); the folder holds part of the new "
+                        f"plan: plan again once the cause is fixed")
+    return MapError(f"--out {out}: cannot write {name} ({cause}); nothing of this plan was kept, and the "
+                    f"folder's earlier files are as they were")

@@ -11,6 +11,10 @@ Who flies it is said, never assumed: `--drones 2,3` (the survey's drones 2 and 3
 points, as system ids 2 and 3), or `--launch LAT,LON` once per drone with `--sysid K=ID` for each
 (drone K of the new plan is the vehicle with system id ID). The files are named by system id
 (uav2.plan for the vehicle with id 2), which is how `fly` matches them to vehicles.
+
+NEW is written as `plan` writes its --out (write_plan_folder: held by this run alone, written whole or
+not at all): NEW may not be the survey's own folder, nor any folder that holds a flight (another
+survey's, whose ledger a re-plan there would orphan), nor the root folder or the user's home.
 """
 
 from __future__ import annotations
@@ -31,7 +35,7 @@ from .mission.drone_missions import MissionSettings
 from .mission.safety import SafetySettings
 from .pipeline import DEFAULT_POLICY, POLICIES
 from .plan_display import EXIT_FAILED, print_plan
-from .plan_folder import PlanGround, PlanOptions, write_plan_folder
+from .plan_folder import PlanGround, PlanOptions, check_out_folder, write_plan_folder
 
 
 def stored_settings(survey: Survey) -> tuple[MissionSettings, SafetySettings, dict[str, Any]]:
@@ -108,6 +112,7 @@ def cmd_replan(args: argparse.Namespace) -> int:
         flights = len(ledger.flights())
     if out.resolve() in (plan_dir.resolve(), survey.root.resolve()):
         raise MapError(f"--out {out}: a re-plan goes into a new folder, not over the survey's own plan")
+    check_out_folder(out)  # before a word is printed; write_plan_folder asks again, holding the folder
     mission, safety, stored = stored_settings(survey)
     if args.drones is not None and args.launch:
         raise MapError("give either --drones (the survey's drones, from their launch points) or --launch with --sysid")

@@ -364,18 +364,27 @@ def test_sortie_shares_give_the_slower_drone_fewer_cells_and_none_without_sortie
     assert sortie_shares(np.array([100, 100]), np.array([1000.0, 1020.0]), np.array([2, 2])) is None
 
 
-def test_an_older_report_without_a_file_list_names_its_drones_files(tmp_path):
-    from missionplan.mission.outputs import remove_stale_outputs
+def test_an_older_report_without_checksums_removes_nothing_and_names_what_it_keeps(tmp_path):
+    from missionplan.mission.outputs import file_sha256, remove_stale_outputs
 
+    # A report written before checksums (here also before `files`): its drones' files are named, none removed.
     (tmp_path / "report.json").write_text(json.dumps({"drones": [{"id": 1}, {"id": 3}]}))
     for name in ("uav1.plan", "uav3.plan", "uav3.waypoints", "tracks.geojson", "mine.plan"):
         (tmp_path / name).write_text("x")
-    removed = remove_stale_outputs(tmp_path, keep={"uav1.plan", "report.json", "plan.png"})
-    assert sorted(p.name for p in removed) == ["tracks.geojson", "uav3.plan", "uav3.waypoints"]
-    assert (tmp_path / "mine.plan").exists() and (tmp_path / "uav1.plan").exists()
+    stale = remove_stale_outputs(tmp_path, keep={"uav1.plan", "report.json", "plan.png"})
+    assert stale.removed == []
+    assert sorted(p.name for p in stale.kept) == ["tracks.geojson", "uav3.plan", "uav3.waypoints"]
+    # With checksums: only the file whose content is still the recorded one goes.
+    (tmp_path / "report.json").write_text(json.dumps({
+        "files": ["uav3.plan", "uav3.waypoints"],
+        "files_sha256": {"uav3.plan": file_sha256(tmp_path / "uav3.plan"), "uav3.waypoints": "0" * 64}}))
+    stale = remove_stale_outputs(tmp_path, keep=set())
+    assert [p.name for p in stale.removed] == ["uav3.plan"] and [p.name for p in stale.kept] == ["uav3.waypoints"]
     # A report listing a name that is not one of ours, or a path, removes nothing of it.
-    (tmp_path / "report.json").write_text(json.dumps({"files": ["../escape.plan", "notes.txt", "mine.plan"]}))
-    assert remove_stale_outputs(tmp_path, keep=set()) == []
+    (tmp_path / "report.json").write_text(json.dumps({"files": ["../escape.plan", "notes.txt", "mine.plan"],
+                                                      "files_sha256": {"mine.plan": file_sha256(tmp_path / "mine.plan")}}))
+    assert remove_stale_outputs(tmp_path, keep=set()).removed == []
+    assert (tmp_path / "mine.plan").exists() and (tmp_path / "uav1.plan").exists()
 
 
 def test_a_fence_round_a_ragged_zone_stays_small_and_holds_every_point():

@@ -169,6 +169,7 @@ def test_an_import_circle_is_found() -> None:
 BRIDGE_MAY_IMPORT = {
     "errors": set(),
     "atomic": set(),
+    "folder_lock": {"errors"},
     "flight_models": set(),
     "formats": {"errors", "atomic"},
     "link": {"errors", "formats"},

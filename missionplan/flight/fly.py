@@ -12,8 +12,10 @@ record is written from the journal and fly says so. A second Ctrl-C within ABORT
 `--on-abort rtl|land`, commands every vehicle this run started to return (RTL) or to land.
 `fly --resume DIR` re-attaches to the flight a killed or stopped run left (drone_flight: only vehicles
 holding this flight's mission, and nothing commanded) and judges the whole flight, with the photos of
-both runs. Every link fly opens signs with --signing-key when given and speaks as ground station
---gcs-sysid / --gcs-compid (missionplan.bridge.commands.add_gcs_arguments).
+both runs. The plan folder is fly's alone for the whole run (missionplan.bridge.folder_lock): a second
+process gets one line naming this one, before it opens any link or writes any file. Every link fly
+opens signs with --signing-key when given and speaks as ground station --gcs-sysid / --gcs-compid
+(missionplan.bridge.commands.add_gcs_arguments).
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ import numpy as np
 
 from missionplan.bridge.commands import CONNECT_HELP, DEFAULT_CONNECT, add_gcs_arguments, gcs_identity, signing_key
 from missionplan.bridge.errors import BridgeError, BridgeUsageError
+from missionplan.bridge.folder_lock import holding_folder
 from missionplan.bridge.link.connection import GCS_COMPONENT_ID, GCS_SYSTEM_ID, mavlink, parse_gcs_sysid
 from missionplan.bridge.formats.mission_items import Flavour
 from missionplan.bridge.formats.missionfile import read_mission_file
@@ -120,6 +123,7 @@ def _abort(flights: list[DroneFlight], action: str, alert: Any) -> None:
         alert(f"uav{rec.id}: {text}")
 
 
+@holding_folder  # one owner per folder: a second fly, plan or replan here is refused before any link opens
 def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, progress: bool = True,
         time_scale: float | None = None, telemetry_hz: float = DEFAULT_TELEMETRY_HZ,
         upload_with: str = "missionplan", sortie: int = 1, ready_s: float = DEFAULT_READY_S,

@@ -1,16 +1,21 @@
-"""A plan folder's own files: which ones a previous `plan` wrote there, so a re-plan leaves none stale.
+"""A plan folder's own files: which ones a previous `plan` wrote there, so a re-plan leaves none stale and
+removes nothing else.
 
 A crew may upload whatever uavK.plan lies in the folder, so re-planning 2 drones where 4 were
-planned must not leave uav3.* / uav4.* behind. Only files the project wrote are removed: the ones the
-previous report.json lists in `files` (older reports, without that list: the uavK.plan/.waypoints of
-their `drones` and tracks.geojson), and only plain names of the kinds `plan` writes. Anything else in
-the folder - the user's own files, fly's flight.json - is left alone.
+planned must not leave uav3.* / uav4.* behind. A file is removed only when it is exactly what an
+earlier plan wrote in this folder: its name is one the previous report.json lists (`files`), of the
+kinds `plan` writes, and its content still has the sha256 that report recorded (`files_sha256`). A
+file changed since (the crew edited it), a report.json copied in from elsewhere that lists files of
+the same names, or an older report that recorded no checksums: the file is kept, and said. Anything
+else in the folder - the user's own files, fly's flight.json - is never looked at.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import re
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -18,33 +23,65 @@ from typing import Any, Iterable
 OUR_FILE = re.compile(r"^(report\.json|plan\.(png|html|gpkg|kmz)|tracks\.geojson|uav\d+(-s\d+)?\.(plan|waypoints))$")
 
 
-def previous_outputs(out: Path) -> list[str]:
-    """The file names the report.json in `out` says `plan` wrote (empty when there is none or it is unreadable)."""
+def file_sha256(path: Path) -> str:
+    """The hex sha256 of a file's content (what report.json records for each file a plan wrote)."""
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+@dataclass
+class PreviousOutputs:
+    """What the report.json in a folder says `plan` wrote there: the file names, and the sha256 of each
+    (empty for a report written before checksums were recorded)."""
+
+    names: list[str] = field(default_factory=list)
+    sha256: dict[str, str] = field(default_factory=dict)
+
+
+def previous_outputs(out: Path) -> PreviousOutputs:
+    """The files the report.json in `out` says `plan` wrote (nothing when there is none or it is unreadable)."""
     try:
         report: Any = json.loads((out / "report.json").read_text(encoding="utf-8"))
     except (OSError, ValueError):
-        return []
+        return PreviousOutputs()
     if not isinstance(report, dict):
-        return []
+        return PreviousOutputs()
+    sums = report.get("files_sha256")
+    sha256 = {k: v for k, v in sums.items() if isinstance(k, str) and isinstance(v, str)} if isinstance(sums, dict) else {}
     files = report.get("files")
     if isinstance(files, list):
-        return [name for name in files if isinstance(name, str)]
+        return PreviousOutputs([name for name in files if isinstance(name, str)], sha256)
     names = []
     for drone in report.get("drones") or []:  # reports written before `files` existed
         if isinstance(drone, dict) and isinstance(drone.get("id"), int):
             names += [f"uav{drone['id']}.plan", f"uav{drone['id']}.waypoints"]
-    return names + (["tracks.geojson"] if names else [])
+    return PreviousOutputs(names + (["tracks.geojson"] if names else []), sha256)
 
 
-def remove_stale_outputs(out: Path, keep: Iterable[str]) -> list[Path]:
-    """Remove the files the previous plan in `out` wrote that the new one does not; returns them."""
+@dataclass
+class StaleOutputs:
+    """The previous plan's files the new plan does not write: removed, or kept because they are not
+    (any more) exactly what that plan wrote."""
+
+    removed: list[Path] = field(default_factory=list)
+    kept: list[Path] = field(default_factory=list)
+
+
+def remove_stale_outputs(out: Path, keep: Iterable[str]) -> StaleOutputs:
+    """Remove the files the previous plan in `out` wrote that the new one does not (`keep`: the new plan's
+    names), each only when its content is still what that plan recorded; see the module docstring."""
     keep = set(keep)
-    removed = []
-    for name in previous_outputs(out):
+    previous = previous_outputs(out)
+    stale = StaleOutputs()
+    for name in previous.names:
         if name in keep or not OUR_FILE.match(name):
             continue
         path = out / name
-        if path.is_file() and not path.is_symlink():
+        if not path.is_file() or path.is_symlink():
+            continue
+        if previous.sha256.get(name) == file_sha256(path):
             path.unlink()
-            removed.append(path)
-    return removed
+            stale.removed.append(path)
+        else:
+            stale.kept.append(path)
+    return stale
