@@ -1,0 +1,73 @@
+"""Building heights from the attributes that come with a footprint (OSM tags, GIS fields).
+
+The height is the first of these a feature carries, in metres:
+
+* the field named with `plan --height-field NAME`, when given;
+* `height`, then `building:height` (OSM's tags; also under the names GIS formats turn them into:
+  `building_height` in GML, `building_h` in a Shapefile, whose field names stop at 10 characters);
+* `building:levels` (`building_levels`, `building_l`) times `LEVEL_HEIGHT_M`.
+
+Field names match whatever their case (Shapefiles often carry `HEIGHT`). A value is a number or
+text such as '12', '12 m', '12,5', "40'" or '40 ft'; anything else (negative, NaN, 'tall') is no
+height, so the building is of unknown height.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+LEVEL_HEIGHT_M = 3.0  # metres per storey when only the number of levels is known
+HEIGHT_FIELDS = ("height", "building:height", "building_height", "building_h")
+LEVEL_FIELDS = ("building:levels", "building_levels", "building_l")
+
+_HEIGHT_TEXT = re.compile(r"\s*(\d+(?:[.,]\d+)?)\s*(m|meters?|metres?|ft|feet|')?\s*", re.IGNORECASE)
+
+
+def parse_height(value: Any) -> float | None:
+    """OSM-style height: '12', '12 m', '12.5m', '12,5', "40'" / '40 ft' -> metres; else None."""
+    if value is None or isinstance(value, bool):
+        return None
+    if isinstance(value, (int, float)):
+        v = float(value)
+        return v if math.isfinite(v) and v >= 0 else None
+    m = _HEIGHT_TEXT.fullmatch(str(value))
+    if not m:
+        return None
+    v = float(m.group(1).replace(",", "."))
+    if m.group(2) and m.group(2).lower() in ("ft", "feet", "'"):
+        v *= 0.3048
+    return v
+
+
+def _lookup(tags: Mapping[str, Any], names: Iterable[str]) -> Any:
+    """The value of the first of `names` present (any case) with a value, else None."""
+    lowered = None
+    for name in names:
+        if name in tags:
+            value = tags[name]
+        else:
+            if lowered is None:
+                lowered = {str(key).lower(): value for key, value in tags.items()}
+            value = lowered.get(name.lower())
+        if value is not None and value != "":
+            return value
+    return None
+
+
+def building_height(tags: Mapping[str, Any], height_field: str | None = None) -> float | None:
+    """The footprint's height in metres from its attributes (see the module docstring), else None."""
+    names = ((height_field,) if height_field else ()) + HEIGHT_FIELDS
+    for name in names:
+        h = parse_height(_lookup(tags, (name,)))
+        if h is not None:
+            return h
+    levels = parse_height(_lookup(tags, LEVEL_FIELDS))
+    return levels * LEVEL_HEIGHT_M if levels is not None else None
+
+
+def has_field(field_names: Iterable[str], name: str) -> bool:
+    """Whether `name` is among `field_names`, whatever the case."""
+    return name.lower() in {str(f).lower() for f in field_names}

@@ -1,0 +1,309 @@
+"""Building footprints from OpenStreetMap data (`.osm` XML, `.osm.pbf`), read with pyosmium.
+
+Closed ways and multipolygon relations tagged building=* (not building=no), assembled by libosmium
+into areas; a footprint's properties are its tags plus `osm_id` and `osm_type`. Why pyosmium and not
+GDAL's OSM driver: it is faster and leaner on a city (bench/read_bench.py), and it says which way
+lacks which node, where GDAL drops such a building without a word.
+
+Nothing is left out without a name. Each of these is listed (`SourceFile.dropped`, by OSM id, with
+its cause) and the rest of the file is read:
+
+* a building way that references a node the file does not hold (an extract clipped at its edge);
+* a building way that is not closed and belongs to no building multipolygon;
+* a building multipolygon whose member ways are missing or do not close into rings (one more pass
+  over the file, only when there is such a relation, names the missing member);
+* a footprint of zero area.
+
+An invalid footprint (a ring touching itself, a self-crossing) is repaired with make_valid instead
+of refusing a whole extract for one roof drawn by someone else; it is listed as repaired. A node
+outside WGS84 range is bad data and an error naming the way and node.
+
+OSM ids are any signed 64-bit integer, but libosmium stores node locations for ids from 0 up only,
+and an area's id (twice the way's id, plus one for a relation) overflows from |id| = 2^62. So a file
+with negative node ids (JOSM gives new objects negative ids) or such large way / relation ids would
+lose those buildings: when one is seen, the file is copied with those ids renumbered into free
+positive ones (a temporary .osm.pbf) and read again, and every message names the original ids.
+libosmium itself refuses the two extreme ids, 2^63 - 1 and -2^63.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import shapely
+from shapely.geometry import MultiPolygon
+
+from .errors import GeoError
+from .shapes import check_lonlat, polygonal_part
+from .sources import Omission, SourceFile
+
+_UNDEFINED_COORDINATE = 2**31 - 1  # osmium's x / y of a node the file does not hold
+AREA_ID_LIMIT = 2**62  # from here on libosmium's area id (2 |id| + 1) overflows
+MAX_NODE_ID = 2**63 - 2  # libosmium refuses 2^63 - 1
+MAX_NAMED = 3  # missing nodes / members named in one cause
+
+
+@dataclass
+class _Names:
+    """Original ids of renumbered objects, by type ('n', 'w', 'r'): new id -> the file's id."""
+
+    original: dict[str, dict[int, int]] = field(default_factory=lambda: {"n": {}, "w": {}, "r": {}})
+
+    def __call__(self, kind: str, new_id: int) -> int:
+        return self.original[kind].get(new_id, new_id)
+
+
+@dataclass
+class OsmBuilding:
+    """One footprint as read: geometry, tags (with osm_id, osm_type), its name, why it was repaired."""
+
+    geometry: Any
+    tags: dict[str, Any]
+    ref: str
+    repaired: str | None
+
+
+@dataclass
+class _Scan:
+    buildings: list[OsmBuilding] = field(default_factory=list)
+    dropped: list[Omission] = field(default_factory=list)
+    renumber: str | None = None  # why the ids must be renumbered, when they must
+
+
+def _error_text(err: Exception) -> str:
+    return str(err).splitlines()[0] if str(err) else type(err).__name__
+
+
+def _listed(ids: list[Any], what: str) -> str:
+    """'node 5', 'nodes 5, 6, 7 and 2 more'."""
+    shown = ", ".join(str(i) for i in ids[:MAX_NAMED])
+    more = f" and {len(ids) - MAX_NAMED} more" if len(ids) > MAX_NAMED else ""
+    return f"{what}{'s' if len(ids) > 1 else ''} {shown}{more}"
+
+
+def _building_relations(path: Path, names: _Names) -> tuple[dict[int, list[tuple[int, str]]], str | None]:
+    """Multipolygon relations tagged building: id -> its member ways (id, role); and why to renumber."""
+    import osmium
+
+    relations: dict[int, list[tuple[int, str]]] = {}
+    renumber = None
+    for rel in osmium.FileProcessor(str(path), osmium.osm.RELATION).with_filter(osmium.filter.KeyFilter("building")):
+        if rel.tags.get("building", "no") == "no" or rel.tags.get("type") != "multipolygon":
+            continue
+        members = [(m.ref, m.role) for m in rel.members if m.type == "w"]
+        relations[rel.id] = members
+        if abs(rel.id) >= AREA_ID_LIMIT or any(abs(ref) >= AREA_ID_LIMIT for ref, _ in members):
+            renumber = f"relation {names('r', rel.id)}: an id of 2^62 or more"
+    return relations, renumber
+
+
+def _way_nodes(path: Path, label: str, way: Any, names: _Names) -> tuple[list[int], bool]:
+    """The way's nodes the file lacks (original ids), and whether one of them has a negative id.
+
+    A node whose location is out of WGS84 range is bad data, not a skip: an error.
+    """
+    missing: list[int] = []
+    negative = False
+    for node in way.nodes:
+        loc = node.location
+        if loc.valid():
+            continue
+        if loc.x != _UNDEFINED_COORDINATE and loc.y != _UNDEFINED_COORDINATE:
+            raise GeoError(f"{label}: way {names('w', way.id)}, node {names('n', node.ref)}: location "
+                           f"(lat {loc.y / 1e7}, lon {loc.x / 1e7}) is out of range "
+                           f"(latitude in [-90, 90], longitude in [-180, 180])")
+        missing.append(names("n", node.ref))
+        negative |= node.ref < 0
+    return missing, negative
+
+
+def _scan(path: Path, label: str, names: _Names) -> _Scan:
+    """One read of the file: the footprints, what was dropped, or why the ids must be renumbered first."""
+    import osmium  # imported here so the rest of geo works without the C++ extension loaded
+
+    out = _Scan()
+    relations, out.renumber = _building_relations(path, names)
+    if out.renumber:
+        return out
+    in_relation = {ref for members in relations.values() for ref, _ in members}
+    wkb = osmium.geom.WKBFactory()
+    closed_ways: set[int] = set()
+    dropped_ways: set[int] = set()  # already named (a missing node): their failed area is not named again
+    areas: set[tuple[str, int]] = set()
+    fp = (osmium.FileProcessor(str(path)).with_areas()
+          .with_filter(osmium.filter.EntityFilter(osmium.osm.AREA | osmium.osm.WAY))
+          .with_filter(osmium.filter.KeyFilter("building")))  # in C++: Python sees buildings only
+    for obj in fp:
+        if obj.is_way():
+            if obj.tags.get("building", "no") == "no":
+                continue
+            way_id = names("w", obj.id)
+            if abs(obj.id) >= AREA_ID_LIMIT:
+                out.renumber = f"way {way_id}: an id of 2^62 or more"
+                return out
+            try:
+                wkb.create_linestring(obj)  # C++: fails only when a node location is not valid
+            except (RuntimeError, osmium.InvalidLocationError):
+                missing, negative = _way_nodes(path, label, obj, names)  # the slow look, only then
+                if negative:
+                    out.renumber = f"way {way_id}: negative node ids"
+                    return out
+                out.dropped.append(Omission(f"way {way_id}", f"{_listed(missing, 'node')} missing from the file"))
+                dropped_ways.add(obj.id)
+                continue
+            if obj.is_closed():
+                closed_ways.add(obj.id)
+            elif obj.id not in in_relation:
+                out.dropped.append(Omission(f"way {way_id}", "not closed (its first and last nodes differ) "
+                                                             "and in no building multipolygon"))
+            continue
+        kind = "way" if obj.from_way() else "relation"
+        orig = names(kind[0], obj.orig_id())
+        tags = dict(obj.tags)
+        if tags.get("building", "no") == "no":
+            continue
+        areas.add((kind, obj.orig_id()))
+        if kind == "way" and obj.orig_id() in dropped_ways:
+            continue
+        ref = f"{kind} {orig}"
+        try:
+            geom = shapely.from_wkb(wkb.create_multipolygon(obj))
+        except (RuntimeError, osmium.InvalidLocationError):
+            out.dropped.append(Omission(ref, "its rings could not be assembled"))
+            continue
+        check_lonlat(geom, f"{label}: {ref}")
+        repaired = None
+        if not geom.is_valid:
+            repaired = shapely.is_valid_reason(geom)
+            geom = polygonal_part(shapely.make_valid(geom))
+        if geom.is_empty or geom.area == 0:
+            out.dropped.append(Omission(ref, "zero area (its nodes lie on a line)"))
+            continue
+        if isinstance(geom, MultiPolygon) and len(geom.geoms) == 1:
+            geom = geom.geoms[0]
+        tags["osm_id"] = orig
+        tags["osm_type"] = kind
+        out.buildings.append(OsmBuilding(geom, tags, ref, repaired))
+    for way in sorted(closed_ways - {i for k, i in areas if k == "way"}):
+        out.dropped.append(Omission(f"way {names('w', way)}", "its ring could not be assembled (fewer than 4 nodes, "
+                                                             "or it crosses itself beyond repair)"))
+    broken = {rel: members for rel, members in relations.items() if ("relation", rel) not in areas}
+    if broken:
+        causes, out.renumber = _broken_relations(path, label, broken, names)
+        out.dropped += [Omission(f"relation {names('r', rel)}", causes[rel]) for rel in sorted(broken)]
+    return out
+
+
+def _broken_relations(path: Path, label: str, broken: dict[int, list[tuple[int, str]]],
+                      names: _Names) -> tuple[dict[int, str], str | None]:
+    """Why each building multipolygon was not assembled: its missing member ways, or their missing nodes
+    (one more pass over the file, with node locations, for these relations' member ways only)."""
+    import osmium
+
+    wanted = {ref for members in broken.values() for ref, _ in members}
+    present: dict[int, list[int]] = {}  # member way -> its nodes the file lacks
+    renumber = None
+    fp = (osmium.FileProcessor(str(path), osmium.osm.NODE | osmium.osm.WAY).with_locations()
+          .with_filter(osmium.filter.EntityFilter(osmium.osm.WAY)))
+    if min(wanted, default=0) >= 0:  # osmium's IdFilter takes ids from 0 up; else Python picks the ways
+        fp = fp.with_filter(osmium.filter.IdFilter(wanted))
+    for way in fp:
+        if way.id not in wanted:
+            continue
+        missing, negative = _way_nodes(path, label, way, names)
+        if negative:
+            renumber = f"way {names('w', way.id)}: negative node ids"
+        present[way.id] = missing
+    causes = {}
+    for rel, members in broken.items():
+        absent = [f"{names('w', ref)} ({role or 'no role'})" for ref, role in members if ref not in present]
+        lacking = [(ref, present[ref]) for ref, _ in members if present.get(ref)]
+        if not members:
+            causes[rel] = "broken multipolygon: no member ways"
+        elif absent:
+            causes[rel] = f"broken multipolygon: member {_listed(absent, 'way')} missing from the file"
+        elif lacking:
+            ref, nodes = lacking[0]
+            causes[rel] = (f"broken multipolygon: member way {names('w', ref)} lacks "
+                           f"{_listed(nodes, 'node')} (missing from the file)")
+        else:
+            causes[rel] = "broken multipolygon: its member ways do not close into rings"
+    return causes, renumber
+
+
+def _renumbered(path: Path, folder: Path, label: str) -> tuple[Path, _Names]:
+    """A copy of the OSM file with negative node ids, and way / relation ids of 2^62 or more, renumbered
+    into free positive ids (after the largest one in use), and the map back to the original ids."""
+    import osmium
+
+    unsafe: dict[str, list[int]] = {"n": [], "w": [], "r": []}
+    largest = {"n": 0, "w": 0, "r": 0}
+    limit = {"n": MAX_NODE_ID, "w": AREA_ID_LIMIT - 1, "r": AREA_ID_LIMIT - 1}
+    for obj in osmium.FileProcessor(str(path)):
+        kind = obj.type_str()
+        if (obj.id < 0 and kind == "n") or abs(obj.id) > limit[kind]:
+            unsafe[kind].append(obj.id)
+        elif obj.id > largest[kind]:
+            largest[kind] = obj.id
+    new_ids: dict[str, dict[int, int]] = {}
+    names = _Names()
+    for kind, ids in unsafe.items():
+        ids = sorted(set(ids), key=abs)
+        if largest[kind] + len(ids) > limit[kind]:
+            raise GeoError(f"{label}: its ids leave no room to renumber the {len(ids)} that libosmium cannot "
+                           f"assemble (negative node ids, way or relation ids of 2^62 or more)")
+        new_ids[kind] = {old: largest[kind] + 1 + k for k, old in enumerate(ids)}
+        names.original[kind] = {new: old for old, new in new_ids[kind].items()}
+    node_ids, way_ids, rel_ids = new_ids["n"], new_ids["w"], new_ids["r"]
+    member_ids = {"n": node_ids, "w": way_ids, "r": rel_ids}
+    copy = folder / "renumbered.osm.pbf"
+    with osmium.SimpleWriter(str(copy), overwrite=True) as writer:
+        for obj in osmium.FileProcessor(str(path)):
+            if obj.is_node():
+                writer.add_node(obj.replace(id=node_ids.get(obj.id, obj.id)))
+            elif obj.is_way():
+                writer.add_way(obj.replace(id=way_ids.get(obj.id, obj.id),
+                                           nodes=[node_ids.get(n.ref, n.ref) for n in obj.nodes]))
+            elif obj.is_relation():
+                writer.add_relation(obj.replace(id=rel_ids.get(obj.id, obj.id), members=[
+                    (m.type, member_ids.get(m.type, {}).get(m.ref, m.ref), m.role) for m in obj.members]))
+    return copy, names
+
+
+def read_osm(path: Path) -> tuple[list[OsmBuilding], SourceFile]:
+    """The building footprints of an OSM file and how it was read (see the module docstring)."""
+    import osmium
+
+    label = str(path)
+    fmt = "OpenStreetMap PBF" if path.name.lower().endswith(".pbf") else "OpenStreetMap XML"
+    source = SourceFile(label, fmt, "pyosmium")
+    try:
+        scan = _scan(path, label, _Names())
+        if scan.renumber:
+            with tempfile.TemporaryDirectory(prefix="missionplan-osm-") as folder:
+                copy, names = _renumbered(path, Path(folder), label)
+                scan = _scan(copy, label, names)
+            source.notes.append(f"ids renumbered for libosmium, named here as in the file ({_why(names)})")
+    except GeoError:
+        raise
+    except (RuntimeError, OSError, ValueError, osmium.InvalidLocationError) as err:
+        # libosmium reports a malformed file as RuntimeError (XML / PBF errors), a bad
+        # coordinate text as InvalidLocationError, undecodable tag text or an illegal id as ValueError.
+        raise GeoError(f"{label}: cannot read OSM data ({_error_text(err)})") from None
+    if not scan.buildings:
+        dropped = f" ({len(scan.dropped)} dropped: {scan.dropped[0].ref}: {scan.dropped[0].cause})" if scan.dropped else ""
+        raise GeoError(f"{label}: no building polygon found{dropped}")
+    source.features = len(scan.buildings)
+    source.dropped = scan.dropped
+    source.repaired = [Omission(b.ref, b.repaired) for b in scan.buildings if b.repaired]
+    return scan.buildings, source
+
+
+def _why(names: _Names) -> str:
+    counts: Iterable[tuple[str, int]] = ((word, len(names.original[kind])) for kind, word in
+                                         (("n", "node"), ("w", "way"), ("r", "relation")))
+    return ", ".join(f"{count} {word}{'s' if count > 1 else ''}" for word, count in counts if count)
