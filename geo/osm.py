@@ -116,9 +116,19 @@ def _way_nodes(path: Path, label: str, way: Any, names: _Names) -> tuple[list[in
             raise GeoError(f"{label}: way {names('w', way.id)}, node {names('n', node.ref)}: location "
                            f"(lat {loc.y / 1e7}, lon {loc.x / 1e7}) is out of range "
                            f"(latitude in [-90, 90], longitude in [-180, 180])")
-        missing.append(names("n", node.ref))
+        if names("n", node.ref) not in missing:  # a closed way names its first node twice
+            missing.append(names("n", node.ref))
         negative |= node.ref < 0
     return missing, negative
+
+
+@dataclass
+class _WayLook:
+    """A way as the second look saw it: its tags, (lon, lat) points, the nodes the file lacks."""
+
+    tags: dict[str, str]
+    points: list[tuple[float, float]]
+    missing: list[int]
 
 
 def _scan(path: Path, label: str, names: _Names) -> _Scan:
@@ -131,9 +141,8 @@ def _scan(path: Path, label: str, names: _Names) -> _Scan:
         return out
     in_relation = {ref for members in relations.values() for ref, _ in members}
     wkb = osmium.geom.WKBFactory()
-    closed_ways: set[int] = set()
-    dropped_ways: set[int] = set()  # already named (a missing node): their failed area is not named again
-    areas: set[tuple[str, int]] = set()
+    closed_ways: set[int] = set()  # closed building ways with every node: each should give an area
+    assembled: set[tuple[str, int]] = set()
     fp = (osmium.FileProcessor(str(path)).with_areas()
           .with_filter(osmium.filter.EntityFilter(osmium.osm.AREA | osmium.osm.WAY))
           .with_filter(osmium.filter.KeyFilter("building")))  # in C++: Python sees buildings only
@@ -153,7 +162,6 @@ def _scan(path: Path, label: str, names: _Names) -> _Scan:
                     out.renumber = f"way {way_id}: negative node ids"
                     return out
                 out.dropped.append(Omission(f"way {way_id}", f"{_listed(missing, 'node')} missing from the file"))
-                dropped_ways.add(obj.id)
                 continue
             if obj.is_closed():
                 closed_ways.add(obj.id)
@@ -162,115 +170,148 @@ def _scan(path: Path, label: str, names: _Names) -> _Scan:
                                                              "and in no building multipolygon"))
             continue
         kind = "way" if obj.from_way() else "relation"
-        orig = names(kind[0], obj.orig_id())
         tags = dict(obj.tags)
         if tags.get("building", "no") == "no":
             continue
-        areas.add((kind, obj.orig_id()))
-        if kind == "way" and obj.orig_id() in dropped_ways:
-            continue
-        ref = f"{kind} {orig}"
         try:
             geom = shapely.from_wkb(wkb.create_multipolygon(obj))
         except (RuntimeError, osmium.InvalidLocationError):
-            out.dropped.append(Omission(ref, "its rings could not be assembled"))
-            continue
-        check_lonlat(geom, f"{label}: {ref}")
-        repaired = None
-        if not geom.is_valid:
-            repaired = shapely.is_valid_reason(geom)
-            geom = polygonal_part(shapely.make_valid(geom))
-        if geom.is_empty or geom.area == 0:
-            out.dropped.append(Omission(ref, "zero area (its nodes lie on a line)"))
-            continue
-        if isinstance(geom, MultiPolygon) and len(geom.geoms) == 1:
-            geom = geom.geoms[0]
-        tags["osm_id"] = orig
-        tags["osm_type"] = kind
-        out.buildings.append(OsmBuilding(geom, tags, ref, repaired))
-    for way in sorted(closed_ways - {i for k, i in areas if k == "way"}):
-        out.dropped.append(Omission(f"way {names('w', way)}", "its ring could not be assembled (fewer than 4 nodes, "
-                                                             "or it crosses itself beyond repair)"))
-    broken = {rel: members for rel, members in relations.items() if ("relation", rel) not in areas}
-    if broken:
-        causes, out.renumber = _broken_relations(path, label, broken, names)
-        out.dropped += [Omission(f"relation {names('r', rel)}", causes[rel]) for rel in sorted(broken)]
+            continue  # libosmium could not assemble it: looked at below, with the others it did not give
+        assembled.add((kind, obj.orig_id()))
+        building = _footprint(geom, tags, kind, obj.orig_id(), label, names)
+        if isinstance(building, Omission):
+            out.dropped.append(building)
+        else:
+            out.buildings.append(building)
+    unassembled = sorted(closed_ways - {i for k, i in assembled if k == "way"})
+    broken = {rel: members for rel, members in relations.items() if ("relation", rel) not in assembled}
+    if unassembled or broken:
+        looks = _second_look(path, label, set(unassembled) | {ref for m in broken.values() for ref, _ in m}, names)
+        if any(ref < 0 for look in looks.values() for ref in look.missing):
+            out.renumber = "negative node ids in a multipolygon's member way"
+            return out
+        for way in unassembled:
+            look = looks[way]
+            ring = shapely.Polygon(look.points) if len(look.points) >= 4 else shapely.Polygon()
+            building = _footprint(ring, dict(look.tags), "way", way, label, names, "libosmium could not assemble "
+                                  "its ring")
+            if isinstance(building, Omission):
+                out.dropped.append(building)
+            else:
+                out.buildings.append(building)
+        out.dropped += [Omission(f"relation {names('r', rel)}", _why_broken(broken[rel], looks, names))
+                        for rel in sorted(broken)]
     return out
 
 
-def _broken_relations(path: Path, label: str, broken: dict[int, list[tuple[int, str]]],
-                      names: _Names) -> tuple[dict[int, str], str | None]:
-    """Why each building multipolygon was not assembled: its missing member ways, or their missing nodes
-    (one more pass over the file, with node locations, for these relations' member ways only)."""
+def _footprint(geom: Any, tags: dict[str, Any], kind: str, osm_id: int, label: str, names: _Names,
+               failed: str | None = None) -> OsmBuilding | Omission:
+    """The building of one area (its geometry checked, repaired when invalid), or why it is dropped.
+    `failed`: libosmium did not assemble it (its ring is then repaired with make_valid if it can be)."""
+    orig = names(kind[0], osm_id)
+    ref = f"{kind} {orig}"
+    check_lonlat(geom, f"{label}: {ref}")
+    repaired = failed
+    if not geom.is_valid:
+        reason = shapely.is_valid_reason(geom)
+        repaired = f"{failed}: {reason}" if failed else reason
+        geom = polygonal_part(shapely.make_valid(geom))
+    if geom.is_empty or geom.area == 0:
+        return Omission(ref, "zero area (its nodes lie on a line)")
+    if isinstance(geom, MultiPolygon) and len(geom.geoms) == 1:
+        geom = geom.geoms[0]
+    tags["osm_id"] = orig
+    tags["osm_type"] = kind
+    return OsmBuilding(geom, tags, ref, repaired)
+
+
+def _second_look(path: Path, label: str, wanted: set[int], names: _Names) -> dict[int, _WayLook]:
+    """The ways `wanted` as the file holds them (one more pass, with node locations): those libosmium
+    did not make areas of, and the member ways of the multipolygons it did not assemble."""
     import osmium
 
-    wanted = {ref for members in broken.values() for ref, _ in members}
-    present: dict[int, list[int]] = {}  # member way -> its nodes the file lacks
-    renumber = None
     fp = (osmium.FileProcessor(str(path), osmium.osm.NODE | osmium.osm.WAY).with_locations()
           .with_filter(osmium.filter.EntityFilter(osmium.osm.WAY)))
     if min(wanted, default=0) >= 0:  # osmium's IdFilter takes ids from 0 up; else Python picks the ways
         fp = fp.with_filter(osmium.filter.IdFilter(wanted))
+    looks: dict[int, _WayLook] = {}
     for way in fp:
         if way.id not in wanted:
             continue
-        missing, negative = _way_nodes(path, label, way, names)
-        if negative:
-            renumber = f"way {names('w', way.id)}: negative node ids"
-        present[way.id] = missing
-    causes = {}
-    for rel, members in broken.items():
-        absent = [f"{names('w', ref)} ({role or 'no role'})" for ref, role in members if ref not in present]
-        lacking = [(ref, present[ref]) for ref, _ in members if present.get(ref)]
-        if not members:
-            causes[rel] = "broken multipolygon: no member ways"
-        elif absent:
-            causes[rel] = f"broken multipolygon: member {_listed(absent, 'way')} missing from the file"
-        elif lacking:
-            ref, nodes = lacking[0]
-            causes[rel] = (f"broken multipolygon: member way {names('w', ref)} lacks "
-                           f"{_listed(nodes, 'node')} (missing from the file)")
-        else:
-            causes[rel] = "broken multipolygon: its member ways do not close into rings"
-    return causes, renumber
+        missing, _ = _way_nodes(path, label, way, names)
+        points = [] if missing else [(n.location.lon, n.location.lat) for n in way.nodes]
+        looks[way.id] = _WayLook(dict(way.tags), points, list(dict.fromkeys(
+            n.ref for n in way.nodes if not n.location.valid())))
+    return looks
+
+
+def _why_broken(members: list[tuple[int, str]], looks: dict[int, _WayLook], names: _Names) -> str:
+    """Why libosmium did not assemble a building multipolygon: its missing member ways, their missing
+    nodes, or rings that do not close."""
+    absent = [(role, names("w", ref)) for ref, role in members if ref not in looks]
+    lacking = [(ref, looks[ref].missing) for ref, _ in members if ref in looks and looks[ref].missing]
+    if not members:
+        return "broken multipolygon: no member ways"
+    if absent:
+        roles = dict.fromkeys(role for role, _ in absent)  # in member order
+        return "broken multipolygon: " + " and ".join(
+            f"{role + ' ' if role else ''}member {_listed([ref for r, ref in absent if r == role], 'way')}"
+            for role in roles) + " missing from the file"
+    if lacking:
+        ref, nodes = lacking[0]
+        return (f"broken multipolygon: member way {names('w', ref)} lacks "
+                f"{_listed([names('n', n) for n in nodes], 'node')} (missing from the file)")
+    return "broken multipolygon: its member ways do not close into rings"
 
 
 def _renumbered(path: Path, folder: Path, label: str) -> tuple[Path, _Names]:
-    """A copy of the OSM file with negative node ids, and way / relation ids of 2^62 or more, renumbered
-    into free positive ids (after the largest one in use), and the map back to the original ids."""
+    """A copy of the OSM file with negative ids, and way / relation ids of 2^62 or more, renumbered into
+    free positive ids (after the largest one in use), sorted as libosmium wants them (by type, then id),
+    and the map back to the original ids. Held in memory while sorting: such files are edits, small."""
     import osmium
 
-    unsafe: dict[str, list[int]] = {"n": [], "w": [], "r": []}
+    # Plain copies (id, what it holds, tags): the file's objects live only while their buffer does.
+    objects: dict[str, list[tuple[int, Any, dict[str, str]]]] = {"n": [], "w": [], "r": []}
     largest = {"n": 0, "w": 0, "r": 0}
     limit = {"n": MAX_NODE_ID, "w": AREA_ID_LIMIT - 1, "r": AREA_ID_LIMIT - 1}
     for obj in osmium.FileProcessor(str(path)):
         kind = obj.type_str()
-        if (obj.id < 0 and kind == "n") or abs(obj.id) > limit[kind]:
-            unsafe[kind].append(obj.id)
-        elif obj.id > largest[kind]:
-            largest[kind] = obj.id
+        if kind == "n":  # x, y: 1e-7 degrees, kept as read even when out of range (checked when read back)
+            loc = obj.location
+            content: Any = (loc.x, loc.y) if _UNDEFINED_COORDINATE not in (loc.x, loc.y) else None
+        elif kind == "w":
+            content = [n.ref for n in obj.nodes]
+        elif kind == "r":
+            content = [(m.type, m.ref, m.role) for m in obj.members]
+        else:
+            continue
+        objects[kind].append((obj.id, content, dict(obj.tags)))
+        if 0 <= obj.id <= limit[kind]:
+            largest[kind] = max(largest[kind], obj.id)
     new_ids: dict[str, dict[int, int]] = {}
     names = _Names()
-    for kind, ids in unsafe.items():
-        ids = sorted(set(ids), key=abs)
-        if largest[kind] + len(ids) > limit[kind]:
-            raise GeoError(f"{label}: its ids leave no room to renumber the {len(ids)} that libosmium cannot "
-                           f"assemble (negative node ids, way or relation ids of 2^62 or more)")
-        new_ids[kind] = {old: largest[kind] + 1 + k for k, old in enumerate(ids)}
+    for kind, items in objects.items():
+        unsafe = sorted({osm_id for osm_id, _, _ in items if not 0 <= osm_id <= limit[kind]}, key=abs)
+        if largest[kind] + len(unsafe) > limit[kind]:
+            raise GeoError(f"{label}: its ids leave no room to renumber the {len(unsafe)} that libosmium cannot "
+                           f"read (negative ids, way or relation ids of 2^62 or more)")
+        new_ids[kind] = {old: largest[kind] + 1 + k for k, old in enumerate(unsafe)}
         names.original[kind] = {new: old for old, new in new_ids[kind].items()}
-    node_ids, way_ids, rel_ids = new_ids["n"], new_ids["w"], new_ids["r"]
-    member_ids = {"n": node_ids, "w": way_ids, "r": rel_ids}
+
+    def renamed(kind: str, osm_id: int) -> int:
+        return new_ids[kind].get(osm_id, osm_id)
+
+    mutable = osmium.osm.mutable
     copy = folder / "renumbered.osm.pbf"
     with osmium.SimpleWriter(str(copy), overwrite=True) as writer:
-        for obj in osmium.FileProcessor(str(path)):
-            if obj.is_node():
-                writer.add_node(obj.replace(id=node_ids.get(obj.id, obj.id)))
-            elif obj.is_way():
-                writer.add_way(obj.replace(id=way_ids.get(obj.id, obj.id),
-                                           nodes=[node_ids.get(n.ref, n.ref) for n in obj.nodes]))
-            elif obj.is_relation():
-                writer.add_relation(obj.replace(id=rel_ids.get(obj.id, obj.id), members=[
-                    (m.type, member_ids.get(m.type, {}).get(m.ref, m.ref), m.role) for m in obj.members]))
+        for osm_id, xy, tags in sorted(objects["n"], key=lambda o: renamed("n", o[0])):
+            location = osmium.osm.Location(xy[0] / 1e7, xy[1] / 1e7) if xy is not None else osmium.osm.Location()
+            writer.add_node(mutable.Node(id=renamed("n", osm_id), location=location, tags=tags))
+        for osm_id, refs, tags in sorted(objects["w"], key=lambda o: renamed("w", o[0])):
+            writer.add_way(mutable.Way(id=renamed("w", osm_id), nodes=[renamed("n", r) for r in refs], tags=tags))
+        for osm_id, members, tags in sorted(objects["r"], key=lambda o: renamed("r", o[0])):
+            writer.add_relation(mutable.Relation(id=renamed("r", osm_id), tags=tags, members=[
+                (kind, renamed(kind, ref) if kind in new_ids else ref, role) for kind, ref, role in members]))
     return copy, names
 
 
@@ -282,7 +323,12 @@ def read_osm(path: Path) -> tuple[list[OsmBuilding], SourceFile]:
     fmt = "OpenStreetMap PBF" if path.name.lower().endswith(".pbf") else "OpenStreetMap XML"
     source = SourceFile(label, fmt, "pyosmium")
     try:
-        scan = _scan(path, label, _Names())
+        try:
+            scan = _scan(path, label, _Names())
+        except RuntimeError as err:
+            if "out of order" not in str(err):  # libosmium's areas need the file sorted by type and id
+                raise
+            scan = _Scan(renumber=_error_text(err))
         if scan.renumber:
             with tempfile.TemporaryDirectory(prefix="missionplan-osm-") as folder:
                 copy, names = _renumbered(path, Path(folder), label)

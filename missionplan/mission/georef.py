@@ -165,28 +165,26 @@ def _some(items: list[str]) -> str:
 
 
 def inputs_warning(inputs: list[dict[str, Any]]) -> str | None:
-    """ONE line naming, file by file, what was dropped, what was repaired and which buildings in the area
+    """ONE line naming, file by file, what was not read, what was repaired and which buildings in the area
     have no height (unless --unknown-building-height gave them one); None when there is nothing to say.
     The full lists are in report.json `inputs`."""
-    parts = []
+    sentences = []
     for entry in inputs:
-        said = []
+        layer = f":{entry['layer']}" if entry.get("layer") else ""
         what = "buildings" if entry["role"] == "buildings" else "polygons"
         for key, done in (("dropped", "not read"), ("repaired", "repaired")):
             if entry[key]:
-                named = _some([f"{item['id']}: {item['cause']}" for item in entry[key]])
-                said.append(f"{len(entry[key])} {what} {done} ({named})")
+                named = _some([f"{item['id']} ({item['cause']})" for item in entry[key]])
+                count = len(entry[key])
+                sentences.append(f"{entry['path']}{layer}: {count} {what if count > 1 else what[:-1]} {done}: {named}")
         unknown = entry.get("unknown_height") or []
         if unknown and entry.get("unknown_height_assumed_m") is None:
-            said.append(f"{len(unknown)} of the {entry['buildings_in_area']} buildings in the area have no height "
-                        f"(no {', '.join(HEIGHT_FIELDS[:2])} or building:levels), so they are obstacles "
-                        f"({_some(unknown)}; --unknown-building-height M gives them one)")
-        if said:
-            layer = f":{entry['layer']}" if entry.get("layer") else ""
-            parts.append(f"{entry['path']}{layer}: {'; '.join(said)}")
-    if not parts:
+            sentences.append(f"{entry['path']}{layer}: {len(unknown)} of the {entry['buildings_in_area']} buildings "
+                             f"in the area have no height ({', '.join(HEIGHT_FIELDS[:2])} or building:levels), so "
+                             f"they are obstacles: {_some(unknown)} (--unknown-building-height M gives them one)")
+    if not sentences:
         return None
-    return " | ".join(parts) + " (all listed in report.json inputs)"
+    return ". ".join(sentences) + ". All are listed in report.json under inputs."
 
 
 def shipped_frame(gmap: GridMap) -> GridFrame | None:
