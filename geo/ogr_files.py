@@ -76,8 +76,10 @@ def _check_signature(path: Path, fmt: OgrFormat, label: str) -> None:
 
 
 def _gdal_errors(err: Exception) -> str:
+    """GDAL's message, first line, at most 300 characters (it may quote a whole SQL statement)."""
     text = str(err).strip().splitlines()
-    return text[0] if text else type(err).__name__
+    first = text[0] if text else type(err).__name__
+    return first if len(first) <= 300 else first[:297] + "..."
 
 
 def _polygon_layers(layers: np.ndarray) -> list[str]:
@@ -86,7 +88,7 @@ def _polygon_layers(layers: np.ndarray) -> list[str]:
                                           or str(geom_type) in _MAYBE_POLYGON)]
 
 
-def _choose_layer(path: Path, label: str, layer: str | None) -> tuple[str, bool]:
+def _choose_layer(path: Path, label: str, fmt: OgrFormat, layer: str | None) -> tuple[str, bool]:
     """The layer to read and whether the file has several."""
     import pyogrio
 
@@ -95,7 +97,7 @@ def _choose_layer(path: Path, label: str, layer: str | None) -> tuple[str, bool]
             warnings.simplefilter("ignore")
             layers = pyogrio.list_layers(path)
     except (RuntimeError, OSError, ValueError) as err:
-        raise GeoError(f"{label}: cannot read ({_gdal_errors(err)})") from None
+        raise GeoError(f"{label}: cannot read it as {fmt.name} ({_gdal_errors(err)})") from None
     names = [str(name) for name, _ in layers]
     if layer is not None:
         if layer not in names:
@@ -143,14 +145,14 @@ def _read_layer(path: Path, label: str, fmt: OgrFormat, layer: str | None) -> tu
         raise GeoError(f"{label}: a file name with '!' cannot go through GDAL (pyogrio reads '!' as an archive "
                        f"separator); rename the file")
     _check_signature(path, fmt, label)
-    name, several = _choose_layer(path, label, layer)
+    name, several = _choose_layer(path, label, fmt, layer)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # GDAL's warnings come as Python warnings: not printed, its errors raise
             meta, fids, wkb, columns = pyogrio.raw.read(path, layer=name, return_fids=True, force_2d=True,
                                                         **dict(fmt.open_options))
     except (RuntimeError, OSError, ValueError) as err:
-        raise GeoError(f"{label}: cannot read ({_gdal_errors(err)})") from None
+        raise GeoError(f"{label}: cannot read it as {fmt.name} ({_gdal_errors(err)})") from None
     source = SourceFile(label, fmt.name, f"GDAL {fmt.driver}", layer=name if several or layer else None)
     where = f"{label}: layer {name}" if several else label
     if wkb is None or not len(wkb):
