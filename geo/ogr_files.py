@@ -122,7 +122,8 @@ def _properties(fields: list[str], columns: list[np.ndarray], count: int) -> lis
 def _geometries(wkb: np.ndarray, refs: list[str], label: str, source: SourceFile) -> list[shapely.Geometry | None]:
     """shapely geometries of GDAL's WKB; a null geometry is dropped (named), a WKB shapely cannot read
     (an unclosed ring, a curve) is an error naming the feature."""
-    geoms = shapely.from_wkb(wkb, on_invalid="ignore")
+    with np.errstate(invalid="ignore"):  # a NaN coordinate: refused below, not warned about on stderr
+        geoms = shapely.from_wkb(wkb, on_invalid="ignore")
     out: list[shapely.Geometry | None] = []
     for i, (raw, geom) in enumerate(zip(wkb, geoms)):
         if geom is None and raw is not None:

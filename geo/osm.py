@@ -19,11 +19,13 @@ of refusing a whole extract for one roof drawn by someone else; it is listed as 
 outside WGS84 range is bad data and an error naming the way and node.
 
 OSM ids are any signed 64-bit integer, but libosmium stores node locations for ids from 0 up only,
-and an area's id (twice the way's id, plus one for a relation) overflows from |id| = 2^62. So a file
-with negative node ids (JOSM gives new objects negative ids) or such large way / relation ids would
-lose those buildings: when one is seen, the file is copied with those ids renumbered into free
-positive ones (a temporary .osm.pbf) and read again, and every message names the original ids.
-libosmium itself refuses the two extreme ids, 2^63 - 1 and -2^63.
+an area's id (twice the way's id, plus one for a relation) overflows from |id| = 2^62, its area
+assembly wants the ways sorted by id, and it marks a relation member it is done with by the id 0 (a
+member way of id 0 crashed the process). So a file with negative ids (JOSM gives new objects negative
+ids), such large way / relation ids, ways out of order or a member way of id 0 would lose buildings:
+when one is seen, the file is copied with those ids renumbered into free positive ones and sorted (a
+temporary .osm.pbf), and read again; every message names the original ids. libosmium itself refuses
+the two extreme ids, 2^63 - 1 and -2^63.
 """
 
 from __future__ import annotations
@@ -45,6 +47,9 @@ _UNDEFINED_COORDINATE = 2**31 - 1  # osmium's x / y of a node the file does not 
 AREA_ID_LIMIT = 2**62  # from here on libosmium's area id (2 |id| + 1) overflows
 MAX_NODE_ID = 2**63 - 2  # libosmium refuses 2^63 - 1
 MAX_NAMED = 3  # missing nodes / members named in one cause
+# osmium's IdFilter takes ids from 0 up, its table grows with the largest id (an id of 2^46 ran out of
+# memory; 2^40 costs nothing): above this limit Python picks the ways itself. OSM's ids are below 2^34.
+ID_FILTER_LIMIT = 2**36
 
 
 @dataclass
@@ -98,6 +103,8 @@ def _building_relations(path: Path, names: _Names) -> tuple[dict[int, list[tuple
         relations[rel.id] = members
         if abs(rel.id) >= AREA_ID_LIMIT or any(abs(ref) >= AREA_ID_LIMIT for ref, _ in members):
             renumber = f"relation {names('r', rel.id)}: an id of 2^62 or more"
+        elif any(ref == 0 for ref, _ in members):  # libosmium marks a member it is done with by id 0: it crashed
+            renumber = f"relation {names('r', rel.id)}: a member way of id 0"
     return relations, renumber
 
 
@@ -232,7 +239,7 @@ def _second_look(path: Path, label: str, wanted: set[int], names: _Names) -> dic
 
     fp = (osmium.FileProcessor(str(path), osmium.osm.NODE | osmium.osm.WAY).with_locations()
           .with_filter(osmium.filter.EntityFilter(osmium.osm.WAY)))
-    if min(wanted, default=0) >= 0:  # osmium's IdFilter takes ids from 0 up; else Python picks the ways
+    if 0 <= min(wanted, default=0) and max(wanted, default=0) < ID_FILTER_LIMIT:  # else Python picks the ways
         fp = fp.with_filter(osmium.filter.IdFilter(wanted))
     looks: dict[int, _WayLook] = {}
     for way in fp:
@@ -272,8 +279,7 @@ def _renumbered(path: Path, folder: Path, label: str) -> tuple[Path, _Names]:
 
     # Plain copies (id, what it holds, tags): the file's objects live only while their buffer does.
     objects: dict[str, list[tuple[int, Any, dict[str, str]]]] = {"n": [], "w": [], "r": []}
-    largest = {"n": 0, "w": 0, "r": 0}
-    limit = {"n": MAX_NODE_ID, "w": AREA_ID_LIMIT - 1, "r": AREA_ID_LIMIT - 1}
+    used: dict[str, set[int]] = {"n": set(), "w": set(), "r": set()}  # ids held or referenced (a missing node too)
     for obj in osmium.FileProcessor(str(path)):
         kind = obj.type_str()
         if kind == "n":  # x, y: 1e-7 degrees, kept as read even when out of range (checked when read back)
@@ -281,21 +287,27 @@ def _renumbered(path: Path, folder: Path, label: str) -> tuple[Path, _Names]:
             content: Any = (loc.x, loc.y) if _UNDEFINED_COORDINATE not in (loc.x, loc.y) else None
         elif kind == "w":
             content = [n.ref for n in obj.nodes]
+            used["n"].update(content)
         elif kind == "r":
             content = [(m.type, m.ref, m.role) for m in obj.members]
+            for member_kind, ref, _ in content:
+                used.setdefault(member_kind, set()).add(ref)
         else:
             continue
         objects[kind].append((obj.id, content, dict(obj.tags)))
-        if 0 <= obj.id <= limit[kind]:
-            largest[kind] = max(largest[kind], obj.id)
+        used[kind].add(obj.id)
+    limit = {"n": MAX_NODE_ID, "w": AREA_ID_LIMIT - 1, "r": AREA_ID_LIMIT - 1}
+    lowest = {"n": 0, "w": 1, "r": 0}  # a way of id 0 is renumbered too (see _building_relations)
     new_ids: dict[str, dict[int, int]] = {}
     names = _Names()
-    for kind, items in objects.items():
-        unsafe = sorted({osm_id for osm_id, _, _ in items if not 0 <= osm_id <= limit[kind]}, key=abs)
-        if largest[kind] + len(unsafe) > limit[kind]:
+    for kind in objects:
+        safe = [i for i in used[kind] if lowest[kind] <= i <= limit[kind]]
+        unsafe = sorted((i for i in used[kind] if not lowest[kind] <= i <= limit[kind]), key=abs)
+        largest = max(safe, default=0)  # new ids go above every id in use, referenced or held
+        if largest + len(unsafe) > limit[kind]:
             raise GeoError(f"{label}: its ids leave no room to renumber the {len(unsafe)} that libosmium cannot "
                            f"read (negative ids, way or relation ids of 2^62 or more)")
-        new_ids[kind] = {old: largest[kind] + 1 + k for k, old in enumerate(unsafe)}
+        new_ids[kind] = {old: largest + 1 + k for k, old in enumerate(unsafe)}
         names.original[kind] = {new: old for old, new in new_ids[kind].items()}
 
     def renamed(kind: str, osm_id: int) -> int:
