@@ -92,8 +92,19 @@ def check_positions(points: Any, not_numbers: str, position: str) -> None:
             raise GeoError(f"{position} {p} is not finite numbers")
 
 
+_CHUNK_POSITIONS = 1 << 18  # positions made into one numpy array at a time: the JSON's lists are freed as it goes
+_EMPTY = {False: Polygon(), True: MultiPolygon()}
+
+
+def _ring_messages(where: str, geom_type: str, k: int) -> tuple[str, str]:
+    label = "outer ring" if k == 0 else f"hole {k}"
+    return (f"{where}: {geom_type} {label}: positions are not [lon, lat] number pairs",
+            f"{where}: {geom_type} {label}: position")
+
+
 def _rings(geom: dict[str, Any], where: str) -> list[list[list[Any]]]:
-    """The checked rings of each polygon of a Polygon / MultiPolygon geometry object.
+    """The rings of each polygon of a Polygon / MultiPolygon geometry object, their shape checked here
+    and their numbers by the builder, in bulk (`check_positions` looks at a ring alone only to name a fault).
 
     RFC 7946 polygon rings: lists of [lon, lat(, alt)] numbers, closed, at least 4 positions.
     shapely would close an open ring silently, so a 3-point sketch would pass as a triangle; the
@@ -106,19 +117,19 @@ def _rings(geom: dict[str, Any], where: str) -> list[list[list[Any]]]:
         raise GeoError(f"{where}: {geom_type} coordinates are not nested lists of [lon, lat] positions")
     for rings in polygons:
         for k, ring in enumerate(rings):
-            label = "outer ring" if k == 0 else f"hole {k}"
-            check_positions(ring, f"{where}: {geom_type} {label}: positions are not [lon, lat] number pairs",
-                            f"{where}: {geom_type} {label}: position")
-            if ring and ring[0] != ring[-1]:
-                raise GeoError(f"{where}: {geom_type} {label} is not closed (its first and last positions differ); "
-                               f"GeoJSON rings repeat the first position at the end")
-            if len(ring) < 4:
+            closed = isinstance(ring, list) and (not ring or ring[0] == ring[-1])
+            if not closed or len(ring) < 4:
+                check_positions(ring, *_ring_messages(where, geom_type, k))  # a bad number is named first
+                label = "outer ring" if k == 0 else f"hole {k}"
+                if not closed:
+                    raise GeoError(f"{where}: {geom_type} {label} is not closed (its first and last positions "
+                                   f"differ); GeoJSON rings repeat the first position at the end")
                 raise GeoError(f"{where}: {geom_type} {label} has {len(ring)} positions; a closed ring needs at least 4")
     return polygons
 
 
 def _check_collection_rings(geom: dict[str, Any], where: str) -> None:
-    """The polygon members of a GeometryCollection, checked as `_rings` checks a polygon."""
+    """The polygon members of a GeometryCollection, checked as `_rings` and the builder check a polygon."""
     parts = geom.get("geometries")
     if not isinstance(parts, list):
         raise GeoError(f"{where}: GeometryCollection 'geometries' is not a list (it is {kind(parts)})")
@@ -128,41 +139,85 @@ def _check_collection_rings(geom: dict[str, Any], where: str) -> None:
         if part.get("type") == "GeometryCollection":
             _check_collection_rings(part, where)
         elif part.get("type") in ("Polygon", "MultiPolygon"):
-            _rings(part, where)
+            for rings in _rings(part, where):
+                for k, ring in enumerate(rings):
+                    check_positions(ring, *_ring_messages(where, part["type"], k))
 
 
 class _Builder:
-    """Polygon rings gathered feature by feature, then made into shapely geometries in one go."""
+    """Polygon rings gathered feature by feature, their numbers checked and turned into numpy arrays a
+    chunk at a time (C-level passes: map, set, numpy), then made into shapely geometries in one go."""
 
     def __init__(self) -> None:
-        self.positions: list[list[float]] = []
+        self.pending: list[Any] = []  # positions of the rings not yet checked
+        self.pending_rings: list[tuple[Any, str, str, int]] = []  # (ring, where, geometry type, ring index)
+        self.arrays: list[np.ndarray] = []
         self.ring_sizes: list[int] = []
         self.ring_polygon: list[int] = []  # the polygon each ring belongs to (its first ring is the shell)
         self.polygon_feature: list[int] = []  # the feature (slot) each polygon belongs to
         self.multi: list[bool] = []  # per slot: a MultiPolygon
 
-    def add(self, polygons: list[list[list[Any]]], multi: bool) -> int:
+    def add(self, polygons: list[list[list[Any]]], multi: bool, where: str) -> None:
         slot = len(self.multi)
         self.multi.append(multi)
+        geom_type = "MultiPolygon" if multi else "Polygon"
         for rings in polygons:
             if not rings:
                 continue  # a polygon without rings is empty: nothing to add
             polygon = len(self.polygon_feature)
             self.polygon_feature.append(slot)
-            for ring in rings:
-                # positions with an altitude lose it: the grid is flat (the check made them 2 or 3 long)
-                self.positions.extend(ring if set(map(len, ring)) == {2} else [p[:2] for p in ring])
+            for k, ring in enumerate(rings):
+                self.pending.extend(ring)
+                self.pending_rings.append((ring, where, geom_type, k))
                 self.ring_sizes.append(len(ring))
                 self.ring_polygon.append(polygon)
-        return slot
+        if len(self.pending) >= _CHUNK_POSITIONS:
+            self.flush()
+
+    def add_other(self) -> None:
+        """A slot for a geometry made elsewhere (shapely's `shape`)."""
+        self.multi.append(False)
+
+    def _name_fault(self) -> None:
+        """Raise the message of the first pending ring whose numbers are wrong (as `check_positions` says)."""
+        for ring, where, geom_type, k in self.pending_rings:
+            check_positions(ring, *_ring_messages(where, geom_type, k))
+
+    def flush(self) -> None:
+        """Check the pending positions (lists of 2 or 3 numbers, all finite) and keep them as one array."""
+        pending = self.pending
+        if not pending:
+            return
+        if set(map(type, pending)) != {list}:
+            self._name_fault()
+        lengths = set(map(len, pending))
+        if not lengths <= {2, 3} or not set(map(type, chain.from_iterable(pending))) <= {int, float}:
+            self._name_fault()
+        try:
+            if lengths == {2}:
+                coords = np.asarray(pending, dtype=np.float64)
+            elif lengths == {3}:  # an altitude is dropped: the grid is flat
+                coords = np.asarray(pending, dtype=np.float64)[:, :2]
+            else:
+                coords = np.asarray([p[:2] for p in pending], dtype=np.float64)
+        except OverflowError:  # a JSON integer too large for a float: check_positions names it
+            self._name_fault()
+            raise GeoError(f"{self.pending_rings[0][1]}: a coordinate is too large a number") from None
+        if not np.isfinite(coords).all():
+            self._name_fault()
+        self.arrays.append(coords)
+        self.pending, self.pending_rings = [], []
 
     def build(self) -> list[shapely.Geometry]:
         """One geometry per slot: Polygon or MultiPolygon (empty when it had no rings)."""
-        out: list[shapely.Geometry] = [MultiPolygon() if m else Polygon() for m in self.multi]
+        self.flush()
+        out: list[shapely.Geometry] = [_EMPTY[m] for m in self.multi]
         if not self.ring_sizes:
             return out
-        coords = np.asarray(self.positions, dtype=np.float64)
+        coords = np.concatenate(self.arrays)
+        self.arrays = []
         rings = shapely.linearrings(coords, indices=np.repeat(np.arange(len(self.ring_sizes)), self.ring_sizes))
+        del coords
         polygons = shapely.polygons(rings, indices=np.asarray(self.ring_polygon))
         owner = np.asarray(self.polygon_feature)
         multi = np.asarray(self.multi)
@@ -189,6 +244,39 @@ def _legacy_crs(data: dict[str, Any], path: Path) -> str | None:
     return name
 
 
+def _read_feature(feature: dict[str, Any], k: int, path: Path, builder: _Builder,
+                  slots: list[tuple[int, dict[str, Any], shapely.Geometry | None]], source: SourceFile) -> None:
+    """One feature of the file: its properties and polygons into the builder (others made by shapely)."""
+    where = f"{path}: feature {k}"
+    geom, props = feature.get("geometry"), feature.get("properties")
+    if props is not None and not isinstance(props, dict):
+        raise GeoError(f"{where}: 'properties' is not an object (it is {kind(props)})")
+    if geom is None:  # GeoJSON allows features without geometry; they carry no polygon
+        source.dropped.append(Omission(f"feature {k}", "no geometry (null)"))
+        return
+    if not isinstance(geom, dict):
+        raise GeoError(f"{where}: 'geometry' is not an object (it is {kind(geom)})")
+    geom_type = geom.get("type")
+    if geom_type in ("Polygon", "MultiPolygon"):
+        builder.add(_rings(geom, where), geom_type == "MultiPolygon", where)
+        slots.append((k, dict(props or {}), None))
+        return
+    if geom_type == "GeometryCollection":
+        _check_collection_rings(geom, where)
+    try:
+        other = shape(geom)
+    except Exception as err:  # shapely raises several types for malformed geometry
+        raise GeoError(f"{where}: malformed geometry "
+                       f"({str(err).splitlines()[0] if str(err) else type(err).__name__})") from None
+    if other.geom_type == "GeometryCollection":
+        check_lonlat(other, where)
+        parts = [p for p in other.geoms if not p.is_empty]
+        if parts and all(isinstance(p, (Polygon, MultiPolygon)) for p in parts):
+            other = union(parts, where)
+    builder.add_other()
+    slots.append((k, dict(props or {}), other))
+
+
 def read_geojson(path: Path) -> tuple[list[Feature], SourceFile]:
     """Every polygon of a GeoJSON file, with its properties, and how the file was read."""
     data = load_json(path)
@@ -203,43 +291,20 @@ def read_geojson(path: Path) -> tuple[list[Feature], SourceFile]:
         for k, f in enumerate(features):
             if not isinstance(f, dict):
                 raise GeoError(f"{path}: feature {k} is not an object (it is {kind(f)})")
-        items = [(f.get("geometry"), f.get("properties")) for f in features]
     elif data["type"] == "Feature":
-        items = [(data.get("geometry"), data.get("properties"))]
+        features = [data]
     else:
-        items = [(data, {})]
-    del data
+        features = [{"geometry": data, "properties": {}}]
+    del data  # each feature is let go once read, so the parsed file shrinks as it is read
     builder = _Builder()
     slots: list[tuple[int, dict[str, Any], shapely.Geometry | None]] = []  # (feature index, properties, other geometry)
-    for k, (geom, props) in enumerate(items):
-        where = f"{path}: feature {k}"
-        if props is not None and not isinstance(props, dict):
-            raise GeoError(f"{where}: 'properties' is not an object (it is {kind(props)})")
-        if geom is None:  # GeoJSON allows features without geometry; they carry no polygon
-            source.dropped.append(Omission(f"feature {k}", "no geometry (null)"))
-            continue
-        if not isinstance(geom, dict):
-            raise GeoError(f"{where}: 'geometry' is not an object (it is {kind(geom)})")
-        geom_type = geom.get("type")
-        if geom_type in ("Polygon", "MultiPolygon"):
-            builder.add(_rings(geom, where), multi=geom_type == "MultiPolygon")
-            slots.append((k, dict(props or {}), None))
-            continue
-        if geom_type == "GeometryCollection":
-            _check_collection_rings(geom, where)
-        try:
-            other = shape(geom)
-        except Exception as err:  # shapely raises several types for malformed geometry
-            raise GeoError(f"{where}: malformed geometry "
-                           f"({str(err).splitlines()[0] if str(err) else type(err).__name__})") from None
-        if other.geom_type == "GeometryCollection":
-            check_lonlat(other, where)
-            parts = [p for p in other.geoms if not p.is_empty]
-            if parts and all(isinstance(p, (Polygon, MultiPolygon)) for p in parts):
-                other = union(parts, where)
-        builder.add([], multi=False)
-        slots.append((k, dict(props or {}), other))
-    del items
+    try:
+        for k in range(len(features)):
+            feature, features[k] = features[k], None
+            _read_feature(feature, k, path, builder, slots, source)
+    except GeoError:
+        builder.flush()  # a bad number in an earlier ring comes first, as the file reads
+        raise
     built = builder.build()
     geoms = [other if other is not None else built[i] for i, (_, _, other) in enumerate(slots)]
     crs = source_crs(crs_name, f"{path}: 'crs' member") if crs_name is not None else None

@@ -22,6 +22,7 @@ from typing import Any
 LEVEL_HEIGHT_M = 3.0  # metres per storey when only the number of levels is known
 HEIGHT_FIELDS = ("height", "building:height", "building_height", "building_h")
 LEVEL_FIELDS = ("building:levels", "building_levels", "building_l")
+_CACHED_NAME_SETS = 4096
 
 _HEIGHT_TEXT = re.compile(r"\s*(\d+(?:[.,]\d+)?)\s*(m|meters?|metres?|ft|feet|')?\s*", re.IGNORECASE)
 
@@ -42,30 +43,44 @@ def parse_height(value: Any) -> float | None:
     return v
 
 
-def _lookup(tags: Mapping[str, Any], names: Iterable[str]) -> Any:
-    """The value of the first of `names` present (any case) with a value, else None."""
-    lowered = None
-    for name in names:
-        if name in tags:
-            value = tags[name]
-        else:
-            if lowered is None:
-                lowered = {str(key).lower(): value for key, value in tags.items()}
-            value = lowered.get(name.lower())
-        if value is not None and value != "":
-            return value
-    return None
+class HeightReader:
+    """`building_height` for many footprints: which attribute names hold a height (or levels) is worked
+    out once per set of names (a GIS layer's features all have the same fields), not per feature."""
+
+    def __init__(self, height_field: str | None = None) -> None:
+        self.height_names = ((height_field,) if height_field else ()) + HEIGHT_FIELDS
+        self._resolved: dict[tuple[str, ...], tuple[list[str], list[str]]] = {}
+
+    def _names(self, keys: tuple[str, ...]) -> tuple[list[str], list[str]]:
+        """The keys (as the feature spells them) that hold a height, then those that hold levels, in order."""
+        by_lower: dict[str, str] = {}
+        for key in keys:
+            by_lower.setdefault(str(key).lower(), key)
+        heights = [by_lower[n.lower()] for n in self.height_names if n.lower() in by_lower]
+        levels = [by_lower[n.lower()] for n in LEVEL_FIELDS if n.lower() in by_lower]
+        return heights, levels
+
+    def __call__(self, tags: Mapping[str, Any]) -> float | None:
+        keys = tuple(tags)
+        names = self._resolved.get(keys)
+        if names is None:
+            if len(self._resolved) >= _CACHED_NAME_SETS:  # OSM tags vary without end: keep the cache small
+                self._resolved.clear()
+            names = self._resolved[keys] = self._names(keys)
+        for key in names[0]:
+            h = parse_height(tags[key])
+            if h is not None:
+                return h
+        for key in names[1]:
+            levels = parse_height(tags[key])
+            if levels is not None:
+                return levels * LEVEL_HEIGHT_M
+        return None
 
 
 def building_height(tags: Mapping[str, Any], height_field: str | None = None) -> float | None:
     """The footprint's height in metres from its attributes (see the module docstring), else None."""
-    names = ((height_field,) if height_field else ()) + HEIGHT_FIELDS
-    for name in names:
-        h = parse_height(_lookup(tags, (name,)))
-        if h is not None:
-            return h
-    levels = parse_height(_lookup(tags, LEVEL_FIELDS))
-    return levels * LEVEL_HEIGHT_M if levels is not None else None
+    return HeightReader(height_field)(tags)
 
 
 def has_field(field_names: Iterable[str], name: str) -> bool:

@@ -139,7 +139,8 @@ def _geometries(wkb: np.ndarray, refs: list[str], label: str, source: SourceFile
     return out
 
 
-def _read_layer(path: Path, label: str, fmt: OgrFormat, layer: str | None) -> tuple[list[Feature], SourceFile]:
+def read_layer(path: Path, label: str, fmt: OgrFormat, layer: str | None) -> tuple[list[Feature], SourceFile]:
+    """Every polygon of one layer of `path` (`label` names it in messages), read through GDAL as `fmt`."""
     import pyogrio.raw
 
     if "!" in str(path):
@@ -200,7 +201,7 @@ def _read_zipped_shapefile(path: Path, layer: str | None) -> tuple[list[Feature]
         with tempfile.TemporaryDirectory(prefix="missionplan-zip-") as folder:
             extracted = extract(archive, members, Path(folder), str(path))
             shp_path = next(p for p in extracted if p.suffix.lower() == ".shp")
-            features, source = _read_layer(shp_path, f"{path} ({shp.filename})", SHAPEFILE, None)
+            features, source = read_layer(shp_path, f"{path} ({shp.filename})", SHAPEFILE, None)
     source.path, source.format = str(path), "Shapefile in a zip"
     source.layer = chosen if len(shapefiles) > 1 or layer else None
     return features, source
@@ -213,4 +214,4 @@ def read_ogr(path: Path, ext: str, layer: str | None = None) -> tuple[list[Featu
     fmt = FORMATS[ext]
     if fmt is SHAPEFILE and layer is not None and layer != path.stem:
         raise GeoError(f"{path}: no layer {layer!r} (a Shapefile is one layer, {path.stem})")
-    return _read_layer(path, str(path), fmt, None if fmt is SHAPEFILE else layer)
+    return read_layer(path, str(path), fmt, None if fmt is SHAPEFILE else layer)

@@ -36,11 +36,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import shapely
-from shapely.geometry import MultiPolygon
 
 from .errors import GeoError
-from .shapes import check_lonlat, polygonal_part
+from .shapes import MAX_LON_SPAN_DEG, check_lonlat, polygonal_part
 from .sources import Omission, SourceFile
 
 _UNDEFINED_COORDINATE = 2**31 - 1  # osmium's x / y of a node the file does not hold
@@ -138,6 +138,62 @@ class _WayLook:
     missing: list[int]
 
 
+@dataclass
+class _Areas:
+    """Footprints gathered during a pass, made into checked geometries in one go (`footprints`)."""
+
+    geometries: list[Any] = field(default_factory=list)  # WKB bytes or shapely geometries
+    tags: list[dict[str, Any]] = field(default_factory=list)
+    kinds: list[str] = field(default_factory=list)  # "way" / "relation"
+    ids: list[int] = field(default_factory=list)  # the id in the file read (renumbered ones too)
+
+    def add(self, geometry: Any, tags: dict[str, Any], kind: str, osm_id: int) -> None:
+        self.geometries.append(geometry)
+        self.tags.append(tags)
+        self.kinds.append(kind)
+        self.ids.append(osm_id)
+
+    def footprints(self, label: str, names: _Names, failed: str | None = None) -> tuple[list[OsmBuilding],
+                                                                                       list[Omission]]:
+        """The buildings (each checked in WGS84 range, repaired when invalid) and those dropped (zero area).
+        `failed`: libosmium did not assemble these (their rings are repaired with make_valid if they can be)."""
+        if not self.ids:
+            return [], []
+        if isinstance(self.geometries[0], shapely.Geometry):
+            geoms = np.empty(len(self.geometries), dtype=object)
+            geoms[:] = self.geometries
+        else:  # libosmium's WKB (hex text)
+            geoms = shapely.from_wkb(np.asarray(self.geometries, dtype=object))
+        refs = [f"{kind} {names(kind[0], osm_id)}" for kind, osm_id in zip(self.kinds, self.ids)]
+        coords, owner = shapely.get_coordinates(geoms, return_index=True)
+        with np.errstate(invalid="ignore"):
+            bad = ~np.isfinite(coords).all(axis=1) | (np.abs(coords[:, 0]) > 180) | (np.abs(coords[:, 1]) > 90)
+            bounds = shapely.bounds(geoms)
+        wide = np.flatnonzero(bounds[:, 2] - bounds[:, 0] > MAX_LON_SPAN_DEG)
+        first = min([int(owner[bad][0])] if bad.any() else [], default=len(geoms))
+        first = min(first, int(wide[0]) if len(wide) else len(geoms))
+        if first < len(geoms):
+            check_lonlat(geoms[first], f"{label}: {refs[first]}")  # raises, naming it
+        repaired: list[str | None] = [failed] * len(geoms)
+        for i in np.flatnonzero(~shapely.is_valid(geoms)):
+            reason = shapely.is_valid_reason(geoms[i])
+            repaired[i] = f"{failed}: {reason}" if failed else reason
+            geoms[i] = polygonal_part(shapely.make_valid(geoms[i]))
+        single = shapely.get_num_geometries(geoms) == 1
+        multi = shapely.get_type_id(geoms) == 6
+        geoms[single & multi] = shapely.get_geometry(geoms[single & multi], 0)  # MultiPolygon of one: its Polygon
+        zero = shapely.is_empty(geoms) | (shapely.area(geoms) == 0)
+        buildings, dropped = [], []
+        for i, (geom, tags) in enumerate(zip(geoms, self.tags)):
+            if zero[i]:
+                dropped.append(Omission(refs[i], "zero area (its nodes lie on a line)"))
+                continue
+            tags["osm_id"] = names(self.kinds[i][0], self.ids[i])
+            tags["osm_type"] = self.kinds[i]
+            buildings.append(OsmBuilding(geom, tags, refs[i], repaired[i]))
+        return buildings, dropped
+
+
 def _scan(path: Path, label: str, names: _Names) -> _Scan:
     """One read of the file: the footprints, what was dropped, or why the ids must be renumbered first."""
     import osmium  # imported here so the rest of geo works without the C++ extension loaded
@@ -150,6 +206,7 @@ def _scan(path: Path, label: str, names: _Names) -> _Scan:
     wkb = osmium.geom.WKBFactory()
     closed_ways: set[int] = set()  # closed building ways with every node: each should give an area
     assembled: set[tuple[str, int]] = set()
+    areas = _Areas()
     fp = (osmium.FileProcessor(str(path)).with_areas()
           .with_filter(osmium.filter.EntityFilter(osmium.osm.AREA | osmium.osm.WAY))
           .with_filter(osmium.filter.KeyFilter("building")))  # in C++: Python sees buildings only
@@ -157,39 +214,37 @@ def _scan(path: Path, label: str, names: _Names) -> _Scan:
         if obj.is_way():
             if obj.tags.get("building", "no") == "no":
                 continue
-            way_id = names("w", obj.id)
             if abs(obj.id) >= AREA_ID_LIMIT:
-                out.renumber = f"way {way_id}: an id of 2^62 or more"
+                out.renumber = f"way {names('w', obj.id)}: an id of 2^62 or more"
                 return out
             try:
                 wkb.create_linestring(obj)  # C++: fails only when a node location is not valid
             except (RuntimeError, osmium.InvalidLocationError):
                 missing, negative = _way_nodes(path, label, obj, names)  # the slow look, only then
                 if negative:
-                    out.renumber = f"way {way_id}: negative node ids"
+                    out.renumber = f"way {names('w', obj.id)}: negative node ids"
                     return out
-                out.dropped.append(Omission(f"way {way_id}", f"{_listed(missing, 'node')} missing from the file"))
+                out.dropped.append(Omission(f"way {names('w', obj.id)}",
+                                            f"{_listed(missing, 'node')} missing from the file"))
                 continue
             if obj.is_closed():
                 closed_ways.add(obj.id)
             elif obj.id not in in_relation:
-                out.dropped.append(Omission(f"way {way_id}", "not closed (its first and last nodes differ) "
-                                                             "and in no building multipolygon"))
+                out.dropped.append(Omission(f"way {names('w', obj.id)}", "not closed (its first and last nodes "
+                                                                        "differ) and in no building multipolygon"))
             continue
-        kind = "way" if obj.from_way() else "relation"
         tags = dict(obj.tags)
         if tags.get("building", "no") == "no":
             continue
         try:
-            geom = shapely.from_wkb(wkb.create_multipolygon(obj))
+            geometry = wkb.create_multipolygon(obj)
         except (RuntimeError, osmium.InvalidLocationError):
             continue  # libosmium could not assemble it: looked at below, with the others it did not give
+        kind = "way" if obj.from_way() else "relation"
         assembled.add((kind, obj.orig_id()))
-        building = _footprint(geom, tags, kind, obj.orig_id(), label, names)
-        if isinstance(building, Omission):
-            out.dropped.append(building)
-        else:
-            out.buildings.append(building)
+        areas.add(geometry, tags, kind, obj.orig_id())
+    out.buildings, dropped = areas.footprints(label, names)
+    out.dropped += dropped
     unassembled = sorted(closed_ways - {i for k, i in assembled if k == "way"})
     broken = {rel: members for rel, members in relations.items() if ("relation", rel) not in assembled}
     if unassembled or broken:
@@ -197,39 +252,17 @@ def _scan(path: Path, label: str, names: _Names) -> _Scan:
         if any(ref < 0 for look in looks.values() for ref in look.missing):
             out.renumber = "negative node ids in a multipolygon's member way"
             return out
+        rings = _Areas()
         for way in unassembled:
             look = looks[way]
-            ring = shapely.Polygon(look.points) if len(look.points) >= 4 else shapely.Polygon()
-            building = _footprint(ring, dict(look.tags), "way", way, label, names, "libosmium could not assemble "
-                                  "its ring")
-            if isinstance(building, Omission):
-                out.dropped.append(building)
-            else:
-                out.buildings.append(building)
+            rings.add(shapely.Polygon(look.points) if len(look.points) >= 4 else shapely.Polygon(), dict(look.tags),
+                      "way", way)
+        repaired, dropped = rings.footprints(label, names, "libosmium could not assemble its ring")
+        out.buildings += repaired
+        out.dropped += dropped
         out.dropped += [Omission(f"relation {names('r', rel)}", _why_broken(broken[rel], looks, names))
                         for rel in sorted(broken)]
     return out
-
-
-def _footprint(geom: Any, tags: dict[str, Any], kind: str, osm_id: int, label: str, names: _Names,
-               failed: str | None = None) -> OsmBuilding | Omission:
-    """The building of one area (its geometry checked, repaired when invalid), or why it is dropped.
-    `failed`: libosmium did not assemble it (its ring is then repaired with make_valid if it can be)."""
-    orig = names(kind[0], osm_id)
-    ref = f"{kind} {orig}"
-    check_lonlat(geom, f"{label}: {ref}")
-    repaired = failed
-    if not geom.is_valid:
-        reason = shapely.is_valid_reason(geom)
-        repaired = f"{failed}: {reason}" if failed else reason
-        geom = polygonal_part(shapely.make_valid(geom))
-    if geom.is_empty or geom.area == 0:
-        return Omission(ref, "zero area (its nodes lie on a line)")
-    if isinstance(geom, MultiPolygon) and len(geom.geoms) == 1:
-        geom = geom.geoms[0]
-    tags["osm_id"] = orig
-    tags["osm_type"] = kind
-    return OsmBuilding(geom, tags, ref, repaired)
 
 
 def _second_look(path: Path, label: str, wanted: set[int], names: _Names) -> dict[int, _WayLook]:

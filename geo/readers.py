@@ -28,7 +28,7 @@ from shapely.geometry import MultiPolygon, Polygon
 
 from .errors import GeoError
 from .geojson_file import read_geojson
-from .heights import LEVEL_HEIGHT_M, building_height, has_field, parse_height
+from .heights import LEVEL_HEIGHT_M, HeightReader, building_height, has_field, parse_height
 from .kml_file import read_kml, read_kmz
 from .ogr_files import FORMATS as OGR_FORMATS
 from .ogr_files import ZIP_EXT, read_ogr
@@ -110,8 +110,8 @@ def _plan_source(path: Path, features: list[Feature], what: str) -> SourceFile:
 
 def _osm_buildings(path: Path, height_field: str | None) -> tuple[list[Building], SourceFile]:
     footprints, source = read_osm(path)
-    return [Building(b.geometry, building_height(b.tags, height_field), b.tags, b.ref, b.repaired)
-            for b in footprints], source
+    height = HeightReader(height_field)
+    return [Building(b.geometry, height(b.tags), b.tags, b.ref, b.repaired) for b in footprints], source
 
 
 # ---- public entry points -------------------------------------------------------------------
@@ -167,8 +167,8 @@ def read_building_file(spec: str | Path, height_field: str | None = None) -> tup
         buildings, source = _osm_buildings(path, height_field)
     else:
         feats, source = _read(path, ext, layer)
-        buildings = [Building(f.geometry, building_height(f.properties, height_field), f.properties, f.ref,
-                              f.repaired) for f in feats]
+        height = HeightReader(height_field)
+        buildings = [Building(f.geometry, height(f.properties), f.properties, f.ref, f.repaired) for f in feats]
     if height_field is not None:
         names = sorted({str(key) for b in buildings for key in b.properties} - {"osm_id", "osm_type"})
         if not has_field(names, height_field):
