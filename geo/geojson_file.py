@@ -152,31 +152,32 @@ class _Builder:
         self.pending: list[Any] = []  # positions of the rings not yet checked
         self.pending_rings: list[tuple[Any, str, str, int]] = []  # (ring, where, geometry type, ring index)
         self.arrays: list[np.ndarray] = []
-        self.ring_sizes: list[int] = []
-        self.ring_polygon: list[int] = []  # the polygon each ring belongs to (its first ring is the shell)
-        self.polygon_feature: list[int] = []  # the feature (slot) each polygon belongs to
+        self.ring_sizes: list[int] = []  # positions in each ring
+        self.polygon_rings: list[int] = []  # rings in each polygon (its first ring is the shell)
+        self.slot_polygons: list[int] = []  # polygons in each slot (feature)
         self.multi: list[bool] = []  # per slot: a MultiPolygon
 
     def add(self, polygons: list[list[list[Any]]], multi: bool, where: str) -> None:
-        slot = len(self.multi)
         self.multi.append(multi)
         geom_type = "MultiPolygon" if multi else "Polygon"
+        count = 0
         for rings in polygons:
             if not rings:
                 continue  # a polygon without rings is empty: nothing to add
-            polygon = len(self.polygon_feature)
-            self.polygon_feature.append(slot)
+            count += 1
+            self.polygon_rings.append(len(rings))
             for k, ring in enumerate(rings):
                 self.pending.extend(ring)
                 self.pending_rings.append((ring, where, geom_type, k))
                 self.ring_sizes.append(len(ring))
-                self.ring_polygon.append(polygon)
+        self.slot_polygons.append(count)
         if len(self.pending) >= _CHUNK_POSITIONS:
             self.flush()
 
     def add_other(self) -> None:
         """A slot for a geometry made elsewhere (shapely's `shape`)."""
         self.multi.append(False)
+        self.slot_polygons.append(0)
 
     def _name_fault(self) -> None:
         """Raise the message of the first pending ring whose numbers are wrong (as `check_positions` says)."""
@@ -209,26 +210,25 @@ class _Builder:
         self.pending, self.pending_rings = [], []
 
     def build(self) -> list[shapely.Geometry]:
-        """One geometry per slot: Polygon or MultiPolygon (empty when it had no rings)."""
+        """One geometry per slot: Polygon or MultiPolygon (empty when it had no rings), made from the
+        flat coordinates and offsets in one call (shapely's ragged-array layout, as GeoArrow's)."""
         self.flush()
-        out: list[shapely.Geometry] = [_EMPTY[m] for m in self.multi]
         if not self.ring_sizes:
-            return out
+            return [_EMPTY[m] for m in self.multi]
         coords = np.concatenate(self.arrays)
         self.arrays = []
-        rings = shapely.linearrings(coords, indices=np.repeat(np.arange(len(self.ring_sizes)), self.ring_sizes))
+
+        def offsets(counts: list[int]) -> np.ndarray:
+            return np.concatenate([[0], np.cumsum(counts, dtype=np.int64)])
+
+        geoms = shapely.from_ragged_array(shapely.GeometryType.MULTIPOLYGON, coords, (
+            offsets(self.ring_sizes), offsets(self.polygon_rings), offsets(self.slot_polygons)))
         del coords
-        polygons = shapely.polygons(rings, indices=np.asarray(self.ring_polygon))
-        owner = np.asarray(self.polygon_feature)
-        multi = np.asarray(self.multi)
-        single = ~multi[owner]
-        for polygon, slot in zip(polygons[single], owner[single]):
-            out[slot] = polygon
-        if (~single).any():
-            slots, first = np.unique(owner[~single], return_inverse=True)
-            for slot, geom in zip(slots, shapely.multipolygons(polygons[~single], indices=first)):
-                out[slot] = geom
-        return out
+        single = ~np.asarray(self.multi, dtype=bool)
+        parts = np.asarray(self.slot_polygons)
+        geoms[single & (parts == 1)] = shapely.get_geometry(geoms[single & (parts == 1)], 0)
+        geoms[single & (parts == 0)] = _EMPTY[False]
+        return list(geoms)
 
 
 def _legacy_crs(data: dict[str, Any], path: Path) -> str | None:

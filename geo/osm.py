@@ -47,6 +47,7 @@ _UNDEFINED_COORDINATE = 2**31 - 1  # osmium's x / y of a node the file does not 
 AREA_ID_LIMIT = 2**62  # from here on libosmium's area id (2 |id| + 1) overflows
 MAX_NODE_ID = 2**63 - 2  # libosmium refuses 2^63 - 1
 MAX_NAMED = 3  # missing nodes / members named in one cause
+AREA_CHUNK = 20_000  # footprints checked at a time
 # osmium's IdFilter takes ids from 0 up, its table grows with the largest id (an id of 2^46 ran out of
 # memory; 2^40 costs nothing): above this limit Python picks the ways itself. OSM's ids are below 2^34.
 ID_FILTER_LIMIT = 2**36
@@ -140,25 +141,41 @@ class _WayLook:
 
 @dataclass
 class _Areas:
-    """Footprints gathered during a pass, made into checked geometries in one go (`footprints`)."""
+    """Footprints gathered during a pass, made into checked geometries a chunk at a time (vectorised in
+    shapely; the chunks keep libosmium's WKB text from piling up), in file order."""
 
-    geometries: list[Any] = field(default_factory=list)  # WKB bytes or shapely geometries
+    label: str
+    names: _Names
+    failed: str | None = None  # libosmium did not assemble these: their rings are repaired if they can be
+    geometries: list[Any] = field(default_factory=list)  # WKB hex text or shapely geometries, not yet checked
     tags: list[dict[str, Any]] = field(default_factory=list)
     kinds: list[str] = field(default_factory=list)  # "way" / "relation"
     ids: list[int] = field(default_factory=list)  # the id in the file read (renumbered ones too)
+    buildings: list[OsmBuilding] = field(default_factory=list)
+    dropped: list[Omission] = field(default_factory=list)
 
     def add(self, geometry: Any, tags: dict[str, Any], kind: str, osm_id: int) -> None:
         self.geometries.append(geometry)
         self.tags.append(tags)
         self.kinds.append(kind)
         self.ids.append(osm_id)
+        if len(self.ids) >= AREA_CHUNK:
+            self._check()
 
-    def footprints(self, label: str, names: _Names, failed: str | None = None) -> tuple[list[OsmBuilding],
-                                                                                       list[Omission]]:
-        """The buildings (each checked in WGS84 range, repaired when invalid) and those dropped (zero area).
-        `failed`: libosmium did not assemble these (their rings are repaired with make_valid if they can be)."""
+    def footprints(self) -> tuple[list[OsmBuilding], list[Omission]]:
+        """The buildings (each checked in WGS84 range, repaired when invalid) and those dropped (zero area)."""
+        self._check()
+        return self.buildings, self.dropped
+
+    def _check(self) -> None:
         if not self.ids:
-            return [], []
+            return
+        buildings, dropped = self._checked(self.label, self.names, self.failed)
+        self.buildings += buildings
+        self.dropped += dropped
+        self.geometries, self.tags, self.kinds, self.ids = [], [], [], []
+
+    def _checked(self, label: str, names: _Names, failed: str | None) -> tuple[list[OsmBuilding], list[Omission]]:
         if isinstance(self.geometries[0], shapely.Geometry):
             geoms = np.empty(len(self.geometries), dtype=object)
             geoms[:] = self.geometries
@@ -206,7 +223,7 @@ def _scan(path: Path, label: str, names: _Names) -> _Scan:
     wkb = osmium.geom.WKBFactory()
     closed_ways: set[int] = set()  # closed building ways with every node: each should give an area
     assembled: set[tuple[str, int]] = set()
-    areas = _Areas()
+    areas = _Areas(label, names)
     fp = (osmium.FileProcessor(str(path)).with_areas()
           .with_filter(osmium.filter.EntityFilter(osmium.osm.AREA | osmium.osm.WAY))
           .with_filter(osmium.filter.KeyFilter("building")))  # in C++: Python sees buildings only
@@ -243,7 +260,7 @@ def _scan(path: Path, label: str, names: _Names) -> _Scan:
         kind = "way" if obj.from_way() else "relation"
         assembled.add((kind, obj.orig_id()))
         areas.add(geometry, tags, kind, obj.orig_id())
-    out.buildings, dropped = areas.footprints(label, names)
+    out.buildings, dropped = areas.footprints()
     out.dropped += dropped
     unassembled = sorted(closed_ways - {i for k, i in assembled if k == "way"})
     broken = {rel: members for rel, members in relations.items() if ("relation", rel) not in assembled}
@@ -252,12 +269,12 @@ def _scan(path: Path, label: str, names: _Names) -> _Scan:
         if any(ref < 0 for look in looks.values() for ref in look.missing):
             out.renumber = "negative node ids in a multipolygon's member way"
             return out
-        rings = _Areas()
+        rings = _Areas(label, names, "libosmium could not assemble its ring")
         for way in unassembled:
             look = looks[way]
             rings.add(shapely.Polygon(look.points) if len(look.points) >= 4 else shapely.Polygon(), dict(look.tags),
                       "way", way)
-        repaired, dropped = rings.footprints(label, names, "libosmium could not assemble its ring")
+        repaired, dropped = rings.footprints()
         out.buildings += repaired
         out.dropped += dropped
         out.dropped += [Omission(f"relation {names('r', rel)}", _why_broken(broken[rel], looks, names))
