@@ -266,7 +266,7 @@ def main() -> int:
         pbf = folder / "city.osm.pbf"
         expected = write_city_pbf(pbf, args.pbf_buildings)
         files.append((pbf, f"{expected:,} footprints", ["missionplan", "GDAL"] + (["before"] if has_git else [])))
-        print(f"{'file':<14} {'size':>7}  {'holds':<19} {'reader':<24} {'read':>8} {'wall s':>7} {'CPU s':>6} "
+        print(f"{'file':<14} {'size':>7}  {'holds':<19} {'reader':<29} {'read':>8} {'wall s':>7} {'CPU s':>6} "
               f"{'peak MB':>8}")
         for path, holds, readers in files:
             for reader in readers:
@@ -277,9 +277,9 @@ def main() -> int:
                 row = run_child_row([sys.executable, __file__, "--row", f"{reader},{path}", "--before", args.before],
                                     args.timeout)
                 if isinstance(row, str):
-                    print(f"{path.name:<14} {_size(path):>7}  {holds:<19} {name:<24} {row}")
+                    print(f"{path.name:<14} {_size(path):>7}  {holds:<19} {name:<29} {row}")
                     continue
-                print(f"{path.name:<14} {_size(path):>7}  {holds:<19} {name:<24} {row['buildings']:>8,} "
+                print(f"{path.name:<14} {_size(path):>7}  {holds:<19} {name:<29} {row['buildings']:>8,} "
                       f"{row['wall_s']:>7.1f} {row['cpu_s']:>6.1f} {row['peak_mb']:>8,.0f}")
                 holds = ""
         base = run_child_row([sys.executable, __file__, "--row", f"baseline,{pbf}"], args.timeout)

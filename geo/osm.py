@@ -2,20 +2,23 @@
 
 Closed ways and multipolygon relations tagged building=* (not building=no), assembled by libosmium
 into areas; a footprint's properties are its tags plus `osm_id` and `osm_type`. Why pyosmium and not
-GDAL's OSM driver: it is faster and leaner on a city (bench/read_bench.py), and it says which way
-lacks which node, where GDAL drops such a building without a word.
+GDAL's OSM driver, about twice as fast on a city (bench/read_bench.py): GDAL builds a building whose
+node the file lacks from the nodes it has (a square read as a triangle) without a word, and cannot
+name what it left out; here each is named.
 
 Nothing is left out without a name. Each of these is listed (`SourceFile.dropped`, by OSM id, with
 its cause) and the rest of the file is read:
 
 * a building way that references a node the file does not hold (an extract clipped at its edge);
 * a building way that is not closed and belongs to no building multipolygon;
-* a building multipolygon whose member ways are missing or do not close into rings (one more pass
-  over the file, only when there is such a relation, names the missing member);
+* a building multipolygon whose member ways are missing or do not close into rings;
 * a footprint of zero area.
 
 An invalid footprint (a ring touching itself, a self-crossing) is repaired with make_valid instead
-of refusing a whole extract for one roof drawn by someone else; it is listed as repaired. A node
+of refusing a whole extract for one roof drawn by someone else; it is listed as repaired. libosmium
+assembles no area of a self-crossing way or of a broken multipolygon: when there is one, one more
+pass over the file (`_second_look`, with node locations, for those ways only) repairs the way, or
+names the multipolygon's missing member way or node. A node
 outside WGS84 range is bad data and an error naming the way and node.
 
 OSM ids are any signed 64-bit integer, but libosmium stores node locations for ids from 0 up only,
@@ -109,7 +112,7 @@ def _building_relations(path: Path, names: _Names) -> tuple[dict[int, list[tuple
     return relations, renumber
 
 
-def _way_nodes(path: Path, label: str, way: Any, names: _Names) -> tuple[list[int], bool]:
+def _way_nodes(label: str, way: Any, names: _Names) -> tuple[list[int], bool]:
     """The way's nodes the file lacks (original ids), and whether one of them has a negative id.
 
     A node whose location is out of WGS84 range is bad data, not a skip: an error.
@@ -237,7 +240,7 @@ def _scan(path: Path, label: str, names: _Names) -> _Scan:
             try:
                 wkb.create_linestring(obj)  # C++: fails only when a node location is not valid
             except (RuntimeError, osmium.InvalidLocationError):
-                missing, negative = _way_nodes(path, label, obj, names)  # the slow look, only then
+                missing, negative = _way_nodes(label, obj, names)  # the slow look, only then
                 if negative:
                     out.renumber = f"way {names('w', obj.id)}: negative node ids"
                     return out
@@ -295,7 +298,7 @@ def _second_look(path: Path, label: str, wanted: set[int], names: _Names) -> dic
     for way in fp:
         if way.id not in wanted:
             continue
-        missing, _ = _way_nodes(path, label, way, names)
+        missing, _ = _way_nodes(label, way, names)
         points = [] if missing else [(n.location.lon, n.location.lat) for n in way.nodes]
         looks[way.id] = _WayLook(dict(way.tags), points, list(dict.fromkeys(
             n.ref for n in way.nodes if not n.location.valid())))
