@@ -63,17 +63,37 @@ def _track(folder: Path) -> LineString:
     return LineString(points)
 
 
+def _with_a_josm_block(negative_first: bool = True) -> str:
+    """An extract (positive ids: a 12 m shed in a corner of the area) with a 60 m block drawn in JOSM
+    (negative ids) in the middle; by default in libosmium's order (negative ids first)."""
+    shed = [(45.0714, 7.6513), (45.0714, 7.6516), (45.0716, 7.6516), (45.0716, 7.6513)]
+    josm = [(i, lat, lon) for i, (lat, lon) in zip([-101, -102, -103, -104], BLOCK)]
+    extract = [(i, lat, lon) for i, (lat, lon) in zip([1, 2, 3, 4], shed)]
+    block = (-201, [-101, -102, -103, -104, -101], {"building": "yes", "height": "60"})
+    shed_way = (7, [1, 2, 3, 4, 1], {"building": "yes", "height": "12"})
+    if negative_first:
+        return _osm(josm + extract, [block, shed_way])
+    return _osm(extract + josm, [shed_way, block])
+
+
 def test_a_josm_building_with_negative_ids_is_an_obstacle_the_track_avoids(tmp_path, capsys):
-    osm = _write(tmp_path / "josm.osm", _block([-101, -102, -103, -104], -201))
+    # It was dropped without a word (exit 0) and the 30 m track flew through the 60 m block.
+    osm = _write(tmp_path / "josm.osm", _with_a_josm_block())
     assert _plan(tmp_path, osm) == 0
     report = json.loads((tmp_path / "run" / "report.json").read_text())
     buildings = [entry for entry in report["inputs"] if entry["role"] == "buildings"]
-    assert buildings[0]["features"] == 1 and buildings[0]["buildings_in_area"] == 1 and buildings[0]["dropped"] == []
+    assert buildings[0]["features"] == 2 and buildings[0]["buildings_in_area"] == 2 and buildings[0]["dropped"] == []
     assert "renumbered" in buildings[0]["notes"][0]
     block = Polygon([(lon, lat) for lat, lon in BLOCK])
     track = _track(tmp_path / "run")
     assert len(track.coords) > 10 and not track.intersects(block)  # 60 m tall, flown at 30 m: round it
     assert "warning" not in capsys.readouterr().err
+
+
+def test_ways_out_of_libosmium_order_are_read(tmp_path):
+    # libosmium wants negative ids first: the other order stopped the read ("Way IDs out of order").
+    blds = read_buildings(_write(tmp_path / "order.osm", _with_a_josm_block(negative_first=False)))
+    assert sorted((b.ref, b.height_m) for b in blds) == [("way -201", 60.0), ("way 7", 12.0)]
 
 
 def test_a_file_whose_ids_are_all_negative_reads(tmp_path):
