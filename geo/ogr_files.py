@@ -119,7 +119,7 @@ def _properties(fields: list[str], columns: list[np.ndarray], count: int) -> lis
     return [{name: col[i] for name, col in zip(fields, values)} for i in range(count)]
 
 
-def _geometries(wkb: np.ndarray, refs: list[str], label: str, source: SourceFile) -> list[shapely.Geometry | None]:
+def _geometries(wkb: np.ndarray, refs: list[str], label: str) -> list[shapely.Geometry | None]:
     """shapely geometries of GDAL's WKB; a null geometry is dropped (named), a WKB shapely cannot read
     (an unclosed ring, a curve) is an error naming the feature."""
     with np.errstate(invalid="ignore"):  # a NaN coordinate: refused below, not warned about on stderr
@@ -160,7 +160,7 @@ def read_layer(path: Path, label: str, fmt: OgrFormat, layer: str | None) -> tup
     if wkb is None or not len(wkb):
         raise GeoError(f"{where}: no polygon found")
     refs = [f"feature {int(fid)}" for fid in fids] if fids is not None else [f"feature {i}" for i in range(len(wkb))]
-    geoms = _geometries(wkb, refs, where, source)
+    geoms = _geometries(wkb, refs, where)
     properties = _properties([str(f) for f in meta["fields"]], columns, len(wkb))
     if meta.get("crs"):
         crs = source_crs(meta["crs"], where)
