@@ -19,7 +19,7 @@ and libosmium included, which tracemalloc would miss). The readers:
 - `before`: the readers as they were at commit `--before` (the previous geo/readers.py, loaded from git),
   for the record; skipped when git or that commit is not at hand.
 
-Run by hand (about 6 minutes, 3 GB of memory at most; the GeoJSON rows need ../shared/maps):
+Run by hand (about 4 minutes, 2 GB of memory at most; the GeoJSON rows need ../shared/maps):
 
     .venv/bin/python bench/read_bench.py [--geojson-mb 200] [--pbf-buildings 400000] [--before e1c2679]
                                          [--write-doc docs/coverage-and-inputs.md]
