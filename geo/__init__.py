@@ -6,8 +6,14 @@ writes), nothing else from missionplan. One job per module:
 * `missionplan.geo.errors`  - `GeoError`, the one-line error for any wrong geographic input.
 * `missionplan.geo.camera`  - footprint side S = 2*H*tan(FOV/2) and cell = S/9; `Camera` from FOV or sensor.
 * `missionplan.geo.frame`   - `GridFrame`: the grid laid in the area's UTM zone, grid <-> lat/lon, map meta.
-* `missionplan.geo.readers` - area / obstacle / no-fly polygons from GeoJSON, KML, QGroundControl .plan;
-                  building footprints (+ heights) from OSM .osm / .osm.pbf or GeoJSON.
+* `missionplan.geo.readers` - area / obstacle / no-fly polygons and building footprints from any file a crew
+                  brings, chosen by extension (`FILE:LAYER` for a layer); each format has its module:
+                  `geojson_file` (GeoJSON), `kml_file` (KML, KMZ), `plan_file` (QGroundControl .plan),
+                  `ogr_files` (GeoPackage, Shapefile, FlatGeobuf, GML through GDAL / pyogrio), `osm` (OSM
+                  .osm / .osm.pbf through pyosmium). Beside them: `shapes` (the checks every polygon
+                  passes), `crs` (reprojection to WGS84 lon/lat), `heights` (a footprint's height from its
+                  attributes), `guards` (zip and XML hazards, before a parser sees the file) and
+                  `sources` (Feature, Building, and `SourceFile`: how a file was read, what it left out).
 * `missionplan.geo.area`    - `build_grid_map`: rasterise area, obstacles, buildings, no-fly into an `AreaRaster`
                   (plain arrays, wrapped into a GridMap by the planner).
 * `missionplan.geo.cells`   - grid cells back on the Earth: merged lon/lat polygons, a GeoJSON feature.
@@ -24,10 +30,12 @@ from .area import build_grid_map
 from .camera import Camera, cell_size_m, footprint_side_m
 from .errors import GeoError
 from .frame import GridFrame, utm_epsg_for
-from .readers import (Building, Feature, read_area, read_buildings, read_features, read_osm_buildings,
-                      read_polygons)
+from .readers import (Building, Feature, read_area, read_area_file, read_building_file, read_buildings,
+                      read_features, read_obstacle_file, read_osm_buildings, read_polygons)
+from .sources import Omission, SourceFile
 
 __all__ = [
-    "Building", "Camera", "Feature", "GeoError", "GridFrame", "build_grid_map", "cell_size_m",
-    "footprint_side_m", "read_area", "read_buildings", "read_features", "read_osm_buildings", "read_polygons", "utm_epsg_for",
+    "Building", "Camera", "Feature", "GeoError", "GridFrame", "Omission", "SourceFile", "build_grid_map", "cell_size_m",
+    "footprint_side_m", "read_area", "read_area_file", "read_building_file", "read_buildings", "read_features",
+    "read_obstacle_file", "read_osm_buildings", "read_polygons", "utm_epsg_for",
 ]

@@ -28,7 +28,7 @@ from shapely.geometry import MultiPolygon, Polygon
 from .camera import cell_size_m
 from .errors import GeoError
 from .frame import GridFrame
-from .readers import Building
+from .sources import Building
 
 Polygonal = Polygon | MultiPolygon
 

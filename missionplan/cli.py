@@ -109,12 +109,17 @@ def _build_parser() -> argparse.ArgumentParser:
     plan = sub.add_parser("plan", help="plan full coverage of a map and write report.json and plan.png")
     source = plan.add_mutually_exclusive_group(required=True)
     source.add_argument("--map", help="a shipped map name (see `missionplan maps`) or a .map file")
-    source.add_argument("--area", type=Path, help="the area to photograph: .geojson, .kml or a QGroundControl .plan")
+    source.add_argument("--area", type=Path, help="the area to photograph: GeoJSON, KML / KMZ, GeoPackage, Shapefile "
+                        "(.shp or .zip), FlatGeobuf, GML or a QGroundControl .plan; FILE:LAYER for one layer of several")
     plan.add_argument("--uavs", type=int,
                       help="number of drones (with --map: the map's first N launch cells; with --area: one per --launch)")
     plan.add_argument("--obstacles", type=Path, action="append", default=[],
-                      help="obstacle / no-fly polygons (.geojson or .kml), repeatable")
-    plan.add_argument("--osm", type=Path, help="building footprints: OpenStreetMap .osm / .osm.pbf, or GeoJSON / KML with height or building:levels")
+                      help="obstacle / no-fly polygons, any --area format (a .plan: its geofence exclusions), repeatable")
+    plan.add_argument("--osm", type=Path, help="building footprints: OpenStreetMap .osm / .osm.pbf, or any --area "
+                      "format with height, building:height or building:levels (3 m a level)")
+    plan.add_argument("--height-field", metavar="NAME",
+                      help="the --osm field (or OSM tag) holding each building's height in metres, read before "
+                           "height, building:height and building:levels")
     plan.add_argument("--unknown-building-height", type=float, metavar="M",
                       help="height in metres of --osm buildings without height or building:levels "
                            "(default: unknown, so they are obstacles)")

@@ -294,6 +294,9 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
             total_buildings=unknown.total if osm else None, assumed_height_m=unknown.assumed_m,
             if_overflown=unknown.if_overflown, launch_labels=ground.launch_labels, unreachable_mask=unreachable_mask,
             clearance_m=clearance_m, causes=causes)
+        if ground.sources is not None:  # each file an --area plan read; its warning (what they left out) first
+            report["inputs"] = ground.sources.inputs
+            report["coverage"]["warnings"][:0] = ground.sources.warnings
         paths_latlon = None
         if plans is not None and frame is not None:
             from .mission.layers import drone_paths_latlon, plan_layers, plan_summary

@@ -255,9 +255,12 @@ def test_vienna_pockets_are_reported_and_warned(tmp_path, capsys):
     assert cov["unknown_height_buildings"] == sum(b.height_m is None for b in blds) > 0
     assert 0 <= cov["unreachable_by_unknown_height"] < cov["unreachable"]
     err = capsys.readouterr().err.splitlines()
-    assert err == [f"missionplan: warning: {cov['warnings'][0]}"]
-    assert f"{cov['unreachable']} of {cov['targets_all']} target cells" in err[0]
-    assert "lie in pockets walled in" in err[0]
+    # first the inputs' line (the extract's broken multipolygons, the buildings without a height), then coverage
+    assert err == [f"missionplan: warning: {warning}" for warning in cov["warnings"]] and len(err) == 2
+    assert "5 buildings not read: relation 1982408 (broken multipolygon: inner member ways" in err[0]
+    assert f"{cov['unknown_height_buildings']} of the 187 buildings in the area have no height" in err[0]
+    assert f"{cov['unreachable']} of {cov['targets_all']} target cells" in err[1]
+    assert "lie in pockets walled in" in err[1]
 
     # A second drone launched inside a courtyard: named, with its pocket.
     assert _plan_area(tmp_path, area, VIENNA_PBF, 25, [STREET, COURTYARD], out="two") == 0

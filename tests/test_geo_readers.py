@@ -69,7 +69,9 @@ def test_unparsable_and_empty_and_unknown_extension(tmp_path):
     flat = [[7.65, 45.06], [7.66, 45.06], [7.67, 45.06], [7.65, 45.06]]
     with pytest.raises(GeoError, match=r"flat\.geojson.*(zero area|invalid)"):
         read_area(_write(tmp_path, "flat.geojson", {"type": "Polygon", "coordinates": [flat]}))
-    with pytest.raises(GeoError, match=r"area\.shp: unknown file type '\.shp'"):
+    with pytest.raises(GeoError, match=r"area\.dxf: unknown file type '\.dxf'"):
+        read_area(_write(tmp_path, "area.dxf", "x"))
+    with pytest.raises(GeoError, match=r"area\.shp: not a Shapefile \(it does not start as a Shapefile does\)"):
         read_area(_write(tmp_path, "area.shp", "x"))
     with pytest.raises(GeoError, match="file not found"):
         read_area(tmp_path / "missing.geojson")

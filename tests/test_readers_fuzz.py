@@ -1,7 +1,7 @@
-"""Property tests: every reader of user files (GeoJSON, KML, .plan as area, OSM, .map) meets
-arbitrary and structurally wrong input with its own one-line error naming the file, never
-another exception. The bridge's .plan / .waypoints mission readers are tested beside them
-(bridge/formats/missionfile.py).
+"""Property tests: every reader of user files (GeoJSON, KML, KMZ, GeoPackage, .plan as area, OSM, .map)
+meets arbitrary and structurally wrong input with its own one-line error naming the file, never
+another exception, and `plan` itself gives a plan or one line (exit 2), never a traceback. The
+bridge's .plan / .waypoints mission readers are tested beside them (bridge/formats/missionfile.py).
 
 Each example writes one small file; max_examples keeps the whole module to seconds. For a
 longer hunt: MISSIONPLAN_FUZZ_EXAMPLES=5000 pytest tests/test_readers_fuzz.py
@@ -14,13 +14,18 @@ import json
 import math
 import os
 import shutil
+import struct
 import tempfile
+import zipfile
 from pathlib import Path
+
+import numpy as np
 
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from missionplan.cli import main
 from missionplan.geo.errors import GeoError
 from missionplan.geo.readers import read_area, read_buildings, read_features, read_osm_buildings, read_polygons
 from missionplan.maps.gridmap import MapError, load_map, parse_map
@@ -238,6 +243,178 @@ def test_osm_pbf_reader_on_a_damaged_real_extract(data):
     for _ in range(data.draw(st.integers(1, 4))):
         pbf[data.draw(st.integers(0, len(pbf) - 1))] = data.draw(st.integers(0, 255))
     _only_own_errors(_write("damaged.osm.pbf", bytes(pbf)), read_buildings)
+
+
+@FUZZ
+@given(st.one_of(kml_documents().map(str.encode), st.binary(max_size=64)), st.sampled_from(["doc.kml", "a/b.kml", "x.txt"]),
+       st.booleans())
+def test_kmz_reader_only_raises_geo_error(doc, member, linked):
+    # A KMZ is a zip holding the KML (doc.kml, else its first .kml), perhaps linked from doc.kml.
+    path = _DIR / "fuzz.kmz"
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as kmz:
+        if linked and member != "doc.kml":
+            kmz.writestr("doc.kml", f'<kml><Document><NetworkLink><Link><href>{member}</href></Link></NetworkLink>'
+                                    f'</Document></kml>')
+        kmz.writestr(member, doc)
+    _only_own_errors(path, read_features, read_area, read_polygons, read_buildings)
+    _check_polygons_finite(path)
+
+
+@FUZZ
+@given(st.binary(max_size=96))
+def test_kmz_reader_on_bytes(data):
+    _only_own_errors(_write("bytes.kmz", data), read_area, read_buildings)
+
+
+def _polygon_wkb(rings: list[list[tuple[float, float]]]) -> bytes:
+    """A WKB polygon of any rings, open, short or NaN ones too (shapely would refuse to make them)."""
+    out = struct.pack("<BII", 1, 3, len(rings))
+    for ring in rings:
+        out += struct.pack("<I", len(ring)) + np.asarray(ring, dtype="<f8").reshape(-1, 2).tobytes()
+    return out
+
+
+wkb_rings = st.lists(st.lists(st.tuples(odd_numbers.map(float), odd_numbers.map(float)), max_size=6), min_size=0,
+                     max_size=2)
+valid_ring = [tuple(p) for p in OUTER]
+
+
+@st.composite
+def gpkg_layers(draw: st.DrawFn) -> tuple[list[bytes | None], list[str | None]]:
+    """Features for a GeoPackage: valid squares, arbitrary rings (open, NaN, huge), missing geometries."""
+    count = draw(st.integers(1, 4))
+    geoms: list[bytes | None] = []
+    for _ in range(count):
+        kind = draw(st.integers(0, 3))
+        geoms.append(_polygon_wkb([valid_ring]) if kind == 0 else None if kind == 1 else _polygon_wkb(draw(wkb_rings))
+                     if kind == 2 else _polygon_wkb([valid_ring[:draw(st.integers(0, 4))] + draw(wkb_rings)[:1][0:1]
+                                                     and valid_ring]))
+    heights = [draw(st.one_of(st.none(), st.text(alphabet="0123456789.,m ft'-", max_size=6))) for _ in range(count)]
+    return geoms, heights
+
+
+_GPKG_SEED = None
+
+
+def _gpkg_bytes() -> bytes:
+    """A small valid GeoPackage (two layers), written once, for the byte-flip test."""
+    global _GPKG_SEED
+    if _GPKG_SEED is None:
+        import pyogrio.raw
+
+        path = _DIR / "seed.gpkg"
+        wkb = np.array([_polygon_wkb([valid_ring])], dtype=object)
+        for layer in ("buildings", "parks"):
+            pyogrio.raw.write(str(path), wkb, [np.array(["12 m"], dtype=object)], ["height"], layer=layer,
+                              driver="GPKG", geometry_type="Polygon", crs="EPSG:4326", append=path.exists())
+        _GPKG_SEED = path.read_bytes()
+    return _GPKG_SEED
+
+
+@FUZZ
+@given(gpkg_layers(), st.sampled_from(["EPSG:4326", "EPSG:3857", "EPSG:32632"]))
+def test_geopackage_reader_only_raises_geo_error(layer, crs):
+    import pyogrio.raw
+
+    geoms, heights = layer
+    path = _DIR / "fuzz.gpkg"
+    path.unlink(missing_ok=True)
+    pyogrio.raw.write(str(path), np.array(geoms, dtype=object), [np.array(heights, dtype=object)], ["height"],
+                      driver="GPKG", geometry_type="Polygon", crs=crs)
+    _only_own_errors(path, read_features, read_area, read_polygons, read_buildings)
+    _check_polygons_finite(path)
+
+
+@FUZZ
+@given(st.data())
+def test_geopackage_reader_on_a_damaged_file(data):
+    gpkg = bytearray(_gpkg_bytes())
+    if data.draw(st.booleans()):
+        del gpkg[data.draw(st.integers(1, len(gpkg) - 1)):]
+    for _ in range(data.draw(st.integers(1, 6))):
+        gpkg[data.draw(st.integers(0, len(gpkg) - 1))] = data.draw(st.integers(0, 255))
+    path = _write("damaged.gpkg", bytes(gpkg))
+    _only_own_errors(path, read_area, read_buildings)
+    for layer in ("buildings", "parks", "nope"):  # FILE:LAYER: the message names the file
+        for reader in (read_area, read_buildings):
+            try:
+                reader(f"{path}:{layer}")
+            except GeoError as err:
+                assert "\n" not in str(err) and str(err).startswith(str(path)), str(err)
+
+
+signed_ids = st.one_of(st.integers(-(2**63), 2**63 - 1), st.integers(-5, 5),
+                       st.sampled_from([2**62, -(2**62), 2**62 - 1, 2**63 - 2, -(2**63) + 1]))
+
+
+@st.composite
+def osm_documents_with_any_ids(draw: st.DrawFn) -> str:
+    """A building way and perhaps a multipolygon, every id any signed 64-bit integer (JOSM: negative)."""
+    node_ids = draw(st.lists(signed_ids, min_size=4, max_size=4, unique=True))
+    base = [(45.060, 7.650), (45.060, 7.651), (45.061, 7.651), (45.061, 7.650)]
+    nodes = "".join(f'<node id="{i}" lat="{lat}" lon="{lon}" version="1"/>' for i, (lat, lon) in zip(node_ids, base))
+    way_id, rel_id = draw(signed_ids), draw(signed_ids)
+    refs = draw(st.one_of(st.just(node_ids + node_ids[:1]), st.lists(st.sampled_from(node_ids) | signed_ids, max_size=6)))
+    tags = draw(st.sampled_from(['<tag k="building" v="yes"/>', "", '<tag k="building" v="yes"/><tag k="height" v="9"/>']))
+    way = f'<way id="{way_id}" version="1">{"".join(f"<nd ref={chr(34)}{r}{chr(34)}/>" for r in refs)}{tags}</way>'
+    relation = draw(st.sampled_from([
+        "", f'<relation id="{rel_id}" version="1"><member type="way" ref="{way_id}" role="outer"/>'
+            '<tag k="type" v="multipolygon"/><tag k="building" v="yes"/></relation>']))
+    return f'<?xml version="1.0" encoding="UTF-8"?><osm version="0.6">{nodes}{way}{relation}</osm>'
+
+
+@FUZZ
+@given(osm_documents_with_any_ids())
+def test_osm_reader_takes_any_signed_64_bit_id(doc):
+    path = _write("ids.osm", doc)
+    _only_own_errors(path, read_buildings, read_features)
+    try:
+        blds = read_buildings(path)
+    except GeoError:
+        return
+    for b in blds:  # a building read keeps the id the file gave it
+        assert f'id="{b.properties["osm_id"]}"' in doc
+
+
+# ---- plan itself: a plan or one line -------------------------------------------------------------------------
+
+AREA_DOC = {"type": "Polygon", "coordinates": [[[7.650, 45.060], [7.652, 45.060], [7.652, 45.062], [7.650, 45.062],
+                                                [7.650, 45.060]]]}
+
+
+@settings(FUZZ, max_examples=min(FUZZ.max_examples, 15))  # each plan writes a whole folder
+@given(st.one_of(mutated(VALID_GEOJSON).map(lambda d: ("fuzz.geojson", _dump(d))),
+                 kml_documents().map(lambda d: ("fuzz.kml", d)),
+                 osm_documents_with_any_ids().map(lambda d: ("fuzz.osm", d)),
+                 gpkg_layers().map(lambda layer: ("fuzz-cli.gpkg", layer))),
+       st.sampled_from(["--area", "--osm", "--obstacles"]))
+def test_plan_gives_a_plan_or_one_line(capsys, named_doc, flag):
+    name, doc = named_doc
+    if name.endswith(".gpkg"):
+        import pyogrio.raw
+
+        path = _DIR / name
+        path.unlink(missing_ok=True)
+        pyogrio.raw.write(str(path), np.array(doc[0], dtype=object), [np.array(doc[1], dtype=object)], ["height"],
+                          driver="GPKG", geometry_type="Polygon", crs="EPSG:4326")
+    else:
+        path = _write(name, doc)
+    area = _write("area.geojson", _dump(AREA_DOC))
+    out = _DIR / "plan-out"
+    shutil.rmtree(out, ignore_errors=True)
+    args = ["plan", "--area", str(path if flag == "--area" else area), "--launch", "45.061,7.651", "--altitude", "40",
+            "--fov", "84", "--out", str(out), "--quiet"]
+    if flag != "--area":
+        args += [flag, str(path)]
+    capsys.readouterr()
+    code = main(args)
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    if code == 2:
+        assert err.count("\n") == 1 and err.startswith("missionplan: ") and not out.exists(), err
+    else:
+        assert code in (0, 1) and (out / "report.json").is_file()
+        assert all(line.startswith("missionplan: ") for line in err.splitlines()), err
 
 
 # ---- .map ----------------------------------------------------------------------------------

@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
+from missionplan.geo.heights import LEVEL_HEIGHT_M
+
 from ..grid.world import reachable_targets
 from ..maps.gridmap import Cell, GridMap
 from .clearance import clearance_band
@@ -95,9 +97,9 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
             block["unreachable_by_unknown_height"] = int(cut.sum()) if cut is not None else 0
         if cut is not None and cut.any():
             reasons.append(f"{int(cut.sum())} of them are cut off only by the {unknown_buildings} of "
-                           f"{total_buildings} buildings of unknown height (no height, no building:levels tag), "
-                           f"counted as obstacles: if those are low enough to overfly, give "
-                           f"--unknown-building-height M (or tag building:levels, 3 m a level)")
+                           f"{total_buildings} buildings of unknown height (no height, building:height or "
+                           f"building:levels), counted as obstacles: if those are low enough to overfly, give "
+                           f"--unknown-building-height M (or tag building:levels, {LEVEL_HEIGHT_M:g} m a level)")
         in_band = causes.get(CLEARANCE_BAND)
         if in_band is not None:
             block["unreachable_by_clearance"] = int(in_band.sum())

@@ -2,12 +2,15 @@
 
 Turns the command-line values into what the planner needs (a GridMap and its GridFrame) and
 into the mission settings (altitude, footprint, speed, overlap, end action). Checks every
-value first, so bad input fails with one line before any output folder exists.
+value first, so bad input fails with one line before any output folder exists. Records each file
+read (report.json `inputs`: `input_entry`) and makes the one warning line naming what the files left
+out: buildings not read or repaired, buildings in the area without a height (`inputs_warning`).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -19,10 +22,14 @@ from missionplan.geo.area import build_grid_map
 from missionplan.geo.camera import Camera
 from missionplan.geo.errors import GeoError
 from missionplan.geo.frame import GridFrame
-from missionplan.geo.readers import Building, read_area, read_buildings, read_polygons
+from missionplan.geo.heights import HEIGHT_FIELDS
+from missionplan.geo.readers import read_area_file, read_building_file, read_obstacle_file, split_layer
+from missionplan.geo.sources import Building, Omission, SourceFile
 
 from ..maps.gridmap import GridMap
 from .drone_missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, MissionSettings
+
+WARNING_NAMES = 3  # files' omissions named in the warning line before "and N more"
 
 
 def parse_latlon(text: str) -> tuple[float, float]:
@@ -63,11 +70,14 @@ class UnknownHeights:
 @dataclass
 class AreaSources:
     """What an `--area` grid was drawn from, in lon/lat: the area, the building footprints in it (with
-    the heights the plan used) and the no-fly polygons; the plan's map layers draw them."""
+    the heights the plan used) and the no-fly polygons (the plan's map layers draw them); each file read
+    (report.json `inputs`) and the one warning naming what they left out."""
 
     area: Any  # shapely (Multi)Polygon
     buildings: list[Building] = field(default_factory=list)
     no_fly: list[Any] = field(default_factory=list)
+    inputs: list[dict[str, Any]] = field(default_factory=list)  # input_entry of each file: area, obstacles, buildings
+    warnings: list[str] = field(default_factory=list)  # inputs_warning's line, when it has one
 
 
 def load_area(args: argparse.Namespace) -> tuple[GridMap, GridFrame]:
@@ -92,34 +102,89 @@ def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, Unk
     if not math.isfinite(args.rotation):
         raise GeoError(f"--rotation {args.rotation}: must be a finite angle in degrees")
     camera = _camera(args)
-    area = read_area(args.area)
+    area, area_source = read_area_file(args.area)
     # Obstacle and no-fly files are obstacles whatever their height; OSM buildings may be overflown.
-    no_fly = [polygon for path in args.obstacles for polygon in read_polygons(path)]
-    buildings = read_buildings(args.osm) if args.osm is not None else []
+    obstacle_files = [read_obstacle_file(path) for path in args.obstacles]
+    no_fly = [polygon for polygons, _ in obstacle_files for polygon in polygons]
+    height_field = getattr(args, "height_field", None)
+    if height_field is not None and args.osm is None:
+        raise GeoError("--height-field needs --osm (the buildings whose height it holds)")
+    buildings, building_source = read_building_file(args.osm, height_field) if args.osm is not None else ([], None)
     # Counted in the area only: an OSM extract of a whole city is mostly buildings nowhere near it.
     inside = shapely.intersects(area, [b.geometry for b in buildings]) if buildings else []
     unknown = sum(1 for b, within in zip(buildings, inside) if within and b.height_m is None)
     in_area = int(sum(inside))
+    in_area_buildings = [b for b, within in zip(buildings, inside) if within]
+    inputs = [input_entry("area", area_source)] + [input_entry("obstacles", source) for _, source in obstacle_files]
+    if building_source is not None:
+        inputs.append(input_entry("buildings", building_source, in_area_buildings, assumed, height_field))
     if assumed is not None:
-        buildings = [b if b.height_m is not None else Building(b.geometry, assumed, b.properties) for b in buildings]
+        buildings = [b if b.height_m is not None else dataclasses.replace(b, height_m=assumed) for b in buildings]
     launch = [parse_latlon(text) for text in args.launch]
+    area_path = split_layer(args.area)[0]
 
     def build(blds: list[Building]) -> tuple[GridMap, GridFrame]:
-        raster, frame = build_grid_map(args.area.stem, area, [], blds, no_fly, launch, args.altitude,
+        raster, frame = build_grid_map(area_path.stem, area, [], blds, no_fly, launch, args.altitude,
                                        camera.fov_deg, rotation_deg=args.rotation, area_file=str(args.area))
         return GridMap(raster.name, raster.obstacle, raster.target, raster.launch, raster.meta), frame
 
     gmap, frame = build(buildings)
-    if str(args.osm).endswith((".osm", ".osm.pbf")):  # the licence asks for the credit wherever it is shown
-        gmap.meta["credit"] = "Buildings: OpenStreetMap data © OpenStreetMap contributors (ODbL)"
+    if building_source is not None and building_source.reader == "pyosmium":
+        gmap.meta["credit"] = "Buildings: OpenStreetMap data © OpenStreetMap contributors (ODbL)"  # wherever shown
 
     def overflown() -> GridMap:
         # Height 0 m: below any flight altitude, so each such footprint is a roof the drones cross.
-        return build([b if b.height_m is not None else Building(b.geometry, 0.0, b.properties) for b in buildings])[0]
+        return build([b if b.height_m is not None else dataclasses.replace(b, height_m=0.0) for b in buildings])[0]
 
+    warning = inputs_warning(inputs)
     return gmap, frame, UnknownHeights(unknown, in_area, assumed,
                                        overflown if unknown and assumed is None else None), \
-        AreaSources(area, [b for b, within in zip(buildings, inside) if within], no_fly)
+        AreaSources(area, [b for b, within in zip(buildings, inside) if within], no_fly, inputs,
+                    [warning] if warning else [])
+
+
+def input_entry(role: str, source: SourceFile, in_area: list[Building] | None = None,
+                assumed_height_m: float | None = None, height_field: str | None = None) -> dict[str, Any]:
+    """report.json's record of one file read: how it was read, what it left out (named) and, for the
+    buildings, how many lie in the area and which of those have no height (`role`: area, obstacles,
+    buildings). Repairs of buildings are listed for those in the area only."""
+    entry: dict[str, Any] = {"role": role, **source.to_json()}
+    if in_area is not None:
+        entry["buildings_in_area"] = len(in_area)
+        entry["repaired"] = [Omission(b.ref, b.repaired).to_json() for b in in_area if b.repaired]
+        entry["unknown_height"] = [b.ref for b in in_area if b.height_m is None]
+        entry["unknown_height_assumed_m"] = assumed_height_m
+        entry["height_field"] = height_field
+    return entry
+
+
+def _some(items: list[str]) -> str:
+    """The first few of a list, then 'and N more'."""
+    shown = ", ".join(items[:WARNING_NAMES])
+    return shown + (f" and {len(items) - WARNING_NAMES} more" if len(items) > WARNING_NAMES else "")
+
+
+def inputs_warning(inputs: list[dict[str, Any]]) -> str | None:
+    """ONE line naming, file by file, what was not read, what was repaired and which buildings in the area
+    have no height (unless --unknown-building-height gave them one); None when there is nothing to say.
+    The full lists are in report.json `inputs`."""
+    sentences = []
+    for entry in inputs:
+        layer = f":{entry['layer']}" if entry.get("layer") else ""
+        what = "buildings" if entry["role"] == "buildings" else "polygons"
+        for key, done in (("dropped", "not read"), ("repaired", "repaired")):
+            if entry[key]:
+                named = _some([f"{item['id']} ({item['cause']})" for item in entry[key]])
+                count = len(entry[key])
+                sentences.append(f"{entry['path']}{layer}: {count} {what if count > 1 else what[:-1]} {done}: {named}")
+        unknown = entry.get("unknown_height") or []
+        if unknown and entry.get("unknown_height_assumed_m") is None:
+            sentences.append(f"{entry['path']}{layer}: {len(unknown)} of the {entry['buildings_in_area']} buildings "
+                             f"in the area have no height ({', '.join(HEIGHT_FIELDS[:2])} or building:levels), so "
+                             f"they are obstacles: {_some(unknown)} (--unknown-building-height M gives them one)")
+    if not sentences:
+        return None
+    return ". ".join(sentences) + ". All are listed in report.json under inputs."
 
 
 def shipped_frame(gmap: GridMap) -> GridFrame | None:

@@ -1,0 +1,74 @@
+"""What the readers return: the shapes of a file and the record of how the file was read.
+
+* `Feature`: one polygonal shape, its properties and its name in the file (`ref`: "feature 3",
+  "placemark 'yard'", "way 42"), with why its geometry was repaired when it was.
+* `Building`: a footprint with its height (None: unknown).
+* `Omission`: a feature left out of what was read, or repaired, with its name and the cause.
+* `SourceFile`: one file read: its path, format, the reader and driver, the layer, the CRS it was in
+  and whether it was reprojected, how many features it gave, and what was dropped or repaired.
+  `plan` lists these in report.json (`inputs`) and names what was dropped in a warning.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from shapely.geometry import MultiPolygon, Polygon
+
+Polygonal = Polygon | MultiPolygon
+WGS84 = "EPSG:4326 (WGS 84 lon/lat)"
+
+
+@dataclass
+class Feature:
+    """One polygonal shape and the properties that came with it (may be empty)."""
+
+    geometry: Polygonal
+    properties: dict[str, Any] = field(default_factory=dict)
+    ref: str = ""  # its name in the file, for messages: "feature 3", "placemark 'yard'", "way 42"
+    repaired: str | None = None  # why make_valid repaired it (GEOS's explanation), None when it was valid
+
+
+@dataclass
+class Building:
+    """A building footprint; `height_m` None when the data does not say."""
+
+    geometry: Polygonal
+    height_m: float | None
+    properties: dict[str, Any] = field(default_factory=dict)
+    ref: str = ""  # its name in the file: "way 42", "relation 7", "feature 3"
+    repaired: str | None = None
+
+
+@dataclass(frozen=True)
+class Omission:
+    """A feature dropped from what a file gave (or repaired), named as the file names it, and why."""
+
+    ref: str
+    cause: str
+
+    def to_json(self) -> dict[str, str]:
+        return {"id": self.ref, "cause": self.cause}
+
+
+@dataclass
+class SourceFile:
+    """How one file was read (report.json `inputs`)."""
+
+    path: str
+    format: str  # "GeoJSON", "KML", "GeoPackage", "OpenStreetMap PBF", ...
+    reader: str  # "missionplan" (own parser), "GDAL GPKG" (pyogrio), "pyosmium"
+    layer: str | None = None
+    crs: str = WGS84
+    reprojected: bool = False
+    features: int = 0  # polygonal features taken from the file (buildings: footprints read)
+    dropped: list[Omission] = field(default_factory=list)
+    repaired: list[Omission] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)  # e.g. "ids renumbered for reading: negative node ids"
+
+    def to_json(self) -> dict[str, Any]:
+        return {"path": self.path, "format": self.format, "reader": self.reader, "layer": self.layer,
+                "crs": self.crs, "reprojected": self.reprojected, "features": self.features,
+                "dropped": [o.to_json() for o in self.dropped], "repaired": [o.to_json() for o in self.repaired],
+                "notes": list(self.notes)}
