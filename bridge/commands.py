@@ -25,6 +25,8 @@ from pathlib import Path
 from typing import Any
 
 from .errors import BridgeError, BridgeUsageError
+from .limits import ALTITUDE_AMSL_M, SEED_MAX, check_integer, check_range
+from .terminal_text import printable
 from .link.connection import GCS_COMPONENT_ID, GCS_SYSTEM_ID
 from .formats.mission_items import Flavour, MissionType
 
@@ -131,7 +133,7 @@ def _vehicle_arguments(parser: argparse.ArgumentParser) -> None:
 # ------------------------------------------------------------------------------------------ helpers
 
 def _fail(command: str, err: BaseException) -> int:
-    print(f"missionplan {command}: {err}", file=sys.stderr)
+    print(f"missionplan {command}: {printable(err)}", file=sys.stderr)  # it may quote a vehicle's words
     return 1
 
 
@@ -146,12 +148,9 @@ def _checked(args: argparse.Namespace) -> dict[str, Any]:
     gcs = gcs_identity(args, [sysid])
     check_gcs_identity(getattr(args, "backend", "pymavlink"), *gcs)
     parse_url(args.connect)
-    if not args.timeout > 0:
-        raise BridgeUsageError(f"--timeout must be positive, got {args.timeout}")
-    if not args.item_timeout > 0:
-        raise BridgeUsageError(f"--item-timeout must be positive, got {args.item_timeout}")
-    if args.retries < 0:
-        raise BridgeUsageError(f"--retries must not be negative, got {args.retries}")
+    check_range(args.timeout, "--timeout", 0.0, 86_400.0, unit=" s", low_open=True)
+    check_range(args.item_timeout, "--item-timeout", 0.0, 3_600.0, unit=" s", low_open=True)
+    check_integer(args.retries, "--retries", 0, 1_000)
     return {"url": args.connect, "sysid": sysid, "compid": compid, "key": signing_key(args),
             "timeouts": Timeouts(item_timeout=args.item_timeout, retries=args.retries),
             "connect_timeout": args.timeout, "source_system": gcs[0], "source_component": gcs[1]}
@@ -331,6 +330,8 @@ def _home_value(text: str, option: str) -> tuple[float, float, float]:
     lat, lon = values[0], values[1]
     if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
         raise BridgeUsageError(f"{option} {text}: latitude must be within -90..90 and longitude within -180..180")
+    if len(values) == 3:
+        check_range(values[2], f"{option} {text}: altitude", *ALTITUDE_AMSL_M, unit=" m", what="metres above sea level")
     return lat, lon, values[2] if len(values) == 3 else DEFAULT_HOME_ALT
 
 
@@ -383,15 +384,22 @@ def cmd_mock(args: argparse.Namespace) -> int:
     from .sim.mock import LinkFaults, MockAutopilot
 
     sysids = parse_sysids(args.sysid)
+    check_range(args.speedup, "--speedup", 0.0, 1_000.0, low_open=True, what="simulated seconds per second")
+    for name in ("loss", "duplicate", "reorder"):
+        check_range(getattr(args, name), f"--{name}", 0.0, 1.0, what="a probability")
+    check_range(args.latency, "--latency", 0.0, 60.0, unit=" s")
+    if args.request_interval is not None:
+        check_range(args.request_interval, "--request-interval", 0.0, 60.0, unit=" s", low_open=True)
+    check_range(args.ready_after, "--ready-after", 0.0, 86_400.0, unit=" s")
+    if args.seed is not None:
+        check_integer(args.seed, "--seed", 0, SEED_MAX)
+    if args.duration is not None:
+        check_range(args.duration, "--duration", 0.0, 365 * 86_400.0, unit=" s", low_open=True)
     key = signing_key(args)
     faults = LinkFaults(loss_in=args.loss, loss_out=args.loss, duplicate=args.duplicate, reorder=args.reorder,
                         latency=args.latency, seed=args.seed)
-    if args.request_interval is not None and not args.request_interval > 0:
-        raise BridgeUsageError(f"--request-interval must be positive, got {args.request_interval}")
     homes = mock_homes(sysids, args.home, args.plan)
     kills = parse_kills(args.kill, sysids)
-    if args.ready_after < 0:
-        raise BridgeUsageError(f"--ready-after must not be negative, got {args.ready_after}")
     if args.camera_configured and not args.sitl_like:
         raise BridgeUsageError("--camera-configured needs --sitl-like (without it every mock vehicle's camera works)")
     mock = MockAutopilot(args.listen, sysids=sysids, flavour=args.flavour, speedup=args.speedup, faults=faults,

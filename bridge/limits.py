@@ -43,6 +43,8 @@ SPEED_M_S = (-2.0, 300.0)
 THROTTLE_PCT = (-2.0, 100.0)
 # Hold and loiter times, seconds: ArduPilot keeps them as a uint16 (1e6 s was stored as 16,960 s on SITL).
 HOLD_S = (0.0, 65_535.0)
+# Seeds: numpy seeds its generators from non-negative integers; 2**32 - 1 is the largest every one of them takes.
+SEED_MAX = 2**32 - 1
 
 
 def check_range(value: float, name: str, low: float, high: float, *, unit: str = "", low_open: bool = False,
@@ -56,10 +58,13 @@ def check_range(value: float, name: str, low: float, high: float, *, unit: str =
     if number is not None and math.isfinite(number) and (low < number if low_open else low <= number) and (
             number < high if high_open else number <= high):
         return number
-    bounds = f"{'above' if low_open else 'from'} {low:,g} {'and below' if high_open else 'to'} {high:,g}{unit}"
+    if low_open or high_open:
+        bounds = (f"{'above' if low_open else 'at least'} {low:,g} and {'below' if high_open else 'at most'} "
+                  f"{high:,g}{unit}")
+    else:
+        bounds = f"from {low:,g} to {high:,g}{unit}"
     kind = f"{what}, " if what else ""
-    problem = "not a finite number; " if number is None or not math.isfinite(number) else ""
-    raise error(f"{name} {_shown(value)}: {problem}must be {kind}{bounds}")
+    raise error(f"{name} {_shown(value)}: must be {kind}{bounds}")
 
 
 def check_integer(value: int, name: str, low: int, high: int, *, what: str = "",
