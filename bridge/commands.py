@@ -15,6 +15,7 @@ parser here accepts abbreviated options (allow_abbrev=False): `--uav 3` is an er
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 import os
 import sys
@@ -419,6 +420,10 @@ def cmd_mock(args: argparse.Namespace) -> int:
         print(f"  system {sysid} starts at {lat:.7f}, {lon:.7f}, {alt:g} m AMSL", flush=True)
     for sysid, item in kills.items():
         mock.kill(sysid, at_item=item)
+    # What the mock survives (a message it could not answer) is said on stderr, one escaped line each.
+    said = logging.StreamHandler(sys.stderr)
+    said.setFormatter(logging.Formatter("missionplan mock: %(message)s"))
+    logging.getLogger("missionplan.bridge.sim").addHandler(said)
     mock.start()
     if args.camera_configured:
         mock.configure_cameras()
@@ -430,6 +435,7 @@ def cmd_mock(args: argparse.Namespace) -> int:
         pass
     finally:
         mock.stop()
+        logging.getLogger("missionplan.bridge.sim").removeHandler(said)
     done = sum(v.uploads_completed for v in mock.vehicles.values())
     print(f"mock autopilot stopped: {done} uploads completed, {mock.stats['in']} packets in, "
           f"{mock.stats['out']} out, {mock.stats['dropped_in'] + mock.stats['dropped_out']} dropped", flush=True)
