@@ -212,7 +212,11 @@ class MissionServer(VehiclePart):
             return mavlink.MAV_MISSION_UNSUPPORTED
         if frame not in GLOBAL_FRAMES and frame != mavlink.MAV_FRAME_MISSION:
             return mavlink.MAV_MISSION_UNSUPPORTED_FRAME
-        if frame in GLOBAL_FRAMES and self.flavour is not Flavour.ARDUPILOT:  # ArduPilot's own checks: above
+        if self.flavour is not Flavour.GENERIC:
+            # ArduPilot's own checks are above; PX4 takes a latitude of 91 degrees, an altitude of 1e38 m and an
+            # infinite parameter and stores them as sent (measured on PX4 SIH v1.15.4: its upload checks none).
+            return mavlink.MAV_MISSION_ACCEPTED
+        if frame in GLOBAL_FRAMES:
             if abs(item.x) > 900_000_000:
                 return mavlink.MAV_MISSION_INVALID_PARAM5_X
             if abs(item.y) > 1_800_000_000:
