@@ -21,7 +21,11 @@ JSON plan or mission.
 Bad files raise BridgeUsageError naming the file, the item and the problem, and nothing else: a
 reader never lets a number through that the wire cannot carry faithfully (a NaN or infinite
 coordinate, a latitude beyond +-90, a frame that is not a uint8) because MISSION_ITEM_INT would carry
-it as 0 or as garbage and the read-back would still agree with it.
+it as 0 or as garbage and the read-back would still agree with it. Nor anything beyond bridge.limits,
+checked before any vehicle is contacted: more items than one MAVLink transfer carries (a .waypoints is read
+line by line and refused at the first item too many; a JSON file larger than any legal one, MAX_JSON_BYTES,
+is refused unread), a positional altitude outside its frame's range, an angle / speed / hold time outside
+its range (PARAM_RANGES), a DO_JUMP outside the mission or repeating for ever in place (check_jumps).
 Writes are atomic (temp file, then rename) with LF line endings.
 """
 
@@ -31,9 +35,9 @@ import json
 import math
 import os
 import struct
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from collections.abc import Iterator
 from typing import Any, TextIO
 
 # A leaf utility with no planner imports: bridge still knows nothing about grids.
@@ -331,7 +335,7 @@ def check_item(item: MissionItem, where: str, path: str | os.PathLike[str]) -> M
                                "altitude")
     if not _fits_float32(item.z):
         raise BridgeUsageError(f"{path}: {where}: altitude {item.z:g} does not fit a MAVLink float")
-    if item.command in POSITIONAL_COMMANDS:
+    if item.command in POSITIONAL_COMMANDS and not math.isnan(item.z):  # NaN: refused above where it matters
         low, high = ALTITUDE_AMSL_M if item.frame in AMSL_FRAMES else ALTITUDE_RELATIVE_M
         check_range(item.z, f"{path}: {where}: altitude", low, high, unit=" m",
                     what=_altitude_kind(item.frame))
