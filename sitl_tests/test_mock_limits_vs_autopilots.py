@@ -82,7 +82,7 @@ EXPECTED_ARDUCOPTER = {
 EXPECTED_PX4 = dict.fromkeys(EXPECTED_ARDUCOPTER, ACCEPTED)
 
 
-def session(url: str, sysid: int, home: bool) -> dict[str, tuple[int, Any]]:
+def session(url: str, sysid: int, home: bool) -> dict[str, tuple[int | None, Any]]:
     """Each case uploaded in turn: (MISSION_ACK result, the stored last item when accepted)."""
     out: dict[str, tuple[int, Any]] = {}
     with PymavlinkBackend(url, sysid, timeouts=Timeouts(item_timeout=1.0, retries=3), connect_timeout=30) as backend:
@@ -90,7 +90,7 @@ def session(url: str, sysid: int, home: bool) -> dict[str, tuple[int, Any]]:
             try:
                 backend.upload(mission_type, items)
             except MissionTransferError as err:  # the refusal's result (ERROR after the last item included)
-                out[name] = (int(err.result), None)
+                out[name] = (None if err.result is None else int(err.result), None)  # None: no answer at all
                 continue
             out[name] = (ACCEPTED, astuple(backend.download(mission_type)[-1]))
     return out

@@ -5,12 +5,13 @@ cannot store and keeps serving.
 Each refusal is checked as a crew meets it: the exit code (2), exactly one line on stderr, no traceback,
 and nothing written (the output folder absent, a plan folder's files hashed before and after).
 
-Memory of the item-count refusal, measured with bench/limits_bench.py (ru_maxrss of a child process that
-imports the package and reads the file; the import alone is ~100 MB): a .waypoints of 1,000,000 items (36 MiB)
-is refused at line 65,537 in +27 MB and 0.2 s, where it used to be read whole first (1.26 GB); a .plan over
-the 96 MiB bound is refused from its size alone in +0 MB; the largest .plan under the bound that is still
-refused for its count (compact JSON, ~800,000 items) costs the parse, +1.1 GB - the bound's price, stated in
-docs/file-formats.md.
+Memory of the item-count refusal, measured with bench/limits_bench.py (the child's own peak resident memory
+above what importing the reader took, VmHWM): a .waypoints of 1,000,000 items (36 MiB) is refused at line 65,537
+in +30 MB and about a second, where the old reader took +996 MB and 18 s to read it whole (then the upload
+died of a struct.error); a .plan of 70,000 items in +43 MB;
+a .plan over the 96 MiB size bound from its size alone, unread, in +0 MB; the largest compact .plan under the
+bound (883,009 items) is parsed before its count refuses it: +550 MB and 6 s, the bound's price, stated in
+docs/file-formats.md. Not timed here: the tests below check the answers, the bench the cost.
 """
 
 from __future__ import annotations
