@@ -282,7 +282,7 @@ def cmd_download(args: argparse.Namespace) -> int:
         return _fail("download", BridgeError(f"cannot write {out}: {err.strerror or err}; nothing was written"))
     extra = "".join(f", {len(p.items)} {p.mission_type.label}" for p in (plan.fence, plan.rally) if p.items)
     print(f"downloaded {len(plan.mission.items)} mission items{extra} from vehicle {opts['sysid']} ({flavour.value}) "
-          f"to {out} in {time.monotonic() - start:.2f} s")
+          f"to {printable(out)} in {time.monotonic() - start:.2f} s")
     return 0
 
 
