@@ -521,10 +521,12 @@ def check_jumps(items: list[MissionItem], wheres: list[str], path: str | os.Path
 
     A jump that repeats forever (repeat -1) back over items none of which is a navigation command (its own
     item, or only DO_ / CONDITION_ items) goes nowhere: the vehicle hovers where it is and the rest of the
-    mission is never flown. ArduCopter SITL takes such a mission (a DO_JUMP to itself with repeat -1: MISSION_ACK
-    ACCEPTED, stored as sent); its AP_Mission gives up on a jump it meets twice without a navigation command
-    between (get_next_cmd), so the mission ends there. A target outside the mission it refuses with
-    MAV_MISSION_ERROR (MissionItemProtocol_Waypoints: target 0 or past the last item).
+    mission is never flown. Measured on ArduCopter SITL: it takes such a mission (takeoff, a DO_JUMP to itself
+    with repeat -1, a waypoint 550 m away: MISSION_ACK ACCEPTED, stored as sent), flies it in AUTO, says
+    "Mission: 2 Jump 64/unlimited" as its AP_Mission gives up looking for the next navigation command, and
+    hovers over its takeoff point with the takeoff still current, the waypoint never flown, until its battery
+    or a pilot ends it. A target outside the mission it refuses with MAV_MISSION_ERROR (target 0 or past the
+    last item); PX4 SIH takes either and stores the repeat -1 as 65535 (its repeat count is a uint16).
     """
     for number, (item, where) in enumerate(zip(items, wheres), start=1):
         if item.command != CMD_DO_JUMP:
