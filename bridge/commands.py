@@ -15,6 +15,7 @@ parser here accepts abbreviated options (allow_abbrev=False): `--uav 3` is an er
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 import os
 import sys
@@ -25,6 +26,8 @@ from pathlib import Path
 from typing import Any
 
 from .errors import BridgeError, BridgeUsageError
+from .limits import ALTITUDE_AMSL_M, SEED_MAX, check_integer, check_range
+from .terminal_text import printable
 from .link.connection import GCS_COMPONENT_ID, GCS_SYSTEM_ID
 from .formats.mission_items import Flavour, MissionType
 
@@ -131,7 +134,7 @@ def _vehicle_arguments(parser: argparse.ArgumentParser) -> None:
 # ------------------------------------------------------------------------------------------ helpers
 
 def _fail(command: str, err: BaseException) -> int:
-    print(f"missionplan {command}: {err}", file=sys.stderr)
+    print(f"missionplan {command}: {printable(err)}", file=sys.stderr)  # it may quote a vehicle's words
     return 1
 
 
@@ -146,12 +149,9 @@ def _checked(args: argparse.Namespace) -> dict[str, Any]:
     gcs = gcs_identity(args, [sysid])
     check_gcs_identity(getattr(args, "backend", "pymavlink"), *gcs)
     parse_url(args.connect)
-    if not args.timeout > 0:
-        raise BridgeUsageError(f"--timeout must be positive, got {args.timeout}")
-    if not args.item_timeout > 0:
-        raise BridgeUsageError(f"--item-timeout must be positive, got {args.item_timeout}")
-    if args.retries < 0:
-        raise BridgeUsageError(f"--retries must not be negative, got {args.retries}")
+    check_range(args.timeout, "--timeout", 0.0, 86_400.0, unit=" s", low_open=True)
+    check_range(args.item_timeout, "--item-timeout", 0.0, 3_600.0, unit=" s", low_open=True)
+    check_integer(args.retries, "--retries", 0, 1_000)
     return {"url": args.connect, "sysid": sysid, "compid": compid, "key": signing_key(args),
             "timeouts": Timeouts(item_timeout=args.item_timeout, retries=args.retries),
             "connect_timeout": args.timeout, "source_system": gcs[0], "source_component": gcs[1]}
@@ -282,7 +282,7 @@ def cmd_download(args: argparse.Namespace) -> int:
         return _fail("download", BridgeError(f"cannot write {out}: {err.strerror or err}; nothing was written"))
     extra = "".join(f", {len(p.items)} {p.mission_type.label}" for p in (plan.fence, plan.rally) if p.items)
     print(f"downloaded {len(plan.mission.items)} mission items{extra} from vehicle {opts['sysid']} ({flavour.value}) "
-          f"to {out} in {time.monotonic() - start:.2f} s")
+          f"to {printable(out)} in {time.monotonic() - start:.2f} s")
     return 0
 
 
@@ -331,6 +331,8 @@ def _home_value(text: str, option: str) -> tuple[float, float, float]:
     lat, lon = values[0], values[1]
     if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
         raise BridgeUsageError(f"{option} {text}: latitude must be within -90..90 and longitude within -180..180")
+    if len(values) == 3:
+        check_range(values[2], f"{option} {text}: altitude", *ALTITUDE_AMSL_M, unit=" m", what="metres above sea level")
     return lat, lon, values[2] if len(values) == 3 else DEFAULT_HOME_ALT
 
 
@@ -383,15 +385,22 @@ def cmd_mock(args: argparse.Namespace) -> int:
     from .sim.mock import LinkFaults, MockAutopilot
 
     sysids = parse_sysids(args.sysid)
+    check_range(args.speedup, "--speedup", 0.0, 1_000.0, low_open=True, what="simulated seconds per second")
+    for name in ("loss", "duplicate", "reorder"):
+        check_range(getattr(args, name), f"--{name}", 0.0, 1.0, what="a probability")
+    check_range(args.latency, "--latency", 0.0, 60.0, unit=" s")
+    if args.request_interval is not None:
+        check_range(args.request_interval, "--request-interval", 0.0, 60.0, unit=" s", low_open=True)
+    check_range(args.ready_after, "--ready-after", 0.0, 86_400.0, unit=" s")
+    if args.seed is not None:
+        check_integer(args.seed, "--seed", 0, SEED_MAX)
+    if args.duration is not None:
+        check_range(args.duration, "--duration", 0.0, 365 * 86_400.0, unit=" s", low_open=True)
     key = signing_key(args)
     faults = LinkFaults(loss_in=args.loss, loss_out=args.loss, duplicate=args.duplicate, reorder=args.reorder,
                         latency=args.latency, seed=args.seed)
-    if args.request_interval is not None and not args.request_interval > 0:
-        raise BridgeUsageError(f"--request-interval must be positive, got {args.request_interval}")
     homes = mock_homes(sysids, args.home, args.plan)
     kills = parse_kills(args.kill, sysids)
-    if args.ready_after < 0:
-        raise BridgeUsageError(f"--ready-after must not be negative, got {args.ready_after}")
     if args.camera_configured and not args.sitl_like:
         raise BridgeUsageError("--camera-configured needs --sitl-like (without it every mock vehicle's camera works)")
     mock = MockAutopilot(args.listen, sysids=sysids, flavour=args.flavour, speedup=args.speedup, faults=faults,
@@ -411,6 +420,10 @@ def cmd_mock(args: argparse.Namespace) -> int:
         print(f"  system {sysid} starts at {lat:.7f}, {lon:.7f}, {alt:g} m AMSL", flush=True)
     for sysid, item in kills.items():
         mock.kill(sysid, at_item=item)
+    # What the mock survives (a message it could not answer) is said on stderr, one escaped line each.
+    said = logging.StreamHandler(sys.stderr)
+    said.setFormatter(logging.Formatter("missionplan mock: %(message)s"))
+    logging.getLogger("missionplan.bridge.sim").addHandler(said)
     mock.start()
     if args.camera_configured:
         mock.configure_cameras()
@@ -422,6 +435,7 @@ def cmd_mock(args: argparse.Namespace) -> int:
         pass
     finally:
         mock.stop()
+        logging.getLogger("missionplan.bridge.sim").removeHandler(said)
     done = sum(v.uploads_completed for v in mock.vehicles.values())
     print(f"mock autopilot stopped: {done} uploads completed, {mock.stats['in']} packets in, "
           f"{mock.stats['out']} out, {mock.stats['dropped_in'] + mock.stats['dropped_out']} dropped", flush=True)

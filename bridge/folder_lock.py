@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from .errors import BridgeUsageError
+from .terminal_text import printable
 
 LOCK_NAME = ".missionplan.lock"
 
@@ -79,9 +80,9 @@ MAX_FIELD = 300  # characters of a holder's field shown: the message stays one r
 
 
 def _printable(value: Any) -> str:
-    """A field of a lock file as it may be printed: control characters (a newline, a terminal escape)
-    escaped, and at most MAX_FIELD characters."""
-    text = "".join(ch if ch.isprintable() else ch.encode("unicode_escape").decode("ascii") for ch in str(value))
+    """A field of a lock file as it may be printed: control characters escaped (terminal_text) and at most
+    MAX_FIELD characters."""
+    text = printable(value)
     return text if len(text) <= MAX_FIELD else text[:MAX_FIELD] + "..."
 
 

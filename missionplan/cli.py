@@ -22,6 +22,8 @@ from typing import Any
 from missionplan.bridge import BridgeUsageError
 from missionplan.geo.errors import GeoError
 from missionplan.bridge.atomic import probe_writable
+from missionplan.bridge.limits import SEED_MAX, check_integer, check_range
+from missionplan.bridge.terminal_text import printable
 from missionplan.bridge.commands import register as register_bridge_commands
 
 from .flight.fly import register as register_fly_command
@@ -41,6 +43,7 @@ from .demo import register as register_demo_command
 from .replan import register as register_replan_command
 
 EXIT_USAGE = 2
+MAX_PLAN_ALTITUDE_M = 5_000.0  # above launch: beyond any survey multirotor's ceiling (the legal one is 120 m)
 
 
 # A negative number or LAT,LON pair such as -33.86,151.21 (argparse would take it for an option).
@@ -92,7 +95,7 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        sys.stderr.write(f"missionplan: {message}\n")
+        sys.stderr.write(f"missionplan: {printable(message)}\n")
         raise SystemExit(EXIT_USAGE)
 
     def parse_known_args(self, args: Sequence[str] | None = None,  # type: ignore[override]
@@ -196,8 +199,8 @@ def _cmd_maps() -> int:
     for name in shipped_map_names():
         gmap = load_shipped(name)
         rows, cols = gmap.shape
-        print(f"{name:<12} {f'{rows} x {cols}':>11} {int(gmap.target.sum()):>8} {len(gmap.launch):>6}  "
-              f"{gmap.meta.get('title', '')}")
+        print(f"{printable(name):<12} {f'{rows} x {cols}':>11} {int(gmap.target.sum()):>8} {len(gmap.launch):>6}  "
+              f"{printable(gmap.meta.get('title', ''))}")
     return 0
 
 
@@ -224,7 +227,35 @@ def _plan_ground(args: argparse.Namespace) -> PlanGround:
                        launch_labels=list(args.launch[:args.uavs]) if args.area is not None else None)
 
 
+def _check_plan_numbers(args: argparse.Namespace) -> None:
+    """plan's numeric options, each finite and within its range (docs/cli.md has the table and the reasons),
+    before any file is read: a `--rotation 1e308` is refused, not stored."""
+    def check(name: str, value: float | None, low: float, high: float, unit: str = "", **how: Any) -> None:
+        if value is not None:
+            check_range(value, name, low, high, unit=unit, error=MapError, **how)
+
+    if args.uavs is not None:  # each drone is a MAVLink vehicle: system ids 1..254
+        check_integer(args.uavs, "--uavs", 1, 254, what="a number of drones", error=MapError)
+    check("--altitude", args.altitude, 0.0, MAX_PLAN_ALTITUDE_M, " m", low_open=True, what="metres above launch")
+    check("--fov", args.fov, 0.0, 180.0, " degrees", low_open=True, high_open=True)
+    check("--sensor-width", args.sensor_width, 0.0, 100.0, " mm", low_open=True)
+    check("--sensor-height", args.sensor_height, 0.0, 100.0, " mm", low_open=True)
+    check("--focal-length", args.focal_length, 0.0, 2_000.0, " mm", low_open=True)
+    check("--rotation", args.rotation, -360.0, 360.0, " degrees", what="a grid angle")
+    check("--speed", args.speed, 0.0, 100.0, " m/s", low_open=True)
+    check("--overlap", args.overlap, 0.0, 1.0, high_open=True, what="a fraction")
+    check("--altitude-step", args.altitude_step, 0.0, MAX_PLAN_ALTITUDE_M, " m")
+    check("--min-separation", args.min_separation, 0.0, 1_000.0, " m", low_open=True)
+    check("--max-altitude", args.max_altitude, 0.0, MAX_PLAN_ALTITUDE_M, " m", low_open=True)
+    check("--clearance", args.clearance, 0.0, 1_000.0, " m")
+    check("--endurance", args.endurance, 0.0, 1_440.0, " minutes", what="0 (no limit) or minutes")
+    check("--reserve", args.reserve, 0.0, 1.0, high_open=True, what="a fraction")
+    check("--unknown-building-height", args.unknown_building_height, 0.0, 1_000.0, " m", what="a height in metres")
+    check_integer(args.seed, "--seed", 0, SEED_MAX, error=MapError)
+
+
 def _cmd_plan(args: argparse.Namespace) -> int:
+    _check_plan_numbers(args)
     options = PlanOptions(policy=args.policy, weights=args.weights, zones=args.zones, balance_zones=not args.no_balance,
                           open_ground=args.open_ground, seed=args.seed, basemap=args.basemap,
                           progress=not args.quiet and sys.stderr.isatty())
@@ -240,10 +271,10 @@ def _cmd_train(args: argparse.Namespace) -> int:
     from .learn.network import save_weights
     from .learn.training import DEFAULT_MAPS, train_policy
 
-    if args.maps is not None and args.maps < 4:
-        raise MapError(f"--maps must be at least 4, got {args.maps}")
-    if args.workers < 1:
-        raise MapError(f"--workers must be at least 1, got {args.workers}")
+    check_integer(args.seed, "--seed", 0, SEED_MAX, error=MapError)
+    if args.maps is not None:
+        check_integer(args.maps, "--maps", 4, 100_000, what="a number of training maps", error=MapError)
+    check_integer(args.workers, "--workers", 1, 256, what="a number of processes", error=MapError)
     if not args.out.parent.is_dir():
         raise MapError(f"--out {args.out}: folder {args.out.parent} does not exist")
     try:
@@ -279,7 +310,7 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_train(args)
         return _cmd_plan(args)
     except (MapError, BridgeUsageError, GeoError) as err:
-        print(f"missionplan: {err}", file=sys.stderr)
+        print(f"missionplan: {printable(err)}", file=sys.stderr)  # the message may quote a file's text
         return EXIT_USAGE
     except BrokenPipeError:  # output piped into `head` and the like
         sys.stderr.close()

@@ -20,6 +20,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from missionplan.bridge.limits import check_integer, check_range
+
 from .maps.gridmap import MapError
 from .plan_display import EXIT_FAILED, print_plan
 from .plan_folder import PlanOptions, check_out_folder, shipped_ground, write_plan_folder
@@ -36,8 +38,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from .flight.fly import fly
     from .flight.mock_fleet import start_mock_fleet
 
-    if args.speedup <= 0:
-        raise MapError(f"--speedup must be positive, got {args.speedup}")
+    check_integer(args.uavs, "--uavs", 1, 254, what="a number of drones", error=MapError)
+    check_range(args.speedup, "--speedup", 0.0, 1_000.0, low_open=True, what="simulated seconds per second",
+                error=MapError)
     # Progress on stderr: bars on a terminal, plain lines in a log (plan and fly each decide which).
     quiet = args.quiet
     out = Path(args.out)

@@ -1,12 +1,16 @@
 """What `plan`, `replan` and `demo` print about a written plan folder: the metrics table, each drone's
 mission, the separation and clearance kept, the warnings (stderr) and the files written.
 
-Reads only the returned PlanFolder (missionplan/plan_folder.py); plans and writes nothing.
+Reads only the returned PlanFolder (missionplan/plan_folder.py); plans and writes nothing. Text that came
+from a file (the map's name, warnings naming buildings or files, the folder) is printed through printable():
+a file's control characters never reach the terminal.
 """
 
 from __future__ import annotations
 
 import sys
+
+from missionplan.bridge.terminal_text import printable
 
 from .plan_folder import PlanFolder
 
@@ -25,7 +29,7 @@ def print_plan(folder: PlanFolder) -> None:
     ground, gmap = folder.ground, folder.ground.gmap
     m = report["metrics"]
     zones = options.zones + ("" if not options.balance_zones else ", balanced")
-    print(f"map {gmap.name} ({gmap.shape[0]} x {gmap.shape[1]}), {ground.uavs} UAVs, policy {options.policy}, "
+    print(f"map {printable(gmap.name)} ({gmap.shape[0]} x {gmap.shape[1]}), {ground.uavs} UAVs, policy {options.policy}, "
           f"zones {zones}, seed {options.seed}")
     print(f"targets U = {report['targets']} reachable, {report['unreachable']} unreachable (set explored); "
           f"floor U/(9A) = {report['floor']:.1f}")
@@ -68,15 +72,15 @@ def print_plan(folder: PlanFolder) -> None:
                   f"than --clearance {cl['required_m']:g} m to an obstacle are out of every photo (narrow streets, "
                   f"courtyards); counted unreachable", file=sys.stderr)
     for warning in report["coverage"]["warnings"]:
-        print(f"missionplan: warning: {warning}", file=sys.stderr)
+        print(f"missionplan: warning: {printable(warning)}", file=sys.stderr)
     for path in folder.kept:
-        print(f"missionplan: warning: kept {path}: the earlier plan listed it, but it is not what that plan wrote "
-              f"(changed since, or no checksum recorded); not removed", file=sys.stderr)
+        print(f"missionplan: warning: kept {printable(path)}: the earlier plan listed it, but it is not what that "
+              f"plan wrote (changed since, or no checksum recorded); not removed", file=sys.stderr)
     missions = [p.name for p in written if p.suffix in (".plan", ".waypoints")]
     maps = [p.name for p in written if p.name not in missions]
     listed = ", ".join(["report.json", "plan.png", *maps])
     if missions:
         listed += f", {len(missions)} mission files ({missions[0]} ... {missions[-1]})"
-    print(f"wrote {folder.out}: {listed}")
+    print(f"wrote {printable(folder.out)}: {printable(listed)}")
     if not report["success"]:
-        print(f"missionplan: plan failed: {report['failure']}", file=sys.stderr)
+        print(f"missionplan: plan failed: {printable(report['failure'])}", file=sys.stderr)

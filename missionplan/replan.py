@@ -27,6 +27,9 @@ from typing import Any
 
 import numpy as np
 
+from missionplan.bridge.limits import SEED_MAX, check_integer
+from missionplan.bridge.terminal_text import printable
+
 from .flight.plan_report import missing_map
 from .flight.ledger import Ledger, LedgerError, Survey
 from .grid.world import check_starts
@@ -105,6 +108,7 @@ def launch_at(survey: Survey, launch: list[str], sysid: list[str]) -> tuple[list
 
 
 def cmd_replan(args: argparse.Namespace) -> int:
+    check_integer(args.seed, "--seed", 0, SEED_MAX, error=MapError)
     plan_dir, out = Path(args.dir), Path(args.out)
     with Ledger.of(plan_dir) as ledger:
         survey = ledger.survey
@@ -126,7 +130,7 @@ def cmd_replan(args: argparse.Namespace) -> int:
         raise MapError("say who flies the re-plan: --drones ID,... (the survey's drones, from their launch points) or "
                        "--launch LAT,LON once per drone with --sysid K=ID")
     targets = len(survey.targets)
-    print(f"survey {survey.root}: {flights} flight{'' if flights == 1 else 's'} recorded, {targets - len(missing)} of "
+    print(f"survey {printable(survey.root)}: {flights} flight{'' if flights == 1 else 's'} recorded, {targets - len(missing)} of "
           f"{targets} target cells "
           f"covered, {len(missing)} left")
     if not len(missing):

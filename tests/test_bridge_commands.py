@@ -87,7 +87,7 @@ def test_upload_plan_and_waypoints_then_download(tmp_path: Path, mock: MockAutop
     (["download", "--sysid", "1", "--connect", "udpout:127.0.0.1:9", "-o", "x.kml"], "unknown mission file type"),
     (["mock", "--sysid", "1,1"], "appears twice"),
     (["mock", "--listen", "tcp:127.0.0.1:5760"], "udpin:, udpout: or tcpin:"),
-    (["mock", "--loss", "1.5", "--listen", "udpin:127.0.0.1:0"], "between 0 and 1"),
+    (["mock", "--loss", "1.5", "--listen", "udpin:127.0.0.1:0"], "--loss 1.5: must be a probability, from 0 to 1"),
 ])
 def test_bad_input_raises_a_one_line_usage_error(tmp_path: Path, argv: list[str], message: str) -> None:
     plan_path = tmp_path / "m.plan"

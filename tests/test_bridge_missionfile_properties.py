@@ -1,9 +1,11 @@
-"""Property tests of the mission-file readers: whatever the file holds, the reader either
-returns a plan or raises BridgeUsageError, never anything else; and whatever it returns can go on the
-wire (every item packs into a MISSION_ITEM_INT for both flavours), so an upload cannot die later of a
-number the reader let through.
+"""Property tests of the mission-file readers (.plan, .waypoints, QGroundControl's legacy .mission):
+whatever the file holds, the reader either returns a plan or raises BridgeUsageError (one line naming the
+file), never anything else; whatever it returns can go on the wire (every item packs into a
+MISSION_ITEM_INT for both flavours), so an upload cannot die later of a number the reader let through;
+and it is within the limits (missionplan.bridge.limits: item counts, altitudes by frame, angles, speeds,
+DO_JUMP targets and loops), so no vehicle is asked to fly what no mission can mean.
 
-Kept small: a few hundred examples in all, no deadline (the machine is shared).
+Kept small: ~150 examples a test, no deadline (the machine is shared), no example database.
 """
 
 from __future__ import annotations
@@ -22,10 +24,13 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
 from missionplan.bridge import BridgeUsageError  # noqa: E402
-from missionplan.bridge.formats.mission_items import Flavour, to_wire  # noqa: E402
-from missionplan.bridge.formats.missionfile import PlanFile, read_mission_file  # noqa: E402
+from missionplan.bridge.formats.mission_items import CMD_DO_JUMP, CMD_NAV_LAST, Flavour, to_wire  # noqa: E402
+from missionplan.bridge.formats.missionfile import (AMSL_FRAMES, PARAM_RANGES, POSITIONAL_COMMANDS,  # noqa: E402
+                                                    PlanFile, read_mission_file)
+from missionplan.bridge.limits import (ALTITUDE_AMSL_M, ALTITUDE_RELATIVE_M, MAVLINK_MAX_ITEMS,  # noqa: E402
+                                       MAX_MISSION_ITEMS)
 
-SETTINGS = settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+SETTINGS = settings(max_examples=150, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
 
 numbers = (st.integers(min_value=-(2**70), max_value=2**70)
            | st.floats(allow_nan=True, allow_infinity=True)
@@ -109,6 +114,29 @@ def _check_uploadable(plan: PlanFile) -> None:
             assert all(math.isfinite(v) for v in (item.x, item.y))
 
 
+def _check_within_limits(plan: PlanFile) -> None:
+    """What the reader returned is within bridge.limits: counts, altitudes by frame, the parameters each
+    command defines as an angle / speed / time, home's altitude, DO_JUMP targets and no endless jump in place."""
+    items = plan.mission.items
+    assert len(items) <= MAX_MISSION_ITEMS and len(plan.fence.items) <= MAVLINK_MAX_ITEMS
+    assert len(plan.rally.items) <= MAVLINK_MAX_ITEMS
+    if plan.mission.home is not None:
+        assert ALTITUDE_AMSL_M[0] <= plan.mission.home[2] <= ALTITUDE_AMSL_M[1]
+    for item in [*items, *plan.fence.items, *plan.rally.items]:
+        if item.command in POSITIONAL_COMMANDS:
+            low, high = ALTITUDE_AMSL_M if item.frame in AMSL_FRAMES else ALTITUDE_RELATIVE_M
+            assert low <= item.z <= high, item
+        for number, _, (low, high), _ in PARAM_RANGES.get(item.command, ()):
+            value = item.params[number - 1]
+            assert math.isnan(value) or low <= value <= high, item
+    for number, item in enumerate(items, start=1):
+        if item.command == CMD_DO_JUMP:
+            target = round(item.param1)
+            assert 1 <= target <= len(items)
+            if item.param2 == -1 and target <= number:
+                assert any(it.command < CMD_NAV_LAST for it in items[target - 1:number])
+
+
 def _read(name: str, data: bytes) -> PlanFile | None:
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / name
@@ -119,6 +147,7 @@ def _read(name: str, data: bytes) -> PlanFile | None:
             assert "\n" not in str(err) and str(path) in str(err)
             return None
     _check_uploadable(plan)
+    _check_within_limits(plan)
     return plan
 
 
@@ -160,3 +189,66 @@ def test_any_waypoints_text_is_a_mission_or_a_usage_error(lines: list[str], name
 @given(st.binary(max_size=200), st.sampled_from(["m.plan", "m.waypoints", "m.txt"]))
 def test_any_bytes_are_a_mission_or_a_usage_error(data: bytes, name: str) -> None:
     _read(name, data)
+
+
+# Numbers near and beyond the limits, for the items' params, positions and altitudes.
+limit_numbers = st.sampled_from([0, 1, -1, -2, 2, 3, 16, 22, 177, 178, 45.07, 7.68, 30, 82_999, 83_000, 30_000,
+                                 30_001, -500, -501, -10_000, -10_001, 360, 361, -361, 65_535, 65_536, 300, 301,
+                                 1e9, -1e9, 1e38, -1e38, 32_767, 32_768]) | numbers
+
+
+@st.composite
+def mutated_missions(draw: st.DrawFn) -> dict[str, Any]:
+    """A QGroundControl .mission file (version "1.0" or 2) with one or two places replaced: by arbitrary JSON,
+    or by a number near a limit."""
+    items = [{"type": "missionItem" if version_1 else "SimpleItem", "command": command, "frame": frame,
+              "autoContinue": True, **({"id": n} if version_1 else {"doJumpId": n}),
+              **({"param1": p[0], "param2": p[1], "param3": p[2], "param4": p[3]} if version_1 else {"params": p}),
+              "coordinate": coordinate}
+             for version_1 in [draw(st.booleans())]
+             for n, (command, frame, p, coordinate) in enumerate([
+                 (22, 3, [0, 0, 0, 0], [45.07, 7.68, 30]), (16, 3, [0, 2, 0, 0], [45.0701, 7.68, 30]),
+                 (177, 2, [2, 1, 0, 0], [0, 0, 0]), (178, 2, [1, 5, -1, 0], [0, 0, 0])], start=1)]
+    doc: dict[str, Any] = ({"version": "1.0", "MAV_AUTOPILOT": 3, "items": items,
+                            "plannedHomePosition": {"coordinate": [45.07, 7.68, 240]}}
+                           if items[0]["type"] == "missionItem" else
+                           {"fileType": "Mission", "version": 2, "firmwareType": 3, "items": items,
+                            "plannedHomePosition": [45.07, 7.68, 240]})
+    for _ in range(draw(st.integers(1, 2))):
+        container, key = draw(st.sampled_from(_places(doc, [])))
+        container[key] = draw(limit_numbers if draw(st.booleans()) else json_values)
+    return doc
+
+
+@SETTINGS
+@given(mutated_missions())
+def test_a_mission_file_broken_anywhere_is_a_mission_or_a_usage_error(doc: dict[str, Any]) -> None:
+    _read("broken.mission", json.dumps(doc).encode())
+
+
+@SETTINGS
+@given(mutated_plans(), st.lists(limit_numbers, min_size=1, max_size=3))
+def test_a_plan_with_numbers_near_the_limits_is_a_plan_or_a_usage_error(doc: dict[str, Any],
+                                                                       values: list[Any]) -> None:
+    items = doc.get("mission", {}).get("items") if isinstance(doc.get("mission"), dict) else None
+    if isinstance(items, list):
+        for index, value in enumerate(values):
+            entry = items[index % len(items)] if items else None
+            if isinstance(entry, dict) and isinstance(entry.get("params"), list) and entry["params"]:
+                entry["params"][index * 3 % len(entry["params"])] = value
+    _read("limits.plan", json.dumps(doc).encode())
+
+
+wp_rows = st.tuples(st.sampled_from([0, 2, 3, 10]), st.sampled_from([16, 22, 177, 178, 19, 20]),
+                    st.lists(limit_numbers, min_size=7, max_size=7))
+
+
+@SETTINGS
+@given(st.lists(wp_rows, max_size=6))
+def test_waypoints_with_numbers_near_the_limits_are_a_mission_or_a_usage_error(rows: list[Any]) -> None:
+    lines = [HOME_ROW] + ["\t".join([str(index), "0", str(frame), str(command)] + [str(v) for v in values] + ["1"])
+                          for index, (frame, command, values) in enumerate(rows, start=1)]
+    _read("limits.waypoints", ("QGC WPL 110\n" + "\n".join(lines) + "\n").encode())
+
+
+HOME_ROW = "0\t1\t0\t16\t0\t0\t0\t0\t45.07\t7.68\t240\t1"

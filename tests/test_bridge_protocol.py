@@ -115,8 +115,6 @@ def test_result_codes_become_clear_messages() -> None:
             (mission(30), 4, "no space for this many items"),
             (Mission([MissionItem(CMD_NAV_WAYPOINT, 99, x=1, y=1)]), 2,  # raw: no MAV_FRAME is 99
              "coordinate frame the vehicle does not support"),
-            (Mission([MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, x=95.0, y=7.0)]), 10,
-             "invalid x / latitude"),
             (Mission([MissionItem(999, FRAME_GLOBAL_RELATIVE_ALT, x=45.0, y=7.0)]), 3,  # raw: not a command PX4 knows
              "command or mission type the vehicle does not support"),
         ]
@@ -125,6 +123,12 @@ def test_result_codes_become_clear_messages() -> None:
                 b.upload(0, to_wire(bad, Flavour.PX4))
             assert err.value.result == code and text in str(err.value) and "vehicle 1" in str(err.value)
             assert m.mission(1) == before  # a refused upload leaves the old mission
+    # PX4 takes a latitude of 95 degrees as sent (measured on SIH); ArduPilot refuses it with INVALID_PARAM5_X.
+    with mock(flavour="ardupilot") as m, PymavlinkBackend(m.client_url, 1, timeouts=FAST, connect_timeout=3) as b:
+        with pytest.raises(MissionTransferError) as err:
+            b.upload(0, to_wire(Mission([MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, x=95.0, y=7.0)]),
+                                Flavour.ARDUPILOT))
+        assert err.value.result == 10 and "invalid x / latitude" in str(err.value)
 
 
 def test_stalled_upload_leaves_the_old_mission_and_the_vehicle_gives_up() -> None:

@@ -52,7 +52,7 @@ def write_map(path, launch):
 
 @pytest.mark.parametrize("args, message", [
     (["--map", "atlantis", "--uavs", "3"], "unknown map 'atlantis'"),
-    (["--map", "leonardo", "--uavs", "0"], "--uavs must be at least 1, got 0"),
+    (["--map", "leonardo", "--uavs", "0"], "--uavs 0: must be a number of drones, an integer from 1 to 254"),
     (["--map", "leonardo", "--uavs", "7"], "launch cells for 6 drones, 7 asked"),
     (["--map", "leonardo", "--uavs", "three"], "invalid int value: 'three'"),
     (["--map", "leonardo", "--uavs", "3", "--zones", "manhattan"], "invalid choice: 'manhattan'"),

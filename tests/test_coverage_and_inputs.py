@@ -227,7 +227,7 @@ def test_structurally_wrong_files_through_the_cli(tmp_path, capsys, flag, conten
     (["--area", "A", "--launch", "45.061,7.651", "--altitude", "40", "--fov", "84", "--unknown-building-height", "9"],
      "--unknown-building-height needs --osm"),
     (["--area", "A", "--osm", "A", "--launch", "45.061,7.651", "--altitude", "40", "--fov", "84",
-      "--unknown-building-height", "-3"], "--unknown-building-height -3.0: must be a height in metres"),
+      "--unknown-building-height", "-3"], "--unknown-building-height -3: must be a height in metres"),
     (["--area", "A", "--osm", "A", "--launch", "45.061,7.651", "--altitude", "40", "--fov", "84",
       "--unknown-building-height", "nan"], "must be a height in metres"),
 ])
@@ -319,11 +319,11 @@ def test_old_grids_stay_exit_0_with_warnings(tmp_path):
 
 
 @pytest.mark.parametrize("flag, value, message", [
-    ("--rotation", "nan", "--rotation nan: must be a finite angle"),
-    ("--rotation", "inf", "--rotation inf: must be a finite angle"),
-    ("--speed", "inf", "--speed inf: must be above 0 m/s"),
-    ("--altitude-step", "nan", "--altitude-step nan: must be a finite number of metres"),
-    ("--altitude-step", "inf", "--altitude-step inf: must be a finite number of metres"),
+    ("--rotation", "nan", "--rotation nan: must be a grid angle, from -360 to 360 degrees"),
+    ("--rotation", "inf", "--rotation inf: must be a grid angle, from -360 to 360 degrees"),
+    ("--speed", "inf", "--speed inf: must be above 0 and at most 100 m/s"),
+    ("--altitude-step", "nan", "--altitude-step nan: must be from 0 to 5,000 m"),
+    ("--altitude-step", "inf", "--altitude-step inf: must be from 0 to 5,000 m"),
     ("--launch", "nan,7.651", "latitude must be in [-90, 90]"),
 ])
 def test_non_finite_numbers_on_the_command_line(tmp_path, capsys, flag, value, message):

@@ -169,13 +169,15 @@ def test_an_import_circle_is_found() -> None:
 BRIDGE_MAY_IMPORT = {
     "errors": set(),
     "atomic": set(),
-    "folder_lock": {"errors"},
+    "terminal_text": set(),
+    "limits": {"errors"},
+    "folder_lock": {"errors", "terminal_text"},
     "flight_models": set(),
-    "formats": {"errors", "atomic"},
+    "formats": {"errors", "atomic", "limits"},
     "link": {"errors", "formats"},
     "transfer": {"errors", "atomic", "formats", "link"},
-    "sim": {"errors", "formats", "link", "flight_models"},
-    "commands": {"errors", "formats", "link", "transfer", "sim"},
+    "sim": {"errors", "formats", "link", "flight_models", "terminal_text"},
+    "commands": {"errors", "formats", "link", "transfer", "sim", "limits", "terminal_text"},
 }
 
 

@@ -121,6 +121,7 @@ CMD_NAV_DELAY = 93
 CMD_NAV_PAYLOAD_PLACE = 94
 CMD_NAV_LAST = 95  # not a command: navigation commands are numbered up to it, DO_ / CONDITION_ ones after
 CMD_CONDITION_DELAY = 112
+CMD_CONDITION_YAW = 115
 CMD_DO_JUMP = 177
 CMD_DO_CHANGE_SPEED = 178
 CMD_DO_SET_HOME = 179

@@ -21,7 +21,11 @@ JSON plan or mission.
 Bad files raise BridgeUsageError naming the file, the item and the problem, and nothing else: a
 reader never lets a number through that the wire cannot carry faithfully (a NaN or infinite
 coordinate, a latitude beyond +-90, a frame that is not a uint8) because MISSION_ITEM_INT would carry
-it as 0 or as garbage and the read-back would still agree with it.
+it as 0 or as garbage and the read-back would still agree with it. Nor anything beyond bridge.limits,
+checked before any vehicle is contacted: more items than one MAVLink transfer carries (a .waypoints is read
+line by line and refused at the first item too many; a JSON file larger than any legal one, MAX_JSON_BYTES,
+is refused unread), a positional altitude outside its frame's range, an angle / speed / hold time outside
+its range (PARAM_RANGES), a DO_JUMP outside the mission or repeating for ever in place (check_jumps).
 Writes are atomic (temp file, then rename) with LF line endings.
 """
 
@@ -31,17 +35,24 @@ import json
 import math
 import os
 import struct
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 # A leaf utility with no planner imports: bridge still knows nothing about grids.
 from ..atomic import write_text_atomic
 
 from . import qgc_legacy
 from ..errors import BridgeError, BridgeUsageError
+from ..limits import (ALTITUDE_AMSL_M, ALTITUDE_RELATIVE_M, ANGLE_DEG, HOLD_S, MAVLINK_MAX_ITEMS, MAX_MISSION_ITEMS,
+                      SPEED_M_S, THROTTLE_PCT, check_range)
 from .mission_items import (
+    CMD_CONDITION_YAW,
+    CMD_DO_CHANGE_SPEED,
+    CMD_DO_GIMBAL_MANAGER_PITCHYAW,
     CMD_DO_JUMP,
+    CMD_DO_MOUNT_CONTROL,
     CMD_DO_SET_ROI,
     CMD_DO_SET_ROI_LOCATION,
     CMD_FENCE_CIRCLE_EXCLUSION,
@@ -49,6 +60,7 @@ from .mission_items import (
     CMD_FENCE_POLYGON_VERTEX_EXCLUSION,
     CMD_FENCE_POLYGON_VERTEX_INCLUSION,
     CMD_NAV_LAND,
+    CMD_NAV_LAST,
     CMD_NAV_LOITER_TIME,
     CMD_NAV_LOITER_TO_ALT,
     CMD_NAV_LOITER_TURNS,
@@ -60,6 +72,7 @@ from .mission_items import (
     CMD_NAV_WAYPOINT,
     CMD_RALLY_POINT,
     FRAME_GLOBAL,
+    FRAME_GLOBAL_INT,
     FRAME_GLOBAL_RELATIVE_ALT,
     FRAME_GLOBAL_TERRAIN_ALT,
     FRAME_GLOBAL_TERRAIN_ALT_INT,
@@ -102,6 +115,38 @@ POSITIONAL_COMMANDS = frozenset({
     CMD_FENCE_POLYGON_VERTEX_INCLUSION, CMD_FENCE_POLYGON_VERTEX_EXCLUSION,
     CMD_FENCE_CIRCLE_INCLUSION, CMD_FENCE_CIRCLE_EXCLUSION, CMD_RALLY_POINT,
 })
+
+
+# Frames whose altitude is above mean sea level; every other frame's altitude is relative (home, terrain).
+AMSL_FRAMES = frozenset({FRAME_GLOBAL, FRAME_GLOBAL_INT})
+
+# The parameters a command defines as an angle, a speed or a time, checked within limits' ranges:
+# command -> (param number, what it is, (low, high), unit).
+_ANGLE = (ANGLE_DEG, " degrees")
+PARAM_RANGES: dict[int, tuple[tuple[int, str, tuple[float, float], str], ...]] = {
+    CMD_NAV_WAYPOINT: ((1, "hold time", HOLD_S, " s"), (4, "yaw", *_ANGLE)),
+    CMD_NAV_LOITER_UNLIM: ((4, "yaw", *_ANGLE),),
+    CMD_NAV_LOITER_TIME: ((1, "loiter time", HOLD_S, " s"),),
+    CMD_NAV_LAND: ((4, "yaw", *_ANGLE),),
+    CMD_NAV_TAKEOFF: ((1, "pitch", *_ANGLE), (4, "yaw", *_ANGLE)),
+    CMD_NAV_SPLINE_WAYPOINT: ((1, "hold time", HOLD_S, " s"),),
+    CMD_NAV_VTOL_TAKEOFF: ((4, "yaw", *_ANGLE),),
+    CMD_NAV_VTOL_LAND: ((4, "yaw", *_ANGLE),),
+    CMD_CONDITION_YAW: ((1, "heading", *_ANGLE),),
+    CMD_DO_CHANGE_SPEED: ((2, "speed", SPEED_M_S, " m/s"), (3, "throttle", THROTTLE_PCT, " %")),
+    CMD_DO_MOUNT_CONTROL: ((1, "pitch", *_ANGLE), (2, "roll", *_ANGLE), (3, "yaw", *_ANGLE)),
+    CMD_DO_GIMBAL_MANAGER_PITCHYAW: ((1, "pitch", *_ANGLE), (2, "yaw", *_ANGLE)),
+}
+
+# A JSON mission file larger than this is not read: QGroundControl writes a mission item in 420-960 bytes
+# (measured: its sample survey plan's items, and an item of 17-digit numbers at a survey's depth), a fence
+# vertex or rally point in under 150, so a plan whose mission, fence and rally lists are all at the MAVLink
+# limit (65,535 items each) stays under 75 MiB. A larger file cannot be a mission any vehicle takes; refusing it
+# before it is read keeps a 1,000,000-item file from being parsed into a gigabyte of objects.
+MAX_JSON_BYTES = 96 * 2**20
+MAX_WAYPOINTS_LINE = 4096  # characters: a QGC WPL line of 12 numbers is under 400
+SNIFF_CHARS = 4096  # how much of a file of another suffix is read to tell its format
+JUMP_REPEAT_MAX = 32_767  # DO_JUMP's repeat count: ArduPilot keeps it as an int16
 
 
 @dataclass
@@ -152,17 +197,31 @@ def _write_atomic(path: Path, text: str) -> None:
     write_text_atomic(path, text)
 
 
-def _read_text(path: Path) -> str:
+def _check_file(path: Path) -> None:
     if not path.exists():
         raise BridgeUsageError(f"{path}: no such file")
     if not path.is_file():
         raise BridgeUsageError(f"{path}: not a file")
+
+
+def _read_text(path: Path, limit: int | None = None) -> str:
+    """The file's text (its first `limit` characters when given); one-line BridgeUsageError otherwise."""
+    _check_file(path)
     try:
-        return path.read_text(encoding="utf-8-sig")
+        with path.open(encoding="utf-8-sig") as stream:
+            return stream.read() if limit is None else stream.read(limit)
     except UnicodeDecodeError:
         raise BridgeUsageError(f"{path}: not a text file (expected a .plan or .waypoints mission)") from None
     except OSError as err:
         raise BridgeUsageError(f"{path}: cannot read ({err.strerror})") from None
+
+
+def _too_many(path: Path, label: str, limit: int, where: str = "", count: int | None = None) -> BridgeUsageError:
+    """The one line for a list longer than a MAVLink transfer carries (MISSION_COUNT's count is a uint16)."""
+    home = ", ArduPilot's home item one of them" if limit == MAX_MISSION_ITEMS else ""
+    held = f"more than {limit:,}" if count is None else f"{count:,}"
+    return BridgeUsageError(f"{path}: {where}{held} {label} items: one upload carries at most {limit:,} (MAVLink's "
+                            f"MISSION_COUNT counts {MAVLINK_MAX_ITEMS:,} items at most{home}); split it")
 
 
 def read_mission_file(path: str | os.PathLike[str]) -> PlanFile:
@@ -175,8 +234,9 @@ def read_mission_file(path: str | os.PathLike[str]) -> PlanFile:
         return read_qgc_mission(path)
     if suffix == ".waypoints":
         return PlanFile(mission=read_waypoints(path))
-    # Mission Planner and QGroundControl also save QGC WPL files as `.waypoints.txt` or `.txt`.
-    start = _read_text(path).lstrip()
+    # Mission Planner and QGroundControl also save QGC WPL files as `.waypoints.txt` or `.txt`: told by
+    # their first characters, without reading the whole file.
+    start = _read_text(path, SNIFF_CHARS).lstrip()
     if start.startswith("QGC WPL"):
         return PlanFile(mission=read_waypoints(path))
     if start.startswith("{"):
@@ -275,10 +335,33 @@ def check_item(item: MissionItem, where: str, path: str | os.PathLike[str]) -> M
                                "altitude")
     if not _fits_float32(item.z):
         raise BridgeUsageError(f"{path}: {where}: altitude {item.z:g} does not fit a MAVLink float")
+    if item.command in POSITIONAL_COMMANDS and not math.isnan(item.z):  # NaN: refused above where it matters
+        low, high = ALTITUDE_AMSL_M if item.frame in AMSL_FRAMES else ALTITUDE_RELATIVE_M
+        check_range(item.z, f"{path}: {where}: altitude", low, high, unit=" m",
+                    what=_altitude_kind(item.frame))
+    _check_params(item, where, path)
     if math.isnan(item.x) or math.isnan(item.y):
         item.x = 0.0 if math.isnan(item.x) else item.x
         item.y = 0.0 if math.isnan(item.y) else item.y
     return item
+
+
+def _altitude_kind(frame: int) -> str:
+    """What an altitude in this frame measures, for a message."""
+    if frame in AMSL_FRAMES:
+        return f"metres above sea level (frame {frame})"
+    if frame in TERRAIN_FRAMES:
+        return f"metres above the terrain (frame {frame})"
+    return f"metres above home (frame {frame})" if is_global(frame) else f"metres (frame {frame})"
+
+
+def _check_params(item: MissionItem, where: str, path: str | os.PathLike[str]) -> None:
+    """The parameters the item's command defines as an angle, a speed or a hold time, within limits.ANGLE_DEG,
+    SPEED_M_S / THROTTLE_PCT and HOLD_S; NaN (QGroundControl's null: "unchanged") passes."""
+    for number, name, limits, unit in PARAM_RANGES.get(item.command, ()):
+        value = item.params[number - 1]
+        if not math.isnan(value):
+            check_range(value, f"{path}: {where}: param{number} ({name})", *limits, unit=unit)
 
 
 def _fits_float32(value: float) -> bool:
@@ -296,6 +379,8 @@ def _check_home(home: tuple[float, float, float], where: str, path: Path) -> tup
         raise BridgeUsageError(f"{path}: {where}: [{lat}, {lon}] is not a latitude / longitude")
     if math.isinf(alt) or not _fits_float32(alt):
         raise BridgeUsageError(f"{path}: {where}: altitude {alt:g} is not a usable number")
+    if not math.isnan(alt):
+        check_range(alt, f"{path}: {where}: altitude", *ALTITUDE_AMSL_M, unit=" m", what="metres above sea level")
     return (lat, lon, 0.0 if math.isnan(alt) else alt)
 
 
@@ -307,6 +392,15 @@ def _latlon(value: Any, where: str, path: Path, length: int = 2) -> list[float]:
 
 
 def _read_json(path: Path) -> Any:
+    _check_file(path)
+    try:
+        size = path.stat().st_size
+    except OSError as err:
+        raise BridgeUsageError(f"{path}: cannot read ({err.strerror})") from None
+    if size > MAX_JSON_BYTES:
+        raise BridgeUsageError(f"{path}: {size / 2**20:,.0f} MiB, larger than any mission MAVLink can carry (at most "
+                               f"{MAVLINK_MAX_ITEMS:,} items per list, under {MAX_JSON_BYTES // 2**20} MiB as "
+                               "QGroundControl writes them); not read")
     try:
         return json.loads(_read_text(path))
     except json.JSONDecodeError as err:
@@ -338,7 +432,9 @@ def _plan_from_document(doc: Any, path: Path) -> PlanFile:
     plan = _read_mission(mission_doc, path)
     plan.fence = _read_fence(doc.get("geoFence"), path)
     if isinstance(doc.get("geoFence"), dict) and doc["geoFence"].get("maxAltitude") is not None:
-        plan.fence_max_altitude = _number(doc["geoFence"]["maxAltitude"], "geoFence maxAltitude", path)
+        plan.fence_max_altitude = check_range(_number(doc["geoFence"]["maxAltitude"], "geoFence maxAltitude", path),
+                                              f"{path}: geoFence maxAltitude", *ALTITUDE_RELATIVE_M, unit=" m",
+                                              what="metres above home")
     plan.rally = _read_rally(doc.get("rallyPoints"), path)
     return plan
 
@@ -374,6 +470,8 @@ def _read_mission(mission_doc: dict[str, Any], path: Path) -> PlanFile:
     # resolves doJumpIds among the mission's SimpleItems only: a ComplexItem's stored items are neither
     # targets nor have their own DO_JUMP targets rewritten.
     raw_items: list[tuple[MissionItem, int | None, str, bool]] = []
+    if len(mission_doc["items"]) > MAX_MISSION_ITEMS:  # before any item is read
+        raise _too_many(path, "mission", MAX_MISSION_ITEMS, count=len(mission_doc["items"]))
     for index, entry in enumerate(mission_doc["items"]):
         where = f"mission item {index + 1}"
         if not isinstance(entry, dict):
@@ -385,6 +483,8 @@ def _read_mission(mission_doc: dict[str, Any], path: Path) -> PlanFile:
                 inner = f"{where} ({name} item {number})"
                 if not isinstance(stored, dict) or stored.get("type") not in SIMPLE_ITEM_TYPES:
                     raise BridgeUsageError(f"{path}: {inner}: expected a SimpleItem object")
+                if len(raw_items) == MAX_MISSION_ITEMS:  # a survey's stored items count too
+                    raise _too_many(path, "mission", MAX_MISSION_ITEMS, f"{inner}: ")
                 raw_items.append((_simple_item(stored, inner, path)[0], None, inner, False))
             continue
         if kind not in SIMPLE_ITEM_TYPES:
@@ -405,13 +505,53 @@ def _read_mission(mission_doc: dict[str, Any], path: Path) -> PlanFile:
                 raise BridgeUsageError(f"{path}: {where}: DO_JUMP to doJumpId {target}, which no item has")
             item.param1 = float(by_jump_id[target])
         items.append(item)
+    check_jumps(items, [where for _, _, where, _ in raw_items], path)
 
     firmware = None
     if "firmwareType" in mission_doc:
         firmware = Flavour.from_autopilot(_integer(mission_doc["firmwareType"], "mission.firmwareType", path))
     return PlanFile(mission=Mission(items=items, mission_type=MissionType.MISSION, home=home), firmware=firmware,
-                    cruise_speed=_optional_number(mission_doc.get("cruiseSpeed"), path, "mission.cruiseSpeed"),
-                    hover_speed=_optional_number(mission_doc.get("hoverSpeed"), path, "mission.hoverSpeed"))
+                    cruise_speed=_optional_speed(mission_doc.get("cruiseSpeed"), path, "mission.cruiseSpeed"),
+                    hover_speed=_optional_speed(mission_doc.get("hoverSpeed"), path, "mission.hoverSpeed"))
+
+
+def check_jumps(items: list[MissionItem], wheres: list[str], path: str | os.PathLike[str]) -> None:
+    """Every DO_JUMP of the mission (its target the model's 1-based item number) jumps to an item of the
+    mission, repeats a number of times an autopilot can count, and does not loop forever without flying.
+
+    A jump that repeats forever (repeat -1) back over items none of which is a navigation command (its own
+    item, or only DO_ / CONDITION_ items) goes nowhere: the vehicle hovers where it is and the rest of the
+    mission is never flown. Measured on ArduCopter SITL: it takes such a mission (takeoff, a DO_JUMP to itself
+    with repeat -1, a waypoint 550 m away: MISSION_ACK ACCEPTED, stored as sent), flies it in AUTO, says
+    "Mission: 2 Jump 64/unlimited" as its AP_Mission gives up looking for the next navigation command, and
+    hovers over its takeoff point with the takeoff still current, the waypoint never flown, until its battery
+    or a pilot ends it. A target outside the mission it refuses with MAV_MISSION_ERROR (target 0 or past the
+    last item); PX4 SIH takes either and stores the repeat -1 as 65535 (its repeat count is a uint16).
+    """
+    for number, (item, where) in enumerate(zip(items, wheres), start=1):
+        if item.command != CMD_DO_JUMP:
+            continue
+        if not math.isfinite(item.param1) or not 1 <= round(item.param1) <= len(items):
+            raise BridgeUsageError(f"{path}: {where}: DO_JUMP to item {item.param1:g}, outside the mission's "
+                                   f"items 1..{len(items)}")
+        target = int(round(item.param1))
+        repeat = item.param2
+        if not (math.isfinite(repeat) and repeat == int(repeat) and -1 <= repeat <= JUMP_REPEAT_MAX):
+            raise BridgeUsageError(f"{path}: {where}: DO_JUMP repeat {repeat:g} is not a count (-1 for ever, or 0 "
+                                   f"to {JUMP_REPEAT_MAX:,}: ArduPilot keeps it as an int16)")
+        loop = items[target - 1:number] if target <= number else []
+        if repeat == -1 and loop and not any(it.command < CMD_NAV_LAST for it in loop):
+            span = "to itself" if target == number else f"back to item {target}"
+            raise BridgeUsageError(f"{path}: {where}: DO_JUMP {span} repeats for ever (repeat -1) over no "
+                                   "navigation command: the vehicle would stay where it is and never fly the rest "
+                                   "of the mission")
+
+
+def _optional_speed(value: Any, path: Path, where: str) -> float | None:
+    """A plan's cruiseSpeed / hoverSpeed: absent, or metres per second from 0 to limits.SPEED_M_S's top."""
+    if value is None:
+        return None
+    return check_range(_number(value, where, path), f"{path}: {where}", 0.0, SPEED_M_S[1], unit=" m/s")
 
 
 def _simple_item(entry: dict[str, Any], where: str, path: Path) -> tuple[MissionItem, int | None]:
@@ -490,6 +630,8 @@ def _read_fence(doc: Any, path: Path) -> Mission:
             raise BridgeUsageError(f"{path}: {where}: needs a polygon of at least 3 [lat, lon] points")
         command = CMD_FENCE_POLYGON_VERTEX_INCLUSION if poly.get("inclusion", True) else CMD_FENCE_POLYGON_VERTEX_EXCLUSION
         vertices = poly["polygon"]
+        if len(fence.items) + len(vertices) > MAVLINK_MAX_ITEMS:
+            raise _too_many(path, "fence", MAVLINK_MAX_ITEMS, f"{where}: ")
         for number, vertex in enumerate(vertices, start=1):
             lat, lon = _latlon(vertex, where, path)
             # autocontinue 0: a fence point is no navigation step, and ArduPilot stores (and reads back) 0
@@ -499,6 +641,8 @@ def _read_fence(doc: Any, path: Path) -> Mission:
                                           f"{where} point {number}", path))
     for index, circle in enumerate(_list(doc.get("circles"), "geoFence.circles", path)):
         where = f"geoFence circle {index + 1}"
+        if len(fence.items) == MAVLINK_MAX_ITEMS:
+            raise _too_many(path, "fence", MAVLINK_MAX_ITEMS, f"{where}: ")
         body = circle.get("circle") if isinstance(circle, dict) else None
         if not isinstance(body, dict):
             raise BridgeUsageError(f"{path}: {where}: expected {{\"circle\": {{\"center\": [lat, lon], \"radius\": r}}}}")
@@ -518,7 +662,10 @@ def _read_rally(doc: Any, path: Path) -> Mission:
         return rally
     if not isinstance(doc, dict):
         raise BridgeUsageError(f"{path}: rallyPoints must be an object")
-    for index, point in enumerate(_list(doc.get("points"), "rallyPoints.points", path)):
+    points = _list(doc.get("points"), "rallyPoints.points", path)
+    if len(points) > MAVLINK_MAX_ITEMS:
+        raise _too_many(path, "rally", MAVLINK_MAX_ITEMS, count=len(points))
+    for index, point in enumerate(points):
         where = f"rally point {index + 1}"
         lat, lon, alt = _latlon(point, where, path, 3)
         rally.items.append(check_item(MissionItem(command=CMD_RALLY_POINT, frame=FRAME_GLOBAL_RELATIVE_ALT, x=lat,
@@ -602,24 +749,50 @@ def write_plan(path: str | os.PathLike[str], plan: PlanFile) -> None:
 # --------------------------------------------------------------------------------------- .waypoints
 
 def read_waypoints(path: str | os.PathLike[str]) -> Mission:
-    """A QGC WPL 110 file: line 0 is home, lines 1..n the mission items."""
-    path = Path(path)
-    lines = [line for line in _read_text(path).splitlines() if line.strip()]
-    if not lines or not lines[0].strip().startswith("QGC WPL"):
-        raise BridgeUsageError(f"{path}: not a waypoints file (first line is not \"{WPL_HEADER}\")")
-    if lines[0].split()[-1] != "110":
-        raise BridgeUsageError(f"{path}: unsupported waypoints version {lines[0].split()[-1]!r} (expected 110)")
-    rows: list[list[str]] = []
-    for number, line in enumerate(lines[1:], start=2):
-        fields = line.split("\t") if "\t" in line else line.split()
-        if len(fields) != 12:
-            raise BridgeUsageError(f"{path}: line {number}: expected 12 tab-separated columns, got {len(fields)}")
-        rows.append([f.strip() for f in fields])
+    """A QGC WPL 110 file: line 0 is home, lines 1..n the mission items.
 
+    Read line by line: a file of more items than MAVLink can carry is refused at the first item too many,
+    and a line longer than any QGC WPL line at its first MAX_WAYPOINTS_LINE characters, so no file is ever
+    held whole in memory."""
+    path = Path(path)
+    _check_file(path)
+    try:
+        with path.open(encoding="utf-8-sig") as stream:
+            return _parse_waypoints(stream, path)
+    except UnicodeDecodeError:
+        raise BridgeUsageError(f"{path}: not a text file (expected a .plan or .waypoints mission)") from None
+    except OSError as err:
+        raise BridgeUsageError(f"{path}: cannot read ({err.strerror})") from None
+
+
+def _lines(stream: TextIO, path: Path) -> Iterator[tuple[int, str]]:
+    """(line number, text) of each line that is not blank, none longer than MAX_WAYPOINTS_LINE."""
+    number = 0
+    while line := stream.readline(MAX_WAYPOINTS_LINE + 1):
+        number += 1
+        if len(line) > MAX_WAYPOINTS_LINE and not line.endswith("\n"):
+            raise BridgeUsageError(f"{path}: line {number} is longer than {MAX_WAYPOINTS_LINE:,} characters: not a "
+                                   "waypoints file")
+        if line.strip():
+            yield number, line.rstrip("\r\n")
+
+
+def _parse_waypoints(stream: TextIO, path: Path) -> Mission:
+    lines = _lines(stream, path)
+    header = next(lines, (0, ""))[1].strip()
+    if not header.startswith("QGC WPL"):
+        raise BridgeUsageError(f"{path}: not a waypoints file (first line is not \"{WPL_HEADER}\")")
+    if header.split()[-1] != "110":
+        raise BridgeUsageError(f"{path}: unsupported waypoints version {header.split()[-1]!r} (expected 110)")
     items: list[MissionItem] = []
+    wheres: list[str] = []
     home: tuple[float, float, float] | None = None
-    for position, fields in enumerate(rows):
-        line_no = position + 2
+    for position, (line_no, line) in enumerate(lines):
+        if position > MAX_MISSION_ITEMS:
+            raise _too_many(path, "mission", MAX_MISSION_ITEMS, f"line {line_no}: ")
+        fields = [f.strip() for f in (line.split("\t") if "\t" in line else line.split())]
+        if len(fields) != 12:
+            raise BridgeUsageError(f"{path}: line {line_no}: expected 12 tab-separated columns, got {len(fields)}")
         try:
             index, _current, frame, command = (int(fields[0]), int(fields[1]), int(fields[2]), int(fields[3]))
             p1, p2, p3, p4, x, y, z = (float(v) for v in fields[4:11])
@@ -638,6 +811,8 @@ def read_waypoints(path: str | os.PathLike[str]) -> Mission:
         where = f"line {line_no} (item {position})"
         refuse_terrain_altitude(item, where, path)
         items.append(check_item(item, where, path))
+        wheres.append(where)
+    check_jumps(items, wheres, path)
     return Mission(items=items, mission_type=MissionType.MISSION, home=home)
 
 

@@ -139,6 +139,10 @@ def px4_stored(item: WireItem) -> WireItem:
     if item.mission_type == MissionType.MISSION and item.command in YAW_COMMANDS:
         param3 = 0.0 if item.command == CMD_NAV_WAYPOINT else item.param3  # no pass radius on PX4
         return replace(item, frame=frame, param3=param3, param4=px4_yaw(item.param4))
+    if item.mission_type == MissionType.MISSION and item.command == CMD_DO_JUMP and math.isfinite(item.param2) \
+            and abs(item.param2) < 2**31:
+        # Its repeat count is a uint16: "for ever" (-1) comes back as 65535 (measured on SIH).
+        return replace(item, frame=frame, param2=float(int(item.param2) & 0xFFFF))
     return replace(item, frame=frame)
 
 

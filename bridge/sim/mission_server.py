@@ -32,7 +32,7 @@ from typing import Any
 from ..formats.mission_items import GLOBAL_FRAMES, Flavour, MissionType, WireItem, encode_xy
 from ..formats.px4_rules import (GEOFENCE_WITHOUT_HOME, MIS_DIST_1WP_DEFAULT, fence_problems, item_result,
                                  px4_stored, start_refusals)
-from ..formats.readback import ardupilot_stored
+from ..formats.readback import ardupilot_stored, is_positional
 from ..link.connection import mavlink
 from .vehicle_part import VehiclePart
 
@@ -179,9 +179,25 @@ class MissionServer(VehiclePart):
         self.upload = Upload(mission_type, count, peer, [], last_sent=now, last_progress=now)
         self._request(self.upload, now)
 
+    def failed(self, msg: Any, peer: tuple[int, int]) -> None:
+        """Answering a mission message raised (logged by VehiclePart.handle): an upload from this peer is
+        dropped (the old list stays) and answered with MAV_MISSION_ERROR, as ArduPilot answers an item it
+        cannot take; any other transfer message gets the same ERROR."""
+        mission_type = int(getattr(msg, "mission_type", 0))
+        up = self.upload
+        if up is not None and up.peer == peer:
+            self.upload = None
+            self.uploads_failed += 1
+            mission_type = up.mission_type
+        self._ack(peer, mission_type, mavlink.MAV_MISSION_ERROR)
+
     def _check_item(self, item: WireItem) -> int:
         """The MAV_MISSION_RESULT an item earns: ACCEPTED or why not."""
         frame, command = item.frame, item.command
+        if self.flavour is Flavour.ARDUPILOT and item.mission_type != MissionType.FENCE:
+            result = ardupilot_item_result(item, self.upload.count if self.upload is not None else 0)
+            if result != mavlink.MAV_MISSION_ACCEPTED:
+                return result
         if self.flavour is Flavour.PX4:
             result = item_result(item)  # PX4's frame / command matrix, measured on SIH
             if result != mavlink.MAV_MISSION_ACCEPTED:
@@ -196,6 +212,10 @@ class MissionServer(VehiclePart):
             return mavlink.MAV_MISSION_UNSUPPORTED
         if frame not in GLOBAL_FRAMES and frame != mavlink.MAV_FRAME_MISSION:
             return mavlink.MAV_MISSION_UNSUPPORTED_FRAME
+        if self.flavour is not Flavour.GENERIC:
+            # ArduPilot's own checks are above; PX4 takes a latitude of 91 degrees, an altitude of 1e38 m and an
+            # infinite parameter and stores them as sent (measured on PX4 SIH v1.15.4: its upload checks none).
+            return mavlink.MAV_MISSION_ACCEPTED
         if frame in GLOBAL_FRAMES:
             if abs(item.x) > 900_000_000:
                 return mavlink.MAV_MISSION_INVALID_PARAM5_X
@@ -253,6 +273,13 @@ class MissionServer(VehiclePart):
             return
         if len(up.received) == up.count:
             self.upload = None
+            if (self.flavour is Flavour.ARDUPILOT and up.mission_type == MissionType.FENCE
+                    and not all(_latlon_valid(it) for it in up.received)):
+                # ArduPilot checks its fence when the last point has come and answers ERROR (measured on SITL:
+                # a vertex at latitude 91); the old fence stays.
+                self.uploads_failed += 1
+                self._ack(peer, up.mission_type, mavlink.MAV_MISSION_ERROR)
+                return
             self._commit(up.mission_type, up.received, peer, now)
         else:
             self._request(up, now)
@@ -287,7 +314,14 @@ class MissionServer(VehiclePart):
         # ArduCopter SITL: no NAV_WAYPOINT param2, frame 0 for DO_* ...); PX4 what formats.px4_rules.px4_stored
         # says (frames 3 -> 6, 0 -> 5, no pass radius; measured on PX4 SIH); others keep what they got.
         if self.flavour is Flavour.ARDUPILOT:
-            return ardupilot_stored(item)
+            stored = ardupilot_stored(item)
+            hold = item.param1
+            if (item.command == mavlink.MAV_CMD_NAV_WAYPOINT and item.mission_type == MissionType.MISSION
+                    and math.isfinite(hold) and not 0.0 <= hold < 65_536.0):
+                # Its uint16 hold time keeps the low 16 bits (1e6 s came back as 16,960 s on SITL); the read-back
+                # rule does not take that as legal, so an upload of such a hold fails its verification.
+                stored = replace(stored, param1=float((int(hold) & 0xFFFF) if abs(hold) < 2**31 else 0))
+            return stored
         return px4_stored(item) if self.flavour is Flavour.PX4 else item
 
     def _on_gcs_ack(self, msg: Any, peer: tuple[int, int], now: float) -> None:
@@ -439,6 +473,50 @@ class MissionServer(VehiclePart):
     def _on_set_current(self, msg: Any, peer: tuple[int, int], now: float) -> None:
         if not self.set_current(int(msg.seq)):
             self.vehicle.telemetry.send_mission_current()  # unchanged: the ground station sees its request failed
+
+
+# What ArduCopter answers to a mission or rally item it cannot store (AP_Mission::sanity_check_params and
+# mavlink_int_to_mission_cmd, MissionItemProtocol_Waypoints; each answer measured on ArduCopter 4.7-dev SITL
+# by sitl_tests/test_mock_vs_arducopter.py): a NaN parameter where the command takes none (only param4 of
+# NAV_WAYPOINT, NAV_LAND, NAV_TAKEOFF, NAV_VTOL_TAKEOFF and params 3-4 of NAV_VTOL_LAND may be NaN) or an
+# infinite one: MAV_MISSION_INVALID_PARAM1..4; for an item with a position, a latitude beyond +-90 degrees:
+# INVALID_PARAM5_X, a longitude beyond +-180: INVALID_PARAM6_Y, an altitude that is NaN or 83 km or more either
+# way (its Location keeps 24-bit centimetres: 1e38 m and -1e9 m alike): INVALID_PARAM7; a DO_JUMP to item 0
+# or past the upload's last item: MAV_MISSION_ERROR. Items without a position keep no x / y / z, so theirs
+# are not checked (an RTL with z = 1e38 is taken).
+ARDUPILOT_ALT_MAX_M = 83_000.0  # LOCATION_ALT_MAX_M
+ARDUPILOT_NAN_PARAMS = {mavlink.MAV_CMD_NAV_WAYPOINT: {4}, mavlink.MAV_CMD_NAV_LAND: {4},
+                        mavlink.MAV_CMD_NAV_TAKEOFF: {4}, mavlink.MAV_CMD_NAV_VTOL_TAKEOFF: {4},
+                        mavlink.MAV_CMD_NAV_VTOL_LAND: {3, 4}}
+INVALID_PARAMS = (mavlink.MAV_MISSION_INVALID_PARAM1, mavlink.MAV_MISSION_INVALID_PARAM2,
+                  mavlink.MAV_MISSION_INVALID_PARAM3, mavlink.MAV_MISSION_INVALID_PARAM4)
+
+
+def _latlon_valid(item: WireItem) -> bool:
+    return abs(item.x) <= 900_000_000 and abs(item.y) <= 1_800_000_000
+
+
+def ardupilot_item_result(item: WireItem, count: int) -> int:
+    """The MAV_MISSION_RESULT ArduCopter gives a mission or rally item of an upload of `count` items for
+    what it cannot store (see above); ACCEPTED leaves the rest of the checks to the caller."""
+    if item.mission_type == MissionType.MISSION:
+        nan_ok = ARDUPILOT_NAN_PARAMS.get(item.command, set())
+        for number, value in enumerate((item.param1, item.param2, item.param3, item.param4), start=1):
+            if math.isinf(value) or (math.isnan(value) and number not in nan_ok):
+                return INVALID_PARAMS[number - 1]
+    if item.mission_type == MissionType.RALLY or is_positional(item.command):
+        if abs(item.x) > 900_000_000:
+            return mavlink.MAV_MISSION_INVALID_PARAM5_X
+        if abs(item.y) > 1_800_000_000:
+            return mavlink.MAV_MISSION_INVALID_PARAM6_Y
+        if math.isnan(item.z) or abs(item.z) >= ARDUPILOT_ALT_MAX_M:
+            return mavlink.MAV_MISSION_INVALID_PARAM7
+    if item.mission_type == MissionType.MISSION and item.command == mavlink.MAV_CMD_DO_JUMP:
+        # The target is a uint16 on board: a C float-to-integer conversion, whose low 16 bits it keeps.
+        target = (int(item.param1) & 0xFFFF) if abs(item.param1) < 2**31 else 0
+        if target == 0 or target >= count:
+            return mavlink.MAV_MISSION_ERROR
+    return mavlink.MAV_MISSION_ACCEPTED
 
 
 def _next_nav(items: list[WireItem], index: int, count: int = 3) -> list[tuple[object, ...]]:

@@ -16,7 +16,10 @@ a SITL process killed in flight; when every vehicle of the mock is killed its tr
 sockets, TCP clients and serial line), as the killed process's would. set_battery(sysid, volts) is
 SITL's SIM_BATT_VOLTAGE (a ground station can PARAM_SET it too), for ArduPilot's battery failsafe
 (mock_vehicle). With a signing key, packets that are
-unsigned or signed with another key are dropped and everything sent is signed.
+unsigned or signed with another key are dropped and everything sent is signed. The server thread outlives
+anything one message or one vehicle's step raises: it is logged in one escaped line (vehicle_part.log_error),
+counted in the vehicle's handler_errors, a mission transfer is answered with MAV_MISSION_ERROR, and the
+mock serves on.
 
 Use it in-process (`with MockAutopilot(...) as mock:` or start()/stop(); it runs on a daemon thread)
 or as the `missionplan mock` command (serve_forever()).
@@ -42,6 +45,7 @@ from ..errors import BridgeUsageError
 from ..link.connection import ConnectionSpec, mavlink, parse_url
 from ..formats.mission_items import Flavour
 from .mock_vehicle import MockVehicle, VehicleOptions
+from .vehicle_part import log_error
 from ..link.signing import SigningKey, apply_key
 
 TICK = 0.005  # loop period when nothing arrives: timers and flight advance at least this often
@@ -314,7 +318,15 @@ class MockAutopilot:
             if msg.get_type() == "BAD_DATA":
                 continue
             for vehicle in self.vehicles.values():
-                vehicle.handle(msg, now)
+                try:
+                    vehicle.handle(msg, now)  # its parts answer their own failures (vehicle_part)
+                except Exception as err:  # noqa: BLE001 (the server thread must outlive any one message)
+                    self._survived(vehicle, f"{type(err).__name__} taking {msg.get_type()}: {err}")
+
+    def _survived(self, vehicle: MockVehicle, what: str) -> None:
+        """Something unexpected raised in the server thread: logged in one line, counted, and served on."""
+        vehicle.handler_errors += 1
+        log_error(f"mock vehicle {vehicle.sysid}: {what}")
 
     def _drop_peer(self, peer: _Peer) -> None:
         peer.alive = False
@@ -402,7 +414,10 @@ class MockAutopilot:
                 _, _, direction, peer_key, buf = heapq.heappop(self._queue)
                 self._deliver(direction, peer_key, buf, now)
             for vehicle in self.vehicles.values():
-                vehicle.tick(now)
+                try:
+                    vehicle.tick(now)
+                except Exception as err:  # noqa: BLE001 (the server thread must outlive any one vehicle's step)
+                    self._survived(vehicle, f"{type(err).__name__} in its step: {err}")
             if not self._transport_closed and all(v.killed for v in self.vehicles.values()):
                 self._close_if_all_killed()
 

@@ -90,6 +90,7 @@ class MockVehicle:
 
     def __init__(self, sysid: int, options: VehicleOptions, encoder: Any, now: float) -> None:
         self.sysid = sysid
+        self.handler_errors = 0  # messages whose answer raised (logged, answered with an error: vehicle_part)
         self.options = options.resolved()
         self.flavour = self.options.flavour
         self.mav = encoder  # pymavlink MAVLink with srcSystem=sysid, srcComponent=1, writing to the mock's link

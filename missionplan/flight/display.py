@@ -3,7 +3,9 @@ the summary of a judged flight.
 
 Bars only when stderr is a terminal (as `plan` and `upload` do); in a log, plain lines at the start and
 every quarter of each mission (LineProgress), so a log gets no cursor codes. Alerts (a link lost, a
-failsafe, a mode changed by someone else) are said even with --quiet: they are not progress.
+failsafe, a mode changed by someone else) are said even with --quiet: they are not progress. Every line said
+and every problem printed goes through printable(): a vehicle's STATUSTEXT or a file's name never moves the
+cursor or splits a line.
 """
 
 from __future__ import annotations
@@ -12,6 +14,8 @@ import sys
 import threading
 from collections.abc import Callable
 from typing import Any
+
+from missionplan.bridge.terminal_text import printable
 
 from .flight_report import FlightResult
 from .phases import slow_phase
@@ -48,7 +52,7 @@ def _plain_say() -> Say:
 
     def say(text: str) -> None:
         with lock:  # one write per line: the drones' threads say things at once
-            sys.stderr.write(text + "\n")
+            sys.stderr.write(printable(text) + "\n")
             sys.stderr.flush()
     return say
 
@@ -60,7 +64,7 @@ def progress_display(labels: dict[int, str], progress: bool) -> tuple[dict[int, 
         from tqdm import tqdm
 
         def above_bars(text: str) -> None:
-            tqdm.write(text, file=sys.stderr)  # above the bars, not through them
+            tqdm.write(printable(text), file=sys.stderr)  # above the bars, not through them
 
         if not progress:
             return {}, lambda text: None, above_bars
@@ -99,10 +103,10 @@ def print_flight(result: FlightResult) -> None:
         print(f"  uav{d['id']}: {state}, {d['flight_s']:.1f} s flown (planned {d['planned_flight_s']:.1f} s{vehicle}), "
               f"{d['photos']} photos" + (f" ({recovered} read from its log)" if recovered else "")
               + f", {held[d['held_after_flight']]}"
-              + "".join(f"; {note}" for note in d.get("notes", []) if note.startswith("left "))
+              + "".join(f"; {printable(note)}" for note in d.get("notes", []) if note.startswith("left "))
               + (f"; {slow}" if (slow := slow_phase(d.get("phases") or [])) else ""))
     for problem in result.problems:
-        print(f"  problem: {problem}")
+        print(f"  problem: {printable(problem)}")
     survey = result.survey
     if survey is not None and survey["flights"] > 1:
         print(f"survey {survey['root']}: {survey['coverage']:.2f} % of {survey['targets']} target cells over "
@@ -110,4 +114,4 @@ def print_flight(result: FlightResult) -> None:
     names = [result.json_path.name, result.png_path.name, *(p.name for p in result.map_paths), result.missed_path.name]
     if survey is not None:  # a judged flight of the journal: its photos' geotags too
         names += ["photos.csv", "photos.geojson", "geo.txt"]
-    print(f"wrote {result.json_path.parent}: {', '.join(names)}")
+    print(f"wrote {printable(result.json_path.parent)}: {', '.join(names)}")

@@ -40,6 +40,8 @@ from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.bridge.link.readiness import (ARDUPILOT_LAND, ARDUPILOT_RTL, DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN,
                                                PX4_LAND_SUB, PX4_RTL_SUB, ground_distance_m, mode_params)
 from missionplan.bridge.link.shared_link import LinkPool
+from missionplan.bridge.limits import check_integer, check_range
+from missionplan.bridge.terminal_text import printable
 from missionplan.bridge.link.signing import SigningKey
 from missionplan.bridge.transfer.uploader import check_gcs_identity
 
@@ -301,22 +303,39 @@ def _sigterm_as_interrupt(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt
 
 
+def refuse_empty_missions(plan_dir: Path, sortie: int) -> None:
+    """BridgeUsageError naming the first mission file of the sortie that holds no mission item: uploading it
+    would wipe that vehicle's mission (as `upload` refuses without --allow-empty). Checked before any vehicle
+    is contacted; each file is read as the upload will read it, so a bad file fails here too, in one line.
+    A report.json that cannot be read is left to fly(), which says what is wrong with it."""
+    try:
+        drones = json.loads((plan_dir / "report.json").read_text())["drones"]
+        ids = [int(d["id"]) for d in drones]
+    except (OSError, ValueError, KeyError, TypeError):
+        return
+    for sysid in ids:
+        path = plan_dir / sortie_file(sysid, sortie)
+        if path.is_file() and not read_mission_file(path).mission.items:
+            raise BridgeUsageError(f"{path}: the file holds no mission items; flying it would wipe vehicle {sysid}'s "
+                                   "mission (plan the folder again, or `missionplan clear` the vehicle to mean that)")
+
+
 def cmd_fly(args: Any) -> int:
-    if args.timeout <= 0:
-        raise BridgeUsageError(f"--timeout must be positive, got {args.timeout}")
-    if args.telemetry_hz <= 0:
-        raise BridgeUsageError(f"--telemetry-hz must be positive, got {args.telemetry_hz}")
+    # Every number first, in one place's words (missionplan.bridge.limits; the table: docs/cli.md).
+    check_range(args.timeout, "--timeout", 0.0, 7 * 86_400.0, low_open=True, unit=" s")
+    check_range(args.telemetry_hz, "--telemetry-hz", 0.01, 1_000.0, unit=" Hz")
+    if args.time_scale is not None:
+        check_range(args.time_scale, "--time-scale", 0.0, 1_000.0, low_open=True)
+    check_range(args.replan_after, "--replan-after", 0.0, 86_400.0, low_open=True, unit=" s")
+    check_range(args.ready_timeout, "--ready-timeout", 0.0, 86_400.0, low_open=True, unit=" s")
+    check_range(args.max_launch_offset, "--max-launch-offset", 0.0, 10_000.0, unit=" m")
+    check_integer(args.sortie, "--sortie", 1, 10_000)
     if not (Path(args.dir) / "report.json").is_file():
         raise BridgeUsageError(f"{args.dir}: no report.json (run `missionplan plan --out {args.dir}` first)")
     if args.replan and args.retask_planner is None:
         raise BridgeUsageError("--replan: this build of fly has no re-task planner")
-    if not args.replan_after > 0:
-        raise BridgeUsageError(f"--replan-after must be a positive number of seconds, got {args.replan_after}")
-    if args.ready_timeout <= 0:
-        raise BridgeUsageError(f"--ready-timeout must be positive, got {args.ready_timeout}")
-    if not args.max_launch_offset >= 0:
-        raise BridgeUsageError(f"--max-launch-offset must be a distance in metres (0 or more), "
-                               f"got {args.max_launch_offset}")
+    if not args.resume:  # a resumed flight uploads nothing
+        refuse_empty_missions(Path(args.dir), args.sortie)
     gcs = gcs_identity(args, [])  # the drones' own ids are checked by fly(), once report.json is read
     # --connect appends; its default applies only when none is given (an argparse append default
     # would be appended to, not replaced).
@@ -334,7 +353,7 @@ def cmd_fly(args: Any) -> int:
     except BridgeUsageError:
         raise
     except BridgeError as err:  # a link that cannot be opened: one line, exit 1
-        print(f"missionplan fly: {err}", file=sys.stderr)
+        print(f"missionplan fly: {printable(err)}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:  # before any drone's thread ran: nothing was started or commanded
         print("missionplan fly: interrupted before any vehicle was started; nothing was commanded", file=sys.stderr)

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from missionplan.bridge.atomic import atomic_path, write_text_atomic
+from missionplan.bridge.terminal_text import printable
 from missionplan.geo.cells import cells_feature
 
 from .plan_report import planned_grid
@@ -90,11 +91,11 @@ def cmd_status(args: Any) -> int:
         status = survey_status(ledger)
         flights = status["flights"]
         survey = ledger.survey
-        print(f"survey {survey.root}: {len(flights)} flight{'' if len(flights) == 1 else 's'} recorded, "
+        print(f"survey {printable(survey.root)}: {len(flights)} flight{'' if len(flights) == 1 else 's'} recorded, "
               f"{sum(f['photos'] for f in flights)} photos")
         for f in flights:
             when = datetime.fromtimestamp(f["recorded"], timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-            print(f"  {f['plan']:<16} flight {f['flight']} (sortie {f['sortie']}): {f['photos']} photos, recorded {when}")
+            print(f"  {printable(f['plan']):<16} flight {f['flight']} (sortie {f['sortie']}): {f['photos']} photos, recorded {when}")
         print(f"covered {status['covered']} of {status['targets']} target cells: {status['coverage']:.2f} %, "
               f"{status['covered_m2']:g} of {status['target_m2']:g} m²")
         box = status["extent"]
@@ -103,14 +104,14 @@ def cmd_status(args: Any) -> int:
         else:
             print(f"left: {status['missing']} cells, {status['missing_m2']:g} m², within {box['south']:.6f}.."
                   f"{box['north']:.6f} N, {box['west']:.6f}..{box['east']:.6f} E ({box['rows_m']:g} m x "
-                  f"{box['cols_m']:g} m along the grid): `missionplan replan {plan_dir} --out NEW --drones ...` plans it")
+                  f"{box['cols_m']:g} m along the grid): `missionplan replan {printable(plan_dir)} --out NEW --drones ...` plans it")
         geojson, png = plan_dir / "missing.geojson", plan_dir / "status.png"
         doc = {"type": "FeatureCollection", "features": [cells_feature(survey.frame, status["missing_cells"], {
             "what": "survey target cells no photo has covered yet", "cells": status["missing"],
             "area_m2": status["missing_m2"], "coverage": status["coverage"]})]}
         write_text_atomic(geojson, json.dumps(doc) + "\n")
         draw_status(png, ledger, status)
-    print(f"wrote {geojson} and {png}")
+    print(f"wrote {printable(geojson)} and {printable(png)}")
     return 0
 
 

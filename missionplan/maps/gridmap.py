@@ -16,8 +16,8 @@ File format (`*.map`, UTF-8 text, meant to be written by hand as easily as by co
     #....o...#
     ##########
 
-Header lines are `key: value`. `name`, `launch` and `grid:` are required; every other key
-is kept as a string in `GridMap.meta`. After `grid:` every line is one row of the grid,
+Header lines are `key: value`, each key once (a key given twice is refused, naming both lines).
+`name`, `launch` and `grid:` are required; every other key is kept as a string in `GridMap.meta`. After `grid:` every line is one row of the grid,
 all rows the same length, one character per cell:
 
     `#`  obstacle (building, water, no-fly) - never entered
@@ -117,6 +117,7 @@ def _parse_launch(text: str, where: str) -> list[Cell]:
 def parse_map(text: str, source: str = "<map>") -> GridMap:
     """Parse the text of a `.map` file; `source` names it in error messages."""
     header: dict[str, str] = {}
+    header_line: dict[str, int] = {}  # where each key was given: a key given twice is refused, not "last wins"
     rows: list[str] | None = None
     for lineno, raw in enumerate(text.splitlines(), start=1):
         line = raw.rstrip("\r\n")
@@ -133,7 +134,11 @@ def parse_map(text: str, source: str = "<map>") -> GridMap:
         key, sep, value = stripped.partition(":")
         if not sep:
             raise MapError(f"{source}:{lineno}: expected 'key: value' or 'grid:', got {stripped[:40]!r}")
-        header[key.strip()] = value.strip()
+        key = key.strip()
+        if key in header_line:
+            raise MapError(f"{source}:{lineno}: header key {key!r} given twice (lines {header_line[key]} and {lineno}); "
+                           "keep one")
+        header[key], header_line[key] = value.strip(), lineno
     if rows is None:
         raise MapError(f"{source}: no 'grid:' section")
     name = header.pop("name", "") or Path(source).stem

@@ -18,6 +18,7 @@ from typing import Any
 
 import shapely
 
+from missionplan.bridge.limits import ANGLE_DEG, check_range
 from missionplan.geo.area import build_grid_map
 from missionplan.geo.camera import Camera
 from missionplan.geo.errors import GeoError
@@ -99,8 +100,7 @@ def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, Unk
             raise GeoError("--unknown-building-height needs --osm (the buildings it applies to)")
         if not (math.isfinite(assumed) and assumed >= 0):
             raise GeoError(f"--unknown-building-height {assumed}: must be a height in metres, 0 or more")
-    if not math.isfinite(args.rotation):
-        raise GeoError(f"--rotation {args.rotation}: must be a finite angle in degrees")
+    check_range(args.rotation, "--rotation", *ANGLE_DEG, unit=" degrees", what="a grid angle", error=GeoError)
     camera = _camera(args)
     area, area_source = read_area_file(args.area)
     # Obstacle and no-fly files are obstacles whatever their height; OSM buildings may be overflown.
@@ -200,13 +200,10 @@ def mission_settings(gmap: GridMap, *, speed: float = DEFAULT_SPEED_M_S, overlap
                      autopilot: str = "ardupilot") -> MissionSettings:
     """Altitude and footprint from the map (9 cells a side; `altitude` where the map has none), speed, overlap,
     end action, altitude step and autopilot as `plan` takes them; the defaults are `plan`'s."""
-    if not (speed > 0 and math.isfinite(speed)):
-        raise GeoError(f"--speed {speed}: must be above 0 m/s")
-    if not 0 <= overlap < 1:
-        raise GeoError(f"--overlap {overlap}: must be in [0, 1)")
-    if not (altitude_step >= 0 and math.isfinite(altitude_step)):  # NaN compares false
-        raise GeoError(f"--altitude-step {altitude_step}: must be a finite number of metres, 0 or more "
-                       f"(layers go up from the altitude, never below it)")
+    check_range(speed, "--speed", 0.0, 100.0, unit=" m/s", low_open=True, error=GeoError)
+    check_range(overlap, "--overlap", 0.0, 1.0, high_open=True, what="a fraction", error=GeoError)
+    # Layers go up from the altitude, never below it.
+    check_range(altitude_step, "--altitude-step", 0.0, 5_000.0, unit=" m", error=GeoError)
     flight_altitude = float(gmap.meta.get("altitude_m", altitude or 0.0))
     if not flight_altitude > 0:
         raise GeoError(f"map {gmap.name}: no flight altitude (altitude_m) in its metadata")

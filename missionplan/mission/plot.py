@@ -31,6 +31,7 @@ from matplotlib.transforms import ScaledTranslation  # noqa: E402
 from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar  # noqa: E402
 
 from missionplan.bridge.atomic import atomic_path  # noqa: E402
+from missionplan.bridge.terminal_text import printable  # noqa: E402
 from missionplan.geo.frame import GridFrame  # noqa: E402
 from ..grid.planresult import PlanResult  # noqa: E402
 
@@ -244,7 +245,8 @@ def plan_figure(result: PlanResult, sortie_starts: list[np.ndarray] | None = Non
     view.decorate(ax_map)
     status = "100 % covered" if run.success else f"FAILED: {run.failure}"
     m = run.metrics
-    ax_map.set_title(f"{gmap.name}: {num} UAVs, policy {result.policy}, zones {result.zones.method} - {status}\n"
+    ax_map.set_title(f"{printable(gmap.name)}: {num} UAVs, policy {result.policy}, zones {result.zones.method} - "
+                     f"{status}\n"
                      f"MMN {m['MMN']:.1f}  TE {m['TE']:.1f} %  MNT {m['MNT']:.2f} %  makespan {m['makespan']}",
                      fontsize=10, pad=16 if frame is not None else 6)  # room for the origin line
     if gmap.meta.get("credit"):  # the map data's licence asks for it wherever a picture of it is shown
