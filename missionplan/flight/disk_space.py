@@ -22,16 +22,19 @@ from typing import Any
 from .drone_flight import LINK_MARGIN_S, LINK_WAIT_FACTOR
 from .journal import JournalError
 
-# Bytes in journal.sqlite (rows, their index entries, the pages' slack), measured by bench/journal_bench.py.
-SAMPLE_BYTES = 60  # one position sample
-PHOTO_BYTES = 110  # one photo, with the `captures` fact that comes with it
-ENTRY_BYTES = 80  # one other change (a fact, an event, an item reached)
-ENTRIES_PER_S = 2.0  # other changes a followed drone makes per vehicle second (its position once a second...)
-WAL_BYTES = 4_400_000  # the -wal file at its largest
-# The files written after the flight: a fixed part, and parts growing with the samples and the photos.
-OUTPUT_BYTES = 1_200_000
+# Bytes in journal.sqlite (rows, their index entries, the pages' slack), as bench/journal_bench.py measured
+# them (86, 152, 106 bytes; the -wal file 4.13 MB at most), rounded up.
+SAMPLE_BYTES = 90  # one position sample
+PHOTO_BYTES = 160  # one photo, with the `captures` fact that comes with it
+ENTRY_BYTES = 110  # one other change (a fact, an event, an item reached)
+ENTRIES_PER_S = 2.0  # other changes a followed drone makes per second (its position once a second...; 1.7 measured)
+WAL_BYTES = 4_200_000  # the -wal file at its largest: 1000 pages of 4 KiB and their headers, and one transaction
+# The files written after the flight (measured: 0.89 MB, 55 bytes a sample, 1,889 a photo): a fixed part,
+# and parts growing with the samples (the tracks of flight.html / .gpkg / .kmz) and the photos (the
+# ledger's photo and covered-cell rows, photos.csv / .geojson, geo.txt).
+OUTPUT_BYTES = 1_000_000
 OUTPUT_SAMPLE_BYTES = 60
-OUTPUT_PHOTO_BYTES = 1_700  # the ledger's photo and covered-cell rows, the three geotag files
+OUTPUT_PHOTO_BYTES = 2_000
 PHOTO_MARGIN = 1.5
 
 

@@ -26,6 +26,7 @@ No MAVLink here: fly.py records (DroneRecord), this module judges what was recor
 from __future__ import annotations
 
 import json
+import os
 import sqlite3
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -263,7 +264,9 @@ def _written(unwritten: dict[str, str], names: str, write: Callable[[], Result])
     try:
         return write()
     except (*WRITE_ERRORS, LedgerError) as err:
-        unwritten[names] = str(err.strerror if isinstance(err, OSError) and err.strerror else err)
+        text = str(err.strerror if isinstance(err, OSError) and err.strerror else err)
+        head, sep, tail = text.partition(": ")
+        unwritten[names] = tail if sep and os.sep in head else text  # the file is named already
         return None
 
 
@@ -350,7 +353,7 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
             covered, survey, folder_photos = from_ledger
             _written(unwritten, ", ".join(GEOTAG_FILES), lambda: write_geotags(plan_dir, folder_photos))
         else:
-            unwritten[", ".join(GEOTAG_FILES)] = "not written without the survey ledger"
+            unwritten[", ".join(GEOTAG_FILES)] = "written from the survey ledger"
     percent = 100.0 * float(covered.mean()) if len(targets) else 100.0
     with_placed = np.vstack([all_photos, *unconfirmed]) if unconfirmed else all_photos
     covered_with_placed = covered_by_gap(frame, nearest_photo_gap(frame, targets, with_placed), footprint, slack)

@@ -196,9 +196,14 @@ def _keep_the_rest(plan_dir: Path, journal: Journal, result: FlightResult | None
     parts = []
     if journal.unwritten:
         parts.append(f"{len(journal.unwritten)} journal records not written ({journal.paused or 'the disk did not answer'})")
-    if missing:
-        why = sorted(set(missing.values()))
-        parts.append(f"not written: {', '.join(missing)} ({'; '.join(why)})")
+    if missing:  # each run of files with the same reason, then the reason
+        groups: list[tuple[list[str], str]] = []
+        for names, why in missing.items():
+            if groups and groups[-1][1] == why:
+                groups[-1][0].append(names)
+            else:
+                groups.append(([names], why))
+        parts.append("not written: " + ", ".join(f"{', '.join(names)} ({why})" for names, why in groups))
     line = f"{plan_dir}: the flight's record is not whole there: {'; '.join(parts)}"
     if journal.unwritten or "flight.json" in missing:
         doc = result.doc if result is not None and "flight.json" in missing else None

@@ -35,6 +35,7 @@ When the disk does not play along:
 from __future__ import annotations
 
 import json
+import math
 import os
 import queue
 import sqlite3
@@ -50,7 +51,7 @@ from typing import Any
 from missionplan.bridge.atomic import write_text_atomic
 from missionplan.bridge.formats.mission_items import WireItem
 
-from .record import DroneRecord, Sink
+from .record import PHOTO_SOURCES, DroneRecord, Sink
 from .salvage import (TableSalvage, connect_read_only, fault_kind, has_sqlite_header, integrity_problem, move_aside,
                       salvage_table, table_columns)
 
@@ -235,15 +236,30 @@ def _salvage_rows(db: sqlite3.Connection) -> dict[str, tuple[list[str], TableSal
     return out
 
 
-def _usable_entry(row: tuple[Any, ...], columns: list[str]) -> bool:
-    """An entry row whose kind is ours and whose JSON parses (a damaged page may read as garbage)."""
+def _position(values: dict[str, Any]) -> bool:
+    lat, lon = values.get("lat"), values.get("lon")
+    if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in (lat, lon, values.get("t"))):
+        return False
+    # (0, 0): what a page cut short reads as; fly records no position before a vehicle has its GPS fix.
+    return -90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0 and (lat, lon) != (0.0, 0.0)
+
+
+def _usable(table: str, row: tuple[Any, ...], columns: list[str]) -> bool:
+    """Whether a salvaged row reads as one of ours: a damaged page (or a page cut short, read as zeros)
+    can yield rows of garbage, which are dropped and counted as lost."""
     values = dict(zip(columns, row[1:]))
-    if values.get("kind") not in ENTRY_KINDS:
-        return False
-    try:
-        return isinstance(json.loads(values.get("row") or ""), list)
-    except (TypeError, ValueError):
-        return False
+    if table == "entries":
+        if values.get("kind") not in ENTRY_KINDS:
+            return False
+        try:
+            return isinstance(json.loads(values.get("row") or ""), list)
+        except (TypeError, ValueError):
+            return False
+    if table == "samples":
+        return _position(values)
+    if table == "photos":
+        return _position(values) and isinstance(values.get("idx"), int) and values.get("source") in PHOTO_SOURCES
+    return True
 
 
 def _plural(n: int, word: str) -> str:
@@ -282,7 +298,7 @@ def salvage_journal(path: Path, damage: str) -> str:
             ours = _columns(db, table)
             use = [i for i, c in enumerate(columns) if c in ours]
             names = ", ".join(["rowid"] + [columns[i] for i in use])
-            good = [row for row in rows.rows if table != "entries" or _usable_entry(row, columns)]
+            good = [row for row in rows.rows if _usable(table, row, columns)]
             db.executemany(f"INSERT INTO {table} ({names}) VALUES ({', '.join('?' * (len(use) + 1))})",
                            [(row[0], *(row[i + 1] for i in use)) for row in good])
             kept[table] = len(good)

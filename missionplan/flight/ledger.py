@@ -176,6 +176,10 @@ class Ledger:
             if {"flights", "photos", "covered"} - {r[0] for r in db.execute("SELECT name FROM sqlite_master")}:
                 db.executescript(SCHEMA)
         except sqlite3.DatabaseError as err:
+            from .salvage import fault_kind
+
+            if fault_kind(err) in ("full", "read-only"):
+                raise LedgerError(f"{self.path}: cannot be written ({err})") from None
             raise LedgerError(f"{self.path}: not a missionplan survey ledger ({err})") from None
 
     @classmethod

@@ -4,7 +4,9 @@ a damaged file read row by row, a read-only one read without writing, a failed w
 Python's sqlite3 has no binding for SQLite's recovery extension, so a damaged file (bytes overwritten,
 the file cut short) is read through SQLite itself, one table at a time, in rowid order: a range read
 stops at the first damaged page, and the reader skips ahead (doubling the jump, then narrowing it
-down) to the first rowid that reads again. What lies on a damaged page is lost; everything else is
+down) to the first rowid that reads again; then it reads the table backwards from its end down to the
+damage (a table cut short), and looks up each rowid of a gap on its own (a row that a range read cannot
+step to may still be found from the root). What lies on a damaged page is lost; everything else is
 returned, with the rowid ranges that could not be read. The damaged file itself is never written.
 
 `integrity_problem` is the check that tells a damaged file from a sound one (SQLite's quick_check:
@@ -22,6 +24,7 @@ from typing import Any, Literal
 SQLITE_MAGIC = b"SQLite format 3\x00"
 BATCH = 512  # rows per range read
 MAX_ROWID = 2 ** 62  # past any rowid a table of ours reaches
+POINT_LOOKUPS = 100_000  # a gap of at most this many rowids is looked up rowid by rowid
 
 
 FaultKind = Literal["full", "read-only", "damaged", "other"]
@@ -102,63 +105,149 @@ class TableSalvage:
         return sum(last - first + 1 for first, last in self.lost)  # type: ignore[operator]
 
 
-def _reads_from(db: sqlite3.Connection, sql: str, after: int) -> bool:
+def _read(db: sqlite3.Connection, sql: str, after: int, limit: int) -> tuple[list[tuple[Any, ...]], bool]:
+    """(the rows past rowid `after`, up to `limit`, in order; whether the read ran into damage: an error, or a
+    rowid not past the one before it, which a damaged page read as garbage gives)."""
     try:
-        db.execute(sql, (after, 1)).fetchall()
-        return True
+        rows = db.execute(sql, (after, limit)).fetchall()
     except sqlite3.DatabaseError:
-        return False
+        return [], True
+    good: list[tuple[Any, ...]] = []
+    for row in rows:
+        if not isinstance(row[0], int) or row[0] <= after:
+            return good, True
+        good.append(row)
+        after = row[0]
+    return good, False
+
+
+def _readable(db: sqlite3.Connection, sql: str, after: int) -> bool:
+    return not _read(db, sql, after, 1)[1]
+
+
+def _forward(db: sqlite3.Connection, sql: str) -> tuple[list[tuple[Any, ...]], list[tuple[int, int | None]]]:
+    """The rows a forward read gets, skipping each damaged stretch; and the rowid ranges skipped."""
+    out: list[tuple[Any, ...]] = []
+    lost: list[tuple[int, int | None]] = []
+    after = -MAX_ROWID
+    while True:
+        rows, damaged = _read(db, sql, after, BATCH)
+        out.extend(rows)
+        after = int(rows[-1][0]) if rows else after
+        if not damaged:
+            if len(rows) < BATCH:
+                return out, lost  # the end of the table
+            continue
+        # Damage past `after`: the rows before it one at a time (a batch read fails as a whole)...
+        while True:
+            one, damaged = _read(db, sql, after, 1)
+            if damaged:
+                break
+            if not one:
+                return out, lost
+            out.append(one[0])
+            after = int(one[0][0])
+        # ...then the first rowid past it that reads again: jumps doubling, then halving back.
+        start = max(after, 0)
+        jump = 1
+        while start + jump < MAX_ROWID and not _readable(db, sql, start + jump):
+            jump *= 2
+        if start + jump >= MAX_ROWID:  # nothing reads past the damage going forward
+            lost.append((start + 1, None))
+            return out, lost
+        low, high = start + jump // 2, start + jump  # reading past `low` fails (or low is start), past `high` works
+        while high - low > 1:
+            middle = (low + high) // 2
+            if _readable(db, sql, middle):
+                high = middle
+            else:
+                low = middle
+        nxt, _ = _read(db, sql, high, 1)
+        if not nxt:
+            lost.append((start + 1, None))
+            return out, lost
+        lost.append((start + 1, int(nxt[0][0]) - 1))
+        after = high
+
+
+def _backward(db: sqlite3.Connection, table: str, columns: str, above: int) -> list[tuple[Any, ...]]:
+    """The rows past rowid `above` read from the table's end down, until the first damage."""
+    sql = f"SELECT rowid, {columns} FROM {table} WHERE rowid > ? AND rowid < ? ORDER BY rowid DESC LIMIT ?"
+    out: list[tuple[Any, ...]] = []
+    below = MAX_ROWID
+    for limit in (BATCH, 1):  # in batches, then one at a time up to the damage
+        while True:
+            try:
+                rows = db.execute(sql, (above, below, limit)).fetchall()
+            except sqlite3.DatabaseError:
+                break
+            good = []
+            for row in rows:
+                if not isinstance(row[0], int) or not above < row[0] < below:
+                    break
+                good.append(row)
+                below = row[0]
+            out.extend(good)
+            if len(good) < len(rows):
+                break
+            if len(rows) < limit:
+                return out
+    return out
+
+
+def _looked_up(db: sqlite3.Connection, table: str, columns: str, first: int, last: int) -> list[tuple[Any, ...]]:
+    """The rows of rowids first..last that a lookup from the table's root still finds."""
+    sql = f"SELECT rowid, {columns} FROM {table} WHERE rowid = ?"
+    out = []
+    for rowid in range(first, last + 1):
+        try:
+            row = db.execute(sql, (rowid,)).fetchone()
+        except sqlite3.DatabaseError:
+            continue
+        if row is not None and row[0] == rowid:
+            out.append(row)
+    return out
+
+
+def _gaps(kept: set[int], lost: list[tuple[int, int | None]]) -> list[tuple[int, int | None]]:
+    """The runs of rowids in the ranges `lost` that are not in `kept`."""
+    runs: list[tuple[int, int | None]] = []
+    for first, last in lost:
+        end = last if last is not None else max((r for r in kept if r >= first), default=first - 1)
+        run_start = None
+        for rowid in range(first, end + 1):
+            if rowid in kept:
+                if run_start is not None:
+                    runs.append((run_start, rowid - 1))
+                    run_start = None
+            elif run_start is None:
+                run_start = rowid
+        if last is None:
+            runs.append((run_start if run_start is not None else end + 1, None))
+        elif run_start is not None:
+            runs.append((run_start, end))
+    return runs
 
 
 def salvage_table(db: sqlite3.Connection, table: str, columns: str) -> TableSalvage:
     """Every row of `table` SQLite can still read (rowid, then `columns`), in rowid order."""
     out = TableSalvage(table)
-    sql = f"SELECT rowid, {columns} FROM {table} WHERE rowid > ? ORDER BY rowid LIMIT ?"
-    after = -MAX_ROWID
-    while True:
-        try:
-            batch = db.execute(sql, (after, BATCH)).fetchall()
-        except sqlite3.DatabaseError:
-            batch = None
-        if batch:
-            out.rows.extend(batch)
-            after = int(batch[-1][0])
-            continue
-        if batch is not None:
-            return out  # the end of the table
-        # A damaged page after `after`: rows one at a time up to it, then the first rowid past it that reads.
-        while True:
-            try:
-                row = db.execute(sql, (after, 1)).fetchall()
-            except sqlite3.DatabaseError:
-                break
-            if not row:
-                return out
-            out.rows.append(row[0])
-            after = int(row[0][0])
-        start = max(after, 0)
-        jump = 1
-        while start + jump < MAX_ROWID and not _reads_from(db, sql, start + jump):
-            jump *= 2
-        if start + jump >= MAX_ROWID:  # nothing reads past the damage: the rest of the table is lost
-            if not out.rows and after < 0:
-                out.unreadable = True
-            out.lost.append((start + 1, None))
-            return out
-        low, high = start + jump // 2, start + jump  # low does not read (or is start), high does
-        while high - low > 1:
-            middle = (low + high) // 2
-            if _reads_from(db, sql, middle):
-                high = middle
-            else:
-                low = middle
-        # Reading from `high` works: the rows after it are readable; those in (start, first row after high) are lost.
-        nxt = db.execute(sql, (high, 1)).fetchall()
-        first_after = int(nxt[0][0]) if nxt else None
-        out.lost.append((start + 1, (first_after - 1) if first_after is not None else None))
-        if first_after is None:
-            return out
-        after = high
+    rows, lost = _forward(db, f"SELECT rowid, {columns} FROM {table} WHERE rowid > ? ORDER BY rowid LIMIT ?")
+    found = {int(row[0]): row for row in rows}
+    if lost:  # from the table's end down to the first damage: what a forward read cannot step to
+        for row in _backward(db, table, columns, lost[0][0] - 1):
+            found.setdefault(int(row[0]), row)
+        if lost[-1][1] is None and any(r >= lost[-1][0] for r in found):
+            # The end was read backwards: the gap before it is bounded (past the highest rowid is the end).
+            lost[-1] = (lost[-1][0], max(found))
+    for first, last in list(lost):
+        if last is not None and last - first < POINT_LOOKUPS:
+            for row in _looked_up(db, table, columns, first, last):
+                found.setdefault(int(row[0]), row)
+    out.rows = [found[r] for r in sorted(found)]
+    out.lost = _gaps(set(found), lost)
+    out.unreadable = not out.rows and bool(out.lost)
+    return out
 
 
 def table_columns(db: sqlite3.Connection, table: str) -> list[str] | None:
