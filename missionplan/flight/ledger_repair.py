@@ -3,7 +3,8 @@
 Every row of the ledger (ledger.py) was put there by the judge from a flight's journal, so the ledger
 can be made again: for every flight a journal says was judged, the judge's own photo rule
 (photo_positions.flight_photos) gives the same rows. Hence:
-- a missing ledger is rebuilt from the journals of the folder given and of the survey's root;
+- a missing ledger is rebuilt from the journals of the folder given, of the survey's root and of the
+  re-plans beside the root (`replan --out ../NEW`: their report.json points back to it);
 - a damaged one (quick_check fails) is moved aside to ledger.sqlite.damaged and rebuilt the same way,
   from the journals of every folder it names too, its own readable rows (salvage.py, row by row)
   standing in for the flights whose journals are not at hand;
@@ -25,7 +26,7 @@ from missionplan.bridge.atomic import probe_writable
 
 from .photo_positions import flight_photos
 from .journal import JOURNAL_NAME, JournalError, judged_flights
-from .ledger import LEDGER_NAME, Ledger, LedgerError, Survey, _read_report, open_survey
+from .ledger import LEDGER_NAME, Ledger, LedgerError, Survey, _read_report, open_survey, survey_root
 from .salvage import connect_read_only, fault_kind, has_sqlite_header, integrity_problem, move_aside, salvage_table
 
 Say = Callable[[str], None]
@@ -73,10 +74,31 @@ def _from_journals(ledger: Ledger, survey: Survey, keys: list[str]) -> tuple[set
     return done, used, unread
 
 
+def _replans(survey: Survey) -> list[Path]:
+    """The re-plan folders of the survey found beside its root or inside it (where `replan --out` puts them:
+    a folder whose report.json names the root as its survey's). A re-plan elsewhere is found only through
+    the folder given or the damaged ledger's own rows."""
+    root = survey.root.resolve()
+    found = []
+    for parent in (root.parent, root):
+        try:
+            children = sorted(p for p in parent.iterdir() if p.is_dir() and p.resolve() != root)
+        except OSError:
+            continue
+        for folder in children:
+            try:
+                if (folder / "report.json").is_file() and survey_root(folder).resolve() == root:
+                    found.append(folder)
+            except LedgerError:
+                continue
+    return found
+
+
 def _keys(ledger: Ledger, plan_dir: Path, more: list[str] | None = None) -> list[str]:
-    """The folders whose journals a rebuild reads, as ledger keys: the root, the folder given, and `more`."""
+    """The folders whose journals a rebuild reads, as ledger keys: the root, the folder given, the re-plans
+    beside the root, and `more`."""
     keys: list[str] = []
-    for key in [".", ledger.plan_key(plan_dir), *(more or [])]:
+    for key in [".", ledger.plan_key(plan_dir), *(ledger.plan_key(f) for f in _replans(ledger.survey)), *(more or [])]:
         if key not in keys:
             keys.append(key)
     return keys
