@@ -332,7 +332,8 @@ def test_a_journal_cut_by_a_lost_wal_file_says_so_on_resume(
         mock.stop()
     err = capsys.readouterr().err
     assert code == 2, err
-    assert re.fullmatch(rf"missionplan: {re.escape(str(plan / JOURNAL_NAME))}: the journal was cut: run 1 of fly"
-                        r"(?:, started [^;]+)? committed \d+ transactions and the file holds \d+ of them; its write-ahead log "
-                        r"\(journal.sqlite-wal\) was lost after that run was killed, and with it everything written "
-                        r"since SQLite last copied the log into the file: no flight left in it to resume\n", err), err
+    assert re.fullmatch(rf"missionplan: {re.escape(str(plan / JOURNAL_NAME))}: the journal was cut: run 1 of "
+                        r"fly(?:, started [^;]+)? committed \d+ transactions and the file holds \d+ of them; its "
+                        r"write-ahead log \(journal.sqlite-wal\) was lost after that run was killed, and with it "
+                        r"everything written since SQLite last copied the log into the file: no flight left in it to "
+                        r"resume\n", err), err

@@ -204,8 +204,8 @@ def _ledger_rows(folder: Path) -> tuple[list[tuple], list[tuple]]:
     """The ledger's photos (without their ids) and covered cells (by the photo's vehicle and index)."""
     db = sqlite3.connect(folder / LEDGER_NAME)
     photos = sorted(db.execute("SELECT f.plan, f.flight, f.sortie, p.vehicle, p.img_idx, p.time, p.lat, p.lon, "
-                               "p.alt_amsl, p.alt_rel, p.roll, p.pitch, p.yaw, p.source FROM photos p JOIN flights f ON "
-                               "f.id = p.flight_id").fetchall())
+                               "p.alt_amsl, p.alt_rel, p.roll, p.pitch, p.yaw, p.source FROM photos p JOIN flights f "
+                               "ON f.id = p.flight_id").fetchall())
     covered = sorted(db.execute("SELECT p.vehicle, p.img_idx, c.row, c.col FROM covered c JOIN photos p ON "
                                 "p.id = c.photo").fetchall())
     db.close()
@@ -288,8 +288,8 @@ def test_a_damaged_ledger_is_rebuilt_in_one_line(lost_drone_survey: Path, tmp_pa
         out, err = capsys.readouterr()
         assert code == 0 and "1 flight recorded" in out, out
     assert re.fullmatch(rf"missionplan {command}: {re.escape(str(path))}: damaged \([^)]+\); kept as "
-                        rf"ledger.sqlite.damaged; rebuilt: 1 flight from the journal.sqlite of {re.escape(str(damaged))}; "
-                        r"lost: nothing\n", err), err
+                        rf"ledger.sqlite.damaged; rebuilt: 1 flight from the journal.sqlite of "
+                        rf"{re.escape(str(damaged))}; lost: nothing\n", err), err
     assert _ledger_rows(damaged) == _ledger_rows(whole)
     assert (damaged / "ledger.sqlite.damaged").exists()
 
@@ -308,7 +308,8 @@ def test_status_of_a_read_only_survey_folder_is_printed_then_one_line(
     assert code == 1
     assert out == expected[1].replace("wrote DIR/missing.geojson and DIR/status.png\n", ""), out
     assert re.fullmatch(rf"missionplan status: {re.escape(str(folder))}: missing.geojson and status.png could not be "
-                        r"written \((?:Read-only file system|Permission denied)\); the status above is whole\n", err), err
+                        r"written \((?:Read-only file system|Permission denied)\); the status above is whole\n",
+                        err), err
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
 
 

@@ -12,11 +12,12 @@ record is written from the journal and fly says so. A second Ctrl-C within ABORT
 `--on-abort rtl|land`, commands every vehicle this run started to return (RTL) or to land.
 `fly --resume DIR` re-attaches to the flight a killed or stopped run left (drone_flight: only vehicles
 holding this flight's mission, and nothing commanded) and judges the whole flight, with the photos of
-both runs. The disk: fly checks before any link is opened that the plan folder's disk has room for the
-flight's record (disk_space.py); in flight a journal that cannot write pauses and says so (journal.py),
-and whatever of the record cannot be written into the folder goes to a fallback file, said in one
-line, with exit status EXIT_NOT_RECORDED. Every link fly opens signs with --signing-key when given and speaks as ground station
+both runs. Every link fly opens signs with --signing-key when given and speaks as ground station
 --gcs-sysid / --gcs-compid (missionplan.bridge.commands.add_gcs_arguments).
+
+The disk: fly checks before any link is opened that the plan folder's disk has room for the flight's
+record (disk_space.py); in flight a journal that cannot write pauses and says so (journal.py); what of
+the record the folder would not take goes to a fallback file, said in one line, exit EXIT_NOT_RECORDED.
 """
 
 from __future__ import annotations
@@ -58,8 +59,8 @@ ON_ABORT = ("none", "rtl", "land")
 ABORT_WINDOW_S = 5.0  # after a Ctrl-C, a second one this soon commands the fleet home
 WATCH_S = 1.0  # the live separation watch looks this often
 ARDUPILOT_MODES = {"rtl": ARDUPILOT_RTL, "land": ARDUPILOT_LAND}
-EXIT_NOT_RECORDED = 3  # the flight's record is not whole in its folder (the rest went to a fallback file)
 PX4_AUTO_SUBS = {"rtl": PX4_RTL_SUB, "land": PX4_LAND_SUB}
+EXIT_NOT_RECORDED = 3  # the flight's record is not whole in its folder (the rest went to a fallback file)
 
 
 def flight_view(plan_dir: Path, report: dict[str, Any], sortie: int) -> dict[str, Any]:
@@ -195,7 +196,8 @@ def _keep_the_rest(plan_dir: Path, journal: Journal, result: FlightResult | None
         return
     parts = []
     if journal.unwritten:
-        parts.append(f"{len(journal.unwritten)} journal records not written ({journal.paused or 'the disk did not answer'})")
+        why = journal.paused or "the disk did not answer"
+        parts.append(f"{len(journal.unwritten)} journal records not written ({why})")
     if missing:  # each run of files with the same reason, then the reason
         groups: list[tuple[list[str], str]] = []
         for names, why in missing.items():

@@ -49,7 +49,8 @@ def _folder_name(survey: Survey, key: str) -> str:
     return str(survey.root) if key == "." else str(Path(os.path.normpath(survey.root / key)))
 
 
-def _from_journals(ledger: Ledger, survey: Survey, keys: list[str]) -> tuple[set[tuple[str, int]], list[str], list[str]]:
+def _from_journals(ledger: Ledger, survey: Survey,
+                   keys: list[str]) -> tuple[set[tuple[str, int]], list[str], list[str]]:
     """Record every judged flight of the journals of the folders `keys` (relative to the root) into the
     ledger, as the judge did: ((key, flight) recorded, the folders whose journals gave flights, the
     journals that could not be read, one line each)."""
@@ -187,7 +188,8 @@ def _rebuild_damaged(survey: Survey, plan_dir: Path, writable: bool, damage: str
     ledger, where = _settle(ledger, survey, writable)
     kept_as = f"kept as {aside.name}" if aside is not None else "left as it is (the folder cannot be written)"
     parts = [f"{_plural(len(done), 'flight')} from the {JOURNAL_NAME} of {', '.join(used)}" if done else "",
-             f"{_plural(from_rows, 'flight')} ({_plural(rows_used, 'photo')}) from its readable rows" if from_rows else ""]
+             f"{_plural(from_rows, 'flight')} ({_plural(rows_used, 'photo')}) from its readable rows"
+             if from_rows else ""]
     rebuilt = " and ".join(p for p in parts if p) or "nothing (no flight could be read)"
     lost = _lost(flights, photos, from_rows, orphans)
     text = f"{path}: damaged ({damage}); {kept_as}; rebuilt: {rebuilt}{where}; lost: {lost}"
