@@ -337,3 +337,44 @@ def test_a_journal_cut_by_a_lost_wal_file_says_so_on_resume(
                         r"write-ahead log \(journal.sqlite-wal\) was lost after that run was killed, and with it "
                         r"everything written since SQLite last copied the log into the file: no flight left in it to "
                         r"resume\n", err), err
+
+
+def test_a_fleet_armed_by_a_fly_killed_before_its_start_was_written_is_resumed(
+        leonardo: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """fly commits each vehicle's `arming` fact before the arm command: killed after arming, before any
+    mission start was acknowledged (so before `started` was journaled), its flight is still found by
+    `fly --resume`, which follows the vehicles the crew then started, to the end."""
+    from missionplan.bridge.link.connection import Link, mavlink, wait_vehicle
+
+    plan = _copy(leonardo, tmp_path / "plan")
+    mock = start_mock_fleet(plan, SPEEDUP)
+    handlers = {k: mock.vehicle(k).command_handler for k in SYSIDS}
+    answer = {k: handler._on_command for k, handler in handlers.items()}
+    for k, handler in handlers.items():  # MISSION_START goes unanswered, and so fly never journals `started`
+        handler._on_command = (lambda msg, peer, now, k=k: None if int(msg.command) == mavlink.MAV_CMD_MISSION_START
+                               else answer[k](msg, peer, now))
+    try:
+        crashed = subprocess.Popen([sys.executable, "-m", "missionplan", *_fly(plan, mock.client_url)],
+                                   cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                   env={**os.environ, "PYTHONPATH": str(ROOT)})
+        assert mock.wait_until(lambda m: all(v.flight.state.armed for v in m.vehicles.values()), 60.0)
+        crashed.send_signal(signal.SIGKILL)
+        crashed.wait(10)
+        kept = read_flight(plan)[2]
+        assert all(rec.arming and not rec.started for rec in kept), [(r.arming, r.started) for r in kept]
+        for k, handler in handlers.items():
+            handler._on_command = answer[k]
+        with Link(mock.client_url, source_system=250) as crew:  # the crew starts them from its own station
+            for k in SYSIDS:
+                wait_vehicle(crew, k, timeout=5)
+                crew.mav.command_long_send(k, 1, mavlink.MAV_CMD_MISSION_START, 0, 0, 0, 0, 0, 0, 0, 0)
+            assert _in_flight(mock, 1, timeout=20.0)
+        code = main(_fly(plan, mock.client_url, "--resume"))
+        landed = all(v.flight.state.mission_done and not v.flight.state.armed for v in mock.vehicles.values())
+    finally:
+        mock.stop()
+    out = capsys.readouterr()
+    assert code == 0 and landed, out.out + out.err
+    doc = json.loads((plan / "flight.json").read_text())
+    assert all(d["finished"] for d in doc["drones"]), doc["problems"]
+    assert all(any(n.startswith("its start was not in the journal") for n in d["notes"]) for d in doc["drones"])
