@@ -258,17 +258,18 @@ def flown(leonardo: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _page_of_a_sample(path: Path) -> int:
-    """The offset of a page of journal.sqlite in the middle of the samples table (found by a sample's
-    latitude, a float SQLite stores big-endian)."""
+    """The offset of a page of journal.sqlite in the middle of the samples table, found by a sample's own
+    clock (boot_s: no other table holds it; a float SQLite stores big-endian)."""
     import sqlite3
     import struct
 
     db = sqlite3.connect(path)
     count = db.execute("SELECT COUNT(*) FROM samples").fetchone()[0]
-    lat = db.execute("SELECT lat FROM samples ORDER BY rowid LIMIT 1 OFFSET ?", (count // 2,)).fetchone()[0]
+    boot_s = db.execute("SELECT boot_s FROM samples WHERE boot_s != CAST(boot_s AS INTEGER) ORDER BY rowid "
+                        "LIMIT 1 OFFSET ?", (count // 3,)).fetchone()[0]
     db.close()
     data = path.read_bytes()
-    at = data.index(struct.pack(">d", lat))
+    at = data.index(struct.pack(">d", boot_s))
     return at - at % 4096
 
 

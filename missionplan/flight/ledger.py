@@ -33,6 +33,7 @@ from missionplan.geo.frame import GridFrame
 
 from ..maps.gridmap import MapError
 from .plan_report import SLACK_CELLS, frame_of, target_cells  # the judge's rule, one place
+from .salvage import fault_kind
 
 LEDGER_NAME = "ledger.sqlite"
 MAX_POINTERS = 16  # re-plans of re-plans: a chain longer than this is a loop
@@ -176,8 +177,6 @@ class Ledger:
             if {"flights", "photos", "covered"} - {r[0] for r in db.execute("SELECT name FROM sqlite_master")}:
                 db.executescript(SCHEMA)
         except sqlite3.DatabaseError as err:
-            from .salvage import fault_kind
-
             if fault_kind(err) in ("full", "read-only"):
                 raise LedgerError(f"{self.path}: cannot be written ({err})") from None
             raise LedgerError(f"{self.path}: not a missionplan survey ledger ({err})") from None
