@@ -31,7 +31,8 @@ from missionplan.bridge.limits import SEED_MAX, check_integer
 from missionplan.bridge.terminal_text import printable
 
 from .flight.plan_report import missing_map
-from .flight.ledger import Ledger, LedgerError, Survey
+from .flight.ledger import LedgerError, Survey
+from .flight.ledger_repair import open_ledger
 from .grid.world import check_starts
 from .maps.gridmap import MapError
 from .mission.drone_missions import MissionSettings
@@ -110,7 +111,7 @@ def launch_at(survey: Survey, launch: list[str], sysid: list[str]) -> tuple[list
 def cmd_replan(args: argparse.Namespace) -> int:
     check_integer(args.seed, "--seed", 0, SEED_MAX, error=MapError)
     plan_dir, out = Path(args.dir), Path(args.out)
-    with Ledger.of(plan_dir) as ledger:
+    with open_ledger(plan_dir, lambda text: print(f"missionplan replan: {printable(text)}", file=sys.stderr)) as ledger:
         survey = ledger.survey
         missing = ledger.missing_cells()
         flights = len(ledger.flights())

@@ -215,12 +215,13 @@ def test_a_wrong_way_import_inside_bridge_is_found() -> None:
 # Inside missionplan/flight/: tiers, lowest first; a module imports only modules of lower tiers, and every module
 # has a tier (a new one is placed here).
 FLIGHT_TIERS = (
-    ("record", "plan_report", "flight_layers", "flight_plot", "mock_fleet"),  # what was planned and recorded
-    ("ledger", "phases", "journal"),  # the photos, the flight's phases, the journal on disk
+    ("record", "plan_report", "flight_layers", "flight_plot", "mock_fleet", "salvage"),  # what was planned and recorded
+    ("ledger", "phases", "journal", "photo_positions"),  # the photos, the flight's phases, the journal on disk
+    ("ledger_repair",),  # a ledger rebuilt from the journals
     ("geotag", "survey_status"),  # what the photos and the survey come to
     ("flight_report",),  # judging a flown fleet
     ("drone_flight", "display"),  # one drone's flight; what a crew sees
-    ("live_replan",),  # taking over a lost drone's cells in flight
+    ("live_replan", "disk_space"),  # taking over a lost drone's cells in flight; room for a flight's record
     ("fly",),  # the fleet's flight
 )
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 import sqlite3
 from pathlib import Path
 
@@ -174,6 +175,142 @@ def test_status_of_a_folder_that_is_no_plan(tmp_path: Path, capsys: pytest.Captu
     assert main(["status", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "no report.json" in err and str(tmp_path) in err
+
+
+# ------------------------------------------------------------------------------- a ledger lost, damaged, read-only
+def _survey_copy(root: Path, to: Path, ledger: bool) -> Path:
+    """The survey's first folder (files only), with its ledger holding that folder's flights alone (a
+    re-plan flown in the module's survey is not copied), or without a ledger."""
+    to.mkdir(parents=True)
+    for path in root.iterdir():
+        if path.is_file() and not path.name.startswith(LEDGER_NAME):
+            (to / path.name).write_bytes(path.read_bytes())
+    if ledger:
+        source = sqlite3.connect(root / LEDGER_NAME)
+        copy = sqlite3.connect(to / LEDGER_NAME)
+        source.backup(copy)
+        source.close()
+        with copy:
+            copy.execute("DELETE FROM covered WHERE photo IN (SELECT p.id FROM photos p JOIN flights f ON "
+                         "f.id = p.flight_id WHERE f.plan != '.')")
+            copy.execute("DELETE FROM photos WHERE flight_id IN (SELECT id FROM flights WHERE plan != '.')")
+            copy.execute("DELETE FROM flights WHERE plan != '.'")
+        copy.execute("VACUUM")
+        copy.close()
+    return to
+
+
+def _ledger_rows(folder: Path) -> tuple[list[tuple], list[tuple]]:
+    """The ledger's photos (without their ids) and covered cells (by the photo's vehicle and index)."""
+    db = sqlite3.connect(folder / LEDGER_NAME)
+    photos = sorted(db.execute("SELECT f.plan, f.flight, f.sortie, p.vehicle, p.img_idx, p.time, p.lat, p.lon, "
+                               "p.alt_amsl, p.alt_rel, p.roll, p.pitch, p.yaw, p.source FROM photos p JOIN flights f "
+                               "ON f.id = p.flight_id").fetchall())
+    covered = sorted(db.execute("SELECT p.vehicle, p.img_idx, c.row, c.col FROM covered c JOIN photos p ON "
+                                "p.id = c.photo").fetchall())
+    db.close()
+    return photos, covered
+
+
+def _status(folder: Path, capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    code = main(["status", str(folder)])
+    out = capsys.readouterr()
+    return code, out.out.replace(str(folder), "DIR"), out.err
+
+
+def test_a_deleted_ledger_is_rebuilt_from_the_journal_with_the_rows_the_judge_wrote(
+        lost_drone_survey: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    whole = _survey_copy(lost_drone_survey, tmp_path / "whole", ledger=True)
+    expected = _status(whole, capsys)
+    lost = _survey_copy(lost_drone_survey, tmp_path / "lost", ledger=False)
+    code, out, err = _status(lost, capsys)
+    assert (code, out) == expected[:2] and "1 flight recorded" in out, out
+    photos = len(_ledger_rows(whole)[0])
+    assert err == (f"missionplan status: {lost / LEDGER_NAME}: missing; rebuilt from the journal.sqlite of {lost}: "
+                   f"1 flight, {photos} photos\n"), err
+    rebuilt, original = _ledger_rows(lost), _ledger_rows(whole)
+    assert rebuilt == original and len(rebuilt[1]) > 1000
+    assert _status(lost, capsys) == expected  # rebuilt once: the next status is as ever
+
+
+def test_a_deleted_ledger_of_a_survey_flown_twice_is_rebuilt_from_both_folders(
+        lost_drone_survey: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The journals of the first plan and of the re-plan beside it (`replan --out ../day2`) hold both flights."""
+    day1 = _survey_copy(lost_drone_survey, tmp_path / "survey" / "day1", ledger=True)
+    day2 = tmp_path / "survey" / "day2"
+    assert main(["replan", str(day1), "--out", str(day2), "--drones", "1,3", "--quiet"]) == 0
+    mock = start_mock_fleet(day2, FAST)
+    try:
+        assert main(["fly", str(day2), "--connect", mock.client_url, "--time-scale", str(FAST), "--timeout", "60",
+                     "--quiet"]) == 0
+    finally:
+        mock.stop()
+    capsys.readouterr()
+    whole = _ledger_rows(day1)
+    expected = _status(day1, capsys)
+    assert "2 flights recorded" in expected[1]
+    (day1 / LEDGER_NAME).unlink()
+    code, out, err = _status(day1, capsys)
+    assert (code, out) == expected[:2], out
+    assert err == (f"missionplan status: {day1 / LEDGER_NAME}: missing; rebuilt from the journal.sqlite of {day1}, "
+                   f"{day2}: 2 flights, {len(whole[0])} photos\n"), err
+    assert _ledger_rows(day1) == whole
+
+
+def _page_of_a_photo(path: Path) -> int:
+    """The offset of a page of ledger.sqlite holding photo rows (found by a latitude, a float SQLite stores
+    big-endian)."""
+    import struct
+
+    db = sqlite3.connect(path)
+    count = db.execute("SELECT COUNT(*) FROM photos").fetchone()[0]
+    lat = db.execute("SELECT lat FROM photos ORDER BY id LIMIT 1 OFFSET ?", (count // 2,)).fetchone()[0]
+    db.close()
+    at = path.read_bytes().index(struct.pack(">d", lat))
+    return at - at % 4096
+
+
+@pytest.mark.parametrize("command", ["status", "replan"])
+def test_a_damaged_ledger_is_rebuilt_in_one_line(lost_drone_survey: Path, tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str], command: str) -> None:
+    whole = _survey_copy(lost_drone_survey, tmp_path / "whole", ledger=True)
+    expected = _status(whole, capsys)
+    damaged = _survey_copy(lost_drone_survey, tmp_path / "damaged", ledger=True)
+    path = damaged / LEDGER_NAME
+    with open(path, "r+b") as f:
+        f.seek(_page_of_a_photo(path))
+        f.write(b"\xa5" * 4096)
+    if command == "status":
+        code, out, err = _status(damaged, capsys)
+        assert (code, out) == expected[:2], out
+    else:
+        code = main(["replan", str(damaged), "--out", str(tmp_path / "rest"), "--drones", "1,3", "--quiet"])
+        out, err = capsys.readouterr()
+        assert code == 0 and "1 flight recorded" in out, out
+    assert re.fullmatch(rf"missionplan {command}: {re.escape(str(path))}: damaged \([^)]+\); kept as "
+                        rf"ledger.sqlite.damaged; rebuilt: 1 flight from the journal.sqlite of "
+                        rf"{re.escape(str(damaged))}; lost: nothing\n", err), err
+    assert _ledger_rows(damaged) == _ledger_rows(whole)
+    assert (damaged / "ledger.sqlite.damaged").exists()
+
+
+def test_status_of_a_read_only_survey_folder_is_printed_then_one_line(
+        lost_drone_survey: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from small_disk import read_only
+
+    folder = _survey_copy(lost_drone_survey, tmp_path / "ro", ledger=True)
+    (folder / "missing.geojson").unlink(missing_ok=True)
+    (folder / "status.png").unlink(missing_ok=True)
+    expected = _status(_survey_copy(lost_drone_survey, tmp_path / "rw", ledger=True), capsys)
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    with read_only(folder):
+        code, out, err = _status(folder, capsys)
+    assert code == 1
+    assert out == expected[1].replace("wrote DIR/missing.geojson and DIR/status.png\n", ""), out
+    assert re.fullmatch(rf"missionplan status: {re.escape(str(folder))}: missing.geojson and status.png could not be "
+                        r"written \((?:Read-only file system|Permission denied)\); the status above is whole\n",
+                        err), err
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
 
 
 # ------------------------------------------------------------------------------- live re-tasking

@@ -6,6 +6,7 @@ the mock fleet the demo flies.
 May import: missionplan.mission, .learn, .grid, .maps, .geo, .bridge.
 Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_layers.py).
 
+  disk_space      How much disk a flight's record takes, checked before fly opens a link.
   display         What a crew sees while flying: progress bars or plain lines, alerts, the final summary.
   drone_flight    One drone of a fleet flight, in its own thread: find, check, upload, arm, start, follow
                   to its landing (or re-attach to it: fly --resume), alerts, photos from its log.
@@ -13,9 +14,13 @@ Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_l
                   flight.json, flight.png and missed.geojson.
   fly             `missionplan fly DIR`: the fleet, the journal, the live separation watch, Ctrl-C, the
                   judgement.
-  journal         The flight journal (DIR/journal.sqlite): everything heard, written as it happens.
+  journal         The flight journal (DIR/journal.sqlite): everything heard, written as it happens; paused
+                  (not lost) when the disk refuses writes; salvaged when damaged; a lost -wal file proven.
+  ledger_repair   A survey ledger missing, damaged or read-only: rebuilt from the journals, said in one line.
   mock_fleet      Mock autopilots standing where a plan's drones launch (demo, tests, bench).
   phases          Where a drone's flight time went (take-off, survey, return, landing).
+  photo_positions Where each photo was taken, and the rows the survey ledger keeps of them.
   plan_report     A plan folder's report.json as the flight side reads it: frame, grid, targets, photo slack.
   record          One drone's record of a flight (DroneRecord), every change handed to the journal.
+  salvage         SQLite files on a bad disk: a damaged one read row by row, a read-only one read as it is.
 """

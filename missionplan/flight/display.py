@@ -114,4 +114,6 @@ def print_flight(result: FlightResult) -> None:
     names = [result.json_path.name, result.png_path.name, *(p.name for p in result.map_paths), result.missed_path.name]
     if survey is not None:  # a judged flight of the journal: its photos' geotags too
         names += ["photos.csv", "photos.geojson", "geo.txt"]
-    print(f"wrote {printable(result.json_path.parent)}: {', '.join(names)}")
+    unwritten = {name for names_ in result.unwritten for name in names_.split(", ")}  # said on stderr by fly
+    names = [name for name in names if name not in unwritten]
+    print(f"wrote {printable(result.json_path.parent)}: {', '.join(names) or 'nothing'}")

@@ -160,6 +160,9 @@ class FleetStart:
     resume: bool = False
     time_scale: float | None = None  # vehicle seconds per second of ours, when known (a sped-up simulator)
     planned_s: dict[int, float] = field(default_factory=dict)  # each drone's planned flight, vehicle seconds
+    # Until everything the records handed to the journal is committed; whether it is (fly: Journal.flush).
+    # Asked before each arm command: a vehicle whose start cannot be recorded is not armed.
+    commit: Callable[[], bool] = lambda: True
     # One log read at a time per link: three vehicles' LOG_DATA bursts into one ground-station socket at
     # once overflowed it, and ArduCopter SITL's downloads stalled half-way ("log incomplete").
     log_locks: dict[str, threading.Lock] = field(default_factory=dict)
@@ -375,6 +378,12 @@ class DroneFlight:
             return False
         if self.stop.is_set():
             return False
+        # In the journal before the arm command, so that `fly --resume` finds this vehicle whatever follows.
+        self.record.set(arming=time.time())
+        if not self.fleet.commit():
+            self.problem("not armed: its start could not be written to the flight journal (a flight that cannot be "
+                         "recorded is not started)")
+            return False
         link = self.backend.link
         if self.backend.vehicle.flavour is Flavour.ARDUPILOT:  # arms in GUIDED, starts AUTO by MISSION_START
             link.command_long(self.sysid, mavlink.MAV_CMD_DO_SET_MODE, mode_params(ARDUPILOT_GUIDED), self.deadline,
@@ -459,7 +468,7 @@ class DroneFlight:
         if rec.finished or rec.ended_early:
             self.fleet.say(f"uav{self.sysid}: its flight had already ended; nothing to follow")
             return False
-        if not rec.started or not rec.wire:
+        if not (rec.started or rec.arming) or not rec.wire:
             rec.add_note("not started by the run that was stopped; left alone (`missionplan fly` starts it)")
             self.fleet.say(f"uav{self.sysid}: was not started by the stopped run; left alone")
             return False
@@ -472,6 +481,10 @@ class DroneFlight:
             self.problem("holds another mission than this flight uploaded (" + "; ".join(differences[:3])
                          + "): not this flight; nothing was sent to it")
             return False
+        if not rec.started:  # armed by the stopped run, its start never journaled (it was killed first)
+            rec.add_note(f"its start was not in the journal (the stopped run was about to arm it at "
+                         f"{time.strftime('%H:%M:%S', time.gmtime(rec.arming))} UTC); followed from here")
+            rec.set(started=True, t_start=rec.arming)
         self.back_at = time.monotonic()  # the silence since the stopped run ends here (before any MISSION_CURRENT)
         self.gaps += 1  # nobody listened between the stopped run and this one
         self._streams()

@@ -1,15 +1,11 @@
 """Judging a flown fleet from its recordings: coverage, separation, times, problems; flight.json and flight.png.
 
 No MAVLink here: fly.py records (DroneRecord), this module judges what was recorded.
-- Photo positions: every CAMERA_FEEDBACK (ArduPilot) or CAMERA_IMAGE_CAPTURED (PX4's camera_feedback
-  module, or a MAVLink camera) the vehicle sent (where each photo was really taken); a
-  photo whose report was lost on the link (a gap in img_idx) is placed on the recorded track between
-  its neighbours, in proportion to its index. Photos are counted from the first img_idx this flight
-  reported: ArduPilot's index starts at 1 and keeps counting across flights until a reboot, so the
-  indices below it belong to earlier flights. A vehicle that sends no CAMERA_FEEDBACK has no photos
-  as evidence: that is a problem of the flight (no camera configured, or no feedback), unless the
-  user asked for photos from the track (`fly --photos-from-track`): then a photo every trigger
-  distance along the recorded track of its survey, said so in flight.json.
+- Photo positions (photo_positions.py): where the vehicle said each photo was taken; a photo whose
+  report was lost is placed on the recorded track and counted apart. A vehicle that sends no photo
+  report has no photos as evidence: that is a problem of the flight (no camera configured, or no
+  feedback), unless the user asked for photos from the track (`fly --photos-from-track`), said so in
+  flight.json.
 - Coverage: a target cell counts as photographed when the square footprint of one photo holds the
   cell, short of at most a quarter cell on a side (SLACK_CELLS): the grid world's and the corrector's
   rule (whole cell in the footprint) with the slack a real vehicle needs, since it may turn a
@@ -23,23 +19,28 @@ No MAVLink here: fly.py records (DroneRecord), this module judges what was recor
   time went).
 - flight.png (flight_plot.py): a map in metres of covered and missed targets, the flown tracks, and
   flight time per drone; flight.html, flight.gpkg, flight.kmz (flight_layers.py): the same over the city.
+- A disk that refuses a file (full, read-only): the judge writes every other file and names the ones it
+  could not write (FlightResult.unwritten); fly keeps the rest elsewhere and says so.
 """
 
 from __future__ import annotations
 
 import json
+import os
+import sqlite3
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from missionplan.bridge.atomic import write_text_atomic
 from missionplan.bridge.flight_models.copter_model import CopterParams, Motion, total_time
-from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND,
-                                                      CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT)
+from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_NAV_LAND, CMD_NAV_TAKEOFF,
+                                                      CMD_NAV_WAYPOINT)
 from missionplan.bridge.flight_models.px4_model import Px4Params
 from missionplan.geo.cells import cells_feature
 from missionplan.geo.frame import GridFrame
@@ -49,6 +50,7 @@ from ..mission.layers import Layers, drone_paths_latlon, planned_photos
 from .flight_layers import flight_layers, flight_summary, plan_layers_on_disk
 from .flight_plot import draw_flight
 from .phases import event_rows, on_vehicle_clock, phase_rows
+from .photo_positions import ledger_photos, photo_positions
 from .plan_report import SLACK_CELLS, frame_of, target_cells, to_grid_m
 from .record import DroneRecord
 
@@ -78,102 +80,20 @@ class FlightResult:
     coverage_with_unconfirmed: float = 0.0  # counting the photos placed on the track as well
     survey: dict[str, Any] | None = None  # the survey's coverage from the ledger, all flights (survey_summary)
     map_paths: list[Path] = field(default_factory=list)  # flight.html, flight.gpkg, flight.kmz
+    doc: dict[str, Any] = field(default_factory=dict)  # flight.json's content, written or not
+    unwritten: dict[str, str] = field(default_factory=dict)  # files the judge could not write -> why (one line)
+    record_faults: list[str] = field(default_factory=list)  # why the flight's record in its folder is not whole
+    notices: list[str] = field(default_factory=list)  # what the judge repaired on the way (a rebuilt ledger)
 
     @property
     def ok(self) -> bool:
         # kept None: fewer than two drones flew; the drones that did not fly are problems of their own.
         return self.coverage >= COVERAGE_OK and not self.problems and self.separation.get("kept") is not False
 
-
-# ------------------------------------------------------------------------------------------- geometry
-def _arc_length(points: np.ndarray) -> np.ndarray:
-    steps = np.diff(points, axis=0)
-    return np.concatenate([[0.0], np.cumsum(np.hypot(steps[:, 0], steps[:, 1]))])
-
-
-def _point_at(points: np.ndarray, arc: np.ndarray, s: np.ndarray) -> np.ndarray:
-    return np.column_stack([np.interp(s, arc, points[:, 0]), np.interp(s, arc, points[:, 1])])
-
-
-def _arc_on_track(track: np.ndarray, arc: np.ndarray, points: np.ndarray, arrived: np.ndarray,
-                  lookback: int = 4) -> np.ndarray:
-    """Arc length along `track` of each point, projected on the nearest of the few segments flown
-    just before its report arrived (`arrived`: samples received before it). Not by arrival order
-    alone: a report can come after a sample taken past its photo; and only near in time, since
-    a track may cross itself."""
-    if len(track) < 2:
-        return np.zeros(len(points))
-    last = np.clip(arrived - 1, 0, len(track) - 2)
-    segments = np.clip(last[:, None] - np.arange(lookback + 1)[None, :], 0, len(track) - 2)  # (m, L)
-    a, b = track[segments], track[segments + 1]
-    ab = b - a
-    length2 = np.maximum((ab ** 2).sum(axis=2), 1e-12)
-    frac = np.clip(((points[:, None, :] - a) * ab).sum(axis=2) / length2, 0.0, 1.0)
-    foot = a + frac[..., None] * ab
-    nearest = np.argmin(((points[:, None, :] - foot) ** 2).sum(axis=2), axis=1)
-    rows = np.arange(len(points))
-    seg = segments[rows, nearest]
-    return arc[seg] + frac[rows, nearest] * np.sqrt(length2[rows, nearest])
-
-
-def photo_positions(frame: GridFrame, rec: DroneRecord, trigger_m: float,
-                    from_track: bool = False) -> tuple[np.ndarray, np.ndarray, str]:
-    """(confirmed photos (n, 2) grid metres, photos placed on the track (m, 2), source).
-
-    Confirmed: where the vehicle said each photo was taken, in its report over the link or in its own
-    log read after the flight. Placed: a photo the vehicle counted (a gap in its indices, or more
-    captures than reports) whose position never came, put on the recorded track between its known
-    neighbours in proportion to its index: not confirmed, and counted apart. source: "camera" (photo
-    reports), "track" (none reported and from_track: a photo every trigger distance along the flown
-    survey, all counted as confirmed, since the user asked for that) or "none"."""
-    empty = np.zeros((0, 2))
-    if not rec.samples:
-        return empty, empty, "none"
-    samples = np.array(rec.samples)
-    if rec.camera:
-        known = sorted(rec.camera.items())
-        track = to_grid_m(frame, samples[:, 1], samples[:, 2])
-        arc = _arc_length(track)
-        idx = np.array([i for i, _ in known], dtype=float)
-        reported = to_grid_m(frame, [v[1] for _, v in known], [v[2] for _, v in known])
-        arrived = np.searchsorted(samples[:, 0], [v[0] for _, v in known], side="right")
-        s_known = np.maximum.accumulate(_arc_on_track(track, arc, reported, arrived))
-        total = max(rec.captures, int(idx[-1]) + 1)
-        # From the first index this flight reported: the ones below it are earlier flights' photos
-        # (ArduPilot counts on until a reboot), not photos lost on the link.
-        every = np.arange(int(idx[0]), total, dtype=float)
-        lost = every[~np.isin(every, idx)]
-        # Lost reports: in proportion to the index between known neighbours, trigger_m per photo past the ends.
-        s_lost = np.interp(lost, idx, s_known)
-        s_lost = np.where(lost > idx[-1], s_known[-1] + (lost - idx[-1]) * trigger_m, s_lost)
-        placed = _point_at(track, arc, np.clip(s_lost, 0.0, arc[-1])) if len(lost) else empty
-        return reported, placed, "camera"
-    if not from_track:
-        return empty, empty, "none"
-    # No camera reports, and the user asked for it: a photo every trigger_m along the survey part of the track.
-    first, last = _survey_window(rec.wire)
-    # The first report at or after each seq: PX4 reports a waypoint with the seq of the DO_ items after it.
-    t0 = min((t for t, seq in rec.reached if first is not None and seq >= first), default=samples[0, 0])
-    t1 = min((t for t, seq in rec.reached if last is not None and seq >= last), default=samples[-1, 0])
-    part = samples[(samples[:, 0] >= t0) & (samples[:, 0] <= t1)]
-    if len(part) == 0 or trigger_m <= 0:
-        return empty, empty, "track"
-    track = to_grid_m(frame, part[:, 1], part[:, 2])
-    arc = _arc_length(track)
-    return _point_at(track, arc, np.arange(0.0, arc[-1] + 1e-9, trigger_m)), empty, "track"
-
-
-def _survey_window(wire: list[Any]) -> tuple[int | None, int | None]:
-    """Seqs of the first and last waypoint flown with the distance trigger on."""
-    first = last = None
-    on = False
-    for item in wire:
-        if item.command == CMD_DO_SET_CAM_TRIGG_DIST:
-            on = item.param1 > 0
-        elif item.command == CMD_NAV_WAYPOINT and on:
-            first = item.seq if first is None else first
-            last = item.seq
-    return first, last
+    @property
+    def recorded(self) -> bool:
+        """Whether the flight's record is whole in its plan folder: its journal and every file the judge writes."""
+        return not self.unwritten and not self.record_faults
 
 
 def nearest_photo_gap(frame: GridFrame, targets: np.ndarray, photos_m: np.ndarray) -> np.ndarray:
@@ -332,23 +252,28 @@ def sortie_view(report: dict[str, Any], sortie: int, missions: dict[int, dict[in
 
 
 # ------------------------------------------------------------------------------------------- judging
-def ledger_photos(frame: GridFrame, rec: DroneRecord, points_m: np.ndarray, source: str) -> list[dict[str, Any]]:
-    """A vehicle's confirmed photos as the survey ledger keeps them (ledger.Ledger.record_flight)."""
-    if source == "camera":
-        return [{"vehicle": rec.id, "img_idx": idx, "time": t, "lat": lat, "lon": lon, "alt_rel": up,
-                 "alt_amsl": rec.amsl.get(idx), "source": rec.photo_source.get(idx, "camera"),
-                 **dict(zip(("roll", "pitch", "yaw"), rec.attitude.get(idx, (None, None, None))))}
-                for idx, (t, lat, lon, up) in sorted(rec.camera.items())]
-    if source == "track" and len(points_m):
-        lat, lon = frame.grid_to_latlon(points_m[:, 0] / frame.cell_m, points_m[:, 1] / frame.cell_m)
-        return [{"vehicle": rec.id, "img_idx": i, "lat": float(a), "lon": float(b), "source": "track"}
-                for i, (a, b) in enumerate(zip(np.atleast_1d(lat), np.atleast_1d(lon)))]
-    return []
+Result = TypeVar("Result")
+WRITE_ERRORS: tuple[type[BaseException], ...] = (OSError, sqlite3.Error)  # a full disk, a read-only folder...
+
+
+def _written(unwritten: dict[str, str], names: str, write: Callable[[], Result]) -> Result | None:
+    """write(), or None with the reason in `unwritten` under `names` when the disk refused it: the judge
+    writes every file it can and says which it could not, never stops at the first."""
+    from .ledger import LedgerError
+
+    try:
+        return write()
+    except (*WRITE_ERRORS, LedgerError) as err:
+        text = str(err.strerror if isinstance(err, OSError) and err.strerror else err)
+        head, sep, tail = text.partition(": ")
+        unwritten[names] = tail if sep and os.sep in head else text  # the file is named already
+        return None
 
 
 def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], time_scale: float | None,
           wall_s: float, telemetry_hz: float, photos_from_track: bool = False, flight: int | None = None,
-          sortie: int = 1, retasks: list[dict[str, Any]] | None = None) -> FlightResult:
+          sortie: int = 1, retasks: list[dict[str, Any]] | None = None,
+          record_faults: list[str] | None = None) -> FlightResult:
     """Everything flight.json says, from the recordings; writes flight.json, flight.png and
     missed.geojson (the targets no confirmed photo covered, as polygons on the Earth).
 
@@ -356,7 +281,11 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     (ledger.py), the coverage is the ledger's for this flight, flight.json says the survey's too, and
     photos.csv, photos.geojson and geo.txt are written (geotag.py).
     photos_from_track: a vehicle that reported no photo (no CAMERA_FEEDBACK) gets one every trigger
-    distance along its flown survey; without it, that vehicle's flight is a problem."""
+    distance along its flown survey; without it, that vehicle's flight is a problem.
+    record_faults: why the flight's journal is not whole (a damaged or cut journal, writes that never
+    went through), said in flight.json's `record_faults`.
+    A file the disk refuses (full, read-only) is not written and named in the result's `unwritten`; the
+    rest are written all the same, and the figures are the judge's own when the ledger cannot be used."""
     frame = frame_of(report)
     geo = report["georeference"]
     footprint, trigger = float(geo["footprint_m"]), float(geo.get("trigger_distance_m") or 0.0)
@@ -407,15 +336,24 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     gap = nearest_photo_gap(frame, targets, all_photos)  # once; each rule is a threshold on it
     covered = covered_by_gap(frame, gap, footprint, slack)
     survey = None
+    unwritten: dict[str, str] = {}
+    notices: list[str] = []
     if flight is not None:  # the ledger's figure: the same rule, kept for the survey as a whole
-        from .geotag import write_geotags
-        from .ledger import Ledger
+        from .geotag import GEOTAG_FILES, write_geotags
+        from .ledger_repair import open_ledger
 
-        with Ledger.of(plan_dir) as ledger:
-            ledger.record_flight(plan_dir, flight, sortie, kept)
-            covered = ledger.covered_mask(plan_dir, flight)[targets[:, 0], targets[:, 1]]
-            survey = survey_summary(ledger)
-            write_geotags(plan_dir, ledger.photos(plan_dir))
+        def into_ledger() -> tuple[np.ndarray, dict[str, Any], Any]:
+            with open_ledger(plan_dir, notices.append) as ledger:
+                ledger.record_flight(plan_dir, flight, sortie, kept)
+                return (ledger.covered_mask(plan_dir, flight)[targets[:, 0], targets[:, 1]], survey_summary(ledger),
+                        ledger.photos(plan_dir))
+
+        from_ledger = _written(unwritten, "ledger.sqlite", into_ledger)
+        if from_ledger is not None:
+            covered, survey, folder_photos = from_ledger
+            _written(unwritten, ", ".join(GEOTAG_FILES), lambda: write_geotags(plan_dir, folder_photos))
+        else:
+            unwritten[", ".join(GEOTAG_FILES)] = "written from the survey ledger"
     percent = 100.0 * float(covered.mean()) if len(targets) else 100.0
     with_placed = np.vstack([all_photos, *unconfirmed]) if unconfirmed else all_photos
     covered_with_placed = covered_by_gap(frame, nearest_photo_gap(frame, targets, with_placed), footprint, slack)
@@ -448,21 +386,27 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
         doc["survey"] = survey
     if retasks:
         doc["retasks"] = retasks
+    faults = list(record_faults or []) + [f"{name}: not written ({why})" for name, why in unwritten.items()]
+    if faults:
+        doc["record_faults"] = faults
     json_path, png_path, missed_path = plan_dir / "flight.json", plan_dir / "flight.png", plan_dir / "missed.geojson"
-    write_text_atomic(json_path, json.dumps(doc, indent=1) + "\n")
+    _written(unwritten, json_path.name, lambda: write_text_atomic(json_path, json.dumps(doc, indent=1) + "\n"))
     missed_doc = {"type": "FeatureCollection", "features": [cells_feature(frame, missed, {
         "what": "target cells no confirmed photo covered", "cells": int(len(missed)),
         "area_m2": round(float(len(missed)) * frame.cell_m ** 2, 1), "coverage": round(percent, 2)})]}
-    write_text_atomic(missed_path, json.dumps(missed_doc) + "\n")
+    _written(unwritten, missed_path.name, lambda: write_text_atomic(missed_path, json.dumps(missed_doc) + "\n"))
     plan = plan_layers_on_disk(plan_dir)
-    draw_flight(png_path, report, frame, targets, covered, tracks_m, {r["id"]: r["flight_s"] for r in rows}, percent,
-                paths_latlon=drone_paths_latlon(plan) if plan.get("paths") else None)
-    map_paths = write_flight_maps(plan_dir, plan, report, doc, frame, records, kept, targets, covered)
+    _written(unwritten, png_path.name, lambda: draw_flight(
+        png_path, report, frame, targets, covered, tracks_m, {r["id"]: r["flight_s"] for r in rows}, percent,
+        paths_latlon=drone_paths_latlon(plan) if plan.get("paths") else None))
+    map_paths = _written(unwritten, "flight.html, flight.gpkg, flight.kmz", lambda: write_flight_maps(
+        plan_dir, plan, report, doc, frame, records, kept, targets, covered)) or []
     return FlightResult(coverage=round(percent, 2), targets=int(len(targets)), separation=separation, drones=rows,
                         problems=problems, photo_source=photo_source, wall_s=round(wall_s, 2),
                         json_path=json_path, png_path=png_path, missed_path=missed_path,
                         coverage_with_unconfirmed=round(percent_with_placed, 2), survey=survey,
-                        map_paths=map_paths)
+                        map_paths=map_paths, doc=doc, unwritten=unwritten, record_faults=list(record_faults or []),
+                        notices=notices)
 
 
 def write_flight_maps(plan_dir: Path, plan: Layers, report: dict[str, Any], doc: dict[str, Any], frame: GridFrame,

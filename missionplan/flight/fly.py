@@ -16,6 +16,10 @@ both runs. The plan folder is fly's alone for the whole run (missionplan.bridge.
 process gets one line naming this one, before it opens any link or writes any file. Every link fly
 opens signs with --signing-key when given and speaks as ground station --gcs-sysid / --gcs-compid
 (missionplan.bridge.commands.add_gcs_arguments).
+
+The disk: fly checks before any link is opened that the plan folder's disk has room for the flight's
+record (disk_space.py); in flight a journal that cannot write pauses and says so (journal.py); what of
+the record the folder would not take goes to a fallback file, said in one line, exit EXIT_NOT_RECORDED.
 """
 
 from __future__ import annotations
@@ -46,10 +50,11 @@ from missionplan.bridge.link.signing import SigningKey
 from missionplan.bridge.transfer.uploader import check_gcs_identity
 
 from ..mission.sorties import sortie_file
+from .disk_space import check_space
 from .display import print_flight, progress_display
 from .drone_flight import DEFAULT_READY_S, DroneFlight, FleetGate, FleetStart
 from .flight_report import FlightResult, judge, live_tolerance, sortie_view
-from .journal import Journal, JournalError
+from .journal import RETRY_S, Journal, JournalError, write_fallback
 from .live_replan import DEFAULT_REPLAN_AFTER_S, Retasker
 from .record import DroneRecord
 
@@ -60,6 +65,7 @@ ABORT_WINDOW_S = 5.0  # after a Ctrl-C, a second one this soon commands the flee
 WATCH_S = 1.0  # the live separation watch looks this often
 ARDUPILOT_MODES = {"rtl": ARDUPILOT_RTL, "land": ARDUPILOT_LAND}
 PX4_AUTO_SUBS = {"rtl": PX4_RTL_SUB, "land": PX4_LAND_SUB}
+EXIT_NOT_RECORDED = 3  # the flight's record is not whole in its folder (the rest went to a fallback file)
 
 
 def flight_view(plan_dir: Path, report: dict[str, Any], sortie: int) -> dict[str, Any]:
@@ -168,16 +174,54 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     if sortie < 1:
         raise BridgeUsageError(f"--sortie must be 1 or more, got {sortie}")
     try:
+        # Room for the flight's record, before any link is opened (a resume writes as much at most).
+        check_space(plan_dir, report, telemetry_hz, None if resume else sortie)
         journal = (Journal.continue_flight(plan_dir, command) if resume
                    else Journal.start_flight(plan_dir, sortie, command))
     except JournalError as err:
         raise BridgeUsageError(str(err)) from None
+    for line in journal.repairs:  # a damaged journal salvaged, a cut one: said, then flown
+        print(f"missionplan fly: {printable(line)}", file=sys.stderr)
+    result: FlightResult | None = None
     try:
-        return _fly_journaled(plan_dir, report, pool, journal, timeout_s, progress, time_scale, telemetry_hz,
-                              upload_with, ready_s, max_launch_offset_m, photos_from_track, key, resume, on_abort,
-                              source_system, replan=replan, replan_after_s=replan_after_s)
+        result = _fly_journaled(plan_dir, report, pool, journal, timeout_s, progress, time_scale, telemetry_hz,
+                                upload_with, ready_s, max_launch_offset_m, photos_from_track, key, resume, on_abort,
+                                source_system, replan=replan, replan_after_s=replan_after_s)
+        return result
     finally:
         journal.close()
+        _keep_the_rest(plan_dir, journal, result)
+
+
+def _keep_the_rest(plan_dir: Path, journal: Journal, result: FlightResult | None) -> None:
+    """After the journal closed: what of the flight's record could not be written into plan_dir (journal
+    records still held, flight.json and the other files the judge writes) is said in one line, and the
+    records and flight.json's content go to a fallback file elsewhere (journal.write_fallback)."""
+    missing = dict(result.unwritten) if result is not None else {}
+    if not journal.unwritten and not missing:
+        return
+    parts = []
+    if journal.unwritten:
+        why = journal.paused or "the disk did not answer"
+        parts.append(f"{len(journal.unwritten)} journal records not written ({why})")
+    if missing:  # each run of files with the same reason, then the reason
+        groups: list[tuple[list[str], str]] = []
+        for names, why in missing.items():
+            if groups and groups[-1][1] == why:
+                groups[-1][0].append(names)
+            else:
+                groups.append(([names], why))
+        parts.append("not written: " + ", ".join(f"{', '.join(names)} ({why})" for names, why in groups))
+    line = f"{plan_dir}: the flight's record is not whole there: {'; '.join(parts)}"
+    if journal.unwritten or "flight.json" in missing:
+        doc = result.doc if result is not None and "flight.json" in missing else None
+        try:
+            line += f"; kept instead in {write_fallback(journal, doc, '; '.join(parts))}"
+        except OSError as err:
+            line += f"; no fallback file could be written either ({err}): that part is lost"
+    print(f"missionplan fly: {printable(line)}", file=sys.stderr)
+    if result is not None:
+        result.record_faults.append(line)
 
 
 def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journal: Journal, timeout_s: float,
@@ -203,6 +247,13 @@ def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journ
             rec.add_problem(f"uav{rec.id}: {files[rec.id]} is missing")
     runnable = [rec for rec in records if files[rec.id].exists()]
     bars, say, alert = progress_display({rec.id: f"uav{rec.id}" for rec in runnable}, progress)
+
+    def journal_alert(text: str) -> None:  # the journal paused or resumed: said as every in-flight alert is
+        for rec in records:
+            rec.add_event(time.time(), f"alert: {text}")
+        alert(text)
+
+    journal.set_alert(journal_alert)
     interrupted, flights, retasker = False, [], None
     try:
         pool.open_all()
@@ -210,7 +261,7 @@ def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journ
         planned_s = {int(d["id"]): float(d.get("flight_s", 0.0)) for d in report["drones"]}
         fleet = FleetStart(pool, FleetGate(len(runnable)), FleetGate(len(runnable)), threading.Event(), key=key,
                            ready_s=ready_s, max_offset_m=max_launch_offset_m, say=say, alert=alert, resume=resume,
-                           time_scale=time_scale, planned_s=planned_s)
+                           time_scale=time_scale, planned_s=planned_s, commit=journal.flush)
         flights = [DroneFlight(fleet, rec, files[rec.id], deadline, telemetry_hz, bars.get(rec.id), upload_with)
                    for rec in runnable]
         threads = [threading.Thread(target=f.run, name=f"fly-uav{f.sysid}", daemon=True) for f in flights]
@@ -247,14 +298,24 @@ def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journ
             if flight.record.started and not (flight.record.finished or flight.record.ended_early):
                 flight.record.add_problem(f"uav{flight.sysid}: not followed to the end (fly was stopped); it flies "
                                           f"on with its mission: `missionplan fly --resume {plan_dir}` follows it")
-    # flight.json is a view of the journal: the records read back from it, both runs' if resumed.
-    judged = journal.records(ids)
+    # flight.json is a view of the journal: the records read back from it, both runs' if resumed. A journal
+    # still paused (its disk full) gets two more tries; failing those, the records kept here are judged
+    # (the same changes, in memory) and what the journal lacks goes to the fallback file when it closes.
+    faults = list(journal.repairs) if resume else []  # a damaged or cut journal: this flight's record has holes
+    if journal.flush(through_pause_s=2 * RETRY_S + 1.0):
+        judged = journal.records(ids)
+    else:
+        judged = records
+        faults.append(f"{journal.path}: {journal.paused}: {journal.held} records not in the journal when the "
+                      "flight was judged")
     if retasker is not None:
         report = retasked_promise(report, retasker.retasks)
     result = judge(plan_dir, report, judged, time_scale, wall_s=time.monotonic() - start, telemetry_hz=telemetry_hz,
                    photos_from_track=photos_from_track, flight=journal.flight, sortie=sortie,
-                   retasks=retasker.retasks if retasker is not None else None)
-    journal.mark_judged()
+                   retasks=retasker.retasks if retasker is not None else None, record_faults=faults)
+    for notice in result.notices:  # a ledger the judge had to rebuild
+        print(f"missionplan fly: {printable(notice)}", file=sys.stderr)
+    journal.mark_judged(photos_from_track)
     return result
 
 
@@ -359,6 +420,8 @@ def cmd_fly(args: Any) -> int:
         print("missionplan fly: interrupted before any vehicle was started; nothing was commanded", file=sys.stderr)
         return 130
     print_flight(result)
+    if not result.recorded:
+        return EXIT_NOT_RECORDED
     return 0 if result.ok else 1
 
 

@@ -33,6 +33,7 @@ from missionplan.geo.frame import GridFrame
 
 from ..maps.gridmap import MapError
 from .plan_report import SLACK_CELLS, frame_of, target_cells  # the judge's rule, one place
+from .salvage import fault_kind
 
 LEDGER_NAME = "ledger.sqlite"
 MAX_POINTERS = 16  # re-plans of re-plans: a chain longer than this is a loop
@@ -159,17 +160,25 @@ def covered_cells(survey: Survey, lat: np.ndarray, lon: np.ndarray, mask: np.nda
 
 
 class Ledger:
-    """ROOT/ledger.sqlite, open. Use as a context manager, or close()."""
+    """ROOT/ledger.sqlite, open. Use as a context manager, or close().
 
-    def __init__(self, survey: Survey) -> None:
+    db: an open connection to use instead (ledger_repair: a read-only one, or one in memory for a ledger
+    rebuilt where the folder cannot be written); its tables are made when missing."""
+
+    def __init__(self, survey: Survey, db: sqlite3.Connection | None = None) -> None:
         self.survey = survey
         self.path = survey.root / LEDGER_NAME
         try:
-            self._db = sqlite3.connect(self.path, isolation_level=None, timeout=10.0)
-            self._db.execute("PRAGMA journal_mode=WAL")
-            self._db.execute("PRAGMA synchronous=FULL")
-            self._db.executescript(SCHEMA)
+            if db is None:
+                db = sqlite3.connect(self.path, isolation_level=None, timeout=10.0)
+                db.execute("PRAGMA journal_mode=WAL")
+                db.execute("PRAGMA synchronous=FULL")
+            self._db = db
+            if {"flights", "photos", "covered"} - {r[0] for r in db.execute("SELECT name FROM sqlite_master")}:
+                db.executescript(SCHEMA)
         except sqlite3.DatabaseError as err:
+            if fault_kind(err) in ("full", "read-only"):
+                raise LedgerError(f"{self.path}: cannot be written ({err})") from None
             raise LedgerError(f"{self.path}: not a missionplan survey ledger ({err})") from None
 
     @classmethod
@@ -186,15 +195,34 @@ class Ledger:
     def close(self) -> None:
         self._db.close()
 
+    def copy_to(self, path: Path) -> None:
+        """Write this ledger, whole, as the SQLite file `path` (a temp file beside it first, then renamed), in
+        place of a ledger file that is missing or was moved aside: nobody else may have `path` open."""
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        try:
+            target = sqlite3.connect(tmp)
+            try:
+                self._db.backup(target)
+            finally:
+                target.close()
+            for leftover in ("-wal", "-shm"):  # of a file no longer there: SQLite would apply them to this one
+                path.with_name(path.name + leftover).unlink(missing_ok=True)
+            os.replace(tmp, path)
+        finally:
+            tmp.unlink(missing_ok=True)
+
     def plan_key(self, plan_dir: Path) -> str:
         return os.path.relpath(Path(plan_dir).resolve(), self.survey.root.resolve())
 
     # -- writing
-    def record_flight(self, plan_dir: Path, flight: int, sortie: int, photos: list[dict[str, Any]]) -> int:
+    def record_flight(self, plan_dir: Path | str, flight: int, sortie: int, photos: list[dict[str, Any]],
+                      recorded: float | None = None) -> int:
         """Put one flight's photos (dicts with LedgerPhoto's fields but plan and flight) and the cells they
         cover into the ledger, replacing what an earlier judgement of the same flight put there. One
-        transaction: a crash leaves the flight's old rows or its new ones, never half."""
-        plan = self.plan_key(plan_dir)
+        transaction: a crash leaves the flight's old rows or its new ones, never half. plan_dir: the folder,
+        or its key (plan_key) as a string; recorded: when it was judged (default now)."""
+        plan = plan_dir if isinstance(plan_dir, str) else self.plan_key(plan_dir)
+        recorded = time.time() if recorded is None else recorded
         lat = np.array([p["lat"] for p in photos], dtype=float)
         lon = np.array([p["lon"] for p in photos], dtype=float)
         which, cells = covered_cells(self.survey, lat, lon)
@@ -205,11 +233,11 @@ class Ledger:
                 self._db.execute("DELETE FROM covered WHERE photo IN (SELECT id FROM photos WHERE flight_id = ?)",
                                  (old[0],))
                 self._db.execute("DELETE FROM photos WHERE flight_id = ?", (old[0],))
-                self._db.execute("UPDATE flights SET sortie = ?, recorded = ? WHERE id = ?", (sortie, time.time(), old[0]))
+                self._db.execute("UPDATE flights SET sortie = ?, recorded = ? WHERE id = ?", (sortie, recorded, old[0]))
                 flight_id = int(old[0])
             else:
                 flight_id = int(self._db.execute("INSERT INTO flights (plan, flight, sortie, recorded) VALUES (?, ?, ?, ?)",
-                                                 (plan, flight, sortie, time.time())).lastrowid)
+                                                 (plan, flight, sortie, recorded)).lastrowid)
             ids = []
             for p in photos:
                 ids.append(self._db.execute(

@@ -19,7 +19,7 @@ from typing import Any
 # (wall time, lat, lon, up m, ground speed m/s, the vehicle's time since boot s, climb rate m/s)
 Sample = tuple[float, float, float, float, float, float, float]
 Sink = Callable[[str, tuple[Any, ...]], None]
-FACTS = ("planned_photos", "uploaded", "started", "finished", "held_after_flight", "mission_state", "current",
+FACTS = ("planned_photos", "uploaded", "arming", "started", "finished", "held_after_flight", "mission_state", "current",
          "captures", "wire", "params", "flavour", "t_start", "t_end", "ended_early", "last_position")
 PHOTO_SOURCES = ("camera", "log")  # a report over the link; the vehicle's own log, read after the flight
 
@@ -31,6 +31,9 @@ class DroneRecord:
     id: int
     planned_photos: int = 0
     uploaded: bool = False
+    # When fly was about to arm it (our clock): committed to the journal before the arm command is sent,
+    # so that `fly --resume` finds every vehicle fly may have armed, started or not.
+    arming: float | None = None
     started: bool = False
     finished: bool = False
     held_after_flight: bool | None = None

@@ -3,12 +3,14 @@
 Prints the flights recorded (each folder's, each day's), the covered and missing target cells with
 their area, and the missing area's extent on the Earth; writes DIR/missing.geojson (the missing
 cells as polygons, RFC 7946) and DIR/status.png (the survey's grid: covered, missing, out of reach,
-and every photo's position). Reads only: nothing is flown or planned.
+and every photo's position). Reads only: nothing is flown or planned. A missing or damaged ledger is
+rebuilt from the survey's journals first (ledger_repair), said in one line.
 """
 
 from __future__ import annotations
 
 import json
+import sys
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -19,8 +21,9 @@ from missionplan.bridge.atomic import atomic_path, write_text_atomic
 from missionplan.bridge.terminal_text import printable
 from missionplan.geo.cells import cells_feature
 
-from .plan_report import planned_grid
 from .ledger import Ledger, Survey
+from .ledger_repair import open_ledger
+from .plan_report import planned_grid
 
 
 def extent(survey: Survey, cells: np.ndarray) -> dict[str, Any] | None:
@@ -85,9 +88,15 @@ def draw_status(path: Path, ledger: Ledger, status: dict[str, Any]) -> None:
     plt.close(fig)
 
 
+def _say(text: str) -> None:
+    print(f"missionplan status: {printable(text)}", file=sys.stderr)
+
+
 def cmd_status(args: Any) -> int:
+    """Print the survey's status; exit 1 when it could not write missing.geojson or status.png (the
+    status printed is whole all the same), 2 when DIR is no plan."""
     plan_dir = Path(args.dir)
-    with Ledger.of(plan_dir) as ledger:
+    with open_ledger(plan_dir, _say) as ledger:
         status = survey_status(ledger)
         flights = status["flights"]
         survey = ledger.survey
@@ -109,8 +118,17 @@ def cmd_status(args: Any) -> int:
         doc = {"type": "FeatureCollection", "features": [cells_feature(survey.frame, status["missing_cells"], {
             "what": "survey target cells no photo has covered yet", "cells": status["missing"],
             "area_m2": status["missing_m2"], "coverage": status["coverage"]})]}
-        write_text_atomic(geojson, json.dumps(doc) + "\n")
-        draw_status(png, ledger, status)
+        failed: dict[str, str] = {}
+        for path, write in ((geojson, lambda: write_text_atomic(geojson, json.dumps(doc) + "\n")),
+                            (png, lambda: draw_status(png, ledger, status))):
+            try:
+                write()
+            except OSError as err:  # a read-only folder, a full disk: the status above stands
+                failed[path.name] = err.strerror or str(err)
+    if failed:
+        why = sorted(set(failed.values()))
+        _say(f"{plan_dir}: {' and '.join(failed)} could not be written ({'; '.join(why)}); the status above is whole")
+        return 1
     print(f"wrote {printable(geojson)} and {printable(png)}")
     return 0
 
