@@ -31,7 +31,7 @@ from shapely.geometry import MultiPolygon, Polygon
 from .errors import GeoError
 from .guards import member_bytes, open_zip, refuse_dtd
 from .shapes import checked_polygon
-from .sources import Feature, Omission, SourceFile
+from .sources import Feature, Omission, SourceFile, choose_layer
 
 CONTAINERS = ("Document", "Folder")
 NON_POLYGONS = ("Point", "LineString", "LinearRing", "Model", "Track")
@@ -206,16 +206,7 @@ def _has_polygon(placemark: _Placemark) -> bool:
 
 def _features(doc: _Document, label: str, layer: str | None, fmt: str) -> tuple[list[Feature], SourceFile]:
     polygon_layers = [name for name in doc.layers if any(p.layer == name and _has_polygon(p) for p in doc.placemarks)]
-    if layer is not None:
-        if layer not in doc.layers:
-            listed = ", ".join(doc.layers) or "none"
-            raise GeoError(f"{label}: no layer {layer!r} (its layers: {listed})")
-        chosen = layer
-    elif len(polygon_layers) > 1:
-        raise GeoError(f"{label} holds {len(polygon_layers)} layers of polygons: {', '.join(polygon_layers)}; "
-                       f"name one as {label}:LAYER")
-    else:
-        chosen = polygon_layers[0] if polygon_layers else None
+    chosen = choose_layer(label, doc.layers, polygon_layers, layer)
     out: list[Feature] = []
     for placemark in doc.placemarks:
         if chosen is not None and placemark.layer != chosen:

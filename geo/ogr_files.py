@@ -31,7 +31,7 @@ from .crs import crs_label, source_crs, to_lonlat
 from .errors import GeoError
 from .guards import extract, open_zip, refuse_dtd_in_file
 from .shapes import check_polygons, union
-from .sources import Feature, Omission, SourceFile
+from .sources import Feature, Omission, SourceFile, choose_layer
 
 
 @dataclass(frozen=True)
@@ -99,18 +99,13 @@ def _choose_layer(path: Path, label: str, fmt: OgrFormat, layer: str | None) -> 
     except (RuntimeError, OSError, ValueError) as err:
         raise GeoError(f"{label}: cannot read it as {fmt.name} ({_gdal_errors(err)})") from None
     names = [str(name) for name, _ in layers]
-    if layer is not None:
-        if layer not in names:
-            raise GeoError(f"{label}: no layer {layer!r} (its layers: {', '.join(names) or 'none'})")
-        return layer, len(names) > 1
     polygons = _polygon_layers(layers)
-    if not polygons:
+    if layer is None and not polygons:
         listed = ", ".join(f"{name} ({geom_type or 'no geometry'})" for name, geom_type in layers) or "none"
         raise GeoError(f"{label}: no layer of polygons (its layers: {listed})")
-    if len(polygons) > 1:
-        raise GeoError(f"{label} holds {len(polygons)} layers of polygons: {', '.join(polygons)}; "
-                       f"name one as {label}:LAYER")
-    return polygons[0], len(names) > 1
+    chosen = choose_layer(label, names, polygons, layer)
+    assert chosen is not None  # a layer asked for is one of names; else polygons is not empty
+    return chosen, len(names) > 1
 
 
 def _properties(fields: list[str], columns: list[np.ndarray], count: int) -> list[dict[str, Any]]:
@@ -186,15 +181,9 @@ def _read_zipped_shapefile(path: Path, layer: str | None) -> tuple[list[Feature]
         shapefiles = {Path(info.filename).stem: info for info in infos if info.filename.lower().endswith(".shp")}
         if not shapefiles:
             raise GeoError(f"{path}: the zip holds no Shapefile (.shp)")
-        if layer is not None:
-            if layer not in shapefiles:
-                raise GeoError(f"{path}: no layer {layer!r} (its Shapefiles: {', '.join(shapefiles)})")
-            chosen = layer
-        elif len(shapefiles) > 1:
-            raise GeoError(f"{path} holds {len(shapefiles)} Shapefiles: {', '.join(shapefiles)}; "
-                           f"name one as {path}:LAYER")
-        else:
-            chosen = next(iter(shapefiles))
+        chosen = choose_layer(str(path), list(shapefiles), list(shapefiles), layer, kind="Shapefiles",
+                              listed_as="Shapefiles")
+        assert chosen is not None  # the zip holds at least one
         shp = shapefiles[chosen]
         stem = shp.filename[:-4]
         members = [info for info in infos if info.filename[:-4] == stem and info.filename[-4:].lower() in SHAPEFILE_SIBLINGS]

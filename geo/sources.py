@@ -7,6 +7,8 @@
 * `SourceFile`: one file read: its path, format, the reader and driver, the layer, the CRS it was in
   and whether it was reprojected, how many features it gave, and what was dropped or repaired.
   `plan` lists these in report.json (`inputs`) and names what was dropped in a warning.
+* `choose_layer`: which layer of a file with several is read (`FILE:LAYER`), the one rule every
+  layered format follows.
 """
 
 from __future__ import annotations
@@ -15,6 +17,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from shapely.geometry import MultiPolygon, Polygon
+
+from .errors import GeoError
 
 Polygonal = Polygon | MultiPolygon
 WGS84 = "EPSG:4326 (WGS 84 lon/lat)"
@@ -72,3 +76,18 @@ class SourceFile:
                 "crs": self.crs, "reprojected": self.reprojected, "features": self.features,
                 "dropped": [o.to_json() for o in self.dropped], "repaired": [o.to_json() for o in self.repaired],
                 "notes": list(self.notes)}
+
+
+def choose_layer(label: str, names: list[str], polygon_layers: list[str], asked: str | None,
+                 kind: str = "layers of polygons", listed_as: str = "layers") -> str | None:
+    """The layer of a file to read: the one asked for (`FILE:LAYER`; it must be one of `names`), else its
+    only layer of polygons (None when it has none); a file with several and none asked is refused in one
+    line listing them. `kind` and `listed_as` name the layers in the messages ("Shapefiles" of a zip)."""
+    if asked is not None:
+        if asked not in names:
+            raise GeoError(f"{label}: no layer {asked!r} (its {listed_as}: {', '.join(names) or 'none'})")
+        return asked
+    if len(polygon_layers) > 1:
+        raise GeoError(f"{label} holds {len(polygon_layers)} {kind}: {', '.join(polygon_layers)}; "
+                       f"name one as {label}:LAYER")
+    return polygon_layers[0] if polygon_layers else None
