@@ -30,7 +30,7 @@ from shapely.geometry import MultiPolygon, Polygon, shape
 from .crs import crs_label, source_crs, to_lonlat
 from .errors import GeoError
 from .shapes import check_lonlat, check_polygons, union
-from .sources import Feature, Omission, SourceFile
+from .sources import Feature, Omission, SourceFile, feature_ref
 
 
 def load_json(path: Path) -> Any:
@@ -245,21 +245,21 @@ def _legacy_crs(data: dict[str, Any], path: Path) -> str | None:
 
 
 def _read_feature(feature: dict[str, Any], k: int, path: Path, builder: _Builder,
-                  slots: list[tuple[int, dict[str, Any], shapely.Geometry | None]], source: SourceFile) -> None:
+                  slots: list[tuple[int, dict[str, Any], shapely.Geometry | None, Any]], source: SourceFile) -> None:
     """One feature of the file: its properties and polygons into the builder (others made by shapely)."""
     where = f"{path}: feature {k}"
     geom, props = feature.get("geometry"), feature.get("properties")
     if props is not None and not isinstance(props, dict):
         raise GeoError(f"{where}: 'properties' is not an object (it is {kind(props)})")
     if geom is None:  # GeoJSON allows features without geometry; they carry no polygon
-        source.dropped.append(Omission(f"feature {k}", "no geometry (null)"))
+        source.dropped.append(Omission(feature_ref(f"feature {k}", props or {}, feature.get("id")), "no geometry (null)"))
         return
     if not isinstance(geom, dict):
         raise GeoError(f"{where}: 'geometry' is not an object (it is {kind(geom)})")
     geom_type = geom.get("type")
     if geom_type in ("Polygon", "MultiPolygon"):
         builder.add(_rings(geom, where), geom_type == "MultiPolygon", where)
-        slots.append((k, dict(props or {}), None))
+        slots.append((k, dict(props or {}), None, feature.get("id")))
         return
     if geom_type == "GeometryCollection":
         _check_collection_rings(geom, where)
@@ -274,7 +274,7 @@ def _read_feature(feature: dict[str, Any], k: int, path: Path, builder: _Builder
         if parts and all(isinstance(p, (Polygon, MultiPolygon)) for p in parts):
             other = union(parts, where)
     builder.add_other()
-    slots.append((k, dict(props or {}), other))
+    slots.append((k, dict(props or {}), other, feature.get("id")))
 
 
 def read_geojson(path: Path) -> tuple[list[Feature], SourceFile]:
@@ -297,7 +297,7 @@ def read_geojson(path: Path) -> tuple[list[Feature], SourceFile]:
         features = [{"geometry": data, "properties": {}}]
     del data  # each feature is let go once read, so the parsed file shrinks as it is read
     builder = _Builder()
-    slots: list[tuple[int, dict[str, Any], shapely.Geometry | None]] = []  # (feature index, properties, other geometry)
+    slots: list[tuple[int, dict[str, Any], shapely.Geometry | None, Any]] = []  # (feature index, properties, other geometry)
     try:
         for k in range(len(features)):
             feature, features[k] = features[k], None
@@ -306,12 +306,13 @@ def read_geojson(path: Path) -> tuple[list[Feature], SourceFile]:
         builder.flush()  # a bad number in an earlier ring comes first, as the file reads
         raise
     built = builder.build()
-    geoms = [other if other is not None else built[i] for i, (_, _, other) in enumerate(slots)]
+    geoms = [other if other is not None else built[i] for i, (_, _, other, _) in enumerate(slots)]
     crs = source_crs(crs_name, f"{path}: 'crs' member") if crs_name is not None else None
     if crs is not None:  # not WGS84 lon/lat: reprojected before any check of the coordinates
         geoms, source.crs, source.reprojected = to_lonlat(geoms, crs, f"{path}: 'crs' member"), crs_label(crs), True
     checked, repaired = check_polygons(geoms, lambda i: f"{path}: feature {slots[i][0]}")
-    out = [Feature(g, props, f"feature {k}", repaired.get(i)) for i, ((k, props, _), g) in enumerate(zip(slots, checked))]
+    out = [Feature(g, props, feature_ref(f"feature {k}", props, own_id), repaired.get(i))
+           for i, ((k, props, _, own_id), g) in enumerate(zip(slots, checked))]
     source.repaired = [Omission(f.ref, f.repaired) for f in out if f.repaired]
     if not out:
         raise GeoError(f"{path}: no polygon found")

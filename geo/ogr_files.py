@@ -31,7 +31,7 @@ from .crs import crs_label, source_crs, to_lonlat
 from .errors import GeoError
 from .guards import extract, open_zip, refuse_dtd_in_file
 from .shapes import check_polygons, union
-from .sources import Feature, Omission, SourceFile, choose_layer
+from .sources import Feature, Omission, SourceFile, choose_layer, feature_ref
 
 
 @dataclass(frozen=True)
@@ -154,9 +154,10 @@ def read_layer(path: Path, label: str, fmt: OgrFormat, layer: str | None) -> tup
     where = f"{label}: layer {name}" if several else label
     if wkb is None or not len(wkb):
         raise GeoError(f"{where}: no polygon found")
-    refs = [f"feature {int(fid)}" for fid in fids] if fids is not None else [f"feature {i}" for i in range(len(wkb))]
-    geoms = _geometries(wkb, refs, where)
+    places = [f"feature {int(fid)}" for fid in fids] if fids is not None else [f"feature {i}" for i in range(len(wkb))]
+    geoms = _geometries(wkb, places, where)
     properties = _properties([str(f) for f in meta["fields"]], columns, len(wkb))
+    refs = [feature_ref(place, props) for place, props in zip(places, properties)]
     if meta.get("crs"):
         crs = source_crs(meta["crs"], where)
         if crs is not None:
@@ -165,7 +166,7 @@ def read_layer(path: Path, label: str, fmt: OgrFormat, layer: str | None) -> tup
         source.crs = "none in the file: taken as WGS84 lon/lat"
     keep = [i for i, g in enumerate(geoms) if g is not None]
     source.dropped = [Omission(refs[i], "no geometry (null)") for i, g in enumerate(geoms) if g is None]
-    checked, repaired = check_polygons([geoms[i] for i in keep], lambda j: f"{where}: {refs[keep[j]]}")
+    checked, repaired = check_polygons([geoms[i] for i in keep], lambda j: f"{where}: {places[keep[j]]}")
     out = [Feature(g, properties[i], refs[i], repaired.get(j)) for j, (i, g) in enumerate(zip(keep, checked))]
     if not out:
         raise GeoError(f"{where}: no polygon found")

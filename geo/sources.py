@@ -7,12 +7,15 @@
 * `SourceFile`: one file read: its path, format, the reader and driver, the layer, the CRS it was in
   and whether it was reprojected, how many features it gave, and what was dropped or repaired.
   `plan` lists these in report.json (`inputs`) and names what was dropped in a warning.
+* `feature_ref`: a feature's name for a crew: its place in the file, and the id its data gives
+  (an OpenStreetMap way, a GeoJSON id) when it gives one.
 * `choose_layer`: which layer of a file with several is read (`FILE:LAYER`), the one rule every
   layered format follows.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -91,3 +94,30 @@ def choose_layer(label: str, names: list[str], polygon_layers: list[str], asked:
         raise GeoError(f"{label} holds {len(polygon_layers)} {kind}: {', '.join(polygon_layers)}; "
                        f"name one as {label}:LAYER")
     return polygon_layers[0] if polygon_layers else None
+
+
+MAX_ID_CHARS = 60  # an id is shown whole up to this; a longer one is no name a crew can search for
+
+
+def _id_text(value: Any) -> str | None:
+    if isinstance(value, bool) or not isinstance(value, (int, str)) or value == "":
+        return None
+    text = str(value)
+    return text if len(text) <= MAX_ID_CHARS else text[:MAX_ID_CHARS] + "..."
+
+
+def feature_ref(place: str, properties: Mapping[str, Any], own_id: Any = None) -> str:
+    """`place` ("feature 3"), followed by the id the feature's data gives, so a crew can find it in the
+    source they edit: the GeoJSON feature's own `id`, an Overpass export's `@id` ("way/42"), or an
+    OpenStreetMap id (`osm_id` / `osmid`, with `osm_type` / `element_type` when given): "feature 3 [way 42]"."""
+    shown = _id_text(own_id)
+    if shown is not None:
+        return f"{place} [id {shown}]"
+    shown = _id_text(properties.get("@id"))
+    if shown is not None:
+        return f"{place} [{shown}]"
+    osm = next((text for key in ("osm_id", "osmid") if (text := _id_text(properties.get(key))) is not None), None)
+    if osm is not None:
+        kind = next((v for key in ("osm_type", "element_type") if isinstance(v := properties.get(key), str) and v), None)
+        return f"{place} [{kind[:20]} {osm}]" if kind else f"{place} [OSM id {osm}]"
+    return place

@@ -303,16 +303,18 @@ def test_unknown_repaired_and_dropped_buildings_are_named_in_the_report_and_one_
     code, report = _plan(tmp_path, area, osm, "run")
     assert code == 0
     entry = next(e for e in report["inputs"] if e["role"] == "buildings")
-    assert entry["unknown_height"] == ["feature 1"]
-    assert [r["id"] for r in entry["repaired"]] == ["feature 2"] and "Self-intersection" in entry["repaired"][0]["cause"]
-    assert entry["dropped"] == [{"id": "feature 4", "cause": "no geometry (null)"}]
+    # each named by its place in the file and the OpenStreetMap id its properties carry
+    assert entry["unknown_height"] == ["feature 1 [OSM id 1001]"]
+    assert [r["id"] for r in entry["repaired"]] == ["feature 2 [OSM id 1002]"]
+    assert "Self-intersection" in entry["repaired"][0]["cause"]
+    assert entry["dropped"] == [{"id": "feature 4 [OSM id 1004]", "cause": "no geometry (null)"}]
     err = capsys.readouterr().err.splitlines()
     assert err == [f"missionplan: warning: {report['coverage']['warnings'][0]}"]
-    assert err[0] == (f"missionplan: warning: {osm}: 1 building not read: feature 4 (no geometry (null)). {osm}: 1 "
-                      f"building repaired: feature 2 ({entry['repaired'][0]['cause']}). {osm}: 1 of the 5 "
-                      f"buildings in the area have no height (height, building:height or building:levels), so they "
-                      f"are obstacles: feature 1 (--unknown-building-height M gives them one). All are listed in "
-                      f"report.json under inputs.")
+    assert err[0] == (f"missionplan: warning: {osm}: 1 building not read: feature 4 [OSM id 1004] (no geometry "
+                      f"(null)). {osm}: 1 building repaired: feature 2 [OSM id 1002] ({entry['repaired'][0]['cause']})"
+                      f". {osm}: 1 of the 5 buildings in the area have no height (height, building:height or "
+                      f"building:levels), so they are obstacles: feature 1 [OSM id 1001] (--unknown-building-height M "
+                      f"gives them one). All are listed in report.json under inputs.")
     assert report["coverage"]["unknown_height_buildings"] == 1
 
 
@@ -321,10 +323,11 @@ def test_a_long_list_is_summarised_in_the_line_and_whole_in_the_report(tmp_path,
     osm = _write(tmp_path / "bare.geojson", _buildings(heights=False))
     code, report = _plan(tmp_path, area, osm, "run")
     entry = next(e for e in report["inputs"] if e["role"] == "buildings")
-    assert code == 0 and entry["unknown_height"] == [f"feature {i}" for i in range(23)]
+    assert code == 0 and entry["unknown_height"] == [f"feature {i} [OSM id {1000 + i}]" for i in range(23)]
     err = capsys.readouterr().err
     assert ("23 of the 23 buildings in the area have no height (height, building:height or building:levels), so "
-            "they are obstacles: feature 0, feature 1, feature 2 and 20 more (") in err
+            "they are obstacles: feature 0 [OSM id 1000], feature 1 [OSM id 1001], feature 2 [OSM id 1002] and 20 "
+            "more (") in err
     # with a height given to them, they are no longer worth a warning (the report still lists them)
     code, report = _plan(tmp_path, area, osm, "low", "--unknown-building-height", "6")
     entry = next(e for e in report["inputs"] if e["role"] == "buildings")
