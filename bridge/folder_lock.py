@@ -142,7 +142,9 @@ def _lock(folder: Path, holder: Holder, say: Callable[[str], None]) -> int:
             raise BridgeUsageError(f"{folder}: no such folder") from None
         except OSError as err:
             if err.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
-                raise BridgeUsageError(f"{folder}: cannot write in this folder ({err.strerror})") from None
+                raise BridgeUsageError(f"{folder}: cannot write in this folder ({err.strerror}): a run of fly, plan "
+                                       "or replan keeps its record there; copy the folder to a writable disk and "
+                                       "run it there") from None
             raise BridgeUsageError(f"{path}: cannot create the folder's lock file ({err.strerror})") from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)

@@ -147,11 +147,11 @@ def flight_record(out: Path) -> list[str]:
     """The names of the files in `out` that say a flight was flown or judged there: the journal, the ledger
     and flight.json first, then the rest by name (empty when none, or when `out` is no folder)."""
     from .flight.geotag import GEOTAG_FILES
-    from .flight.journal import JOURNAL_NAME
+    from .flight.journal import COUNTER_NAME, JOURNAL_NAME
     from .flight.ledger import LEDGER_NAME
 
     first = [JOURNAL_NAME, LEDGER_NAME, "flight.json"]
-    names = {*first, f"{JOURNAL_NAME}-wal", *GEOTAG_FILES, *FLIGHT_RECORD_FILES}
+    names = {*first, f"{JOURNAL_NAME}-wal", COUNTER_NAME, *GEOTAG_FILES, *FLIGHT_RECORD_FILES}
     try:
         found = [p.name for p in out.iterdir() if p.name in names or p.name.startswith("flight.")]
     except OSError:  # no folder yet (or none to read): nothing flown there

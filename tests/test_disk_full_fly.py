@@ -309,9 +309,11 @@ def test_a_read_only_journal_on_resume_is_one_line_before_any_link(
     finally:
         mock.stop()
     err = capsys.readouterr().err
-    assert code == 2 and re.fullmatch(rf"missionplan: {re.escape(str(plan / JOURNAL_NAME))}: read-only \([^)]+\): this "
-                                      r"flight's journal cannot be written here; copy the plan folder to a writable "
-                                      r"disk and run fly there\n", err), err
+    # The folder's lock is the first thing fly would write (missionplan.bridge.folder_lock), so a read-only
+    # folder is said there; a read-only journal in a writable folder: tests/test_journal_faults.py.
+    assert code == 2 and re.fullmatch(rf"missionplan: {re.escape(str(plan))}: cannot write in this folder \([^)]+\): "
+                                      r"a run of fly, plan or replan keeps its record there; copy the folder to a "
+                                      r"writable disk and run it there\n", err), err
     assert heard["in"] == 0 and heard["clients"] == 0
     assert _hashes(plan) == before
 
@@ -333,6 +335,9 @@ def test_a_journal_cut_by_a_lost_wal_file_says_so_on_resume(
         mock.stop()
     err = capsys.readouterr().err
     assert code == 2, err
+    # The killed run's lock is taken over with a word (missionplan.bridge.folder_lock), then the cut is said.
+    took_over, _, err = err.partition("\n")
+    assert took_over.startswith(f"missionplan: {plan}: took over the lock left by pid {crashed.pid} "), took_over
     assert re.fullmatch(rf"missionplan: {re.escape(str(plan / JOURNAL_NAME))}: the journal was cut: run 1 of "
                         r"fly(?:, started [^;]+)? committed \d+ transactions and the file holds \d+ of them; its "
                         r"write-ahead log \(journal.sqlite-wal\) was lost after that run was killed, and with it "

@@ -39,7 +39,9 @@ from missionplan.bridge.transfer.uploader import PymavlinkBackend
 from missionplan.flight.display import progress_display
 from missionplan.maps import catalog
 from missionplan.maps.gridmap import MapError
+from limit_cases import EXPECTED_ARDUCOPTER, EXPECTED_PX4, HOME, mock_answers
 from plans import wire_item
+from px4_mission_session import HOME as PX4_HOME
 
 HOME_LINE = "0\t1\t0\t16\t0\t0\t0\t0\t45.07\t7.68\t240\t1\n"
 HOSTILE = "\x1b[2J\x1b[31mred\x07bell\rover\u202eevil"  # clear screen, colour, bell, carriage return, RTL
@@ -396,3 +398,13 @@ def test_the_mock_survives_a_handler_that_raises(monkeypatch, caplog):
         assert mock.vehicle(1).handler_errors == 1
     assert [r.getMessage() for r in caplog.records] == [
         "mock vehicle 1: OverflowError answering MISSION_ITEM_INT: float too large \\x1b[31m"]
+
+
+def test_the_mock_answers_out_of_range_items_as_the_autopilots_did() -> None:
+    """Without SITL: each flavour of the mock gives the answers measured on the real autopilots."""
+    ardupilot = mock_answers("ardupilot", HOME, 7)
+    assert {name: result for name, (result, _) in ardupilot.items()} == EXPECTED_ARDUCOPTER
+    assert ardupilot["waypoint hold 1e6 s"][1][5] == 16_960.0  # param1 of the stored item, as SITL holds it
+    px4_mock = mock_answers("px4", PX4_HOME, 11)
+    assert {name: result for name, (result, _) in px4_mock.items()} == EXPECTED_PX4
+    assert px4_mock["DO_JUMP to itself for ever"][1][6] == 65_535.0  # param2: PX4's uint16 repeat count
