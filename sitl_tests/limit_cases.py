@@ -21,7 +21,7 @@ import math
 from dataclasses import astuple, replace
 from typing import Any
 
-from plans import wire_item as w
+from plans import same_answer, wire_item as w
 
 from missionplan.bridge.formats.mission_items import MissionType, WireItem
 from missionplan.bridge.link.connection import mavlink
@@ -90,18 +90,10 @@ def session(url: str, sysid: int, home: bool) -> dict[str, tuple[int | None, Any
     return out
 
 
-def _same(a: Any, b: Any) -> bool:
-    if isinstance(a, float) and isinstance(b, float):
-        return (math.isnan(a) and math.isnan(b)) or a == b
-    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
-        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
-    return a == b
-
-
 def drift(real: dict[str, tuple[int, Any]], mocked: dict[str, tuple[int, Any]], who: str) -> list[str]:
     """Every case where the two answered or stored differently, one line each."""
     return [f"{name}: {who} {real[name]!r}, mock {mocked.get(name)!r}" for name in real
-            if not _same(real[name], mocked.get(name))]
+            if not same_answer(real[name], mocked.get(name))]
 
 
 def mock_answers(flavour: str, home: tuple[float, float, float], sysid: int) -> dict[str, tuple[int, Any]]:

@@ -1,10 +1,12 @@
 """Plans for the real-autopilot tests: a small area given as a GeoJSON ring, planned by the CLI, and single
-mission items on the wire for the mission-protocol sessions."""
+mission items on the wire for the mission-protocol sessions, and how two autopilots' answers are compared."""
 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
+from typing import Any
 
 from missionplan.bridge.formats.mission_items import MissionType, WireItem
 from missionplan.cli import main
@@ -29,3 +31,12 @@ def wire_item(seq: int, frame: int, cmd: int, p1: float = 0.0, p2: float = 0.0, 
     """One item as sent: the mission's seq 0 flagged current, as to_wire does."""
     current = 1 if seq == 0 and mission_type == MissionType.MISSION else 0
     return WireItem(seq, frame, cmd, current, autocontinue, p1, p2, p3, p4, x, y, z, int(mission_type))
+
+
+def same_answer(a: Any, b: Any) -> bool:
+    """Two autopilots' answers agree: equal, NaN where the other is NaN, element by element in lists."""
+    if isinstance(a, float) and isinstance(b, float):
+        return (math.isnan(a) and math.isnan(b)) or a == b
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(same_answer(x, y) for x, y in zip(a, b))
+    return a == b

@@ -12,14 +12,13 @@ WPNAV_RADIUS set below its range and read back.
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import astuple
 from typing import Any
 
 import pytest
 from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
-from plans import wire_item as _w
+from plans import same_answer, wire_item as _w
 
 from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, Link, mavlink
 from missionplan.bridge.formats.mission_items import MissionType, WireItem
@@ -126,14 +125,6 @@ def session(url: str, sysid: int) -> dict[str, Any]:
     return out
 
 
-def _same(a: Any, b: Any) -> bool:
-    if isinstance(a, float) and isinstance(b, float):
-        return (math.isnan(a) and math.isnan(b)) or a == b
-    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
-        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
-    return a == b
-
-
 def drift(real: dict[str, Any], mocked: dict[str, Any]) -> list[str]:
     """Every difference between two sessions, field by field, as one line each."""
     out = []
@@ -145,11 +136,11 @@ def drift(real: dict[str, Any], mocked: dict[str, Any]) -> list[str]:
                         # Home is where the EKF puts it: within a few 1e-7 degrees and 0.5 m of --home.
                         if abs(a - b) <= (0.5 if name == "z" else 5):
                             continue
-                    if not _same(a, b):
+                    if not same_answer(a, b):
                         out.append(f"{key} item {seq} {name}: ArduCopter {a!r}, mock {b!r}")
             if len(real[key]) != len(mocked[key]):
                 out.append(f"{key}: ArduCopter holds {len(real[key])} items, mock {len(mocked[key])}")
-        elif not _same(real[key], mocked[key]):
+        elif not same_answer(real[key], mocked[key]):
             out.append(f"{key}: ArduCopter {real[key]!r}, mock {mocked[key]!r}")
     return out
 
