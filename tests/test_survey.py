@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from missionplan.bridge.formats.mission_items import CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT
+from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.cli import main
 from missionplan.flight.plan_report import SLACK_CELLS, frame_of, target_cells, to_grid_m
 from missionplan.flight.ledger import LEDGER_NAME, Ledger
@@ -362,6 +363,36 @@ def test_fly_replan_gives_a_lost_drones_share_to_the_others_in_flight(
     for k in (1, 3):  # the vehicle holds the new mission the record says it was given
         assert any(n.startswith(f"re-tasked in flight: {held[k]} items") for n in drones[k]["notes"]), \
             (held[k], drones[k]["notes"])
+
+
+def test_survivors_that_do_not_stop_for_a_retask_go_back_to_their_own_missions(
+        leonardo_3: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    # A vehicle that never gets under the hold speed (a gusty day, a slow brake): the re-task is refused
+    # with what each was doing, and no survivor is left hovering in GUIDED; they finish what they had.
+    monkeypatch.setattr("missionplan.flight.drone_flight.HOLD_SPEED", 0.0)
+    monkeypatch.setattr("missionplan.flight.drone_flight.HOLD_S", 1.0)
+    plan = _copy(leonardo_3, tmp_path / "plan")
+    planned = {k: read_mission_file(plan / f"uav{k}.plan").mission.items for k in (1, 3)}
+    mock = start_mock_fleet(plan, RETASK_SPEEDUP)
+    mock.kill(2, at_item=8)
+    try:
+        code = main(["fly", str(plan), "--connect", mock.client_url, "--time-scale", str(RETASK_SPEEDUP),
+                     "--timeout", "120", "--quiet", "--replan", "--replan-after", "3"])
+        held = {k: len(mock.vehicle(k).mission()) for k in (1, 3)}
+    finally:
+        mock.stop()
+    err = capsys.readouterr().err
+    doc = json.loads((plan / "flight.json").read_text())
+    assert code == 1, err
+    (retask,) = doc["retasks"]
+    assert re.fullmatch(r"not re-tasked: could not hold uav1: did not stop in 1 s after GUIDED \(still at [\d.]+ m/s, "
+                        r"in GUIDED\); uav3: did not stop in 1 s after GUIDED \(still at [\d.]+ m/s, in GUIDED\)",
+                        retask["outcome"]), retask
+    assert "not_released" not in retask and "re-plan refused: could not hold uav1" in err
+    drones = {d["id"]: d for d in doc["drones"]}
+    assert drones[1]["finished"] and drones[3]["finished"], doc["problems"]
+    # Each still holds the mission fly uploaded before the flight (the vehicle's home item as well).
+    assert all(held[k] == len(planned[k]) + 1 for k in (1, 3)), (held, planned)
 
 
 def test_a_retask_beyond_the_battery_is_refused_with_the_reason(leonardo_3: Path) -> None:

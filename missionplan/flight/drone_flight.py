@@ -601,7 +601,10 @@ class DroneFlight:
             msg = self.backend.link.recv(deadline)
             if msg is not None and msg.get_srcSystem() == self.sysid:
                 self.vehicle.take(msg)
-        raise BridgeError(f"did not stop in {HOLD_S:g} s after {mode}")
+        # What it was doing is said, so a vehicle still braking can be told from one in another mode.
+        seen = (f"still at {rec.samples[-1][4]:.1f} m/s" if rec.samples else "no position heard") \
+            + f", in {self.vehicle.state.mode_name()}"
+        raise BridgeError(f"did not stop in {HOLD_S:g} s after {mode} ({seen})")
 
     def release(self) -> None:
         """Back to its mission mode: its new mission from the item set current (after a re-task), or its
