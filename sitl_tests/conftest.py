@@ -4,3 +4,7 @@ plans.py: plans made for a test).
 
 Tests here start their peers themselves on 127.0.0.1, bound every wait, and stop them.
 """
+
+from loopback import let_children_hear_ctrl_c
+
+let_children_hear_ctrl_c()

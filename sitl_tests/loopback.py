@@ -1,6 +1,7 @@
 """Loopback helpers for the integration tests (a module of its own: `conftest` names collide
 between tests/ and sitl_tests/, so nothing should import from a conftest): free ports, stopping a
-simulator's process group, a bounded poll, and a listener that tells which vehicles armed."""
+simulator's process group, a bounded poll, a listener that tells which vehicles armed, and Ctrl-C given
+back to the processes the tests start."""
 
 import os
 import signal
@@ -11,6 +12,15 @@ from collections.abc import Callable, Iterable
 from typing import TypeVar
 
 T = TypeVar("T")
+
+
+def let_children_hear_ctrl_c() -> None:
+    """A suite started from a background shell (`nohup`, `cmd &` in a script) inherits SIGINT ignored, and
+    so would every `fly` and `mock` it starts: the tests that stop them with Ctrl-C would fail for the
+    wrong reason. A Python handler is reset to the default in a child at exec, so installing Python's own
+    here gives the children a working Ctrl-C again; an interactive run is unchanged."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def free_udp_port() -> int:
