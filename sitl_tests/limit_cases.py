@@ -100,5 +100,5 @@ def mock_answers(flavour: str, home: tuple[float, float, float], sysid: int) -> 
     """What a fresh mock of `flavour` answers and stores for each case; its server thread must serve on."""
     with MockAutopilot("udpin:127.0.0.1:0", sysids=[sysid], flavour=flavour, homes={sysid: home}) as mock:
         found = session(mock.client_url, sysid, home=flavour == "ardupilot")
-        assert mock.vehicle(sysid).handler_errors == 0 and mock._thread is not None and mock._thread.is_alive()
+        assert mock.vehicle(sysid).handler_errors == 0 and mock.serving
     return found

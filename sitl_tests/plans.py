@@ -34,9 +34,12 @@ def wire_item(seq: int, frame: int, cmd: int, p1: float = 0.0, p2: float = 0.0, 
 
 
 def same_answer(a: Any, b: Any) -> bool:
-    """Two autopilots' answers agree: equal, NaN where the other is NaN, element by element in lists."""
+    """Two autopilots' answers agree: equal, NaN where the other is NaN, element by element in lists and
+    key by key in dicts."""
     if isinstance(a, float) and isinstance(b, float):
         return (math.isnan(a) and math.isnan(b)) or a == b
     if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
         return len(a) == len(b) and all(same_answer(x, y) for x, y in zip(a, b))
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(same_answer(a[k], b[k]) for k in a)
     return a == b

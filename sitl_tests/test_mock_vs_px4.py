@@ -12,10 +12,10 @@ and the STATUSTEXT of a fence that leaves home out. Skips when ../shared/px4/bin
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import pytest
+from plans import same_answer
 from px4_sih import PX4, px4  # noqa: F401  (the fixture)
 from px4_mission_session import HOME, session, start_session
 
@@ -26,17 +26,6 @@ from missionplan.bridge.sim.mock import MockAutopilot
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
 
-
-def _same(a: Any, b: Any) -> bool:
-    if isinstance(a, float) and isinstance(b, float):
-        return (math.isnan(a) and math.isnan(b)) or a == b
-    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
-        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
-    if isinstance(a, dict) and isinstance(b, dict):
-        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
-    return a == b
-
-
 def drift(real: dict[str, Any], mocked: dict[str, Any]) -> list[str]:
     """Every difference between two session records, one line each (stored lists field by field)."""
     out = []
@@ -44,14 +33,14 @@ def drift(real: dict[str, Any], mocked: dict[str, Any]) -> list[str]:
         if key in ("mission", "fence", "rally", "after bad upload"):
             for seq, (r, m) in enumerate(zip(real[key], mocked[key])):
                 for name, a, b in zip(WireItem.__dataclass_fields__, r, m):
-                    if not _same(a, b):
+                    if not same_answer(a, b):
                         out.append(f"{key} item {seq} {name}: PX4 {a!r}, mock {b!r}")
             if len(real[key]) != len(mocked[key]):
                 out.append(f"{key}: PX4 holds {len(real[key])} items, mock {len(mocked[key])}")
         elif isinstance(real[key], dict) and isinstance(mocked.get(key), dict):
             out += [f"{key} {k}: PX4 {real[key][k]!r}, mock {mocked[key].get(k)!r}"
-                    for k in real[key] if not _same(real[key][k], mocked[key].get(k))]
-        elif not _same(real[key], mocked.get(key)):
+                    for k in real[key] if not same_answer(real[key][k], mocked[key].get(k))]
+        elif not same_answer(real[key], mocked.get(key)):
             out.append(f"{key}: PX4 {real[key]!r}, mock {mocked.get(key)!r}")
     return out
 

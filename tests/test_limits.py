@@ -394,7 +394,7 @@ def test_the_mock_survives_a_handler_that_raises(monkeypatch, caplog):
             assert _upload(mock, _mission(30.0)) == mavlink.MAV_MISSION_ERROR
         monkeypatch.undo()
         assert _upload(mock, _mission(30.0)) == 0
-        assert mock._thread is not None and mock._thread.is_alive()
+        assert mock.serving
         assert mock.vehicle(1).handler_errors == 1
     assert [r.getMessage() for r in caplog.records] == [
         "mock vehicle 1: OverflowError answering MISSION_ITEM_INT: float too large \\x1b[31m"]

@@ -433,6 +433,11 @@ class MockAutopilot:
             self._thread.start()
         return self
 
+    @property
+    def serving(self) -> bool:
+        """Whether start()'s server thread is alive: a vehicle's handler that raised must not end it."""
+        return self._thread is not None and self._thread.is_alive()
+
     def stop(self, timeout: float = 2.0) -> None:
         self._stop.set()
         if self._thread is not None:
