@@ -21,6 +21,7 @@ import math
 from dataclasses import astuple, replace
 from typing import Any
 
+from loopback import wait_until
 from plans import same_answer, wire_item as w
 
 from missionplan.bridge.formats.mission_items import MissionType, WireItem
@@ -79,6 +80,7 @@ EXPECTED_PX4 = dict.fromkeys(EXPECTED_ARDUCOPTER, ACCEPTED)
 def session(url: str, sysid: int, home: bool) -> dict[str, tuple[int | None, Any]]:
     """Each case uploaded in turn: (MISSION_ACK result, the stored last item when accepted)."""
     out: dict[str, tuple[int, Any]] = {}
+    before: dict[int, Any] = {}  # per list type, the last item the previous accepted case left stored
     with PymavlinkBackend(url, sysid, timeouts=Timeouts(item_timeout=1.0, retries=3), connect_timeout=30) as backend:
         for name, (mission_type, items) in cases(home).items():
             try:
@@ -86,7 +88,14 @@ def session(url: str, sysid: int, home: bool) -> dict[str, tuple[int | None, Any
             except MissionTransferError as err:  # the refusal's result (ERROR after the last item included)
                 out[name] = (None if err.result is None else int(err.result), None)  # None: no answer at all
                 continue
-            out[name] = (ACCEPTED, astuple(backend.download(mission_type)[-1]))
+            # PX4 SIH can still serve the previous list just after its ACCEPTED (measured: about 1 upload
+            # in 100; read again 0.5 s later it holds the new one), and no two cases store the same item:
+            # read until the list is no longer the previous one, or say what was read after 2 s.
+            def stored() -> Any:
+                last = astuple(backend.download(mission_type)[-1])
+                return last if not same_answer((ACCEPTED, last), before.get(mission_type)) else None
+            last = wait_until(stored, 2.0) or astuple(backend.download(mission_type)[-1])
+            out[name] = before[mission_type] = (ACCEPTED, last)
     return out
 
 
