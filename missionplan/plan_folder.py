@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from missionplan.bridge.atomic import probe_writable
+from missionplan.base.atomic import probe_writable
 from missionplan.bridge.folder_lock import hold_folder
 from missionplan.geo.frame import GridFrame
 

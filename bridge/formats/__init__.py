@@ -2,7 +2,7 @@
 
 Pure Python, free of pymavlink: mission_items holds the MAVLink numbers these modules (and the planner) use.
 
-May import: missionplan.bridge.errors, .atomic.
+May import: missionplan.bridge.errors, .limits; missionplan.base.
   mission_items  MissionItem, Mission, wire items, flavour rules; the MAVLink numbers of the pymavlink-free modules
   px4_rules      PX4's rules (measured on SIH): item results, stored forms, start refusals
   readback       what a vehicle may legally change in what it stores, per flavour; the read-back comparison

@@ -41,7 +41,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 # A leaf utility with no planner imports: bridge still knows nothing about grids.
-from ..atomic import write_text_atomic
+from missionplan.base.atomic import write_text_atomic
 
 from . import qgc_legacy
 from ..errors import BridgeError, BridgeUsageError

@@ -48,7 +48,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from missionplan.bridge.atomic import write_text_atomic
+from missionplan.base.atomic import write_text_atomic
 from missionplan.bridge.formats.mission_items import WireItem
 
 from .record import PHOTO_SOURCES, DroneRecord, Sink

@@ -22,7 +22,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from missionplan.bridge.atomic import probe_writable
+from missionplan.base.atomic import probe_writable
 
 from .photo_positions import flight_photos
 from .journal import JOURNAL_NAME, JournalError, judged_flights

@@ -3,7 +3,7 @@
 The neural policy learned by imitation of the expert: state features, the network and its shipped
 weights (weights/), demonstrations, dataset, training, training maps.
 
-May import: missionplan.grid, missionplan.maps; missionplan.bridge.atomic.
+May import: missionplan.grid, missionplan.maps; missionplan.base.
 Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_layers.py).
 
   dataset         From recorded demonstrations to the train / validation / test sets (SPEC section 5).

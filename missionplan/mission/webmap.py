@@ -25,7 +25,7 @@ from importlib import resources
 from typing import Any
 from urllib.parse import urlsplit
 
-from missionplan.bridge.atomic import write_text_atomic
+from missionplan.base.atomic import write_text_atomic
 
 LEAFLET_VERSION = "1.9.4"
 KINDS = ("plan", "flight")
