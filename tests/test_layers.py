@@ -244,7 +244,9 @@ def test_a_wrong_way_import_inside_bridge_is_found() -> None:
 # Inside missionplan/flight/: tiers, lowest first; a module imports only modules of lower tiers, and every module
 # has a tier (a new one is placed here).
 FLIGHT_TIERS = (
-    ("record", "plan_report", "flight_layers", "flight_plot", "mock_fleet", "salvage"),  # what was planned and recorded
+    ("record", "plan_report", "flight_layers", "flight_plot", "mock_fleet", "salvage",  # what was planned and recorded
+     "journal_db"),  # the journal's tables
+    ("journal_read", "journal_repair"),  # a journal read back; a damaged one repaired
     ("ledger", "phases", "journal", "photo_positions"),  # the photos, the flight's phases, the journal on disk
     ("ledger_repair",),  # a ledger rebuilt from the journals
     ("geotag", "survey_status"),  # what the photos and the survey come to
