@@ -37,7 +37,8 @@ import doctable  # noqa: E402
 
 from missionplan.cli import main  # noqa: E402
 from missionplan.flight import disk_space  # noqa: E402
-from missionplan.flight.journal import JOURNAL_NAME, Journal  # noqa: E402
+from missionplan.flight.journal import Journal  # noqa: E402
+from missionplan.flight.journal_db import JOURNAL_NAME  # noqa: E402
 from missionplan.flight.record import DroneRecord  # noqa: E402
 
 ROWS = 30_000

@@ -64,7 +64,7 @@ def main() -> int:
     if args.row:
         child(args.row)
         return 0
-    from missionplan.bridge.formats.missionfile import MAX_JSON_BYTES
+    from missionplan.bridge.formats.qgc_plan import MAX_JSON_BYTES
 
     with tempfile.TemporaryDirectory(prefix="limits-bench-") as folder:
         cases: list[tuple[str, Path]] = []

@@ -38,7 +38,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from missionplan.grid import metrics, planner  # noqa: E402
 from missionplan import pipeline  # noqa: E402
-from missionplan.bridge.atomic import atomic_path  # noqa: E402
+from missionplan.base.atomic import atomic_path  # noqa: E402
 from missionplan.maps.gridmap import GridMap, read_map_text  # noqa: E402
 from missionplan.maps.movingai import parse_movingai  # noqa: E402
 from missionplan.maps.mapgen import CITY_LAUNCH_EDGE_MARGIN, launch_candidates, median_launch_cells  # noqa: E402

@@ -72,7 +72,7 @@ def _at(rec: Any, t: float) -> tuple[float, float, float]:
 
 def ideal_end(plan_dir: Path, scale: float) -> tuple[float, float]:
     """(the loss moment, the ideal end), vehicle seconds from the survivors' mission start."""
-    from missionplan.flight.journal import read_flight
+    from missionplan.flight.journal_read import read_flight
     from missionplan.retask import Survivor, plan_retask
 
     _, _, records = read_flight(plan_dir)

@@ -4,8 +4,6 @@ Knows missions (lists of MAVLink mission items), not grids: nothing here imports
 (tests/test_layers.py). Installed as missionplan.bridge from the repository's bridge/ folder.
 Parts, lowest first; each subpackage's __init__ says what it owns and may import:
   errors         BridgeUsageError (bad input, exit 2) and BridgeError (operational failure, exit 1)
-  atomic         atomic file output (temp file, then rename), shared with the planner and geo: the lowest
-                 layer that writes files
   folder_lock    one owner per folder: the OS lock fly, plan and replan hold on their folder, naming its holder
   flight_models  how ArduCopter and PX4 fly a mission, in time (the planner's timeline and the mock share them)
   formats        the mission model, the per-autopilot rules of what a vehicle stores and accepts, mission files

@@ -13,8 +13,8 @@ folder and calls write_plan_folder, which holds it too; `demo` plans, then flies
 other); another thread of the same process is refused like another process.
 
 flock is advisory and local: it keeps missionplan processes on one machine apart, not other programs,
-nor two machines sharing the folder over a network. Lives in bridge, the lowest layer that writes files, beside
-atomic.py, so flight/ and the top level share it.
+nor two machines sharing the folder over a network. Lives in bridge, below flight/ and the top level, so
+both share it.
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ Owns:
   option (or the file and item) and the value, raised as the caller's layer's error type. Every command's
   numeric options (plan, replan, train, demo, fly, upload / download / clear, mock) go through it, so a
   `--rotation 1e308` or a `--timeout nan` fails before any work, in the same words everywhere;
-- the ranges of what a mission file holds (formats.missionfile reads them; docs/file-formats.md has the
+- the ranges of what a mission file holds (formats.item_checks applies them; docs/file-formats.md has the
   table): altitudes by frame, angles, speeds, hold times, and the item count MAVLink can carry.
 
 Why these ranges: each says what no mission anywhere on Earth can mean, not what a careful plan would do

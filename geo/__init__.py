@@ -1,7 +1,7 @@
 """missionplan.geo: world <-> grid (camera footprint, projection, rasterising, area files, GIS files).
 
-Installed as missionplan.geo from the repository's geo/ folder. May import: missionplan.bridge.atomic (atomic
-writes), nothing else from missionplan. One job per module:
+Installed as missionplan.geo from the repository's geo/ folder. May import: missionplan.base (atomic writes),
+nothing else from missionplan. One job per module:
 
 * `missionplan.geo.errors`  - `GeoError`, the one-line error for any wrong geographic input.
 * `missionplan.geo.camera`  - footprint side S = 2*H*tan(FOV/2) and cell = S/9; `Camera` from FOV or sensor.

@@ -8,7 +8,7 @@ module is what the code building them and the writers (missionplan.geo.gpkg, mis
                     holes clockwise, in the lon/lat plane), the order GeoJSON readers, GDAL and QGIS
                     agree on for inside and outside;
 * `layer_schema`  - the geometry type a layer is written as, whether it is 3-D, one type per property.
-The writers write atomically with missionplan.bridge.atomic (bridge imports nothing from geo, so no circle).
+The writers write atomically with missionplan.base.atomic (base imports nothing from geo, so no circle).
 """
 
 from __future__ import annotations

@@ -28,7 +28,7 @@ import struct
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from missionplan.bridge.atomic import atomic_path
+from missionplan.base.atomic import atomic_path
 
 from .geojson_layers import GEOMETRY_TYPES, LayerSchema, geometry_positions, layer_schema
 

@@ -33,7 +33,7 @@ import zipfile
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from missionplan.bridge.atomic import atomic_path
+from missionplan.base.atomic import atomic_path
 
 from .geojson_layers import geometry_positions, layer_schema
 

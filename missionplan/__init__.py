@@ -5,7 +5,7 @@ Library calls: `missionplan.pipeline.plan_map` plans a grid in memory; `missionp
 plans and writes a plan folder (report, missions, map files, pictures).
 
 Layout, one stage per subpackage (imports run one way: cli -> flight -> mission -> learn -> grid -> maps -> geo
--> bridge; geo and bridge are the repository's top-level geo/ and bridge/ folders, installed here):
+-> bridge -> base; geo and bridge are the repository's top-level geo/ and bridge/ folders, installed here):
   maps/     the map type and .map format, the shipped maps, their generator
   grid/     the grid planner: world, zones, A*, expert, planning loop, metrics
   learn/    the neural policy: features, network + weights, imitation training
@@ -13,6 +13,7 @@ Layout, one stage per subpackage (imports run one way: cli -> flight -> mission 
   flight/   flying the missions and judging the flight (flight.json)
   geo/      world <-> grid: camera footprint, projection, rasterising, area files, GIS files
   bridge/   missions to and from autopilots over MAVLink, and the mock autopilot
+  base/     below every layer: atomic file writes
   top       cli (the command line: parses and prints), pipeline (plan_map), fieldplan (plan_field),
             plan_folder (write_plan_folder) and plan_display (what `plan` prints), demo, replan, retask
 """

@@ -21,7 +21,7 @@ from typing import Any
 
 from missionplan.bridge import BridgeUsageError
 from missionplan.geo.errors import GeoError
-from missionplan.bridge.atomic import probe_writable
+from missionplan.base.atomic import probe_writable
 from missionplan.bridge.limits import SEED_MAX, check_integer, check_range
 from missionplan.bridge.terminal_text import printable
 from missionplan.bridge.commands import register as register_bridge_commands
@@ -267,7 +267,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 def _cmd_train(args: argparse.Namespace) -> int:
     import json
 
-    from missionplan.bridge.atomic import write_text_atomic
+    from missionplan.base.atomic import write_text_atomic
     from .learn.network import save_weights
     from .learn.training import DEFAULT_MAPS, train_policy
 

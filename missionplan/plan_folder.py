@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from missionplan.bridge.atomic import probe_writable
+from missionplan.base.atomic import probe_writable
 from missionplan.bridge.folder_lock import hold_folder
 from missionplan.geo.frame import GridFrame
 
@@ -147,7 +147,7 @@ def flight_record(out: Path) -> list[str]:
     """The names of the files in `out` that say a flight was flown or judged there: the journal, the ledger
     and flight.json first, then the rest by name (empty when none, or when `out` is no folder)."""
     from .flight.geotag import GEOTAG_FILES
-    from .flight.journal import COUNTER_NAME, JOURNAL_NAME
+    from .flight.journal_db import COUNTER_NAME, JOURNAL_NAME
     from .flight.ledger import LEDGER_NAME
 
     first = [JOURNAL_NAME, LEDGER_NAME, "flight.json"]

@@ -7,12 +7,12 @@ What they answered (ArduCopter 4.7-dev SITL, PX4 v1.15.4 SIH), and what the mock
   Location keeps 24-bit centimetres: LOCATION_ALT_MAX_M) and takes 82,999 m; a latitude of 91 degrees is
   INVALID_PARAM5_X; a NaN param1 of a waypoint or an infinite one INVALID_PARAM1 (param4, yaw, may be NaN); a
   DO_JUMP past the last item, or to -5, MAV_MISSION_ERROR; a DO_JUMP to itself repeating for ever it takes
-  (stores, and flown, hovers over its takeoff point: formats.missionfile.check_jumps); a rally point at 1e38 m
+  (stores, and flown, hovers over its takeoff point: formats.item_checks.check_jumps); a rally point at 1e38 m
   INVALID_PARAM7; a fence vertex at latitude 91 ERROR once its last point came; a hold time of 1e6 s it
   stores as 16,960 s (a uint16). An item without a position keeps no altitude:
   an RTL at 1e38 m is taken.
 - PX4 takes all of these at upload and stores them as sent (float32), a DO_JUMP's repeat -1 as 65535.
-So our files' readers refuse them first (formats.missionfile, limits): the vehicle is no safeguard.
+So our files' readers refuse them first (formats.item_checks, limits): the vehicle is no safeguard.
 """
 
 from __future__ import annotations

@@ -48,7 +48,7 @@ from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.bridge.link.params import ParamClient
 from missionplan.bridge.link.readiness import ARDUPILOT_AUTO
 from missionplan.bridge.link.shared_link import SharedLink
-from missionplan.flight.journal import read_flight
+from missionplan.flight.journal_read import read_flight
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 

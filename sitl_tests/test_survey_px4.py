@@ -22,7 +22,8 @@ from px4_sih import px4, px4_or_skip  # noqa: F401  (the fixture)
 from test_fleet_px4 import AREA, CAMERA, LAUNCHES, TELEMETRY_HZ, _home, _plan
 
 from missionplan.bridge.formats.missionfile import read_mission_file
-from missionplan.flight.journal import JournalError, read_flight
+from missionplan.flight.journal_db import JournalError
+from missionplan.flight.journal_read import read_flight
 
 pytestmark = pytest.mark.sitl
 

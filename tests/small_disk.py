@@ -2,7 +2,7 @@
 
 `small_disk`: a tmpfs of the size asked, mounted where the machine allows it (root, as on CI and on
 the development machine), filled with a filler file and freed again on demand. Where the mount is
-refused, a stand-in: the flight journal's SQLite connections (missionplan.flight.journal) fail their
+refused, a stand-in: the flight journal's SQLite connections (missionplan.flight.journal_db) fail their
 writes with SQLite's "database or disk is full" while the disk is "full"; it says so with a warning,
 so a run without a real small disk is never mistaken for one with it.
 
@@ -107,7 +107,7 @@ def small_disk(where: Path, size_kb: int, monkeypatch: pytest.MonkeyPatch) -> It
     warnings.warn(f"tmpfs refused at {where}: the full disk is a stand-in (the journal's writes fail as on a full "
                   "disk; the other files are written)", stacklevel=3)
     disk = SmallDisk(where, mounted=False)
-    import missionplan.flight.journal as journal
+    import missionplan.flight.journal_db as journal
 
     real_connect = sqlite3.connect
     shim = types.SimpleNamespace(**{name: getattr(sqlite3, name) for name in dir(sqlite3) if not name.startswith("__")})

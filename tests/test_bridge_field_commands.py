@@ -151,12 +151,12 @@ def test_download_whose_write_fails_late_is_one_line_exit_1(tmp_path: Path, mock
     """The folder took the probe but the write itself fails (disk full): one line, exit 1, no file."""
     import errno
 
-    import missionplan.bridge.formats.missionfile
+    import missionplan.bridge.formats.file_text
 
     def full(path: object, text: str) -> None:
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(missionplan.bridge.formats.missionfile, "write_text_atomic", full)
+    monkeypatch.setattr(missionplan.bridge.formats.file_text, "write_text_atomic", full)
     out = tmp_path / "m.plan"
     assert main(["download", "--sysid", "1", "--connect", mock.client_url, "-o", str(out)] + FAST) == 1
     err = capsys.readouterr().err.strip().splitlines()

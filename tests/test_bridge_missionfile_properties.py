@@ -25,8 +25,8 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
 from missionplan.bridge import BridgeUsageError  # noqa: E402
 from missionplan.bridge.formats.mission_items import CMD_DO_JUMP, CMD_NAV_LAST, Flavour, to_wire  # noqa: E402
-from missionplan.bridge.formats.missionfile import (AMSL_FRAMES, PARAM_RANGES, POSITIONAL_COMMANDS,  # noqa: E402
-                                                    PlanFile, read_mission_file)
+from missionplan.bridge.formats.item_checks import AMSL_FRAMES, PARAM_RANGES, POSITIONAL_COMMANDS  # noqa: E402
+from missionplan.bridge.formats.missionfile import PlanFile, read_mission_file  # noqa: E402
 from missionplan.bridge.limits import (ALTITUDE_AMSL_M, ALTITUDE_RELATIVE_M, MAVLINK_MAX_ITEMS,  # noqa: E402
                                        MAX_MISSION_ITEMS)
 

@@ -25,7 +25,8 @@ import pytest
 from small_disk import read_only, small_disk
 
 from missionplan.cli import main
-from missionplan.flight.journal import JOURNAL_NAME, read_flight
+from missionplan.flight.journal_db import JOURNAL_NAME
+from missionplan.flight.journal_read import read_flight
 from missionplan.flight.mock_fleet import start_mock_fleet
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -23,7 +23,7 @@ from loopback import wait_until
 from missionplan.bridge.sim.mock import LinkFaults
 from missionplan.cli import main
 from missionplan.flight.fly import fly
-from missionplan.flight.journal import read_flight
+from missionplan.flight.journal_read import read_flight
 from missionplan.flight.mock_fleet import start_mock_fleet
 
 ROOT = Path(__file__).resolve().parent.parent

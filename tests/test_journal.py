@@ -22,7 +22,9 @@ from missionplan.bridge.formats.mission_items import (
     MissionType,
     WireItem,
 )
-from missionplan.flight.journal import COMMIT_S, Journal, JournalError, read_flight
+from missionplan.flight.journal import COMMIT_S, Journal
+from missionplan.flight.journal_db import JournalError
+from missionplan.flight.journal_read import read_flight
 from missionplan.flight.record import DroneRecord
 
 ROOT = Path(__file__).resolve().parent.parent

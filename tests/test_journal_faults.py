@@ -21,8 +21,9 @@ import pytest
 from loopback import wait_until
 from small_disk import read_only, small_disk
 
-from missionplan.flight.journal import (COUNTER_NAME, JOURNAL_NAME, Journal, JournalError, read_flight,
-                                        write_fallback)
+from missionplan.flight.journal import Journal, write_fallback
+from missionplan.flight.journal_db import COUNTER_NAME, JOURNAL_NAME, JournalError
+from missionplan.flight.journal_read import read_flight
 from missionplan.flight.record import DroneRecord
 
 ROOT = Path(__file__).resolve().parent.parent

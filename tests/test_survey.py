@@ -124,7 +124,7 @@ def test_replan_plans_only_the_missing_cells_for_the_vehicles_named_and_the_surv
 def test_a_flight_judged_again_replaces_its_rows(lost_drone_survey: Path, tmp_path: Path) -> None:
     """fly --resume judges a flight again: the ledger keeps one copy of its photos."""
     from missionplan.flight.flight_report import judge
-    from missionplan.flight.journal import read_flight
+    from missionplan.flight.journal_read import read_flight
 
     copy = tmp_path / "copy"
     copy.mkdir()

@@ -13,7 +13,7 @@ from scipy import ndimage
 
 from missionplan.maps.gridmap import GridMap
 from missionplan.maps.mapgen import MIN_STREET_WIDTH
-from missionplan.learn import trainmaps
+from missionplan.learn import random_cities
 from missionplan.learn.trainmaps import MIN_TARGETS, SHIPPED_SEEDS, heldout_cities, random_city, training_maps
 
 COUNT = 12
@@ -102,7 +102,7 @@ def test_some_free_cells_are_not_targets():
 
 def test_turned_street_grids_staircase_and_keep_the_guarantees(monkeypatch):
     """The turned style: blocks on a street grid at an angle, so block edges are staircases."""
-    monkeypatch.setattr(trainmaps, "STYLE_P", (0.0, 0.0, 0.0, 1.0))
+    monkeypatch.setattr(random_cities, "STYLE_P", (0.0, 0.0, 0.0, 1.0))
     staircased = 0
     for seed in range(6):
         gmap = random_city(np.random.default_rng(seed), (70, 80), name=f"turned-{seed}")

@@ -26,7 +26,8 @@ from missionplan.mission import webmap
 from missionplan.mission.webmap import LEAFLET_VERSION, render_html_map, write_html_map
 
 ROOT = Path(__file__).resolve().parents[1]
-ASSETS = ROOT / "missionplan" / "mission" / "webmap_assets" / "leaflet"
+MISSION = ROOT / "missionplan" / "mission"
+ASSETS = MISSION / "webmap_assets" / "leaflet"
 LAT0, LON0 = 45.07, 7.65
 COLOURS = {1: "#1f77b4", 2: "#ff7f0e"}
 CAUSES = {"clearance band": "closer than --clearance to an obstacle",
@@ -145,7 +146,7 @@ def test_the_page_is_self_contained(tmp_path):
     assert "sourceMappingURL" not in text
     # The page's own script asks nothing of the network.
     for call in ("fetch(", "XMLHttpRequest", "WebSocket", "EventSource", "sendBeacon", "import(", "importScripts"):
-        assert call not in webmap._MAP_JS, call
+        assert call not in webmap.page_script(), call
     # The panel is plain HTML, readable with scripts off.
     assert "turin-cenisia-area: 2 drones, expert" in text and "longest flight" in text and "#ff7f0e" in text
 
@@ -247,14 +248,31 @@ def test_the_vendored_leaflet_is_complete_and_ships_in_the_wheel():
     assert f"Leaflet {LEAFLET_VERSION}," in (ASSETS / "leaflet.js").read_text()[:200]
     assert "BSD 2-Clause License" in (ASSETS / "LICENSE").read_text()
     assert LEAFLET_VERSION in (ASSETS / "README.md").read_text()
-    # Package data of missionplan.mission (a path pattern), or of the folder listed as a package itself.
-    setuptools = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
-    data, folder_package = setuptools["package-data"], "missionplan.mission.webmap_assets.leaflet"
     for path in ASSETS.iterdir():
-        relative = path.relative_to(ROOT / "missionplan" / "mission").as_posix()
-        assert (any(fnmatch(relative, pattern) for pattern in data.get("missionplan.mission", []))
-                or folder_package in setuptools["packages"]
-                and any(fnmatch(path.name, pattern) for pattern in data.get(folder_package, []))), f"{path} would not ship"
+        assert ships(path), f"{path} would not ship"
+
+
+def test_the_page_style_and_script_are_package_files_that_ship_in_the_wheel():
+    files = sorted(p.name for p in (MISSION / "webmap_assets").iterdir() if p.is_file())
+    assert files == ["page.css", "page.js"]
+    for name in files:
+        assert ships(MISSION / "webmap_assets" / name), f"{name} would not ship"
+    # What the page inlines is the files' text, read from the package.
+    text = render_html_map(plan_layers(), summary())
+    assert (MISSION / "webmap_assets" / "page.js").read_text(encoding="utf-8") in text
+    assert (MISSION / "webmap_assets" / "page.css").read_text(encoding="utf-8") in text
+
+
+def ships(path: Path) -> bool:
+    """Whether the wheel carries `path` (a file under missionplan/mission/): package data of
+    missionplan.mission (a path pattern), or of the folder it sits in, listed as a package itself."""
+    setuptools = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    data = setuptools["package-data"]
+    folder_package = ".".join(["missionplan", "mission", *path.parent.relative_to(MISSION).parts])
+    relative = path.relative_to(MISSION).as_posix()
+    return (any(fnmatch(relative, pattern) for pattern in data.get("missionplan.mission", []))
+            or folder_package in setuptools["packages"]
+            and any(fnmatch(path.name, pattern) for pattern in data.get(folder_package, [])))
 
 
 # ---- in a browser ---------------------------------------------------------------------------------

@@ -70,7 +70,7 @@ class Flavour(str, Enum):
         return self is Flavour.ARDUPILOT and mission_type == MissionType.MISSION
 
 
-# MAVLink numbers for the modules that stay free of pymavlink (this one, formats.px4_rules, formats.missionfile,
+# MAVLink numbers for the modules that stay free of pymavlink (this one, formats.px4_rules, the mission files,
 # sim.mock_flight and the planner): written down here and nowhere else, under their MAVLink names (CMD_
 # for MAV_CMD_, FRAME_ for MAV_FRAME_); tests/test_mavlink_names.py checks them against pymavlink. A module
 # that imports pymavlink takes its numbers from mavutil.mavlink instead.

@@ -1,7 +1,7 @@
-"""QGroundControl's older JSON layouts, rewritten into the current `.plan` shapes formats.missionfile reads.
+"""QGroundControl's older JSON layouts, rewritten into the current `.plan` shapes formats.qgc_plan reads.
 
 Owns the two translations QGroundControl itself applies when it loads its own files, and nothing else
-(no numbers are checked here: the rewritten shapes go through missionfile's checks like any plan):
+(no numbers are checked here: the rewritten shapes go through formats.item_checks like any plan):
 - one mission item's parameters, from any of the three layouts QGroundControl reads
   (MissionItem::load with _convertJsonV1ToV2 and _convertJsonV2ToV3):
     current: `params` of 7 values (lat, lon, alt are params 5-7);

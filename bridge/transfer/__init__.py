@@ -1,6 +1,6 @@
 """transfer: missions and logs moved over a link.
 
-May import: missionplan.bridge.errors, .atomic, .formats, .link.
+May import: missionplan.bridge.errors, .formats, .link; missionplan.base.
   protocol        the ground station's side of the mission protocol over pymavlink (upload, download, clear,
                   set-current)
   mavsdk_backend  the same operations through MAVSDK-Python's MissionRaw plugin

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..atomic import atomic_path
+from missionplan.base.atomic import atomic_path
 from ..errors import BridgeError
 from ..link.connection import AUTOPILOT_COMPONENT_ID, mavlink
 from ..formats.mission_items import Flavour

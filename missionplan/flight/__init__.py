@@ -14,8 +14,11 @@ Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_l
                   flight.json, flight.png and missed.geojson.
   fly             `missionplan fly DIR`: the fleet, the journal, the live separation watch, Ctrl-C, the
                   judgement.
-  journal         The flight journal (DIR/journal.sqlite): everything heard, written as it happens; paused
-                  (not lost) when the disk refuses writes; salvaged when damaged; a lost -wal file proven.
+  journal         The flight journal (DIR/journal.sqlite) written: everything heard, as it happens; paused
+                  (not lost) when the disk refuses writes; a lost -wal file proven.
+  journal_db      The journal's database: file names, tables, connections, a record's change as a row.
+  journal_read    A journal read back: a flight's DroneRecords replayed from its rows.
+  journal_repair  A damaged journal moved aside and what can be read of it copied into a new one.
   ledger_repair   A survey ledger missing, damaged or read-only: rebuilt from the journals, said in one line.
   mock_fleet      Mock autopilots standing where a plan's drones launch (demo, tests, bench).
   phases          Where a drone's flight time went (take-off, survey, return, landing).

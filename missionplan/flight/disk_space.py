@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from .drone_flight import LINK_MARGIN_S, LINK_WAIT_FACTOR
-from .journal import JournalError
+from .journal_db import JournalError
 
 # Bytes in journal.sqlite (rows, their index entries, the pages' slack), as bench/journal_bench.py measured
 # them (86, 152, 106 bytes; the -wal file 4.13 MB at most), rounded up.

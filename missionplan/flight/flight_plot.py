@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from missionplan.bridge.atomic import atomic_path
+from missionplan.base.atomic import atomic_path
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

@@ -37,7 +37,7 @@ from typing import Any, TypeVar
 import numpy as np
 from scipy.spatial import cKDTree
 
-from missionplan.bridge.atomic import write_text_atomic
+from missionplan.base.atomic import write_text_atomic
 from missionplan.bridge.flight_models.copter_model import CopterParams, Motion, total_time
 from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_NAV_LAND, CMD_NAV_TAKEOFF,
                                                       CMD_NAV_WAYPOINT)

@@ -54,7 +54,8 @@ from .disk_space import check_space
 from .display import print_flight, progress_display
 from .drone_flight import DEFAULT_READY_S, DroneFlight, FleetGate, FleetStart
 from .flight_report import FlightResult, judge, live_tolerance, sortie_view
-from .journal import RETRY_S, Journal, JournalError, write_fallback
+from .journal import RETRY_S, Journal, write_fallback
+from .journal_db import JournalError
 from .live_replan import DEFAULT_REPLAN_AFTER_S, Retasker
 from .record import DroneRecord
 

@@ -1,21 +1,12 @@
-"""The flight journal: everything `fly` learns about a flight, written as it happens, in DIR/journal.sqlite.
+"""The flight journal written: everything `fly` learns about a flight, written as it happens, in DIR/journal.sqlite.
 
-One SQLite database per plan folder, in WAL mode with synchronous=FULL: a committed transaction
-survives the process being killed and the machine losing power. One writer thread takes the drones'
-changes (record.DroneRecord's sink) from a queue and commits at least every COMMIT_S, so SIGKILL, a
-power cut, Ctrl-C or an exception lose at most that much. Readers (flight.json, `fly --resume`) open
-it beside a running writer.
+Owns opening the journal for a run (a new flight, or a resumed one) and writing it. One writer thread takes
+the drones' changes (record.DroneRecord's sink) from a queue and commits at least every COMMIT_S, so SIGKILL,
+a power cut, Ctrl-C or an exception lose at most that much. Readers (flight.json, `fly --resume`) open it
+beside a running writer (journal_read.py). The tables and connections are journal_db.py's.
 
 A *flight* is one `fly DIR` (one sortie flown once) with the `fly --resume DIR` runs that continue it;
-a *run* is one process. Tables:
-  flights(flight, sortie, started, judged, photos_from_track)   judged: when a run last wrote flight.json
-                                             from it; photos_from_track: judged with --photos-from-track
-  runs(run, flight, started, ended, how, command, commits)   how: "fly" or "resume"; ended NULL: it was
-                                             killed; commits: the transactions it committed
-  entries(flight, drone, kind, row)          every change of a DroneRecord, in order; row as JSON
-  samples(flight, drone, t, lat, lon, up, speed, boot_s, climb)   the positions, the bulk, in columns
-  photos(flight, drone, idx, t, lat, lon, up, source, roll, pitch, yaw, amsl)
-Entries are replayed through DroneRecord.replay, so the record read back is the record that was kept.
+a *run* is one process.
 
 When the disk does not play along:
 - a write that fails (a full disk, an I/O error, a quota, a read-only remount) pauses the journal: the
@@ -28,14 +19,13 @@ When the disk does not play along:
   of that run's commits than the counter says: the journal was cut, and opening it says so. A clean
   close of the database by anyone copies the -wal into it first, so the counts then agree;
 - a damaged database (bytes overwritten, the file cut short) is moved aside to journal.sqlite.damaged
-  and what SQLite can still read of it is copied, row by row (salvage.py), into a new journal, saying
+  and what SQLite can still read of it is copied, row by row (journal_repair.py), into a new journal, saying
   what was recovered and what was lost; a read-only one cannot be continued, said in one line.
 """
 
 from __future__ import annotations
 
 import json
-import math
 import os
 import queue
 import sqlite3
@@ -43,55 +33,25 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from missionplan.bridge.atomic import write_text_atomic
-from missionplan.bridge.formats.mission_items import WireItem
+from missionplan.base.atomic import write_text_atomic
 
-from .record import PHOTO_SOURCES, DroneRecord, Sink
-from .salvage import (TableSalvage, connect_read_only, fault_kind, has_sqlite_header, integrity_problem, move_aside,
-                      salvage_table, table_columns)
+from .journal_db import COUNTER_NAME, JOURNAL_NAME, JournalError, connect, entry_row, migrate, not_a_journal
+from .journal_read import read_records
+from .journal_repair import salvage_journal
+from .record import DroneRecord, Sink
+from .salvage import fault_kind, has_sqlite_header, integrity_problem
 
-JOURNAL_NAME = "journal.sqlite"
-COUNTER_NAME = "journal.commits"
 COMMIT_S = 0.25  # the most a crash can lose
 RETRY_S = 1.0  # a paused journal tries to write again this often
 CLOSE_S = 30.0  # at most this long for the last writes when the journal closes
-SCHEMA = """
-CREATE TABLE IF NOT EXISTS flights (flight INTEGER PRIMARY KEY, sortie INTEGER NOT NULL, started REAL NOT NULL,
-                                    judged REAL, photos_from_track INTEGER);
-CREATE TABLE IF NOT EXISTS runs (run INTEGER PRIMARY KEY, flight INTEGER NOT NULL, started REAL NOT NULL,
-                                 ended REAL, how TEXT NOT NULL, command TEXT NOT NULL,
-                                 commits INTEGER NOT NULL DEFAULT 0);
-CREATE TABLE IF NOT EXISTS entries (flight INTEGER NOT NULL, drone INTEGER NOT NULL, kind TEXT NOT NULL,
-                                    row TEXT NOT NULL);
-CREATE TABLE IF NOT EXISTS samples (flight INTEGER NOT NULL, drone INTEGER NOT NULL, t REAL, lat REAL, lon REAL,
-                                    up REAL, speed REAL, boot_s REAL, climb REAL);
-CREATE TABLE IF NOT EXISTS photos (flight INTEGER NOT NULL, drone INTEGER NOT NULL, idx INTEGER NOT NULL, t REAL,
-                                   lat REAL, lon REAL, up REAL, source TEXT NOT NULL, roll REAL, pitch REAL,
-                                   yaw REAL, amsl REAL);
-CREATE INDEX IF NOT EXISTS entries_by_drone ON entries (flight, drone);
-CREATE INDEX IF NOT EXISTS samples_by_drone ON samples (flight, drone);
-CREATE INDEX IF NOT EXISTS photos_by_drone ON photos (flight, drone);
-"""
-# Columns added since the first journals: (table, column, its declaration). Added when an older journal is
-# opened for writing; readers select NULL for them.
-ADDED_COLUMNS = (("photos", "amsl", "REAL"), ("runs", "commits", "INTEGER NOT NULL DEFAULT 0"),
-                 ("flights", "photos_from_track", "INTEGER"))
-TABLES = ("flights", "runs", "entries", "samples", "photos")
-ENTRY_KINDS = ("fact", "event", "reached", "landed", "problem", "note")
 # A flight a resume can continue: a vehicle was started, or fly was about to arm one (its `arming` fact
 # is committed before the arm command is sent, drone_flight.DroneFlight._arm).
 RESUMABLE = ("started", "arming")
 Item = tuple[str, tuple[Any, ...]]  # (kind, (drone, *row)) from a sink, or ("sql", (statement, args)) of our own
-
-
-class JournalError(Exception):
-    """A journal that cannot be used as asked (none to resume, not ours, damaged beyond repair, read-only):
-    one line for the user."""
 
 
 # ------------------------------------------------------------------------------------------- the commit counter
@@ -157,35 +117,6 @@ def _utc(t: float) -> str:
 
 
 # ------------------------------------------------------------------------------------------- opening
-def _connect(path: Path) -> sqlite3.Connection:
-    """A writable connection to path (created if missing); raises sqlite3.Error when it cannot be written."""
-    db = sqlite3.connect(path, check_same_thread=False, isolation_level=None, timeout=10.0)
-    try:
-        db.execute("PRAGMA journal_mode=WAL")
-        db.execute("PRAGMA synchronous=FULL")
-        db.execute("BEGIN IMMEDIATE")  # a file this process can write, or the error now, before any flight
-        db.execute("ROLLBACK")
-    except sqlite3.Error:
-        db.close()
-        raise
-    return db
-
-
-def _migrate(db: sqlite3.Connection) -> None:
-    db.executescript(SCHEMA)
-    for table, column, declaration in ADDED_COLUMNS:
-        if column not in _columns(db, table):  # a journal from before it
-            db.execute(f"ALTER TABLE {table} ADD COLUMN {column} {declaration}")
-
-
-def _columns(db: sqlite3.Connection, table: str) -> set[str]:
-    return {row[1] for row in db.execute(f"PRAGMA table_info({table})")}
-
-
-def _not_a_journal(path: Path, err: Any) -> JournalError:
-    return JournalError(f"{path}: not a missionplan flight journal ({err})")
-
-
 def _open_writable(plan_dir: Path) -> tuple[sqlite3.Connection, list[str], str | None]:
     """plan_dir's journal open for writing: (connection, what was repaired (one line each), why the
     journal was cut or None). A damaged journal is salvaged into a new one; one that cannot be written,
@@ -193,12 +124,12 @@ def _open_writable(plan_dir: Path) -> tuple[sqlite3.Connection, list[str], str |
     path = Path(plan_dir) / JOURNAL_NAME
     existed = path.exists()
     if existed and not has_sqlite_header(path):
-        raise _not_a_journal(path, "no SQLite header: another kind of file, or its first bytes were overwritten")
+        raise not_a_journal(path, "no SQLite header: another kind of file, or its first bytes were overwritten")
     counted = read_counter(plan_dir) if existed else None  # before the database (see _cut)
     repairs: list[str] = []
     damage = None
     try:
-        db = _connect(path)
+        db = connect(path)
     except sqlite3.Error as err:
         kind = fault_kind(err)
         if kind == "read-only":
@@ -215,129 +146,19 @@ def _open_writable(plan_dir: Path) -> tuple[sqlite3.Connection, list[str], str |
         repairs.append(salvage_journal(path, damage))
         counted = None  # the counter spoke of the damaged file
         try:
-            db = _connect(path)
+            db = connect(path)
         except sqlite3.Error as err:
             raise JournalError(f"{path}: cannot be written ({err})") from None
     try:
-        _migrate(db)
+        migrate(db)
         cut = _cut(db, path, counted)
     except sqlite3.Error as err:
         db.close()
-        raise _not_a_journal(path, err) from None
+        raise not_a_journal(path, err) from None
     return db, repairs, cut
 
 
-# ------------------------------------------------------------------------------------------- salvage
-def _salvage_rows(db: sqlite3.Connection) -> dict[str, tuple[list[str], TableSalvage] | None]:
-    out: dict[str, tuple[list[str], TableSalvage] | None] = {}
-    for table in TABLES:
-        columns = table_columns(db, table)
-        out[table] = None if columns is None else (columns, salvage_table(db, table, ", ".join(columns)))
-    return out
-
-
-def _position(values: dict[str, Any]) -> bool:
-    lat, lon = values.get("lat"), values.get("lon")
-    if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in (lat, lon, values.get("t"))):
-        return False
-    # (0, 0): what a page cut short reads as; fly records no position before a vehicle has its GPS fix.
-    return -90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0 and (lat, lon) != (0.0, 0.0)
-
-
-def _usable(table: str, row: tuple[Any, ...], columns: list[str]) -> bool:
-    """Whether a salvaged row reads as one of ours: a damaged page (or a page cut short, read as zeros)
-    can yield rows of garbage, which are dropped and counted as lost."""
-    values = dict(zip(columns, row[1:]))
-    if table == "entries":
-        if values.get("kind") not in ENTRY_KINDS:
-            return False
-        try:
-            return isinstance(json.loads(values.get("row") or ""), list)
-        except (TypeError, ValueError):
-            return False
-    if table == "samples":
-        return _position(values)
-    if table == "photos":
-        return _position(values) and isinstance(values.get("idx"), int) and values.get("source") in PHOTO_SOURCES
-    return True
-
-
-def _plural(n: int, word: str) -> str:
-    if n == 1:
-        return f"1 {word[:-1] if word.endswith('s') else word}"
-    return f"{n:,} {word}"
-
-
-def salvage_journal(path: Path, damage: str) -> str:
-    """Move the damaged journal aside (journal.sqlite.damaged) and copy what can be read of it into a new
-    journal at path; returns the one line that says so (what was recovered, what was lost). Raises
-    JournalError when nothing can be read (the damaged file stays aside) or the new one cannot be written
-    (then the damaged one is put back)."""
-    aside = move_aside(path)
-    src = sqlite3.connect(aside, isolation_level=None)
-    try:
-        src.execute("PRAGMA writable_schema=ON")  # read the tables even when an index's pages are gone
-        salvaged = _salvage_rows(src)
-    finally:
-        src.close()
-    if salvaged["flights"] is None or salvaged["runs"] is None or salvaged["flights"][1].unreadable:
-        raise JournalError(f"{path}: damaged beyond repair ({damage}): not even its flights can be read; "
-                           f"kept as {aside.name}")
-    kept: dict[str, int] = {}
-    lost: list[str] = []
-    try:
-        db = _connect(path)
-        _migrate(db)
-        db.execute("BEGIN")
-        for table in TABLES:
-            got = salvaged[table]
-            if got is None:
-                lost.append(f"the whole {table} table")
-                continue
-            columns, rows = got
-            ours = _columns(db, table)
-            use = [i for i, c in enumerate(columns) if c in ours]
-            names = ", ".join(["rowid"] + [columns[i] for i in use])
-            good = [row for row in rows.rows if _usable(table, row, columns)]
-            db.executemany(f"INSERT INTO {table} ({names}) VALUES ({', '.join('?' * (len(use) + 1))})",
-                           [(row[0], *(row[i + 1] for i in use)) for row in good])
-            kept[table] = len(good)
-            garbled = len(rows.rows) - len(good)
-            if rows.lost_rows is None:
-                last = rows.lost[-1][0] - 1
-                lost.append((f"the {table} after row {last:,}" if last > 0 else f"all the {table}")
-                            + (f" and {garbled} unreadable" if garbled else ""))
-            elif rows.lost_rows or garbled:
-                lost.append(_plural(rows.lost_rows + garbled, table))
-        db.execute("COMMIT")
-        db.close()
-    except sqlite3.Error as err:
-        for name in (path.name, path.name + "-wal", path.name + "-shm"):
-            path.with_name(name).unlink(missing_ok=True)
-        aside.rename(path)
-        aside_wal = aside.with_name(aside.name + "-wal")
-        if aside_wal.exists():
-            aside_wal.rename(path.with_name(path.name + "-wal"))
-        raise JournalError(f"{path}: damaged ({damage}) and no repaired copy could be written ({err})") from None
-    (Path(path).parent / COUNTER_NAME).unlink(missing_ok=True)  # it counted the damaged file's commits
-    recovered = ", ".join(_plural(kept.get(t, 0), t) for t in TABLES)
-    return (f"{path}: damaged ({damage}); kept as {aside.name}, and what could be read copied into a new "
-            f"{path.name}: {recovered}; lost: {', '.join(lost) if lost else 'nothing'}")
-
-
 # ------------------------------------------------------------------------------------------- the journal
-def _encode(name: str, value: Any) -> Any:
-    if name == "wire":
-        return [asdict(item) for item in value]
-    return value
-
-
-def _decode(name: str, value: Any) -> Any:
-    if name == "wire":
-        return [WireItem(**item) for item in value]
-    return value
-
-
 def _fault_label(err: BaseException) -> str:
     return {"full": "disk full", "read-only": "journal read-only", "damaged": "journal damaged"}.get(
         fault_kind(err), "journal write failed")
@@ -545,7 +366,7 @@ class Journal:
             elif kind in ("sample", "photo"):
                 tables[kind + "s"].append(list(row))
             else:
-                tables["entries"].append(_entry(kind, row))
+                tables["entries"].append(entry_row(kind, row))
         for table, values in tables.items():
             if values:
                 columns = ", ".join(f"json_extract(value, '$[{i}]')" for i in range(len(values[0])))
@@ -612,13 +433,6 @@ class Journal:
         return [{"run": r[0], "started": r[1], "ended": r[2], "how": r[3], "command": r[4]} for r in rows]
 
 
-def _entry(kind: str, row: tuple[Any, ...]) -> list[Any]:
-    drone, *rest = row
-    if kind == "fact":
-        rest = [rest[0], _encode(rest[0], rest[1])]
-    return [drone, kind, json.dumps(rest)]
-
-
 # ------------------------------------------------------------------------------------------- the fallback file
 def fallback_folder(plan_dir: Path) -> list[Path]:
     """Where a record that cannot be written into plan_dir goes: the temp folder and the home folder, those
@@ -650,7 +464,7 @@ def write_fallback(journal: Journal, flight_doc: dict[str, Any] | None, why: str
         if kind in ("sample", "photo"):
             rows.append({"kind": kind, "drone": row[0], "row": list(row[1:])})
         else:
-            drone, entry_kind, text = _entry(kind, row)
+            drone, entry_kind, text = entry_row(kind, row)
             rows.append({"kind": entry_kind, "drone": drone, "row": json.loads(text)})
     doc = {"what": "the part of a flight's record fly could not write into its plan folder",
            "plan_dir": str(plan_dir.resolve()), "journal": str(journal.path.resolve()), "flight": journal.flight,
@@ -667,110 +481,3 @@ def write_fallback(journal: Journal, flight_doc: dict[str, Any] | None, why: str
             errors.append(f"{folder}: {err.strerror or err}")
     raise OSError(f"no folder took it ({'; '.join(errors)})")
 
-
-# ------------------------------------------------------------------------------------------- reading
-def read_records(db: sqlite3.Connection, flight: int, ids: list[int] | None = None) -> list[DroneRecord]:
-    """The DroneRecords of a flight, rebuilt by replaying its entries, samples and photos in order.
-    `ids`: the drones to return, in that order (a drone with nothing journaled gets an empty record)."""
-    records: dict[int, DroneRecord] = {}
-
-    def record(drone: int) -> DroneRecord:
-        if drone not in records:
-            records[drone] = DroneRecord(id=drone)
-        return records[drone]
-
-    # Read as it is, never altered: a journal written by an older fly may lack a table or a column.
-    have = {table: _columns(db, table) for table in ("entries", "samples", "photos")}
-    if have["entries"]:
-        for drone, kind, row in db.execute("SELECT drone, kind, row FROM entries WHERE flight = ? ORDER BY rowid",
-                                           (flight,)):
-            values = json.loads(row)
-            if kind == "fact":
-                values = [values[0], _decode(values[0], values[1])]
-            record(drone).replay(kind, tuple(values))
-    if have["samples"]:
-        for drone, *sample in db.execute("SELECT drone, t, lat, lon, up, speed, boot_s, climb FROM samples "
-                                         "WHERE flight = ? ORDER BY rowid", (flight,)):
-            record(drone).samples.append(tuple(sample))  # type: ignore[arg-type]
-    if have["photos"]:
-        amsl = "amsl" if "amsl" in have["photos"] else "NULL"
-        for drone, *photo in db.execute(f"SELECT drone, idx, t, lat, lon, up, source, roll, pitch, yaw, {amsl} FROM "
-                                        "photos WHERE flight = ? ORDER BY rowid", (flight,)):
-            record(drone).replay("photo", tuple(photo))
-    if ids is None:
-        return [records[k] for k in sorted(records)]
-    return [record(k) for k in ids]
-
-
-def _open_to_read(path: Path) -> sqlite3.Connection:
-    """A journal open for reading: as any reader beside a running writer, or, where the folder cannot
-    be written (a read-only disk), without writing anything."""
-    try:
-        db = sqlite3.connect(path, check_same_thread=False, timeout=10.0)
-        db.execute("SELECT 1 FROM sqlite_master").fetchall()
-        return db
-    except sqlite3.Error as err:
-        if fault_kind(err) != "read-only":
-            raise _not_a_journal(path, err) from None
-    return connect_read_only(path)
-
-
-def read_flight(plan_dir: Path, flight: int | None = None) -> tuple[int, int, list[DroneRecord]]:
-    """(flight, sortie, records) of plan_dir's journal: the latest flight, or the one asked for."""
-    path = Path(plan_dir) / JOURNAL_NAME
-    if not path.is_file():
-        raise JournalError(f"{plan_dir}: no {JOURNAL_NAME}")
-    if not has_sqlite_header(path):
-        raise _not_a_journal(path, "no SQLite header")
-    db = _open_to_read(path)
-    try:
-        where = "" if flight is None else f" WHERE flight = {int(flight)}"
-        row = db.execute(f"SELECT flight, sortie FROM flights{where} ORDER BY flight DESC LIMIT 1").fetchone()
-        if row is None:
-            raise JournalError(f"{path}: no such flight")
-        return int(row[0]), int(row[1]), read_records(db, int(row[0]))
-    except sqlite3.DatabaseError as err:
-        raise _not_a_journal(path, err) from None
-    finally:
-        db.close()
-
-
-@dataclass
-class JudgedFlight:
-    """A flight of a journal that fly judged (wrote flight.json from): what the survey ledger recorded of it."""
-
-    flight: int
-    sortie: int
-    judged: float  # when
-    photos_from_track: bool
-    records: list[DroneRecord]
-
-
-def judged_flights(plan_dir: Path) -> list[JudgedFlight]:
-    """Every judged flight of plan_dir's journal, oldest judgement first ([] without a journal). Raises
-    JournalError when the journal cannot be read (damaged: `fly --resume` repairs it)."""
-    path = Path(plan_dir) / JOURNAL_NAME
-    if not path.is_file():
-        return []
-    if not has_sqlite_header(path):
-        raise _not_a_journal(path, "no SQLite header")
-    db = _open_to_read(path)
-    try:
-        damage = integrity_problem(db)
-        if damage:
-            raise JournalError(f"{path}: damaged ({damage})")
-        track = "photos_from_track" if "photos_from_track" in _columns(db, "flights") else "NULL"
-        rows = db.execute(f"SELECT flight, sortie, judged, {track} FROM flights WHERE judged IS NOT NULL "
-                          "ORDER BY judged").fetchall()
-        out = []
-        for flight, sortie, judged, from_track in rows:
-            if from_track is None:  # judged by a fly from before the column: its command line says
-                commands = [r[0] for r in db.execute("SELECT command FROM runs WHERE flight = ?", (flight,))]
-                from_track = any("--photos-from-track" in command for command in commands)
-            out.append(JudgedFlight(int(flight), int(sortie), float(judged), bool(from_track),
-                                    read_records(db, int(flight))))
-        return out
-    except sqlite3.DatabaseError as err:
-        raise JournalError(f"{path}: cannot be read ({err})") from None
-    finally:
-        db.close()

@@ -22,10 +22,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from missionplan.bridge.atomic import probe_writable
+from missionplan.base.atomic import probe_writable
 
 from .photo_positions import flight_photos
-from .journal import JOURNAL_NAME, JournalError, judged_flights
+from .journal_db import JOURNAL_NAME, JournalError
+from .journal_read import judged_flights
 from .ledger import LEDGER_NAME, Ledger, LedgerError, Survey, _read_report, open_survey, survey_root
 from .salvage import connect_read_only, fault_kind, has_sqlite_header, integrity_problem, move_aside, salvage_table
 

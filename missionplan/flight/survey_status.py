@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from missionplan.bridge.atomic import atomic_path, write_text_atomic
+from missionplan.base.atomic import atomic_path, write_text_atomic
 from missionplan.bridge.terminal_text import printable
 from missionplan.geo.cells import cells_feature
 

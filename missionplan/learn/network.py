@@ -24,7 +24,7 @@ from typing import Sequence
 
 import numpy as np
 
-from missionplan.bridge.atomic import atomic_path
+from missionplan.base.atomic import atomic_path
 from ..grid.world import CoverageWorld
 from .features import STATE_SIZE, encode_states
 

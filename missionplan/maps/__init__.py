@@ -2,7 +2,7 @@
 
 The maps: the GridMap type and its .map file format, the generated shipped maps, the catalog of maps/.
 
-May import: nothing else from missionplan (the lowest stage) but missionplan.bridge.atomic, for atomic writes.
+May import: nothing else from missionplan (the lowest stage) but missionplan.base, for atomic writes.
 Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_layers.py).
 
   catalog         The shipped maps: the `*.map` files in the repository's top-level `maps/` folder.

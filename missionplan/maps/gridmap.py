@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from missionplan.bridge.atomic import write_text_atomic
+from missionplan.base.atomic import write_text_atomic
 
 OBSTACLE_CHAR = "#"
 TARGET_CHAR = "."

@@ -13,7 +13,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from missionplan.bridge.atomic import write_text_atomic
+from missionplan.base.atomic import write_text_atomic
 from missionplan.geo.gpkg import write_geopackage
 from missionplan.geo.kml import write_kmz
 

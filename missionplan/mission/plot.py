@@ -30,7 +30,7 @@ from matplotlib.patches import Patch  # noqa: E402
 from matplotlib.transforms import ScaledTranslation  # noqa: E402
 from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar  # noqa: E402
 
-from missionplan.bridge.atomic import atomic_path  # noqa: E402
+from missionplan.base.atomic import atomic_path  # noqa: E402
 from missionplan.bridge.terminal_text import printable  # noqa: E402
 from missionplan.geo.frame import GridFrame  # noqa: E402
 from ..grid.planresult import PlanResult  # noqa: E402

@@ -16,7 +16,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from missionplan.bridge.atomic import write_text_atomic
+from missionplan.base.atomic import write_text_atomic
 from ..grid.planresult import PlanResult
 
 

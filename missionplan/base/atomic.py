@@ -2,7 +2,8 @@
 
 A reader never sees a half-written file and a failed write leaves nothing behind. The
 temp file gets the permissions a plain open() would give (mkstemp makes 0600 files).
-Lives in bridge, the lowest layer that writes files, so that bridge and missionplan share it.
+Lives in base, below every layer, so that every layer that writes a file (geo, maps, learn, bridge and
+the ones above) shares it.
 """
 
 from __future__ import annotations

@@ -1,0 +1,7 @@
+"""missionplan.base: what every layer shares, below them all.
+
+May import: nothing from missionplan (tests/test_layers.py), so that geo, maps and learn need nothing from
+bridge to write a file, and bridge needs nothing from the planner.
+
+  atomic          atomic file output: write a temp file beside the target, then rename
+"""
