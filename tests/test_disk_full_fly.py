@@ -28,6 +28,8 @@ from missionplan.cli import main
 from missionplan.flight.journal import JOURNAL_NAME, read_flight
 from missionplan.flight.mock_fleet import start_mock_fleet
 
+pytestmark = pytest.mark.flight  # flies mock autopilots: `pytest -m "not flight"` leaves it out
+
 ROOT = Path(__file__).resolve().parent.parent
 SPEEDUP = 4.0  # Leonardo's 3 drones, about 60 s planned each: 15 s of wall time
 SYSIDS = (1, 2, 3)

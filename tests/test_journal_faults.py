@@ -18,12 +18,12 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from loopback import wait_until
 from small_disk import read_only, small_disk
 
 from missionplan.flight.journal import (COUNTER_NAME, JOURNAL_NAME, Journal, JournalError, read_flight,
                                         write_fallback)
 from missionplan.flight.record import DroneRecord
+from missionplan.testing.loopback import wait_until
 
 ROOT = Path(__file__).resolve().parent.parent
 
