@@ -7,8 +7,8 @@
   `flight`, so that `pytest -m "not sitl and not flight"` is a quick subset without them, while `make
   test` runs all. What a test reaches is read from its body, the fixtures it asks for and the functions
   of its module (and of its folder's conftest.py) it calls, followed through: it starts a real autopilot
-  when its module imports the SITL / PX4 SIH support (missionplan.testing.arducopter, px4_sih, sitl_fleet)
-  or it asks for the plugin's `arducopter`, `px4` or `arducopter_fleet` fixture; it flies mock autopilots
+  when it reaches the plugin's `arducopter`, `px4` or `arducopter_fleet` fixture or starts a vehicle
+  itself (missionplan.testing's ArduCopter, PX4 or sitl_fleet); it flies mock autopilots
   when it reaches a mock fleet (missionplan.flight.mock_fleet.start_mock_fleet, the plugin's `mock_fleet`,
   tests/lost_drone.py, `missionplan demo`), or a MockAutopilot together with something that flies it (`fly`,
   the re-task harness, or arming and MISSION_START). The marker is the module's `pytestmark` or the test's
@@ -24,10 +24,11 @@ ROOT = Path(__file__).resolve().parent.parent
 SUITES = (ROOT / "tests", ROOT / "sitl_tests")
 SUPPORT = ROOT / "missionplan" / "testing"  # the test support: its waits are held to the same rule
 ALLOWED_SLEEPS = {("loopback.py", "wait_until")}  # (file, enclosing function)
-REAL_AUTOPILOT_MODULES = {f"missionplan.testing.{name}" for name in ("arducopter", "px4_sih", "sitl_fleet")}
-# Fixtures asked for (arg:NAME) of missionplan/testing/plugin.py.
-REAL_AUTOPILOT_FIXTURES = {"arg:arducopter", "arg:px4", "arg:arducopter_fleet"}
-# Reached, these fly mock autopilots whatever else the test does.
+# What a test reaches, as _names() spells it: NAME (a name it uses), attr:NAME (an attribute), arg:NAME (a
+# fixture it asks for), cli:COMMAND (a command line it builds).
+# The fixtures of missionplan/testing/plugin.py that start real autopilots, and what starts one directly.
+REAL_AUTOPILOTS = {"arg:arducopter", "arg:px4", "arg:arducopter_fleet", "ArduCopter", "PX4", "sitl_fleet"}
+# Reached, these fly mock autopilots whatever else the test does (names or attributes alike).
 MOCK_FLEET_FLIGHTS = {"start_mock_fleet", "arg:mock_fleet", "fly_with_a_lost_drone", "cli:demo"}
 # Reached together with a MockAutopilot, these fly it.
 MOCK_FLYERS = {"fly", "cli:fly", "retask_and_follow", "start_flying"}
@@ -75,16 +76,6 @@ def test_the_rule_finds_a_sleep() -> None:
     assert _sleeps(tree) == [("test_x", 4)]
 
 
-def _imports(tree: ast.Module) -> set[str]:
-    names: set[str] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            names.add(node.module)
-        elif isinstance(node, ast.Import):
-            names.update(alias.name for alias in node.names)
-    return names
-
-
 def _walk_own(node: ast.AST) -> list[ast.AST]:
     """The nodes of a function's arguments and body, or a class's body (decorators left out: a
     parametrize list is data, not something the test does)."""
@@ -99,8 +90,8 @@ def _walk_own(node: ast.AST) -> list[ast.AST]:
 
 def _names(node: ast.AST) -> set[str]:
     """What a function (or class) names: `arg:NAME` for its arguments (the fixtures it asks for), every name
-    and attribute it uses, and `cli:COMMAND` for a command line it builds (a list of strings starting with
-    `fly` or `demo`, or with `missionplan fly` / `missionplan demo` in it)."""
+    and `attr:NAME` for every attribute it uses, and `cli:COMMAND` for a command line it builds (a list of
+    strings starting with `fly` or `demo`, or with `missionplan fly` / `missionplan demo` in it)."""
     found: set[str] = set()
     for n in _walk_own(node):
         if isinstance(n, ast.arg):
@@ -108,7 +99,7 @@ def _names(node: ast.AST) -> set[str]:
         elif isinstance(n, ast.Name):
             found.add(n.id)
         elif isinstance(n, ast.Attribute):
-            found.add(n.attr)
+            found.add(f"attr:{n.attr}")
         elif isinstance(n, (ast.List, ast.Tuple)):
             words = [e.value if isinstance(e, ast.Constant) and isinstance(e.value, str) else None for e in n.elts]
             for k, word in enumerate(words):
@@ -150,10 +141,15 @@ def _reach(test: ast.AST, definitions: dict[str, ast.AST]) -> set[str]:
     return names
 
 
+def starts_a_real_autopilot(names: set[str]) -> bool:
+    return bool(names & REAL_AUTOPILOTS)  # names, not attributes: Flavour.PX4 is no vehicle
+
+
 def flies_mock_autopilots(names: set[str]) -> bool:
-    if names & MOCK_FLEET_FLIGHTS:
+    used = {n.removeprefix("attr:") for n in names}  # mavlink.MAV_CMD_MISSION_START, vehicle.arm(), fly_module.fly
+    if used & MOCK_FLEET_FLIGHTS:
         return True
-    return "MockAutopilot" in names and bool(names & MOCK_FLYERS or (MISSION_START in names and names & ARMING))
+    return "MockAutopilot" in used and bool(used & MOCK_FLYERS or (MISSION_START in used and used & ARMING))
 
 
 def _module_marks(tree: ast.Module) -> str:
@@ -165,14 +161,12 @@ def unmarked(source: str, conftest: str = "") -> dict[str, list[str]]:
     """marker -> the tests of a module (`source`; `conftest`: its folder's conftest.py) that need it and lack it."""
     tree = ast.parse(source)
     definitions = {**_definitions(ast.parse(conftest)), **_definitions(tree)}
-    real_module = bool(_imports(tree) & REAL_AUTOPILOT_MODULES)
     module_marks = _module_marks(tree)
     missing: dict[str, list[str]] = {"sitl": [], "flight": []}
     for name, test, decorators in _tests(tree):
         names = _reach(test, definitions)
         marks = module_marks + " " + " ".join(ast.unparse(d) for d in decorators)
-        needs = {"sitl": real_module or bool(names & REAL_AUTOPILOT_FIXTURES),
-                 "flight": flies_mock_autopilots(names)}
+        needs = {"sitl": starts_a_real_autopilot(names), "flight": flies_mock_autopilots(names)}
         for marker, needed in needs.items():
             if needed and f"mark.{marker}" not in marks:
                 missing[marker].append(name)
@@ -218,6 +212,8 @@ def test_the_rules_find_an_unmarked_flight_and_an_unmarked_autopilot() -> None:
                "def test_flies():\n    with MockAutopilot() as mock:\n        _start_and_arm(mock.link)\n\n"
                "def test_refused():\n    with MockAutopilot() as mock:\n        command(mock.link, mavlink.MAV_CMD_MISSION_START)\n")
     assert unmarked(started)["flight"] == ["test_flies"]
+    assert unmarked("def test_v():\n    with ArduCopter(sysid=1) as v:\n        assert v\n\n"
+                    "def test_flavour():\n    assert Flavour.PX4\n")["sitl"] == ["test_v"]
     through_a_fixture = ("@pytest.fixture\ndef fleet(arducopter_fleet, tmp_path):\n    return arducopter_fleet(tmp_path)\n")
     assert unmarked("def test_x(fleet):\n    pass\n", through_a_fixture) == {"sitl": ["test_x"], "flight": []}
     assert unmarked("@pytest.mark.parametrize('argv', [['demo', '--uav', '2']])\ndef test_usage(argv):\n"
