@@ -102,3 +102,8 @@ def test_an_absent_simulator_skips_with_where_it_was_looked_for(monkeypatch: pyt
     assert str(sitl.value).startswith(f"ArduCopter SITL not found at {tmp_path / 'sitl' / 'arducopter'}")
     assert str(px4.value).startswith(f"PX4 SIH not found at {tmp_path / 'px4' / 'bin' / 'px4'}")
     assert "--simulators DIR or MISSIONPLAN_SIMULATORS=DIR" in str(sitl.value)
+    monkeypatch.delenv(simulators.ENV)
+    monkeypatch.setattr(simulators, "checkout", lambda: None)  # an installed missionplan: nowhere to look
+    with pytest.raises(pytest.skip.Exception) as installed:
+        sitl_or_skip()
+    assert str(installed.value).startswith("ArduCopter SITL: no simulators folder known (--simulators DIR")
