@@ -23,8 +23,8 @@ system ids 1-N, every GCS link into one free udpin port, TRIG_MODE 4 at boot, fl
 drones: SIH runs in real time and the machine has 2 cores). Coverage from the vehicles' CAMERA_IMAGE_CAPTURED.
 
 Fault rows (`--faults sitl`, needs ../shared/sitl/arducopter): the fleet of sitl_tests/test_fly_faults_sitl.py
-(three ArduCopter SITL vehicles at 5x through a loopback relay, the 200 x 140 m Milan block from 20 m, fly as
-a child process) with one fault mid-flight (every vehicle past mission item 5): `kill` (uav2's SITL
+(missionplan/testing/sitl_fleet.py: three ArduCopter SITL vehicles at 5x through a loopback relay, the
+200 x 140 m Milan block from 20 m, fly as a child process) with one fault mid-flight (every vehicle past mission item 5): `kill` (uav2's SITL
 SIGKILLed), `link-drop` (the relay drops everything both ways for 30 s of wall time), `battery` (uav2's
 SIM_BATT_VOLTAGE set under BATT_LOW_VOLT, BATT_FS_LOW_ACT = 2: RTL). Each row: the time from the fault to
 fly's first alert about it (wall seconds, and the vehicles' seconds at 5x), the photos fly recorded, how
@@ -41,23 +41,21 @@ import copy
 import io
 import json
 import shutil
-import sys
 import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
+import missionplan.flight.fly as fly_module
+from missionplan.cli import main
+from missionplan.flight.flight_report import judge
+from missionplan.flight.fly import fly, flight_view
+from missionplan.flight.mock_fleet import start_mock_fleet
+
+import doctable  # bench/doctable.py: --write-doc
+
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "sitl_tests"))
 
-import missionplan.flight.fly as fly_module  # noqa: E402
-from missionplan.cli import main  # noqa: E402
-from missionplan.flight.flight_report import judge  # noqa: E402
-from missionplan.flight.fly import fly, flight_view  # noqa: E402
-from missionplan.flight.mock_fleet import start_mock_fleet  # noqa: E402
-
-import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 
 SPEEDUP = {"leonardo": 2.0}  # a 20 x 10 m arena; the street maps are hundreds of metres: 50x
 DEFAULT_SPEEDUP = 50.0
@@ -143,8 +141,8 @@ def mock_row(name: str, uavs: int, plan_dir: Path, flavour: str = "ardupilot") -
 
 def px4_row(name: str, uavs: int, plan_dir: Path) -> str:
     """The whole fleet at once on PX4 SIH, as sitl_tests/test_fleet_px4.py flies it."""
-    from loopback import free_udp_port
-    from px4_sih import PX4
+    from missionplan.testing.loopback import free_udp_port
+    from missionplan.testing.px4_sih import PX4
 
     from missionplan.bridge.formats.missionfile import read_mission_file
 
@@ -179,7 +177,7 @@ def _shifted(rec: Any, by: float) -> Any:
 
 
 def sitl_row(name: str, uavs: int, plan_dir: Path) -> str:
-    from arducopter import ArduCopter, configure_camera_and_wait_ready
+    from missionplan.testing.arducopter import ArduCopter, configure_camera_and_wait_ready
 
     from missionplan.bridge.formats.missionfile import read_mission_file
 
@@ -233,21 +231,22 @@ def _true_coverage(plan_dir: Path, photos_at: dict[int, dict[int, tuple[float, f
 
 
 def fault_row(fault: str, plan_dir: Path) -> str:
-    """One fault on a fresh SITL fleet (sitl_tests/test_fly_faults_sitl.py's set-up); its row."""
+    """One fault on a fresh SITL fleet (missionplan/testing/sitl_fleet.py, as sitl_tests/test_fly_faults_sitl.py flies it); its row."""
     import os
     import signal
 
-    from loopback import wait_until
-    from test_fly_faults_sitl import SPEEDUP as FAULT_SPEEDUP
-    from test_fly_faults_sitl import (BATTERY_LOW_V, BATTERY_SIM_V, FLY_TIMEOUT_S, LINK_DROP_S, SYSIDS, FlyRun,
-                                      _in_flight, _set_param_on_serial1, sitl_fleet)
+    from missionplan.testing.loopback import wait_until
+    from missionplan.testing.sitl_fleet import SPEEDUP as FAULT_SPEEDUP
+    from missionplan.testing.sitl_fleet import (BATTERY_LOW_V, BATTERY_SIM_V, FLY_TIMEOUT_S, LINK_DROP_S, SYSIDS,
+                                                FlyRun, configure, in_flight, set_param_on_serial1, sitl_fleet)
 
     params = {"BATT_FS_LOW_ACT": 2.0, "BATT_LOW_VOLT": BATTERY_LOW_V} if fault == "battery" else None
-    with sitl_fleet(plan_dir, params) as fleet:
+    with sitl_fleet(plan_dir, SYSIDS) as fleet:
+        configure(fleet, params)
         relay = fleet.relay
         run = FlyRun(plan_dir, fleet.url)
         try:
-            if not _in_flight(relay, FAULT_ITEM):
+            if not in_flight(relay, FAULT_ITEM):
                 run.kill()
                 return f"{fault:<11}{FAULT_SYSID:>4}  the fleet never got past item {FAULT_ITEM}"
             seen = len(run.lines)
@@ -259,7 +258,7 @@ def fault_row(fault: str, plan_dir: Path) -> str:
                 relay.drop()
                 words, target = ("link lost",), ""
             else:
-                _set_param_on_serial1(fleet.vehicle(FAULT_SYSID), "SIM_BATT_VOLTAGE", BATTERY_SIM_V)
+                set_param_on_serial1(fleet.vehicle(FAULT_SYSID), "SIM_BATT_VOLTAGE", BATTERY_SIM_V)
                 words = ("battery", "failsafe", "mode changed")
             fault_at = time.monotonic()
 
@@ -286,7 +285,7 @@ def fault_row(fault: str, plan_dir: Path) -> str:
 
 
 def fault_table(policy: str) -> None:
-    from test_fly_faults_sitl import AREA, LAUNCHES
+    from missionplan.testing.sitl_fleet import AREA, LAUNCHES
 
     print(FAULT_HEADER)
     print("-" * len(FAULT_HEADER))

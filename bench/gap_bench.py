@@ -36,14 +36,13 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from missionplan.grid.planner import POLICY_PATIENCE, Policy  # noqa: E402
-from missionplan.maps.gridmap import read_map_text  # noqa: E402
-from missionplan.maps.movingai import parse_movingai  # noqa: E402
-from missionplan.pipeline import make_policy, plan_map  # noqa: E402
+from missionplan.grid.planner import POLICY_PATIENCE, Policy
+from missionplan.maps.gridmap import read_map_text
+from missionplan.maps.movingai import parse_movingai
+from missionplan.pipeline import make_policy, plan_map
 
-import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
+import doctable  # bench/doctable.py: --write-doc
 
 ROOT = Path(__file__).resolve().parent.parent
 MOVINGAI_DIR = ROOT.parent / "shared" / "maps" / "movingai"

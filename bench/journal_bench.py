@@ -23,23 +23,21 @@ import contextlib
 import io
 import json
 import sqlite3
-import sys
 import tempfile
 import threading
 import time
 from pathlib import Path
 
+import doctable
+
+from missionplan.cli import main
+from missionplan.flight import disk_space
+from missionplan.flight.journal import Journal
+from missionplan.flight.journal_db import JOURNAL_NAME
+from missionplan.flight.record import DroneRecord
+
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
 
-import doctable  # noqa: E402
-
-from missionplan.cli import main  # noqa: E402
-from missionplan.flight import disk_space  # noqa: E402
-from missionplan.flight.journal import Journal  # noqa: E402
-from missionplan.flight.journal_db import JOURNAL_NAME  # noqa: E402
-from missionplan.flight.record import DroneRecord  # noqa: E402
 
 ROWS = 30_000
 JOURNAL_FILES = (JOURNAL_NAME, JOURNAL_NAME + "-wal", JOURNAL_NAME + "-shm", "journal.commits")

@@ -18,8 +18,7 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from child_row import peak_rss_mb, run_child_row  # noqa: E402
+from child_row import peak_rss_mb, run_child_row
 
 HOME = "0\t1\t0\t16\t0\t0\t0\t0\t45.07\t7.68\t240\t1\n"
 ITEM = {"type": "SimpleItem", "command": 16, "frame": 3, "params": [0, 0, 0, None, 45.07, 7.68, 30],

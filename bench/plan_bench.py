@@ -14,17 +14,14 @@ shipped weights.
 from __future__ import annotations
 
 import argparse
-import sys
 import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from missionplan.maps.catalog import load_shipped, shipped_map_names  # noqa: E402
-from missionplan.pipeline import POLICIES, make_policy, plan_map  # noqa: E402
-from missionplan.grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS  # noqa: E402
+from missionplan.maps.catalog import load_shipped, shipped_map_names
+from missionplan.pipeline import POLICIES, make_policy, plan_map
+from missionplan.grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 
-import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
+import doctable  # bench/doctable.py: --write-doc
 
 # Thesis Tables 5.1-5.4, for 3, 4, 5, 6 UAVs: (MMN, TE %, MNT %, MUD, MDU).
 THESIS = {

@@ -41,12 +41,12 @@ import types
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+import doctable  # bench/doctable.py: --write-doc
+from child_row import peak_rss_mb, run_child_row
+from machine import machine_line
 
-import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
-from child_row import peak_rss_mb, run_child_row  # noqa: E402
-from machine import machine_line  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
+
 
 TURIN = ROOT.parent / "shared" / "maps" / "turin_cenisia_osm_buildings.geojson"
 LAT0, LON0 = 45.0, 7.6

@@ -34,21 +34,20 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from missionplan.grid import metrics, planner  # noqa: E402
-from missionplan import pipeline  # noqa: E402
-from missionplan.base.atomic import atomic_path  # noqa: E402
-from missionplan.maps.gridmap import GridMap, read_map_text  # noqa: E402
-from missionplan.maps.movingai import parse_movingai  # noqa: E402
-from missionplan.maps.mapgen import CITY_LAUNCH_EDGE_MARGIN, launch_candidates, median_launch_cells  # noqa: E402
-from missionplan.pipeline import POLICIES, make_policy, plan_map  # noqa: E402
-from missionplan.learn.trainmaps import TARGET, kind_of, random_city  # noqa: E402
+from missionplan.grid import metrics, planner
+from missionplan import pipeline
+from missionplan.base.atomic import atomic_path
+from missionplan.maps.gridmap import GridMap, read_map_text
+from missionplan.maps.movingai import parse_movingai
+from missionplan.maps.mapgen import CITY_LAUNCH_EDGE_MARGIN, launch_candidates, median_launch_cells
+from missionplan.pipeline import POLICIES, make_policy, plan_map
+from missionplan.learn.trainmaps import TARGET, kind_of, random_city
 
-import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
-from child_row import peak_rss_mb, run_child_row  # noqa: E402
-from machine import machine_line  # noqa: E402
-from streets import street_width_summary  # noqa: E402
+import doctable  # bench/doctable.py: --write-doc
+from child_row import peak_rss_mb, run_child_row
+from machine import machine_line
+from streets import street_width_summary
 
 SIZES = (256, 512, 1024, 2048)
 UAVS = (6, 20, 50)

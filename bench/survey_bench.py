@@ -1,9 +1,9 @@
 """Live re-tasking measured on ArduCopter SITL: a drone lost half-way, `fly --replan`, against the ideal.
 
 Run by hand: `.venv/bin/python bench/survey_bench.py [--runs N] [--replan-after S] [--write-doc FILE]`
-(needs ../shared/sitl/arducopter). Each run: the fleet of sitl_tests/test_fly_faults_sitl.py (three
-ArduCopter SITL vehicles at 5x through a loopback relay, the 200 x 140 m Milan block from 20 m, fly as
-a child process with --replan), vehicle 2's SITL SIGKILLed once it is half-way through its mission items.
+(needs ../shared/sitl/arducopter). Each run: the fleet of sitl_tests/test_fly_faults_sitl.py
+(missionplan/testing/sitl_fleet.py: three ArduCopter SITL vehicles at 5x through a loopback relay, the
+200 x 140 m Milan block from 20 m, fly as a child process with --replan), vehicle 2's SITL SIGKILLed once it is half-way through its mission items.
 
 Each row, times in the vehicles' seconds (simulated) unless named wall:
 - `lost at`: when vehicle 2 was last heard, from the mission start;
@@ -36,15 +36,13 @@ from typing import Any
 
 import numpy as np
 
+import doctable
+
+from missionplan.bridge.formats.missionfile import read_mission_file
+from missionplan.cli import main
+
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "sitl_tests"))
-sys.path.insert(0, str(ROOT / "bench"))
 
-import doctable  # noqa: E402
-
-from missionplan.bridge.formats.missionfile import read_mission_file  # noqa: E402
-from missionplan.cli import main  # noqa: E402
 
 LOST = 2
 HEADER = (f"{'run':>3}{'lost at':>9}{'on board wall':>15}{'veh s':>7}{'left':>6}{'flown end':>11}{'ideal end':>11}"
@@ -52,7 +50,7 @@ HEADER = (f"{'run':>3}{'lost at':>9}{'on board wall':>15}{'veh s':>7}{'left':>6}
 
 
 def _plan(out: Path) -> Path:
-    from test_fly_faults_sitl import AREA, LAUNCHES
+    from missionplan.testing.sitl_fleet import AREA, LAUNCHES
 
     area = out / "area.geojson"
     area.write_text(json.dumps({"type": "Polygon", "coordinates": [AREA]}))
@@ -98,15 +96,16 @@ def ideal_end(plan_dir: Path, scale: float) -> tuple[float, float]:
 
 
 def run_once(index: int, replan_after: float) -> str:
-    from test_fly_faults_sitl import FlyRun, _in_flight, sitl_fleet
+    from missionplan.testing.sitl_fleet import SYSIDS, FlyRun, configure, in_flight, sitl_fleet
 
     with tempfile.TemporaryDirectory() as tmp:
         plan_dir = _plan(Path(tmp))
         half = len(read_mission_file(plan_dir / f"uav{LOST}.plan").mission.items) // 2
-        with sitl_fleet(plan_dir) as fleet:
+        with sitl_fleet(plan_dir, SYSIDS) as fleet:
+            configure(fleet)
             run = FlyRun(plan_dir, fleet.url, "--replan", "--replan-after", str(replan_after))
             try:
-                if not _in_flight(fleet.relay, half, sysids=(LOST,)):
+                if not in_flight(fleet.relay, half, sysids=(LOST,)):
                     return f"{index:>3}  vehicle {LOST} never got half-way"
                 os.killpg(fleet.vehicle(LOST).proc.pid, signal.SIGKILL)
                 run.finish(600.0)

@@ -44,24 +44,22 @@ N plans for our rows. Run by hand:
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 from scipy import ndimage
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from missionplan.grid.lanes import block_centres, fleet_zones, snake_order  # noqa: E402
-from missionplan.grid.world import FOOTPRINT_RADIUS, reachable_targets  # noqa: E402
-from missionplan.grid.zones import split_zones  # noqa: E402
-from missionplan.maps.gridmap import Cell, GridMap, read_map_text  # noqa: E402
-from missionplan.maps.launches import spread_launches  # noqa: E402
-from missionplan.maps.movingai import parse_movingai  # noqa: E402
-from missionplan.pipeline import make_policy, plan_map  # noqa: E402
+from missionplan.grid.lanes import block_centres, fleet_zones, snake_order
+from missionplan.grid.world import FOOTPRINT_RADIUS, reachable_targets
+from missionplan.grid.zones import split_zones
+from missionplan.maps.gridmap import Cell, GridMap, read_map_text
+from missionplan.maps.launches import spread_launches
+from missionplan.maps.movingai import parse_movingai
+from missionplan.pipeline import make_policy, plan_map
 
-import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
+import doctable  # bench/doctable.py: --write-doc
 
 ROOT = Path(__file__).resolve().parent.parent
 MOVINGAI_DIR = ROOT.parent / "shared" / "maps" / "movingai"

@@ -33,17 +33,16 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from missionplan.maps.gridmap import GridMap, read_map_text  # noqa: E402
-from missionplan.maps.launches import largest_region  # noqa: E402
-from missionplan.maps.movingai import parse_movingai  # noqa: E402
-from missionplan.pipeline import POLICIES, make_policy, plan_map  # noqa: E402
+from missionplan.maps.gridmap import GridMap, read_map_text
+from missionplan.maps.launches import largest_region
+from missionplan.maps.movingai import parse_movingai
+from missionplan.pipeline import POLICIES, make_policy, plan_map
 
-import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
-from child_row import run_child_row  # noqa: E402
-from machine import machine_line  # noqa: E402
-from unseen_cities import random_free_launches, voronoi_city  # noqa: E402
+import doctable  # bench/doctable.py: --write-doc
+from child_row import run_child_row
+from machine import machine_line
+from unseen_cities import random_free_launches, voronoi_city
 
 ROOT = Path(__file__).resolve().parent.parent
 MOVINGAI_DIR = ROOT.parent / "shared" / "maps" / "movingai"

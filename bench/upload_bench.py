@@ -10,9 +10,9 @@ station's retry cap is 0.1 s (loopback settings: with the real-world 1.5 s a los
 dominated by waiting). The ArduCopter rows upload with our pymavlink backend and its real-world
 timing (1.5 s item time-out), next to the ArduPilot-flavoured mock with the same timing, to a fresh
 SITL instance (../shared/sitl/arducopter, --speedup 10,
-sitl_tests/arducopter.py) over TCP, read back, verify by the ArduPilot rule, and count the
+missionplan/testing/arducopter.py) over TCP, read back, verify by the ArduPilot rule, and count the
 INVALID_SEQUENCE acks it sent (the upload must not race its re-requests: 0 expected). The PX4 SIH
-rows (../shared/px4, sitl_tests/px4_sih.py, a free instance, real time) use the same real-world
+rows (../shared/px4, missionplan/testing/px4_sih.py, a free instance, real time) use the same real-world
 timing over PX4's offboard UDP link, and verify by PX4's rule (missionplan.bridge.formats.px4_rules.px4_stored).
 No assertions: this is a measurement, not a test.
 """
@@ -21,14 +21,10 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import sys
 import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "sitl_tests"))
 
-from missionplan.bridge.formats.mission_items import (  # noqa: E402
+from missionplan.bridge.formats.mission_items import (
     CMD_NAV_RETURN_TO_LAUNCH,
     CMD_NAV_TAKEOFF,
     CMD_NAV_WAYPOINT,
@@ -39,12 +35,12 @@ from missionplan.bridge.formats.mission_items import (  # noqa: E402
     MissionItem,
     to_wire,
 )
-from missionplan.bridge.formats.readback import compare_wire  # noqa: E402
-from missionplan.bridge.sim.mock import LinkFaults, MockAutopilot  # noqa: E402
-from missionplan.bridge.transfer.protocol import MissionTransferError, Timeouts  # noqa: E402
-from missionplan.bridge.transfer.uploader import open_backend  # noqa: E402
+from missionplan.bridge.formats.readback import compare_wire
+from missionplan.bridge.sim.mock import LinkFaults, MockAutopilot
+from missionplan.bridge.transfer.protocol import MissionTransferError, Timeouts
+from missionplan.bridge.transfer.uploader import open_backend
 
-import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
+import doctable  # bench/doctable.py: --write-doc
 
 
 def survey(n: int) -> Mission:
@@ -92,7 +88,7 @@ def _timed_round_trip(b: object, wire: list, flavour: Flavour) -> dict[str, obje
 def measure_ardupilot(size: int, sitl: bool) -> dict[str, object]:
     """One upload and read-back with real-world timing, to ArduCopter SITL or the ArduPilot-flavoured
     mock (its 1 s re-requests, 650-item limit not imitated)."""
-    from arducopter import ArduCopter  # sitl_tests/arducopter.py: free ports, own folder and session
+    from missionplan.testing.arducopter import ArduCopter  # free ports, own folder and session
 
     mission = survey(size)
     with contextlib.ExitStack() as stack:
@@ -110,8 +106,8 @@ def measure_ardupilot(size: int, sitl: bool) -> dict[str, object]:
 
 def measure_px4(size: int, backend: str) -> dict[str, object]:
     """One upload and read-back with real-world timing to a fresh PX4 SIH (../shared/px4, v1.15.4;
-    sitl_tests/px4_sih.py, a free instance, its offboard UDP link), verified by PX4's rule."""
-    from px4_sih import PX4  # sitl_tests/px4_sih.py: own temp folder and session, logging off, killed at exit
+    missionplan/testing/px4_sih.py, a free instance, its offboard UDP link), verified by PX4's rule."""
+    from missionplan.testing.px4_sih import PX4  # own temp folder and session, logging off, killed at exit
 
     home = (45.07, 7.68, 240.0)
     mission = survey(size)

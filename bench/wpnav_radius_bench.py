@@ -16,24 +16,22 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 import time
 from pathlib import Path
 
+from missionplan.testing.arducopter import ArduCopter, sitl_or_skip
+
+from missionplan.bridge.link.connection import mavlink
+from missionplan.bridge.formats.mission_items import Mission, MissionItem
+from missionplan.bridge.link.params import ParamClient
+from missionplan.bridge.transfer.protocol import Timeouts
+from missionplan.bridge.link.readiness import ARDUPILOT_GUIDED, mode_params
+from missionplan.bridge.transfer.uploader import PymavlinkBackend, upload_plan
+
+import doctable  # bench/doctable.py: --write-doc
+
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "sitl_tests"))
 
-from arducopter import ArduCopter, sitl_or_skip  # noqa: E402
-
-from missionplan.bridge.link.connection import mavlink  # noqa: E402
-from missionplan.bridge.formats.mission_items import Mission, MissionItem  # noqa: E402
-from missionplan.bridge.link.params import ParamClient  # noqa: E402
-from missionplan.bridge.transfer.protocol import Timeouts  # noqa: E402
-from missionplan.bridge.link.readiness import ARDUPILOT_GUIDED, mode_params  # noqa: E402
-from missionplan.bridge.transfer.uploader import PymavlinkBackend, upload_plan  # noqa: E402
-
-import doctable  # noqa: E402  (bench/doctable.py: --write-doc)
 
 HOME = (45.4643, 9.1895, 120.0, 0.0)
 M_PER_DEG = 111_320.0

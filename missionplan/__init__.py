@@ -14,6 +14,7 @@ Layout, one stage per subpackage (imports run one way: cli -> flight -> mission 
   geo/      world <-> grid: camera footprint, projection, rasterising, area files, GIS files
   bridge/   missions to and from autopilots over MAVLink, and the mock autopilot
   base/     below every layer: atomic file writes
+  testing/  test support and the pytest plugin (fixtures for SITL, PX4 SIH, mock fleets); nothing else imports it
   top       cli (the command line: parses and prints), pipeline (plan_map), fieldplan (plan_field),
             plan_folder (write_plan_folder) and plan_display (what `plan` prints), demo, replan, retask
 """

@@ -10,7 +10,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
 
 from missionplan.bridge.link.connection import mavlink
 from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, MissionType, to_wire
@@ -19,6 +18,7 @@ from missionplan.bridge.formats.missionfile import PlanFile, read_mission_file, 
 from missionplan.bridge.transfer.protocol import Timeouts
 from missionplan.bridge.transfer.uploader import open_backend, upload_plan
 from missionplan.cli import main
+from missionplan.testing.arducopter import ArduCopter
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
@@ -61,7 +61,7 @@ def _same_by_ardupilot_rule(sent: Mission, got: Mission) -> list[str]:
 
 
 @pytest.mark.parametrize("name, at_least", [("leonardo", 15), ("old-town", 340)])
-def test_cli_upload_of_a_shipped_plan_verifies_and_downloads_the_same(arducopter, shipped_plans, tmp_path,  # noqa: F811
+def test_cli_upload_of_a_shipped_plan_verifies_and_downloads_the_same(arducopter, shipped_plans, tmp_path,
                                                                       capsys, name, at_least) -> None:
     vehicle: ArduCopter = arducopter(sysid=1)
     plan_path = shipped_plans[name]
@@ -82,7 +82,7 @@ def test_cli_upload_of_a_shipped_plan_verifies_and_downloads_the_same(arducopter
     assert _same_by_ardupilot_rule(planned.fence, got.fence) == []
 
 
-def test_no_invalid_sequence_acks_and_wpnav_radius_is_set(arducopter, shipped_plans) -> None:  # noqa: F811
+def test_no_invalid_sequence_acks_and_wpnav_radius_is_set(arducopter, shipped_plans) -> None:
     vehicle: ArduCopter = arducopter(sysid=2)
     plan = read_mission_file(shipped_plans["old-town"])
     with open_backend("pymavlink", vehicle.url, 2, timeouts=Timeouts(), connect_timeout=20) as backend:
@@ -93,7 +93,7 @@ def test_no_invalid_sequence_acks_and_wpnav_radius_is_set(arducopter, shipped_pl
         assert backend.set_param("WPNAV_RADIUS", max(round(radius * 100), 5))[0] == max(round(radius * 100), 5)
 
 
-def test_fence_and_rally_round_trip_and_an_unfenced_plan_clears_them(arducopter, shipped_plans, tmp_path,  # noqa: F811
+def test_fence_and_rally_round_trip_and_an_unfenced_plan_clears_them(arducopter, shipped_plans, tmp_path,
                                                                      capsys) -> None:
     vehicle: ArduCopter = arducopter(sysid=3)
     plain = read_mission_file(shipped_plans["leonardo"])
@@ -119,9 +119,9 @@ def test_fence_and_rally_round_trip_and_an_unfenced_plan_clears_them(arducopter,
         assert len(backend.download(MissionType.MISSION)) == n + 1  # and home
 
 
-def test_a_vehicle_that_sends_to_a_udpin_port(arducopter, shipped_plans, capsys) -> None:  # noqa: F811
+def test_a_vehicle_that_sends_to_a_udpin_port(arducopter, shipped_plans, capsys) -> None:
     """How fleets reach a ground station: SITL with --serial0 udpclient:127.0.0.1:PORT, we listen there."""
-    from loopback import free_udp_port
+    from missionplan.testing.loopback import free_udp_port
 
     port = free_udp_port()
     arducopter(sysid=4, serial0=f"udpclient:127.0.0.1:{port}")

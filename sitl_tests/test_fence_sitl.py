@@ -9,7 +9,6 @@ the fence alone (an empty mission) must leave the vehicle with no mission and th
 from __future__ import annotations
 
 import pytest
-from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
 
 from missionplan.bridge.link.connection import mavlink
 from missionplan.bridge.formats.mission_items import Flavour, MissionType, to_wire
@@ -17,11 +16,12 @@ from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.bridge.transfer.protocol import Timeouts
 from missionplan.bridge.transfer.uploader import open_backend, upload_plan
 from missionplan.cli import main
+from missionplan.testing.arducopter import ArduCopter
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
 
-def test_planned_geofence_round_trips_through_arducopter(arducopter, tmp_path):  # noqa: F811
+def test_planned_geofence_round_trips_through_arducopter(arducopter, tmp_path):
     sysid = 2
     vehicle: ArduCopter = arducopter(sysid=sysid)
     out = tmp_path / "plan"

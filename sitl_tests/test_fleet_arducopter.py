@@ -19,14 +19,15 @@ import time
 from pathlib import Path
 
 import pytest
-from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
-from loopback import armed_ever, free_udp_port
 
 from missionplan.bridge.link.connection import mavlink, wait_vehicle
 from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.bridge.link.params import ParamClient
 from missionplan.bridge.link.shared_link import SharedLink
 from missionplan.cli import main
+from missionplan.testing.arducopter import ArduCopter
+from missionplan.testing.loopback import free_udp_port
+from missionplan.testing.relay import armed_ever
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
@@ -57,7 +58,7 @@ def _home(plan_dir: Path, sysid: int) -> tuple[float, float, float, float]:
     return (float(lat), float(lon), float(alt), 0.0)
 
 
-def _fleet(arducopter, homes_from: Path, port: int) -> list[ArduCopter]:  # noqa: F811
+def _fleet(arducopter, homes_from: Path, port: int) -> list[ArduCopter]:
     """Three vehicles into one udpin port, each at its plan's launch point; not waited for."""
     return [arducopter(sysid=k, home=_home(homes_from, k), serial0=f"udpclient:127.0.0.1:{port}", wait=False)
             for k in SYSIDS]
@@ -76,7 +77,7 @@ def _configure_camera(url: str) -> None:
             assert result == mavlink.MAV_RESULT_ACCEPTED, f"vehicle {sysid} refused the reboot (MAV_RESULT {result})"
 
 
-def test_three_vehicles_on_one_udpin_port_fly_the_plan(arducopter, tmp_path, capsys) -> None:  # noqa: F811
+def test_three_vehicles_on_one_udpin_port_fly_the_plan(arducopter, tmp_path, capsys) -> None:
     plan_dir = _plan(tmp_path, "milan", AREA, LAUNCHES)
     port = free_udp_port()
     url = f"udpin:127.0.0.1:{port}"
@@ -105,7 +106,7 @@ def test_three_vehicles_on_one_udpin_port_fly_the_plan(arducopter, tmp_path, cap
         assert abs(rows[k]["flight_s"] - planned[k]) <= 0.15 * planned[k], summary
 
 
-def test_a_plan_for_another_site_arms_no_vehicle(arducopter, tmp_path, capsys) -> None:  # noqa: F811
+def test_a_plan_for_another_site_arms_no_vehicle(arducopter, tmp_path, capsys) -> None:
     here = _plan(tmp_path, "milan", AREA, LAUNCHES)
     elsewhere = _plan(tmp_path, "turin", OTHER_SITE, OTHER_LAUNCHES)
     port = free_udp_port()

@@ -24,13 +24,13 @@ import json
 from pathlib import Path
 
 import pytest
-from loopback import armed_ever, free_udp_port
-from px4_sih import px4, px4_or_skip  # noqa: F401  (the fixture)
 
 from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.bridge.formats.px4_rules import reported_items
 from missionplan.cli import main
 from missionplan.flight.phases import reached_navigation_items
+from missionplan.testing.loopback import free_udp_port
+from missionplan.testing.relay import armed_ever
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
@@ -63,7 +63,7 @@ def _home(plan_dir: Path, sysid: int) -> tuple[float, float, float]:
     return (float(lat), float(lon), HOME_ALT_M)
 
 
-def _fleet(px4, homes_from: Path) -> str:  # noqa: F811
+def _fleet(px4, homes_from: Path) -> str:
     """System ids 1-3, each at its plan's launch point, camera set at boot, every GCS link into one
     free port: the ground station's URL."""
     port = free_udp_port()
@@ -78,7 +78,7 @@ def _in_order(wanted: list[int], seen: list[int]) -> bool:
     return all(any(item == got for got in rest) for item in wanted)
 
 
-def test_three_px4_vehicles_on_one_udpin_port_fly_the_plan(px4, tmp_path, capsys) -> None:  # noqa: F811
+def test_three_px4_vehicles_on_one_udpin_port_fly_the_plan(px4, tmp_path, capsys) -> None:
     plan_dir = _plan(tmp_path, "milan", AREA, LAUNCHES)
     url = _fleet(px4, plan_dir)
     code = main(["fly", str(plan_dir), "--connect", url, "--timeout", str(FLY_TIMEOUT_S),
@@ -108,7 +108,7 @@ def test_three_px4_vehicles_on_one_udpin_port_fly_the_plan(px4, tmp_path, capsys
         assert _in_order(reported_items(commands), reached), rows[k]["events"]
 
 
-def test_a_plan_for_another_site_arms_no_px4_vehicle(px4, tmp_path, capsys) -> None:  # noqa: F811
+def test_a_plan_for_another_site_arms_no_px4_vehicle(px4, tmp_path, capsys) -> None:
     here = _plan(tmp_path, "milan", AREA, LAUNCHES)
     elsewhere = _plan(tmp_path, "turin", OTHER_SITE, OTHER_LAUNCHES)
     url = _fleet(px4, here)  # the vehicles stand in Milan; the plan is for Turin

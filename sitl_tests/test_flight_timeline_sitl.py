@@ -13,11 +13,11 @@ import json
 from pathlib import Path
 
 import pytest
-from arducopter import arducopter, configure_camera_and_wait_ready  # noqa: F401  (the fixture)
 
 from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.cli import main
 from missionplan.flight.fly import fly
+from missionplan.testing.arducopter import configure_camera_and_wait_ready
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
@@ -43,7 +43,7 @@ def street_plan(tmp_path: Path) -> Path:
     return out
 
 
-def test_a_street_plan_flies_on_arducopter_within_15_percent_of_its_planned_time(street_plan, arducopter):  # noqa: F811
+def test_a_street_plan_flies_on_arducopter_within_15_percent_of_its_planned_time(street_plan, arducopter):
     home = read_mission_file(street_plan / "uav1.plan").mission.home
     vehicle = arducopter(sysid=1, home=(home[0], home[1], 240.0, 0.0))
     configure_camera_and_wait_ready(vehicle)

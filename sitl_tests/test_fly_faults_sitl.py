@@ -3,14 +3,16 @@ tests/test_fly_faults.py): a `fly` killed mid-flight, a link that drops for 30 s
 one vehicle, and Ctrl-C.
 
 Each test starts its own fleet of three ArduCopter SITL vehicles (system ids 1-3, `--speedup`, each in
-its own temp folder, killed in teardown), each at its plan's launch point and sending to a loopback
-relay (sitl_tests/loopback.py UdpRelay, `--serial0 udpclient:127.0.0.1:P`) that forwards to the port
+its own temp folder, killed in teardown: the `fleet` fixture of sitl_tests/conftest.py, built by
+missionplan/testing/sitl_fleet.py), each at its plan's launch point and sending to a loopback relay
+(missionplan/testing/relay.py UdpRelay, `--serial0 udpclient:127.0.0.1:P`) that forwards to the port
 `fly --connect udpin:127.0.0.1:Q` listens on. The relay breaks the link on purpose and is the ground
 truth of what fly sent to the vehicles (`commands_sent`) and of what the vehicles did (`state`: armed,
 mode, mission item, photos taken, arming count), whatever fly says. The team's one-time set-up (camera:
 CAM1_TYPE = 1 and a reboot; the battery failsafe parameters) goes over the same relay before fly runs.
-`fly` runs as a child process (SIGKILL as a crash, SIGINT as Ctrl-C), its output read line by line with
-the time each line came. The plan (a block in Milan, 3 drones) is made once per module.
+`fly` runs as a child process (the `fly_runs` fixture: SIGKILL as a crash, SIGINT as Ctrl-C), its output
+read line by line with the time each line came. The plan (a block in Milan, 3 drones) is made once per
+module.
 
 Required: a fly SIGKILLed mid-flight leaves its journal; a plain fly then exits non-zero with one line
 per armed vehicle and commands nothing (no upload, mode, arming, mission start or parameter); fly --resume
@@ -26,44 +28,23 @@ Skipped with a reason when ../shared/sitl/arducopter is absent.
 
 from __future__ import annotations
 
-import contextlib
 import json
-import os
 import signal
-import subprocess
-import sys
-import threading
 import time
-from collections.abc import Iterator
-from dataclasses import dataclass
-from pathlib import Path
 
 import pytest
-from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
-from loopback import UdpRelay, free_udp_port, wait_until
-from plans import plan_area
 
-from missionplan.bridge.link.connection import Link, mavlink, wait_vehicle
-from missionplan.bridge.formats.missionfile import read_mission_file
-from missionplan.bridge.link.params import ParamClient
+from missionplan.bridge.link.connection import mavlink
 from missionplan.bridge.link.readiness import ARDUPILOT_AUTO
-from missionplan.bridge.link.shared_link import SharedLink
 from missionplan.flight.journal_read import read_flight
+from missionplan.testing.loopback import wait_until
+from missionplan.testing.relay import UdpRelay
+from missionplan.testing.sitl_fleet import (BATTERY_LOW_V, BATTERY_SIM_V, FLY_TIMEOUT_S, LINK_DROP_S, SPEEDUP, SYSIDS,
+                                            Fleet, configure, flight_doc, in_flight, landed, set_param_on_serial1,
+                                            summary)
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
-ROOT = Path(__file__).resolve().parent.parent
-SYSIDS = (1, 2, 3)
-# A 200 x 140 m block in Milan (beside the SITL fixture's default home) photographed from 20 m, three
-# launch points on its southern edge: about 140-165 simulated seconds per drone, ~33 s of wall time at
-# SPEEDUP 5: fly's 5 s window after Ctrl-C ends mid-flight, and a 30 s (wall) link drop from mission item 3
-# on outlasts the flight (the vehicles land unheard; fly must judge them from what they say afterwards),
-# yet ends before fly would give a silent vehicle up (planned x 1.5 + 60 s of vehicle time, ~55 s wall).
-AREA = [[9.1890, 45.4640], [9.19156, 45.4640], [9.19156, 45.46526], [9.1890, 45.46526], [9.1890, 45.4640]]
-LAUNCHES = ("45.4641,9.18926", "45.4641,9.19028", "45.4641,9.19131")
-SPEEDUP = 5
-FLY_TIMEOUT_S = 300.0  # wall seconds: generous, no test here should come near it
-START_S = 180.0  # wall seconds for a fleet to get from boot to flying (readiness, upload, arming)
 # What fly must never send to a vehicle it did not start, or after Ctrl-C: an upload, a mode, arming,
 # a mission start, a parameter (commands as the relay records them: "COMMAND_LONG <MAV_CMD number>").
 COMMANDING = ("MISSION_COUNT", "MISSION_ITEM", "MISSION_ITEM_INT", "MISSION_CLEAR_ALL", "MISSION_SET_CURRENT",
@@ -73,174 +54,11 @@ COMMANDING = ("MISSION_COUNT", "MISSION_ITEM", "MISSION_ITEM_INT", "MISSION_CLEA
                                 mavlink.MAV_CMD_MISSION_START, mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH,
                                 mavlink.MAV_CMD_NAV_LAND)),
               f"COMMAND_LONG {mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN}")
-LINK_DROP_S = 30.0
-BATTERY_LOW_V, BATTERY_SIM_V = 10.5, 10.0  # the failsafe's threshold, and what the low vehicle's battery reads
 LOW_BATTERY_SYSID = 2
-
-
-# ------------------------------------------------------------------------------ set-up
-@pytest.fixture(scope="module")
-def block(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return plan_area(tmp_path_factory.mktemp("milan-block"), AREA, LAUNCHES)
-
-
-@dataclass
-class Fleet:
-    plan_dir: Path
-    relay: UdpRelay
-    vehicles: list[ArduCopter]
-    url: str  # where fly listens (the relay forwards there)
-
-    def vehicle(self, sysid: int) -> ArduCopter:
-        return next(v for v in self.vehicles if v.sysid == sysid)
-
-
-def _home(plan_dir: Path, sysid: int) -> tuple[float, float, float, float]:
-    lat, lon, alt = read_mission_file(plan_dir / f"uav{sysid}.plan").mission.home
-    return (float(lat), float(lon), float(alt), 0.0)
-
-
-@pytest.fixture()
-def fleet(arducopter, block: Path, tmp_path: Path):  # noqa: F811
-    """Three SITL vehicles at the plan's launch points, sending through a relay to a free udpin port."""
-    plan_dir = tmp_path / "plan"
-    plan_dir.mkdir()
-    for path in block.iterdir():
-        (plan_dir / path.name).write_bytes(path.read_bytes())
-    port = free_udp_port()
-    with UdpRelay(port) as relay:
-        # start() returns once SITL has bound its ports (arducopter.py), so the next vehicle's instance differs
-        vehicles = [arducopter(wait=False, sysid=k, home=_home(plan_dir, k), speedup=SPEEDUP,
-                               serial0=f"udpclient:127.0.0.1:{relay.vehicle_port}") for k in SYSIDS]
-        yield Fleet(plan_dir, relay, vehicles, f"udpin:127.0.0.1:{port}")
-
-
-@contextlib.contextmanager
-def sitl_fleet(plan_dir: Path, params: dict[str, float] | None = None) -> Iterator[Fleet]:
-    """The `fleet` fixture's fleet outside pytest (the benches'): three SITL vehicles at plan_dir's launch
-    points through a relay, configured (_configure), stopped when the block ends."""
-    port = free_udp_port()
-    vehicles: list[ArduCopter] = []
-    with UdpRelay(port) as relay:
-        try:
-            for k in SYSIDS:  # each start() returns once SITL has bound its ports (sitl_tests/arducopter.py)
-                vehicles.append(ArduCopter(sysid=k, home=_home(plan_dir, k), speedup=SPEEDUP,
-                                           serial0=f"udpclient:127.0.0.1:{relay.vehicle_port}"))
-                vehicles[-1].start(wait=False)
-            fleet = Fleet(plan_dir, relay, vehicles, f"udpin:127.0.0.1:{port}")
-            _configure(fleet, params)
-            yield fleet
-        finally:
-            for vehicle in vehicles:
-                vehicle.stop()
-
-
-def _configure(fleet: Fleet, params: dict[str, float] | None = None) -> None:
-    """The team's one-time set-up over the relay: the camera (CAM1_TYPE = 1; without it ArduCopter sends
-    no CAMERA_FEEDBACK) and `params`, then a reboot for them to take effect. What this sent is then
-    forgotten by the relay: only fly's own messages count."""
-    wanted = {"CAM1_TYPE": 1.0, **(params or {})}
-    with SharedLink(fleet.url) as shared:
-        for sysid in SYSIDS:
-            view = shared.vehicle(sysid)
-            client = ParamClient(view, wait_vehicle(view, sysid, timeout=60.0))
-            for name, value in wanted.items():
-                assert client.set(name, value) == pytest.approx(value), (sysid, name)
-        for sysid in SYSIDS:
-            result = shared.vehicle(sysid).command_long(sysid, mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, [1.0],
-                                                        time.monotonic() + 10.0)
-            assert result == mavlink.MAV_RESULT_ACCEPTED, f"vehicle {sysid} refused the reboot (MAV_RESULT {result})"
-    fleet.relay.forget()
-
-
-class FlyRun:
-    """`missionplan fly` as a child process; its output (stdout and stderr) kept line by line with our
-    monotonic time of each line."""
-
-    def __init__(self, plan_dir: Path, url: str, *extra: str) -> None:
-        self.started = time.monotonic()
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "missionplan", "fly", str(plan_dir), "--connect", url, "--timeout",
-             str(FLY_TIMEOUT_S), "--time-scale", str(SPEEDUP), "--telemetry-hz", "10", "--quiet", *extra],
-            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True,
-            env={**os.environ, "PYTHONPATH": str(ROOT), "PYTHONUNBUFFERED": "1"})
-        self.lines: list[tuple[float, str]] = []
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-
-    def _read(self) -> None:
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            self.lines.append((time.monotonic(), line.rstrip("\n")))
-
-    @property
-    def out(self) -> str:
-        return "\n".join(text for _, text in self.lines)
-
-    def first(self, *words: str) -> float | None:
-        """Our time of the first line holding every one of `words` (case-insensitive), None if none yet."""
-        for t, text in self.lines:
-            if all(w.lower() in text.lower() for w in words):
-                return t
-        return None
-
-    def finish(self, timeout: float) -> int:
-        """Its exit code, waited for with a bound (killed, and the test failed, past it)."""
-        try:
-            code = self.proc.wait(timeout)
-        except subprocess.TimeoutExpired:
-            self.kill()
-            raise AssertionError(f"fly did not exit within {timeout:g} s:\n{self.out}") from None
-        self._reader.join(10.0)
-        return code
-
-    def kill(self) -> None:
-        if self.proc.poll() is None:
-            os.killpg(self.proc.pid, signal.SIGKILL)
-            self.proc.wait(10.0)
-
-
-@pytest.fixture()
-def runs():
-    """Start fly runs with runs(plan_dir, url, *args); any still running at teardown is killed."""
-    started: list[FlyRun] = []
-
-    def start(plan_dir: Path, url: str, *extra: str) -> FlyRun:
-        started.append(FlyRun(plan_dir, url, *extra))
-        return started[-1]
-
-    try:
-        yield start
-    finally:
-        for run in started:
-            run.kill()
-
-
-def _in_flight(relay: UdpRelay, item: int, timeout: float = START_S, sysids=SYSIDS) -> bool:
-    """Until every vehicle is armed in AUTO at mission item `item` or later (as the relay saw them)."""
-    return bool(wait_until(lambda: all(relay.state(k).get("armed") == 1
-                                       and relay.state(k).get("custom_mode") == ARDUPILOT_AUTO
-                                       and relay.state(k).get("current", -1) >= item for k in sysids), timeout))
-
-
-def _landed(relay: UdpRelay, sysids=SYSIDS, timeout: float = 120.0) -> bool:
-    return bool(wait_until(lambda: all(relay.state(k).get("armed") == 0 and relay.state(k).get("arms", 0) >= 1
-                                       for k in sysids), timeout))
-
-
-def _flight(plan_dir: Path) -> tuple[dict, dict[int, dict]]:
-    doc = json.loads((plan_dir / "flight.json").read_text())
-    return doc, {int(d["id"]): d for d in doc["drones"]}
 
 
 def _commanding(relay: UdpRelay) -> list[str]:
     return [kind for kind in relay.commands_sent() if kind in COMMANDING]
-
-
-def _summary(fleet: Fleet, run: FlyRun | None = None) -> str:
-    """For assertion messages: the vehicles' states as relayed, and fly's output."""
-    states = {k: fleet.relay.state(k) for k in SYSIDS}
-    return f"states {states}\n" + (run.out if run is not None else "")
 
 
 def _onboard_logs(fleet: Fleet) -> str:
@@ -265,18 +83,18 @@ def _onboard_logs(fleet: Fleet) -> str:
 
 # ------------------------------------------------------------------------------ the tests
 def test_a_killed_fly_leaves_the_fleet_flying_a_plain_fly_commands_nothing_and_resume_judges_it_all(
-        fleet: Fleet, runs) -> None:
-    _configure(fleet)
+        fleet: Fleet, fly_runs) -> None:
+    configure(fleet)
     relay, plan_dir = fleet.relay, fleet.plan_dir
-    crashed = runs(plan_dir, fleet.url)
-    assert _in_flight(relay, 8), _summary(fleet, crashed)
+    crashed = fly_runs(plan_dir, fleet.url)
+    assert in_flight(relay, 8), summary(fleet, crashed)
     crashed.kill()  # SIGKILL: a laptop crash, nothing written at exit
     _, _, kept = read_flight(plan_dir)  # what was journaled before the crash is all there
     assert all(rec.started for rec in kept) and not (plan_dir / "flight.json").exists()
     relay.forget()
 
     # A plain fly finds them armed and flying: one line each, non-zero exit, nothing commanded.
-    plain = runs(plan_dir, fleet.url)
+    plain = fly_runs(plan_dir, fleet.url)
     code = plain.finish(60.0)
     assert code != 0, plain.out
     armed_lines = [text for _, text in plain.lines if "is ARMED" in text and "nothing was sent to it" in text]
@@ -285,16 +103,16 @@ def test_a_killed_fly_leaves_the_fleet_flying_a_plain_fly_commands_nothing_and_r
 
     # fly --resume re-attaches, commands nothing, and judges the whole flight with both runs' photos.
     relay.forget()
-    resumed = runs(plan_dir, fleet.url, "--resume")
+    resumed = fly_runs(plan_dir, fleet.url, "--resume")
     code = resumed.finish(FLY_TIMEOUT_S)
-    doc, rows = _flight(plan_dir)
+    doc, rows = flight_doc(plan_dir)
     print(resumed.out, {k: (rows[k]["photos"], rows[k]["photos_from_log"], relay.state(k)) for k in SYSIDS})
     assert code == 0, (resumed.out, doc["problems"], _onboard_logs(fleet))
     assert _commanding(relay) == [], relay.commands_sent()
-    assert _landed(relay, timeout=10.0), _summary(fleet)
-    assert all(relay.state(k)["arms"] == 1 for k in SYSIDS), _summary(fleet)  # nobody re-armed, nothing re-flown
+    assert landed(relay, timeout=10.0), summary(fleet)
+    assert all(relay.state(k)["arms"] == 1 for k in SYSIDS), summary(fleet)  # nobody re-armed, nothing re-flown
     planned = {int(d["id"]): int(d["photos"]) for d in json.loads((plan_dir / "report.json").read_text())["drones"]}
-    assert all(relay.state(k)["photos"] <= planned[k] + 5 for k in SYSIDS), (planned, _summary(fleet))
+    assert all(relay.state(k)["photos"] <= planned[k] + 5 for k in SYSIDS), (planned, summary(fleet))
     assert all(rows[k]["finished"] for k in SYSIDS), doc["problems"]
     # Photos not doubled: at most the vehicle's own count (img_idx from 1), from both runs and its log.
     assert all(0 < rows[k]["photos"] <= relay.state(k)["photos"] for k in SYSIDS), \
@@ -304,11 +122,11 @@ def test_a_killed_fly_leaves_the_fleet_flying_a_plain_fly_commands_nothing_and_r
     assert any("re-attached" in text for d in doc["drones"] for _, text in d["events"])
 
 
-def test_a_30_s_link_drop_is_a_gap_and_its_photos_come_from_the_logs(fleet: Fleet, runs) -> None:
-    _configure(fleet)
+def test_a_30_s_link_drop_is_a_gap_and_its_photos_come_from_the_logs(fleet: Fleet, fly_runs) -> None:
+    configure(fleet)
     relay, plan_dir = fleet.relay, fleet.plan_dir
-    run = runs(plan_dir, fleet.url)
-    assert _in_flight(relay, 3), _summary(fleet, run)
+    run = fly_runs(plan_dir, fleet.url)
+    assert in_flight(relay, 3), summary(fleet, run)
     relay.drop()  # both ways
     dropped_at = time.monotonic()
     lost = wait_until(lambda: all(run.first(f"uav{k}", "link lost") for k in SYSIDS), 20.0)
@@ -316,7 +134,7 @@ def test_a_30_s_link_drop_is_a_gap_and_its_photos_come_from_the_logs(fleet: Flee
     wait_until(lambda: time.monotonic() - dropped_at >= LINK_DROP_S, LINK_DROP_S + 1.0)
     relay.restore()
     code = run.finish(FLY_TIMEOUT_S)
-    doc, rows = _flight(plan_dir)
+    doc, rows = flight_doc(plan_dir)
     print(run.out, {k: (rows[k]["photos"], rows[k]["photos_from_log"], relay.state(k)) for k in SYSIDS})
     assert lost, run.out
     assert all(run.first(f"uav{k}", "link back") for k in SYSIDS), run.out
@@ -327,24 +145,16 @@ def test_a_30_s_link_drop_is_a_gap_and_its_photos_come_from_the_logs(fleet: Flee
     assert doc["coverage"] >= 99.0, (doc["coverage"], doc["problems"])
 
 
-def _set_param_on_serial1(vehicle: ArduCopter, name: str, value: float) -> None:
-    """PARAM_SET over the vehicle's own serial1 (TCP 5762 + 10 I), beside fly's link: the simulator's
-    knob, not something fly would send."""
-    with Link(f"tcp:127.0.0.1:{vehicle.tcp_port + 2}") as link:
-        info = wait_vehicle(link, vehicle.sysid, timeout=10.0)  # it speaks MAVLink there: its HEARTBEAT
-        assert ParamClient(link, info).set(name, value) == pytest.approx(value)
-
-
-def test_a_battery_failsafe_on_one_vehicle_ends_its_flight_at_once_with_the_reason(fleet: Fleet, runs) -> None:
+def test_a_battery_failsafe_on_one_vehicle_ends_its_flight_at_once_with_the_reason(fleet: Fleet, fly_runs) -> None:
     # Every vehicle returns home (RTL) when its battery reads under BATT_LOW_VOLT for BATT_LOW_TIMER.
-    _configure(fleet, {"BATT_FS_LOW_ACT": 2.0, "BATT_LOW_VOLT": BATTERY_LOW_V})
+    configure(fleet, {"BATT_FS_LOW_ACT": 2.0, "BATT_LOW_VOLT": BATTERY_LOW_V})
     relay, plan_dir = fleet.relay, fleet.plan_dir
-    run = runs(plan_dir, fleet.url)
-    assert _in_flight(relay, 5), _summary(fleet, run)
-    _set_param_on_serial1(fleet.vehicle(LOW_BATTERY_SYSID), "SIM_BATT_VOLTAGE", BATTERY_SIM_V)
+    run = fly_runs(plan_dir, fleet.url)
+    assert in_flight(relay, 5), summary(fleet, run)
+    set_param_on_serial1(fleet.vehicle(LOW_BATTERY_SYSID), "SIM_BATT_VOLTAGE", BATTERY_SIM_V)
     code = run.finish(FLY_TIMEOUT_S)
     finished_at = time.monotonic()
-    doc, rows = _flight(plan_dir)
+    doc, rows = flight_doc(plan_dir)
     low = rows[LOW_BATTERY_SYSID]
     print(run.out, {k: (rows[k]["finished"], rows[k]["ended_early"], relay.state(k)) for k in SYSIDS})
     assert code == 1, (run.out, doc["problems"])  # coverage short
@@ -358,17 +168,17 @@ def test_a_battery_failsafe_on_one_vehicle_ends_its_flight_at_once_with_the_reas
     disarmed_at = relay.state(LOW_BATTERY_SYSID).get("disarmed_at")
     print(f"uav{LOW_BATTERY_SYSID} ended by fly {said - disarmed_at if disarmed_at else None} s after it disarmed")
     assert disarmed_at is not None and 0.0 <= said - disarmed_at <= 10.0 / SPEEDUP + 0.5, \
-        (said - disarmed_at if disarmed_at else None, _summary(fleet))
+        (said - disarmed_at if disarmed_at else None, summary(fleet))
     assert all(rows[k]["finished"] for k in SYSIDS if k != LOW_BATTERY_SYSID), doc["problems"]
     assert doc["coverage"] < 99.0
     assert finished_at - run.started < FLY_TIMEOUT_S / 2  # not waiting for the time-out
 
 
-def test_ctrl_c_stops_following_writes_the_record_and_the_vehicles_fly_on(fleet: Fleet, runs) -> None:
-    _configure(fleet)
+def test_ctrl_c_stops_following_writes_the_record_and_the_vehicles_fly_on(fleet: Fleet, fly_runs) -> None:
+    configure(fleet)
     relay, plan_dir = fleet.relay, fleet.plan_dir
-    run = runs(plan_dir, fleet.url)
-    assert _in_flight(relay, 3), _summary(fleet, run)
+    run = fly_runs(plan_dir, fleet.url)
+    assert in_flight(relay, 3), summary(fleet, run)
     relay.forget()
     interrupted = time.monotonic()
     run.proc.send_signal(signal.SIGINT)
@@ -382,7 +192,7 @@ def test_ctrl_c_stops_following_writes_the_record_and_the_vehicles_fly_on(fleet:
     assert took < 5.0 + 10.0  # the window for a second Ctrl-C, and the record
     assert all(s["armed"] == 1 and s["custom_mode"] == ARDUPILOT_AUTO for s in states.values()), states
     assert _commanding(relay) == [], relay.commands_sent()
-    doc, rows = _flight(plan_dir)
+    doc, rows = flight_doc(plan_dir)
     assert not any(rows[k]["finished"] for k in SYSIDS)
     assert all("fly --resume" in p for p in doc["problems"] if "not followed to the end" in p)
     _, _, records = read_flight(plan_dir)  # flight.json is the journal's view

@@ -23,13 +23,14 @@ import sys
 from pathlib import Path
 
 import pytest
-from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
-from loopback import UdpRelay, free_udp_port, wait_until
-from plans import plan_area
 
 from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.bridge.link.connection import mavlink
 from missionplan.flight.ledger import Ledger
+from missionplan.testing.arducopter import ArduCopter
+from missionplan.testing.loopback import free_udp_port, wait_until
+from missionplan.testing.plans import plan_area
+from missionplan.testing.relay import UdpRelay
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
@@ -56,7 +57,7 @@ def _fly(plan_dir: Path, *connect: str) -> list[str]:
     return command
 
 
-def test_a_second_fly_on_the_folder_reaches_no_autopilot(arducopter, tmp_path: Path) -> None:  # noqa: F811
+def test_a_second_fly_on_the_folder_reaches_no_autopilot(arducopter, tmp_path: Path) -> None:
     plan_dir = plan_area(tmp_path, AREA, LAUNCHES)
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     port = free_udp_port()

@@ -7,15 +7,15 @@ and leave the same stored item. The mock alone is held to the measured answers i
 from __future__ import annotations
 
 import pytest
-from arducopter import ArduCopter, arducopter  # noqa: F401  (the fixture)
-from limit_cases import EXPECTED_ARDUCOPTER, EXPECTED_PX4, HOME, drift, mock_answers, session
-from px4_mission_session import HOME as PX4_HOME
-from px4_sih import PX4, px4  # noqa: F401  (the fixture)
+from missionplan.testing.arducopter import ArduCopter
+from missionplan.testing.limit_cases import EXPECTED_ARDUCOPTER, EXPECTED_PX4, HOME, drift, mock_answers, session
+from missionplan.testing.px4_mission_session import HOME as PX4_HOME
+from missionplan.testing.px4_sih import PX4
 
 pytestmark = pytest.mark.sitl
 
 
-def test_arducopter_and_the_mock_refuse_alike(arducopter) -> None:  # noqa: F811
+def test_arducopter_and_the_mock_refuse_alike(arducopter) -> None:
     vehicle: ArduCopter = arducopter(sysid=7, home=(*HOME, 0.0))
     real = session(vehicle.url, 7, home=True)
     mocked = mock_answers("ardupilot", HOME, 7)
@@ -23,7 +23,7 @@ def test_arducopter_and_the_mock_refuse_alike(arducopter) -> None:  # noqa: F811
     assert {name: result for name, (result, _) in real.items()} == EXPECTED_ARDUCOPTER
 
 
-def test_px4_and_the_mock_take_alike(px4) -> None:  # noqa: F811
+def test_px4_and_the_mock_take_alike(px4) -> None:
     vehicle: PX4 = px4(home=PX4_HOME)
     real = session(vehicle.offboard_url, vehicle.sysid, home=False)
     mocked = mock_answers("px4", PX4_HOME, vehicle.sysid)

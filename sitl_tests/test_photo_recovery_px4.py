@@ -26,7 +26,6 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from px4_sih import PX4, px4_or_skip
 from test_photo_recovery_sitl import PAST_THE_END, _raw_data, _raw_list, _Tee
 
 from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, mavlink
@@ -37,6 +36,7 @@ from missionplan.bridge.transfer.onboard_log import LOG_DATA_LEN, recover_photos
 from missionplan.bridge.transfer.protocol import Timeouts
 from missionplan.bridge.formats.px4_rules import px4_millimetres
 from missionplan.bridge.transfer.uploader import PymavlinkBackend
+from missionplan.testing.px4_sih import PX4, px4_or_skip
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
@@ -169,6 +169,7 @@ def _protocol(rec: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+@pytest.mark.flight
 def test_the_mock_answers_the_log_protocol_as_px4_does(px4_session: dict[str, Any], tmp_path: Path) -> None:
     with MockAutopilot("udpin:127.0.0.1:0", sysids=[1], flavour="px4", homes={1: HOME}, sitl_like=True,
                        speedup=5.0) as mock:

@@ -22,7 +22,6 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from arducopter import SITL_DIR, ArduCopter, reboot_and_wait, sitl_or_skip
 
 from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, mavlink
 from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, MissionType, to_wire
@@ -33,6 +32,7 @@ from missionplan.bridge.link.params import ParamClient
 from missionplan.bridge.transfer.protocol import Timeouts
 from missionplan.bridge.link.readiness import ARDUPILOT_GUIDED, mode_params
 from missionplan.bridge.transfer.uploader import PymavlinkBackend
+from missionplan.testing.arducopter import ArduCopter, reboot_and_wait, sitl_or_skip
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
@@ -208,7 +208,7 @@ def arducopter_session(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dic
 def test_after_landing_the_logged_photos_equal_the_camera_feedback(arducopter_session: dict[str, Any]) -> None:
     rec = arducopter_session
     feedback, photos = rec["feedback"], rec["photos"]
-    print(f"\nArduCopter SITL ({SITL_DIR.name}): log of {rec['log_size']} bytes, {len(photos)} photos, "
+    print(f"\nArduCopter SITL ({sitl_or_skip().parent.name}): log of {rec['log_size']} bytes, {len(photos)} photos, "
           f"downloaded and read in {rec['download_s']:.2f} s on loopback; logs {rec['log files']}")
     assert len(feedback) >= 15  # a photo every 2 m over 60 m
     assert [p.img_idx for p in photos] == sorted(feedback) == list(range(1, len(feedback) + 1))
@@ -239,6 +239,7 @@ def _protocol(rec: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+@pytest.mark.flight
 def test_the_mock_answers_the_log_protocol_as_arducopter_does(arducopter_session: dict[str, Any],
                                                              tmp_path: Path) -> None:
     real = arducopter_session

@@ -8,15 +8,15 @@ from __future__ import annotations
 import os
 
 import pytest
-from loopback import free_udp_port
-from px4_sih import PX4, e7, instance_free, px4, px4_or_skip  # noqa: F401  (the fixture)
 
 from missionplan.bridge.link.connection import Link, mavlink, wait_vehicle
+from missionplan.testing.loopback import free_udp_port
+from missionplan.testing.px4_sih import PX4, e7, instance_free, px4_or_skip
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
 
-def test_one_vehicle_boots_with_logging_off_and_its_boot_parameters(px4) -> None:  # noqa: F811
+def test_one_vehicle_boots_with_logging_off_and_its_boot_parameters(px4) -> None:
     home = (45.4641, 9.1891, 122.0)
     vehicle = px4(home=home, params={"TRIG_MODE": 4})
     folder, pid = vehicle.folder, vehicle.proc.pid
@@ -51,7 +51,7 @@ def test_restart_keeps_parameters_and_applies_new_boot_ones() -> None:
         assert "7.0" in vehicle.client("param", "show", "MPC_XY_CRUISE")
 
 
-def test_a_fleet_vehicle_has_the_system_id_and_ground_station_port_asked_for(px4) -> None:  # noqa: F811
+def test_a_fleet_vehicle_has_the_system_id_and_ground_station_port_asked_for(px4) -> None:
     port = free_udp_port()
     vehicle = px4(sysid=7, gcs_port=port)
     assert vehicle.gcs_url == f"udpin:127.0.0.1:{port}" and vehicle.offboard_url != vehicle.gcs_url

@@ -16,14 +16,14 @@ import time
 from pathlib import Path
 
 import pytest
-from px4_sih import PX4, px4  # noqa: F401  (the fixture)
-from px4_mission_session import wait_ready
 
 from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, Link, mavlink, wait_vehicle
 from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, MissionType, to_wire
 from missionplan.bridge.formats.readback import compare_wire
 from missionplan.bridge.formats.missionfile import PlanFile, read_mission_file, write_plan
 from missionplan.cli import main
+from missionplan.testing.px4_mission_session import wait_ready
+from missionplan.testing.px4_sih import PX4
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
@@ -78,7 +78,7 @@ def _start(url: str, sysid: int) -> tuple[int | None, list[str]]:
 
 
 @pytest.mark.parametrize("where", ["leonardo", "milan"])
-def test_a_planned_mission_uploads_verifies_downloads_and_starts(px4, tmp_path, capsys, where) -> None:  # noqa: F811
+def test_a_planned_mission_uploads_verifies_downloads_and_starts(px4, tmp_path, capsys, where) -> None:
     path = _plan(tmp_path, where, "px4")
     planned = read_mission_file(path)
     lat, lon, _ = planned.mission.home  # type: ignore[misc]
@@ -105,7 +105,7 @@ def test_a_planned_mission_uploads_verifies_downloads_and_starts(px4, tmp_path, 
     assert result == mavlink.MAV_RESULT_ACCEPTED and "Executing Mission" in texts, (result, texts)
 
 
-def test_upload_from_the_wrong_place_is_refused_with_pxs_reasons(px4, tmp_path, capsys) -> None:  # noqa: F811
+def test_upload_from_the_wrong_place_is_refused_with_pxs_reasons(px4, tmp_path, capsys) -> None:
     path = _plan(tmp_path, "leonardo", "px4")
     montreal = (45.4671160, -73.7578370, 20.0)  # where PX4 SIH starts without PX4_HOME_LAT / LON
     vehicle: PX4 = px4(home=montreal)
@@ -138,7 +138,7 @@ def _small_plan(home: tuple[float, float, float], fence_and_rally: bool) -> Plan
     return plan
 
 
-def test_fence_and_rally_round_trip_and_a_plan_without_them_clears_them(px4, tmp_path, capsys) -> None:  # noqa: F811
+def test_fence_and_rally_round_trip_and_a_plan_without_them_clears_them(px4, tmp_path, capsys) -> None:
     home = (45.4641, 9.1891, 120.0)
     vehicle: PX4 = px4(home=home)
     url, sysid = vehicle.offboard_url, str(vehicle.sysid)
@@ -159,7 +159,7 @@ def test_fence_and_rally_round_trip_and_a_plan_without_them_clears_them(px4, tmp
     assert doc["geoFence"]["polygons"] == [] and doc["geoFence"]["circles"] == [] and doc["rallyPoints"]["points"] == []
 
 
-def test_a_1000_item_mission_and_pxs_list_limits(px4, tmp_path, capsys) -> None:  # noqa: F811
+def test_a_1000_item_mission_and_pxs_list_limits(px4, tmp_path, capsys) -> None:
     home = (45.4641, 9.1891, 120.0)
     vehicle: PX4 = px4(home=home)
     url, sysid = vehicle.offboard_url, str(vehicle.sysid)

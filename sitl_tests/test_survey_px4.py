@@ -17,13 +17,12 @@ import sys
 from pathlib import Path
 
 import pytest
-from loopback import free_udp_port, wait_until
-from px4_sih import px4, px4_or_skip  # noqa: F401  (the fixture)
 from test_fleet_px4 import AREA, CAMERA, LAUNCHES, TELEMETRY_HZ, _home, _plan
 
 from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.flight.journal_db import JournalError
 from missionplan.flight.journal_read import read_flight
+from missionplan.testing.loopback import free_udp_port, wait_until
 
 pytestmark = pytest.mark.sitl
 
@@ -45,7 +44,7 @@ def _current(plan_dir: Path, sysid: int) -> int:
     return next((rec.current for rec in records if rec.id == sysid and rec.started), -1)
 
 
-def test_fly_replan_re_tasks_a_px4_fleet_in_flight(px4, tmp_path: Path) -> None:  # noqa: F811
+def test_fly_replan_re_tasks_a_px4_fleet_in_flight(px4, tmp_path: Path) -> None:
     plan_dir = _plan(tmp_path, "milan", AREA, LAUNCHES)
     port = free_udp_port()
     vehicles = {k: px4(sysid=k, gcs_port=port, home=_home(plan_dir, k), params=CAMERA) for k in SYSIDS}

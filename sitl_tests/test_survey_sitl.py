@@ -4,7 +4,8 @@ run ends at 99 % or more; without it, `replan` + a second `fly` of the two finis
 `status` says so from the ledger.
 
 The fleet, the relay that is the ground truth of what the vehicles did, the camera set-up and the fly
-child process are those of sitl_tests/test_fly_faults_sitl.py (a block in Milan, 3 drones, SPEEDUP 5).
+child process are those of sitl_tests/test_fly_faults_sitl.py (a block in Milan, 3 drones, SPEEDUP 5:
+missionplan/testing/sitl_fleet.py, the `fleet` fixture of sitl_tests/conftest.py).
 The vehicle lost is SITL process 2, SIGKILLed once it is half-way through its mission items: silent for
 good, as a drone that went down.
 
@@ -21,11 +22,9 @@ import sys
 from pathlib import Path
 
 import pytest
-from arducopter import arducopter  # noqa: F401  (the fixture)
-from test_fly_faults_sitl import (FLY_TIMEOUT_S, ROOT, SPEEDUP, Fleet, _configure, _flight, _in_flight,  # noqa: F401
-                                  _summary, block, fleet, runs)
 
 from missionplan.bridge.formats.missionfile import read_mission_file
+from missionplan.testing.sitl_fleet import FLY_TIMEOUT_S, Fleet, configure, flight_doc, in_flight, summary
 
 pytestmark = pytest.mark.sitl
 
@@ -48,14 +47,14 @@ def _kill(fleet: Fleet, sysid: int) -> None:
 
 
 def test_fly_replan_re_tasks_the_survivors_in_flight_and_the_same_run_ends_at_99_percent(
-        fleet: Fleet, runs) -> None:
-    _configure(fleet)
+        fleet: Fleet, fly_runs) -> None:
+    configure(fleet)
     relay, plan_dir = fleet.relay, fleet.plan_dir
-    run = runs(plan_dir, fleet.url, "--replan", "--replan-after", str(REPLAN_AFTER_S))
-    assert _in_flight(relay, _half_way(fleet), sysids=(LOST,)), _summary(fleet, run)
+    run = fly_runs(plan_dir, fleet.url, "--replan", "--replan-after", str(REPLAN_AFTER_S))
+    assert in_flight(relay, _half_way(fleet), sysids=(LOST,)), summary(fleet, run)
     _kill(fleet, LOST)
     code = run.finish(FLY_TIMEOUT_S)
-    doc, rows = _flight(plan_dir)
+    doc, rows = flight_doc(plan_dir)
     print(run.out, json.dumps(doc.get("retasks"), indent=1))
     assert code == 1, (run.out, doc["problems"])  # a drone was lost: said, and the exit says it
     (retask,) = doc["retasks"]
@@ -70,33 +69,32 @@ def test_fly_replan_re_tasks_the_survivors_in_flight_and_the_same_run_ends_at_99
     assert [p for p in doc["problems"] if not p.startswith(f"uav{LOST}:")] == [], doc["problems"]
 
 
-def test_without_replan_a_replan_and_a_second_flight_finish_the_survey(fleet: Fleet, runs, tmp_path: Path) -> None:
-    _configure(fleet)
+def test_without_replan_a_replan_and_a_second_flight_finish_the_survey(fleet: Fleet, fly_runs, tmp_path: Path) -> None:
+    configure(fleet)
     relay, plan_dir = fleet.relay, fleet.plan_dir
-    run = runs(plan_dir, fleet.url)
-    assert _in_flight(relay, _half_way(fleet), sysids=(LOST,)), _summary(fleet, run)
+    run = fly_runs(plan_dir, fleet.url)
+    assert in_flight(relay, _half_way(fleet), sysids=(LOST,)), summary(fleet, run)
     _kill(fleet, LOST)
     assert run.finish(FLY_TIMEOUT_S) == 1
-    first, _ = _flight(plan_dir)
+    first, _ = flight_doc(plan_dir)
     assert first["coverage"] < 99.0 and "retasks" not in first
 
     rest = plan_dir.parent / "rest"
     planned = subprocess.run([sys.executable, "-m", "missionplan", "replan", str(plan_dir), "--out", str(rest),
                               "--drones", ",".join(map(str, SURVIVORS)), "--quiet"],
-                             cwd=ROOT, capture_output=True, text=True, timeout=120,
-                             env={**os.environ, "PYTHONPATH": str(ROOT)})
+                             capture_output=True, text=True, timeout=120)
     assert planned.returncode == 0, planned.stdout + planned.stderr
     report = json.loads((rest / "report.json").read_text())
     assert sorted(d["id"] for d in report["drones"]) == list(SURVIVORS)
 
-    second = runs(rest, fleet.url)
+    second = fly_runs(rest, fleet.url)
     code = second.finish(FLY_TIMEOUT_S)
-    doc, rows = _flight(rest)
+    doc, rows = flight_doc(rest)
     print(second.out)
     assert code == 0, (second.out, doc["problems"])
     assert doc["survey"]["flights"] == 2 and doc["survey"]["coverage"] >= 99.0, doc["survey"]
-    status = subprocess.run([sys.executable, "-m", "missionplan", "status", str(plan_dir)], cwd=ROOT,
-                            capture_output=True, text=True, timeout=60, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    status = subprocess.run([sys.executable, "-m", "missionplan", "status", str(plan_dir)],
+                            capture_output=True, text=True, timeout=60)
     assert status.returncode == 0, status.stderr
     line = next(text for text in status.stdout.splitlines() if text.startswith("covered "))
     assert float(line.split(": ")[1].split(" %")[0]) >= 99.0, status.stdout

@@ -1,11 +1,7 @@
-import sys
-from pathlib import Path
+"""The tests' shared set-up. Their fixtures for SITL, PX4 SIH and mock fleets come from missionplan's pytest
+plugin (missionplan/testing/plugin.py); the checkers beside them (tests/) and the benches (bench/) are on
+the path through pyproject.toml's `pythonpath`."""
 
-# Let tests import the small checkers that live beside them, and the loopback helpers (free ports,
-# bounded waits) that the integration tests in sitl_tests/ use too.
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "sitl_tests"))
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from loopback import let_children_hear_ctrl_c  # noqa: E402  (found through the path above)
+from missionplan.testing.loopback import let_children_hear_ctrl_c
 
 let_children_hear_ctrl_c()

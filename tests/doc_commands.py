@@ -257,6 +257,19 @@ def shows_an_error(shown: list[str]) -> bool:
     return any(re.match(r"^(missionplan( \w+)?: (?!warning)|\s*problem: )", line) for line in shown)
 
 
+FLYING_COMMANDS = ("demo", "fly")  # `missionplan demo` flies a mock fleet; `fly` flies the block's mock
+
+
+def flies_mocks(block: Block) -> bool:
+    """Whether a command of the block flies mock autopilots (`missionplan demo`, or `missionplan fly` against
+    the mock the block starts): its test carries the `flight` marker."""
+    for command in block.commands:
+        words = command.text.split()
+        if len(words) > 1 and words[0] == "missionplan" and words[1] in FLYING_COMMANDS and "--help" not in words:
+            return True
+    return False
+
+
 # ------------------------------------------------------------------------------------------ running
 def free_port() -> int:
     """A port free on 127.0.0.1 for both TCP and UDP a moment ago."""

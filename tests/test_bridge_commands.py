@@ -11,8 +11,6 @@ from pathlib import Path
 
 import pytest
 
-from loopback import udp_port_free, wait_until
-
 from missionplan.bridge import BridgeUsageError
 from missionplan.bridge.commands import register
 from missionplan.bridge.formats.mission_items import (
@@ -27,6 +25,7 @@ from missionplan.bridge.formats.mission_items import (
 )
 from missionplan.bridge.formats.missionfile import PlanFile, read_plan, write_plan, write_waypoints
 from missionplan.bridge.sim.mock import MockAutopilot
+from missionplan.testing.loopback import udp_port_free, wait_until
 
 
 def run(argv: list[str]) -> int:

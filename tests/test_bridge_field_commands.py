@@ -30,7 +30,7 @@ from missionplan.bridge.formats.missionfile import PlanFile, write_plan, write_w
 from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.cli import main
 
-from test_bridge_commands import FAST, run  # noqa: E402  (tests/ is on sys.path under pytest)
+from test_bridge_commands import FAST, run  # tests/: pyproject.toml's pytest pythonpath
 
 
 def _mission(n: int = 8) -> Mission:

@@ -9,7 +9,6 @@ import time
 from typing import Any
 
 import pytest
-from loopback import free_udp_port, wait_until
 
 from missionplan.bridge.formats.mission_items import (
     CMD_FENCE_CIRCLE_INCLUSION,
@@ -28,6 +27,7 @@ from missionplan.bridge.formats.readback import compare_wire
 from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.bridge.transfer.protocol import Timeouts
 from missionplan.bridge.transfer.uploader import PymavlinkBackend, open_backend, upload_plan
+from missionplan.testing.loopback import free_udp_port, wait_until
 
 mavsdk = pytest.importorskip("mavsdk")
 from mavsdk.plugins.mission_raw import MissionItem as RawItem  # noqa: E402

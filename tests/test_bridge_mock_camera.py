@@ -254,6 +254,7 @@ def _landed(msgs: list[Any]) -> bool:
     return bool(reached) and any(m.get_type() == "HEARTBEAT" and not m.base_mode & 128 for m in msgs[reached[0]:])
 
 
+@pytest.mark.flight
 def test_one_camera_feedback_per_photo_with_consecutive_img_idx() -> None:
     with _mock(speedup=20.0) as mock:
         backend = open_backend("pymavlink", mock.client_url, 1, timeouts=FAST, connect_timeout=3.0)
@@ -281,6 +282,7 @@ def test_one_camera_feedback_per_photo_with_consecutive_img_idx() -> None:
     assert all(g == pytest.approx(2.0, abs=1e-3) for g in gaps)
 
 
+@pytest.mark.flight
 def test_reboot_in_flight_after_an_item() -> None:
     # Wire (ArduPilot): 0 home, 1 takeoff, 2 trigger, 3 WP 10 m, 4 WP 60 m, 5 trigger off, 6 RTL.
     # Item 4 is 50 m (2.5 wall seconds at 20x) past item 3: no loop stall reaches both in one tick.
@@ -316,6 +318,7 @@ def test_reboot_in_flight_after_an_item() -> None:
     assert before and after and after[0] < before[-1]
 
 
+@pytest.mark.flight
 def test_a_repeated_mission_start_does_not_restart_a_running_mission() -> None:
     # A ground station repeats MISSION_START when its acknowledgement is lost; ArduCopter then keeps flying.
     with _mock(speedup=5.0) as mock:

@@ -7,6 +7,8 @@ import math
 import time
 from typing import Any
 
+import pytest
+
 from missionplan.bridge.link.connection import Link, mavlink, wait_vehicle
 from missionplan.bridge.link.readiness import ARDUPILOT_AUTO, mode_params
 from missionplan.bridge.formats.mission_items import (
@@ -56,6 +58,7 @@ def _command(link: Link, command: int, *params: float) -> int:
             return int(msg.result)
 
 
+@pytest.mark.flight
 def test_arm_mode_start_fly_and_land() -> None:
     with MockAutopilot(homes={1: HOME}, speedup=40.0, request_interval=0.02).start() as mock:
         with Link(mock.client_url) as link:
@@ -100,6 +103,7 @@ def test_arm_mode_start_fly_and_land() -> None:
     assert len(state.track) > 10
 
 
+@pytest.mark.flight
 def test_a_repeated_mission_start_restarts_nothing(monkeypatch) -> None:
     """Like ArduCopter (GCS_MAVLINK_Copter::handle_MAV_CMD_MISSION_START starts the mission only when it
     is not running): a start repeated while the vehicle still climbs off the ground is accepted and

@@ -121,6 +121,7 @@ def _fly_and_collect(link: Link, timeout: float) -> list[Any]:
     raise AssertionError("the mock did not land and disarm in time")
 
 
+@pytest.mark.flight
 def test_no_camera_until_configured_then_img_idx_from_1_across_flights() -> None:
     mission = _mission(6.0, [(8.0, 0.0)], trigger_m=2.0)
     with MockAutopilot("udpin:127.0.0.1:0", sitl_like=True, speedup=40.0, homes={1: HOME}) as mock:

@@ -222,6 +222,7 @@ def test_plan_autopilot_px4_writes_firmware_12_and_no_waypoints(tmp_path: Path) 
     write_waypoints(tmp_path / "x.waypoints", px4.mission)  # still writable by hand for a PX4 plan
 
 
+@pytest.mark.flight
 def test_fly_refuses_a_plan_written_for_ardupilot_on_px4_vehicles(tmp_path: Path) -> None:
     from missionplan.flight.fly import fly
     from missionplan.flight.mock_fleet import start_mock_fleet

@@ -29,7 +29,7 @@ from missionplan.bridge.formats.mission_items import (
 from missionplan.bridge.formats.missionfile import PlanFile, read_plan, write_plan
 from missionplan.bridge.sim.mock import MockAutopilot
 
-from test_bridge_commands import FAST, run  # noqa: E402  (tests/ is on sys.path under pytest)
+from test_bridge_commands import FAST, run  # tests/: pyproject.toml's pytest pythonpath
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "openpty"), reason="needs POSIX pseudo-terminals")
 

@@ -23,7 +23,7 @@ from missionplan.bridge.formats.mission_items import (
 from missionplan.bridge.formats.missionfile import PlanFile, write_plan
 from missionplan.bridge.sim.mock import MockAutopilot
 
-from test_bridge_commands import FAST, run  # noqa: E402  (tests/ is on sys.path under pytest)
+from test_bridge_commands import FAST, run  # tests/: pyproject.toml's pytest pythonpath
 
 
 def _plan(tmp_path: Path, n: int = 300) -> Path:

@@ -313,6 +313,7 @@ def test_a_wrong_key_is_named_when_the_vehicle_does_not_answer(key_file: tuple[S
 
 # ------------------------------------------------------------------------------------------------ fly
 
+@pytest.mark.flight
 def test_fly_signs_speaks_as_the_gcs_ids_and_logs_plain_lines(plan_copy: Path, key_file: tuple[SigningKey, Path],
                                                              tmp_path: Path) -> None:
     """`fly` in its own process with stderr to a file (not a terminal): a signed fleet flies, every packet
@@ -339,6 +340,7 @@ def test_fly_signs_speaks_as_the_gcs_ids_and_logs_plain_lines(plan_copy: Path, k
         assert f"{uav}: mission started" in lines and any(line.startswith(f"{uav}: at item ") for line in lines)
 
 
+@pytest.mark.flight
 def test_fly_without_the_key_names_signing(plan_copy: Path, key_file: tuple[SigningKey, Path],
                                            capsys: pytest.CaptureFixture[str]) -> None:
     mock = start_mock_fleet(plan_copy, speedup=10.0, key=key_file[0])

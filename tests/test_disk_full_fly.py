@@ -29,6 +29,8 @@ from missionplan.flight.journal_db import JOURNAL_NAME
 from missionplan.flight.journal_read import read_flight
 from missionplan.flight.mock_fleet import start_mock_fleet
 
+pytestmark = pytest.mark.flight  # flies mock autopilots: `pytest -m "not flight"` leaves it out
+
 ROOT = Path(__file__).resolve().parent.parent
 SPEEDUP = 4.0  # Leonardo's 3 drones, about 60 s planned each: 15 s of wall time
 SYSIDS = (1, 2, 3)

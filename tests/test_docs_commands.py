@@ -59,7 +59,8 @@ def test_a_block_not_run_says_why_with_an_allowed_reason(block: dc.Block) -> Non
         assert any(ch.isdigit() for ch in reason), f"{block.where}: name the time it takes"
 
 
-@pytest.mark.parametrize("block", RUNNABLE, ids=[b.where for b in RUNNABLE])
+@pytest.mark.parametrize("block", [pytest.param(b, marks=pytest.mark.flight) if dc.flies_mocks(b) else b
+                                   for b in RUNNABLE], ids=[b.where for b in RUNNABLE])
 def test_a_command_block_runs_as_written_and_prints_what_the_doc_shows(block: dc.Block, tmp_path: Path) -> None:
     assert not (wrong := dc.loopback_only(block)), f"{block.where}: {wrong}; mark it as needing hardware"
     if any("../shared" in c.text for c in block.commands) and not SHARED.is_dir():
@@ -122,6 +123,13 @@ def test_a_mock_flight_s_measurements_have_their_own_tolerance() -> None:
     assert dc.same_line(covered, covered.replace("100.00", "99.98").replace("30.7", "41.2"))
     assert not dc.same_line(covered, covered.replace("100.00", "99.40"))
     assert not dc.same_line(covered, covered.replace("1956", "1955"))
+
+
+def test_a_block_that_flies_mock_autopilots_is_told_apart() -> None:
+    flying = {b.where for b in RUNNABLE if dc.flies_mocks(b)}
+    assert any(where.startswith("README.md") for where in flying) and len(flying) >= 5, flying
+    assert not dc.flies_mocks(dc.Block(Path("x.md"), 1, "sh", [], commands=[
+        dc.Command("missionplan fly --help", 2), dc.Command("missionplan plan --map leonardo --uavs 3 --out fly", 3)]))
 
 
 def test_blocks_commands_and_markers_are_read_as_documented(tmp_path: Path) -> None:

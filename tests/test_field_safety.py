@@ -177,6 +177,7 @@ def test_each_sortie_keeps_the_separation_started_together(leonardo_sorties):
             assert closest_approach(tracks)["3d"] >= report["separation"]["required_m"] - 0.02
 
 
+@pytest.mark.flight
 def test_fly_flies_a_later_sortie_against_the_mock(leonardo_sorties):
     from missionplan.flight.fly import fly
     from missionplan.flight.mock_fleet import start_mock_fleet

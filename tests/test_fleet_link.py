@@ -9,8 +9,6 @@ import time
 import numpy as np
 import pytest
 
-from loopback import free_udp_port, wait_until
-
 from missionplan.bridge.errors import BridgeUsageError
 from missionplan.bridge.link.connection import Link, wait_vehicle
 from missionplan.bridge.formats.mission_items import Flavour
@@ -19,6 +17,7 @@ from missionplan.bridge.link.readiness import (Vehicle, VehicleState, launch_off
                                                stream_rates)
 from missionplan.bridge.link.shared_link import SharedLink, parse_connects
 from missionplan.flight import flight_report as fr
+from missionplan.testing.loopback import free_udp_port, wait_until
 
 MILAN = (45.4643, 9.1895, 120.0)
 

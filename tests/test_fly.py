@@ -94,6 +94,7 @@ def _assert_holds_exactly_the_files(plan_dir: Path, mock, sysids) -> None:
         assert vehicle.params["WPNAV_RADIUS"] == pytest.approx(max(round(radius * 100), 5))
 
 
+@pytest.mark.flight
 @pytest.mark.parametrize("name, uavs", [("leonardo", 3), ("leonardo", 6), ("grid-city", 3), ("grid-city", 6)])
 def test_planned_fleet_flies_and_photographs_every_street(planned, name, uavs):
     plan_dir = planned(name, uavs)
@@ -116,6 +117,7 @@ def test_planned_fleet_flies_and_photographs_every_street(planned, name, uavs):
     assert (plan_dir / "flight.png").stat().st_size > 10_000
 
 
+@pytest.mark.flight
 def test_lost_packets_slow_the_flight_down_but_not_the_verdict(planned):
     plan_dir = planned("leonardo", 3)
     result, mock = _fly(plan_dir, "leonardo", faults=LinkFaults.lossy(0.1, duplicate=0.05, seed=7))
@@ -133,6 +135,7 @@ def test_lost_packets_slow_the_flight_down_but_not_the_verdict(planned):
         assert truth - 2 <= drone["photos"] <= truth
 
 
+@pytest.mark.flight
 def test_a_lost_mission_start_is_sent_again_within_a_few_round_trips(planned, monkeypatch):
     """The plan's separation assumes the missions start together: a MISSION_START lost on the way to one
     vehicle is repeated after a few of its acknowledgement round trips (on loopback the 0.1 s floor), not
@@ -178,6 +181,7 @@ def test_a_lost_mission_start_is_sent_again_within_a_few_round_trips(planned, mo
     assert result.separation["start_spread_s"] <= (arrived[2][1] - first_start) * SPEEDUP["leonardo"] + 0.1
 
 
+@pytest.mark.flight
 def test_a_vehicle_that_reboots_in_flight_is_reported_and_the_others_finish(planned):
     plan_dir = planned("leonardo", 3)
     result, mock = _fly(plan_dir, "leonardo", reboot=(2, 8))
@@ -193,6 +197,7 @@ def test_a_vehicle_that_reboots_in_flight_is_reported_and_the_others_finish(plan
     assert doc["problems"] == result.problems
 
 
+@pytest.mark.flight
 def test_plan_files_opened_by_mavsdk_fly_the_same(planned):
     plan_dir = planned("leonardo", 3)
     result, mock = _fly(plan_dir, "leonardo", upload_with="mavsdk")
@@ -202,6 +207,7 @@ def test_plan_files_opened_by_mavsdk_fly_the_same(planned):
     _assert_holds_exactly_the_files(plan_dir, mock, range(1, 4))
 
 
+@pytest.mark.flight
 def test_fly_command_line_writes_flight_json(planned, capsys):
     plan_dir = planned("leonardo", 3)
     mock = start_mock_fleet(plan_dir, SPEEDUP["leonardo"])
@@ -219,6 +225,7 @@ def test_fly_command_line_writes_flight_json(planned, capsys):
     assert all({"id", "flight_s", "finished", "photos"} <= set(d) for d in doc["drones"])
 
 
+@pytest.mark.flight
 def test_demo_runs_the_whole_flow_in_one_command(tmp_path, capsys):
     out_dir = tmp_path / "demo"
     assert main(["demo", "--out", str(out_dir), "--quiet"]) == 0
@@ -232,6 +239,7 @@ def test_demo_runs_the_whole_flow_in_one_command(tmp_path, capsys):
 
 
 # ------------------------------------------------------------------------------------------- honest judge
+@pytest.mark.flight
 def test_a_fleet_without_cameras_is_no_pass_unless_photos_from_track_is_asked(planned, capsys):
     # ArduCopter with no camera configured sends no CAMERA_FEEDBACK: the old judge invented a photo every
     # trigger distance along the track and passed at 99 %.
@@ -265,6 +273,7 @@ def test_a_fleet_without_cameras_is_no_pass_unless_photos_from_track_is_asked(pl
     assert result.ok == (result.coverage >= 99.0)
 
 
+@pytest.mark.flight
 def test_a_second_flight_counts_only_its_own_photos(planned):
     # ArduPilot's img_idx keeps counting across flights until a reboot: the second flight's first
     # photo is not index 1, and the photos before it are not this flight's (nor lost reports).
@@ -297,6 +306,7 @@ def test_flight_png_without_any_track_draws_no_empty_legend(planned, recwarn):
     assert (plan_dir / "flight.png").stat().st_size > 10_000
 
 
+@pytest.mark.flight
 def test_fly_retimes_the_plan_with_the_vehicles_own_parameters(planned):
     # The plan assumed ArduCopter's defaults; these vehicles loiter 0 s above home (RTL_LOIT_TIME) and
     # land at 1 m/s (LAND_SPEED): fly reads them (PARAM_REQUEST_READ) and re-times each mission.

@@ -18,13 +18,15 @@ import time
 from pathlib import Path
 
 import pytest
-from loopback import wait_until
 
 from missionplan.bridge.sim.mock import LinkFaults
 from missionplan.cli import main
 from missionplan.flight.fly import fly
 from missionplan.flight.journal_read import read_flight
 from missionplan.flight.mock_fleet import start_mock_fleet
+from missionplan.testing.loopback import wait_until
+
+pytestmark = pytest.mark.flight  # flies mock autopilots: `pytest -m "not flight"` leaves it out
 
 ROOT = Path(__file__).resolve().parent.parent
 SPEEDUP = 2.0  # Leonardo's 3-drone missions, about 60 s planned each: 30 s of wall time

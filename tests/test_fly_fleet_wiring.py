@@ -15,12 +15,14 @@ import shutil
 from pathlib import Path
 
 import pytest
-from loopback import free_udp_port
-from plans import plan_area
 
 from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.cli import main
+from missionplan.testing.loopback import free_udp_port
+from missionplan.testing.plans import plan_area
+
+pytestmark = pytest.mark.flight  # flies mock autopilots: `pytest -m "not flight"` leaves it out
 
 SYSIDS = (1, 2, 3)
 AREA = [[9.1890, 45.4640], [9.1905, 45.4640], [9.1905, 45.4648], [9.1890, 45.4648], [9.1890, 45.4640]]

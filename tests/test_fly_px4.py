@@ -131,6 +131,7 @@ def _fly_px4_mocks(plan_dir: Path, cameras: bool = True, photos_from_track: bool
     return result, json.loads((plan_dir / "flight.json").read_text()), mock
 
 
+@pytest.mark.flight
 def test_fly_judges_a_px4_fleet_by_its_camera_image_captured_reports(milan_plan, tmp_path) -> None:
     plan_dir = Path(shutil.copytree(milan_plan, tmp_path / "plan"))
     # Not ready for 20 simulated seconds: arming is refused TEMPORARILY_REJECTED, fly retries.
@@ -156,6 +157,7 @@ def test_fly_judges_a_px4_fleet_by_its_camera_image_captured_reports(milan_plan,
             assert phase["flown_s"] == pytest.approx(phase["planned_s"], rel=0.05, abs=1.0), row["phases"]
 
 
+@pytest.mark.flight
 def test_a_px4_fleet_without_trig_mode_reports_no_photo(milan_plan, tmp_path) -> None:
     plan_dir = Path(shutil.copytree(milan_plan, tmp_path / "plan"))
     result, doc, _ = _fly_px4_mocks(plan_dir, cameras=False)
@@ -164,6 +166,7 @@ def test_a_px4_fleet_without_trig_mode_reports_no_photo(milan_plan, tmp_path) ->
     assert all(row["finished"] for row in doc["drones"])
 
 
+@pytest.mark.flight
 def test_a_px4_start_refused_while_px4_checks_the_new_mission_is_retried(milan_plan, tmp_path) -> None:
     # PX4 SIH refused a MISSION_START sent right after the upload ("No valid mission"): it takes a new
     # mission only after its own checks. Here they take 20 simulated seconds (2 s at 10x): fly retries.

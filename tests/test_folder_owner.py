@@ -117,6 +117,7 @@ def _fly_process(plan_dir: Path, url: str, **popen) -> subprocess.Popen[str]:
                             cwd=ROOT, text=True, env=ENV, **popen)
 
 
+@pytest.mark.flight
 def test_a_second_fly_on_the_same_folder_is_refused_and_each_vehicle_is_armed_once(
         leonardo: Path, tmp_path: Path) -> None:
     plan_dir = _copy(leonardo, tmp_path)
@@ -225,6 +226,7 @@ def test_a_lock_files_text_is_printed_escaped_in_one_line(tmp_path: Path) -> Non
                     f"2025-06-02T09:14:03+0200), which no longer runs"]
 
 
+@pytest.mark.flight
 def test_demo_plans_then_flies_in_one_process_and_a_second_demo_there_is_refused(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "demo"
@@ -239,6 +241,7 @@ def test_demo_plans_then_flies_in_one_process_and_a_second_demo_there_is_refused
 
 
 # ------------------------------------------------------------------------------------------ no plan over a flight
+@pytest.mark.flight
 def test_every_file_fly_writes_tells_a_flight(flown: Path) -> None:
     planned = set(json.loads((flown / "report.json").read_text())["files"])
     record = set(flight_record(flown))
@@ -246,6 +249,7 @@ def test_every_file_fly_writes_tells_a_flight(flown: Path) -> None:
     assert {"journal.sqlite", "ledger.sqlite", "flight.json", "photos.csv"} <= record
 
 
+@pytest.mark.flight
 def test_plan_into_a_flown_folder_is_refused_and_changes_nothing(
         flown: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     folder = _copy(flown, tmp_path)
@@ -261,6 +265,7 @@ def test_plan_into_a_flown_folder_is_refused_and_changes_nothing(
     assert main(["status", str(folder)]) == 0  # the survey reads as it did
 
 
+@pytest.mark.flight
 def test_replan_into_another_surveys_flown_folder_is_refused(
         flown: Path, leonardo: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     other = _copy(flown, tmp_path / "other-survey")

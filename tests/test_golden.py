@@ -30,7 +30,9 @@ def _run(case: gc.Case, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path,
     return _RUNS[case.name]
 
 
-@pytest.mark.parametrize("case", gc.CASES, ids=[case.name for case in gc.CASES])
+# The demo case flies mock autopilots: it carries the `flight` marker as every mock flight does.
+@pytest.mark.parametrize("case", [pytest.param(case, id=case.name, marks=[pytest.mark.flight] if case.is_flight else [])
+                                  for case in gc.CASES])
 def test_the_case_writes_what_it_wrote_before(case: gc.Case, tmp_path_factory: pytest.TempPathFactory) -> None:
     if case.needs is not None and not case.needs.exists():
         pytest.skip(f"{case.needs} is absent")

@@ -18,13 +18,13 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from loopback import wait_until
 from small_disk import read_only, small_disk
 
 from missionplan.flight.journal import Journal, write_fallback
 from missionplan.flight.journal_db import COUNTER_NAME, JOURNAL_NAME, JournalError
 from missionplan.flight.journal_read import read_flight
 from missionplan.flight.record import DroneRecord
+from missionplan.testing.loopback import wait_until
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -1,7 +1,8 @@
 """Imports run one way: cli -> flight -> mission -> learn -> grid -> maps -> geo -> bridge -> base, inside bridge/
 from the commands down to the flight models, inside missionplan/flight/ from fly down to the records; geo, maps,
 grid and learn import nothing from bridge (base has what they share with it); and no module imports itself round a
-circle (a -> b -> a), inside a layer or across the top.
+circle (a -> b -> a), inside a layer or across the top. The test support, missionplan/testing/ (fixtures and the
+pytest plugin), sits above them all: it may import the product, and nothing of the product imports it.
 
 Every module is parsed with `ast` (imports inside functions included). A module's layer is the
 subpackage it sits in (missionplan/grid/world.py: grid; geo/ and bridge/ install as missionplan.geo and
@@ -89,6 +90,35 @@ def test_nothing_imports_geo_or_bridge_by_a_top_level_name() -> None:
     for path in ALL_SOURCES:
         imports = imported_modules(path.read_text(encoding="utf-8"), module_name(path), path.name == "__init__.py")
         assert [m for m in imports if m.split(".")[0] in INSTALLED_AS] == [], path
+
+
+TESTING = "missionplan.testing"
+
+
+def imports_test_support(source: str, name: str, is_package: bool = False) -> list[str]:
+    """The imports of module `name` that reach the test support (missionplan.testing and its modules)."""
+    return sorted({m for m in imported_modules(source, name, is_package)
+                   if m == TESTING or m.startswith(TESTING + ".")})
+
+
+def test_nothing_of_the_product_imports_the_test_support() -> None:
+    product = [p for p in ALL_SOURCES if module_name(p).split(".")[:2] != TESTING.split(".")]
+    assert len(product) > 100 and len(product) < len(ALL_SOURCES)  # missionplan/testing/ is left out, only it
+    offenders = {str(p.relative_to(ROOT)): found for p in product
+                 if (found := imports_test_support(p.read_text(encoding="utf-8"), module_name(p),
+                                                   p.name == "__init__.py"))}
+    assert offenders == {}
+
+
+def test_an_import_of_the_test_support_is_found() -> None:
+    assert imports_test_support("def f():\n    from missionplan.testing.loopback import wait_until\n",
+                                "missionplan.cli") == ["missionplan.testing.loopback",
+                                                       "missionplan.testing.loopback.wait_until"]
+    assert imports_test_support("from ..testing import plans\n", "missionplan.flight.fly") == [
+        "missionplan.testing", "missionplan.testing.plans"]
+    assert imports_test_support("from missionplan import testing\n", "missionplan.demo") == ["missionplan.testing"]
+    assert imports_test_support("from ..flight.fly import fly\nimport missionplan.testingx\n",
+                                "missionplan.testing.sitl_fleet") == []
 
 
 def test_a_wrong_way_import_is_found() -> None:

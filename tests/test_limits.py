@@ -39,9 +39,9 @@ from missionplan.bridge.transfer.uploader import PymavlinkBackend
 from missionplan.flight.display import progress_display
 from missionplan.maps import catalog
 from missionplan.maps.gridmap import MapError
-from limit_cases import EXPECTED_ARDUCOPTER, EXPECTED_PX4, HOME, mock_answers
-from plans import wire_item
-from px4_mission_session import HOME as PX4_HOME
+from missionplan.testing.limit_cases import EXPECTED_ARDUCOPTER, EXPECTED_PX4, HOME, mock_answers
+from missionplan.testing.plans import wire_item
+from missionplan.testing.px4_mission_session import HOME as PX4_HOME
 
 HOME_LINE = "0\t1\t0\t16\t0\t0\t0\t0\t45.07\t7.68\t240\t1\n"
 HOSTILE = "\x1b[2J\x1b[31mred\x07bell\rover\u202eevil"  # clear screen, colour, bell, carriage return, RTL

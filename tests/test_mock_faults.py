@@ -68,6 +68,7 @@ def _heartbeats(heard: list[Any], sysid: int) -> int:
 
 
 # ------------------------------------------------------------------------------ a vehicle killed in flight
+@pytest.mark.flight
 def test_a_killed_vehicle_goes_silent_for_good_and_the_others_fly_on() -> None:
     with MockAutopilot(sysids=(1, 2), homes={1: HOME, 2: (HOME[0] + 0.001, HOME[1], HOME[2])}, speedup=20.0,
                        request_interval=0.05) as mock, Link(mock.client_url) as link:
@@ -89,6 +90,7 @@ def test_a_killed_vehicle_goes_silent_for_good_and_the_others_fly_on() -> None:
         assert mock.vehicle(2).flight.state.mode == "AUTO"
 
 
+@pytest.mark.flight
 def test_a_vehicle_killed_at_a_mission_item_stops_there() -> None:
     with MockAutopilot(homes={1: HOME}, speedup=20.0, request_interval=0.05) as mock, Link(mock.client_url) as link:
         mock.kill(1, at_item=3)
@@ -132,6 +134,7 @@ def _param_set(link: Link, sysid: int, name: str, value: float) -> float:
     return float(heard[-1].param_value)
 
 
+@pytest.mark.flight
 def test_battery_failsafe_as_arducopter_does_it() -> None:
     with MockAutopilot(homes={1: HOME}, speedup=10.0, request_interval=0.05, sitl_like=True) as mock, \
             Link(mock.client_url) as link:
@@ -174,6 +177,7 @@ def test_battery_failsafe_as_arducopter_does_it() -> None:
         assert 10.0 < vehicle.battery_failsafe_sim_time - set_at < 12.0
 
 
+@pytest.mark.flight
 def test_a_battery_failsafe_without_an_action_warns_and_flies_on() -> None:
     with MockAutopilot(homes={1: HOME}, speedup=20.0, request_interval=0.05) as mock, Link(mock.client_url) as link:
         _start(link, 1, _survey(legs=6, side_m=300.0))  # BATT_FS_LOW_ACT 0: it warns and flies on

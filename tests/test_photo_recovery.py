@@ -132,6 +132,7 @@ def test_the_mocks_dataflash_log_reads_back_with_pymavlinks_dfreader(tmp_path: P
 
 
 # ------------------------------------------------------------------------------------- recovery
+@pytest.mark.flight
 def test_photos_whose_reports_were_lost_come_back_from_the_log() -> None:
     with _mock() as mock:
         backend = _uploaded(mock, _survey(2.0, 60.0))
@@ -165,6 +166,7 @@ def test_photos_whose_reports_were_lost_come_back_from_the_log() -> None:
     assert times == sorted(times) and times[0] > 0
 
 
+@pytest.mark.flight
 def test_lost_chunks_and_lost_requests_are_asked_for_again(tmp_path: Path) -> None:
     with _mock() as mock:
         backend = _uploaded(mock, _survey(1.0, 80.0))
@@ -190,6 +192,7 @@ def test_lost_chunks_and_lost_requests_are_asked_for_again(tmp_path: Path) -> No
     _assert_equal(read_dataflash_photos(tmp_path / "log.BIN"), truth)
 
 
+@pytest.mark.flight
 def test_over_a_shared_link_with_the_log_kept_and_two_flights_in_two_logs(tmp_path: Path) -> None:
     """A download ends the open log (as ArduPilot's does): the next flight writes a new one. The
     newest holds the second flight; older ones are read only for indices still missing."""
@@ -221,6 +224,7 @@ def test_over_a_shared_link_with_the_log_kept_and_two_flights_in_two_logs(tmp_pa
     assert [p.img_idx for p in recent] == [max(second)]  # log 1 was last written before the second flight
 
 
+@pytest.mark.flight
 def test_two_flights_in_one_log_are_told_apart_by_their_gps_time() -> None:
     """Without a reboot or a download in between, ArduPilot logs the next flight into the same log;
     since_utc (the flight's start) leaves the earlier flight's photos out."""
@@ -263,6 +267,7 @@ def test_an_armed_vehicle_answers_disarm_for_log_download() -> None:
                               'it said "Disarm for log download"')
 
 
+@pytest.mark.flight
 def test_px4_photos_come_back_from_its_ulog_when_it_logs() -> None:
     """PX4 with its logger on (SDLOG_MODE 0, PX4's default) writes a ULog from arming to disarming;
     its camera_capture messages are the photos CAMERA_IMAGE_CAPTURED reported, lost or not."""

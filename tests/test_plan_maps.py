@@ -129,6 +129,7 @@ def flown(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
+@pytest.mark.flight
 def test_fly_writes_the_flights_maps_beside_the_plans(flown: Path) -> None:
     flight = json.loads((flown / "flight.json").read_text())
     counts = _layers(flown / "flight.gpkg")
@@ -147,6 +148,7 @@ def test_fly_writes_the_flights_maps_beside_the_plans(flown: Path) -> None:
     assert '<p class="mp-kind">missionplan flight</p>' in html and '"photos_taken"' in html
 
 
+@pytest.mark.flight
 def test_the_real_plan_and_flight_pages_draw_in_chromium(browser_context, leonardo_plan: tuple[Path, dict],
                                                          flown: Path) -> None:
     """The pages `plan` and `fly` wrote (not a fixture's layers) open with no error and no request but

@@ -27,6 +27,8 @@ from missionplan.bridge.link.readiness import ARDUPILOT_GUIDED
 from missionplan.bridge.transfer.retask import RetaskError, replace_mission_in_flight
 from missionplan.bridge.transfer.uploader import PymavlinkBackend
 
+pytestmark = pytest.mark.flight  # flies mock autopilots: `pytest -m "not flight"` leaves it out
+
 HOME = (45.0, 7.0, 200.0)
 EARTH_RADIUS = 6_378_137.0
 OWN = [(20.0, 0.0), (80.0, 0.0), (80.0, 20.0), (20.0, 20.0), (20.0, 40.0), (80.0, 40.0), (80.0, 60.0), (20.0, 60.0),

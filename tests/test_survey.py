@@ -49,6 +49,7 @@ def _covered_from_csv(root: Path, *folders: Path) -> tuple[int, int]:
     return int((gap <= reach).sum()), len(targets)
 
 
+@pytest.mark.flight
 def test_the_first_flight_is_in_the_ledger_and_the_photo_files(lost_drone_survey: Path) -> None:
     root = lost_drone_survey
     flight = json.loads((root / "flight.json").read_text())
@@ -73,6 +74,7 @@ def test_the_first_flight_is_in_the_ledger_and_the_photo_files(lost_drone_survey
     assert flight["coverage"] < 95.0  # a third of the survey was lost with drone 2
 
 
+@pytest.mark.flight
 def test_status_says_what_is_left_and_writes_it(lost_drone_survey: Path, capsys: pytest.CaptureFixture[str]) -> None:
     root = lost_drone_survey
     assert main(["status", str(root)]) == 0
@@ -85,6 +87,7 @@ def test_status_says_what_is_left_and_writes_it(lost_drone_survey: Path, capsys:
     assert (root / "status.png").stat().st_size > 10_000
 
 
+@pytest.mark.flight
 def test_replan_plans_only_the_missing_cells_for_the_vehicles_named_and_the_survey_ends_whole(
         lost_drone_survey: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     root = lost_drone_survey
@@ -121,6 +124,7 @@ def test_replan_plans_only_the_missing_cells_for_the_vehicles_named_and_the_surv
     assert "../day2" in out
 
 
+@pytest.mark.flight
 def test_a_flight_judged_again_replaces_its_rows(lost_drone_survey: Path, tmp_path: Path) -> None:
     """fly --resume judges a flight again: the ledger keeps one copy of its photos."""
     from missionplan.flight.flight_report import judge
@@ -141,6 +145,7 @@ def test_a_flight_judged_again_replaces_its_rows(lost_drone_survey: Path, tmp_pa
     assert photos == sum(len(rec.camera) for rec in records)
 
 
+@pytest.mark.flight
 @pytest.mark.parametrize("argv, message", [
     (["--drones", "1,7"], "has no drone 7"),
     ([], "say who flies the re-plan"),
@@ -157,6 +162,7 @@ def test_replan_refuses_an_unsaid_assignment(lost_drone_survey: Path, tmp_path: 
     assert not (out / "report.json").exists()
 
 
+@pytest.mark.flight
 def test_replan_will_not_write_over_the_survey(lost_drone_survey: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["replan", str(lost_drone_survey), "--out", str(lost_drone_survey), "--drones", "1"]) == 2
     assert "not over the survey's own plan" in capsys.readouterr().err
@@ -219,6 +225,7 @@ def _status(folder: Path, capsys: pytest.CaptureFixture[str]) -> tuple[int, str,
     return code, out.out.replace(str(folder), "DIR"), out.err
 
 
+@pytest.mark.flight
 def test_a_deleted_ledger_is_rebuilt_from_the_journal_with_the_rows_the_judge_wrote(
         lost_drone_survey: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     whole = _survey_copy(lost_drone_survey, tmp_path / "whole", ledger=True)
@@ -234,6 +241,7 @@ def test_a_deleted_ledger_is_rebuilt_from_the_journal_with_the_rows_the_judge_wr
     assert _status(lost, capsys) == expected  # rebuilt once: the next status is as ever
 
 
+@pytest.mark.flight
 def test_a_deleted_ledger_of_a_survey_flown_twice_is_rebuilt_from_both_folders(
         lost_drone_survey: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """The journals of the first plan and of the re-plan beside it (`replan --out ../day2`) hold both flights."""
@@ -271,6 +279,7 @@ def _page_of_a_photo(path: Path) -> int:
     return at - at % 4096
 
 
+@pytest.mark.flight
 @pytest.mark.parametrize("command", ["status", "replan"])
 def test_a_damaged_ledger_is_rebuilt_in_one_line(lost_drone_survey: Path, tmp_path: Path,
                                                  capsys: pytest.CaptureFixture[str], command: str) -> None:
@@ -295,6 +304,7 @@ def test_a_damaged_ledger_is_rebuilt_in_one_line(lost_drone_survey: Path, tmp_pa
     assert (damaged / "ledger.sqlite.damaged").exists()
 
 
+@pytest.mark.flight
 def test_status_of_a_read_only_survey_folder_is_printed_then_one_line(
         lost_drone_survey: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     from small_disk import read_only
@@ -332,6 +342,7 @@ def _copy(plan: Path, to: Path) -> Path:
     return to
 
 
+@pytest.mark.flight
 @pytest.mark.parametrize("flavour", ["ardupilot"])
 def test_fly_replan_gives_a_lost_drones_share_to_the_others_in_flight(
         leonardo_3: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], flavour: str) -> None:
@@ -365,6 +376,7 @@ def test_fly_replan_gives_a_lost_drones_share_to_the_others_in_flight(
             (held[k], drones[k]["notes"])
 
 
+@pytest.mark.flight
 def test_survivors_that_do_not_stop_for_a_retask_go_back_to_their_own_missions(
         leonardo_3: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
     # A vehicle that never gets under the hold speed (a gusty day, a slow brake): the re-task is refused
@@ -479,6 +491,7 @@ def test_nothing_to_retask_when_everything_is_photographed(leonardo_3: Path) -> 
     assert plan_retask(leonardo_3, report, [survivor], photos) is None
 
 
+@pytest.mark.flight
 def test_fly_replan_re_tasks_when_a_battery_failsafe_sends_a_drone_home(
         leonardo_3: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     from missionplan.bridge.link.connection import Link, wait_vehicle

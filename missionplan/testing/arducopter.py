@@ -1,10 +1,10 @@
 """Real ArduCopter SITL for the tests: start instances, find free ports, stop them whatever happens.
 
-The binary and its default parameters live beside the repository (`../shared/sitl/arducopter`,
-`../shared/sitl/copter.parm`, read in place, never copied). Each instance runs in its own
-`tempfile.mkdtemp()` folder (it writes eeprom.bin, terrain/ and logs/ there), in its own session
-(`start_new_session=True`) so that teardown kills its whole process group, with `-w` (wiped
-parameters and mission) and `--speedup`.
+The binary and its default parameters are `sitl/arducopter` and `sitl/copter.parm` of the simulators
+folder (simulators.py: `../shared` beside a checkout, or `--simulators DIR` / MISSIONPLAN_SIMULATORS;
+read in place, never copied). Each instance runs in its own `tempfile.mkdtemp()` folder (it writes
+eeprom.bin, terrain/ and logs/ there), in its own session (`start_new_session=True`) so that teardown
+kills its whole process group, with `-w` (wiped parameters and mission) and `--speedup`.
 
 Ports: instance I listens on TCP 5760 + 10·I (serial0; serial1 / serial2 on +2 / +3) and binds UDP
 5501 + 10·I (RC input). Other test runs on this machine start SITL too, so an instance number is
@@ -18,7 +18,8 @@ Reuse: `ArduCopter(...)` is one vehicle; `serial0` picks how it talks: `tcp:0` (
 connect to `tcp:127.0.0.1:PORT`, see `.url`) or `udpclient:127.0.0.1:PORT` (it sends to a ground
 station listening there, `.gcs_url`: several vehicles, each with its own sysid, into one `udpin:`
 port, as a fleet flies; start them with wait=False and call wait_mission_ready on the shared link).
-`sitl_or_skip()` skips a test with a reason when the binary is absent.
+`sitl_or_skip()` skips a test with a reason when the binary is absent; the `arducopter` fixture
+(plugin.py) is a factory of vehicles stopped at teardown.
 """
 
 from __future__ import annotations
@@ -31,26 +32,37 @@ import tempfile
 import time
 from pathlib import Path
 
-import pytest
-from loopback import stop_process_group, wait_until
-
 from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, mavlink
 from missionplan.bridge.link.readiness import ARDUPILOT_GUIDED, mode_params
+from missionplan.testing import simulators
+from missionplan.testing.loopback import stop_process_group, wait_until
 
-REPO = Path(__file__).resolve().parent.parent
-SITL_DIR = REPO.parent / "shared" / "sitl"
-BINARY = SITL_DIR / "arducopter"
-DEFAULTS = SITL_DIR / "copter.parm"
 SPEEDUP = 10  # stable on 2 shared cores (the SITL README)
 FIRST_INSTANCE = 20  # stay clear of the usual 0..9 a person would start by hand
 MAX_INSTANCE = 120
 
 
+def binary() -> Path | None:
+    """Where the SITL binary should be (None: no simulators folder known; simulators.py)."""
+    folder = simulators.sitl_dir()
+    return None if folder is None else folder / "arducopter"
+
+
+def defaults() -> Path:
+    """The default parameters SITL starts with, beside the binary."""
+    found = binary()
+    assert found is not None, "no simulators folder known"
+    return found.parent / "copter.parm"
+
+
 def sitl_or_skip() -> Path:
     """The SITL binary, or skip the calling test saying why."""
-    if not (BINARY.is_file() and os.access(BINARY, os.X_OK)):
-        pytest.skip(f"ArduCopter SITL not found at {BINARY} (see ../shared/sitl/README.md)")
-    return BINARY
+    found = binary()
+    if found is None or not (found.is_file() and os.access(found, os.X_OK)):
+        import pytest
+
+        pytest.skip(simulators.missing("ArduCopter SITL", found, None if found is None else found.parent / "README.md"))
+    return found
 
 
 def _tcp_free(port: int) -> bool:
@@ -159,8 +171,8 @@ class ArduCopter:
 
     def command(self) -> list[str]:
         lat, lon, alt, heading = self.home
-        return [str(BINARY), "--model", "+", "--speedup", str(self.speedup),
-                "--home", f"{lat},{lon},{alt},{heading}", "--defaults", str(DEFAULTS),
+        return [str(binary()), "--model", "+", "--speedup", str(self.speedup),
+                "--home", f"{lat},{lon},{alt},{heading}", "--defaults", str(defaults()),
                 "--sysid", str(self.sysid), "-w", "-I", str(self.instance), "--serial0", self.serial0,
                 *self.extra_args]
 
@@ -233,25 +245,6 @@ class ArduCopter:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
-
-
-@pytest.fixture()
-def arducopter():
-    """A factory: arducopter(sysid=..., home=..., serial0=..., wait=...) starts an instance (ready for
-    missions unless wait=False), stopped at teardown, even when the test fails."""
-    started: list[ArduCopter] = []
-
-    def start(wait: bool = True, **kwargs: object) -> ArduCopter:
-        vehicle = ArduCopter(**kwargs)  # type: ignore[arg-type]
-        started.append(vehicle)
-        return vehicle.start(wait=wait)
-
-    sitl_or_skip()
-    try:
-        yield start
-    finally:
-        for vehicle in started:
-            vehicle.stop()
 
 
 ARM_RETRY_S = 1.0

@@ -1,7 +1,9 @@
-"""One mission-protocol session for a PX4 vehicle, recorded field by field (real PX4 SIH or the mock).
+"""One mission-protocol session for a PX4 vehicle, recorded field by field (real PX4 SIH or the mock),
+and how two records differ (drift).
 
-Used by the differential test (test_mock_vs_px4.py), which runs it against real PX4 SIH and against
-the mock's PX4 flavour and compares the two records. The session, in this order (the first upload
+Used by the differential test (sitl_tests/test_mock_vs_px4.py), which runs it against real PX4 SIH and
+against the mock's PX4 flavour and compares the two records, and by tests/test_mock_as_autopilots.py,
+which shows the comparison catches a mock that drifted. The session, in this order (the first upload
 after start matters: PX4 asks for it with the legacy MISSION_REQUEST):
 - the request type of the first and of the second upload after start;
 - whether MISSION_REQUEST_LIST addressed to component 0 (broadcast) is answered;
@@ -15,15 +17,15 @@ after start matters: PX4 asks for it with the legacy MISSION_REQUEST):
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import astuple, replace
 from typing import Any
-
-from plans import wire_item as w
 
 from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, Link, mavlink
 from missionplan.bridge.formats.mission_items import MissionType, WireItem
 from missionplan.bridge.transfer.protocol import Timeouts
 from missionplan.bridge.transfer.uploader import PymavlinkBackend, read_back_differences
+from missionplan.testing.plans import same_answer, wire_item as w
 
 HOME = (45.4641, 9.1891, 120.0)
 LAT, LON = 454641000, 91891000
@@ -266,7 +268,34 @@ def start_session(url: str, sysid: int, ready_s: float = 90.0) -> dict[str, Any]
     return out
 
 
-if __name__ == "__main__":  # by hand: python sitl_tests/px4_mission_session.py URL SYSID
+def drift(real: dict[str, Any], mocked: dict[str, Any]) -> list[str]:
+    """Every difference between two session records, one line each (stored lists field by field)."""
+    out = []
+    for key in real:
+        if key in ("mission", "fence", "rally", "after bad upload"):
+            for seq, (r, m) in enumerate(zip(real[key], mocked[key])):
+                for name, a, b in zip(WireItem.__dataclass_fields__, r, m):
+                    if not same_answer(a, b):
+                        out.append(f"{key} item {seq} {name}: PX4 {a!r}, mock {b!r}")
+            if len(real[key]) != len(mocked[key]):
+                out.append(f"{key}: PX4 holds {len(real[key])} items, mock {len(mocked[key])}")
+        elif isinstance(real[key], dict) and isinstance(mocked.get(key), dict):
+            out += [f"{key} {k}: PX4 {real[key][k]!r}, mock {mocked[key].get(k)!r}"
+                    for k in real[key] if not same_answer(real[key][k], mocked[key].get(k))]
+        elif not same_answer(real[key], mocked.get(key)):
+            out.append(f"{key}: PX4 {real[key]!r}, mock {mocked.get(key)!r}")
+    return out
+
+
+def mock_record(run: Callable[[str, int], dict[str, Any]]) -> dict[str, Any]:
+    """`run` (session or start_session) against a fresh mock of PX4's flavour, system id 11 at HOME."""
+    from missionplan.bridge.sim.mock import MockAutopilot
+
+    with MockAutopilot("udpin:127.0.0.1:0", sysids=[11], flavour="px4", homes={11: HOME}) as mock:
+        return run(mock.client_url, 11)
+
+
+if __name__ == "__main__":  # by hand: python -m missionplan.testing.px4_mission_session URL SYSID
     import json
     import sys
 

@@ -1,73 +1,12 @@
-"""Loopback helpers for the integration tests (a module of its own: `conftest` names collide
-between tests/ and sitl_tests/, so nothing should import from a conftest): free ports, stopping a
-simulator's process group, a bounded poll, a listener that tells which vehicles armed, and Ctrl-C given
-back to the processes the tests start."""
+"""A loopback relay between vehicles and a ground station that breaks the link on purpose and watches
+what crosses it (UdpRelay), and a listener that tells which vehicles armed (armed_ever).
 
-import os
-import signal
+Tests of flight faults put it between a fleet and `fly`: the relay is the ground truth of what the
+ground station sent and of what the vehicles did, whatever `fly` says."""
+
 import socket
-import subprocess
 import time
-from collections.abc import Callable, Iterable
-from typing import TypeVar
-
-T = TypeVar("T")
-
-
-def let_children_hear_ctrl_c() -> None:
-    """A suite started from a background shell (`nohup`, `cmd &` in a script) inherits SIGINT ignored, and
-    so would every `fly` and `mock` it starts: the tests that stop them with Ctrl-C would fail for the
-    wrong reason. A Python handler is reset to the default in a child at exec, so installing Python's own
-    here gives the children a working Ctrl-C again; an interactive run is unchanged."""
-    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-
-
-def free_udp_port() -> int:
-    """A UDP port on 127.0.0.1 that was free a moment ago (for peers that cannot bind port 0 themselves)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
-
-
-def udp_port_free(port: int, host: str = "127.0.0.1") -> bool:
-    """Whether nobody has bound UDP `port` on `host` (a peer started elsewhere has, once it listens)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        try:
-            sock.bind((host, port))
-        except OSError:
-            return False
-    return True
-
-
-def wait_until(condition: Callable[[], T], timeout: float, interval: float = 0.05) -> T | None:
-    """Poll `condition` until it returns something truthy (returned) or `timeout` s pass (None). For
-    events that arrive with no message to block on: a line in a simulator's log, a peer library's list
-    of systems. The tests' one sleep: between polls, bounded, never to let time pass for its own sake."""
-    deadline = time.monotonic() + timeout
-    while True:
-        result = condition()
-        if result or time.monotonic() >= deadline:
-            return result or None
-        time.sleep(min(interval, max(0.0, deadline - time.monotonic())))
-
-
-def stop_process_group(proc: "subprocess.Popen[bytes]") -> None:
-    """Kill a simulator started with start_new_session=True and everything it spawned: SIGTERM to its
-    process group, then SIGKILL if it is still there after 3 s."""
-    if proc.poll() is not None:
-        proc.wait()
-        return
-    for sig in (signal.SIGTERM, signal.SIGKILL):
-        try:
-            os.killpg(proc.pid, sig)
-        except ProcessLookupError:
-            return
-        try:
-            proc.wait(3.0)
-            return
-        except subprocess.TimeoutExpired:
-            continue
+from collections.abc import Iterable
 
 
 def armed_ever(url: str, sysids: Iterable[int], seconds: float) -> set[int]:

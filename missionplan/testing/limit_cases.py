@@ -21,14 +21,13 @@ import math
 from dataclasses import astuple, replace
 from typing import Any
 
-from loopback import wait_until
-from plans import same_answer, wire_item as w
-
 from missionplan.bridge.formats.mission_items import MissionType, WireItem
 from missionplan.bridge.link.connection import mavlink
 from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.bridge.transfer.protocol import MissionTransferError, Timeouts
 from missionplan.bridge.transfer.uploader import PymavlinkBackend
+from missionplan.testing.loopback import wait_until
+from missionplan.testing.plans import same_answer, wire_item as w
 
 HOME = (45.4643, 9.1895, 120.0)
 LAT, LON = 454643000, 91895000

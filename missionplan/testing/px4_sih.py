@@ -1,8 +1,9 @@
 """Real PX4 SIH for the tests: start instances, set boot parameters, stop them whatever happens.
 
-PX4 v1.15.4 SITL with its built-in physics (SIH, airframe 10040) lives beside the repository in
-`../shared/px4/` (read in place, never copied; its README says how it was built). One vehicle is
-`../shared/px4/run-sih.sh I`, run in its own session (`start_new_session=True`) so that teardown
+PX4 v1.15.4 SITL with its built-in physics (SIH, airframe 10040) is `px4/` of the simulators folder
+(simulators.py: `../shared/px4/` beside a checkout, or `--simulators DIR` / MISSIONPLAN_SIMULATORS; read
+in place, never copied; its README says how it was built). Below, `../shared/px4` stands for that
+folder. One vehicle is `../shared/px4/run-sih.sh I`, run in its own session (`start_new_session=True`) so that teardown
 kills its whole process group, with PX4_WORKDIR a fresh `tempfile.mkdtemp()` folder (parameters,
 mission storage; removed at teardown) and its home from PX4_HOME_LAT / PX4_HOME_LON (integers in
 1e-7 degrees: a decimal is silently wrong) and SIH_LOC_H0 (PX4_HOME_ALT is passed too, but this
@@ -34,7 +35,7 @@ ground station) and its offboard link to a free port of its own (`offboard_url`)
 time on a 2-core machine.
 
 `px4_or_skip()` skips a test with a reason when ../shared/px4/bin/px4 is absent; the `px4` pytest
-fixture is a factory of vehicles stopped at teardown even when the test fails.
+fixture (plugin.py) is a factory of vehicles stopped at teardown even when the test fails.
 """
 
 from __future__ import annotations
@@ -46,17 +47,11 @@ import shutil
 import socket
 import subprocess
 import tempfile
-import time
 from pathlib import Path
 
-import pytest
-from loopback import free_udp_port, stop_process_group, wait_until
+from missionplan.testing import simulators
+from missionplan.testing.loopback import free_udp_port, stop_process_group, wait_until
 
-REPO = Path(__file__).resolve().parent.parent
-PX4_DIR = REPO.parent / "shared" / "px4"
-BINARY = PX4_DIR / "bin" / "px4"
-RUN_SIH = PX4_DIR / "run-sih.sh"
-MAVLINK_SCRIPT = PX4_DIR / "etc" / "init.d-posix" / "px4-rc.mavlink"
 FIRST_INSTANCE, INSTANCE_SPAN = 10, 100  # numbers 10..109: clear of the 0, 1, 2 a person starts by hand
 DEFAULT_HOME = (45.4641, 9.1891, 120.0)
 BOOT_PARAMS: dict[str, float] = {"SDLOG_MODE": -1}  # logging off, always
@@ -68,11 +63,36 @@ OFFBOARD_REMOTE = "udp_offboard_port_remote=$((14540+px4_instance))\n"
 OFFBOARD_REMOTE_ABOVE_9 = "[ \"$px4_instance\" -gt 9 ] && udp_offboard_port_remote=14549"
 
 
+def px4_dir() -> Path:
+    """PX4 SIH's folder (simulators.py); px4_or_skip() first says whether there is one."""
+    found = simulators.px4_dir()
+    assert found is not None, "no simulators folder known"
+    return found
+
+
+def binary() -> Path:
+    return px4_dir() / "bin" / "px4"
+
+
+def run_sih() -> Path:
+    """The script that starts one SIH vehicle: run-sih.sh INSTANCE."""
+    return px4_dir() / "run-sih.sh"
+
+
+def mavlink_script_path() -> Path:
+    """PX4's own px4-rc.mavlink, read at each start (mavlink_script)."""
+    return px4_dir() / "etc" / "init.d-posix" / "px4-rc.mavlink"
+
+
 def px4_or_skip() -> Path:
     """The PX4 binary, or skip the calling test saying why."""
-    if not (BINARY.is_file() and os.access(BINARY, os.X_OK) and RUN_SIH.is_file()):
-        pytest.skip(f"PX4 SIH not found at {BINARY} (see ../shared/px4/README.md)")
-    return BINARY
+    folder = simulators.px4_dir()
+    found = None if folder is None else folder / "bin" / "px4"
+    if found is None or not (found.is_file() and os.access(found, os.X_OK) and run_sih().is_file()):
+        import pytest
+
+        pytest.skip(simulators.missing("PX4 SIH", found, None if folder is None else folder / "README.md"))
+    return found
 
 
 def e7(degrees: float) -> int:
@@ -135,10 +155,11 @@ def mavlink_script(gcs_port: int, offboard_port: int) -> str:
     """PX4's own px4-rc.mavlink, its GCS link sending to `gcs_port` and its offboard link to
     `offboard_port` (PX4 sends them to 14550 and 14540+I, ports every other instance and ground
     station on the machine use too)."""
-    text = MAVLINK_SCRIPT.read_text()
+    script = mavlink_script_path()
+    text = script.read_text()
     for line in (GCS_LINK_START, OFFBOARD_REMOTE, OFFBOARD_REMOTE_ABOVE_9):
         if line not in text:  # PX4 changed its script: say so rather than start a vehicle on fixed ports
-            raise RuntimeError(f"{MAVLINK_SCRIPT} no longer holds {line.strip()!r}")
+            raise RuntimeError(f"{script} no longer holds {line.strip()!r}")
     text = text.replace(GCS_LINK_START, f"{GCS_LINK_START.rstrip()} -o {gcs_port}\n")
     text = text.replace(OFFBOARD_REMOTE, f"udp_offboard_port_remote={offboard_port}\n")
     return text.replace(OFFBOARD_REMOTE_ABOVE_9, "")
@@ -147,9 +168,9 @@ def mavlink_script(gcs_port: int, offboard_port: int) -> str:
 def _module_links(bin_dir: Path) -> None:
     """bin_dir/px4-NAME -> ../shared/px4/bin/px4 for every module command the build names."""
     bin_dir.mkdir(parents=True, exist_ok=True)
-    for entry in sorted((PX4_DIR / "bin").iterdir()):
+    for entry in sorted((px4_dir() / "bin").iterdir()):
         if entry.name.startswith("px4-") and not entry.name.endswith(".sh"):
-            (bin_dir / entry.name).symlink_to(BINARY)
+            (bin_dir / entry.name).symlink_to(binary())
 
 
 class PX4:
@@ -206,7 +227,7 @@ class PX4:
     def _write_start_scripts(self) -> None:
         """px4-rc.params and px4-rc.mavlink on PATH: the start-up script sources them, the parameters
         before the modules start, the links after."""
-        lines = ["#!/bin/sh", "# written by sitl_tests/px4_sih.py: this vehicle's boot parameters"]
+        lines = ["#!/bin/sh", "# written by missionplan/testing/px4_sih.py: this vehicle's boot parameters"]
         lines += [f"param set SIH_LOC_H0 {self.home[2]:g}"]
         if self.wanted_sysid is not None:
             lines += [f"param set MAV_SYS_ID {self.wanted_sysid}"]
@@ -238,7 +259,7 @@ class PX4:
     def _launch(self, boot_wait: float) -> bool:
         self._write_start_scripts()
         log = open(self.folder / "px4.log", "ab")  # noqa: SIM115 (closed with the process)
-        self.proc = subprocess.Popen([str(RUN_SIH), str(self.instance)], cwd=self.workdir, env=self.env(),
+        self.proc = subprocess.Popen([str(run_sih()), str(self.instance)], cwd=self.workdir, env=self.env(),
                                      stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                      start_new_session=True)
         log.close()
@@ -310,22 +331,3 @@ class PX4:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
-
-
-@pytest.fixture()
-def px4():
-    """A factory: px4(instance=..., home=..., params=...) starts a vehicle (its start-up script done),
-    stopped and its folder removed at teardown, even when the test fails."""
-    started: list[PX4] = []
-
-    def start(**kwargs: object) -> PX4:
-        vehicle = PX4(**kwargs)  # type: ignore[arg-type]
-        started.append(vehicle)
-        return vehicle.start()
-
-    px4_or_skip()
-    try:
-        yield start
-    finally:
-        for vehicle in started:
-            vehicle.stop()

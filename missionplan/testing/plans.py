@@ -1,5 +1,6 @@
-"""Plans for the real-autopilot tests: a small area given as a GeoJSON ring, planned by the CLI, and single
-mission items on the wire for the mission-protocol sessions, and how two autopilots' answers are compared."""
+"""Plans made for a test: a small area given as a GeoJSON ring, planned by the CLI (plan_area); single
+mission items on the wire for the mission-protocol sessions (wire_item); and how two autopilots'
+answers are compared (same_answer)."""
 
 from __future__ import annotations
 
@@ -9,12 +10,13 @@ from pathlib import Path
 from typing import Any
 
 from missionplan.bridge.formats.mission_items import MissionType, WireItem
-from missionplan.cli import main
 
 
 def plan_area(base: Path, ring: list[list[float]], launches: tuple[str, ...], altitude_m: float = 20.0,
               fov_deg: float = 84.0) -> Path:
     """`missionplan plan --area` of the [lon, lat] ring with one drone per "lat,lon" launch, into base/plan."""
+    from missionplan.cli import main
+
     area = base / "area.geojson"
     area.write_text(json.dumps({"type": "Polygon", "coordinates": [ring]}))
     args = ["plan", "--area", str(area), "--altitude", f"{altitude_m:g}", "--fov", f"{fov_deg:g}",
