@@ -1,20 +1,19 @@
-"""What `missionplan replan DIR --out NEW` (missionplan/cli/survey.py) plans from: only what the survey ledger
-says is still missing, flown by the vehicles the user names.
+"""Who flies a re-plan, and with which settings: what `missionplan replan DIR --out NEW` (missionplan/cli/survey.py)
+plans from, which is only what the survey ledger says is still missing.
 
 The survey DIR belongs to (its root plan, flight/ledger.py) keeps its grid and georeference: NEW's
 grid is the root's with only the missing target cells left as targets, so a cell is the same ground
 in both folders and NEW's flights add to the root's ledger (NEW/report.json `survey` points back).
 The planning is `plan`'s own (plan_folder.write_plan_folder: clearance band, separation layers, geofences,
 endurance sorties, the autopilot's flavour), with the settings the root plan recorded
-(report.json `settings`).
+(report.json `settings`: stored_settings).
 
 Who flies it is said, never assumed: `--drones 2,3` (the survey's drones 2 and 3, from their launch
-points, as system ids 2 and 3), or `--launch LAT,LON` once per drone with `--sysid K=ID` for each
-(drone K of the new plan is the vehicle with system id ID). The files are named by system id
-(uav2.plan for the vehicle with id 2), which is how `fly` matches them to vehicles.
+points, as system ids 2 and 3: launch_of_drones), or `--launch LAT,LON` once per drone with `--sysid K=ID`
+for each (drone K of the new plan is the vehicle with system id ID: launch_at). The files are named by
+system id (uav2.plan for the vehicle with id 2), which is how `fly` matches them to vehicles. The errors
+name each setting by what it means (missionplan.base.naming); the command line spells it as its option.
 
-Here: the settings the survey was planned with (stored_settings) and who flies the re-plan from where
-(launch_of_drones, launch_at); the errors name each setting by what it means (missionplan.base.naming).
 NEW is written as `plan` writes its --out (write_plan_folder: held by this run alone, written whole or
 not at all): NEW may not be the survey's own folder, nor any folder that holds a flight (another
 survey's, whose ledger a re-plan there would orphan), nor the root folder or the user's home.

@@ -36,8 +36,14 @@ def module_name(path: Path, root: Path = ROOT) -> str:
 def imported_modules(source: str, name: str, is_package: bool = False) -> list[str]:
     """Absolute names of every module `source` (the module `name`) imports, at any depth."""
     package = name if is_package else name.rpartition(".")[0]
+    tree = ast.parse(source)
+    # An annotation written as a string ("argparse.Namespace") is code too: parse it where it stands.
+    annotations = [n.annotation for n in ast.walk(tree) if isinstance(n, (ast.arg, ast.AnnAssign))] + [
+        n.returns for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))]
+    quoted = [ast.fix_missing_locations(ast.copy_location(ast.parse(a.value, mode="eval").body, a))
+              for a in annotations if isinstance(a, ast.Constant) and isinstance(a.value, str)]
     found = []
-    for node in ast.walk(ast.parse(source)):
+    for node in [n for root in [tree, *quoted] for n in ast.walk(root)]:
         if isinstance(node, ast.Import):
             found += [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -123,8 +129,14 @@ def test_a_wrong_way_import_is_found() -> None:
 def argparse_uses(source: str) -> list[str]:
     """Where a module uses argparse: an import of it, or the name Namespace (argparse.Namespace, or imported
     bare), each as "line N: what"."""
+    tree = ast.parse(source)
+    # An annotation written as a string ("argparse.Namespace") is code too: parse it where it stands.
+    annotations = [n.annotation for n in ast.walk(tree) if isinstance(n, (ast.arg, ast.AnnAssign))] + [
+        n.returns for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))]
+    quoted = [ast.fix_missing_locations(ast.copy_location(ast.parse(a.value, mode="eval").body, a))
+              for a in annotations if isinstance(a, ast.Constant) and isinstance(a.value, str)]
     found = []
-    for node in ast.walk(ast.parse(source)):
+    for node in [n for root in [tree, *quoted] for n in ast.walk(root)]:
         if isinstance(node, ast.Import):
             found += [f"line {node.lineno}: import {a.name}" for a in node.names if a.name.split(".")[0] == "argparse"]
         elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "argparse":
@@ -153,6 +165,8 @@ def test_an_argparse_use_is_found() -> None:
         "line 1: from argparse import ...", "line 3: Namespace"]
     assert argparse_uses("def f(args: 'x') -> None:\n    pass\ndef g(args: argparse.Namespace) -> None:\n"
                          "    pass\n") == ["line 3: .Namespace"]
+    assert argparse_uses("def g(args: 'argparse.Namespace') -> 'Namespace':\n    pass\n") == [
+        "line 1: .Namespace", "line 1: Namespace"]
     assert argparse_uses("from types import SimpleNamespace\nx = SimpleNamespace(a=1)\n") == []
     assert below_the_command_line(ROOT / "missionplan" / "replan.py")
     assert not below_the_command_line(ROOT / "missionplan" / "cli" / "plan.py")

@@ -134,7 +134,8 @@ def load_area_checked(request: AreaRequest) -> tuple[GridMap, GridFrame, Unknown
     height_field = request.height_field
     if height_field is not None and request.osm is None:
         raise GeoError(Named("{height_field} needs {osm} (the buildings whose height it holds)"))
-    buildings, building_source = read_building_file(request.osm, height_field) if request.osm is not None else ([], None)
+    buildings, building_source = (read_building_file(request.osm, height_field) if request.osm is not None
+                                  else ([], None))
     # Counted in the area only: an OSM extract of a whole city is mostly buildings nowhere near it.
     inside = shapely.intersects(area, [b.geometry for b in buildings]) if buildings else []
     unknown = sum(1 for b, within in zip(buildings, inside) if within and b.height_m is None)
