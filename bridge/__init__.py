@@ -11,7 +11,6 @@ Parts, lowest first; each subpackage's __init__ says what it owns and may import
   transfer       the mission protocol (pymavlink and MAVSDK backends), upload with read-back, live re-tasking,
                  onboard log download
   sim            the pure-Python mock autopilot (its link and faults, one vehicle, kinematics, onboard log)
-  commands       the `upload`, `download`, `clear` and `mock` subcommands for the missionplan CLI
 """
 
 from .errors import BridgeError, BridgeUsageError

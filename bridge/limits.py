@@ -3,9 +3,11 @@ the mission files and the commands share.
 
 Owns:
 - check_range: a number is finite and within [low, high] (either end may be open), or one line naming the
-  option (or the file and item) and the value, raised as the caller's layer's error type. Every command's
+  setting (or the file and item) and the value, raised as the caller's layer's error type. Every command's
   numeric options (plan, replan, train, demo, fly, upload / download / clear, mock) go through it, so a
-  `--rotation 1e308` or a `--timeout nan` fails before any work, in the same words everywhere;
+  `--rotation 1e308` or a `--timeout nan` fails before any work, in the same words everywhere. The CLI
+  names its options itself ("--rotation"); the library names a setting by what it means
+  (`Setting("rotation")`, missionplan.base.naming), which the CLI spells as its option;
 - the ranges of what a mission file holds (formats.item_checks applies them; docs/file-formats.md has the
   table): altitudes by frame, angles, speeds, hold times, and the item count MAVLink can carry.
 
@@ -19,6 +21,8 @@ float32 metres and would fly 1e38 m as given; ArduPilot wraps a hold time above 
 from __future__ import annotations
 
 import math
+
+from missionplan.base.naming import Named, Setting
 
 from .errors import BridgeUsageError
 
@@ -47,13 +51,14 @@ HOLD_S = (0.0, 65_535.0)
 SEED_MAX = 2**32 - 1
 
 
-def check_range(value: float, name: str, low: float, high: float, *, unit: str = "", low_open: bool = False,
+def check_range(value: float, name: str | Setting, low: float, high: float, *, unit: str = "", low_open: bool = False,
                 high_open: bool = False, what: str = "", error: type[Exception] = BridgeUsageError) -> float:
     """`value` when it is a finite number within low..high (low_open / high_open: that end excluded); else
     `error` (the caller's layer's one error type) with one line: the name, the value and the range.
 
-    name: how the user gave it ("--rotation", or "FILE: mission item 3 altitude"); unit: appended to the
-    bounds (" m", " degrees"); what: a word on what it is ("a grid angle"), before the range."""
+    name: how the user gave it ("--rotation", or "FILE: mission item 3 altitude"), or the setting it is
+    (Setting("rotation"): the front end spells it); unit: appended to the bounds (" m", " degrees"); what: a
+    word on what it is ("a grid angle"), before the range."""
     number = _as_float(value)
     if number is not None and math.isfinite(number) and (low < number if low_open else low <= number) and (
             number < high if high_open else number <= high):
@@ -64,16 +69,23 @@ def check_range(value: float, name: str, low: float, high: float, *, unit: str =
     else:
         bounds = f"from {low:,g} to {high:,g}{unit}"
     kind = f"{what}, " if what else ""
-    raise error(f"{name} {_shown(value)}: must be {kind}{bounds}")
+    raise error(_said(name, value, f"must be {kind}{bounds}"))
 
 
-def check_integer(value: int, name: str, low: int, high: int, *, what: str = "",
+def check_integer(value: int, name: str | Setting, low: int, high: int, *, what: str = "",
                   error: type[Exception] = BridgeUsageError) -> int:
     """`value` when it is an integer within low..high (both included); else `error` with one line."""
     if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
         kind = f"{what}, " if what else ""
-        raise error(f"{name} {_shown(value)}: must be {kind}an integer from {low:,} to {high:,}")
+        raise error(_said(name, value, f"must be {kind}an integer from {low:,} to {high:,}"))
     return value
+
+
+def _said(name: str | Setting, value: object, problem: str) -> str | Named:
+    """`NAME VALUE: problem`, the name as given, or a setting for the front end to spell."""
+    if isinstance(name, Setting):
+        return Named("{name} {0}: {1}", _shown(value), problem, name=name)
+    return f"{name} {_shown(value)}: {problem}"
 
 
 def _as_float(value: object) -> float | None:

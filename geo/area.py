@@ -25,6 +25,8 @@ import numpy as np
 import shapely
 from shapely.geometry import MultiPolygon, Polygon
 
+from missionplan.base.naming import Named
+
 from .camera import cell_size_m
 from .errors import GeoError
 from .frame import GridFrame
@@ -166,22 +168,22 @@ def _launch_cells(frame: GridFrame, area: Polygonal, obstacles: Sequence[Polygon
                   launch_latlon: Sequence[tuple[float, float]], area_file: str) -> list[tuple[int, int]]:
     cells: list[tuple[int, int]] = []
     for lat, lon in launch_latlon:
-        label = f"--launch {lat},{lon}"
+        given = f"{lat},{lon}"  # the launch point as given, named with the `launch` setting
         try:
             lat, lon = float(lat), float(lon)
         except (TypeError, ValueError):
-            raise GeoError(f"{label}: not a LAT,LON position") from None
+            raise GeoError(Named("{launch} {0}: not a LAT,LON position", given)) from None
         if not (-90 <= lat <= 90 and -180 <= lon <= 180):
-            raise GeoError(f"{label}: not a valid LAT,LON position (latitude first)")
+            raise GeoError(Named("{launch} {0}: not a valid LAT,LON position (latitude first)", given))
         if not shapely.intersects_xy(area, lon, lat):
-            raise GeoError(f"{label} is outside the area {area_file}")
+            raise GeoError(Named("{launch} {0} is outside the area {1}", given, area_file))
         for kind, geoms in (("a no-fly zone", no_fly), ("an obstacle", obstacles),
                             ("a building", [b.geometry for b in buildings])):
             if any(shapely.intersects_xy(g, lon, lat) for g in geoms):
-                raise GeoError(f"{label} is inside {kind}")
+                raise GeoError(Named("{launch} {0} is inside {1}", given, kind))
         r, c = (int(v) for v in frame.latlon_to_cell(lat, lon))
         if not frame.contains_cell(r, c) or obstacle[r, c]:
-            raise GeoError(f"{label} falls in grid cell ({r},{c}), which is an obstacle "
-                           f"(it touches a building, obstacle or no-fly zone, or lies on the area edge)")
+            raise GeoError(Named("{launch} {0} falls in grid cell ({1},{2}), which is an obstacle (it touches a "
+                                 "building, obstacle or no-fly zone, or lies on the area edge)", given, r, c))
         cells.append((r, c))
     return cells

@@ -26,6 +26,8 @@ from pathlib import Path
 
 from shapely.geometry import MultiPolygon, Polygon
 
+from missionplan.base.naming import Named
+
 from .errors import GeoError
 from .geojson_file import read_geojson
 from .heights import LEVEL_HEIGHT_M, HeightReader, building_height, has_field, parse_height
@@ -174,8 +176,8 @@ def read_building_file(spec: str | Path, height_field: str | None = None) -> tup
         if not has_field(names, height_field):
             what = "no building carries the tag" if ext in OSM_EXT else "no field"
             shown = ", ".join(names[:20]) + (f" and {len(names) - 20} more" if len(names) > 20 else "")
-            raise GeoError(f"{source.path}: {what} {height_field!r} (--height-field); "
-                           f"{'its tags' if ext in OSM_EXT else 'its fields'}: {shown or 'none'}")
+            raise GeoError(Named("{0}: {1} {2!r} ({height_field}); {3}: {4}", source.path, what, height_field,
+                                 "its tags" if ext in OSM_EXT else "its fields", shown or "none"))
     return buildings, source
 
 

@@ -4,8 +4,9 @@ Pipeline: map -> zones -> multi-drone grid coverage (policy + A*) -> metrics and
 Library calls: `missionplan.pipeline.plan_map` plans a grid in memory; `missionplan.plan_folder.write_plan_folder`
 plans and writes a plan folder (report, missions, map files, pictures).
 
-Layout, one stage per subpackage (imports run one way: cli -> flight -> mission -> learn -> grid -> maps -> geo
--> bridge -> base; geo and bridge are the repository's top-level geo/ and bridge/ folders, installed here):
+Layout, one stage per subpackage (imports run one way: cli -> top -> flight -> mission -> learn -> grid -> maps
+-> geo -> bridge -> base; geo and bridge are the repository's top-level geo/ and bridge/ folders, installed here):
+  cli/      the command line, the one front door: argparse, every subcommand, typed requests, printing
   maps/     the map type and .map format, the shipped maps, their generator
   grid/     the grid planner: world, zones, A*, expert, planning loop, metrics
   learn/    the neural policy: features, network + weights, imitation training
@@ -13,10 +14,10 @@ Layout, one stage per subpackage (imports run one way: cli -> flight -> mission 
   flight/   flying the missions and judging the flight (flight.json)
   geo/      world <-> grid: camera footprint, projection, rasterising, area files, GIS files
   bridge/   missions to and from autopilots over MAVLink, and the mock autopilot
-  base/     below every layer: atomic file writes
+  base/     below every layer: atomic file writes (atomic), how an error names a setting (naming)
   testing/  test support and the pytest plugin (fixtures for SITL, PX4 SIH, mock fleets); nothing else imports it
-  top       cli (the command line: parses and prints), pipeline (plan_map), fieldplan (plan_field),
-            plan_folder (write_plan_folder) and plan_display (what `plan` prints), demo, replan, retask
+  top       pipeline (plan_map), fieldplan (plan_field), plan_folder (write_plan_folder) and plan_display
+            (what `plan` prints), replan (who flies a re-plan), retask (live re-tasks)
 """
 
 __version__ = "0.1.0"

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from missionplan.base.naming import Named
+
 from .grid.expert import ExpertPolicy
 from .grid.lanes import fleet_zones, open_zones
 from .grid.planner import POLICY_PATIENCE, Planner, Policy
@@ -41,7 +43,7 @@ def make_policy(name: str, weights: str | Path | None = None) -> Policy:
 def launch_cells(gmap: GridMap, uavs: int) -> list[Cell]:
     """The first `uavs` launch cells of the map, checked."""
     if uavs < 1:
-        raise MapError(f"--uavs must be at least 1, got {uavs}")
+        raise MapError(Named("{uavs} must be at least 1, got {0}", uavs))
     if uavs > len(gmap.launch):
         raise MapError(f"map {gmap.name} has launch cells for {len(gmap.launch)} drones, {uavs} asked")
     starts = gmap.launch[:uavs]

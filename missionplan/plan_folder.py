@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from missionplan.base.atomic import probe_writable
+from missionplan.base.naming import Named
 from missionplan.bridge.folder_lock import hold_folder
 from missionplan.geo.frame import GridFrame
 
@@ -90,7 +91,7 @@ class PlanOptions:
             from .mission.webmap import basemap_problem
 
             if (problem := basemap_problem(self.basemap)) is not None:
-                raise MapError(f"--basemap {self.basemap}: {problem}")
+                raise MapError(Named("{basemap} {0}: {1}", self.basemap, problem))
 
 
 @dataclass
@@ -174,20 +175,20 @@ def check_out_folder(out: Path) -> None:
     the plan its flights were judged against)."""
     where = out.resolve()
     if where == Path(where.anchor):
-        raise MapError(f"--out {out}: the root folder is no plan folder (a plan writes and replaces files in "
-                       f"--out); give a folder of its own, e.g. --out {where / 'survey-1'}")
+        raise MapError(Named("{out} {0}: the root folder is no plan folder (a plan writes and replaces files in "
+                             "{out}); give a folder of its own, e.g. {out} {1}", out, where / "survey-1"))
     try:
         home: Path | None = Path.home().resolve()
     except (RuntimeError, KeyError):  # no HOME and no password entry: no home folder to protect
         home = None
     if where == home:
-        raise MapError(f"--out {out}: your home folder is no plan folder (a plan writes and replaces files in "
-                       f"--out); give a folder of its own, e.g. --out {where / 'survey-1'}")
+        raise MapError(Named("{out} {0}: your home folder is no plan folder (a plan writes and replaces files in "
+                             "{out}); give a folder of its own, e.g. {out} {1}", out, where / "survey-1"))
     flown = flight_record(out)
     if flown:
         shown = ", ".join(flown[:3]) + (f" and {len(flown) - 3} more" if len(flown) > 3 else "")
-        raise MapError(f"--out {out}: holds a survey's record ({shown}): a plan here would replace the plan it "
-                       f"belongs to; plan into a new folder, e.g. --out {_new_folder_like(out)}")
+        raise MapError(Named("{out} {0}: holds a survey's record ({1}): a plan here would replace the plan it "
+                             "belongs to; plan into a new folder, e.g. {out} {2}", out, shown, _new_folder_like(out)))
 
 
 def _make_folder(out: Path) -> Path | None:
@@ -196,12 +197,12 @@ def _make_folder(out: Path) -> Path | None:
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
-        raise MapError(f"--out {out}: cannot create folder ({err.strerror})") from None
+        raise MapError(Named("{out} {0}: cannot create folder ({1})", out, err.strerror)) from None
     try:
         probe_writable(out)
     except OSError as err:
         _remove_made(out, made)
-        raise MapError(f"--out {out}: cannot write files there ({err.strerror})") from None
+        raise MapError(Named("{out} {0}: cannot write files there ({1})", out, err.strerror)) from None
     return made
 
 
@@ -323,7 +324,7 @@ def _staging_folder(out: Path) -> Path:
     try:
         return Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=out))
     except OSError as err:
-        raise MapError(f"--out {out}: cannot write files there ({err.strerror})") from None
+        raise MapError(Named("{out} {0}: cannot write files there ({1})", out, err.strerror)) from None
 
 
 def _sha256_of(staging: Path, names: list[str]) -> dict[str, str]:
@@ -358,7 +359,7 @@ def _write_failed(out: Path, err: OSError) -> MapError:
     name = Path(err.filename).name if err.filename else "the plan's files"
     cause = err.strerror or str(err)
     if isinstance(err, _Committing):
-        return MapError(f"--out {out}: cannot put {name} in place ({cause}); the folder holds part of the new "
-                        f"plan: plan again once the cause is fixed")
-    return MapError(f"--out {out}: cannot write {name} ({cause}); nothing of this plan was kept, and the "
-                    f"folder's earlier files are as they were")
+        return MapError(Named("{out} {0}: cannot put {1} in place ({2}); the folder holds part of the new plan: plan "
+                              "again once the cause is fixed", out, name, cause))
+    return MapError(Named("{out} {0}: cannot write {1} ({2}); nothing of this plan was kept, and the folder's "
+                          "earlier files are as they were", out, name, cause))

@@ -1,16 +1,18 @@
-"""`missionplan replan DIR --out NEW`: plan only what the survey ledger says is still missing.
+"""Who flies a re-plan, and with which settings: what `missionplan replan DIR --out NEW` (missionplan/cli/survey.py)
+plans from, which is only what the survey ledger says is still missing.
 
 The survey DIR belongs to (its root plan, flight/ledger.py) keeps its grid and georeference: NEW's
 grid is the root's with only the missing target cells left as targets, so a cell is the same ground
 in both folders and NEW's flights add to the root's ledger (NEW/report.json `survey` points back).
 The planning is `plan`'s own (plan_folder.write_plan_folder: clearance band, separation layers, geofences,
 endurance sorties, the autopilot's flavour), with the settings the root plan recorded
-(report.json `settings`).
+(report.json `settings`: stored_settings).
 
 Who flies it is said, never assumed: `--drones 2,3` (the survey's drones 2 and 3, from their launch
-points, as system ids 2 and 3), or `--launch LAT,LON` once per drone with `--sysid K=ID` for each
-(drone K of the new plan is the vehicle with system id ID). The files are named by system id
-(uav2.plan for the vehicle with id 2), which is how `fly` matches them to vehicles.
+points, as system ids 2 and 3: launch_of_drones), or `--launch LAT,LON` once per drone with `--sysid K=ID`
+for each (drone K of the new plan is the vehicle with system id ID: launch_at). The files are named by
+system id (uav2.plan for the vehicle with id 2), which is how `fly` matches them to vehicles. The errors
+name each setting by what it means (missionplan.base.naming); the command line spells it as its option.
 
 NEW is written as `plan` writes its --out (write_plan_folder: held by this run alone, written whole or
 not at all): NEW may not be the survey's own folder, nor any folder that holds a flight (another
@@ -19,27 +21,16 @@ survey's, whose ledger a re-plan there would orphan), nor the root folder or the
 
 from __future__ import annotations
 
-import argparse
-import os
-import sys
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from missionplan.bridge.limits import SEED_MAX, check_integer
-from missionplan.bridge.terminal_text import printable
+from missionplan.base.naming import Named
 
-from .flight.plan_report import missing_map
 from .flight.ledger import LedgerError, Survey
-from .flight.ledger_repair import open_ledger
-from .grid.world import check_starts
 from .maps.gridmap import MapError
 from .mission.drone_missions import MissionSettings
 from .mission.safety import SafetySettings
-from .pipeline import DEFAULT_POLICY, POLICIES
-from .plan_display import EXIT_FAILED, print_plan
-from .plan_folder import PlanGround, PlanOptions, check_out_folder, write_plan_folder
 
 
 def stored_settings(survey: Survey) -> tuple[MissionSettings, SafetySettings, dict[str, Any]]:
@@ -59,13 +50,14 @@ def parse_assignments(texts: list[str]) -> dict[int, int]:
     for text in texts:
         drone, sep, sysid = text.partition("=")
         if not sep or not drone.strip().isdigit():
-            raise MapError(f"--sysid {text}: expected K=ID (drone K of the re-plan is the vehicle with system id ID)")
+            raise MapError(Named("{sysid} {0}: expected K=ID (drone K of the re-plan is the vehicle with system id ID)",
+                                 text))
         k = int(drone)
         if k in out:
-            raise MapError(f"--sysid {text}: drone {k} is given twice")
+            raise MapError(Named("{sysid} {0}: drone {1} is given twice", text, k))
         out[k] = parse_sysid(sysid.strip())
     if len(set(out.values())) != len(out):
-        raise MapError(f"--sysid: one system id for two drones ({', '.join(texts)})")
+        raise MapError(Named("{sysid}: one system id for two drones ({0})", ", ".join(texts)))
     return out
 
 
@@ -73,14 +65,14 @@ def launch_of_drones(survey: Survey, drones: str) -> tuple[list[tuple[int, int]]
     """`--drones 2,3`: the root plan's launch cells of those drones, and their ids."""
     from missionplan.bridge.link.connection import parse_sysids
 
-    ids = parse_sysids(drones, option="--drones")
+    ids = parse_sysids(drones, "drones")
     launch = survey.report.get("launch") or []
     known = survey.report.get("drone_ids") or list(range(1, len(launch) + 1))
     cells = []
     for sysid in ids:
         if sysid not in known:
-            raise MapError(f"--drones {drones}: the survey's plan has no drone {sysid} (it has "
-                           f"{', '.join(map(str, known))}); give new launch points with --launch and --sysid")
+            raise MapError(Named("{drones} {0}: the survey's plan has no drone {1} (it has {2}); give new launch "
+                                 "points with {launch} and {sysid}", drones, sysid, ", ".join(map(str, known))))
         cells.append(tuple(int(v) for v in launch[known.index(sysid)]))
     return cells, ids  # type: ignore[return-value]
 
@@ -93,9 +85,10 @@ def launch_at(survey: Survey, launch: list[str], sysid: list[str]) -> tuple[list
     missing = [k for k in range(1, len(launch) + 1) if k not in assignment]
     extra = sorted(k for k in assignment if not 1 <= k <= len(launch))
     if missing or extra:
-        raise MapError("--sysid: say which vehicle flies each --launch point: "
-                       + (f"no --sysid for drone {', '.join(map(str, missing))}" if missing else
-                          f"drone {extra[0]} has no --launch point ({len(launch)} given)"))
+        raise MapError(Named("{sysid}: say which vehicle flies each {launch} point: no {sysid} for drone {0}",
+                             ", ".join(map(str, missing))) if missing else
+                       Named("{sysid}: say which vehicle flies each {launch} point: drone {0} has no {launch} point "
+                             "({1} given)", extra[0], len(launch)))
     cells = []
     for text in launch:
         lat, lon = parse_latlon(text)
@@ -103,73 +96,6 @@ def launch_at(survey: Survey, launch: list[str], sysid: list[str]) -> tuple[list
         cell = (int(np.rint(np.atleast_1d(r)[0])), int(np.rint(np.atleast_1d(c)[0])))
         rows, cols = survey.shape
         if not (0 <= cell[0] < rows and 0 <= cell[1] < cols):
-            raise MapError(f"--launch {text}: outside the survey's grid")
+            raise MapError(Named("{launch} {0}: outside the survey's grid", text))
         cells.append(cell)
     return cells, [assignment[k] for k in range(1, len(launch) + 1)]
-
-
-def cmd_replan(args: argparse.Namespace) -> int:
-    check_integer(args.seed, "--seed", 0, SEED_MAX, error=MapError)
-    plan_dir, out = Path(args.dir), Path(args.out)
-    with open_ledger(plan_dir, lambda text: print(f"missionplan replan: {printable(text)}", file=sys.stderr)) as ledger:
-        survey = ledger.survey
-        missing = ledger.missing_cells()
-        flights = len(ledger.flights())
-    if out.resolve() in (plan_dir.resolve(), survey.root.resolve()):
-        raise MapError(f"--out {out}: a re-plan goes into a new folder, not over the survey's own plan")
-    check_out_folder(out)  # before a word is printed; write_plan_folder asks again, holding the folder
-    mission, safety, stored = stored_settings(survey)
-    if args.drones is not None and args.launch:
-        raise MapError("give either --drones (the survey's drones, from their launch points) or --launch with --sysid")
-    if args.drones is not None:
-        if args.sysid:
-            raise MapError("--sysid goes with --launch; --drones already names the vehicles by their system ids")
-        cells, ids = launch_of_drones(survey, args.drones)
-    elif args.launch:
-        cells, ids = launch_at(survey, args.launch, args.sysid)
-    else:
-        raise MapError("say who flies the re-plan: --drones ID,... (the survey's drones, from their launch points) or "
-                       "--launch LAT,LON once per drone with --sysid K=ID")
-    targets = len(survey.targets)
-    print(f"survey {printable(survey.root)}: {flights} flight{'' if flights == 1 else 's'} recorded, {targets - len(missing)} of "
-          f"{targets} target cells "
-          f"covered, {len(missing)} left")
-    if not len(missing):
-        print("nothing left to photograph: no re-plan written")
-        return 0
-    gmap = missing_map(survey.report, missing, cells)
-    check_starts(gmap, cells)
-    for k, (cell, sysid) in enumerate(zip(cells, ids), start=1):
-        lat, lon = survey.frame.cell_to_latlon(np.array([cell[0]]), np.array([cell[1]]))
-        print(f"  drone {k}: system id {sysid}, from {float(np.atleast_1d(lat)[0]):.7f},"
-              f"{float(np.atleast_1d(lon)[0]):.7f} (cell {cell[0]},{cell[1]}) -> uav{sysid}.plan")
-    pointer = {"root": os.path.relpath(survey.root.resolve(), out.resolve()), "missing_cells": int(len(missing)),
-               "from": os.path.relpath(plan_dir.resolve(), out.resolve())}
-    options = PlanOptions(policy=args.policy or stored.get("policy", DEFAULT_POLICY), weights=args.weights,
-                          zones=stored.get("zones", "geodesic"), balance_zones=stored.get("balance_zones", True),
-                          open_ground=stored.get("open_ground", "lanes"), seed=args.seed,
-                          progress=not args.quiet and sys.stderr.isatty(), drone_ids=ids, survey=pointer)
-    folder = write_plan_folder(out, PlanGround(gmap, cells, survey.frame, mission, safety), options)
-    print_plan(folder)
-    return 0 if folder.success else EXIT_FAILED
-
-
-def register(subparsers: Any) -> None:
-    """Add `replan DIR --out NEW (--drones IDS | --launch LAT,LON ... --sysid K=ID ...) [--policy P] [--weights F]
-    [--seed N] [--quiet]`."""
-    p = subparsers.add_parser("replan", help="plan only the targets the survey's photos have not covered yet, "
-                                             "for the vehicles given", allow_abbrev=False)
-    p.add_argument("dir", help="a plan folder of the survey (the first plan or a re-plan of it)")
-    p.add_argument("--out", required=True, type=Path, help="new plan folder (its flights add to the same survey)")
-    p.add_argument("--drones", metavar="ID,ID", help="the survey's drones (system ids) that fly it, each from its "
-                                                     "launch point in the survey's plan")
-    p.add_argument("--launch", action="append", default=[], metavar="LAT,LON",
-                   help="a launch point per drone of the re-plan, in degrees (with --sysid for each)")
-    p.add_argument("--sysid", action="append", default=[], metavar="K=ID",
-                   help="drone K (the K-th --launch) is flown by the vehicle with system id ID")
-    p.add_argument("--policy", choices=POLICIES, default=None,
-                   help="planning policy (default: the one the survey was planned with)")
-    p.add_argument("--weights", type=Path, help="network weights for --policy nn (default: the shipped ones)")
-    p.add_argument("--seed", type=int, default=0, help="seed for zones and deadlock breaking")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.set_defaults(handler=cmd_replan)

@@ -1,7 +1,7 @@
 """Live re-tasking (`fly --replan`): when a drone is lost or ends early, plan what the flight has
 not photographed yet for the drones still flying, from where they are, and prove it safe first.
 
-Called by fly (missionplan/flight/fly.py, through the `retask_planner` the CLI hands it) with what the
+Called by fly (missionplan/flight/fly.py, through the planner missionplan/cli/fly.py hands it) with what the
 flight knows at that moment: the photos the vehicles confirmed, each survivor's position, home and
 flight time so far. It plans *everything* left, not only the lost drone's share: the survivors'
 own unflown parts are re-split with it, so the result is a fresh plan for the survivors from that

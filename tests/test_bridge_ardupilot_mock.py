@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from missionplan.bridge import BridgeUsageError
-from missionplan.bridge.commands import mock_homes
+from missionplan.cli.mock import mock_homes
 from missionplan.bridge.link.connection import mavlink
 from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, MissionType, to_wire
 from missionplan.bridge.formats.missionfile import PlanFile, write_plan

@@ -1,8 +1,7 @@
-"""The upload / download / mock subcommands, through a small argparse like the main CLI's."""
+"""The upload / download / mock subcommands, through the CLI's parser, their handlers called as main() calls them."""
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import threading
@@ -12,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from missionplan.bridge import BridgeUsageError
-from missionplan.bridge.commands import register
+from missionplan.cli.app import build_parser
 from missionplan.bridge.formats.mission_items import (
     CMD_NAV_RETURN_TO_LAUNCH,
     CMD_NAV_TAKEOFF,
@@ -29,9 +28,7 @@ from missionplan.testing.loopback import udp_port_free, wait_until
 
 
 def run(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(prog="missionplan")
-    register(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(argv)
+    args = build_parser().parse_args(argv)
     return int(args.handler(args))
 
 

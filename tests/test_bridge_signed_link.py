@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import pytest
 
 from missionplan.bridge import BridgeError
-from missionplan.bridge.commands import register
+from missionplan.cli.app import build_parser
 from missionplan.bridge.formats.mission_items import (
     CMD_NAV_TAKEOFF,
     CMD_NAV_WAYPOINT,
@@ -64,8 +63,7 @@ def test_cli_signing_key_end_to_end(tmp_path: Path, key: SigningKey, capsys: pyt
     write_key(key_path, key)
     plan_path = tmp_path / "m.plan"
     write_plan(plan_path, PlanFile(mission=survey(10, 40.0)))
-    parser = argparse.ArgumentParser(prog="missionplan")
-    register(parser.add_subparsers(dest="command", required=True))
+    parser = build_parser()
 
     def run(*argv: str) -> int:
         args = parser.parse_args(list(argv))

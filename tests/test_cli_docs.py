@@ -1,6 +1,6 @@
 """docs/cli.md lists every option of every command exactly as the parser has them.
 
-Walks the argparse tree of `missionplan.cli._build_parser()` (the top parser and each subcommand's)
+Walks the argparse tree of `missionplan.cli.build_parser()` (the top parser and each subcommand's)
 and reads docs/cli.md's reference block, one section per command (a line `missionplan CMD ...` at
 the left margin, then its synopsis, then lines indented four spaces: description and one entry per
 option, `    --opt  text` or `    --a, --b: text`). Every option must appear in its command's
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from missionplan.cli import _build_parser
+from missionplan.cli.app import build_parser
 
 CLI_MD = Path(__file__).resolve().parent.parent / "docs" / "cli.md"
 HELP = {"-h", "--help"}  # argparse's own, on every parser
@@ -28,7 +28,7 @@ NOT_OPTIONS = {"--uav"}  # the docs' example of an abbreviation that is refused
 
 def parsers() -> dict[str, argparse.ArgumentParser]:
     """'' -> the top parser; each subcommand's name -> its parser."""
-    top = _build_parser()
+    top = build_parser()
     out = {"": top}
     for action in top._actions:
         if isinstance(action, argparse._SubParsersAction):

@@ -20,7 +20,6 @@ from typing import Any
 
 import pytest
 
-from missionplan.bridge.commands import CONNECT_HELP, DEFAULT_CONNECT, register
 from missionplan.bridge.link.connection import Link, VehicleInfo, wait_vehicle
 from missionplan.bridge.formats.mission_items import (
     CMD_NAV_RETURN_TO_LAUNCH,
@@ -37,7 +36,10 @@ from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.bridge.link.params import ParamClient
 from missionplan.bridge.link.signing import SigningKey, new_key, write_key
 from missionplan import cli
-from missionplan.flight import fly as fly_module
+from missionplan.cli import fly as fly_module
+from missionplan.cli.app import build_parser
+from missionplan.cli.parsing import package_version
+from missionplan.cli.vehicle import CONNECT_HELP, DEFAULT_CONNECT, register
 from missionplan.flight.display import progress_display
 from missionplan.flight.mock_fleet import start_mock_fleet
 
@@ -117,7 +119,7 @@ def key_file(tmp_path: Path) -> tuple[SigningKey, Path]:
 # ------------------------------------------------------------------------------------ abbreviations
 
 def test_no_parser_in_the_tree_accepts_abbreviations() -> None:
-    top = cli._build_parser()
+    top = build_parser()
     assert not top.allow_abbrev
     subs = subparsers(top)
     assert {"maps", "plan", "train", "upload", "download", "clear", "mock", "fly", "demo"} <= set(subs)
@@ -137,13 +139,13 @@ def test_no_parser_in_the_tree_accepts_abbreviations() -> None:
 def test_an_abbreviated_option_is_refused_in_one_line(argv: list[str], abbreviated: str,
                                                       capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as stop:
-        cli._build_parser().parse_args(argv)  # parsing only: nothing runs, whatever happens
+        build_parser().parse_args(argv)  # parsing only: nothing runs, whatever happens
     err = capsys.readouterr().err.strip().splitlines()
     assert stop.value.code == 2 and len(err) == 1 and f"unrecognized arguments: {abbreviated}" in err[0], err
 
 
 def test_bridge_subcommands_refuse_abbreviations_under_any_parser(capsys: pytest.CaptureFixture[str]) -> None:
-    """register() sets it on its own parsers, so a plain argparse parent (as tests use) refuses them too."""
+    """vehicle.register() sets it on its own parsers, so a plain argparse parent refuses them too."""
     parser = argparse.ArgumentParser(prog="missionplan")
     register(parser.add_subparsers(dest="command", required=True))
     with pytest.raises(SystemExit):
@@ -172,26 +174,26 @@ def test_version_without_package_metadata_comes_from_the_source_tree(monkeypatch
         raise metadata.PackageNotFoundError(name)
 
     monkeypatch.setattr(metadata, "version", not_installed)
-    pyproject = Path(cli.__file__).resolve().parent.parent / "pyproject.toml"
-    assert cli.package_version() == tomllib.loads(pyproject.read_text())["project"]["version"]
+    pyproject = Path(cli.__file__).resolve().parents[2] / "pyproject.toml"
+    assert package_version() == tomllib.loads(pyproject.read_text())["project"]["version"]
 
     def unreadable(text: str) -> Any:
         raise tomllib.TOMLDecodeError("broken")
 
     monkeypatch.setattr(tomllib, "loads", unreadable)
-    assert cli.package_version() == missionplan.__version__
+    assert package_version() == missionplan.__version__
 
 
 # --------------------------------------------------------------------------------------- --connect
 
 def test_connect_has_one_default_and_one_help_in_every_command() -> None:
-    subs = subparsers(cli._build_parser())
+    subs = subparsers(build_parser())
     for name in ("upload", "download", "clear", "fly"):
         (action,) = [a for a in subs[name]._actions if "--connect" in a.option_strings]
         assert action.help.startswith(CONNECT_HELP) and not action.required, name
         assert action.default == (None if name == "fly" else DEFAULT_CONNECT), name  # fly: see below
     for name in ("download", "clear"):  # once required: now the same default as upload
-        args = cli._build_parser().parse_args([name, "--sysid", "1", "-o", "x.plan"] if name == "download"
+        args = build_parser().parse_args([name, "--sysid", "1", "-o", "x.plan"] if name == "download"
                                               else [name, "--sysid", "1"])
         assert args.connect == DEFAULT_CONNECT == "udpin:0.0.0.0:14550"
 

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from missionplan.geo.readers import read_buildings
-from missionplan.cli import attach_negative_values, main
+from missionplan.cli import main
+from missionplan.cli.parsing import attach_negative_values
 from missionplan.grid.world import reachable_targets
 from missionplan.mission.coverage_check import coverage_report
 from missionplan.maps.gridmap import GridMap

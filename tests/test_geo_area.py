@@ -89,11 +89,12 @@ def test_errors_launch_size_empty():
     area = shapely.box(7.650, 45.060, 7.652, 45.062)
     bld = Building(shapely.box(7.6505, 45.0605, 7.6510, 45.0610), 30.0)
     alt = altitude_for_cell(5.0)
-    with pytest.raises(GeoError, match=r"--launch 45\.07,7\.651 is outside the area field\.geojson"):
+    # The launch point is named as the `launch` setting (the CLI says --launch: tests/test_cli_errors.py).
+    with pytest.raises(GeoError, match=r"^launch 45\.07,7\.651 is outside the area field\.geojson"):
         build_grid_map("e", area, [], [bld], [], [(45.07, 7.651)], alt, FOV, area_file="field.geojson")
-    with pytest.raises(GeoError, match=r"--launch 45\.0607,7\.6507 is inside a building"):
+    with pytest.raises(GeoError, match=r"^launch 45\.0607,7\.6507 is inside a building"):
         build_grid_map("e", area, [], [bld], [], [(45.0607, 7.6507)], alt, FOV)
-    with pytest.raises(GeoError, match=r"--launch 45\.0607,7\.6507 is inside a no-fly zone"):
+    with pytest.raises(GeoError, match=r"^launch 45\.0607,7\.6507 is inside a no-fly zone"):
         build_grid_map("e", area, [], [], [bld.geometry], [(45.0607, 7.6507)], alt, FOV)
     with pytest.raises(GeoError, match=r"grid would be \d+x\d+ = [\d,]+ cells .*fly higher"):
         build_grid_map("e", area, [], [], [], [], alt, FOV, max_cells=100)

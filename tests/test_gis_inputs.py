@@ -18,7 +18,10 @@ import numpy as np
 import pytest
 import shapely
 
-from missionplan.cli import _build_parser, main
+from missionplan.cli import main
+from missionplan.cli.app import build_parser
+from missionplan.cli.parsing import request_of
+from missionplan.cli.plan import PlanRequest
 from missionplan.geo import guards
 from missionplan.geo.errors import GeoError
 from missionplan.geo.readers import read_area_file, read_building_file, read_buildings
@@ -98,8 +101,8 @@ def _args(area: Path, osm: Path | None, *extra: str) -> list[str]:
 
 
 def _grid(area: Path, osm: Path | None, *extra: str) -> tuple[np.ndarray, np.ndarray]:
-    args = _build_parser().parse_args(_args(area, osm, "--out", "unused", *extra))
-    gmap = load_area_checked(args)[0]
+    args = build_parser().parse_args(_args(area, osm, "--out", "unused", *extra))
+    gmap = load_area_checked(request_of(PlanRequest, args).area_request())[0]
     return gmap.obstacle, gmap.target
 
 

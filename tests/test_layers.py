@@ -1,13 +1,15 @@
-"""Imports run one way: cli -> flight -> mission -> learn -> grid -> maps -> geo -> bridge -> base, inside bridge/
-from the commands down to the flight models, inside missionplan/flight/ from fly down to the records; geo, maps,
-grid and learn import nothing from bridge (base has what they share with it); and no module imports itself round a
-circle (a -> b -> a), inside a layer or across the top. The test support, missionplan/testing/ (fixtures and the
-pytest plugin), sits above them all: it may import the product, and nothing of the product imports it.
+"""Imports run one way: cli -> top -> flight -> mission -> learn -> grid -> maps -> geo -> bridge -> base, inside
+bridge/ from the transfers down to the flight models, inside missionplan/flight/ from fly down to the records; geo,
+maps, grid and learn import nothing from bridge (base has what they share with it); no module imports itself round a
+circle (a -> b -> a), inside a layer or across the top; and argparse stays in the command line: no module below
+missionplan/cli/ imports it or handles a Namespace. The test support, missionplan/testing/ (fixtures and the pytest
+plugin), sits above them all: it may import the product, and nothing of the product imports it.
 
 Every module is parsed with `ast` (imports inside functions included). A module's layer is the
 subpackage it sits in (missionplan/grid/world.py: grid; geo/ and bridge/ install as missionplan.geo and
-missionplan.bridge); the modules at the top of the package (the CLI and the entry points plan_map / plan_field)
-may import anything, nothing below may import them.
+missionplan.bridge); the modules at the top of the package (the entry points plan_map / plan_field, the plan
+folder, replan, retask) may import any layer, and only the command line (missionplan/cli/, and __main__) may
+import them; nothing imports the command line.
 """
 
 from __future__ import annotations
@@ -21,6 +23,8 @@ ROOT = Path(__file__).resolve().parents[1]
 # Lowest first: a module may import its own layer and the layers before it.
 LAYERS = ("base", "bridge", "geo", "maps", "grid", "learn", "mission", "flight")
 TOP = len(LAYERS)  # the modules directly in missionplan/
+CLI = TOP + 1  # the command line: missionplan/cli/ and `python -m missionplan` (__main__)
+SUPPORT = CLI + 1  # the test support, missionplan/testing/: drives the product as a user does, through the CLI too
 # The source folders outside missionplan/ and the package each installs as (pyproject.toml's package-dir).
 INSTALLED_AS = {"geo": "missionplan.geo", "bridge": "missionplan.bridge"}
 
@@ -35,8 +39,14 @@ def module_name(path: Path, root: Path = ROOT) -> str:
 def imported_modules(source: str, name: str, is_package: bool = False) -> list[str]:
     """Absolute names of every module `source` (the module `name`) imports, at any depth."""
     package = name if is_package else name.rpartition(".")[0]
+    tree = ast.parse(source)
+    # An annotation written as a string ("argparse.Namespace") is code too: parse it where it stands.
+    annotations = [n.annotation for n in ast.walk(tree) if isinstance(n, (ast.arg, ast.AnnAssign))] + [
+        n.returns for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))]
+    quoted = [ast.fix_missing_locations(ast.copy_location(ast.parse(a.value, mode="eval").body, a))
+              for a in annotations if isinstance(a, ast.Constant) and isinstance(a.value, str)]
     found = []
-    for node in ast.walk(ast.parse(source)):
+    for node in [n for root in [tree, *quoted] for n in ast.walk(root)]:
         if isinstance(node, ast.Import):
             found += [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -51,10 +61,15 @@ def imported_modules(source: str, name: str, is_package: bool = False) -> list[s
 
 
 def layer(module: str) -> int | None:
-    """Rank of a missionplan module (TOP for the top-level ones), None outside missionplan."""
+    """Rank of a missionplan module (TOP for the top-level ones, CLI for the command line, SUPPORT for the test
+    support), None outside missionplan."""
     parts = module.split(".")
     if parts[0] != "missionplan":
         return None
+    if len(parts) > 1 and parts[1] == "testing":
+        return SUPPORT
+    if len(parts) > 1 and parts[1] in ("cli", "__main__"):
+        return CLI
     if len(parts) > 2 and parts[1] in LAYERS:
         return LAYERS.index(parts[1])
     if len(parts) == 2 and parts[1] in LAYERS:
@@ -66,7 +81,7 @@ def wrong_way(source: str, name: str, is_package: bool = False) -> list[str]:
     """The imports of module `name` that point to a higher layer than its own."""
     own = layer(name)
     assert own is not None
-    if own == TOP:
+    if own == SUPPORT:
         return []
     return sorted({m for m in imported_modules(source, name, is_package)
                    if (rank := layer(m)) is not None and rank > own and m != "missionplan"})
@@ -134,6 +149,15 @@ def test_a_wrong_way_import_is_found() -> None:
     assert wrong_way("from missionplan.bridge import errors\n", "missionplan.base.x") == [
         "missionplan.bridge", "missionplan.bridge.errors"]
     assert wrong_way("from .grid.w import W\nfrom .flight import f\n", "missionplan.cli") == []
+    assert wrong_way("from ..plan_folder import p\nfrom ..bridge import e\n", "missionplan.cli.plan") == []
+    # The top-level modules sit below the command line: they may not import it.
+    assert wrong_way("from .cli.errors import said\n", "missionplan.replan") == [
+        "missionplan.cli.errors", "missionplan.cli.errors.said"]
+    assert wrong_way("from .flight.fly import fly\n", "missionplan.replan") == []
+    # base is below every layer, bridge included.
+    assert wrong_way("from missionplan.base.naming import Named\n", "missionplan.bridge.limits") == []
+    assert wrong_way("from missionplan.bridge import BridgeError\n", "missionplan.base.naming") == [
+        "missionplan.bridge", "missionplan.bridge.BridgeError"]
     assert imported_modules("from . import z\n", "missionplan.grid", is_package=True) == [
         "missionplan.grid", "missionplan.grid.z"]
 
@@ -163,6 +187,53 @@ def test_an_import_of_bridge_is_found() -> None:
         "missionplan.bridge", "missionplan.bridge.BridgeError"]
     assert bridge_imports("from missionplan.base.atomic import atomic_path\nfrom ..maps import gridmap\n",
                           "missionplan.learn.x") == []
+
+
+def argparse_uses(source: str) -> list[str]:
+    """Where a module uses argparse: an import of it, or the name Namespace (argparse.Namespace, or imported
+    bare), each as "line N: what"."""
+    tree = ast.parse(source)
+    # An annotation written as a string ("argparse.Namespace") is code too: parse it where it stands.
+    annotations = [n.annotation for n in ast.walk(tree) if isinstance(n, (ast.arg, ast.AnnAssign))] + [
+        n.returns for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))]
+    quoted = [ast.fix_missing_locations(ast.copy_location(ast.parse(a.value, mode="eval").body, a))
+              for a in annotations if isinstance(a, ast.Constant) and isinstance(a.value, str)]
+    found = []
+    for node in [n for root in [tree, *quoted] for n in ast.walk(root)]:
+        if isinstance(node, ast.Import):
+            found += [f"line {node.lineno}: import {a.name}" for a in node.names if a.name.split(".")[0] == "argparse"]
+        elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "argparse":
+            found.append(f"line {node.lineno}: from {node.module} import ...")
+        elif isinstance(node, ast.Attribute) and node.attr == "Namespace":
+            found.append(f"line {node.lineno}: .Namespace")
+        elif isinstance(node, ast.Name) and node.id == "Namespace":
+            found.append(f"line {node.lineno}: Namespace")
+    return found
+
+
+def below_the_command_line(path: Path) -> bool:
+    return layer(module_name(path)) != CLI
+
+
+@pytest.mark.parametrize("path", [p for p in ALL_SOURCES if below_the_command_line(p)],
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_argparse_below_the_command_line(path: Path) -> None:
+    # The command line parses into typed requests; the library takes those or plain parameters.
+    assert argparse_uses(path.read_text(encoding="utf-8")) == []
+
+
+def test_an_argparse_use_is_found() -> None:
+    assert argparse_uses("import argparse\n") == ["line 1: import argparse"]
+    assert argparse_uses("from argparse import Namespace\n\ndef f(args: Namespace) -> None:\n    pass\n") == [
+        "line 1: from argparse import ...", "line 3: Namespace"]
+    assert argparse_uses("def f(args: 'x') -> None:\n    pass\ndef g(args: argparse.Namespace) -> None:\n"
+                         "    pass\n") == ["line 3: .Namespace"]
+    assert argparse_uses("def g(args: 'argparse.Namespace') -> 'Namespace':\n    pass\n") == [
+        "line 1: .Namespace", "line 1: Namespace"]
+    assert argparse_uses("from types import SimpleNamespace\nx = SimpleNamespace(a=1)\n") == []
+    assert below_the_command_line(ROOT / "missionplan" / "replan.py")
+    assert not below_the_command_line(ROOT / "missionplan" / "cli" / "plan.py")
+    assert not below_the_command_line(ROOT / "missionplan" / "__main__.py")
 
 
 def import_graph(paths: list[Path], root: Path = ROOT) -> dict[str, set[str]]:
@@ -236,7 +307,6 @@ BRIDGE_MAY_IMPORT = {
     "link": {"errors", "formats"},
     "transfer": {"errors", "formats", "link"},
     "sim": {"errors", "formats", "link", "flight_models", "terminal_text"},
-    "commands": {"errors", "formats", "link", "transfer", "sim", "limits", "terminal_text"},
 }
 
 

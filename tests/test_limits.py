@@ -28,6 +28,7 @@ from typing import Any
 import pytest
 
 from missionplan import cli
+from missionplan.cli import plan as plan_command
 from missionplan.bridge.formats.mission_items import MissionType
 from missionplan.bridge.limits import check_integer, check_range
 from missionplan.bridge.link.connection import mavlink
@@ -326,7 +327,7 @@ def test_plan_prints_a_hostile_map_name_escaped(tmp_path):
 def test_maps_prints_a_hostile_title_escaped(tmp_path, capsys, monkeypatch):
     hostile_map(tmp_path / "evil.map", MAP_HOSTILE)
     monkeypatch.setattr(catalog, "MAPS_DIR", tmp_path)
-    monkeypatch.setattr(cli, "shipped_map_names", catalog.shipped_map_names)
+    monkeypatch.setattr(plan_command, "shipped_map_names", catalog.shipped_map_names)
     code, out, err = run(["maps"], capsys)
     assert code == 0 and out.splitlines()[1].endswith(printable(MAP_HOSTILE))
     assert_clean(out + err)

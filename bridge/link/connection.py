@@ -38,6 +38,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from missionplan.base.naming import Named
+
 os.environ.setdefault("MAVLINK20", "1")  # before pymavlink is imported: MAVLink 2 dialect modules
 
 from pymavlink import mavutil  # noqa: E402
@@ -93,14 +95,15 @@ class ConnectionSpec:
         return f"{self.scheme}:{self.host}:{self.port}"
 
 
-def parse_url(url: str, option: str = "--connect", allow_any_port: bool = False) -> ConnectionSpec:
+def parse_url(url: str, setting: str = "connect", allow_any_port: bool = False) -> ConnectionSpec:
     """Check a pymavlink connection string; BridgeUsageError (one line) when it is not one we serve.
 
+    setting: the setting the URL was given as (missionplan.base.naming), named by the error.
     allow_any_port: port 0 (let the system pick a free one) is allowed, for listening sockets.
     """
     text = (url or "").strip()
     if not text:
-        raise BridgeUsageError(f"{option}: empty connection string")
+        raise BridgeUsageError(Named("{name}: empty connection string", name=setting))
     if _SERIAL.match(text):
         # DEVICE,BAUD (or DEVICE:BAUD): the baud is what follows the last comma, or the last colon
         # when the rest is not itself a device (/dev/serial/by-path/ names contain colons).
@@ -110,67 +113,71 @@ def parse_url(url: str, option: str = "--connect", allow_any_port: bool = False)
         elif ":" in text and not os.path.exists(text) and text.rpartition(":")[2].isdigit():
             device, _, baud_text = text.rpartition(":")
         if baud_text and (not baud_text.isdigit() or int(baud_text) == 0):
-            raise BridgeUsageError(f"{option} {url}: bad baud rate {baud_text!r}")
+            raise BridgeUsageError(Named("{name} {0}: bad baud rate {1!r}", url, baud_text, name=setting))
         return ConnectionSpec("serial", device=device, baud=int(baud_text or 115200))
     scheme, sep, rest = text.partition(":")
     if not sep or scheme not in ("udpin", "udpout", "udp", "tcp", "tcpin"):
-        raise BridgeUsageError(f"{option} {url}: not a connection string (use udpin:HOST:PORT, udpout:HOST:PORT, "
-                               "tcp:HOST:PORT, tcpin:HOST:PORT or a serial device such as /dev/ttyUSB0,57600)")
+        raise BridgeUsageError(Named("{name} {0}: not a connection string (use udpin:HOST:PORT, udpout:HOST:PORT, "
+                                     "tcp:HOST:PORT, tcpin:HOST:PORT or a serial device such as /dev/ttyUSB0,57600)",
+                                     url, name=setting))
     match = _HOST_PORT.match(rest)
     if not match:
-        raise BridgeUsageError(f"{option} {url}: expected {scheme}:HOST:PORT")
+        raise BridgeUsageError(Named("{name} {0}: expected {1}:HOST:PORT", url, scheme, name=setting))
     port = int(match.group("port"))
     if not (0 if allow_any_port else 1) <= port < 65536:
-        raise BridgeUsageError(f"{option} {url}: port {port} out of range")
+        raise BridgeUsageError(Named("{name} {0}: port {1} out of range", url, port, name=setting))
     return ConnectionSpec("udpin" if scheme == "udp" else scheme, host=match.group("host"), port=port)
 
 
-def parse_sysid(value: str | int, option: str = "--sysid") -> int:
+def parse_sysid(value: str | int, setting: str = "sysid") -> int:
     """A vehicle system id: 1..254 (0 is broadcast, 255 is by convention a ground station)."""
     try:
         sysid = int(str(value).strip())
     except ValueError:
-        raise BridgeUsageError(f"{option} {value!r}: not a system id (an integer 1..254)") from None
+        raise BridgeUsageError(Named("{name} {0!r}: not a system id (an integer 1..254)", value,
+                                     name=setting)) from None
     if not 1 <= sysid <= 254:
-        raise BridgeUsageError(f"{option} {sysid}: system ids run from 1 to 254")
+        raise BridgeUsageError(Named("{name} {0}: system ids run from 1 to 254", sysid, name=setting))
     return sysid
 
 
-def parse_compid(value: str | int, option: str = "--compid") -> int:
+def parse_compid(value: str | int, setting: str = "compid") -> int:
     """A MAVLink component id: 1..255 (0 addresses every component)."""
     try:
         compid = int(str(value).strip())
     except ValueError:
-        raise BridgeUsageError(f"{option} {value!r}: not a component id (an integer 1..255)") from None
+        raise BridgeUsageError(Named("{name} {0!r}: not a component id (an integer 1..255)", value,
+                                     name=setting)) from None
     if not 1 <= compid <= 255:
-        raise BridgeUsageError(f"{option} {compid}: component ids run from 1 to 255")
+        raise BridgeUsageError(Named("{name} {0}: component ids run from 1 to 255", compid, name=setting))
     return compid
 
 
 def parse_gcs_sysid(value: str | int, vehicles: list[int] | tuple[int, ...] = (),
-                    option: str = "--gcs-sysid") -> int:
+                    setting: str = "gcs_sysid") -> int:
     """Our own system id on the link: 1..255 (255 by convention, what ArduPilot's SYSID_MYGCS expects),
     never one of the vehicles' (two systems with one id on a link cannot be told apart: replies and
     routing go by system id)."""
     try:
         sysid = int(str(value).strip())
     except ValueError:
-        raise BridgeUsageError(f"{option} {value!r}: not a system id (an integer 1..255)") from None
+        raise BridgeUsageError(Named("{name} {0!r}: not a system id (an integer 1..255)", value,
+                                     name=setting)) from None
     if not 1 <= sysid <= 255:
-        raise BridgeUsageError(f"{option} {sysid}: system ids run from 1 to 255")
+        raise BridgeUsageError(Named("{name} {0}: system ids run from 1 to 255", sysid, name=setting))
     if sysid in vehicles:
-        raise BridgeUsageError(f"{option} {sysid}: that is a vehicle's system id; the ground station needs its own "
-                               f"(default {GCS_SYSTEM_ID})")
+        raise BridgeUsageError(Named("{name} {0}: that is a vehicle's system id; the ground station needs its own "
+                                     "(default {1})", sysid, GCS_SYSTEM_ID, name=setting))
     return sysid
 
 
-def parse_sysids(text: str, option: str = "--sysid") -> list[int]:
+def parse_sysids(text: str, setting: str = "sysid") -> list[int]:
     """A comma-separated list of distinct system ids, such as "1,2,3"."""
-    ids = [parse_sysid(part, option) for part in str(text).split(",") if part.strip()]
+    ids = [parse_sysid(part, setting) for part in str(text).split(",") if part.strip()]
     if not ids:
-        raise BridgeUsageError(f"{option}: no system id given")
+        raise BridgeUsageError(Named("{name}: no system id given", name=setting))
     if len(set(ids)) != len(ids):
-        raise BridgeUsageError(f"{option} {text}: a system id appears twice")
+        raise BridgeUsageError(Named("{name} {0}: a system id appears twice", text, name=setting))
     return ids
 
 
@@ -501,8 +508,8 @@ def _open_serial(spec: ConnectionSpec, url: str, source_system: int, source_comp
     """A pymavlink serial connection; a device that is not there is bad input (exit 2), one that
     cannot be opened an operational failure (exit 1, with the usual causes named)."""
     if not spec.device.upper().startswith("COM") and not os.path.exists(spec.device):
-        raise BridgeUsageError(f"--connect {url}: no such device {spec.device} (is the radio or autopilot plugged "
-                               "in? see ls /dev/serial/by-id/)")
+        raise BridgeUsageError(Named("{connect} {0}: no such device {1} (is the radio or autopilot plugged "
+                                     "in? see ls /dev/serial/by-id/)", url, spec.device))
     try:
         import serial  # noqa: F401  (pyserial: pymavlink imports it when it opens the port)
     except ImportError:

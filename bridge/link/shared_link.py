@@ -24,6 +24,8 @@ from collections import deque
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from missionplan.base.naming import Named
+
 from ..errors import BridgeError, BridgeUsageError
 from .connection import (COMMAND_TRIES, COMMAND_WAIT_S, GCS_COMPONENT_ID, GCS_SYSTEM_ID, Link, command_long, mavlink,
                    parse_sysid, parse_url)
@@ -182,28 +184,29 @@ class VehicleLink:
         """Nothing to close: the SharedLink's owner closes the connection."""
 
 
-def parse_connects(values: Iterable[str], option: str = "--connect") -> tuple[dict[int, str], list[str]]:
+def parse_connects(values: Iterable[str], setting: str = "connect") -> tuple[dict[int, str], list[str]]:
     """`--connect` values: URL (vehicles found on it by heartbeat) or SYSID=URL / S1,S2=URL (those
     system ids are on that URL). Returns ({sysid: url}, [urls without system ids]); BridgeUsageError
-    for a bad URL, a bad system id, or a system id given twice."""
+    for a bad URL, a bad system id, or a system id given twice, naming `setting`."""
     by_sysid: dict[int, str] = {}
     pooled: list[str] = []
     for value in values:
         text = str(value).strip()
         head, sep, tail = text.partition("=")
         if sep and head.replace(",", "").replace(" ", "").isdigit():
-            parse_url(tail, option)
+            parse_url(tail, setting)
             for part in head.split(","):
-                sysid = parse_sysid(part, option)
+                sysid = parse_sysid(part, setting)
                 if sysid in by_sysid:
-                    raise BridgeUsageError(f"{option} {text}: system {sysid} is given a link twice")
+                    raise BridgeUsageError(Named("{name} {0}: system {1} is given a link twice", text, sysid,
+                                                 name=setting))
                 by_sysid[sysid] = tail.strip()
         else:
-            parse_url(text, option)
+            parse_url(text, setting)
             if text not in pooled:
                 pooled.append(text)
     if not by_sysid and not pooled:
-        raise BridgeUsageError(f"{option}: no connection given")
+        raise BridgeUsageError(Named("{name}: no connection given", name=setting))
     return by_sysid, pooled
 
 

@@ -29,6 +29,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from missionplan.base.naming import Named
+
 from ..errors import BridgeUsageError
 
 KEY_BYTES = 32
@@ -56,18 +58,18 @@ def load_key(path: str | os.PathLike[str]) -> SigningKey:
     """Read a key file: 32 raw bytes or 64 hex digits. Errors name the file, never the content."""
     path = Path(path)
     if not path.is_file():
-        raise BridgeUsageError(f"--signing-key {path}: no such file")
+        raise BridgeUsageError(Named("{signing_key} {0}: no such file", path))
     try:
         data = path.read_bytes()
     except OSError as err:
-        raise BridgeUsageError(f"--signing-key {path}: cannot read ({err.strerror})") from None
+        raise BridgeUsageError(Named("{signing_key} {0}: cannot read ({1})", path, err.strerror)) from None
     if len(data) == KEY_BYTES:
         return SigningKey(data)
     text = "".join(chr(b) for b in data if not chr(b).isspace()) if data.isascii() else ""
     if len(text) == 2 * KEY_BYTES and all(c in string.hexdigits for c in text):
         return SigningKey(bytes.fromhex(text))
-    raise BridgeUsageError(f"--signing-key {path}: expected a {KEY_BYTES}-byte key "
-                           f"({KEY_BYTES} raw bytes or {2 * KEY_BYTES} hex digits), got {len(data)} bytes")
+    raise BridgeUsageError(Named("{signing_key} {0}: expected a {1}-byte key ({1} raw bytes or {2} hex digits), "
+                                 "got {3} bytes", path, KEY_BYTES, 2 * KEY_BYTES, len(data)))
 
 
 def write_key(path: str | os.PathLike[str], key: SigningKey) -> None:

@@ -41,6 +41,8 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
+from missionplan.base.naming import Named
+
 from ..errors import BridgeUsageError
 from ..link.connection import ConnectionSpec, mavlink, parse_url
 from ..formats.mission_items import Flavour
@@ -124,12 +126,12 @@ class MockAutopilot:
         if str(listen).strip().lower() == "pty":
             self.spec = ConnectionSpec("pty", baud=57600)
         else:
-            self.spec = parse_url(listen, "--listen", allow_any_port=True)
+            self.spec = parse_url(listen, "listen", allow_any_port=True)
         if self.spec.scheme not in ("udpin", "udpout", "tcpin", "serial", "pty"):
-            raise BridgeUsageError(f"--listen {listen}: the mock serves udpin:, udpout: or tcpin: URLs, a serial "
-                                   "device (/dev/ttyUSB1,57600) or pty")
+            raise BridgeUsageError(Named("{listen} {0}: the mock serves udpin:, udpout: or tcpin: URLs, a serial "
+                                         "device (/dev/ttyUSB1,57600) or pty", listen))
         if speedup <= 0:
-            raise BridgeUsageError(f"--speedup must be positive, got {speedup}")
+            raise BridgeUsageError(Named("{speedup} must be positive, got {0}", speedup))
         self.flavour = Flavour(flavour)
         self.faults = faults or LinkFaults()
         self.key = key
@@ -189,8 +191,8 @@ class MockAutopilot:
                 self.address = self._sock.getsockname()[:2]
         except OSError as err:
             self.close_sockets()
-            raise BridgeUsageError(f"--listen {spec.url if spec.scheme != 'pty' else 'pty'}: cannot open "
-                                   f"({err.strerror})") from None
+            raise BridgeUsageError(Named("{listen} {0}: cannot open ({1})", spec.url if spec.scheme != "pty" else "pty",
+                                         err.strerror)) from None
 
     def _open_serial(self) -> None:
         """A serial device (raw, at its baud) or a fresh pty pair; one peer: the other end of the line."""
@@ -212,7 +214,8 @@ class MockAutopilot:
                     termios.tcsetattr(fd, termios.TCSANOW, attrs)
             except termios.error:
                 os.close(fd)
-                raise BridgeUsageError(f"--listen {self.spec.url}: {self.device} is not a serial device") from None
+                raise BridgeUsageError(Named("{listen} {0}: {1} is not a serial device", self.spec.url,
+                                             self.device)) from None
         os.set_blocking(fd, False)
         self.address = (self.device, 0)
         self._peer(("serial", self.device), time.monotonic(), fd=fd)

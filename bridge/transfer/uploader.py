@@ -22,6 +22,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from missionplan.base.naming import Named
+
 from ..errors import BridgeError, BridgeUsageError
 from ..link.connection import (AUTOPILOT_COMPONENT_ID, GCS_COMPONENT_ID, GCS_SYSTEM_ID, Link, VehicleInfo, mavlink,
                                wait_vehicle)
@@ -101,13 +103,15 @@ class PymavlinkBackend:
         self.close()
 
 
-def check_gcs_identity(backend: str, source_system: int, source_component: int, option: str = "--backend") -> None:
+def check_gcs_identity(backend: str, source_system: int, source_component: int, setting: str = "backend") -> None:
     """MAVSDK speaks as its own ground station (system 245, component 190: transfer.mavsdk_backend) and
-    takes no other identity: asking for one with it is bad input, not silently ignored."""
+    takes no other identity: asking for one with it is bad input, not silently ignored. setting: the setting
+    that chose the backend, named by the error."""
     if backend == "mavsdk" and (source_system, source_component) != (GCS_SYSTEM_ID, GCS_COMPONENT_ID):
-        raise BridgeUsageError(f"{option} mavsdk: MAVSDK sends as its own ground station (system 245), so "
-                               f"--gcs-sysid {source_system} / --gcs-compid {source_component} cannot apply; "
-                               "leave them at their defaults or use missionplan's own uploader")
+        raise BridgeUsageError(Named("{name} mavsdk: MAVSDK sends as its own ground station (system 245), so "
+                                     "{gcs_sysid} {0} / {gcs_compid} {1} cannot apply; leave them at their defaults "
+                                     "or use missionplan's own uploader", source_system, source_component,
+                                     name=setting))
 
 
 def open_backend(backend: str, url: str, sysid: int, compid: int = AUTOPILOT_COMPONENT_ID,
@@ -125,7 +129,7 @@ def open_backend(backend: str, url: str, sysid: int, compid: int = AUTOPILOT_COM
         from .mavsdk_backend import MavsdkBackend  # the native library loads only when asked for
 
         return MavsdkBackend(url, sysid, compid, key, timeouts, connect_timeout)
-    raise BridgeUsageError(f"--backend {backend}: unknown backend (choose {' or '.join(BACKENDS)})")
+    raise BridgeUsageError(Named("{backend} {0}: unknown backend (choose {1})", backend, " or ".join(BACKENDS)))
 
 
 class VerifyError(BridgeError):

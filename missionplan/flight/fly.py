@@ -15,7 +15,8 @@ holding this flight's mission, and nothing commanded) and judges the whole fligh
 both runs. The plan folder is fly's alone for the whole run (missionplan.bridge.folder_lock): a second
 process gets one line naming this one, before it opens any link or writes any file. Every link fly
 opens signs with --signing-key when given and speaks as ground station --gcs-sysid / --gcs-compid
-(missionplan.bridge.commands.add_gcs_arguments).
+(missionplan.cli.vehicle.add_gcs_arguments). The command line (its options, the exit codes) is
+missionplan/cli/fly.py.
 
 The disk: fly checks before any link is opened that the plan folder's disk has room for the flight's
 record (disk_space.py); in flight a journal that cannot write pauses and says so (journal.py); what of
@@ -25,8 +26,6 @@ the record the folder would not take goes to a fallback file, said in one line, 
 from __future__ import annotations
 
 import json
-import shlex
-import signal
 import sys
 import threading
 import time
@@ -35,8 +34,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from missionplan.bridge.commands import CONNECT_HELP, DEFAULT_CONNECT, add_gcs_arguments, gcs_identity, signing_key
-from missionplan.bridge.errors import BridgeError, BridgeUsageError
+from missionplan.base.naming import Named
+from missionplan.bridge.errors import BridgeUsageError
 from missionplan.bridge.folder_lock import holding_folder
 from missionplan.bridge.link.connection import GCS_COMPONENT_ID, GCS_SYSTEM_ID, mavlink, parse_gcs_sysid
 from missionplan.bridge.formats.mission_items import Flavour
@@ -44,14 +43,13 @@ from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.bridge.link.readiness import (ARDUPILOT_LAND, ARDUPILOT_RTL, DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN,
                                                PX4_LAND_SUB, PX4_RTL_SUB, ground_distance_m, mode_params)
 from missionplan.bridge.link.shared_link import LinkPool
-from missionplan.bridge.limits import check_integer, check_range
 from missionplan.bridge.terminal_text import printable
 from missionplan.bridge.link.signing import SigningKey
 from missionplan.bridge.transfer.uploader import check_gcs_identity
 
 from ..mission.sorties import sortie_file
 from .disk_space import check_space
-from .display import print_flight, progress_display
+from .display import progress_display
 from .drone_flight import DEFAULT_READY_S, DroneFlight, FleetGate, FleetStart
 from .flight_report import FlightResult, judge, live_tolerance, sortie_view
 from .journal import RETRY_S, Journal, write_fallback
@@ -162,10 +160,10 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     (ended early, or silent for replan_after_s mid-mission) has what is left re-planned among the drones
     still flying, uploaded to them in flight (live_replan.Retasker)."""
     if upload_with not in UPLOADERS:
-        raise BridgeUsageError(f"--upload-with {upload_with}: choose {' or '.join(UPLOADERS)}")
+        raise BridgeUsageError(Named("{upload_with} {0}: choose {1}", upload_with, " or ".join(UPLOADERS)))
     if on_abort not in ON_ABORT:
-        raise BridgeUsageError(f"--on-abort {on_abort}: choose {', '.join(ON_ABORT)}")
-    check_gcs_identity(upload_with, source_system, source_component, "--upload-with")
+        raise BridgeUsageError(Named("{on_abort} {0}: choose {1}", on_abort, ", ".join(ON_ABORT)))
+    check_gcs_identity(upload_with, source_system, source_component, "upload_with")
     plan_dir = Path(plan_dir)
     report = json.loads((plan_dir / "report.json").read_text())
     if "georeference" not in report or "drones" not in report:
@@ -173,7 +171,7 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     # Bad URLs: exit 2, before anything.
     pool = LinkPool([connect] if isinstance(connect, str) else list(connect), key, source_system, source_component)
     if sortie < 1:
-        raise BridgeUsageError(f"--sortie must be 1 or more, got {sortie}")
+        raise BridgeUsageError(Named("{sortie} must be 1 or more, got {0}", sortie))
     try:
         # Room for the flight's record, before any link is opened (a resume writes as much at most).
         check_space(plan_dir, report, telemetry_hz, None if resume else sortie)
@@ -360,11 +358,6 @@ def _stopped(fleet: FleetStart, flights: list[DroneFlight], threads: list[thread
         _abort(flights, "rtl", alert)
 
 
-# ------------------------------------------------------------------------------------------- CLI
-def _sigterm_as_interrupt(signum: int, frame: Any) -> None:
-    raise KeyboardInterrupt
-
-
 def refuse_empty_missions(plan_dir: Path, sortie: int) -> None:
     """BridgeUsageError naming the first mission file of the sortie that holds no mission item: uploading it
     would wipe that vehicle's mission (as `upload` refuses without --allow-empty). Checked before any vehicle
@@ -380,96 +373,3 @@ def refuse_empty_missions(plan_dir: Path, sortie: int) -> None:
         if path.is_file() and not read_mission_file(path).mission.items:
             raise BridgeUsageError(f"{path}: the file holds no mission items; flying it would wipe vehicle {sysid}'s "
                                    "mission (plan the folder again, or `missionplan clear` the vehicle to mean that)")
-
-
-def cmd_fly(args: Any) -> int:
-    # Every number first, in one place's words (missionplan.bridge.limits; the table: docs/cli.md).
-    check_range(args.timeout, "--timeout", 0.0, 7 * 86_400.0, low_open=True, unit=" s")
-    check_range(args.telemetry_hz, "--telemetry-hz", 0.01, 1_000.0, unit=" Hz")
-    if args.time_scale is not None:
-        check_range(args.time_scale, "--time-scale", 0.0, 1_000.0, low_open=True)
-    check_range(args.replan_after, "--replan-after", 0.0, 86_400.0, low_open=True, unit=" s")
-    check_range(args.ready_timeout, "--ready-timeout", 0.0, 86_400.0, low_open=True, unit=" s")
-    check_range(args.max_launch_offset, "--max-launch-offset", 0.0, 10_000.0, unit=" m")
-    check_integer(args.sortie, "--sortie", 1, 10_000)
-    if not (Path(args.dir) / "report.json").is_file():
-        raise BridgeUsageError(f"{args.dir}: no report.json (run `missionplan plan --out {args.dir}` first)")
-    if args.replan and args.retask_planner is None:
-        raise BridgeUsageError("--replan: this build of fly has no re-task planner")
-    if not args.resume:  # a resumed flight uploads nothing
-        refuse_empty_missions(Path(args.dir), args.sortie)
-    gcs = gcs_identity(args, [])  # the drones' own ids are checked by fly(), once report.json is read
-    # --connect appends; its default applies only when none is given (an argparse append default
-    # would be appended to, not replaced).
-    connect = args.connect or [DEFAULT_CONNECT]
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _sigterm_as_interrupt)  # a stop from a service manager: as Ctrl-C
-    try:
-        result = fly(Path(args.dir), connect, timeout_s=args.timeout, progress=not args.quiet,
-                     time_scale=args.time_scale, telemetry_hz=args.telemetry_hz, upload_with=args.upload_with,
-                     sortie=args.sortie, ready_s=args.ready_timeout, max_launch_offset_m=args.max_launch_offset,
-                     photos_from_track=args.photos_from_track, key=signing_key(args), source_system=gcs[0],
-                     source_component=gcs[1], resume=args.resume, on_abort=args.on_abort,
-                     command=" ".join(shlex.quote(a) for a in sys.argv),
-                     replan=args.retask_planner if args.replan else None, replan_after_s=args.replan_after)
-    except BridgeUsageError:
-        raise
-    except BridgeError as err:  # a link that cannot be opened: one line, exit 1
-        print(f"missionplan fly: {printable(err)}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:  # before any drone's thread ran: nothing was started or commanded
-        print("missionplan fly: interrupted before any vehicle was started; nothing was commanded", file=sys.stderr)
-        return 130
-    print_flight(result)
-    if not result.recorded:
-        return EXIT_NOT_RECORDED
-    return 0 if result.ok else 1
-
-
-def register(subparsers: Any, retask_planner: Callable[..., Any] | None = None) -> None:
-    """Add `fly DIR [--resume] [--connect URL ...] [--ready-timeout S] [--max-launch-offset M] [--timeout S]
-    [--telemetry-hz HZ] [--time-scale X] [--upload-with W] [--sortie J] [--photos-from-track]
-    [--on-abort A] [--signing-key FILE] [--gcs-sysid N] [--gcs-compid N] [--quiet]`."""
-    p = subparsers.add_parser("fly", help="upload a planned fleet, fly it over MAVLink and judge the flight "
-                                          "(flight.json, flight.png)", allow_abbrev=False)
-    p.add_argument("dir", help="plan folder written by `missionplan plan` (report.json, uavK.plan)")
-    p.add_argument("--resume", action="store_true",
-                   help="follow again the flight a stopped or killed fly left in DIR (its journal): only vehicles "
-                        "holding that flight's mission, nothing commanded; then judge the whole flight")
-    p.add_argument("--connect", action="append", default=None, metavar="URL",
-                   help=f"{CONNECT_HELP}; the vehicles share it, told apart by system id; repeat it for vehicles on "
-                        "several links (each found on its link by its heartbeat), or give SYSID=URL (1,2=URL) to "
-                        "say which")
-    p.add_argument("--ready-timeout", type=float, default=DEFAULT_READY_S,
-                   help=f"wait this many seconds at most for each vehicle's GPS fix, EKF, home position and pre-arm "
-                        f"checks (default {DEFAULT_READY_S:g})")
-    p.add_argument("--max-launch-offset", type=float, default=DEFAULT_LAUNCH_OFFSET_M, metavar="M",
-                   help=f"refuse to arm any vehicle when one's home is more than M metres plus its reported GPS "
-                        f"error from its plan's launch point (default {DEFAULT_LAUNCH_OFFSET_M:g})")
-    p.add_argument("--timeout", type=float, default=600.0, help="give up after this many seconds (default 600)")
-    p.add_argument("--telemetry-hz", type=float, default=DEFAULT_TELEMETRY_HZ,
-                   help=f"position stream rate to ask each vehicle for (default {DEFAULT_TELEMETRY_HZ:g})")
-    p.add_argument("--time-scale", type=float, default=None,
-                   help="simulated seconds per wall second of a sped-up simulator (default: estimated from the "
-                        "reported velocities; 1 for real vehicles)")
-    p.add_argument("--upload-with", choices=UPLOADERS, default="missionplan",
-                   help="who reads the .plan files and uploads them: our reader and uploader (default), or "
-                        "MAVSDK's QGroundControl importer and MissionRaw (checked against ours by read-back)")
-    p.add_argument("--sortie", type=int, default=1, metavar="J",
-                   help="battery sortie to fly: 1 (uavK.plan, default) or J (uavK-sJ.plan, drones that have one)")
-    p.add_argument("--photos-from-track", action="store_true",
-                   help="a vehicle that reports no photos (no CAMERA_FEEDBACK: no camera configured) gets one every "
-                        "trigger distance along its flown track; without this flag such a flight fails")
-    p.add_argument("--replan", action="store_true",
-                   help="live re-tasking: when a drone is lost or ends early, plan what is left for the drones still "
-                        "flying, from where they are (endurance, separation and fences checked), and upload it to "
-                        "them in flight; a lost drone heard again is sent home (RTL)")
-    p.add_argument("--replan-after", type=float, default=DEFAULT_REPLAN_AFTER_S, metavar="S",
-                   help=f"with --replan: a drone not heard for S seconds mid-mission counts as lost "
-                        f"(default {DEFAULT_REPLAN_AFTER_S:g})")
-    p.add_argument("--on-abort", choices=ON_ABORT, default="none",
-                   help="what Ctrl-C commands the vehicles this run started: nothing (default: they fly on with their "
-                        f"missions; a second Ctrl-C within {ABORT_WINDOW_S:g} s sends them home), rtl or land")
-    add_gcs_arguments(p)
-    p.add_argument("--quiet", action="store_true", help="no progress bars or progress lines (alerts are still said)")
-    p.set_defaults(handler=cmd_fly, retask_planner=retask_planner)

@@ -1,28 +1,23 @@
-"""`missionplan status DIR`: what the survey's photos have covered and what is left, from its ledger.
+"""What `missionplan status DIR` says (missionplan/cli/survey.py): what the survey's photos have covered and
+what is left, from its ledger.
 
-Prints the flights recorded (each folder's, each day's), the covered and missing target cells with
-their area, and the missing area's extent on the Earth; writes DIR/missing.geojson (the missing
-cells as polygons, RFC 7946) and DIR/status.png (the survey's grid: covered, missing, out of reach,
-and every photo's position). Reads only: nothing is flown or planned. A missing or damaged ledger is
-rebuilt from the survey's journals first (ledger_repair), said in one line.
+survey_status: the flights recorded (each folder's, each day's), the covered and missing target cells with
+their area, and the missing area's extent on the Earth (`extent`); draw_status: DIR/status.png (the survey's
+grid: covered, missing, out of reach, and every photo's position). The command also writes DIR/missing.geojson
+(the missing cells as polygons, RFC 7946). Reads only: nothing is flown or planned. A missing or damaged
+ledger is rebuilt from the survey's journals first (ledger_repair), said in one line.
 """
 
 from __future__ import annotations
 
-import json
-import sys
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from missionplan.base.atomic import atomic_path, write_text_atomic
-from missionplan.bridge.terminal_text import printable
-from missionplan.geo.cells import cells_feature
+from missionplan.base.atomic import atomic_path
 
 from .ledger import Ledger, Survey
-from .ledger_repair import open_ledger
 from .plan_report import planned_grid
 
 
@@ -86,56 +81,3 @@ def draw_status(path: Path, ledger: Ledger, status: dict[str, Any]) -> None:
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)
-
-
-def _say(text: str) -> None:
-    print(f"missionplan status: {printable(text)}", file=sys.stderr)
-
-
-def cmd_status(args: Any) -> int:
-    """Print the survey's status; exit 1 when it could not write missing.geojson or status.png (the
-    status printed is whole all the same), 2 when DIR is no plan."""
-    plan_dir = Path(args.dir)
-    with open_ledger(plan_dir, _say) as ledger:
-        status = survey_status(ledger)
-        flights = status["flights"]
-        survey = ledger.survey
-        print(f"survey {printable(survey.root)}: {len(flights)} flight{'' if len(flights) == 1 else 's'} recorded, "
-              f"{sum(f['photos'] for f in flights)} photos")
-        for f in flights:
-            when = datetime.fromtimestamp(f["recorded"], timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-            print(f"  {printable(f['plan']):<16} flight {f['flight']} (sortie {f['sortie']}): {f['photos']} photos, recorded {when}")
-        print(f"covered {status['covered']} of {status['targets']} target cells: {status['coverage']:.2f} %, "
-              f"{status['covered_m2']:g} of {status['target_m2']:g} m²")
-        box = status["extent"]
-        if box is None:
-            print("left: nothing")
-        else:
-            print(f"left: {status['missing']} cells, {status['missing_m2']:g} m², within {box['south']:.6f}.."
-                  f"{box['north']:.6f} N, {box['west']:.6f}..{box['east']:.6f} E ({box['rows_m']:g} m x "
-                  f"{box['cols_m']:g} m along the grid): `missionplan replan {printable(plan_dir)} --out NEW --drones ...` plans it")
-        geojson, png = plan_dir / "missing.geojson", plan_dir / "status.png"
-        doc = {"type": "FeatureCollection", "features": [cells_feature(survey.frame, status["missing_cells"], {
-            "what": "survey target cells no photo has covered yet", "cells": status["missing"],
-            "area_m2": status["missing_m2"], "coverage": status["coverage"]})]}
-        failed: dict[str, str] = {}
-        for path, write in ((geojson, lambda: write_text_atomic(geojson, json.dumps(doc) + "\n")),
-                            (png, lambda: draw_status(png, ledger, status))):
-            try:
-                write()
-            except OSError as err:  # a read-only folder, a full disk: the status above stands
-                failed[path.name] = err.strerror or str(err)
-    if failed:
-        why = sorted(set(failed.values()))
-        _say(f"{plan_dir}: {' and '.join(failed)} could not be written ({'; '.join(why)}); the status above is whole")
-        return 1
-    print(f"wrote {printable(geojson)} and {printable(png)}")
-    return 0
-
-
-def register(subparsers: Any) -> None:
-    """Add `status DIR`."""
-    p = subparsers.add_parser("status", help="what the survey's photos have covered and what is left (from its "
-                                             "ledger); writes missing.geojson and status.png", allow_abbrev=False)
-    p.add_argument("dir", help="a plan folder of the survey (the first plan or a re-plan of it)")
-    p.set_defaults(handler=cmd_status)

@@ -22,6 +22,8 @@ import dataclasses
 import numpy as np
 from scipy import ndimage
 
+from missionplan.base.naming import Named
+
 from ..grid.world import FOOTPRINT_RADIUS
 from ..maps.gridmap import GridMap, MapError
 
@@ -49,8 +51,9 @@ def flight_map(gmap: GridMap, clearance_m: float, uavs: int) -> tuple[GridMap, n
     band = clearance_band(gmap.obstacle, clearance_m / cell_m)
     for k, cell in enumerate(gmap.launch[:uavs], start=1):
         if gmap.inside(cell) and band[cell]:
-            raise MapError(f"map {gmap.name}: the launch point of drone {k} (cell {cell[0]},{cell[1]}) is closer than "
-                           f"--clearance {clearance_m:g} m to an obstacle: move it into the open or lower --clearance")
+            raise MapError(Named("map {0}: the launch point of drone {1} (cell {2},{3}) is closer than {clearance} "
+                                 "{4:g} m to an obstacle: move it into the open or lower {clearance}", gmap.name, k,
+                                 cell[0], cell[1], clearance_m))
     if not band.any():
         return gmap, band
     return dataclasses.replace(gmap, obstacle=gmap.obstacle | band, target=gmap.target & ~band), band

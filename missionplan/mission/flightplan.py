@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from missionplan.base.naming import Named
 from missionplan.bridge.formats.mission_items import Flavour
 from missionplan.bridge.formats.missionfile import PlanFile, write_mission_file
 from missionplan.geo.frame import GridFrame
@@ -231,8 +232,8 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
             if worst <= budget:
                 return sorties
             target *= 0.98 * budget / worst
-        raise MapError(f"uav{k + 1}: could not cut its route into sorties of at most {budget:.0f} s "
-                       f"(one still takes {worst:.0f} s): raise --endurance or lower --reserve")
+        raise MapError(Named("uav{0}: could not cut its route into sorties of at most {1:.0f} s (one still takes "
+                             "{2:.0f} s): raise {endurance} or lower {reserve}", k + 1, budget, worst))
 
     def split(step: float) -> list[list[Sortie]]:
         layered = replace(settings, altitude_step_m=step)
@@ -265,8 +266,8 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
                                      safety.min_separation_m, safety.max_altitude_m)
         except SeparationError as failure:
             if failure.layering is None:  # every candidate's top layer is above the ceiling
-                failure.args = (f"--min-separation {safety.min_separation_m:g} m cannot be guaranteed"
-                                f"{failure.ceiling}",)
+                failure.args = (Named("{min_separation} {0:g} m cannot be guaranteed{1}", safety.min_separation_m,
+                                      failure.ceiling),)
                 raise failure from None
             raise _separation_failure(failure, frame, tracks_for, safety) from None
         step = layering.step_m
@@ -310,10 +311,10 @@ def _separation_failure(failure: SeparationError, frame: GridFrame,
     origin = min(float(t[0, 0]) for t in tracks.values())
     where = position_at(tracks[a], origin + approach["at_s"])
     error = SeparationError(layering, failure.ceiling)
-    error.args = (f"--min-separation {safety.min_separation_m:g} m cannot be guaranteed: uav{a} and uav{b} come "
-                  f"within {approach['3d']} m of each other near {_place(frame, where)}, "
-                  f"{approach['at_s']} s into sortie {sortie} ({layering.method}){failure.ceiling}. "
-                  f"Lower --min-separation, raise --max-altitude or move the launch points apart",)
+    error.args = (Named("{min_separation} {0:g} m cannot be guaranteed: uav{1} and uav{2} come within {3} m of each "
+                        "other near {4}, {5} s into sortie {6} ({7}){8}. Lower {min_separation}, raise {max_altitude} "
+                        "or move the launch points apart", safety.min_separation_m, a, b, approach["3d"],
+                        _place(frame, where), approach["at_s"], sortie, layering.method, failure.ceiling),)
     return error
 
 

@@ -1,23 +1,26 @@
 """Georeferenced inputs for `missionplan plan`: an area file, or a shipped map's own georeference.
 
-Turns the command-line values into what the planner needs (a GridMap and its GridFrame) and
-into the mission settings (altitude, footprint, speed, overlap, end action). Checks every
-value first, so bad input fails with one line before any output folder exists. Records each file
-read (report.json `inputs`: `input_entry`) and makes the one warning line naming what the files left
-out: buildings not read or repaired, buildings in the area without a height (`inputs_warning`).
+Turns what the user gave (AreaRequest: the files, launch points, altitude, camera, rotation) into what the
+planner needs (a GridMap and its GridFrame) and into the mission settings (altitude, footprint, speed,
+overlap, end action). Checks every value first, so bad input fails with one line before any output folder
+exists; the errors name each setting by what it means (missionplan.base.naming), for the front end to
+spell. Records each file read (report.json `inputs`: `input_entry`) and makes the one warning line naming
+what the files left out: buildings not read or repaired, buildings in the area without a height
+(`inputs_warning`).
 """
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import shapely
 
+from missionplan.base.naming import Named, Setting
 from missionplan.bridge.limits import ANGLE_DEG, check_range
 from missionplan.geo.area import build_grid_map
 from missionplan.geo.camera import Camera
@@ -33,25 +36,47 @@ from .drone_missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, MissionSettings
 WARNING_NAMES = 3  # files' omissions named in the warning line before "and N more"
 
 
+@dataclass(frozen=True)
+class AreaRequest:
+    """What an area plan is drawn from, as the user gave it: the area file, the launch points (LAT,LON text,
+    one per drone), the flight altitude above them (metres), the camera (a field of view in degrees, or a
+    sensor's width and height and a focal length in mm), the grid's rotation (degrees clockwise from north),
+    the obstacle / no-fly files, the building file with the field holding each one's height, and the height
+    given to buildings that have none."""
+
+    area: Path
+    launch: tuple[str, ...]
+    altitude: float | None
+    fov: float | None = None
+    sensor_width: float | None = None
+    sensor_height: float | None = None
+    focal_length: float | None = None
+    rotation: float = 0.0
+    obstacles: tuple[Path, ...] = ()
+    osm: Path | None = None
+    height_field: str | None = None
+    unknown_building_height: float | None = None
+
+
 def parse_latlon(text: str) -> tuple[float, float]:
     try:
         lat, lon = (float(v) for v in text.split(","))
     except ValueError:
-        raise GeoError(f"--launch {text}: expected LAT,LON in degrees, e.g. 45.0701,7.6573") from None
+        raise GeoError(Named("{launch} {0}: expected LAT,LON in degrees, e.g. 45.0701,7.6573", text)) from None
     if not (-90 <= lat <= 90 and -180 <= lon <= 180):
-        raise GeoError(f"--launch {text}: latitude must be in [-90, 90] and longitude in [-180, 180]")
+        raise GeoError(Named("{launch} {0}: latitude must be in [-90, 90] and longitude in [-180, 180]", text))
     return lat, lon
 
 
-def _camera(args: argparse.Namespace) -> Camera:
-    sensor = (args.sensor_width, args.sensor_height, args.focal_length)
-    if args.fov is not None and any(v is not None for v in sensor):
-        raise GeoError("give either --fov or --sensor-width/--sensor-height/--focal-length, not both")
-    if args.fov is not None:
-        return Camera(fov_deg=args.fov)
+def _camera(request: AreaRequest) -> Camera:
+    sensor = (request.sensor_width, request.sensor_height, request.focal_length)
+    if request.fov is not None and any(v is not None for v in sensor):
+        raise GeoError(Named("give either {fov} or {sensor_width}/{sensor_height}/{focal_length}, not both"))
+    if request.fov is not None:
+        return Camera(fov_deg=request.fov)
     if all(v is not None for v in sensor):
         return Camera.from_sensor(*sensor)
-    raise GeoError("the camera is needed: --fov DEG, or --sensor-width MM --sensor-height MM --focal-length MM")
+    raise GeoError(Named("the camera is needed: {fov} DEG, or {sensor_width} MM {sensor_height} MM {focal_length} MM"))
 
 
 @dataclass
@@ -81,35 +106,36 @@ class AreaSources:
     warnings: list[str] = field(default_factory=list)  # inputs_warning's line, when it has one
 
 
-def load_area(args: argparse.Namespace) -> tuple[GridMap, GridFrame]:
+def load_area(request: AreaRequest) -> tuple[GridMap, GridFrame]:
     """The grid of `--area` with its obstacles, buildings and launch points."""
-    gmap, frame, _, _ = load_area_checked(args)
+    gmap, frame, _, _ = load_area_checked(request)
     return gmap, frame
 
 
-def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, UnknownHeights, AreaSources]:
+def load_area_checked(request: AreaRequest) -> tuple[GridMap, GridFrame, UnknownHeights, AreaSources]:
     """`load_area`, plus the buildings of unknown height and the grid without them as obstacles, and
     what the grid was drawn from."""
-    if args.altitude is None:
-        raise GeoError("--altitude is required with --area")
-    if not args.launch:
-        raise GeoError("--area needs at least one --launch LAT,LON (one per drone)")
-    assumed = getattr(args, "unknown_building_height", None)
+    if request.altitude is None:
+        raise GeoError(Named("{altitude} is required with {area}"))
+    if not request.launch:
+        raise GeoError(Named("{area} needs at least one {launch} LAT,LON (one per drone)"))
+    assumed = request.unknown_building_height
     if assumed is not None:
-        if args.osm is None:
-            raise GeoError("--unknown-building-height needs --osm (the buildings it applies to)")
+        if request.osm is None:
+            raise GeoError(Named("{unknown_building_height} needs {osm} (the buildings it applies to)"))
         if not (math.isfinite(assumed) and assumed >= 0):
-            raise GeoError(f"--unknown-building-height {assumed}: must be a height in metres, 0 or more")
-    check_range(args.rotation, "--rotation", *ANGLE_DEG, unit=" degrees", what="a grid angle", error=GeoError)
-    camera = _camera(args)
-    area, area_source = read_area_file(args.area)
+            raise GeoError(Named("{unknown_building_height} {0}: must be a height in metres, 0 or more", assumed))
+    check_range(request.rotation, Setting("rotation"), *ANGLE_DEG, unit=" degrees", what="a grid angle", error=GeoError)
+    camera = _camera(request)
+    area, area_source = read_area_file(request.area)
     # Obstacle and no-fly files are obstacles whatever their height; OSM buildings may be overflown.
-    obstacle_files = [read_obstacle_file(path) for path in args.obstacles]
+    obstacle_files = [read_obstacle_file(path) for path in request.obstacles]
     no_fly = [polygon for polygons, _ in obstacle_files for polygon in polygons]
-    height_field = getattr(args, "height_field", None)
-    if height_field is not None and args.osm is None:
-        raise GeoError("--height-field needs --osm (the buildings whose height it holds)")
-    buildings, building_source = read_building_file(args.osm, height_field) if args.osm is not None else ([], None)
+    height_field = request.height_field
+    if height_field is not None and request.osm is None:
+        raise GeoError(Named("{height_field} needs {osm} (the buildings whose height it holds)"))
+    buildings, building_source = (read_building_file(request.osm, height_field) if request.osm is not None
+                                  else ([], None))
     # Counted in the area only: an OSM extract of a whole city is mostly buildings nowhere near it.
     inside = shapely.intersects(area, [b.geometry for b in buildings]) if buildings else []
     unknown = sum(1 for b, within in zip(buildings, inside) if within and b.height_m is None)
@@ -120,12 +146,12 @@ def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, Unk
         inputs.append(input_entry("buildings", building_source, in_area_buildings, assumed, height_field))
     if assumed is not None:
         buildings = [b if b.height_m is not None else dataclasses.replace(b, height_m=assumed) for b in buildings]
-    launch = [parse_latlon(text) for text in args.launch]
-    area_path = split_layer(args.area)[0]
+    launch = [parse_latlon(text) for text in request.launch]
+    area_path = split_layer(request.area)[0]
 
     def build(blds: list[Building]) -> tuple[GridMap, GridFrame]:
-        raster, frame = build_grid_map(area_path.stem, area, [], blds, no_fly, launch, args.altitude,
-                                       camera.fov_deg, rotation_deg=args.rotation, area_file=str(args.area))
+        raster, frame = build_grid_map(area_path.stem, area, [], blds, no_fly, launch, request.altitude,
+                                       camera.fov_deg, rotation_deg=request.rotation, area_file=str(request.area))
         return GridMap(raster.name, raster.obstacle, raster.target, raster.launch, raster.meta), frame
 
     gmap, frame = build(buildings)
@@ -200,10 +226,10 @@ def mission_settings(gmap: GridMap, *, speed: float = DEFAULT_SPEED_M_S, overlap
                      autopilot: str = "ardupilot") -> MissionSettings:
     """Altitude and footprint from the map (9 cells a side; `altitude` where the map has none), speed, overlap,
     end action, altitude step and autopilot as `plan` takes them; the defaults are `plan`'s."""
-    check_range(speed, "--speed", 0.0, 100.0, unit=" m/s", low_open=True, error=GeoError)
-    check_range(overlap, "--overlap", 0.0, 1.0, high_open=True, what="a fraction", error=GeoError)
+    check_range(speed, Setting("speed"), 0.0, 100.0, unit=" m/s", low_open=True, error=GeoError)
+    check_range(overlap, Setting("overlap"), 0.0, 1.0, high_open=True, what="a fraction", error=GeoError)
     # Layers go up from the altitude, never below it.
-    check_range(altitude_step, "--altitude-step", 0.0, 5_000.0, unit=" m", error=GeoError)
+    check_range(altitude_step, Setting("altitude_step"), 0.0, 5_000.0, unit=" m", error=GeoError)
     flight_altitude = float(gmap.meta.get("altitude_m", altitude or 0.0))
     if not flight_altitude > 0:
         raise GeoError(f"map {gmap.name}: no flight altitude (altitude_m) in its metadata")

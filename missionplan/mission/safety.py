@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from missionplan.base.naming import Named, Setting
+
 from ..maps.gridmap import GridMap, MapError
 from .separation import DEFAULT_MAX_ALTITUDE_M, DEFAULT_MIN_SEPARATION_M
 from .sorties import DEFAULT_ENDURANCE_MIN, DEFAULT_RESERVE
@@ -41,9 +43,10 @@ class SafetySettings:
         return max(self.min_separation_m, self.clearance_m)
 
 
-def _positive(name: str, value: float) -> float:
+def _positive(name: str | Setting, value: float) -> float:
     if not value > 0:
-        raise MapError(f"{name} {value:g}: must be above 0")
+        raise MapError(Named("{name} {0:g}: must be above 0", value, name=name) if isinstance(name, Setting)
+                       else f"{name} {value:g}: must be above 0")
     return float(value)
 
 
@@ -63,25 +66,25 @@ def safety_settings(gmap: GridMap, altitude_m: float, *, min_separation: float |
     """The checked settings for a plan, as `plan` takes them (its defaults; endurance in minutes, 0: no limit);
     the map may declare its own min_separation_m and clearance_m, used where none is given."""
     if min_separation is not None:
-        min_sep = _positive("--min-separation", min_separation)
+        min_sep = _positive(Setting("min_separation"), min_separation)
     elif "min_separation_m" in gmap.meta:
         min_sep = _declared(gmap, "min_separation_m")
     else:
         min_sep = DEFAULT_MIN_SEPARATION_M
-    max_alt = _positive("--max-altitude", max_altitude)
+    max_alt = _positive(Setting("max_altitude"), max_altitude)
     if altitude_m > max_alt:
-        raise MapError(f"--max-altitude {max_alt:g}: below the flight altitude {altitude_m:g} m")
+        raise MapError(Named("{max_altitude} {0:g}: below the flight altitude {1:g} m", max_alt, altitude_m))
     cell_m = float(gmap.meta.get("cell_m", 0.0) or 0.0)
     if clearance is not None:
         if clearance < 0:
-            raise MapError(f"--clearance {clearance:g}: a margin cannot be negative")
+            raise MapError(Named("{clearance} {0:g}: a margin cannot be negative", clearance))
         clearance = float(clearance)
     elif "clearance_m" in gmap.meta:
         clearance = _declared(gmap, "clearance_m")
     else:
         clearance = max(DEFAULT_CLEARANCE_M, cell_m)
-    endurance_s = None if endurance == 0 else _positive("--endurance", endurance) * 60.0
+    endurance_s = None if endurance == 0 else _positive(Setting("endurance"), endurance) * 60.0
     if not 0 <= reserve < 1:
-        raise MapError(f"--reserve {reserve:g}: must be a fraction in [0, 1)")
+        raise MapError(Named("{reserve} {0:g}: must be a fraction in [0, 1)", reserve))
     return SafetySettings(min_separation_m=min_sep, max_altitude_m=max_alt, clearance_m=clearance,
                           endurance_s=endurance_s, reserve=float(reserve))

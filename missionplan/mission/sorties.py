@@ -30,6 +30,8 @@ import numpy as np
 from missionplan.bridge.flight_models import copter_model as cm
 from missionplan.bridge.flight_models import px4_model
 
+from missionplan.base.naming import Named
+
 from ..maps.gridmap import MapError
 from .timeline import FlightModel
 
@@ -186,9 +188,9 @@ def split_sorties(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: flo
 
     def too_short(i: int) -> MapError:
         need = _flight_s(home[i], 0.0, home[i], altitude_m, "rtl", model)
-        return MapError(f"{name}: a sortie cannot fly out to where its survey resumes and back within the "
-                        f"endurance budget ({budget_s:.0f} s usable; the climb, the transit and the way back "
-                        f"alone take {need:.0f} s): raise --endurance or lower --reserve")
+        return MapError(Named("{0}: a sortie cannot fly out to where its survey resumes and back within the "
+                              "endurance budget ({1:.0f} s usable; the climb, the transit and the way back alone "
+                              "take {2:.0f} s): raise {endurance} or lower {reserve}", name, budget_s, need))
 
     sorties: list[Sortie] = []
     first, last = 0, len(points) - 1

@@ -15,16 +15,17 @@ empty demo-out/)."""
 
 from __future__ import annotations
 
-import argparse
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from missionplan.bridge.limits import check_integer, check_range
 
-from .maps.gridmap import MapError
-from .plan_display import EXIT_FAILED, print_plan
-from .plan_folder import PlanOptions, check_out_folder, shipped_ground, write_plan_folder
+from ..maps.gridmap import MapError
+from ..plan_display import EXIT_FAILED, print_plan
+from ..plan_folder import PlanOptions, check_out_folder, shipped_ground, write_plan_folder
+from .parsing import runs
 
 DEMO_MAP, DEMO_UAVS, DEMO_POLICY = "leonardo", 5, "nn"
 # Leonardo is a 20 x 10 m arena flown at 5 m/s: 2x keeps the telemetry (50 Hz) within a cell of flight.
@@ -33,31 +34,41 @@ DEMO_TELEMETRY_HZ = 50.0
 DEMO_TIMEOUT_S = 300.0
 
 
-def cmd_demo(args: argparse.Namespace) -> int:
-    from .flight.display import print_flight
-    from .flight.fly import fly
-    from .flight.mock_fleet import start_mock_fleet
+@dataclass(frozen=True)
+class DemoRequest:
+    """`demo`: the output folder, the number of drones, the mock autopilots' speed-up, progress or not."""
 
-    check_integer(args.uavs, "--uavs", 1, 254, what="a number of drones", error=MapError)
-    check_range(args.speedup, "--speedup", 0.0, 1_000.0, low_open=True, what="simulated seconds per second",
+    out: Path
+    uavs: int
+    speedup: float
+    quiet: bool
+
+
+def cmd_demo(request: DemoRequest) -> int:
+    from ..flight.display import print_flight
+    from ..flight.fly import fly
+    from ..flight.mock_fleet import start_mock_fleet
+
+    check_integer(request.uavs, "--uavs", 1, 254, what="a number of drones", error=MapError)
+    check_range(request.speedup, "--speedup", 0.0, 1_000.0, low_open=True, what="simulated seconds per second",
                 error=MapError)
     # Progress on stderr: bars on a terminal, plain lines in a log (plan and fly each decide which).
-    quiet = args.quiet
-    out = Path(args.out)
+    quiet = request.quiet
+    out = Path(request.out)
     check_out_folder(out)  # an earlier demo's flight there: one line, before the first heading
     # The `plan` command this step is, for a crew who wants to run it alone.
-    print(f"== 1/2 plan: missionplan plan --map {DEMO_MAP} --uavs {args.uavs} --policy {DEMO_POLICY} --out {out}")
+    print(f"== 1/2 plan: missionplan plan --map {DEMO_MAP} --uavs {request.uavs} --policy {DEMO_POLICY} --out {out}")
     options = PlanOptions(policy=DEMO_POLICY, progress=not quiet and sys.stderr.isatty())
-    folder = write_plan_folder(out, shipped_ground(DEMO_MAP, args.uavs), options)
+    folder = write_plan_folder(out, shipped_ground(DEMO_MAP, request.uavs), options)
     print_plan(folder)
     if not folder.success:
         return EXIT_FAILED
-    print(f"== 2/2 fly: {args.uavs} mock autopilots on 127.0.0.1 (in-process, {args.speedup:g}x speed-up), "
+    print(f"== 2/2 fly: {request.uavs} mock autopilots on 127.0.0.1 (in-process, {request.speedup:g}x speed-up), "
           f"upload, verify, arm, start together, follow, judge")
-    mock = start_mock_fleet(out, speedup=args.speedup)
+    mock = start_mock_fleet(out, speedup=request.speedup)
     try:
         result = fly(out, mock.client_url, timeout_s=DEMO_TIMEOUT_S, progress=not quiet,
-                     time_scale=args.speedup, telemetry_hz=DEMO_TELEMETRY_HZ)
+                     time_scale=request.speedup, telemetry_hz=DEMO_TELEMETRY_HZ)
     finally:
         mock.stop()
     print_flight(result)
@@ -74,4 +85,4 @@ def register(subparsers: Any) -> None:
     p.add_argument("--speedup", type=float, default=DEMO_SPEEDUP,
                    help=f"simulated seconds per wall second of the mock autopilots (default {DEMO_SPEEDUP:g})")
     p.add_argument("--quiet", action="store_true", help="no progress bars or progress lines")
-    p.set_defaults(handler=cmd_demo)
+    p.set_defaults(handler=runs(DemoRequest, cmd_demo))
