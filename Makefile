@@ -31,8 +31,12 @@ demo: $(DEMO_STAMP)
 	rm -rf demo-out  # the last demo's plan and flight: a plan is never written over a flight
 	$(BIN)/missionplan demo --out demo-out
 
+# The suite mostly waits (simulated flights in real time), so it runs in TEST_WORKERS processes (pytest-xdist);
+# --dist loadfile keeps a module's tests, and its one autopilot boot, in one process. The 20 slowest are
+# printed at the end (docs/testing.md lists them).
+TEST_WORKERS ?= 3
 test: $(TEST_STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile --durations=20
 
 bench: $(TEST_STAMP)
 	$(BIN)/python bench/plan_bench.py
