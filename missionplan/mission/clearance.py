@@ -45,8 +45,9 @@ def clearance_band(obstacle: np.ndarray, clearance_cells: float) -> np.ndarray:
 def flight_map(gmap: GridMap, clearance_m: float, uavs: int) -> tuple[GridMap, np.ndarray]:
     """(the map the grid planner flies: the clearance band made obstacle, the band). MapError naming the
     drone when a launch cell lies in the band (it could not leave it without breaking the clearance)."""
-    cell_m = float(gmap.meta["cell_m"])
-    band = clearance_band(gmap.obstacle, clearance_m / cell_m)
+    if gmap.cell_m is None:
+        raise MapError(f"map {gmap.name}: no georeference, so no cell size to keep --clearance {clearance_m:g} m in")
+    band = clearance_band(gmap.obstacle, clearance_m / gmap.cell_m)
     for k, cell in enumerate(gmap.launch[:uavs], start=1):
         if gmap.inside(cell) and band[cell]:
             raise MapError(f"map {gmap.name}: the launch point of drone {k} (cell {cell[0]},{cell[1]}) is closer than "

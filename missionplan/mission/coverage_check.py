@@ -149,7 +149,7 @@ def unreachable_causes(gmap: GridMap, starts: list[Cell], unreachable_mask: np.n
     if crossed is not None:
         causes[UNKNOWN_HEIGHT] = _cut_off_by(gmap, starts, crossed) & left
         left &= ~causes[UNKNOWN_HEIGHT]
-    cell_m = float(gmap.meta.get("cell_m", 0.0) or 0.0)
+    cell_m = gmap.cell_m or 0.0
     if clearance_m > 0 and cell_m > 0:
         band = clearance_band(gmap.obstacle, clearance_m / cell_m)
         # pocket cells are pockets whatever the margin: only band targets the drones can get near count

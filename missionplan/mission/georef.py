@@ -126,7 +126,7 @@ def load_area_checked(args: argparse.Namespace) -> tuple[GridMap, GridFrame, Unk
     def build(blds: list[Building]) -> tuple[GridMap, GridFrame]:
         raster, frame = build_grid_map(area_path.stem, area, [], blds, no_fly, launch, args.altitude,
                                        camera.fov_deg, rotation_deg=args.rotation, area_file=str(args.area))
-        return GridMap(raster.name, raster.obstacle, raster.target, raster.launch, raster.meta), frame
+        return GridMap(raster.name, raster.obstacle, raster.target, raster.launch, georef=raster.georef), frame
 
     gmap, frame = build(buildings)
     if building_source is not None and building_source.reader == "pyosmium":
@@ -188,24 +188,24 @@ def inputs_warning(inputs: list[dict[str, Any]]) -> str | None:
 
 
 def shipped_frame(gmap: GridMap) -> GridFrame | None:
-    """The frame of a map that carries `origin_lat` / `origin_lon` (the shipped maps do), else None."""
-    meta = gmap.meta
-    if "origin_lat" not in meta or "origin_lon" not in meta:
-        return None
-    return GridFrame.from_meta(meta, *gmap.shape)
+    """The frame of a map that carries a georeference (`origin_lat` / `origin_lon`: the shipped maps do), else None."""
+    return gmap.georef.frame if gmap.georef is not None else None
 
 
 def mission_settings(gmap: GridMap, *, speed: float = DEFAULT_SPEED_M_S, overlap: float = DEFAULT_OVERLAP,
                      end: str = "rtl", altitude_step: float = 0.0, altitude: float | None = None,
                      autopilot: str = "ardupilot") -> MissionSettings:
-    """Altitude and footprint from the map (9 cells a side; `altitude` where the map has none), speed, overlap,
-    end action, altitude step and autopilot as `plan` takes them; the defaults are `plan`'s."""
+    """Altitude and footprint from the map's georeference (9 cells a side; `altitude` where the map has none),
+    speed, overlap, end action, altitude step and autopilot as `plan` takes them; the defaults are `plan`'s."""
     check_range(speed, "--speed", 0.0, 100.0, unit=" m/s", low_open=True, error=GeoError)
     check_range(overlap, "--overlap", 0.0, 1.0, high_open=True, what="a fraction", error=GeoError)
     # Layers go up from the altitude, never below it.
     check_range(altitude_step, "--altitude-step", 0.0, 5_000.0, unit=" m", error=GeoError)
-    flight_altitude = float(gmap.meta.get("altitude_m", altitude or 0.0))
+    georef = gmap.georef
+    if georef is None:
+        raise GeoError(f"map {gmap.name}: no georeference (origin_lat, origin_lon) in its metadata")
+    flight_altitude = float(georef.altitude_m if georef.altitude_m is not None else altitude or 0.0)
     if not flight_altitude > 0:
         raise GeoError(f"map {gmap.name}: no flight altitude (altitude_m) in its metadata")
-    return MissionSettings(altitude_m=flight_altitude, footprint_m=9 * float(gmap.meta["cell_m"]), speed_m_s=speed,
+    return MissionSettings(altitude_m=flight_altitude, footprint_m=georef.footprint_m, speed_m_s=speed,
                            overlap=overlap, end=end, altitude_step_m=altitude_step, autopilot=autopilot)

@@ -17,6 +17,8 @@ from pathlib import Path
 from typing import Any
 
 from missionplan.bridge.atomic import write_text_atomic
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT
+
 from ..grid.planresult import PlanResult
 
 
@@ -37,7 +39,7 @@ def build_report(result: PlanResult, seed: int) -> dict[str, Any]:
         "targets": world.num_targets,
         "unreachable": int(len(result.unreachable)),
         "unreachable_cells": result.unreachable.tolist(),
-        "floor": world.num_targets / (9 * uavs),
+        "floor": world.num_targets / (CELLS_PER_FOOTPRINT * uavs),
         "steps": run.steps,
         "deadlocks_broken": run.deadlocks_broken,
         "lane_drones": run.lane_drones,

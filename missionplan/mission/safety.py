@@ -71,7 +71,7 @@ def safety_settings(gmap: GridMap, altitude_m: float, *, min_separation: float |
     max_alt = _positive("--max-altitude", max_altitude)
     if altitude_m > max_alt:
         raise MapError(f"--max-altitude {max_alt:g}: below the flight altitude {altitude_m:g} m")
-    cell_m = float(gmap.meta.get("cell_m", 0.0) or 0.0)
+    cell_m = gmap.cell_m or 0.0
     if clearance is not None:
         if clearance < 0:
             raise MapError(f"--clearance {clearance:g}: a margin cannot be negative")
