@@ -18,12 +18,15 @@ from __future__ import annotations
 from typing import Any
 
 import dataclasses
+from dataclasses import replace
 
 import numpy as np
 from scipy import ndimage
 
 from ..grid.world import FOOTPRINT_RADIUS
 from ..maps.gridmap import GridMap, MapError
+from .plan_blocks import BandCounts, cells_of
+from .plan_record import PlanRecord
 
 
 def band_structure(clearance_cells: float) -> np.ndarray:
@@ -66,19 +69,18 @@ def footprint_union(paths: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return ndimage.binary_dilation(visited, structure=np.ones((size, size), dtype=bool))
 
 
-def band_coverage(report: dict, gmap: GridMap, band: np.ndarray, paths: np.ndarray) -> dict:
-    """Put the band's targets back into report.json: the grid is the map as given (not the planner's),
+def band_coverage(record: PlanRecord, gmap: GridMap, band: np.ndarray,
+                  paths: np.ndarray) -> tuple[PlanRecord, BandCounts]:
+    """The plan record with the band's targets put back: the grid is the map as given (not the planner's),
     band targets no footprint of the plan holds join `unreachable_cells`, the ones it holds join
-    `targets`. Returns the counts for report.json `clearance`."""
+    `targets`; and the counts for report.json `clearance`."""
     band_targets = gmap.target & band
     held = footprint_union(paths, gmap.shape)
     photographed, missed = band_targets & held, band_targets & ~held
-    report["grid"] = gmap.rows_text()
-    report["targets"] = int(report["targets"]) + int(photographed.sum())
-    report["unreachable_cells"] = list(report["unreachable_cells"]) + np.argwhere(missed).tolist()
-    report["unreachable"] = len(report["unreachable_cells"])
-    return {"band_cells": int(band.sum()), "band_targets": int(band_targets.sum()),
-            "band_targets_photographed": int(photographed.sum()), "band_targets_missed": int(missed.sum())}
+    unreachable = record.unreachable_cells + cells_of(np.argwhere(missed).tolist())
+    record = replace(record, grid=tuple(gmap.rows_text()), targets=int(record.targets) + int(photographed.sum()),
+                     unreachable_cells=unreachable, unreachable=len(unreachable))
+    return record, BandCounts(int(band.sum()), int(band_targets.sum()), int(photographed.sum()), int(missed.sum()))
 
 
 def obstacle_shape(obstacle: np.ndarray, cell_m: float) -> Any:
