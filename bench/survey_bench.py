@@ -45,6 +45,7 @@ import doctable  # noqa: E402
 
 from missionplan.bridge.formats.missionfile import read_mission_file  # noqa: E402
 from missionplan.cli import main  # noqa: E402
+from missionplan.mission.plan_record import read_plan_record  # noqa: E402
 
 LOST = 2
 HEADER = (f"{'run':>3}{'lost at':>9}{'on board wall':>15}{'veh s':>7}{'left':>6}{'flown end':>11}{'ideal end':>11}"
@@ -91,8 +92,7 @@ def ideal_end(plan_dir: Path, scale: float) -> tuple[float, float]:
         for path in plan_dir.iterdir():
             if path.name == "report.json" or path.suffix == ".plan":
                 shutil.copy(path, clean / path.name)
-        report = json.loads((clean / "report.json").read_text())
-        plan = plan_retask(clean, report, states, photos.reshape(-1, 2))
+        plan = plan_retask(clean, read_plan_record(clean), states, photos.reshape(-1, 2))
     loss = (t_loss - t0) * scale
     return loss, loss + (max(plan.flight_s.values()) if plan is not None else 0.0)
 

@@ -35,20 +35,19 @@ from .flight.ledger import LedgerError, Survey
 from .flight.ledger_repair import open_ledger
 from .grid.world import check_starts
 from .maps.gridmap import MapError
-from .mission.drone_missions import MissionSettings
-from .mission.safety import SafetySettings
-from .pipeline import DEFAULT_POLICY, POLICIES
+from .mission.plan_blocks import PlanSettings, SurveyPointer
+from .pipeline import POLICIES
 from .plan_display import EXIT_FAILED, print_plan
 from .plan_folder import PlanGround, PlanOptions, check_out_folder, write_plan_folder
 
 
-def stored_settings(survey: Survey) -> tuple[MissionSettings, SafetySettings, dict[str, Any]]:
+def stored_settings(survey: Survey) -> PlanSettings:
     """The mission and safety settings the survey's root plan was made with (report.json `settings`)."""
-    stored = survey.report.get("settings")
-    if not isinstance(stored, dict):
+    stored = survey.record.settings
+    if stored is None:
         raise LedgerError(f"{survey.root / 'report.json'}: no `settings` (planned by an older missionplan): plan the "
                           "area again with `missionplan plan`, then re-plan from that folder")
-    return MissionSettings(**stored["mission"]), SafetySettings(**stored["safety"]), stored
+    return stored
 
 
 def parse_assignments(texts: list[str]) -> dict[int, int]:
@@ -74,15 +73,15 @@ def launch_of_drones(survey: Survey, drones: str) -> tuple[list[tuple[int, int]]
     from missionplan.bridge.link.connection import parse_sysids
 
     ids = parse_sysids(drones, option="--drones")
-    launch = survey.report.get("launch") or []
-    known = survey.report.get("drone_ids") or list(range(1, len(launch) + 1))
+    launch = survey.record.launch
+    known = list(survey.record.drone_ids or range(1, len(launch) + 1))
     cells = []
     for sysid in ids:
         if sysid not in known:
             raise MapError(f"--drones {drones}: the survey's plan has no drone {sysid} (it has "
                            f"{', '.join(map(str, known))}); give new launch points with --launch and --sysid")
-        cells.append(tuple(int(v) for v in launch[known.index(sysid)]))
-    return cells, ids  # type: ignore[return-value]
+        cells.append(launch[known.index(sysid)])
+    return cells, ids
 
 
 def launch_at(survey: Survey, launch: list[str], sysid: list[str]) -> tuple[list[tuple[int, int]], list[int]]:
@@ -118,7 +117,7 @@ def cmd_replan(args: argparse.Namespace) -> int:
     if out.resolve() in (plan_dir.resolve(), survey.root.resolve()):
         raise MapError(f"--out {out}: a re-plan goes into a new folder, not over the survey's own plan")
     check_out_folder(out)  # before a word is printed; write_plan_folder asks again, holding the folder
-    mission, safety, stored = stored_settings(survey)
+    stored = stored_settings(survey)
     if args.drones is not None and args.launch:
         raise MapError("give either --drones (the survey's drones, from their launch points) or --launch with --sysid")
     if args.drones is not None:
@@ -137,19 +136,18 @@ def cmd_replan(args: argparse.Namespace) -> int:
     if not len(missing):
         print("nothing left to photograph: no re-plan written")
         return 0
-    gmap = missing_map(survey.report, missing, cells)
+    gmap = missing_map(survey.record, missing, cells)
     check_starts(gmap, cells)
     for k, (cell, sysid) in enumerate(zip(cells, ids), start=1):
         lat, lon = survey.frame.cell_to_latlon(np.array([cell[0]]), np.array([cell[1]]))
         print(f"  drone {k}: system id {sysid}, from {float(np.atleast_1d(lat)[0]):.7f},"
               f"{float(np.atleast_1d(lon)[0]):.7f} (cell {cell[0]},{cell[1]}) -> uav{sysid}.plan")
-    pointer = {"root": os.path.relpath(survey.root.resolve(), out.resolve()), "missing_cells": int(len(missing)),
-               "from": os.path.relpath(plan_dir.resolve(), out.resolve())}
-    options = PlanOptions(policy=args.policy or stored.get("policy", DEFAULT_POLICY), weights=args.weights,
-                          zones=stored.get("zones", "geodesic"), balance_zones=stored.get("balance_zones", True),
-                          open_ground=stored.get("open_ground", "lanes"), seed=args.seed,
+    pointer = SurveyPointer(os.path.relpath(survey.root.resolve(), out.resolve()), int(len(missing)),
+                            os.path.relpath(plan_dir.resolve(), out.resolve()))
+    options = PlanOptions(policy=args.policy or stored.policy, weights=args.weights, zones=stored.zones,
+                          balance_zones=stored.balance_zones, open_ground=stored.open_ground, seed=args.seed,
                           progress=not args.quiet and sys.stderr.isatty(), drone_ids=ids, survey=pointer)
-    folder = write_plan_folder(out, PlanGround(gmap, cells, survey.frame, mission, safety), options)
+    folder = write_plan_folder(out, PlanGround(gmap, cells, survey.frame, stored.mission, stored.safety), options)
     print_plan(folder)
     return 0 if folder.success else EXIT_FAILED
 

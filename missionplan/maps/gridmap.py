@@ -81,7 +81,8 @@ class GridMap:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self.obstacle.shape  # type: ignore[return-value]
+        rows, cols = self.obstacle.shape  # 2-D, checked on construction
+        return rows, cols
 
     @property
     def free(self) -> np.ndarray:

@@ -11,7 +11,6 @@ and when a drone gets under a fifth of the mean share (its launch point in a poc
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 from scipy import ndimage

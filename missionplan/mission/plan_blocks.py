@@ -164,10 +164,14 @@ class DronePlan:
     sorties: tuple[SortiePlan, ...]
     geofence: FencePlan | None = None
 
+    @property
+    def planned_sorties(self) -> tuple[SortiePlan, ...]:
+        """Its sorties; a report that lists none (an older missionplan's): its one whole flight."""
+        return self.sorties or (SortiePlan(f"uav{self.id}.plan", self.flight_s, self.photos, self.waypoints),)
+
     def sortie(self, j: int) -> SortiePlan | None:
-        """Sortie j (1-based), None past its last; a report without sorties has its one whole flight."""
-        entries = self.sorties or (SortiePlan(f"uav{self.id}.plan", self.flight_s, self.photos, self.waypoints),)
-        return entries[j - 1] if 1 <= j <= len(entries) else None
+        """Sortie j (1-based), None past its last."""
+        return self.planned_sorties[j - 1] if 1 <= j <= len(self.planned_sorties) else None
 
     def for_sortie(self, j: int) -> DronePlan | None:
         """This drone as sortie j is flown: that sortie's flight time, photos and waypoints (None: no sortie j)."""
@@ -244,11 +248,9 @@ class SeparationPromise:
             return self
         return replace(self, closest=self.sorties[j - 1], sortie=j)
 
-    def kept_at_least(self, d3: float) -> SeparationPromise:
-        """This promise held to at most `d3` metres 3-D (a live re-task promised less)."""
-        if self.closest.d3 is None:
-            return self
-        return replace(self, closest=replace(self.closest, d3=min(self.closest.d3, d3)))
+    def promising(self, d3: float) -> SeparationPromise:
+        """This promise with `d3` metres 3-D promised instead (a live re-task promised less)."""
+        return replace(self, closest=replace(self.closest, d3=d3))
 
     def to_json(self) -> JSON:
         doc = {**self.closest.to_json(), "sortie": self.sortie, "assumes": self.assumes,
