@@ -38,6 +38,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from missionplan.grid import metrics, planner  # noqa: E402
 from missionplan import pipeline  # noqa: E402
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT  # noqa: E402
 from missionplan.bridge.atomic import atomic_path  # noqa: E402
 from missionplan.maps.gridmap import GridMap, read_map_text  # noqa: E402
 from missionplan.maps.movingai import parse_movingai  # noqa: E402
@@ -128,7 +129,7 @@ def run_row(source: str, seed: str, uavs: int, policy: str, progress: bool,
     result = plan_map(gmap, uavs, policy=ready, progress=progress)
     cpu = time.process_time() - cpu0
     m, world = result.run.metrics, result.world
-    floor = world.num_targets / (9 * uavs)
+    floor = world.num_targets / (CELLS_PER_FOOTPRINT * uavs)
     return {"targets": world.num_targets, "zones_s": result.zone_seconds, "plan_s": result.run.plan_seconds,
             "cpu_s": cpu, "zones_cpu_s": zone_cpu[0], "rss_mb": peak_rss_mb(),
             "mmn_floor": m["MMN"] / floor, "coverage": m["coverage"], "success": result.run.success,

@@ -53,6 +53,7 @@ from scipy import ndimage
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT  # noqa: E402
 from missionplan.grid.lanes import block_centres, fleet_zones, snake_order  # noqa: E402
 from missionplan.grid.world import FOOTPRINT_RADIUS, reachable_targets  # noqa: E402
 from missionplan.grid.zones import split_zones  # noqa: E402
@@ -163,7 +164,7 @@ def table(args: argparse.Namespace) -> int:
         if baselines:
             rows += [("ls", searched), ("sweep", sweep)]
         targets = int(reachable.sum())
-        floor = targets / (9 * uavs)
+        floor = targets / (CELLS_PER_FOOTPRINT * uavs)
         expert = dict(rows)["expert"]
 
         def against(r: dict[str, float], other: dict[str, float] | None, width: int) -> str:

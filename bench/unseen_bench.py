@@ -35,6 +35,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT  # noqa: E402
 from missionplan.maps.gridmap import GridMap, read_map_text  # noqa: E402
 from missionplan.maps.launches import largest_region  # noqa: E402
 from missionplan.maps.movingai import parse_movingai  # noqa: E402
@@ -69,7 +70,7 @@ def run_row(kind: str, name: str, uavs: int, seed: int, policy: str) -> dict[str
     main_region = largest_region(gmap.free)
     outside = sum(not main_region[r, c] for r, c in result.starts)
     return {"map": gmap.name, "shape": list(gmap.obstacle.shape), "targets": world.num_targets, "outside": outside,
-            "cpu_s": cpu, "wall_s": wall, "mmn_floor": run.metrics["MMN"] / (world.num_targets / (9 * uavs)),
+            "cpu_s": cpu, "wall_s": wall, "mmn_floor": run.metrics["MMN"] / (world.num_targets / (CELLS_PER_FOOTPRINT * uavs)),
             "makespan": int(run.metrics["makespan"]),
             "coverage": run.metrics["coverage"], "steps": run.steps, "success": run.success,
             "failure": run.failure or "", "load": os.getloadavg()[0]}

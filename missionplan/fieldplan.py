@@ -38,7 +38,7 @@ class FieldPlan:
     band_moves_added: int | None = None  # grid moves added to photograph the band's targets (None: no band)
     zone_shares: list[float] | None = None  # set when the zones were re-balanced for sorties
 
-    def fill_report(self, record: PlanRecord, gmap: GridMap, frame: GridFrame | None) -> PlanRecord:
+    def fill_record(self, record: PlanRecord, gmap: GridMap, frame: GridFrame | None) -> PlanRecord:
         """The plan record with the band's targets put back (see clearance.band_coverage), and the
         field-safety blocks: the drones and the safety promise (separation, clearance)."""
         band = None
@@ -48,7 +48,7 @@ class FieldPlan:
             record = replace(record, zone_shares=tuple(round(s, 4) for s in self.zone_shares))
         if self.plans is not None and frame is not None:
             clearance = replace(self.plans.clearance(gmap, frame), band_moves_added=self.band_moves_added, band=band)
-            record = replace(record, drones=self.plans.report(),
+            record = replace(record, drones=self.plans.drone_plans(),
                              promise=SafetyPromise(self.plans.separation(), clearance))
         return record
 

@@ -255,7 +255,7 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
     result, plans = field_plan.result, field_plan.plans
     if plans is not None and options.drone_ids is not None:
         plans.relabel(options.drone_ids)
-    record = field_plan.fill_report(build_report(result, options.seed), gmap, frame)
+    record = field_plan.fill_record(build_report(result, options.seed), gmap, frame)
     if settings is not None and safety is not None:  # what `replan` plans the rest of the survey with
         record = replace(record, settings=PlanSettings(settings, safety, options.policy, options.zones,
                                                        options.balance_zones, options.open_ground))

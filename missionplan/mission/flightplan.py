@@ -105,10 +105,11 @@ class FlightPlans:
                                    required is None or kept is None or kept >= required - 1e-6)
         if kept is not None:
             lat, lon = frame.grid_to_latlon(np.array([worst[2][0] / frame.cell_m]), np.array([worst[2][1] / frame.cell_m]))
-            promise = replace(promise, closest_uav=worst[1], closest_at=(round(float(lat[0]), 7), round(float(lon[0]), 7)))
+            promise = replace(promise, closest_uav=worst[1],
+                              closest_at=(round(float(lat[0]), 7), round(float(lon[0]), 7)))
         return promise
 
-    def report(self) -> tuple[DronePlan, ...]:
+    def drone_plans(self) -> tuple[DronePlan, ...]:
         """report.json's `drones`: one per drone (totals over its sorties, then each sortie)."""
         rows = []
         for k, (track, missions) in enumerate(zip(self.corrected, self.sorties)):
@@ -119,7 +120,8 @@ class FlightPlans:
                                   self.safety.fence_margin_m if self.safety else None)
             rows.append(DronePlan(
                 id=sysid, cells=int(track.before["waypoints"]), waypoints=int(sum(m.waypoints for m in missions)),
-                length_m=round(sum(m.length_m for m in missions), 2), flight_s=round(sum(m.flight_s for m in missions), 1),
+                length_m=round(sum(m.length_m for m in missions), 2),
+                flight_s=round(sum(m.flight_s for m in missions), 1),
                 photos=int(sum(m.photos for m in missions)), altitude_m=round(self.settings.altitude_of(k), 2),
                 before=PathShape.from_json(track.before), after=PathShape.from_json(track.after),
                 sorties=tuple(SortiePlan(sortie_file(sysid, j + 1), round(m.flight_s, 1), m.photos, m.waypoints)

@@ -20,11 +20,11 @@ from typing import Any
 
 from missionplan.geo.sources import Omission
 
+from ..maps.gridmap import Cell
 from .drone_missions import MissionSettings
 from .safety import SafetySettings
 
-Cell = tuple[int, int]
-JSON = dict[str, Any]
+JSON = dict[str, Any]  # an object as report.json holds it
 
 
 def cells_of(rows: Iterable[Sequence[int]]) -> tuple[Cell, ...]:
@@ -34,10 +34,6 @@ def cells_of(rows: Iterable[Sequence[int]]) -> tuple[Cell, ...]:
 
 def cells_json(cells: Iterable[Cell]) -> list[list[int]]:
     return [list(cell) for cell in cells]
-
-
-def _ints(values: Iterable[int]) -> tuple[int, ...]:
-    return tuple(values)
 
 
 # ------------------------------------------------------------------------------------------- the grid planner
@@ -79,7 +75,7 @@ class Decisions:
 
     @classmethod
     def from_json(cls, doc: Mapping[str, Any]) -> Decisions:
-        return cls(_ints(doc["policy"]), _ints(doc["pathfinder"]), _ints(doc["idle"]))
+        return cls(tuple(doc["policy"]), tuple(doc["pathfinder"]), tuple(doc["idle"]))
 
 
 @dataclass(frozen=True)
@@ -218,8 +214,8 @@ class Closest:
 
     @classmethod
     def from_json(cls, doc: Mapping[str, Any]) -> Closest:
-        return cls(doc.get("horizontal"), doc.get("3d"), _ints(doc.get("pair_horizontal") or []),
-                   _ints(doc.get("pair_3d") or []), doc.get("at_s"))
+        return cls(doc.get("horizontal"), doc.get("3d"), tuple(doc.get("pair_horizontal") or []),
+                   tuple(doc.get("pair_3d") or []), doc.get("at_s"))
 
 
 @dataclass(frozen=True)
@@ -389,8 +385,8 @@ class CoverageSummary:
         return cls(doc["reachable_pct"], doc["all_pct"], doc["covered"], doc["targets_reachable"], doc["targets_all"],
                    doc["unreachable"], doc["unreachable_pct"], doc.get("unknown_height_buildings"),
                    doc.get("unknown_building_height_m"), doc.get("unreachable_by_unknown_height"),
-                   doc.get("unreachable_by_clearance"), tuple(SmallShare.from_json(s) for s in doc.get("small_shares") or []),
-                   tuple(doc.get("warnings") or []))
+                   doc.get("unreachable_by_clearance"),
+                   tuple(SmallShare.from_json(s) for s in doc.get("small_shares") or []), tuple(doc.get("warnings") or []))
 
 
 # ------------------------------------------------------------------------------------------- the files read
@@ -429,9 +425,10 @@ class InputFile:
                      "dropped": [o.to_json() for o in self.dropped], "repaired": [o.to_json() for o in self.repaired],
                      "notes": list(self.notes)}
         if self.buildings is not None:
-            doc.update({"buildings_in_area": self.buildings.in_area, "unknown_height": list(self.buildings.unknown_height),
-                        "unknown_height_assumed_m": self.buildings.unknown_height_assumed_m,
-                        "height_field": self.buildings.height_field})
+            buildings = self.buildings
+            doc.update({"buildings_in_area": buildings.in_area, "unknown_height": list(buildings.unknown_height),
+                        "unknown_height_assumed_m": buildings.unknown_height_assumed_m,
+                        "height_field": buildings.height_field})
         return doc
 
     @classmethod
@@ -461,8 +458,8 @@ class PlanSettings:
 
     def to_json(self) -> JSON:
         # Every field of the two settings, in their order: a field added there is recorded here.
-        return {"mission": asdict(self.mission), "safety": asdict(self.safety), "policy": self.policy, "zones": self.zones, "balance_zones": self.balance_zones,
-                "open_ground": self.open_ground}
+        return {"mission": asdict(self.mission), "safety": asdict(self.safety), "policy": self.policy,
+                "zones": self.zones, "balance_zones": self.balance_zones, "open_ground": self.open_ground}
 
     @classmethod
     def from_json(cls, doc: Mapping[str, Any]) -> PlanSettings:

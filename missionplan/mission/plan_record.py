@@ -8,10 +8,11 @@ benches) reads it with `read_plan_record`. No other module opens report.json for
 the grid lies and how it is photographed).
 
 report.json as written is byte for byte what missionplan wrote before the record existed: the same keys in
-the same order, numbers as computed, `json.dumps(indent=1)`. Its schema version is SCHEMA_VERSION; version 1
-is that format and writes no version key (a report.json without `schema_version` is version 1, as every
-earlier missionplan wrote it). A later format writes `schema_version` first; a report.json of a version this
-missionplan does not know fails in one line naming the file and the version.
+the same order, numbers as computed, `json.dumps(indent=1)`. Its schema version is SCHEMA_VERSION, 1: that
+format, which has no version key (a report.json without `schema_version` is version 1, as every earlier
+missionplan wrote it). A later format (terrain, capture) raises SCHEMA_VERSION and writes `schema_version`
+first, and reads version 1 as it is; a report.json of a version this missionplan does not know fails in one
+line naming the file and the version.
 
 Keys of version 1, in order (the optional ones are left out when None): map, uavs, policy, zones,
 zones_balanced, zone_sizes, seed, success, failure, metrics, targets (reachable target cells U), unreachable
@@ -36,8 +37,8 @@ from missionplan.bridge.atomic import write_text_atomic
 from missionplan.geo.errors import GeoError
 from missionplan.geo.georeference import Georeference
 
-from ..maps.gridmap import MapError
-from .plan_blocks import (Cell, ClearancePromise, CoverageSummary, Decisions, DronePlan, InputFile, PlanMetrics,
+from ..maps.gridmap import Cell, MapError
+from .plan_blocks import (ClearancePromise, CoverageSummary, Decisions, DronePlan, InputFile, PlanMetrics,
                           PlanSettings, SafetyPromise, SeparationPromise, SurveyPointer, Timing, cells_json, cells_of)
 
 REPORT_NAME = "report.json"
@@ -49,7 +50,7 @@ class PlanRecordError(MapError):
 
 
 class SchemaVersionError(ValueError):
-    """A report.json object of a schema version this missionplan does not read (newer, or no version at all)."""
+    """A report.json object of a schema version this missionplan does not read (newer, or not a version)."""
 
     def __init__(self, version: Any) -> None:
         super().__init__(f"schema version {version!r}")
@@ -104,7 +105,6 @@ class PlanRecord:
     inputs: tuple[InputFile, ...] | None = None  # the files an area plan read
     files: tuple[str, ...] | None = None  # every file the plan wrote, report.json included
     files_sha256: Mapping[str, str] | None = None  # each file's but report.json's
-    schema_version: int = SCHEMA_VERSION
 
     # ---- what readers ask ------------------------------------------------------------
     @property
@@ -124,15 +124,10 @@ class PlanRecord:
         """The most battery sorties any drone flies (1 without drones)."""
         return max((len(d.sorties) or 1 for d in self.drones or ()), default=1)
 
-    def drone_id(self, k: int) -> int:
-        """The system id of the k-th drone (0-based), in launch order."""
-        return self.drone_ids[k] if self.drone_ids is not None else k + 1
-
     # ---- report.json ----------------------------------------------------------------
     def to_json(self) -> dict[str, Any]:
-        """The object report.json holds (see the module docstring for its keys)."""
-        doc: dict[str, Any] = {} if self.schema_version == 1 else {"schema_version": self.schema_version}
-        doc.update({
+        """The object report.json holds (see the module docstring for its keys); version 1 writes no version."""
+        doc: dict[str, Any] = {
             "map": self.map, "uavs": self.uavs, "policy": self.policy, "zones": self.zones,
             "zones_balanced": self.zones_balanced, "zone_sizes": list(self.zone_sizes), "seed": self.seed,
             "success": self.success, "failure": self.failure, "metrics": self.metrics.to_json(),
@@ -140,7 +135,7 @@ class PlanRecord:
             "unreachable_cells": cells_json(self.unreachable_cells), "floor": self.floor, "steps": self.steps,
             "deadlocks_broken": self.deadlocks_broken, "lane_drones": self.lane_drones,
             "decisions": self.decisions.to_json(), "timing": self.timing.to_json(), "launch": cells_json(self.launch),
-            "paths": [cells_json(path) for path in self.paths], "grid": list(self.grid)})
+            "paths": [cells_json(path) for path in self.paths], "grid": list(self.grid)}
         if self.zone_shares is not None:
             doc["zone_shares"] = list(self.zone_shares)
         if self.drones is not None:
@@ -174,7 +169,7 @@ class PlanRecord:
     def from_json(cls, doc: Mapping[str, Any]) -> PlanRecord:
         """The record of a report.json object, of this schema version or an earlier one. SchemaVersionError for
         a newer or unknown version; KeyError / TypeError / ValueError for what is no plan."""
-        version = schema_version(doc)
+        schema_version(doc)  # one this missionplan reads
         grid = tuple(doc["grid"])
         if not grid or not all(isinstance(row, str) for row in grid):
             raise ValueError("grid is not a list of rows")
@@ -200,8 +195,7 @@ class PlanRecord:
             coverage=CoverageSummary.from_json(doc["coverage"]) if doc.get("coverage") is not None else None,
             inputs=tuple(InputFile.from_json(i) for i in doc["inputs"]) if doc.get("inputs") is not None else None,
             files=_optional_tuple(doc.get("files")),
-            files_sha256=dict(doc["files_sha256"]) if doc.get("files_sha256") is not None else None,
-            schema_version=version)
+            files_sha256=dict(doc["files_sha256"]) if doc.get("files_sha256") is not None else None)
 
 
 def _optional_tuple(values: Any) -> tuple[Any, ...] | None:
@@ -236,7 +230,8 @@ def read_plan_record(folder: str | os.PathLike[str]) -> PlanRecord:
         return PlanRecord.from_json(doc)
     except SchemaVersionError as err:
         raise PlanRecordError(f"{path}: schema version {err.version!r}, and this missionplan reads up to version "
-                              f"{SCHEMA_VERSION}: a newer missionplan wrote it (update missionplan to read it)") from None
+                              f"{SCHEMA_VERSION}: a newer missionplan wrote it (update missionplan to read it)"
+                              ) from None
     except (KeyError, TypeError, ValueError, IndexError, GeoError) as err:
         what = f"no {err.args[0]!r}" if isinstance(err, KeyError) else str(err)
         raise PlanRecordError(f"{path}: not a missionplan plan report ({what})") from None
@@ -253,7 +248,8 @@ def listed_files(folder: str | os.PathLike[str]) -> tuple[list[str], dict[str, s
     if not isinstance(doc, dict):
         return [], {}
     sums = doc.get("files_sha256")
-    sha256 = {k: v for k, v in sums.items() if isinstance(k, str) and isinstance(v, str)} if isinstance(sums, dict) else {}
+    sha256 = ({k: v for k, v in sums.items() if isinstance(k, str) and isinstance(v, str)}
+              if isinstance(sums, dict) else {})
     files = doc.get("files")
     if isinstance(files, list):
         return [name for name in files if isinstance(name, str)], sha256
