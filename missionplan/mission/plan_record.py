@@ -229,9 +229,12 @@ def read_plan_record(folder: str | os.PathLike[str]) -> PlanRecord:
     try:
         return PlanRecord.from_json(doc)
     except SchemaVersionError as err:
-        raise PlanRecordError(f"{path}: schema version {err.version!r}, and this missionplan reads up to version "
-                              f"{SCHEMA_VERSION}: a newer missionplan wrote it (update missionplan to read it)"
-                              ) from None
+        if isinstance(err.version, int) and not isinstance(err.version, bool) and err.version > SCHEMA_VERSION:
+            raise PlanRecordError(f"{path}: schema version {err.version}, and this missionplan reads up to version "
+                                  f"{SCHEMA_VERSION}: a newer missionplan wrote it (update missionplan to read it)"
+                                  ) from None
+        raise PlanRecordError(f"{path}: schema version {err.version!r} is not a version (a whole number from 1; this "
+                              f"missionplan reads up to version {SCHEMA_VERSION})") from None
     except (KeyError, TypeError, ValueError, IndexError, GeoError) as err:
         what = f"no {err.args[0]!r}" if isinstance(err, KeyError) else str(err)
         raise PlanRecordError(f"{path}: not a missionplan plan report ({what})") from None
