@@ -43,6 +43,7 @@ import json
 import shutil
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -51,6 +52,7 @@ from missionplan.cli import main
 from missionplan.flight.flight_report import judge
 from missionplan.flight.fly import fly, flight_view
 from missionplan.flight.mock_fleet import start_mock_fleet
+from missionplan.mission.plan_record import read_plan_record, report_path, write_plan_record
 
 import doctable  # bench/doctable.py: --write-doc
 
@@ -118,7 +120,7 @@ def _row(vehicle: str, name: str, uavs: int, plan_dir: Path, problems: list[str]
     def metres(value: Any) -> str:
         return f"{value:.2f}" if value is not None else "-"
 
-    sorties = max(len(d.get("sorties") or [1]) for d in json.loads((plan_dir / "report.json").read_text())["drones"])
+    sorties = read_plan_record(plan_dir).sorties
     note = "" if sorties == 1 else f"  (sortie 1 of {sorties})"
     note += "" if not problems else "  " + "; ".join(problems)
     return (f"{vehicle:<16}{name:<11}{uavs:>3}{doc['targets']:>9}{doc['coverage']:>9.2f}"
@@ -181,14 +183,14 @@ def sitl_row(name: str, uavs: int, plan_dir: Path) -> str:
 
     from missionplan.bridge.formats.missionfile import read_mission_file
 
-    report = json.loads((plan_dir / "report.json").read_text())
+    record = read_plan_record(plan_dir)
     records: list[Any] = []
     wall = 0.0
-    for drone in report["drones"]:
+    for drone in record.drones or ():
         # A plan folder with this drone alone; its recordings are kept for the judgement together.
-        single = plan_dir.parent / f"single-{drone['id']}"
+        single = plan_dir.parent / f"single-{drone.id}"
         shutil.copytree(plan_dir, single, dirs_exist_ok=True)
-        (single / "report.json").write_text(json.dumps({**report, "drones": [drone]}))
+        write_plan_record(replace(record, drones=(drone,)), report_path(single))
         kept: list[Any] = []
         original = fly_module.judge
 
@@ -196,10 +198,10 @@ def sitl_row(name: str, uavs: int, plan_dir: Path) -> str:
             kept.extend(args[2])
             return original(*args, **kwargs)
 
-        home = read_mission_file(single / f"uav{drone['id']}.plan").mission.home
+        home = read_mission_file(single / f"uav{drone.id}.plan").mission.home
         fly_module.judge = keep
         try:
-            with ArduCopter(sysid=drone["id"], home=(home[0], home[1], 240.0, 0.0)) as vehicle:
+            with ArduCopter(sysid=drone.id, home=(home[0], home[1], 240.0, 0.0)) as vehicle:
                 configure_camera_and_wait_ready(vehicle)
                 start = time.monotonic()
                 fly(single, vehicle.url, timeout_s=1800, progress=False, time_scale=vehicle.speedup,
@@ -209,7 +211,7 @@ def sitl_row(name: str, uavs: int, plan_dir: Path) -> str:
             fly_module.judge = original
         records.append(_shifted(kept[0], -kept[0].t_start if kept[0].t_start is not None else 0.0))
     # Judged as fly judges sortie 1 of the whole fleet (a long plan flies in battery sorties).
-    view = flight_view(plan_dir, report, 1)
+    view = flight_view(plan_dir, record, 1)
     result = judge(plan_dir, view, records, 10.0, wall_s=wall, telemetry_hz=SITL_TELEMETRY_HZ)
     return _row("ArduCopter SITL", name, uavs, plan_dir, result.problems, wall)
 
@@ -219,13 +221,13 @@ def _true_coverage(plan_dir: Path, photos_at: dict[int, dict[int, tuple[float, f
     by flight_report's rule."""
     from missionplan.flight import flight_report as fr
 
-    report = json.loads((plan_dir / "report.json").read_text())
-    frame = fr.frame_of(report)
+    record = read_plan_record(plan_dir)
+    frame = fr.frame_of(record)
     points = [p for taken in photos_at.values() for p in taken.values()]
     if not points:
         return 0.0
     grid = fr.to_grid_m(frame, [p[0] for p in points], [p[1] for p in points])
-    covered = fr.coverage(frame, fr.target_cells(report), grid, float(report["georeference"]["footprint_m"]),
+    covered = fr.coverage(frame, fr.target_cells(record), grid, fr.georeference_of(record).footprint_m,
                           fr.SLACK_CELLS * frame.cell_m)
     return 100.0 * float(covered.mean())
 

@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
-import json
 import sqlite3
 import tempfile
 import threading
@@ -35,6 +34,7 @@ from missionplan.flight import disk_space
 from missionplan.flight.journal import Journal
 from missionplan.flight.journal_db import JOURNAL_NAME
 from missionplan.flight.record import DroneRecord
+from missionplan.mission.plan_record import read_plan_record
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -146,8 +146,7 @@ def fly_once(plan: Path, work: Path, speedup: float, hz: float) -> dict:
     db.close()
     outputs = sum(p.stat().st_blocks * 512 for p in folder.iterdir()
                   if p.is_file() and p.name not in names_before and p.name not in JOURNAL_FILES)
-    report = json.loads((folder / "report.json").read_text())
-    estimate, _ = disk_space.flight_bytes(report, hz, 1)
+    estimate, _ = disk_space.flight_bytes(read_plan_record(folder), hz, 1)
     ledger = sum((folder / name).stat().st_blocks * 512 for name in ("ledger.sqlite", "photos.csv", "photos.geojson",
                                                                      "geo.txt"))
     return {"speedup": speedup, "hz": hz, "ok": result.ok, **counts,

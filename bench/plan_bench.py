@@ -17,6 +17,7 @@ import argparse
 import time
 
 
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 from missionplan.maps.catalog import load_shipped, shipped_map_names
 from missionplan.pipeline import POLICIES, make_policy, plan_map
 from missionplan.grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
@@ -70,7 +71,7 @@ def table(args: argparse.Namespace) -> int:
                 for policy, planner in policies.items():
                     result = plan_map(gmap, uavs, policy=planner, zone_method=zones, balance_zones=balance == "on")
                     m, world = result.run.metrics, result.world
-                    floor = world.num_targets / (9 * uavs)
+                    floor = world.num_targets / (CELLS_PER_FOOTPRINT * uavs)
                     seconds = result.zone_seconds + result.run.plan_seconds
                     row = (f"{name:<11} {uavs:>2} {policy:<7} {zones + ('+bal' if balance == 'on' else ''):<12} {world.num_targets:>6} {floor:>6.1f} "
                            f"{m['MMN']:>7.1f} {m['MMN'] / floor:>6.2f} {m['makespan']:>6} {m['TE']:>5.1f} {m['MNT']:>5.2f} "

@@ -37,6 +37,7 @@ import numpy as np
 
 from missionplan.grid import metrics, planner
 from missionplan import pipeline
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 from missionplan.base.atomic import atomic_path
 from missionplan.maps.gridmap import GridMap, read_map_text
 from missionplan.maps.movingai import parse_movingai
@@ -127,7 +128,7 @@ def run_row(source: str, seed: str, uavs: int, policy: str, progress: bool,
     result = plan_map(gmap, uavs, policy=ready, progress=progress)
     cpu = time.process_time() - cpu0
     m, world = result.run.metrics, result.world
-    floor = world.num_targets / (9 * uavs)
+    floor = world.num_targets / (CELLS_PER_FOOTPRINT * uavs)
     return {"targets": world.num_targets, "zones_s": result.zone_seconds, "plan_s": result.run.plan_seconds,
             "cpu_s": cpu, "zones_cpu_s": zone_cpu[0], "rss_mb": peak_rss_mb(),
             "mmn_floor": m["MMN"] / floor, "coverage": m["coverage"], "success": result.run.success,

@@ -40,6 +40,7 @@ import doctable
 
 from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.cli import main
+from missionplan.mission.plan_record import read_plan_record
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -89,8 +90,7 @@ def ideal_end(plan_dir: Path, scale: float) -> tuple[float, float]:
         for path in plan_dir.iterdir():
             if path.name == "report.json" or path.suffix == ".plan":
                 shutil.copy(path, clean / path.name)
-        report = json.loads((clean / "report.json").read_text())
-        plan = plan_retask(clean, report, states, photos.reshape(-1, 2))
+        plan = plan_retask(clean, read_plan_record(clean), states, photos.reshape(-1, 2))
     loss = (t_loss - t0) * scale
     return loss, loss + (max(plan.flight_s.values()) if plan is not None else 0.0)
 

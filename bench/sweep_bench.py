@@ -51,6 +51,7 @@ import numpy as np
 from scipy import ndimage
 
 
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 from missionplan.grid.lanes import block_centres, fleet_zones, snake_order
 from missionplan.grid.world import FOOTPRINT_RADIUS, reachable_targets
 from missionplan.grid.zones import split_zones
@@ -161,7 +162,7 @@ def table(args: argparse.Namespace) -> int:
         if baselines:
             rows += [("ls", searched), ("sweep", sweep)]
         targets = int(reachable.sum())
-        floor = targets / (9 * uavs)
+        floor = targets / (CELLS_PER_FOOTPRINT * uavs)
         expert = dict(rows)["expert"]
 
         def against(r: dict[str, float], other: dict[str, float] | None, width: int) -> str:

@@ -34,6 +34,7 @@ import time
 from pathlib import Path
 
 
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 from missionplan.maps.gridmap import GridMap, read_map_text
 from missionplan.maps.launches import largest_region
 from missionplan.maps.movingai import parse_movingai
@@ -68,7 +69,7 @@ def run_row(kind: str, name: str, uavs: int, seed: int, policy: str) -> dict[str
     main_region = largest_region(gmap.free)
     outside = sum(not main_region[r, c] for r, c in result.starts)
     return {"map": gmap.name, "shape": list(gmap.obstacle.shape), "targets": world.num_targets, "outside": outside,
-            "cpu_s": cpu, "wall_s": wall, "mmn_floor": run.metrics["MMN"] / (world.num_targets / (9 * uavs)),
+            "cpu_s": cpu, "wall_s": wall, "mmn_floor": run.metrics["MMN"] / (world.num_targets / (CELLS_PER_FOOTPRINT * uavs)),
             "makespan": int(run.metrics["makespan"]),
             "coverage": run.metrics["coverage"], "steps": run.steps, "success": run.success,
             "failure": run.failure or "", "load": os.getloadavg()[0]}

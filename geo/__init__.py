@@ -6,6 +6,8 @@ nothing else from missionplan. One job per module:
 * `missionplan.geo.errors`  - `GeoError`, the one-line error for any wrong geographic input.
 * `missionplan.geo.camera`  - footprint side S = 2*H*tan(FOV/2) and cell = S/9; `Camera` from FOV or sensor.
 * `missionplan.geo.frame`   - `GridFrame`: the grid laid in the area's UTM zone, grid <-> lat/lon, map meta.
+* `missionplan.geo.georeference` - `Georeference`: a grid's frame, flight altitude and camera as one typed value,
+                  written to and read from a map's header lines and report.json's `georeference`.
 * `missionplan.geo.readers` - area / obstacle / no-fly polygons and building footprints from any file a crew
                   brings, chosen by extension (`FILE:LAYER` for a layer); each format has its module:
                   `geojson_file` (GeoJSON), `kml_file` (KML, KMZ), `plan_file` (QGroundControl .plan),
@@ -30,12 +32,13 @@ from .area import build_grid_map
 from .camera import Camera, cell_size_m, footprint_side_m
 from .errors import GeoError
 from .frame import GridFrame, utm_epsg_for
+from .georeference import Georeference
 from .readers import (Building, Feature, read_area, read_area_file, read_building_file, read_buildings,
                       read_features, read_obstacle_file, read_osm_buildings, read_polygons)
 from .sources import Omission, SourceFile
 
 __all__ = [
-    "Building", "Camera", "Feature", "GeoError", "GridFrame", "Omission", "SourceFile", "build_grid_map", "cell_size_m",
-    "footprint_side_m", "read_area", "read_area_file", "read_building_file", "read_buildings", "read_features",
+    "Building", "Camera", "Feature", "GeoError", "Georeference", "GridFrame", "Omission", "SourceFile", "build_grid_map",
+    "cell_size_m", "footprint_side_m", "read_area", "read_area_file", "read_building_file", "read_buildings", "read_features",
     "read_obstacle_file", "read_osm_buildings", "read_polygons", "utm_epsg_for",
 ]

@@ -27,9 +27,10 @@ from shapely.geometry import MultiPolygon, Polygon
 
 from missionplan.base.naming import Named
 
-from .camera import cell_size_m
+from .camera import Camera, cell_size_m
 from .errors import GeoError
 from .frame import GridFrame
+from .georeference import Georeference
 from .sources import Building
 
 Polygonal = Polygon | MultiPolygon
@@ -37,7 +38,7 @@ Polygonal = Polygon | MultiPolygon
 
 @dataclass
 class AreaRaster:
-    """The rasterised area: boolean (rows, cols) `obstacle` and `target`, launch cells, georeference meta.
+    """The rasterised area: boolean (rows, cols) `obstacle` and `target`, launch cells, its georeference.
 
     Plain arrays, so geo needs nothing from the planner; missionplan makes its GridMap from these fields.
     """
@@ -46,7 +47,7 @@ class AreaRaster:
     obstacle: np.ndarray
     target: np.ndarray
     launch: list[tuple[int, int]]
-    meta: dict[str, str]
+    georef: Georeference
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -115,7 +116,7 @@ def build_grid_map(name: str, area: Polygonal | Sequence[Polygonal], obstacles: 
 
     `area` may be a list of polygons (their union). `buildings` may also hold bare polygons
     (height unknown -> obstacle). `area_file` names
-    the area in error messages. Returns the raster (its meta carries the georeference) and frame.
+    the area in error messages. Returns the raster (with its georeference) and frame.
     """
     cell = cell_size_m(altitude_m, fov_deg)
     if isinstance(area, (list, tuple)):  # e.g. straight from read_polygons: one area of several parts
@@ -157,10 +158,8 @@ def build_grid_map(name: str, area: Polygonal | Sequence[Polygonal], obstacles: 
 
     launch = _launch_cells(frame, area, obstacles, no_fly, blds, obstacle, launch_latlon, area_file)
 
-    meta = frame.to_meta()
-    meta.update({"altitude_m": repr(float(altitude_m)), "fov_deg": repr(float(fov_deg)),
-                 "cell_m": repr(float(cell)), "safety_margin_m": repr(float(safety_margin_m))})
-    return AreaRaster(name=name, obstacle=obstacle, target=target, launch=launch, meta=meta), frame
+    georef = Georeference(frame, float(altitude_m), Camera(fov_deg), float(safety_margin_m))
+    return AreaRaster(name=name, obstacle=obstacle, target=target, launch=launch, georef=georef), frame
 
 
 def _launch_cells(frame: GridFrame, area: Polygonal, obstacles: Sequence[Polygonal],

@@ -1,18 +1,31 @@
-"""Camera footprint -> grid cell size (SPEC section 7).
+"""Camera footprint <-> grid cell size (SPEC section 7): the one place that knows a photo is 9 cells a side.
 
 A nadir camera at altitude H with field of view FOV sees a square of side
-S = 2*H*tan(FOV/2) on flat ground; the grid cell is S/9, so one photo covers
-a 9x9 block of cells (the 3x3 "photo" of the planner with overlap).
+S = 2*H*tan(FOV/2) on flat ground; the grid cell is S / CELLS_PER_FOOTPRINT (9), so one photo covers
+a 9x9 block of cells (the 3x3 "photo" of the planner with overlap). `cell_of_footprint` and
+`footprint_of_cell` are that rule and its inverse; every other module asks them (or the constant).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 from .errors import GeoError
 
-CELLS_PER_FOOTPRINT = 9
+CELLS_PER_FOOTPRINT = 9  # a photo's footprint is this many grid cells a side
+
+
+def cell_of_footprint(footprint_m: float) -> float:
+    """The grid cell side for a photo footprint of side `footprint_m`: footprint / 9."""
+    return footprint_m / CELLS_PER_FOOTPRINT
+
+
+def footprint_of_cell(cell_m: float) -> float:
+    """The photo footprint side on a grid of `cell_m` cells: 9 cells (the inverse of cell_of_footprint)."""
+    return cell_m * CELLS_PER_FOOTPRINT
 
 
 def _check_positive(value: float, what: str) -> float:
@@ -45,12 +58,15 @@ def footprint_side_m(altitude_m: float, fov_deg: float) -> float:
 
 def cell_size_m(altitude_m: float, fov_deg: float) -> float:
     """Grid cell side = footprint side / 9, in metres."""
-    return footprint_side_m(altitude_m, fov_deg) / CELLS_PER_FOOTPRINT
+    return cell_of_footprint(footprint_side_m(altitude_m, fov_deg))
 
 
 @dataclass(frozen=True)
 class Camera:
-    """A nadir camera described by its (square-footprint) field of view in degrees."""
+    """A nadir camera described by its (square-footprint) field of view in degrees.
+
+    Room for what a capture plan needs next (the sensor, the ground sample distance, the capture
+    interval): fields added here, each written by to_json and read by from_json."""
 
     fov_deg: float
 
@@ -77,3 +93,10 @@ class Camera:
 
     def cell_size_m(self, altitude_m: float) -> float:
         return cell_size_m(altitude_m, self.fov_deg)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"fov_deg": self.fov_deg}
+
+    @classmethod
+    def from_json(cls, doc: Mapping[str, Any]) -> "Camera":
+        return cls(doc["fov_deg"])

@@ -17,6 +17,7 @@ north-up or rotated. Conventions, used everywhere in `geo`:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -46,7 +47,9 @@ def _transformers(epsg: int) -> tuple[Transformer, Transformer]:
     return fwd, inv
 
 
-def _float(meta: dict[str, str], key: str) -> float:
+def header_float(meta: Mapping[str, str], key: str) -> float:
+    """The number under `key` of a map header (GeoError naming the key when it is missing, not a number or
+    not finite)."""
     try:
         v = float(meta[key])
     except KeyError:
@@ -137,7 +140,7 @@ class GridFrame:
         }
 
     @classmethod
-    def from_meta(cls, meta: dict[str, str], rows: int | None = None, cols: int | None = None) -> "GridFrame":
+    def from_meta(cls, meta: Mapping[str, str], rows: int | None = None, cols: int | None = None) -> "GridFrame":
         """Inverse of `to_meta`. `rows`/`cols` (e.g. the GridMap shape) override grid_rows/grid_cols.
         A hand-written map may give only origin_lat/origin_lon (+ cell_m, rotation_deg)."""
         try:
@@ -147,15 +150,15 @@ class GridFrame:
             raise GeoError(f"map georeference: key {err.args[0]!r} is missing (or pass the grid shape)") from None
         except ValueError:
             raise GeoError("map georeference: grid_rows/grid_cols are not integers") from None
-        cell = _float(meta, "cell_m")
-        rot = _float(meta, "rotation_deg") if "rotation_deg" in meta else 0.0
+        cell = header_float(meta, "cell_m")
+        rot = header_float(meta, "rotation_deg") if "rotation_deg" in meta else 0.0
         if "utm_epsg" in meta:
             try:
                 epsg = int(meta["utm_epsg"])
             except ValueError:
                 raise GeoError(f"map georeference: utm_epsg {meta['utm_epsg']!r} is not an EPSG code") from None
-            return cls(epsg, _float(meta, "origin_e"), _float(meta, "origin_n"), cell, r, c, rot)
-        return cls.at(_float(meta, "origin_lat"), _float(meta, "origin_lon"), cell, r, c, rot)
+            return cls(epsg, header_float(meta, "origin_e"), header_float(meta, "origin_n"), cell, r, c, rot)
+        return cls.at(header_float(meta, "origin_lat"), header_float(meta, "origin_lon"), cell, r, c, rot)
 
     # ---- local metric <-> UTM -------------------------------------------------------
     def _axes(self) -> tuple[float, float]:

@@ -58,6 +58,10 @@ class Omission:
     def to_json(self) -> dict[str, str]:
         return {"id": self.ref, "cause": self.cause}
 
+    @classmethod
+    def from_json(cls, doc: Mapping[str, str]) -> "Omission":
+        return cls(doc["id"], doc["cause"])
+
 
 @dataclass
 class SourceFile:

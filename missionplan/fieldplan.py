@@ -11,7 +11,7 @@ Without safety settings (a map without georeference) only the plain grid plan is
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -21,6 +21,8 @@ from missionplan.geo.frame import GridFrame
 from .maps.gridmap import GridMap
 from .mission.clearance import band_coverage, flight_map, photograph_band
 from .mission.drone_missions import MissionSettings
+from .mission.plan_blocks import SafetyPromise
+from .mission.plan_record import PlanRecord
 from .mission.safety import SafetySettings
 from .mission.sorties import sortie_shares
 from .pipeline import PlanResult, plan_map
@@ -33,21 +35,22 @@ class FieldPlan:
     result: PlanResult
     plans: Any = None  # flightplan.FlightPlans, or None (no georeference, or the grid plan failed)
     band: np.ndarray | None = None
-    band_counts: dict[str, Any] = field(default_factory=dict)
+    band_moves_added: int | None = None  # grid moves added to photograph the band's targets (None: no band)
     zone_shares: list[float] | None = None  # set when the zones were re-balanced for sorties
 
-    def fill_report(self, report: dict[str, Any], gmap: GridMap, frame: GridFrame | None) -> None:
-        """Put the band's targets back into report.json (see clearance.band_coverage), and the
-        field-safety keys: drones, separation, clearance."""
-        counts = dict(self.band_counts)
+    def fill_record(self, record: PlanRecord, gmap: GridMap, frame: GridFrame | None) -> PlanRecord:
+        """The plan record with the band's targets put back (see clearance.band_coverage), and the
+        field-safety blocks: the drones and the safety promise (separation, clearance)."""
+        band = None
         if self.band is not None and self.band.any():
-            counts.update(band_coverage(report, gmap, self.band, self.result.run.paths))
+            record, band = band_coverage(record, gmap, self.band, self.result.run.paths)
         if self.zone_shares is not None:
-            report["zone_shares"] = [round(s, 4) for s in self.zone_shares]
+            record = replace(record, zone_shares=tuple(round(s, 4) for s in self.zone_shares))
         if self.plans is not None and frame is not None:
-            report["drones"] = self.plans.report()
-            report["separation"] = self.plans.separation()
-            report["clearance"] = {**self.plans.clearance(gmap, frame), **counts}
+            clearance = replace(self.plans.clearance(gmap, frame), band_moves_added=self.band_moves_added, band=band)
+            record = replace(record, drones=self.plans.drone_plans(),
+                             promise=SafetyPromise(self.plans.separation(), clearance))
+        return record
 
 
 def plan_field(gmap: GridMap, uavs: int, frame: GridFrame | None, settings: MissionSettings | None,
@@ -59,7 +62,7 @@ def plan_field(gmap: GridMap, uavs: int, frame: GridFrame | None, settings: Miss
         result = plan_map(plan_gmap, uavs, balance_zones=balance_zones, zone_shares=shares, **planning)
         done = FieldPlan(result, band=band, zone_shares=None if shares is None else shares.tolist())
         if band is not None and band.any() and result.run.success:
-            result.run.paths, done.band_counts["band_moves_added"] = photograph_band(
+            result.run.paths, done.band_moves_added = photograph_band(
                 result.run.paths, plan_gmap, gmap, band, result.zones.zone)
         if frame is not None and settings is not None and result.run.success:
             from .mission.flightplan import make_flight_plans

@@ -25,53 +25,54 @@ def _fmt(value: float | int | None, digits: int = 1) -> str:
 
 def print_plan(folder: PlanFolder) -> None:
     """The plan's summary on stdout, its warnings and a failure on stderr."""
-    report, written, options = folder.report, folder.written, folder.options
+    record, written, options = folder.record, folder.written, folder.options
     ground, gmap = folder.ground, folder.ground.gmap
-    m = report["metrics"]
+    m = record.metrics
     zones = options.zones + ("" if not options.balance_zones else ", balanced")
     print(f"map {printable(gmap.name)} ({gmap.shape[0]} x {gmap.shape[1]}), {ground.uavs} UAVs, policy {options.policy}, "
           f"zones {zones}, seed {options.seed}")
-    print(f"targets U = {report['targets']} reachable, {report['unreachable']} unreachable (set explored); "
-          f"floor U/(9A) = {report['floor']:.1f}")
-    if report["lane_drones"]:
-        print(f"open ground: {report['lane_drones']} of {ground.uavs} drones sweep their zone in footprint-wide lanes "
+    coverage = record.coverage
+    assert coverage is not None, "a written plan has its coverage"
+    print(f"targets U = {record.targets} reachable, {record.unreachable} unreachable (set explored); "
+          f"floor U/(9A) = {record.floor:.1f}")
+    if record.lane_drones:
+        print(f"open ground: {record.lane_drones} of {ground.uavs} drones sweep their zone in footprint-wide lanes "
               "(--open-ground explore: cell by cell)")
-    rows = [("MMN", _fmt(m["MMN"]), "mean moves per drone"),
-            ("TE %", _fmt(m["TE"]), "trajectory efficiency"),
-            ("MNT %", _fmt(m["MNT"], 2), "weighted turns per move"),
-            ("MUD*", _fmt(m["MUD"], 2), "mean drone spacing, steady state (cells)"),
-            ("MDU*", _fmt(m["MDU"], 2), "mean distance unexplored -> drone, steady state"),
-            ("coverage %", _fmt(m["coverage"]), f"of the {report['targets']} reachable targets"),
-            ("coverage all", _fmt(report["coverage"]["all_pct"]),
-             f"% of all {report['coverage']['targets_all']} targets ({report['unreachable']} unreachable)"),
-            ("makespan", _fmt(m["makespan"]), "moves of the busiest drone"),
-            ("hover steps", _fmt(m["hover_steps"]), ""),
-            ("MMN / floor", f"{m['MMN'] / report['floor']:.2f}" if report["floor"] else "-", ""),
-            ("plan s", f"{report['timing']['plan_s']:.2f}", "wall time, zones + planning")]
+    rows = [("MMN", _fmt(m.mmn), "mean moves per drone"),
+            ("TE %", _fmt(m.te), "trajectory efficiency"),
+            ("MNT %", _fmt(m.mnt, 2), "weighted turns per move"),
+            ("MUD*", _fmt(m.mud, 2), "mean drone spacing, steady state (cells)"),
+            ("MDU*", _fmt(m.mdu, 2), "mean distance unexplored -> drone, steady state"),
+            ("coverage %", _fmt(m.coverage), f"of the {record.targets} reachable targets"),
+            ("coverage all", _fmt(coverage.all_pct),
+             f"% of all {coverage.targets_all} targets ({record.unreachable} unreachable)"),
+            ("makespan", _fmt(m.makespan), "moves of the busiest drone"),
+            ("hover steps", _fmt(m.hover_steps), ""),
+            ("MMN / floor", f"{m.mmn / record.floor:.2f}" if record.floor else "-", ""),
+            ("plan s", f"{record.timing.plan_s:.2f}", "wall time, zones + planning")]
     for name, value, note in rows:
         print(f"  {name:<12} {value:>9}  {note}")
-    if "drones" in report:
-        for drone in report["drones"]:
-            before, after = drone["smoothing"]["before"], drone["smoothing"]["after"]
-            sorties = f" in {len(drone['sorties'])} sorties" if len(drone.get("sorties", [])) > 1 else ""
-            print(f"  uav{drone['id']}: {drone['cells']} cells -> {drone['waypoints']} waypoints, "
-                  f"{drone['length_m']:.0f} m, {drone['flight_s']:.0f} s{sorties}, {drone['photos']} photos "
-                  f"at {drone['altitude_m']:g} m (turning {before['turning_deg']:.0f} -> {after['turning_deg']:.0f} deg)")
-    if "separation" in report:
-        sep = report["separation"]
-        if sep["3d"] is not None:
-            print(f"  closest approach if flown as planned: {sep['3d']} m 3-D, {sep['horizontal']} m horizontal "
-                  f"(uav{sep['pair_3d'][0]} and uav{sep['pair_3d'][1]} at {sep['at_s']} s"
-                  f"{'' if len(sep['sorties']) < 2 else ' of sortie ' + str(sep['sortie'])}); "
-                  f"at least {sep['required_m']:g} m guaranteed by {sep['method']}")
-    if "clearance" in report and report["clearance"]["kept_m"] is not None:
-        cl = report["clearance"]
-        print(f"  clearance from obstacles: {cl['kept_m']:g} m (asked {cl['required_m']:g} m)")
-        if cl.get("band_targets_missed") and not report["coverage"]["unreachable_by_clearance"]:
-            print(f"missionplan: warning: {cl['band_targets_missed']} of the {cl['band_targets']} target cells closer "
-                  f"than --clearance {cl['required_m']:g} m to an obstacle are out of every photo (narrow streets, "
+    for drone in record.drones or ():
+        before, after = drone.before, drone.after
+        sorties = f" in {len(drone.sorties)} sorties" if len(drone.sorties) > 1 else ""
+        print(f"  uav{drone.id}: {drone.cells} cells -> {drone.waypoints} waypoints, "
+              f"{drone.length_m:.0f} m, {drone.flight_s:.0f} s{sorties}, {drone.photos} photos "
+              f"at {drone.altitude_m:g} m (turning {before.turning_deg:.0f} -> {after.turning_deg:.0f} deg)")
+    sep = record.separation
+    if sep is not None and sep.d3 is not None:
+        closest = sep.closest
+        print(f"  closest approach if flown as planned: {closest.d3} m 3-D, {closest.horizontal} m horizontal "
+              f"(uav{closest.pair_3d[0]} and uav{closest.pair_3d[1]} at {closest.at_s} s"
+              f"{'' if len(sep.sorties) < 2 else ' of sortie ' + str(sep.sortie)}); "
+              f"at least {sep.required_m:g} m guaranteed by {sep.method}")
+    cl = record.clearance
+    if cl is not None and cl.kept_m is not None:
+        print(f"  clearance from obstacles: {cl.kept_m:g} m (asked {cl.required_m:g} m)")
+        if cl.band is not None and cl.band.band_targets_missed and not coverage.unreachable_by_clearance:
+            print(f"missionplan: warning: {cl.band.band_targets_missed} of the {cl.band.band_targets} target cells "
+                  f"closer than --clearance {cl.required_m:g} m to an obstacle are out of every photo (narrow streets, "
                   f"courtyards); counted unreachable", file=sys.stderr)
-    for warning in report["coverage"]["warnings"]:
+    for warning in coverage.warnings:
         print(f"missionplan: warning: {printable(warning)}", file=sys.stderr)
     for path in folder.kept:
         print(f"missionplan: warning: kept {printable(path)}: the earlier plan listed it, but it is not what that "
@@ -82,5 +83,5 @@ def print_plan(folder: PlanFolder) -> None:
     if missions:
         listed += f", {len(missions)} mission files ({missions[0]} ... {missions[-1]})"
     print(f"wrote {printable(folder.out)}: {printable(listed)}")
-    if not report["success"]:
-        print(f"missionplan: plan failed: {printable(report['failure'])}", file=sys.stderr)
+    if not record.success:
+        print(f"missionplan: plan failed: {printable(record.failure)}", file=sys.stderr)

@@ -24,13 +24,12 @@ basemap). Every input that can be wrong fails with MapError before the folder is
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import shutil
 import tempfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -39,12 +38,15 @@ from missionplan.base.atomic import probe_writable
 from missionplan.base.naming import Named
 from missionplan.bridge.folder_lock import hold_folder
 from missionplan.geo.frame import GridFrame
+from missionplan.geo.georeference import Georeference
 
 from .grid.zones import DEFAULT_ZONE_METHOD
 from .maps.catalog import load_shipped
 from .maps.gridmap import GridMap, MapError
 from .mission.georef import AreaSources, UnknownHeights, mission_settings, shipped_frame
 from .mission.drone_missions import MissionSettings
+from .mission.plan_blocks import PlanSettings, SurveyPointer
+from .mission.plan_record import REPORT_NAME, PlanRecord, report_path, write_plan_record
 from .mission.safety import SafetySettings, safety_settings
 from .pipeline import DEFAULT_POLICY, launch_cells, make_policy
 
@@ -83,7 +85,7 @@ class PlanOptions:
     basemap: str | None = None  # tile server URL drawn under plan.html and flight.html
     progress: bool = False  # a progress bar on stderr while planning
     drone_ids: list[int] | None = None  # system id of each drone, in launch order (default 1, 2, ...)
-    survey: dict[str, Any] | None = None  # report.json `survey`: a re-plan's pointer to the survey it continues
+    survey: SurveyPointer | None = None  # report.json `survey`: a re-plan's pointer to the survey it continues
 
     def __post_init__(self) -> None:
         # A basemap URL that is no tile server's fails here, before any area is read or folder made.
@@ -96,18 +98,18 @@ class PlanOptions:
 
 @dataclass
 class PlanFolder:
-    """A written plan folder: its report (as report.json holds it) and every file written."""
+    """A written plan folder: its plan record (what report.json holds) and every file written."""
 
     out: Path
     ground: PlanGround
     options: PlanOptions
-    report: dict[str, Any]
+    record: PlanRecord
     written: list[Path] = field(default_factory=list)  # missions and map files, report.json and plan.png aside
     kept: list[Path] = field(default_factory=list)  # an earlier plan's files, changed since: not removed
 
     @property
     def success(self) -> bool:
-        return bool(self.report["success"])
+        return bool(self.record.success)
 
 
 def grid_ground(gmap: GridMap, uavs: int, frame: GridFrame | None, mission: Mapping[str, Any] | None = None,
@@ -129,8 +131,8 @@ def shipped_ground(name: str, uavs: int) -> PlanGround:
     return grid_ground(gmap, uavs, shipped_frame(gmap))
 
 
-def _cell_mask(shape: tuple[int, int], cells: list[list[int]]) -> np.ndarray:
-    """A boolean grid that is True on `cells` ([row, col] pairs from report.json)."""
+def _cell_mask(shape: tuple[int, int], cells: Sequence[tuple[int, int]]) -> np.ndarray:
+    """A boolean grid that is True on `cells` ((row, col) pairs of the plan record)."""
     mask = np.zeros(shape, dtype=bool)
     if cells:
         rows, cols = np.asarray(cells, dtype=int).T
@@ -241,7 +243,7 @@ def write_plan_folder(out: Path, ground: PlanGround, options: PlanOptions = Plan
 def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any) -> PlanFolder:
     """Plan, write every file into a staging folder inside `out`, then rename them into place."""
     from .mission.plot import draw_plan  # matplotlib only when a picture is drawn
-    from .mission.report import build_report, write_report
+    from .mission.report import build_report
 
     from .fieldplan import plan_field
     from .mission.coverage_check import coverage_report, unreachable_causes
@@ -254,20 +256,15 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
     result, plans = field_plan.result, field_plan.plans
     if plans is not None and options.drone_ids is not None:
         plans.relabel(options.drone_ids)
-    report = build_report(result, options.seed)
-    field_plan.fill_report(report, gmap, frame)
+    record = field_plan.fill_record(build_report(result, options.seed), gmap, frame)
     if settings is not None and safety is not None:  # what `replan` plans the rest of the survey with
-        report["settings"] = {"mission": dataclasses.asdict(settings), "safety": dataclasses.asdict(safety),
-                              "policy": options.policy, "zones": options.zones,
-                              "balance_zones": options.balance_zones, "open_ground": options.open_ground}
-    if options.drone_ids is not None:
-        report["drone_ids"] = list(options.drone_ids)
-    if options.survey is not None:
-        report["survey"] = options.survey
-    if options.basemap:  # flight.html draws the same tiles
-        report["basemap"] = options.basemap
-    if gmap.meta.get("credit"):  # the map data's credit, for every picture and page drawn from it
-        report["credit"] = gmap.meta["credit"]
+        record = replace(record, settings=PlanSettings(settings, safety, options.policy, options.zones,
+                                                       options.balance_zones, options.open_ground))
+    record = replace(record, drone_ids=None if options.drone_ids is None else tuple(options.drone_ids),
+                     survey=options.survey,
+                     basemap=options.basemap or None,  # flight.html draws the same tiles
+                     # the map data's credit, for every picture and page drawn from it
+                     credit=gmap.meta.get("credit") or None)
     staging = _staging_folder(out)
     try:
         written: list[Path] = []
@@ -277,27 +274,27 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
 
             from .mission.flightplan import write_flight_files
 
-            report["georeference"] = {**frame.to_meta(), "altitude_m": settings.altitude_m,
-                                      "footprint_m": settings.footprint_m,
-                                      "trigger_distance_m": settings.trigger_distance_m}
+            record = replace(record, georeference=Georeference(frame, settings.altitude_m,
+                                                               trigger_distance_m=settings.trigger_distance_m))
             written = write_flight_files(staging, plans, Flavour(settings.autopilot))
             sortie_starts = plans.sortie_starts
-        unreachable_mask = _cell_mask(gmap.shape, report["unreachable_cells"])
-        clearance_m = float(report.get("clearance", {}).get("required_m") or 0.0)
+        unreachable_mask = _cell_mask(gmap.shape, record.unreachable_cells)
+        clearance_m = float(record.clearance.required_m or 0.0) if record.clearance is not None else 0.0
         # Why each unreachable target is unreachable: the warnings count them, the pictures colour them.
         osm = ground.from_osm
         crossed = (unknown.if_overflown() if osm and unknown.if_overflown is not None and unreachable_mask.any()
                    else None)
         causes = unreachable_causes(gmap, ground.starts, unreachable_mask, clearance_m, crossed)
-        report["coverage"] = coverage_report(
-            gmap, ground.starts, report["targets"], report["unreachable"], report["metrics"]["coverage"],
-            report["zone_sizes"], unknown_buildings=unknown.buildings if osm else None,
+        coverage = coverage_report(
+            gmap, ground.starts, record.targets, record.unreachable, record.metrics.coverage,
+            list(record.zone_sizes), unknown_buildings=unknown.buildings if osm else None,
             total_buildings=unknown.total if osm else None, assumed_height_m=unknown.assumed_m,
             if_overflown=unknown.if_overflown, launch_labels=ground.launch_labels, unreachable_mask=unreachable_mask,
             clearance_m=clearance_m, causes=causes)
         if ground.sources is not None:  # each file an --area plan read; its warning (what they left out) first
-            report["inputs"] = ground.sources.inputs
-            report["coverage"]["warnings"][:0] = ground.sources.warnings
+            record = replace(record, inputs=tuple(ground.sources.inputs))
+            coverage = coverage.warned_first(ground.sources.warnings)
+        record = replace(record, coverage=coverage)
         paths_latlon = None
         if plans is not None and frame is not None:
             from .mission.layers import drone_paths_latlon, plan_layers, plan_summary
@@ -305,19 +302,19 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
 
             layers = plan_layers(result, frame, plans, gmap, band=field_plan.band, causes=causes,
                                  sources=ground.sources, launch_labels=ground.launch_labels)
-            written += write_map_files(staging, "plan", layers, plan_summary(report, layers), basemap=options.basemap)
+            written += write_map_files(staging, "plan", layers, plan_summary(record, layers), basemap=options.basemap)
             paths_latlon = drone_paths_latlon(layers)
         draw_plan(result, staging / "plan.png", sortie_starts=sortie_starts, frame=frame, paths_latlon=paths_latlon,
                   obstacle=gmap.obstacle, band=field_plan.band, unreachable_causes=causes)
-        report["files"] = sorted({p.name for p in written} | {"report.json", "plan.png"})
-        report["files_sha256"] = _sha256_of(staging, report["files"])
-        write_report(report, staging / "report.json")  # in staging: it goes into place last
-        kept = _into_place(staging, out, report["files"])
+        files = sorted({p.name for p in written} | {REPORT_NAME, "plan.png"})
+        record = replace(record, files=tuple(files), files_sha256=_sha256_of(staging, files))
+        write_plan_record(record, report_path(staging))  # in staging: it goes into place last
+        kept = _into_place(staging, out, files)
     except OSError as err:
         raise _write_failed(out, err) from None
     finally:
         shutil.rmtree(staging, ignore_errors=True)
-    return PlanFolder(out, ground, options, report, [out / p.name for p in written], kept)
+    return PlanFolder(out, ground, options, record, [out / p.name for p in written], kept)
 
 
 def _staging_folder(out: Path) -> Path:

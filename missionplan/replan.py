@@ -21,25 +21,22 @@ survey's, whose ledger a re-plan there would orphan), nor the root folder or the
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from missionplan.base.naming import Named
 
 from .flight.ledger import LedgerError, Survey
 from .maps.gridmap import MapError
-from .mission.drone_missions import MissionSettings
-from .mission.safety import SafetySettings
+from .mission.plan_blocks import PlanSettings
 
 
-def stored_settings(survey: Survey) -> tuple[MissionSettings, SafetySettings, dict[str, Any]]:
+def stored_settings(survey: Survey) -> PlanSettings:
     """The mission and safety settings the survey's root plan was made with (report.json `settings`)."""
-    stored = survey.report.get("settings")
-    if not isinstance(stored, dict):
+    stored = survey.record.settings
+    if stored is None:
         raise LedgerError(f"{survey.root / 'report.json'}: no `settings` (planned by an older missionplan): plan the "
                           "area again with `missionplan plan`, then re-plan from that folder")
-    return MissionSettings(**stored["mission"]), SafetySettings(**stored["safety"]), stored
+    return stored
 
 
 def parse_assignments(texts: list[str]) -> dict[int, int]:
@@ -66,15 +63,15 @@ def launch_of_drones(survey: Survey, drones: str) -> tuple[list[tuple[int, int]]
     from missionplan.bridge.link.connection import parse_sysids
 
     ids = parse_sysids(drones, "drones")
-    launch = survey.report.get("launch") or []
-    known = survey.report.get("drone_ids") or list(range(1, len(launch) + 1))
+    launch = survey.record.launch
+    known = list(survey.record.drone_ids or range(1, len(launch) + 1))
     cells = []
     for sysid in ids:
         if sysid not in known:
             raise MapError(Named("{drones} {0}: the survey's plan has no drone {1} (it has {2}); give new launch "
                                  "points with {launch} and {sysid}", drones, sysid, ", ".join(map(str, known))))
-        cells.append(tuple(int(v) for v in launch[known.index(sysid)]))
-    return cells, ids  # type: ignore[return-value]
+        cells.append(launch[known.index(sysid)])
+    return cells, ids
 
 
 def launch_at(survey: Survey, launch: list[str], sysid: list[str]) -> tuple[list[tuple[int, int]], list[int]]:

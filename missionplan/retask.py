@@ -39,8 +39,8 @@ from .maps.gridmap import MapError
 from .mission.clearance import clearance_band
 from .mission.flightplan import _Homing, _latlon
 from .mission.geofence import drone_fence
-from .mission.drone_missions import MissionSettings, build_mission
-from .mission.safety import SafetySettings
+from .mission.drone_missions import build_mission
+from .mission.plan_record import PlanRecord
 from .mission.separation import SeparationError, choose_layers
 from .mission.timeline import FlightModel, closest_approach_out_of_step, planned_track
 
@@ -97,7 +97,7 @@ def _free_cell(free: np.ndarray, cell: tuple[int, int], taken: set[tuple[int, in
     raise RetaskError("no free cell to start a survivor from")
 
 
-def plan_retask(plan_dir: Path, report: dict[str, Any], survivors: list[Survivor | dict[str, Any]],
+def plan_retask(plan_dir: Path, record: PlanRecord, survivors: list[Survivor | dict[str, Any]],
                 photos_latlon: np.ndarray, policy: str | None = None) -> RetaskPlan | None:
     """The re-task of `survivors` (Survivor, or dicts of its fields: fly's Retasker sends those) (see the
     module docstring); None when nothing is left to photograph.
@@ -106,13 +106,13 @@ def plan_retask(plan_dir: Path, report: dict[str, Any], survivors: list[Survivor
 
     survivors = [s if isinstance(s, Survivor) else Survivor(**s) for s in survivors]
     started = time.monotonic()
-    stored = report.get("settings")
-    if not isinstance(stored, dict):
+    stored = record.settings
+    if stored is None:
         raise RetaskError(f"{plan_dir / 'report.json'}: no `settings` (planned by an older missionplan): plan again")
-    settings, safety = MissionSettings(**stored["mission"]), SafetySettings(**stored["safety"])
-    frame = frame_of(report)
+    settings, safety = stored.mission, stored.safety
+    frame = frame_of(record)
     cell = frame.cell_m
-    targets = target_cells(report)
+    targets = target_cells(record)
     with Ledger.of(plan_dir) as ledger:  # earlier flights of the survey count too
         done = ledger.covered_mask()
         _, cells = covered_cells(ledger.survey, photos_latlon[:, 0], photos_latlon[:, 1])
@@ -120,7 +120,7 @@ def plan_retask(plan_dir: Path, report: dict[str, Any], survivors: list[Survivor
     left = targets[~done[targets[:, 0], targets[:, 1]]]
     if not len(left) or not survivors:
         return None
-    base = planned_grid(report)
+    base = planned_grid(record)
     band = clearance_band(base.obstacle, safety.clearance_m / cell)
     flyable = ~base.obstacle & ~band
     starts: list[tuple[int, int]] = []
@@ -128,14 +128,14 @@ def plan_retask(plan_dir: Path, report: dict[str, Any], survivors: list[Survivor
         r, c = frame.latlon_to_grid(np.array([s.lat]), np.array([s.lon]))
         starts.append(_free_cell(flyable, (int(np.rint(np.atleast_1d(r)[0])), int(np.rint(np.atleast_1d(c)[0]))),
                                  set(starts)))
-    gmap = missing_map(report, left, starts, suffix="retask")
+    gmap = missing_map(record, left, starts, suffix="retask")
     # Endurance and separation are checked below, on the tracks the survivors will fly: plan_field's own
     # checks model drones taking off from the ground where they start, and these are in the air.
     field = plan_field(gmap, len(survivors), frame, settings,
                        replace(safety, endurance_s=None, min_separation_m=0.0),
-                       policy=policy or stored.get("policy", "expert"), zone_method=stored.get("zones", "geodesic"),
-                       seed=0, progress=False, balance_zones=bool(stored.get("balance_zones", True)),
-                       lanes=stored.get("open_ground", "lanes") == "lanes")
+                       policy=policy or stored.policy, zone_method=stored.zones,
+                       seed=0, progress=False, balance_zones=bool(stored.balance_zones),
+                       lanes=stored.open_ground == "lanes")
     if field.plans is None:
         raise RetaskError(f"the re-task could not be planned: {field.result.run.failure}")
     plans = field.plans

@@ -6,6 +6,7 @@ The real-city cases read ../shared/maps/ (OpenStreetMap data, © OpenStreetMap c
 ODbL) and skip when it is absent.
 """
 
+import dataclasses
 import json
 import os
 import stat
@@ -15,6 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from missionplan.geo.frame import GridFrame
+from missionplan.geo.georeference import Georeference
 from missionplan.geo.readers import read_buildings
 from missionplan.cli import main
 from missionplan.cli.parsing import attach_negative_values
@@ -69,7 +72,7 @@ def test_both_coverage_numbers_and_the_unreachable_warning():
     gmap = _grid()
     starts = [(1, 1)]
     reachable = int(gmap.target.sum()) - 16  # the 4 x 4 corner behind the wall
-    block = coverage_report(gmap, starts, reachable, 16, 100.0, [reachable])
+    block = coverage_report(gmap, starts, reachable, 16, 100.0, [reachable]).to_json()
     assert block["reachable_pct"] == 100.0 and block["targets_all"] == reachable + 16
     assert block["all_pct"] == pytest.approx(100 * reachable / (reachable + 16), abs=0.01)
     assert block["unreachable_pct"] > 5 and len(block["warnings"]) == 1
@@ -82,7 +85,7 @@ def test_no_warning_at_or_under_five_percent():
     gmap = _grid()
     total = int(gmap.target.sum())
     unreachable = int(0.05 * total)  # exactly 5 % or just under: no warning
-    block = coverage_report(gmap, [(1, 1)], total - unreachable, unreachable, 100.0, [total - unreachable])
+    block = coverage_report(gmap, [(1, 1)], total - unreachable, unreachable, 100.0, [total - unreachable]).to_json()
     assert block["warnings"] == []
 
 
@@ -91,7 +94,7 @@ def test_unknown_height_cause_is_counted_from_the_overflown_grid():
     crossed = GridMap(gmap.name, gmap.obstacle.copy(), gmap.target.copy())
     crossed.obstacle[8, 10] = False  # the wall had a door the unknown building stood in
     block = coverage_report(gmap, [(1, 1)], int(gmap.target.sum()) - 16, 16, 100.0, [1], unknown_buildings=3,
-                            total_buildings=10, if_overflown=lambda: crossed)
+                            total_buildings=10, if_overflown=lambda: crossed).to_json()
     assert block["unreachable_by_unknown_height"] == 16
     assert "16 of them are cut off only by the 3 of 10 buildings of unknown height" in block["warnings"][0]
     assert "--unknown-building-height M" in block["warnings"][0]
@@ -101,12 +104,12 @@ def test_clearance_band_is_named_as_its_own_cause():
     # The open square's cells next to the walls (1 m cells, 1.2 m clearance) are the band; 6 of its
     # targets missed plus the 16 walled in: both causes with their counts, not all 22 blamed on pockets.
     gmap = _grid()
-    gmap.meta["cell_m"] = 1.0
+    gmap = dataclasses.replace(gmap, georef=Georeference(GridFrame.at(45.0, 7.0, 1.0, *gmap.shape)))  # 1 m cells
     unreachable = ~reachable_targets(gmap, [(1, 1)]) & gmap.target
     unreachable[1, 3:9] = True  # along the top wall: in the band
     count = int(unreachable.sum())
     block = coverage_report(gmap, [(1, 1)], int(gmap.target.sum()) - count, count, 100.0, [1],
-                            unreachable_mask=unreachable, clearance_m=1.2)
+                            unreachable_mask=unreachable, clearance_m=1.2).to_json()
     warning = block["warnings"][0]
     assert block["unreachable_by_clearance"] == 6
     assert "6 of them lie within --clearance 1.2 m of an obstacle" in warning
@@ -117,13 +120,13 @@ def test_a_drone_under_a_fifth_of_the_mean_is_named():
     gmap = _grid()
     starts = [(1, 1), (10, 10)]  # the second inside the courtyard
     block = coverage_report(gmap, starts, int(gmap.target.sum()), 0, 100.0, [200, 16],
-                            launch_labels=["45.0,7.0", "45.1,7.1"])
+                            launch_labels=["45.0,7.0", "45.1,7.1"]).to_json()
     assert [s["uav"] for s in block["small_shares"]] == [2]
     assert block["small_shares"][0]["launch_pocket_targets"] == 16
     assert block["warnings"] == ["uav2 gets 16 target cells, under a fifth of the mean share (108): its launch point "
                                  "45.1,7.1 is in a pocket of 16 target cells walled off from the rest; move it into "
                                  "the open street"]
-    balanced = coverage_report(gmap, [(1, 1), (2, 2)], int(gmap.target.sum()), 0, 100.0, [120, 96])
+    balanced = coverage_report(gmap, [(1, 1), (2, 2)], int(gmap.target.sum()), 0, 100.0, [120, 96]).to_json()
     assert balanced["small_shares"] == [] and balanced["warnings"] == []
 
 
@@ -132,7 +135,7 @@ def test_a_drone_walled_in_alone_is_named_even_with_more_than_a_fifth():
     # long as the others whatever the zones do.
     gmap = _grid()
     starts = [(1, 1), (10, 10), (1, 8)]
-    block = coverage_report(gmap, starts, 120, 0, 100.0, [52, 16, 52], launch_labels=["a", "45.1,7.1", "b"])
+    block = coverage_report(gmap, starts, 120, 0, 100.0, [52, 16, 52], launch_labels=["a", "45.1,7.1", "b"]).to_json()
     assert [s["uav"] for s in block["small_shares"]] == [2]
     assert block["warnings"] == ["uav2 gets 16 target cells, less than the mean share (40): its launch point "
                                  "45.1,7.1 is in a pocket of 16 target cells walled off from the rest; move it into "

@@ -12,6 +12,7 @@ from missionplan.bridge.formats.mission_items import (CMD_DO_SET_CAM_TRIGG_DIST,
 from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.cli import main
 from missionplan.flight.plan_report import frame_of, to_grid_m
+from missionplan.mission.plan_record import read_plan_record
 from missionplan.mission.sorties import split_sorties
 from missionplan.mission.timeline import FlightModel, closest_approach, planned_track
 
@@ -29,7 +30,7 @@ def leonardo5(tmp_path_factory):
 
 def _tracks_from_files(out: Path, report: dict, sortie: int = 1) -> dict[int, np.ndarray]:
     """Every drone's timed track rebuilt from the written .plan files alone (not from the planner's memory)."""
-    frame = frame_of(report)
+    frame = frame_of(read_plan_record(out))
     speed = 5.0
     tracks = {}
     for drone in report["drones"]:
@@ -275,7 +276,7 @@ def test_reported_clearance_is_a_true_lower_bound_against_the_buffered_buildings
     report = json.loads((out / "report.json").read_text())
     clearance = report["clearance"]
     assert clearance["required_m"] == 5.0  # max(5 m, one 4 m cell)
-    frame = frame_of(report)
+    frame = frame_of(read_plan_record(out))
     # Buildings the plan may not overfly (20 m less the 5 m margin, or of unknown height), in grid metres.
     tall = [b.geometry for b in read_buildings(TURIN_OSM) if b.height_m is None or b.height_m >= 15.0]
     buildings = shapely.union_all([frame.geometry_to_grid(g) for g in tall])
@@ -320,13 +321,16 @@ def test_a_launch_point_inside_the_clearance_band_is_refused(tmp_path, capsys):
 
 
 def test_band_targets_are_photographed_by_detours_that_stay_outside_the_band():
+    from missionplan.geo.frame import GridFrame
+    from missionplan.geo.georeference import Georeference
     from missionplan.mission.clearance import clearance_band, flight_map, footprint_union, photograph_band
     from missionplan.maps.gridmap import GridMap
 
     # A 30 x 30 open square with a wall; a 3 m clearance on 1 m cells bands three cells round the wall.
     obstacle = np.zeros((30, 30), dtype=bool)
     obstacle[10:20, 15] = True
-    gmap = GridMap("t", obstacle, ~obstacle, launch=[(2, 2)], meta={"cell_m": "1"})
+    one_metre = Georeference(GridFrame.at(45.0, 7.0, 1.0, 30, 30))
+    gmap = GridMap("t", obstacle, ~obstacle, launch=[(2, 2)], georef=one_metre)
     flight, band = flight_map(gmap, 3.0, 1)
     assert (band == clearance_band(obstacle, 3.0)).all() and band[15, 14] and not band[15, 10]
     # A path that never comes near the wall leaves the band targets out of its photos.

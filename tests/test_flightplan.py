@@ -14,13 +14,14 @@ from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.bridge.flight_models import copter_model as cm
 from missionplan.cli import main
 from missionplan.flight.plan_report import frame_of, to_grid_m
+from missionplan.mission.plan_record import read_plan_record
 from missionplan.mission.timeline import FlightModel, planned_seconds
 
 
 def _timeline_of_file(out: Path, report: dict, sysid: int) -> float:
     """The timeline's duration of uavK.plan as written (waypoints read back from the file)."""
     mission = read_mission_file(out / f"uav{sysid}.plan").mission
-    frame = frame_of(report)
+    frame = frame_of(read_plan_record(out))
     points = [(it.x, it.y) for it in mission.items if it.command == CMD_NAV_WAYPOINT]
     waypoints = to_grid_m(frame, [p[0] for p in points], [p[1] for p in points])
     launch = to_grid_m(frame, [mission.home[0]], [mission.home[1]])[0]

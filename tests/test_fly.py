@@ -25,6 +25,7 @@ from missionplan.cli import main
 from missionplan.flight.drone_flight import START_ACK_RTTS, START_WAIT_MIN_S, DroneFlight
 from missionplan.flight.fly import fly
 from missionplan.flight.mock_fleet import start_mock_fleet
+from missionplan.mission.plan_record import read_plan_record
 
 # Leonardo is a 20 x 10 m arena flown at 5 m/s: 2x; grid-city is 190 x 130 m of streets: 50x.
 SPEEDUP = {"leonardo": 2.0, "grid-city": 50.0}
@@ -71,11 +72,11 @@ def _fly(plan_dir: Path, name: str, faults: LinkFaults | None = None, reboot: tu
 
 def _ground_truth_coverage(plan_dir: Path, mock) -> float:
     """Coverage from the photos the mock really took (its own record), by flight_report's rule."""
-    report = json.loads((plan_dir / "report.json").read_text())
-    frame = fr.frame_of(report)
+    record = read_plan_record(plan_dir)
+    frame = fr.frame_of(record)
     photos = [p for vehicle in mock.vehicles.values() for p in vehicle.flight.state.photo_points]
     points = fr.to_grid_m(frame, [p[0] for p in photos], [p[1] for p in photos])
-    covered = fr.coverage(frame, fr.target_cells(report), points, float(report["georeference"]["footprint_m"]),
+    covered = fr.coverage(frame, fr.target_cells(record), points, fr.georeference_of(record).footprint_m,
                           fr.SLACK_CELLS * frame.cell_m)
     return 100.0 * float(covered.mean())
 
@@ -295,12 +296,13 @@ def test_a_second_flight_counts_only_its_own_photos(planned):
 
 def test_flight_png_without_any_track_draws_no_empty_legend(planned, recwarn):
     from missionplan.flight.flight_report import draw_flight
-    from missionplan.flight.plan_report import frame_of, target_cells
+    from missionplan.flight.plan_report import frame_of, planned_grid, target_cells
 
     plan_dir = planned("leonardo", 3)
-    report = json.loads((plan_dir / "report.json").read_text())
-    targets = target_cells(report)
-    draw_flight(plan_dir / "flight.png", report, frame_of(report), targets, np.zeros(len(targets), dtype=bool),
+    record = read_plan_record(plan_dir)
+    targets = target_cells(record)
+    draw_flight(plan_dir / "flight.png", planned_grid(record), frame_of(record), targets,
+                np.zeros(len(targets), dtype=bool),
                 {1: np.zeros((0, 2)), 2: np.zeros((0, 2))}, {1: 0.0, 2: 0.0}, 0.0)
     assert not [w for w in recwarn if "No artists with labels" in str(w.message)]
     assert (plan_dir / "flight.png").stat().st_size > 10_000

@@ -66,8 +66,9 @@ def test_small_synthetic_area_obstacle_building_no_fly():
     assert gmap.obstacle.sum() == n_blocked  # no spill into neighbouring cells
     assert gmap.target.sum() == 1600 - n_blocked - 8
     assert gmap.launch == [(1, 1)]
-    assert float(gmap.meta["altitude_m"]) == pytest.approx(alt)
-    assert GridFrame.from_meta(gmap.meta, *gmap.shape) == f2
+    assert gmap.georef.altitude_m == pytest.approx(alt) and gmap.georef.frame == f2
+    # The georeference's .map header lines give it back.
+    assert GridFrame.from_meta(gmap.georef.to_header(), *gmap.shape) == f2
 
 
 def test_rotated_area_outside_cells_are_obstacles():

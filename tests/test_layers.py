@@ -411,3 +411,63 @@ def test_a_long_module_is_found(tmp_path: Path) -> None:
     (tmp_path / "short.py").write_text("x = 1\n" * MAX_MODULE_LINES)
     (tmp_path / "long.py").write_text("x = 1\n" * (MAX_MODULE_LINES + 1))
     assert long_modules(sorted(tmp_path.iterdir()), tmp_path) == {"long.py": MAX_MODULE_LINES + 1}
+
+
+# report.json is read only through the plan record (missionplan/mission/plan_record.py: read_plan_record, listed_files):
+# no other module opens it for reading or parses it, so every reader gets the typed record.
+RECORD_MODULES = {"missionplan.mission.plan_record"}
+READ_CALLS = {"read_text", "read_bytes", "open", "load", "loads"}
+REPORT_NAMES = {"REPORT_NAME", "report_path"}  # plan_record's own name for the file and the path of a folder's
+
+
+def report_json_reads(source: str) -> list[int]:
+    """Lines where `source` opens or parses a report.json: a read (read_text, read_bytes, open, json.load / loads)
+    of an expression that names the file ("report.json", REPORT_NAME, report_path(...)), directly or through a
+    variable assigned from one."""
+    tree = ast.parse(source)
+
+    def names_the_file(node: ast.AST) -> bool:
+        return any((isinstance(n, ast.Constant) and isinstance(n.value, str) and n.value.endswith("report.json"))
+                   or (isinstance(n, ast.Name) and n.id in REPORT_NAMES) for n in ast.walk(node))
+
+    paths = {target.id for node in ast.walk(tree) if isinstance(node, (ast.Assign, ast.AnnAssign, ast.NamedExpr))
+             and node.value is not None and names_the_file(node.value)
+             for target in ([node.target] if not isinstance(node, ast.Assign) else node.targets)
+             if isinstance(target, ast.Name)}
+
+    def mentions(node: ast.AST) -> bool:
+        return names_the_file(node) or any(isinstance(n, ast.Name) and n.id in paths for n in ast.walk(node))
+
+    found = set()
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Call):
+            continue
+        func = node.func
+        name = func.attr if isinstance(func, ast.Attribute) else func.id if isinstance(func, ast.Name) else None
+        if name not in READ_CALLS:
+            continue
+        read = [*node.args, *(k.value for k in node.keywords)]
+        if isinstance(func, ast.Attribute) and name in ("read_text", "read_bytes", "open"):
+            read.append(func.value)  # path.read_text(): the path is what is read
+        if any(mentions(arg) for arg in read):
+            found.add(node.lineno)
+    return sorted(found)
+
+
+@pytest.mark.parametrize("path", ALL_SOURCES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_report_json_is_read_only_through_the_plan_record(path: Path) -> None:
+    if module_name(path) in RECORD_MODULES:
+        return
+    assert report_json_reads(path.read_text(encoding="utf-8")) == [], (
+        f"{path.relative_to(ROOT)} reads report.json itself: read it with mission.plan_record.read_plan_record")
+
+
+def test_a_report_json_read_is_found() -> None:
+    # The checker itself: each way a module could read the file is found, and what only names it is not.
+    assert report_json_reads('report = json.loads((plan_dir / "report.json").read_text())\n') == [1]
+    assert report_json_reads('path = plan_dir / "report.json"\nwith open(path) as f:\n    doc = json.load(f)\n') == [2]
+    assert report_json_reads('with (out / REPORT_NAME).open() as f:\n    pass\n') == [1]
+    assert report_json_reads('doc = json.loads(report_path(out).read_bytes())\n') == [1]
+    assert report_json_reads('text = Path(f"{folder}/report.json").read_text(encoding="utf-8")\n') == [1]
+    assert report_json_reads('if not (d / "report.json").is_file():\n    raise E(f"{d}: no report.json")\n') == []
+    assert report_json_reads('doc = json.loads((d / "flight.json").read_text())\n') == []

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from missionplan.maps.gridmap import GridMap, format_map, load_map
-from missionplan.maps.mapgen import LAUNCH_COUNT, SHIPPED, georeference, parse_rect
+from missionplan.maps.gridmap import GridMap, format_map, load_map, save_map
+from missionplan.maps.mapgen import LAUNCH_COUNT, SHIPPED, SHIPPED_COMMENT, georeference, parse_rect
 
 MAPS_DIR = Path(__file__).resolve().parent.parent / "maps"
 
@@ -44,6 +44,17 @@ def test_shipped_file_matches_its_generator(name):
     assert format_map(load_map(path)) == format_map(georeference(generated(name))), \
         f"{path} is stale: run `python -m missionplan.maps.mapgen`"
     assert "python -m missionplan.maps.mapgen" in path.read_text(encoding="utf-8").splitlines()[0]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_a_shipped_map_reads_and_writes_back_byte_for_byte_with_its_georeference(name, tmp_path):
+    # Its georeference read once into GridMap.georef; the header lines as the file spells them.
+    path = MAPS_DIR / f"{name}.map"
+    gmap = load_map(path)
+    assert gmap.georef is not None and gmap.georef.altitude_m and gmap.georef.camera is not None
+    assert gmap.georef.cell_m == float(gmap.meta["cell_m"]) and gmap.georef.footprint_m == 9 * gmap.georef.cell_m
+    save_map(georeference(generated(name)), tmp_path / "again.map", comment=SHIPPED_COMMENT)
+    assert (tmp_path / "again.map").read_bytes() == path.read_bytes()
 
 
 @pytest.mark.parametrize("name", NAMES)

@@ -14,6 +14,8 @@ from shapely.geometry import shape
 from lost_drone import fly_with_a_lost_drone
 from test_webmap import Opened, browser_context  # noqa: F401  (the browser fixture, shared)
 from missionplan.cli import main
+from missionplan.geo.frame import GridFrame
+from missionplan.geo.georeference import Georeference
 from missionplan.maps.gridmap import GridMap
 from missionplan.mission.coverage_check import CLEARANCE_BAND, POCKET, UNKNOWN_HEIGHT, unreachable_causes
 
@@ -110,8 +112,7 @@ def test_unreachable_causes_do_not_overlap_and_name_every_cell() -> None:
             "#.####...#",
             "#........#",
             "##########"]
-    gmap = GridMap.from_rows("pocket", rows)
-    gmap.meta["cell_m"] = "1.0"
+    gmap = GridMap.from_rows("pocket", rows, georef=Georeference(GridFrame.at(45.0, 7.0, 1.0, len(rows), len(rows[0]))))
     unreachable = np.zeros(gmap.shape, dtype=bool)
     unreachable[3, 3] = unreachable[3, 4] = True  # the courtyard
     unreachable[1, 1] = True  # a corner in the band of a 0.6 m clearance

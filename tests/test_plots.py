@@ -226,9 +226,9 @@ def test_a_1024_grid_draws_as_one_mesh(planned, tmp_path):
 
 
 # ------------------------------------------------------------------------------------------- flight.png
-def _flight_report() -> dict:
+def _planned_grid() -> GridMap:
     base, _, _ = _maps()
-    return {"map": "blocks", "grid": base.rows_text()}
+    return GridMap.from_rows("blocks", base.rows_text())  # the plan's grid, as flight_report.judge gives it
 
 
 def test_flight_map_tracks_and_cells_on_the_rotated_frame():
@@ -240,7 +240,7 @@ def test_flight_map_tracks_and_cells_on_the_rotated_frame():
     covered[np.flatnonzero((targets == missed).all(axis=1))] = False
     grid = np.array([[0.0, 0.0], [0.0, 27.0], [13.0, 27.0]])
     tracks_m = {1: grid * CELL_M, 2: np.zeros((0, 2))}  # metres along the grid's row and column axes
-    fig = flight_figure(_flight_report(), frame, targets, covered, tracks_m, {1: 40.0, 2: 0.0}, 99.5)
+    fig = flight_figure(_planned_grid(), frame, targets, covered, tracks_m, {1: 40.0, 2: 0.0}, 99.5)
     ax, bx = fig.axes
     e, n = frame.grid_to_en(grid[:, 0], grid[:, 1])
     expected = np.column_stack([(e - frame.origin_e) / frame.scale, (n - frame.origin_n) / frame.scale])
@@ -266,13 +266,13 @@ def test_flight_planned_lines_faint_and_the_flight_report_import(tmp_path):
     base, _, _ = _maps()
     targets = np.argwhere(base.target)
     planned = np.column_stack(frame.grid_to_latlon(np.array([0.0, 5.0]), np.array([0.0, 5.0])))
-    fig = flight_figure(_flight_report(), frame, targets, np.ones(len(targets), bool), {1: np.zeros((0, 2))},
+    fig = flight_figure(_planned_grid(), frame, targets, np.ones(len(targets), bool), {1: np.zeros((0, 2))},
                         {1: 1.0}, 100.0, paths_latlon=[planned])
     line = lines_of(fig.axes[0])["planned-1"]
     x, y = _en_m(frame, planned[:, 0], planned[:, 1])
     assert line.get_xydata() == pytest.approx(np.column_stack([x, y]), abs=1e-6) and line.get_alpha() < 0.6
     # flight_report.judge calls it positionally, as before the move.
-    flight_report.draw_flight(tmp_path / "flight.png", _flight_report(), frame, targets, np.ones(len(targets), bool),
+    flight_report.draw_flight(tmp_path / "flight.png", _planned_grid(), frame, targets, np.ones(len(targets), bool),
                               {1: np.array([[0.0, 0.0], [4.0, 8.0]])}, {1: 12.0}, 100.0)
     assert (tmp_path / "flight.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["flight.png"]

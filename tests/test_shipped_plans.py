@@ -25,7 +25,7 @@ def test_the_four_maps_ship():
 @pytest.mark.parametrize("policy", ["nn", "expert"])
 def test_full_coverage_and_legal_paths(policy, name, uavs):
     result = plan_map(load_shipped(name), uavs, policy=policy)
-    report = json.loads(json.dumps(build_report(result, seed=0)))  # exactly what report.json holds
+    report = json.loads(json.dumps(build_report(result, seed=0).to_json()))  # exactly what report.json holds
     assert report["success"], report["failure"]
     checked = replay(report)
     assert checked["problems"] == []
@@ -47,10 +47,10 @@ def test_leonardo_five_drones_beats_the_thesis(policy):
 
 
 def test_report_counts_network_and_path_finder_decisions():
-    report = build_report(plan_map(load_shipped("leonardo"), 5, policy="nn"), seed=0)
-    decisions = report["decisions"]
-    assert report["policy"] == "nn"
-    assert len(decisions["policy"]) == report["steps"]
-    assert sum(decisions["policy"]) > 0 and sum(decisions["pathfinder"]) > 0
-    for step in range(report["steps"]):
-        assert decisions["policy"][step] + decisions["pathfinder"][step] + decisions["idle"][step] == 5
+    record = build_report(plan_map(load_shipped("leonardo"), 5, policy="nn"), seed=0)
+    decisions = record.decisions
+    assert record.policy == "nn"
+    assert len(decisions.policy) == record.steps
+    assert sum(decisions.policy) > 0 and sum(decisions.pathfinder) > 0
+    for step in range(record.steps):
+        assert decisions.policy[step] + decisions.pathfinder[step] + decisions.idle[step] == 5

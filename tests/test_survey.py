@@ -23,6 +23,7 @@ from missionplan.cli import main
 from missionplan.flight.plan_report import SLACK_CELLS, frame_of, target_cells, to_grid_m
 from missionplan.flight.ledger import LEDGER_NAME, Ledger
 from missionplan.flight.mock_fleet import start_mock_fleet
+from missionplan.mission.plan_record import read_plan_record
 from lost_drone import fly_with_a_lost_drone
 
 FAST = 10.0
@@ -38,9 +39,9 @@ def lost_drone_survey(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def _covered_from_csv(root: Path, *folders: Path) -> tuple[int, int]:
     """(covered, targets) of the root plan's reachable targets, from the photos.csv files alone."""
-    report = json.loads((root / "report.json").read_text())
-    frame, targets = frame_of(report), target_cells(report)
-    footprint = float(report["georeference"]["footprint_m"])
+    record = read_plan_record(root)
+    frame, targets = frame_of(record), target_cells(record)
+    footprint = record.georeference.footprint_m
     rows = [row for folder in folders for row in csv.DictReader((folder / "photos.csv").open())]
     photos = to_grid_m(frame, [float(r["lat"]) for r in rows], [float(r["lon"]) for r in rows])
     reach = footprint / 2 - frame.cell_m / 2 + SLACK_CELLS * frame.cell_m + 1e-6
@@ -136,9 +137,9 @@ def test_a_flight_judged_again_replaces_its_rows(lost_drone_survey: Path, tmp_pa
         if path.is_file() and not path.name.startswith(LEDGER_NAME):
             (copy / path.name).write_bytes(path.read_bytes())
     flight, sortie, records = read_flight(copy)
-    report = json.loads((copy / "report.json").read_text())
+    record = read_plan_record(copy)
     for _ in range(2):
-        judge(copy, report, records, FAST, wall_s=1.0, telemetry_hz=25.0, flight=flight, sortie=sortie)
+        judge(copy, record, records, FAST, wall_s=1.0, telemetry_hz=25.0, flight=flight, sortie=sortie)
     db = sqlite3.connect(copy / LEDGER_NAME)
     assert db.execute("SELECT COUNT(*) FROM flights").fetchone()[0] == 1
     photos = db.execute("SELECT COUNT(*) FROM photos").fetchone()[0]
@@ -174,7 +175,7 @@ def test_status_of_a_plan_never_flown(tmp_path: Path, capsys: pytest.CaptureFixt
     capsys.readouterr()
     assert main(["status", str(plan)]) == 0
     out = capsys.readouterr().out
-    targets = len(target_cells(json.loads((plan / "report.json").read_text())))
+    targets = len(target_cells(read_plan_record(plan)))
     assert "0 flights recorded" in out and f"covered 0 of {targets} target cells: 0.00 %" in out
 
 
@@ -410,16 +411,16 @@ def test_survivors_that_do_not_stop_for_a_retask_go_back_to_their_own_missions(
 def test_a_retask_beyond_the_battery_is_refused_with_the_reason(leonardo_3: Path) -> None:
     from missionplan.retask import RetaskError, Survivor, plan_retask
 
-    report = json.loads((leonardo_3 / "report.json").read_text())
-    budget = report["settings"]["safety"]["endurance_s"] * (1 - report["settings"]["safety"]["reserve"])
+    record = read_plan_record(leonardo_3)
+    budget = record.settings.safety.budget_s
     launch = [json.loads((leonardo_3 / f"uav{k}.plan").read_text())["mission"]["plannedHomePosition"][:2]
               for k in (1, 3)]
     tired = [Survivor(k, lat, lon, 1.2, (lat, lon), flown_s=budget - 5.0) for k, (lat, lon) in zip((1, 3), launch)]
     with pytest.raises(RetaskError, match=r"uav1 would need \d+ s more; its battery budget has 5 s left"):
-        plan_retask(leonardo_3, report, tired, np.zeros((0, 2)))
+        plan_retask(leonardo_3, record, tired, np.zeros((0, 2)))
     fresh = [Survivor(k, lat, lon, 1.2, (lat, lon), flown_s=0.0) for k, (lat, lon) in zip((1, 3), launch)]
-    plan = plan_retask(leonardo_3, report, fresh, np.zeros((0, 2)))
-    assert plan is not None and plan.targets_left == report["targets"] and set(plan.missions) == {1, 3}
+    plan = plan_retask(leonardo_3, record, fresh, np.zeros((0, 2)))
+    assert plan is not None and plan.targets_left == record.targets and set(plan.missions) == {1, 3}
     # Each new mission starts where its drone is, ends with RTL, and its fence holds its new track.
     for k in (1, 3):
         items = plan.missions[k].items
@@ -432,11 +433,10 @@ def test_survivors_side_by_side_in_the_air_are_re_tasked_on_their_layers(leonard
     """Two survivors held a metre apart, one above the other: the re-task's separation is measured on
     the tracks they fly from there, in the air (not as if both took off from that spot), and its layers
     keep them the minimum separation plus a corner each apart."""
-    from missionplan.mission.drone_missions import MissionSettings
     from missionplan.retask import Survivor, plan_retask
 
-    report = json.loads((leonardo_3 / "report.json").read_text())
-    frame = frame_of(report)
+    record = read_plan_record(leonardo_3)
+    frame = frame_of(record)
     home1, home3 = (tuple(json.loads((leonardo_3 / f"uav{k}.plan").read_text())["mission"]["plannedHomePosition"][:2])
                     for k in (1, 3))
     lat, lon = home1
@@ -444,10 +444,10 @@ def test_survivors_side_by_side_in_the_air_are_re_tasked_on_their_layers(leonard
     beside = frame.cell_to_latlon(np.array([round(r)]), np.array([round(c) + 1]))
     side_by_side = [Survivor(1, lat, lon, 30.0, home1, 0.0),
                     Survivor(3, float(beside[0][0]), float(beside[1][0]), 32.0, home3, 0.0)]
-    plan = plan_retask(leonardo_3, report, side_by_side, np.zeros((0, 2)))
+    plan = plan_retask(leonardo_3, record, side_by_side, np.zeros((0, 2)))
     assert plan is not None and set(plan.missions) == {1, 3}
-    stored = report["settings"]
-    required = stored["safety"]["min_separation_m"] + 2 * MissionSettings(**stored["mission"]).acceptance_m
+    stored = record.settings
+    required = stored.safety.min_separation_m + 2 * stored.mission.acceptance_m
     assert plan.separation_m is not None and plan.separation_m >= required - 1e-6
 
 
@@ -456,21 +456,20 @@ def test_a_retasks_promise_holds_with_the_survivors_out_of_step(leonardo_3: Path
     """The re-task's separation is measured with the survivors ahead of or behind each other by their
     autopilot's slack (retask.OUT_OF_STEP): the more slack, the smaller the promise, and once it would
     fall under the minimum separation the survivors fly on altitude layers instead."""
-    from missionplan.mission.drone_missions import MissionSettings
     from missionplan.retask import OUT_OF_STEP, Survivor, plan_retask
 
-    report = json.loads((leonardo_3 / "report.json").read_text())
+    record = read_plan_record(leonardo_3)
     launch = [json.loads((leonardo_3 / f"uav{k}.plan").read_text())["mission"]["plannedHomePosition"][:2]
               for k in (1, 3)]
     fresh = [Survivor(k, lat, lon, 1.2, (lat, lon), flown_s=0.0) for k, (lat, lon) in zip((1, 3), launch)]
-    stored = report["settings"]
-    assert stored["mission"]["autopilot"] == "ardupilot"
-    required = stored["safety"]["min_separation_m"] + 2 * MissionSettings(**stored["mission"]).acceptance_m
+    stored = record.settings
+    assert stored.mission.autopilot == "ardupilot"
+    required = stored.safety.min_separation_m + 2 * stored.mission.acceptance_m
 
     def retask(floor_s: float, rate: float) -> tuple[float, float]:
         """The promise and the second survivor's survey altitude with that slack."""
         monkeypatch.setitem(OUT_OF_STEP, "ardupilot", (floor_s, rate))
-        plan = plan_retask(leonardo_3, report, fresh, np.zeros((0, 2)))
+        plan = plan_retask(leonardo_3, record, fresh, np.zeros((0, 2)))
         assert plan is not None and plan.separation_m is not None
         return plan.separation_m, max(item.z for item in plan.missions[3].items if item.command == CMD_NAV_WAYPOINT)
 
@@ -483,12 +482,12 @@ def test_a_retasks_promise_holds_with_the_survivors_out_of_step(leonardo_3: Path
 def test_nothing_to_retask_when_everything_is_photographed(leonardo_3: Path) -> None:
     from missionplan.retask import Survivor, plan_retask
 
-    report = json.loads((leonardo_3 / "report.json").read_text())
-    frame, targets = frame_of(report), target_cells(report)
+    record = read_plan_record(leonardo_3)
+    frame, targets = frame_of(record), target_cells(record)
     lat, lon = frame.cell_to_latlon(targets[:, 0], targets[:, 1])  # a photo over every target cell
     photos = np.column_stack([lat, lon])
     survivor = Survivor(1, float(lat[0]), float(lon[0]), 1.2, (float(lat[0]), float(lon[0])), 0.0)
-    assert plan_retask(leonardo_3, report, [survivor], photos) is None
+    assert plan_retask(leonardo_3, record, [survivor], photos) is None
 
 
 @pytest.mark.flight

@@ -27,7 +27,8 @@ from ..flight.plan_report import missing_map
 from ..flight.survey_status import draw_status, survey_status
 from ..grid.world import check_starts
 from ..maps.gridmap import MapError
-from ..pipeline import DEFAULT_POLICY, POLICIES
+from ..mission.plan_blocks import SurveyPointer
+from ..pipeline import POLICIES
 from ..plan_display import EXIT_FAILED, print_plan
 from ..plan_folder import PlanGround, PlanOptions, check_out_folder, write_plan_folder
 from ..replan import launch_at, launch_of_drones, stored_settings
@@ -138,7 +139,7 @@ def cmd_replan(request: ReplanRequest) -> int:
     if out.resolve() in (plan_dir.resolve(), survey.root.resolve()):
         raise MapError(f"--out {out}: a re-plan goes into a new folder, not over the survey's own plan")
     check_out_folder(out)  # before a word is printed; write_plan_folder asks again, holding the folder
-    mission, safety, stored = stored_settings(survey)
+    stored = stored_settings(survey)
     if request.drones is not None and request.launch:
         raise MapError("give either --drones (the survey's drones, from their launch points) or --launch with --sysid")
     if request.drones is not None:
@@ -157,18 +158,17 @@ def cmd_replan(request: ReplanRequest) -> int:
     if not len(missing):
         print("nothing left to photograph: no re-plan written")
         return 0
-    gmap = missing_map(survey.report, missing, cells)
+    gmap = missing_map(survey.record, missing, cells)
     check_starts(gmap, cells)
     for k, (cell, sysid) in enumerate(zip(cells, ids), start=1):
         lat, lon = survey.frame.cell_to_latlon(np.array([cell[0]]), np.array([cell[1]]))
         print(f"  drone {k}: system id {sysid}, from {float(np.atleast_1d(lat)[0]):.7f},"
               f"{float(np.atleast_1d(lon)[0]):.7f} (cell {cell[0]},{cell[1]}) -> uav{sysid}.plan")
-    pointer = {"root": os.path.relpath(survey.root.resolve(), out.resolve()), "missing_cells": int(len(missing)),
-               "from": os.path.relpath(plan_dir.resolve(), out.resolve())}
-    options = PlanOptions(policy=request.policy or stored.get("policy", DEFAULT_POLICY), weights=request.weights,
-                          zones=stored.get("zones", "geodesic"), balance_zones=stored.get("balance_zones", True),
-                          open_ground=stored.get("open_ground", "lanes"), seed=request.seed,
+    pointer = SurveyPointer(os.path.relpath(survey.root.resolve(), out.resolve()), int(len(missing)),
+                            os.path.relpath(plan_dir.resolve(), out.resolve()))
+    options = PlanOptions(policy=request.policy or stored.policy, weights=request.weights, zones=stored.zones,
+                          balance_zones=stored.balance_zones, open_ground=stored.open_ground, seed=request.seed,
                           progress=not request.quiet and sys.stderr.isatty(), drone_ids=ids, survey=pointer)
-    folder = write_plan_folder(out, PlanGround(gmap, cells, survey.frame, mission, safety), options)
+    folder = write_plan_folder(out, PlanGround(gmap, cells, survey.frame, stored.mission, stored.safety), options)
     print_plan(folder)
     return 0 if folder.success else EXIT_FAILED

@@ -23,7 +23,7 @@ Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_l
   mock_fleet      Mock autopilots standing where a plan's drones launch (demo, tests, bench).
   phases          Where a drone's flight time went (take-off, survey, return, landing).
   photo_positions Where each photo was taken, and the rows the survey ledger keeps of them.
-  plan_report     A plan folder's report.json as the flight side reads it: frame, grid, targets, photo slack.
+  plan_report     A plan folder's plan record as the flight side reads it: frame, grid, targets, photo slack.
   record          One drone's record of a flight (DroneRecord), every change handed to the journal.
   salvage         SQLite files on a bad disk: a damaged one read row by row, a read-only one read as it is.
 """

@@ -17,8 +17,9 @@ from __future__ import annotations
 
 import shutil
 from pathlib import Path
-from typing import Any
 
+from ..mission.plan_blocks import SortiePlan
+from ..mission.plan_record import PlanRecord
 from .drone_flight import LINK_MARGIN_S, LINK_WAIT_FACTOR
 from .journal_db import JournalError
 
@@ -38,24 +39,24 @@ OUTPUT_PHOTO_BYTES = 2_000
 PHOTO_MARGIN = 1.5
 
 
-def _drone_entries(report: dict[str, Any], sortie: int | None) -> list[dict[str, Any]]:
+def _drone_entries(record: PlanRecord, sortie: int | None) -> list[SortiePlan]:
     """Each drone's planned flight for `sortie` (None: the largest of its sorties, for a resume)."""
     out = []
-    for drone in report.get("drones") or []:
-        sorties = drone.get("sorties") or [{"flight_s": drone.get("flight_s", 0.0), "photos": drone.get("photos", 0)}]
+    for drone in record.drones or ():
+        sorties = drone.planned_sorties
         if sortie is None:
-            out.append(max(sorties, key=lambda s: float(s.get("flight_s") or 0.0)))
+            out.append(max(sorties, key=lambda s: float(s.flight_s or 0.0)))
         elif sortie <= len(sorties):
             out.append(sorties[sortie - 1])
     return out
 
 
-def flight_bytes(report: dict[str, Any], telemetry_hz: float, sortie: int | None = 1) -> tuple[int, str]:
+def flight_bytes(record: PlanRecord, telemetry_hz: float, sortie: int | None = 1) -> tuple[int, str]:
     """(bytes the flight's record may take at most, what that assumes in words)."""
-    drones = _drone_entries(report, sortie)
-    seconds = [float(d.get("flight_s") or 0.0) * LINK_WAIT_FACTOR + LINK_MARGIN_S for d in drones]
+    drones = _drone_entries(record, sortie)
+    seconds = [float(d.flight_s or 0.0) * LINK_WAIT_FACTOR + LINK_MARGIN_S for d in drones]
     samples = sum(seconds) * telemetry_hz
-    photos = sum(float(d.get("photos") or 0) for d in drones) * PHOTO_MARGIN
+    photos = sum(float(d.photos or 0) for d in drones) * PHOTO_MARGIN
     entries = sum(seconds) * ENTRIES_PER_S
     journal = samples * SAMPLE_BYTES + photos * PHOTO_BYTES + entries * ENTRY_BYTES + WAL_BYTES
     outputs = OUTPUT_BYTES + samples * OUTPUT_SAMPLE_BYTES + photos * OUTPUT_PHOTO_BYTES
@@ -68,10 +69,10 @@ def size_text(n: float) -> str:
     return f"{n / 1e3:.0f} kB" if n < 1e6 else f"{n / 1e6:.1f} MB"
 
 
-def check_space(plan_dir: Path, report: dict[str, Any], telemetry_hz: float, sortie: int | None = 1) -> None:
+def check_space(plan_dir: Path, record: PlanRecord, telemetry_hz: float, sortie: int | None = 1) -> None:
     """Raise JournalError (one line: the folder, the space free and needed) when plan_dir's disk has too
     little room for the flight's record."""
-    need, how = flight_bytes(report, telemetry_hz, sortie)
+    need, how = flight_bytes(record, telemetry_hz, sortie)
     try:
         free = shutil.disk_usage(plan_dir).free
     except OSError:

@@ -17,6 +17,7 @@ import numpy as np
 from missionplan.geo.frame import GridFrame
 
 from ..mission.layers import Layers, cells_geometry, collection, feature, layers_from_geojson, uav_colour
+from ..mission.plan_record import PlanRecord
 
 
 LINES_AND_POINTS = ("fences", "paths", "photos", "launch")
@@ -65,7 +66,7 @@ def flight_layers(plan: Layers, frame: GridFrame, tracks: dict[int, np.ndarray],
     return layers
 
 
-def flight_summary(report: dict[str, Any], doc: dict[str, Any], layers: Layers) -> dict[str, Any]:
+def flight_summary(record: PlanRecord, doc: dict[str, Any], layers: Layers) -> dict[str, Any]:
     """flight.html's side panel: what flight.json says, per drone and in all."""
     drones = []
     for k, row in enumerate(doc["drones"]):
@@ -79,11 +80,11 @@ def flight_summary(report: dict[str, Any], doc: dict[str, Any], layers: Layers) 
                "photos from": str(doc.get("photos_from"))}
     if sep.get("3d") is not None:
         figures["closest approach"] = f"{sep['3d']} m (promised {sep.get('planned_3d')} m)"
-    if report.get("credit"):
-        figures["map data"] = report["credit"]
+    if record.credit:
+        figures["map data"] = record.credit
     if doc.get("survey"):
         figures["survey"] = f"{doc['survey']['coverage']:.2f} % over {doc['survey']['flights']} flights"
-    return {"kind": "flight", "title": f"flight of {report.get('map', 'plan')}: {len(drones)} drones",
+    return {"kind": "flight", "title": f"flight of {record.map}: {len(drones)} drones",
             "subtitle": f"coverage {doc['coverage']:.2f} % (green photographed, red missed)",
             "drones": drones, "figures": figures, "notes": list(doc.get("problems") or []),
             "layers": {name: len(layer["features"]) for name, layer in layers.items()}}

@@ -22,6 +22,8 @@ if TYPE_CHECKING:
 
     from missionplan.geo.frame import GridFrame
 
+    from ..maps.gridmap import GridMap
+
 BUILDING = (0.25, 0.25, 0.25)
 FREE = (1.0, 1.0, 1.0)
 UNJUDGED_TARGET = (0.80, 0.80, 0.80)  # a target outside the reachable set: nobody was sent there
@@ -29,18 +31,17 @@ COVERED = (0.62, 0.87, 0.62)
 MISSED = (0.95, 0.35, 0.35)
 
 
-def flight_figure(report: dict[str, Any], frame: GridFrame | None, targets: np.ndarray, covered: np.ndarray,
+def flight_figure(gmap: GridMap, frame: GridFrame | None, targets: np.ndarray, covered: np.ndarray,
                   tracks_m: dict[int, np.ndarray], flight_s: dict[int, float], coverage_pct: float, *,
                   paths_latlon: list[np.ndarray] | None = None) -> Figure:
-    """The flight.png figure (see draw_flight); the caller closes it."""
+    """The flight.png figure (see draw_flight); `gmap`: the grid the plan was made on (plan_report.planned_grid);
+    the caller closes it."""
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     from ..mission.plot import HALO, TRACK_COLOURS, MapView, below_axes
-    from ..maps.gridmap import GridMap
 
-    gmap = GridMap.from_rows(str(report.get("map", "plan")), report["grid"])  # the grid the plan was made on
     view = MapView(frame, gmap.shape)
     targets = np.asarray(targets, dtype=np.int64).reshape(-1, 2)
     covered = np.asarray(covered, dtype=bool).reshape(-1)
@@ -96,16 +97,16 @@ def flight_figure(report: dict[str, Any], frame: GridFrame | None, targets: np.n
     return fig
 
 
-def draw_flight(path: str | os.PathLike[str], report: dict[str, Any], frame: GridFrame | None, targets: np.ndarray,
+def draw_flight(path: str | os.PathLike[str], gmap: GridMap, frame: GridFrame | None, targets: np.ndarray,
                 covered: np.ndarray, tracks_m: dict[int, np.ndarray], flight_s: dict[int, float],
                 coverage_pct: float, *, paths_latlon: list[np.ndarray] | None = None) -> None:
-    """Write flight.png. `targets` (n, 2) the judged target cells, `covered` (n,) which a photo covered;
+    """Write flight.png of the plan's grid `gmap`. `targets` (n, 2) the judged target cells, `covered` (n,) which a photo covered;
     `tracks_m`: sysid -> (m, 2) recorded positions in metres along the grid's row and column axes
     (plan_report.to_grid_m); `flight_s`: sysid -> seconds flown; `paths_latlon`: per drone (launch
     order), the planned waypoints' lat/lon, drawn faint."""
     import matplotlib.pyplot as plt
 
-    fig = flight_figure(report, frame, targets, covered, tracks_m, flight_s, coverage_pct, paths_latlon=paths_latlon)
+    fig = flight_figure(gmap, frame, targets, covered, tracks_m, flight_s, coverage_pct, paths_latlon=paths_latlon)
     try:
         with atomic_path(path) as tmp:
             fig.savefig(tmp, dpi=110, format="png", bbox_inches="tight", pad_inches=0.15)  # legend hangs below

@@ -29,7 +29,7 @@ import json
 import os
 import sqlite3
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, TypeVar
@@ -51,7 +51,10 @@ from .flight_layers import flight_layers, flight_summary, plan_layers_on_disk
 from .flight_plot import draw_flight
 from .phases import event_rows, on_vehicle_clock, phase_rows
 from .photo_positions import ledger_photos, photo_positions
-from .plan_report import SLACK_CELLS, frame_of, target_cells, to_grid_m
+from ..mission.plan_blocks import cells_of
+from ..mission.plan_record import PlanRecord
+from .plan_report import (SLACK_CELLS, frame_of, georeference_of, planned_grid, target_cells, to_grid_m,
+                          trigger_distance_m)
 from .record import DroneRecord
 
 COVERAGE_OK = 99.0
@@ -210,8 +213,8 @@ def estimate_time_scale(records: list[DroneRecord]) -> float:
 
 
 # ------------------------------------------------------------------------------------------- sorties
-def sortie_view(report: dict[str, Any], sortie: int, missions: dict[int, dict[int, list[Any]]]) -> dict[str, Any]:
-    """report.json as `fly --sortie J` judges it: the drones that fly sortie J with that sortie's planned
+def sortie_view(record: PlanRecord, sortie: int, missions: dict[int, dict[int, list[Any]]]) -> PlanRecord:
+    """The plan record as `fly --sortie J` judges it: the drones that fly sortie J with that sortie's planned
     photos and time, that sortie's separation promise, and as targets only the cells that are its duty.
 
     A plan with several sorties: a cell is sortie J's duty when J's planned photos hold it with room to
@@ -220,22 +223,14 @@ def sortie_view(report: dict[str, Any], sortie: int, missions: dict[int, dict[in
     first is not J's alone to hold. `missions`: sortie -> sysid -> that sortie's mission items
     (missionplan.bridge.formats.mission_items.MissionItem, latitude / longitude in degrees); needed only with several
     sorties."""
-    view = dict(report)
-    drones = []
-    for drone in report["drones"]:
-        entries = drone.get("sorties") or [{"file": f"uav{drone['id']}.plan", "flight_s": drone.get("flight_s", 0.0),
-                                            "photos": drone.get("photos", 0), "waypoints": drone.get("waypoints", 0)}]
-        if sortie <= len(entries):
-            drones.append({**drone, **entries[sortie - 1]})
-    view["drones"] = drones
-    promises = (report.get("separation") or {}).get("sorties") or []
-    if sortie <= len(promises):
-        view["separation"] = promises[sortie - 1]
-    if any(len(d.get("sorties") or []) > 1 for d in report["drones"]):
-        frame = frame_of(report)
-        geo = report["georeference"]
-        trigger, footprint = float(geo.get("trigger_distance_m") or 0.0), float(geo["footprint_m"])
-        targets = target_cells(report)
+    planned = record.drones or ()
+    view = replace(record, drones=tuple(d for drone in planned if (d := drone.for_sortie(sortie)) is not None))
+    if record.promise is not None and sortie <= len(record.promise.separation.sorties):
+        view = replace(view, promise=replace(record.promise, separation=record.promise.separation.for_sortie(sortie)))
+    if any(len(d.sorties) > 1 for d in planned):
+        frame = frame_of(record)
+        trigger, footprint = trigger_distance_m(record), georeference_of(record).footprint_m
+        targets = target_cells(record)
 
         def gap(which: list[int]) -> np.ndarray:
             photos = [planned_photos(items, trigger, lambda lat, lon: to_grid_m(frame, lat, lon)[0], from_takeoff=False)
@@ -247,7 +242,7 @@ def sortie_view(report: dict[str, Any], sortie: int, missions: dict[int, dict[in
         slack = SLACK_CELLS * frame.cell_m
         duty = covered_by_gap(frame, mine, footprint, -slack) | (
             covered_by_gap(frame, mine, footprint, 0.0) & ~covered_by_gap(frame, others, footprint, 0.0))
-        view["unreachable_cells"] = list(report.get("unreachable_cells") or []) + targets[~duty].tolist()
+        view = replace(view, unreachable_cells=record.unreachable_cells + cells_of(targets[~duty].tolist()))
     return view
 
 
@@ -270,7 +265,7 @@ def _written(unwritten: dict[str, str], names: str, write: Callable[[], Result])
         return None
 
 
-def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], time_scale: float | None,
+def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_scale: float | None,
           wall_s: float, telemetry_hz: float, photos_from_track: bool = False, flight: int | None = None,
           sortie: int = 1, retasks: list[dict[str, Any]] | None = None,
           record_faults: list[str] | None = None) -> FlightResult:
@@ -286,12 +281,11 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     went through), said in flight.json's `record_faults`.
     A file the disk refuses (full, read-only) is not written and named in the result's `unwritten`; the
     rest are written all the same, and the figures are the judge's own when the ledger cannot be used."""
-    frame = frame_of(report)
-    geo = report["georeference"]
-    footprint, trigger = float(geo["footprint_m"]), float(geo.get("trigger_distance_m") or 0.0)
+    frame = frame_of(record)
+    footprint, trigger = georeference_of(record).footprint_m, trigger_distance_m(record)
     scale = time_scale if time_scale else estimate_time_scale(records)
-    planned = {int(d["id"]): d for d in report["drones"]}
-    targets = target_cells(report)
+    planned = {d.id: d for d in record.drones or ()}
+    targets = target_cells(record)
     photos, unconfirmed, tracks_m, timed, rows, sources, kept = [], [], {}, {}, [], set(), []
     liftoff: dict[int, float] = {}  # when each vehicle left the ground, on our clock
     liftoff_above = liftoff_height(records)
@@ -323,7 +317,7 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
                      "photos": int(len(points)), "photos_placed_on_track": int(len(placed)),
                      "photos_from_log": sum(1 for src in rec.photo_source.values() if src == "log"),
                      "planned_photos": rec.planned_photos,
-                     "planned_flight_s": float(planned.get(rec.id, {}).get("flight_s", 0.0)),
+                     "planned_flight_s": float(planned[rec.id].flight_s) if rec.id in planned else 0.0,
                      "planned_flight_s_vehicle": None if retimed is None else round(retimed, 1),
                      "vehicle_params": rec.params,
                      "uploaded": rec.uploaded, "held_after_flight": rec.held_after_flight,
@@ -360,7 +354,7 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     percent_with_placed = 100.0 * float(covered_with_placed.mean()) if len(targets) else 100.0
     other_rules = {name: round(100.0 * float(covered_by_gap(frame, gap, footprint, frame.cell_m * cells).mean()), 2)
                    if len(targets) else 100.0 for name, cells in (("whole_cell", 0.0), ("cell_centre", 0.5))}
-    separation = _separation(report, records, timed, liftoff, scale, telemetry_hz)
+    separation = _separation(record, records, timed, liftoff, scale, telemetry_hz)
     problems = [p for rec in records for p in rec.problems]
     problems += [f"uav{rec.id}: mission not finished" for rec in records
                  if rec.started and not rec.finished and not rec.problems]
@@ -397,10 +391,10 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
     _written(unwritten, missed_path.name, lambda: write_text_atomic(missed_path, json.dumps(missed_doc) + "\n"))
     plan = plan_layers_on_disk(plan_dir)
     _written(unwritten, png_path.name, lambda: draw_flight(
-        png_path, report, frame, targets, covered, tracks_m, {r["id"]: r["flight_s"] for r in rows}, percent,
+        png_path, planned_grid(record), frame, targets, covered, tracks_m, {r["id"]: r["flight_s"] for r in rows}, percent,
         paths_latlon=drone_paths_latlon(plan) if plan.get("paths") else None))
     map_paths = _written(unwritten, "flight.html, flight.gpkg, flight.kmz", lambda: write_flight_maps(
-        plan_dir, plan, report, doc, frame, records, kept, targets, covered)) or []
+        plan_dir, plan, record, doc, frame, records, kept, targets, covered)) or []
     return FlightResult(coverage=round(percent, 2), targets=int(len(targets)), separation=separation, drones=rows,
                         problems=problems, photo_source=photo_source, wall_s=round(wall_s, 2),
                         json_path=json_path, png_path=png_path, missed_path=missed_path,
@@ -409,7 +403,7 @@ def judge(plan_dir: Path, report: dict[str, Any], records: list[DroneRecord], ti
                         notices=notices)
 
 
-def write_flight_maps(plan_dir: Path, plan: Layers, report: dict[str, Any], doc: dict[str, Any], frame: GridFrame,
+def write_flight_maps(plan_dir: Path, plan: Layers, record: PlanRecord, doc: dict[str, Any], frame: GridFrame,
                       records: list[DroneRecord], photos: list[dict[str, Any]], targets: np.ndarray,
                       covered: np.ndarray) -> list[Path]:
     """flight.html, flight.gpkg and flight.kmz: the plan's layers (its tracks.geojson) and what was flown."""
@@ -418,8 +412,7 @@ def write_flight_maps(plan_dir: Path, plan: Layers, report: dict[str, Any], doc:
     tracks = {rec.id: np.array(rec.samples)[:, 1:4] for rec in records if rec.samples}
     flight_s = {row["id"]: row["flight_s"] for row in doc["drones"]}
     layers = flight_layers(plan, frame, tracks, photos, targets, covered, flight_s)
-    return write_map_files(plan_dir, "flight", layers, flight_summary(report, doc, layers),
-                           basemap=report.get("basemap"))
+    return write_map_files(plan_dir, "flight", layers, flight_summary(record, doc, layers), basemap=record.basemap)
 
 
 def survey_summary(ledger: Any) -> dict[str, Any]:
@@ -459,7 +452,7 @@ def live_tolerance(records: list[DroneRecord], scale: float, telemetry_hz: float
     return 2 * acceptance + speed * scale / telemetry_hz
 
 
-def _separation(report: dict[str, Any], records: list[DroneRecord], timed: dict[int, np.ndarray],
+def _separation(record: PlanRecord, records: list[DroneRecord], timed: dict[int, np.ndarray],
                 liftoff: dict[int, float], scale: float, telemetry_hz: float) -> dict[str, Any]:
     """Flown closest approach next to the plan's promise, and whether the promise was kept.
 
@@ -468,16 +461,17 @@ def _separation(report: dict[str, Any], records: list[DroneRecord], timed: dict[
     it never exceeds half the promise, so a start spread (or a vehicle that never took off with the
     others) cannot make the check unable to fail."""
     flown = closest_approach(timed)
-    promise = report.get("separation") or {}
+    promise = record.separation
     speed, _ = _flight_speed_and_acceptance(records)
     start_spread_s = (max(liftoff.values()) - min(liftoff.values())) * scale if liftoff else 0.0
-    planned_3d = promise.get("3d")
+    planned_3d = promise.closest.d3 if promise is not None else None
     tolerance = live_tolerance(records, scale, telemetry_hz) + speed * start_spread_s
     if planned_3d is not None:
         tolerance = min(tolerance, 0.5 * float(planned_3d))
     # Fewer than two tracks: nothing was measured, so the promise was neither kept nor broken.
     kept = None if flown["3d"] is None else bool(planned_3d is None or flown["3d"] >= planned_3d - tolerance)
-    return {**flown, "planned_horizontal": promise.get("horizontal"), "planned_3d": planned_3d,
+    return {**flown, "planned_horizontal": promise.closest.horizontal if promise is not None else None,
+            "planned_3d": planned_3d,
             "tolerance": round(float(tolerance), 3), "start_spread_s": round(float(start_spread_s), 3),
             "kept": kept, "tracks": len(timed)}
 

@@ -25,10 +25,10 @@ the record the folder would not take goes to a fallback file, said in one line, 
 
 from __future__ import annotations
 
-import json
 import sys
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Callable
 
@@ -47,6 +47,7 @@ from missionplan.bridge.terminal_text import printable
 from missionplan.bridge.link.signing import SigningKey
 from missionplan.bridge.transfer.uploader import check_gcs_identity
 
+from ..mission.plan_record import PlanRecord, PlanRecordError, read_plan_record
 from ..mission.sorties import sortie_file
 from .disk_space import check_space
 from .display import progress_display
@@ -67,14 +68,14 @@ PX4_AUTO_SUBS = {"rtl": PX4_RTL_SUB, "land": PX4_LAND_SUB}
 EXIT_NOT_RECORDED = 3  # the flight's record is not whole in its folder (the rest went to a fallback file)
 
 
-def flight_view(plan_dir: Path, report: dict[str, Any], sortie: int) -> dict[str, Any]:
-    """report.json as a flight of `sortie` is judged (flight_report.sortie_view): with several sorties,
+def flight_view(plan_dir: Path, record: PlanRecord, sortie: int) -> PlanRecord:
+    """The plan record as a flight of `sortie` is judged (flight_report.sortie_view): with several sorties,
     every sortie's planned photos (read from its files) decide which cells are this one's duty."""
-    count = max(len(d.get("sorties") or [1]) for d in report["drones"])
-    missions = {j: {int(d["id"]): read_mission_file(path).mission.items for d in report["drones"]
-                    if (path := plan_dir / sortie_file(int(d["id"]), j)).is_file()}
+    count = record.sorties
+    missions = {j: {d.id: read_mission_file(path).mission.items for d in record.drones or ()
+                    if (path := plan_dir / sortie_file(d.id, j)).is_file()}
                 for j in range(1, count + 1)} if count > 1 else {}
-    return sortie_view(report, sortie, missions)
+    return sortie_view(record, sortie, missions)
 
 
 class SeparationWatch:
@@ -165,8 +166,8 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
         raise BridgeUsageError(Named("{on_abort} {0}: choose {1}", on_abort, ", ".join(ON_ABORT)))
     check_gcs_identity(upload_with, source_system, source_component, "upload_with")
     plan_dir = Path(plan_dir)
-    report = json.loads((plan_dir / "report.json").read_text())
-    if "georeference" not in report or "drones" not in report:
+    record = read_plan_record(plan_dir)
+    if record.georeference is None or record.drones is None:
         raise BridgeUsageError(f"{plan_dir / 'report.json'}: not a georeferenced plan (no missions to fly)")
     # Bad URLs: exit 2, before anything.
     pool = LinkPool([connect] if isinstance(connect, str) else list(connect), key, source_system, source_component)
@@ -174,7 +175,7 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
         raise BridgeUsageError(Named("{sortie} must be 1 or more, got {0}", sortie))
     try:
         # Room for the flight's record, before any link is opened (a resume writes as much at most).
-        check_space(plan_dir, report, telemetry_hz, None if resume else sortie)
+        check_space(plan_dir, record, telemetry_hz, None if resume else sortie)
         journal = (Journal.continue_flight(plan_dir, command) if resume
                    else Journal.start_flight(plan_dir, sortie, command))
     except JournalError as err:
@@ -183,7 +184,7 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
         print(f"missionplan fly: {printable(line)}", file=sys.stderr)
     result: FlightResult | None = None
     try:
-        result = _fly_journaled(plan_dir, report, pool, journal, timeout_s, progress, time_scale, telemetry_hz,
+        result = _fly_journaled(plan_dir, record, pool, journal, timeout_s, progress, time_scale, telemetry_hz,
                                 upload_with, ready_s, max_launch_offset_m, photos_from_track, key, resume, on_abort,
                                 source_system, replan=replan, replan_after_s=replan_after_s)
         return result
@@ -223,22 +224,23 @@ def _keep_the_rest(plan_dir: Path, journal: Journal, result: FlightResult | None
         result.record_faults.append(line)
 
 
-def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journal: Journal, timeout_s: float,
+def _fly_journaled(plan_dir: Path, record: PlanRecord, pool: LinkPool, journal: Journal, timeout_s: float,
                    progress: bool, time_scale: float | None, telemetry_hz: float, upload_with: str, ready_s: float,
                    max_launch_offset_m: float, photos_from_track: bool, key: SigningKey | None, resume: bool,
                    on_abort: str, source_system: int, replan: Callable[..., Any] | None = None,
                    replan_after_s: float = DEFAULT_REPLAN_AFTER_S) -> FlightResult:
     sortie = journal.sortie
-    files = {int(d["id"]): plan_dir / sortie_file(int(d["id"]), sortie) for d in report["drones"]}
-    report = flight_view(plan_dir, report, sortie)
-    if not report["drones"]:
+    files = {d.id: plan_dir / sortie_file(d.id, sortie) for d in record.drones or ()}
+    view = flight_view(plan_dir, record, sortie)
+    drones = view.drones or ()
+    if not drones:
         raise BridgeUsageError(f"{plan_dir}: no drone has a sortie {sortie}")
-    ids = [int(d["id"]) for d in report["drones"]]
+    ids = [d.id for d in drones]
     parse_gcs_sysid(source_system, ids)  # not a drone's own id
     records = journal.records(ids) if resume else [DroneRecord(id=k) for k in ids]
-    for rec, drone in zip(records, report["drones"]):
+    for rec, drone in zip(records, drones):
         rec.sink = journal.sink(rec.id)
-        rec.set(planned_photos=int(drone.get("photos", 0)))
+        rec.set(planned_photos=int(drone.photos))
     start = time.monotonic()
     deadline = start + timeout_s
     for rec in records:
@@ -257,7 +259,7 @@ def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journ
     try:
         pool.open_all()
         pool.register(rec.id for rec in runnable)
-        planned_s = {int(d["id"]): float(d.get("flight_s", 0.0)) for d in report["drones"]}
+        planned_s = {d.id: float(d.flight_s) for d in drones}
         fleet = FleetStart(pool, FleetGate(len(runnable)), FleetGate(len(runnable)), threading.Event(), key=key,
                            ready_s=ready_s, max_offset_m=max_launch_offset_m, say=say, alert=alert, resume=resume,
                            time_scale=time_scale, planned_s=planned_s, commit=journal.flush)
@@ -266,9 +268,9 @@ def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journ
         threads = [threading.Thread(target=f.run, name=f"fly-uav{f.sysid}", daemon=True) for f in flights]
         for thread in threads:
             thread.start()
-        watch = SeparationWatch(runnable, (report.get("separation") or {}).get("3d"),
-                                live_tolerance(runnable, time_scale or 1.0, telemetry_hz), alert)
-        retasker = None if replan is None or resume else Retasker(plan_dir, report, flights, replan, alert,
+        watch = SeparationWatch(runnable, promised_3d(view), live_tolerance(runnable, time_scale or 1.0, telemetry_hz),
+                                alert)
+        retasker = None if replan is None or resume else Retasker(plan_dir, view, flights, replan, alert,
                                                                    replan_after_s, time_scale)
         try:
             while any(t.is_alive() for t in threads) and time.monotonic() < deadline + 5.0:
@@ -278,8 +280,7 @@ def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journ
                     retasker.look()
                     # After a re-task the promise is the new tracks' (retasked_promise); the lost drone's
                     # last position is no neighbour any more.
-                    promise = (retasked_promise(report, retasker.retasks).get("separation") or {}).get("3d")
-                    watch.promised = promise
+                    watch.promised = promised_3d(retasked_promise(view, retasker.retasks))
                     watch.records = [r for r in runnable if r.id not in retasker.handled]
         except KeyboardInterrupt:
             interrupted = True
@@ -308,8 +309,8 @@ def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journ
         faults.append(f"{journal.path}: {journal.paused}: {journal.held} records not in the journal when the "
                       "flight was judged")
     if retasker is not None:
-        report = retasked_promise(report, retasker.retasks)
-    result = judge(plan_dir, report, judged, time_scale, wall_s=time.monotonic() - start, telemetry_hz=telemetry_hz,
+        view = retasked_promise(view, retasker.retasks)
+    result = judge(plan_dir, view, judged, time_scale, wall_s=time.monotonic() - start, telemetry_hz=telemetry_hz,
                    photos_from_track=photos_from_track, flight=journal.flight, sortie=sortie,
                    retasks=retasker.retasks if retasker is not None else None, record_faults=faults)
     for notice in result.notices:  # a ledger the judge had to rebuild
@@ -318,15 +319,21 @@ def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journ
     return result
 
 
-def retasked_promise(report: dict[str, Any], retasks: list[dict[str, Any]]) -> dict[str, Any]:
-    """report.json as the judge sees it after live re-tasks: the separation promised is the smaller of the
+def promised_3d(record: PlanRecord) -> float | None:
+    """The 3-D separation the plan promises (None: no two drones fly together)."""
+    return record.separation.d3 if record.separation is not None else None
+
+
+def retasked_promise(record: PlanRecord, retasks: list[dict[str, Any]]) -> PlanRecord:
+    """The plan record as the judge sees it after live re-tasks: the separation promised is the smaller of the
     plan's and each re-task's (its new tracks' closest approach, checked against the minimum separation
     before upload); the flight is held to what was promised for each part of it."""
     promised = [r["separation_m"] for r in retasks if r.get("separation_m") is not None]
-    planned = (report.get("separation") or {}).get("3d")
-    if not promised or planned is None:
-        return report
-    return {**report, "separation": {**report["separation"], "3d": min([float(planned)] + promised)}}
+    planned = promised_3d(record)
+    if not promised or planned is None or record.promise is None:
+        return record
+    separation = record.promise.separation.promising(min([float(planned)] + promised))
+    return replace(record, promise=replace(record.promise, separation=separation))
 
 
 def _wait_any(threads: list[threading.Thread], seconds: float) -> None:
@@ -364,9 +371,8 @@ def refuse_empty_missions(plan_dir: Path, sortie: int) -> None:
     is contacted; each file is read as the upload will read it, so a bad file fails here too, in one line.
     A report.json that cannot be read is left to fly(), which says what is wrong with it."""
     try:
-        drones = json.loads((plan_dir / "report.json").read_text())["drones"]
-        ids = [int(d["id"]) for d in drones]
-    except (OSError, ValueError, KeyError, TypeError):
+        ids = [d.id for d in read_plan_record(plan_dir).drones or ()]
+    except PlanRecordError:
         return
     for sysid in ids:
         path = plan_dir / sortie_file(sysid, sortie)

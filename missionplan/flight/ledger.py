@@ -19,7 +19,6 @@ Tables:
 
 from __future__ import annotations
 
-import json
 import os
 import sqlite3
 import time
@@ -32,7 +31,8 @@ import numpy as np
 from missionplan.geo.frame import GridFrame
 
 from ..maps.gridmap import MapError
-from .plan_report import SLACK_CELLS, frame_of, target_cells  # the judge's rule, one place
+from ..mission.plan_record import PlanRecord, PlanRecordError, read_plan_record
+from .plan_report import SLACK_CELLS, target_cells  # the judge's rule, one place
 from .salvage import fault_kind
 
 LEDGER_NAME = "ledger.sqlite"
@@ -78,14 +78,14 @@ class Survey:
     """A survey's root plan: its grid, frame and coverage rule, which every folder of the survey shares."""
 
     root: Path
-    report: dict[str, Any]
+    record: PlanRecord
     frame: GridFrame
     targets: np.ndarray  # (n, 2) the root plan's reachable target cells: what the survey must photograph
     reach_m: float  # a cell is covered when a photo lies within this Chebyshev distance of its centre
 
     @property
     def shape(self) -> tuple[int, int]:
-        return (len(self.report["grid"]), len(self.report["grid"][0]))
+        return self.record.shape
 
     def target_mask(self) -> np.ndarray:
         mask = np.zeros(self.shape, dtype=bool)
@@ -93,24 +93,20 @@ class Survey:
         return mask
 
 
-def _read_report(plan_dir: Path) -> dict[str, Any]:
-    path = plan_dir / "report.json"
+def read_plan(plan_dir: Path) -> PlanRecord:
+    """The plan record of a folder of the survey; LedgerError (one line) when it cannot be read."""
     try:
-        report = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise LedgerError(f"{plan_dir}: no report.json (not a plan folder: `missionplan plan --out` makes one)") from None
-    except (OSError, ValueError) as err:
-        raise LedgerError(f"{path}: cannot be read ({err})") from None
-    if not isinstance(report, dict) or "grid" not in report:
-        raise LedgerError(f"{path}: not a missionplan plan report")
-    return report
+        return read_plan_record(plan_dir)
+    except PlanRecordError as err:
+        raise LedgerError(str(err)) from None
 
 
 def survey_root(plan_dir: Path) -> Path:
     """The root plan folder of the survey plan_dir belongs to (plan_dir itself unless it is a re-plan)."""
     here = Path(plan_dir)
     for _ in range(MAX_POINTERS):
-        pointer = (_read_report(here).get("survey") or {}).get("root")
+        survey = read_plan(here).survey
+        pointer = survey.root if survey is not None else None
         if not pointer:
             return here
         parent = Path(os.path.normpath(here / pointer))
@@ -124,13 +120,13 @@ def survey_root(plan_dir: Path) -> Path:
 def open_survey(plan_dir: Path) -> Survey:
     """The survey plan_dir belongs to, read from its root's report.json."""
     root = survey_root(Path(plan_dir))
-    report = _read_report(root)
-    if "georeference" not in report:
+    record = read_plan(root)
+    if record.georeference is None:
         raise LedgerError(f"{root}: the plan has no georeference (a map without origin): nothing to fly or survey")
-    frame = frame_of(report)
-    footprint = float(report["georeference"]["footprint_m"])
+    frame = record.georeference.frame
+    footprint = record.georeference.footprint_m
     reach = footprint / 2.0 - frame.cell_m / 2.0 + SLACK_CELLS * frame.cell_m + 1e-6
-    return Survey(root=root, report=report, frame=frame, targets=target_cells(report), reach_m=reach)
+    return Survey(root=root, record=record, frame=frame, targets=target_cells(record), reach_m=reach)
 
 
 def covered_cells(survey: Survey, lat: np.ndarray, lon: np.ndarray, mask: np.ndarray | None = None

@@ -27,7 +27,7 @@ from missionplan.base.atomic import probe_writable
 from .photo_positions import flight_photos
 from .journal_db import JOURNAL_NAME, JournalError
 from .journal_read import judged_flights
-from .ledger import LEDGER_NAME, Ledger, LedgerError, Survey, _read_report, open_survey, survey_root
+from .ledger import LEDGER_NAME, Ledger, LedgerError, Survey, open_survey, read_plan, survey_root
 from .salvage import connect_read_only, fault_kind, has_sqlite_header, integrity_problem, move_aside, salvage_table
 
 Say = Callable[[str], None]
@@ -62,13 +62,14 @@ def _from_journals(ledger: Ledger, survey: Survey,
         folder = Path(os.path.normpath(survey.root / key))
         try:
             judged = judged_flights(folder)
-            report = _read_report(folder) if judged else {}
+            record = read_plan(folder) if judged else None
         except (JournalError, LedgerError) as err:
             unread.append(str(err))
             continue
         for flight in judged:
+            assert record is not None  # read above, since a flight was judged
             ledger.record_flight(key, flight.flight, flight.sortie,
-                                 flight_photos(report, flight.records, flight.photos_from_track),
+                                 flight_photos(record, flight.records, flight.photos_from_track),
                                  recorded=flight.judged)
             done.add((key, flight.flight))
         if judged:

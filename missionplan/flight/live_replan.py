@@ -35,6 +35,7 @@ import numpy as np
 
 from missionplan.bridge.formats.missionfile import read_mission_file
 
+from ..mission.plan_record import PlanRecord
 from .drone_flight import HOLD_S, RETASK_UPLOAD_S, RETURN_MODES, DroneFlight, RetaskRequest
 from .flight_report import vehicle_rate
 
@@ -44,7 +45,7 @@ DEFAULT_REPLAN_AFTER_S = 15.0  # silent this long (our seconds) mid-mission: los
 @dataclass
 class Retasker:
     plan_dir: Path
-    report: dict[str, Any]
+    record: PlanRecord  # the plan as this flight is judged (fly.flight_view)
     flights: list[DroneFlight]
     planner: Callable[..., Any]  # missionplan.retask.plan_retask
     alert: Callable[[str], None]
@@ -109,7 +110,7 @@ class Retasker:
         states = [self._survivor(f, held[f.sysid]) for f in survivors]
         planning = time.monotonic()
         try:
-            plan = self.planner(self.plan_dir, self.report, states, photos)
+            plan = self.planner(self.plan_dir, self.record, states, photos)
         except ValueError as err:  # RetaskError / MapError: the reason, for the crew
             self._refused(survivors, entry, str(err))
             return

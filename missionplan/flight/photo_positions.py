@@ -21,7 +21,8 @@ import numpy as np
 from missionplan.bridge.formats.mission_items import CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_WAYPOINT
 from missionplan.geo.frame import GridFrame
 
-from .plan_report import frame_of, to_grid_m
+from ..mission.plan_record import PlanRecord
+from .plan_report import frame_of, to_grid_m, trigger_distance_m
 from .record import DroneRecord
 
 
@@ -130,11 +131,11 @@ def ledger_photos(frame: GridFrame, rec: DroneRecord, points_m: np.ndarray, sour
     return []
 
 
-def flight_photos(report: dict[str, Any], records: list[DroneRecord], photos_from_track: bool) -> list[dict[str, Any]]:
+def flight_photos(record: PlanRecord, records: list[DroneRecord], photos_from_track: bool) -> list[dict[str, Any]]:
     """The confirmed photos of a flight as the judge puts them into the survey ledger (ledger_photos of
     photo_positions, per drone): what a ledger rebuilt from the journal must hold again."""
-    frame = frame_of(report)
-    trigger = float(report["georeference"].get("trigger_distance_m") or 0.0)
+    frame = frame_of(record)
+    trigger = trigger_distance_m(record)
     kept: list[dict[str, Any]] = []
     for rec in records:
         points, _, source = photo_positions(frame, rec, trigger, from_track=photos_from_track)

@@ -1,7 +1,8 @@
-"""A plan folder's report.json as the flight side reads it: the frame, the grid, the targets to photograph.
+"""A plan folder's plan record as the flight side reads it: the frame, the grid, the targets to photograph.
 
-The judge (flight_report), the survey ledger, the re-planners and `status` all read a plan the same way;
-this module is that one way, and the one photo rule they share (SLACK_CELLS). Nothing here flies or judges.
+The judge (flight_report), the survey ledger, the re-planners and `status` all read a plan the same way
+(mission.plan_record.read_plan_record); this module is what they ask of it, and the one photo rule they
+share (SLACK_CELLS). Nothing here flies or judges.
 """
 
 from __future__ import annotations
@@ -11,8 +12,10 @@ from typing import Any
 import numpy as np
 
 from missionplan.geo.frame import GridFrame
+from missionplan.geo.georeference import Georeference
 
-from ..maps.gridmap import GridMap
+from ..maps.gridmap import GridMap, MapError
+from ..mission.plan_record import PlanRecord
 
 # How much of a cell's side may fall outside the photo that counts for it: a quarter cell, the
 # waypoint acceptance radius the missions give the autopilot (a vehicle may turn that early), which
@@ -20,21 +23,32 @@ from ..maps.gridmap import GridMap
 SLACK_CELLS = 0.25
 
 
-def frame_of(report: dict[str, Any]) -> GridFrame:
+def georeference_of(record: PlanRecord) -> Georeference:
+    """The plan's georeference; MapError for a plan of a map without origin (nothing was flown)."""
+    if record.georeference is None:
+        raise MapError(f"plan {record.map}: no georeference (a map without origin): nothing to fly or survey")
+    return record.georeference
+
+
+def frame_of(record: PlanRecord) -> GridFrame:
     """The plan's georeference (report.json `georeference`) on its grid."""
-    grid = report["grid"]
-    return GridFrame.from_meta({k: str(v) for k, v in report["georeference"].items()}, len(grid), len(grid[0]))
+    return georeference_of(record).frame
 
 
-def planned_grid(report: dict[str, Any]) -> GridMap:
+def trigger_distance_m(record: PlanRecord) -> float:
+    """The distance the plan takes photos at along a track (0 when it says none)."""
+    return float(georeference_of(record).trigger_distance_m or 0.0)
+
+
+def planned_grid(record: PlanRecord) -> GridMap:
     """The grid the plan was made on (report.json `grid`)."""
-    return GridMap.from_rows(str(report.get("map", "plan")), report["grid"])
+    return GridMap.from_rows(record.map, list(record.grid))
 
 
-def target_cells(report: dict[str, Any]) -> np.ndarray:
+def target_cells(record: PlanRecord) -> np.ndarray:
     """(n, 2) cells the plan had to photograph: the map's targets that are reachable."""
-    target = planned_grid(report).target.copy()
-    unreachable = np.asarray(report.get("unreachable_cells") or [], dtype=np.int64).reshape(-1, 2)
+    target = planned_grid(record).target.copy()
+    unreachable = np.asarray(record.unreachable_cells, dtype=np.int64).reshape(-1, 2)
     target[unreachable[:, 0], unreachable[:, 1]] = False
     return np.argwhere(target)
 
@@ -48,12 +62,11 @@ def to_grid_m(frame: GridFrame, lat: Any, lon: Any) -> np.ndarray:
     return np.column_stack([np.atleast_1d(r), np.atleast_1d(c)]) * frame.cell_m
 
 
-def missing_map(report: dict[str, Any], missing: np.ndarray, launch: list[tuple[int, int]],
+def missing_map(record: PlanRecord, missing: np.ndarray, launch: list[tuple[int, int]],
                 suffix: str = "rest") -> GridMap:
-    """A plan's grid (report.json) with only `missing` as targets and the given launch cells, its meta from
-    the georeference: what `replan` and fly's live re-task plan."""
-    base = planned_grid(report)
+    """A plan's grid with only `missing` as targets and the given launch cells, on the plan's georeference:
+    what `replan` and fly's live re-task plan."""
+    base = planned_grid(record)
     target = np.zeros(base.shape, dtype=bool)
     target[missing[:, 0], missing[:, 1]] = True
-    meta = {k: str(v) for k, v in report["georeference"].items()}
-    return GridMap(f"{base.name}-{suffix}", base.obstacle, target, launch, meta)
+    return GridMap(f"{base.name}-{suffix}", base.obstacle, target, launch, georef=georeference_of(record))

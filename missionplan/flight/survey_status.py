@@ -54,7 +54,7 @@ def draw_status(path: Path, ledger: Ledger, status: dict[str, Any]) -> None:
     import matplotlib.pyplot as plt
 
     survey = ledger.survey
-    gmap = planned_grid(survey.report)
+    gmap = planned_grid(survey.record)
     rows, cols = gmap.shape
     img = np.ones((rows, cols, 3))
     img[gmap.obstacle] = (0.25, 0.25, 0.25)

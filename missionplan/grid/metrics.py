@@ -26,6 +26,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT
+
 STEADY_LOW, STEADY_HIGH = 0.40, 0.70
 MDU_EVERY_STEP_TARGETS = 20_000  # maps up to this many targets (every shipped one) get MDU* at every step
 MDU_STRIDE_TARGETS = 10_000  # bigger maps: every (U // this)-th steady-state step
@@ -148,7 +150,7 @@ def compute_metrics(paths: np.ndarray, new_cells: np.ndarray, sampler: SteadySta
     moves = np.array([move_count(p) for p in paths])
     mmn = float(moves.mean()) if num_drones else 0.0
     denom = num_drones * mmn
-    te = 100.0 * float(new_cells.sum()) / 9.0 / denom if denom else 0.0
+    te = 100.0 * float(new_cells.sum()) / CELLS_PER_FOOTPRINT / denom if denom else 0.0
     mnt = 100.0 * sum(turn_sum(p) for p in paths) / denom if denom else 0.0
     return {
         "MMN": mmn,

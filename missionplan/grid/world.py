@@ -19,6 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT
+
 from ..maps.gridmap import Cell, GridMap, MapError
 
 # Actions in the order the network's outputs use: Up, Right, Down, Left.
@@ -36,7 +38,7 @@ def turn_weight(a: int, b: int) -> float:
         return 0.0
     return 1.0 if (a - b) % 4 == 2 else 0.5
 
-FOOTPRINT_RADIUS = 4  # 9 x 9 cells centred on the drone
+FOOTPRINT_RADIUS = CELLS_PER_FOOTPRINT // 2  # 9 x 9 cells centred on the drone
 VIEW_RADIUS = 9  # 19 x 19 local view
 EXPLORED = -2  # _pad_open_zone of a cell that is not (or no longer) an unexplored target
 PAD = 32  # padding of the internal arrays, so any window up to this radius is one slice

@@ -26,6 +26,8 @@ import numpy as np
 from scipy import ndimage
 from tqdm import tqdm
 
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT
+
 from ..grid.expert import ExpertPolicy
 from ..grid.planner import Planner, Policy
 from ..grid.world import CoverageWorld, reachable_targets
@@ -138,7 +140,7 @@ def play_map(gmap: GridMap, driver: Policy | None = None, expert_share: float = 
     else:
         states, actions = np.zeros((0, STATE_SIZE), np.int8), np.zeros(0, np.int8)
     demos = Demonstrations(states, actions, np.zeros(len(actions), np.int32))
-    floor = world.num_targets / 9 / len(world.positions)
+    floor = world.num_targets / CELLS_PER_FOOTPRINT / len(world.positions)
     return demos, CoverageRun(moves=int(run.metrics["MMN"]), floor=floor, success=run.success)
 
 

@@ -1,8 +1,9 @@
 """The occupancy-grid map and its plain-text file format.
 
 A `GridMap` is what every planning stage reads: which cells are obstacles, which are
-targets (streets to photograph), where the drones launch, and free-form metadata
-(title, cell size, later the georeference). It knows nothing about drones moving.
+targets (streets to photograph), where the drones launch, where the grid lies on the Earth
+(`georef`, a missionplan.geo.georeference.Georeference, or None) and free-form metadata (title,
+credit, the map's declared safety values). It knows nothing about drones moving.
 
 File format (`*.map`, UTF-8 text, meant to be written by hand as easily as by code)::
 
@@ -17,8 +18,11 @@ File format (`*.map`, UTF-8 text, meant to be written by hand as easily as by co
     ##########
 
 Header lines are `key: value`, each key once (a key given twice is refused, naming both lines).
-`name`, `launch` and `grid:` are required; every other key is kept as a string in `GridMap.meta`. After `grid:` every line is one row of the grid,
-all rows the same length, one character per cell:
+`name`, `launch` and `grid:` are required; every other key is kept as a string in `GridMap.meta`, in the
+file's order, so a map saved again keeps its header lines byte for byte. The georeference's lines
+(origin_lat, origin_lon, cell_m, altitude_m, fov_deg, ...: Georeference.from_header) are read once,
+into `GridMap.georef`; code reads them there, never from the strings. After `grid:` every line is one row
+of the grid, all rows the same length, one character per cell:
 
     `#`  obstacle (building, water, no-fly) - never entered
     `.`  target cell: free, to be photographed
@@ -34,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from missionplan.base.atomic import write_text_atomic
+from missionplan.geo.georeference import Georeference
 
 OBSTACLE_CHAR = "#"
 TARGET_CHAR = "."
@@ -50,13 +55,18 @@ Cell = tuple[int, int]
 
 @dataclass
 class GridMap:
-    """An occupancy grid: `obstacle` and `target` are boolean (rows, cols) arrays."""
+    """An occupancy grid: `obstacle` and `target` are boolean (rows, cols) arrays.
+
+    `meta` holds the map file's header lines as text (the file's spelling, the georeference's lines
+    included); `georef` is the georeference they give, read once: given without its lines in `meta`, its
+    lines are added there, so the map saves with them."""
 
     name: str
     obstacle: np.ndarray
     target: np.ndarray
     launch: list[Cell] = field(default_factory=list)
     meta: dict[str, str] = field(default_factory=dict)
+    georef: Georeference | None = None
 
     def __post_init__(self) -> None:
         self.obstacle = np.asarray(self.obstacle, dtype=bool)
@@ -64,14 +74,24 @@ class GridMap:
         if self.obstacle.ndim != 2 or self.obstacle.shape != self.target.shape:
             raise MapError(f"map {self.name}: obstacle and target grids must be 2-D and the same shape")
         self.launch = [(int(r), int(c)) for r, c in self.launch]
+        if self.georef is None:
+            self.georef = Georeference.from_header(self.meta, *self.shape)
+        else:
+            self.meta = {**self.meta, **{k: v for k, v in self.georef.to_header().items() if k not in self.meta}}
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self.obstacle.shape  # type: ignore[return-value]
+        rows, cols = self.obstacle.shape  # 2-D, checked on construction
+        return rows, cols
 
     @property
     def free(self) -> np.ndarray:
         return ~self.obstacle
+
+    @property
+    def cell_m(self) -> float | None:
+        """A cell's side on the ground in metres, from the georeference (None: the map lies nowhere)."""
+        return self.georef.cell_m if self.georef is not None else None
 
     def inside(self, cell: Cell) -> bool:
         r, c = cell
@@ -86,7 +106,7 @@ class GridMap:
 
     @classmethod
     def from_rows(cls, name: str, rows: list[str], launch: list[Cell] | None = None,
-                  meta: dict[str, str] | None = None) -> "GridMap":
+                  meta: dict[str, str] | None = None, georef: Georeference | None = None) -> "GridMap":
         """Build a map from `#`/`.`/`o` strings (the inverse of `rows_text`)."""
         if not rows:
             raise MapError(f"map {name}: the grid is empty")
@@ -100,7 +120,7 @@ class GridMap:
                                f"(use '#', '.' or 'o')")
         chars = np.array([list(row) for row in rows])
         return cls(name=name, obstacle=chars == OBSTACLE_CHAR, target=chars == TARGET_CHAR,
-                   launch=list(launch or []), meta=dict(meta or {}))
+                   launch=list(launch or []), meta=dict(meta or {}), georef=georef)
 
 
 def _parse_launch(text: str, where: str) -> list[Cell]:

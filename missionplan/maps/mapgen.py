@@ -26,6 +26,8 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
+from missionplan.geo.camera import footprint_of_cell
+
 from .gridmap import Cell, GridMap, save_map
 
 # Cell kinds of the painting canvas; FREE is the file format's 'o' (flown over, no photo).
@@ -573,7 +575,7 @@ SHIPPED_SAFETY: dict[str, dict[str, str]] = {
 def georeference(gmap: GridMap) -> GridMap:
     """A copy of a shipped map with its origin, altitude and camera field of view in the metadata."""
     origin_lat, origin_lon, altitude = SHIPPED_GEOREFERENCE[gmap.name]
-    footprint = 9 * float(gmap.meta["cell_m"])
+    footprint = footprint_of_cell(float(gmap.meta["cell_m"]))
     fov = 2 * np.degrees(np.arctan(footprint / (2 * altitude)))
     meta = {**gmap.meta, "origin_lat": f"{origin_lat:.6f}", "origin_lon": f"{origin_lon:.6f}",
             "altitude_m": f"{altitude:g}", "fov_deg": f"{fov:.4f}", **SHIPPED_SAFETY.get(gmap.name, {})}

@@ -24,8 +24,12 @@ Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_l
                   layers.
   outputs         A plan folder's own files: which ones a previous `plan` wrote there, so a re-plan
                   leaves none stale.
+  plan_blocks     The typed blocks of a plan record: what each drone flies, the safety promise, the
+                  coverage and its warnings, the files read, the settings, the planner's figures.
+  plan_record     The plan as data: `PlanRecord`, what report.json holds, and the one way it is written
+                  and read.
   plot            plan.png: zones, every drone's track in its own colour, and how coverage grew.
-  report          report.json: the machine-readable record of a plan, enough to replay and check it.
+  report          The grid plan's part of a plan record (`build_report`).
   safety          The field-safety settings of a georeferenced plan, from the command line and the map:
                   one checked value object.
   separation      Separation by construction: the altitude layers that keep every two drones

@@ -18,6 +18,7 @@ from __future__ import annotations
 from typing import Any
 
 import dataclasses
+from dataclasses import replace
 
 import numpy as np
 from scipy import ndimage
@@ -26,6 +27,8 @@ from missionplan.base.naming import Named
 
 from ..grid.world import FOOTPRINT_RADIUS
 from ..maps.gridmap import GridMap, MapError
+from .plan_blocks import BandCounts, cells_of
+from .plan_record import PlanRecord
 
 
 def band_structure(clearance_cells: float) -> np.ndarray:
@@ -47,8 +50,10 @@ def clearance_band(obstacle: np.ndarray, clearance_cells: float) -> np.ndarray:
 def flight_map(gmap: GridMap, clearance_m: float, uavs: int) -> tuple[GridMap, np.ndarray]:
     """(the map the grid planner flies: the clearance band made obstacle, the band). MapError naming the
     drone when a launch cell lies in the band (it could not leave it without breaking the clearance)."""
-    cell_m = float(gmap.meta["cell_m"])
-    band = clearance_band(gmap.obstacle, clearance_m / cell_m)
+    if gmap.cell_m is None:
+        raise MapError(Named("map {0}: no georeference, so no cell size to keep {clearance} {1:g} m in", gmap.name,
+                             clearance_m))
+    band = clearance_band(gmap.obstacle, clearance_m / gmap.cell_m)
     for k, cell in enumerate(gmap.launch[:uavs], start=1):
         if gmap.inside(cell) and band[cell]:
             raise MapError(Named("map {0}: the launch point of drone {1} (cell {2},{3}) is closer than {clearance} "
@@ -68,19 +73,18 @@ def footprint_union(paths: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return ndimage.binary_dilation(visited, structure=np.ones((size, size), dtype=bool))
 
 
-def band_coverage(report: dict, gmap: GridMap, band: np.ndarray, paths: np.ndarray) -> dict:
-    """Put the band's targets back into report.json: the grid is the map as given (not the planner's),
+def band_coverage(record: PlanRecord, gmap: GridMap, band: np.ndarray,
+                  paths: np.ndarray) -> tuple[PlanRecord, BandCounts]:
+    """The plan record with the band's targets put back: the grid is the map as given (not the planner's),
     band targets no footprint of the plan holds join `unreachable_cells`, the ones it holds join
-    `targets`. Returns the counts for report.json `clearance`."""
+    `targets`; and the counts for report.json `clearance`."""
     band_targets = gmap.target & band
     held = footprint_union(paths, gmap.shape)
     photographed, missed = band_targets & held, band_targets & ~held
-    report["grid"] = gmap.rows_text()
-    report["targets"] = int(report["targets"]) + int(photographed.sum())
-    report["unreachable_cells"] = list(report["unreachable_cells"]) + np.argwhere(missed).tolist()
-    report["unreachable"] = len(report["unreachable_cells"])
-    return {"band_cells": int(band.sum()), "band_targets": int(band_targets.sum()),
-            "band_targets_photographed": int(photographed.sum()), "band_targets_missed": int(missed.sum())}
+    unreachable = record.unreachable_cells + cells_of(np.argwhere(missed).tolist())
+    record = replace(record, grid=tuple(gmap.rows_text()), targets=int(record.targets) + int(photographed.sum()),
+                     unreachable_cells=unreachable, unreachable=len(unreachable))
+    return record, BandCounts(int(band.sum()), int(band_targets.sum()), int(photographed.sum()), int(missed.sum()))
 
 
 def obstacle_shape(obstacle: np.ndarray, cell_m: float) -> Any:

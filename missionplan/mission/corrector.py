@@ -43,7 +43,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-FOOTPRINT_RADIUS = 4
+from ..grid.world import FOOTPRINT_RADIUS
+
 MARGIN_CELLS = 0.5
 SAMPLE_STEP = 0.25
 PATIENCE = 8

@@ -11,7 +11,6 @@ and when a drone gets under a fifth of the mean share (its launch point in a poc
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 from scipy import ndimage
@@ -21,6 +20,7 @@ from missionplan.geo.heights import LEVEL_HEIGHT_M
 from ..grid.world import reachable_targets
 from ..maps.gridmap import Cell, GridMap
 from .clearance import clearance_band
+from .plan_blocks import CoverageSummary, SmallShare
 
 UNREACHABLE_WARN_FRACTION = 0.05  # warn when more than this share of all targets is unreachable
 SMALL_SHARE_FRACTION = 0.2  # warn about a drone whose share is under this fraction of the mean
@@ -58,7 +58,7 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
                     total_buildings: int | None = None, assumed_height_m: float | None = None,
                     if_overflown: Callable[[], GridMap] | None = None,
                     launch_labels: list[str] | None = None, unreachable_mask: np.ndarray | None = None,
-                    clearance_m: float = 0.0, causes: dict[str, np.ndarray] | None = None) -> dict[str, Any]:
+                    clearance_m: float = 0.0, causes: dict[str, np.ndarray] | None = None) -> CoverageSummary:
     """The `coverage` block of report.json: both coverage numbers, counts, causes, warnings.
 
     `coverage_pct` is the plan's coverage of the reachable targets; `zone_sizes` the targets
@@ -71,22 +71,12 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
     """
     total = reachable_targets_count + unreachable
     covered = int(round(coverage_pct * reachable_targets_count / 100.0))
-    block: dict[str, Any] = {
-        "reachable_pct": round(float(coverage_pct), 2),
-        "all_pct": _pct(covered, total),
-        "covered": covered,
-        "targets_reachable": reachable_targets_count,
-        "targets_all": total,
-        "unreachable": unreachable,
-        "unreachable_pct": _pct(unreachable, total) if total else 0.0,
-        "unknown_height_buildings": unknown_buildings,
-        "unknown_building_height_m": assumed_height_m,
-        "unreachable_by_unknown_height": None,
-        "unreachable_by_clearance": None,
-        "small_shares": [],
-        "warnings": [],
-    }
-    warnings: list[str] = block["warnings"]
+    reachable_pct, all_pct = round(float(coverage_pct), 2), _pct(covered, total)
+    unreachable_pct = _pct(unreachable, total) if total else 0.0
+    by_unknown_height: int | None = None
+    by_clearance: int | None = None
+    small_shares: list[SmallShare] = []
+    warnings: list[str] = []
     if total and unreachable > UNREACHABLE_WARN_FRACTION * total:
         if causes is None:
             crossed = if_overflown() if if_overflown is not None else None
@@ -94,7 +84,7 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
         reasons: list[str] = []
         cut = causes.get(UNKNOWN_HEIGHT)
         if if_overflown is not None or cut is not None:
-            block["unreachable_by_unknown_height"] = int(cut.sum()) if cut is not None else 0
+            by_unknown_height = int(cut.sum()) if cut is not None else 0
         if cut is not None and cut.any():
             reasons.append(f"{int(cut.sum())} of them are cut off only by the {unknown_buildings} of "
                            f"{total_buildings} buildings of unknown height (no height, building:height or "
@@ -102,7 +92,7 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
                            f"--unknown-building-height M (or tag building:levels, {LEVEL_HEIGHT_M:g} m a level)")
         in_band = causes.get(CLEARANCE_BAND)
         if in_band is not None:
-            block["unreachable_by_clearance"] = int(in_band.sum())
+            by_clearance = int(in_band.sum())
             if in_band.any():
                 reasons.append(f"{int(in_band.sum())} of them lie within --clearance {clearance_m:g} m of an obstacle "
                                f"and out of every photo taken outside it (narrow streets, courtyards); a smaller "
@@ -112,9 +102,9 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
             reasons.append(f"they {POCKET_REASON}")
         elif explained < unreachable:
             reasons.append(f"the other {unreachable - explained} {POCKET_REASON}")
-        warnings.append(f"{unreachable} of {total} target cells ({block['unreachable_pct']:.1f} %) are unreachable: "
-                        f"the plan covers {block['reachable_pct']:.1f} % of the reachable targets but "
-                        f"{block['all_pct']:.1f} % of all; {'; '.join(reasons)}")
+        warnings.append(f"{unreachable} of {total} target cells ({unreachable_pct:.1f} %) are unreachable: "
+                        f"the plan covers {reachable_pct:.1f} % of the reachable targets but "
+                        f"{all_pct:.1f} % of all; {'; '.join(reasons)}")
     if zone_sizes:
         mean = sum(zone_sizes) / len(zone_sizes)
         pockets, alone = _launch_pockets(gmap, starts)
@@ -124,8 +114,7 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
             if size >= SMALL_SHARE_FRACTION * mean and not in_pocket:
                 continue
             uav = k + 1
-            block["small_shares"].append({"uav": uav, "targets": int(size), "mean": round(mean, 1),
-                                          "launch_pocket_targets": pockets[k]})
+            small_shares.append(SmallShare(uav, int(size), round(mean, 1), pockets[k]))
             if pockets[k] < SMALL_SHARE_FRACTION * mean or in_pocket:
                 where = launch_labels[k] if launch_labels else f"cell {tuple(starts[k])}"
                 why = (f"its launch point {where} is in a pocket of {pockets[k]} target cells walled off "
@@ -134,7 +123,9 @@ def coverage_report(gmap: GridMap, starts: list[Cell], reachable_targets_count: 
                 why = "its zone came out small; another launch point spreads the work better"
             share = "under a fifth of" if size < SMALL_SHARE_FRACTION * mean else "less than"
             warnings.append(f"uav{uav} gets {size} target cells, {share} the mean share ({mean:.0f}): {why}")
-    return block
+    return CoverageSummary(reachable_pct, all_pct, covered, reachable_targets_count, total, unreachable, unreachable_pct,
+                           unknown_buildings, assumed_height_m, by_unknown_height, by_clearance, tuple(small_shares),
+                           tuple(warnings))
 
 
 def unreachable_causes(gmap: GridMap, starts: list[Cell], unreachable_mask: np.ndarray | None,
@@ -149,7 +140,7 @@ def unreachable_causes(gmap: GridMap, starts: list[Cell], unreachable_mask: np.n
     if crossed is not None:
         causes[UNKNOWN_HEIGHT] = _cut_off_by(gmap, starts, crossed) & left
         left &= ~causes[UNKNOWN_HEIGHT]
-    cell_m = float(gmap.meta.get("cell_m", 0.0) or 0.0)
+    cell_m = gmap.cell_m or 0.0
     if clearance_m > 0 and cell_m > 0:
         band = clearance_band(gmap.obstacle, clearance_m / cell_m)
         # pocket cells are pockets whatever the margin: only band targets the drones can get near count

@@ -28,12 +28,13 @@ import numpy as np
 from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND,
                             CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT,
                             FRAME_MISSION, SPEED_TYPE_GROUNDSPEED, Mission, MissionItem)
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 
 DEFAULT_SPEED_M_S = 5.0
 # 8/9: a photo every cell (S/9), exactly what the grid world assumes when it photographs the
 # 9 x 9 block under the drone at every step. A smaller overlap saves photos but leaves the
 # coverage to the footprint's margin.
-DEFAULT_OVERLAP = 8 / 9
+DEFAULT_OVERLAP = (CELLS_PER_FOOTPRINT - 1) / CELLS_PER_FOOTPRINT
 END_ACTIONS = ("rtl", "land")
 
 

@@ -25,6 +25,7 @@ from ..grid.world import FOOTPRINT_RADIUS
 from ..maps.gridmap import GridMap, MapError
 from .corrector import MARGIN_CELLS, CorrectedPath, correct_path
 from .geofence import Fence, drone_fence
+from .plan_blocks import ClearancePromise, Closest, DronePlan, FencePlan, PathShape, SeparationPromise, SortiePlan
 from .drone_missions import DroneMission, MissionSettings, build_mission
 from .safety import SafetySettings
 from .separation import Layering, SeparationError, choose_layers, closest_over_sorties, position_at
@@ -69,19 +70,20 @@ class FlightPlans:
         self.timed = {rename[key]: track for key, track in self.timed.items()}
         self.sortie_tracks = [{rename[key]: track for key, track in tracks.items()} for tracks in self.sortie_tracks]
 
-    def separation(self) -> dict[str, Any]:
+    def separation(self) -> SeparationPromise:
         """report.json's `separation`: the closest approach of two drones if all fly as planned; with
         safety settings, the minimum it guarantees and how."""
         approach = closest_over_sorties(self.sortie_tracks)
-        doc = {**approach, "assumes": PX4_ASSUMES if self.settings.autopilot == "px4" else ASSUMES,
-               "sorties": [closest_approach(tracks) for tracks in self.sortie_tracks]}
+        promise = SeparationPromise(Closest.from_json(approach), approach["sortie"],
+                                    PX4_ASSUMES if self.settings.autopilot == "px4" else ASSUMES,
+                                    tuple(Closest.from_json(closest_approach(tracks)) for tracks in self.sortie_tracks))
         if self.safety is not None and self.layering is not None:
-            doc.update({"required_m": self.safety.min_separation_m, "method": self.layering.method,
-                        "altitude_step_m": self.layering.step_m,
-                        "guaranteed_m": None if approach["3d"] is None else approach["3d"]})
-        return doc
+            promise = replace(promise, required_m=self.safety.min_separation_m, method=self.layering.method,
+                              altitude_step_m=self.layering.step_m,
+                              guaranteed_m=None if approach["3d"] is None else approach["3d"])
+        return promise
 
-    def clearance(self, gmap: GridMap, frame: GridFrame) -> dict[str, Any]:
+    def clearance(self, gmap: GridMap, frame: GridFrame) -> ClearancePromise:
         """report.json's `clearance`: each drone's smallest horizontal distance from an obstacle cell over
         all its sorties (missionplan.mission.clearance) on `gmap` (the map as given, without the clearance band),
         the asked margin, and where the closest track is."""
@@ -100,32 +102,33 @@ class FlightPlans:
                 worst = (distance, self.sorties[k][0].sysid, where)
         required = self.safety.clearance_m if self.safety is not None else None
         kept = None if not np.isfinite(worst[0]) else round(worst[0], 2)
-        doc: dict[str, Any] = {"required_m": required, "kept_m": kept, "per_drone_m": per_drone,
-                               "kept": required is None or kept is None or kept >= required - 1e-6}
+        promise = ClearancePromise(required, kept, tuple(per_drone),
+                                   required is None or kept is None or kept >= required - 1e-6)
         if kept is not None:
             lat, lon = frame.grid_to_latlon(np.array([worst[2][0] / frame.cell_m]), np.array([worst[2][1] / frame.cell_m]))
-            doc.update({"closest_uav": worst[1], "closest_at": [round(float(lat[0]), 7), round(float(lon[0]), 7)]})
-        return doc
+            promise = replace(promise, closest_uav=worst[1],
+                              closest_at=(round(float(lat[0]), 7), round(float(lon[0]), 7)))
+        return promise
 
-    def report(self) -> list[dict[str, Any]]:
-        """report.json's `drones`: one object per drone (totals over its sorties, then each sortie)."""
+    def drone_plans(self) -> tuple[DronePlan, ...]:
+        """report.json's `drones`: one per drone (totals over its sorties, then each sortie)."""
         rows = []
         for k, (track, missions) in enumerate(zip(self.corrected, self.sorties)):
             sysid = missions[0].sysid
-            row = {"id": sysid, "cells": int(track.before["waypoints"]),
-                   "waypoints": int(sum(m.waypoints for m in missions)),
-                   "length_m": round(sum(m.length_m for m in missions), 2),
-                   "flight_s": round(sum(m.flight_s for m in missions), 1),
-                   "photos": int(sum(m.photos for m in missions)), "altitude_m": round(self.settings.altitude_of(k), 2),
-                   "smoothing": {"before": track.before, "after": track.after},
-                   "sorties": [{"file": sortie_file(sysid, j + 1), "flight_s": round(m.flight_s, 1),
-                                "photos": m.photos, "waypoints": m.waypoints} for j, m in enumerate(missions)]}
+            fence = None
             if self.fences:
-                fence = self.fences[k]
-                row["geofence"] = {"vertices": len(fence.latlon), "max_altitude_m": fence.max_altitude_m,
-                                   "margin_m": self.safety.fence_margin_m if self.safety else None}
-            rows.append(row)
-        return rows
+                fence = FencePlan(len(self.fences[k].latlon), self.fences[k].max_altitude_m,
+                                  self.safety.fence_margin_m if self.safety else None)
+            rows.append(DronePlan(
+                id=sysid, cells=int(track.before["waypoints"]), waypoints=int(sum(m.waypoints for m in missions)),
+                length_m=round(sum(m.length_m for m in missions), 2),
+                flight_s=round(sum(m.flight_s for m in missions), 1),
+                photos=int(sum(m.photos for m in missions)), altitude_m=round(self.settings.altitude_of(k), 2),
+                before=PathShape.from_json(track.before), after=PathShape.from_json(track.after),
+                sorties=tuple(SortiePlan(sortie_file(sysid, j + 1), round(m.flight_s, 1), m.photos, m.waypoints)
+                              for j, m in enumerate(missions)),
+                geofence=fence))
+        return tuple(rows)
 
 
 def _place(frame: GridFrame, point_m: np.ndarray) -> str:

@@ -32,6 +32,7 @@ from missionplan.geo.sources import Building, Omission, SourceFile
 
 from ..maps.gridmap import GridMap
 from .drone_missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, MissionSettings
+from .plan_blocks import BuildingsRead, InputFile
 
 WARNING_NAMES = 3  # files' omissions named in the warning line before "and N more"
 
@@ -102,7 +103,7 @@ class AreaSources:
     area: Any  # shapely (Multi)Polygon
     buildings: list[Building] = field(default_factory=list)
     no_fly: list[Any] = field(default_factory=list)
-    inputs: list[dict[str, Any]] = field(default_factory=list)  # input_entry of each file: area, obstacles, buildings
+    inputs: list[InputFile] = field(default_factory=list)  # input_entry of each file: area, obstacles, buildings
     warnings: list[str] = field(default_factory=list)  # inputs_warning's line, when it has one
 
 
@@ -152,7 +153,7 @@ def load_area_checked(request: AreaRequest) -> tuple[GridMap, GridFrame, Unknown
     def build(blds: list[Building]) -> tuple[GridMap, GridFrame]:
         raster, frame = build_grid_map(area_path.stem, area, [], blds, no_fly, launch, request.altitude,
                                        camera.fov_deg, rotation_deg=request.rotation, area_file=str(request.area))
-        return GridMap(raster.name, raster.obstacle, raster.target, raster.launch, raster.meta), frame
+        return GridMap(raster.name, raster.obstacle, raster.target, raster.launch, georef=raster.georef), frame
 
     gmap, frame = build(buildings)
     if building_source is not None and building_source.reader == "pyosmium":
@@ -170,18 +171,18 @@ def load_area_checked(request: AreaRequest) -> tuple[GridMap, GridFrame, Unknown
 
 
 def input_entry(role: str, source: SourceFile, in_area: list[Building] | None = None,
-                assumed_height_m: float | None = None, height_field: str | None = None) -> dict[str, Any]:
+                assumed_height_m: float | None = None, height_field: str | None = None) -> InputFile:
     """report.json's record of one file read: how it was read, what it left out (named) and, for the
     buildings, how many lie in the area and which of those have no height (`role`: area, obstacles,
     buildings). Repairs of buildings are listed for those in the area only."""
-    entry: dict[str, Any] = {"role": role, **source.to_json()}
+    repaired = tuple(source.repaired)
+    buildings = None
     if in_area is not None:
-        entry["buildings_in_area"] = len(in_area)
-        entry["repaired"] = [Omission(b.ref, b.repaired).to_json() for b in in_area if b.repaired]
-        entry["unknown_height"] = [b.ref for b in in_area if b.height_m is None]
-        entry["unknown_height_assumed_m"] = assumed_height_m
-        entry["height_field"] = height_field
-    return entry
+        repaired = tuple(Omission(b.ref, b.repaired) for b in in_area if b.repaired)
+        buildings = BuildingsRead(len(in_area), tuple(b.ref for b in in_area if b.height_m is None), assumed_height_m,
+                                  height_field)
+    return InputFile(role, source.path, source.format, source.reader, source.layer, source.crs, source.reprojected,
+                     source.features, tuple(source.dropped), repaired, tuple(source.notes), buildings)
 
 
 def _some(items: list[str]) -> str:
@@ -190,22 +191,23 @@ def _some(items: list[str]) -> str:
     return shown + (f" and {len(items) - WARNING_NAMES} more" if len(items) > WARNING_NAMES else "")
 
 
-def inputs_warning(inputs: list[dict[str, Any]]) -> str | None:
+def inputs_warning(inputs: list[InputFile]) -> str | None:
     """ONE line naming, file by file, what was not read, what was repaired and which buildings in the area
     have no height (unless --unknown-building-height gave them one); None when there is nothing to say.
     The full lists are in report.json `inputs`."""
     sentences = []
     for entry in inputs:
-        layer = f":{entry['layer']}" if entry.get("layer") else ""
-        what = "buildings" if entry["role"] == "buildings" else "polygons"
-        for key, done in (("dropped", "not read"), ("repaired", "repaired")):
-            if entry[key]:
-                named = _some([f"{item['id']} ({item['cause']})" for item in entry[key]])
-                count = len(entry[key])
-                sentences.append(f"{entry['path']}{layer}: {count} {what if count > 1 else what[:-1]} {done}: {named}")
-        unknown = entry.get("unknown_height") or []
-        if unknown and entry.get("unknown_height_assumed_m") is None:
-            sentences.append(f"{entry['path']}{layer}: {len(unknown)} of the {entry['buildings_in_area']} buildings "
+        layer = f":{entry.layer}" if entry.layer else ""
+        what = "buildings" if entry.role == "buildings" else "polygons"
+        for omitted, done in ((entry.dropped, "not read"), (entry.repaired, "repaired")):
+            if omitted:
+                named = _some([f"{item.ref} ({item.cause})" for item in omitted])
+                count = len(omitted)
+                sentences.append(f"{entry.path}{layer}: {count} {what if count > 1 else what[:-1]} {done}: {named}")
+        buildings = entry.buildings
+        if buildings is not None and buildings.unknown_height and buildings.unknown_height_assumed_m is None:
+            unknown = list(buildings.unknown_height)
+            sentences.append(f"{entry.path}{layer}: {len(unknown)} of the {buildings.in_area} buildings "
                              f"in the area have no height ({', '.join(HEIGHT_FIELDS[:2])} or building:levels), so "
                              f"they are obstacles: {_some(unknown)} (--unknown-building-height M gives them one)")
     if not sentences:
@@ -214,24 +216,24 @@ def inputs_warning(inputs: list[dict[str, Any]]) -> str | None:
 
 
 def shipped_frame(gmap: GridMap) -> GridFrame | None:
-    """The frame of a map that carries `origin_lat` / `origin_lon` (the shipped maps do), else None."""
-    meta = gmap.meta
-    if "origin_lat" not in meta or "origin_lon" not in meta:
-        return None
-    return GridFrame.from_meta(meta, *gmap.shape)
+    """The frame of a map that carries a georeference (`origin_lat` / `origin_lon`: the shipped maps do), else None."""
+    return gmap.georef.frame if gmap.georef is not None else None
 
 
 def mission_settings(gmap: GridMap, *, speed: float = DEFAULT_SPEED_M_S, overlap: float = DEFAULT_OVERLAP,
                      end: str = "rtl", altitude_step: float = 0.0, altitude: float | None = None,
                      autopilot: str = "ardupilot") -> MissionSettings:
-    """Altitude and footprint from the map (9 cells a side; `altitude` where the map has none), speed, overlap,
-    end action, altitude step and autopilot as `plan` takes them; the defaults are `plan`'s."""
+    """Altitude and footprint from the map's georeference (9 cells a side; `altitude` where the map has none),
+    speed, overlap, end action, altitude step and autopilot as `plan` takes them; the defaults are `plan`'s."""
     check_range(speed, Setting("speed"), 0.0, 100.0, unit=" m/s", low_open=True, error=GeoError)
     check_range(overlap, Setting("overlap"), 0.0, 1.0, high_open=True, what="a fraction", error=GeoError)
     # Layers go up from the altitude, never below it.
     check_range(altitude_step, Setting("altitude_step"), 0.0, 5_000.0, unit=" m", error=GeoError)
-    flight_altitude = float(gmap.meta.get("altitude_m", altitude or 0.0))
+    georef = gmap.georef
+    if georef is None:
+        raise GeoError(f"map {gmap.name}: no georeference (origin_lat, origin_lon) in its metadata")
+    flight_altitude = float(georef.altitude_m if georef.altitude_m is not None else altitude or 0.0)
     if not flight_altitude > 0:
         raise GeoError(f"map {gmap.name}: no flight altitude (altitude_m) in its metadata")
-    return MissionSettings(altitude_m=flight_altitude, footprint_m=9 * float(gmap.meta["cell_m"]), speed_m_s=speed,
+    return MissionSettings(altitude_m=flight_altitude, footprint_m=georef.footprint_m, speed_m_s=speed,
                            overlap=overlap, end=end, altitude_step_m=altitude_step, autopilot=autopilot)

@@ -32,6 +32,7 @@ from ..grid.planresult import PlanResult
 from ..maps.gridmap import GridMap
 from .coverage_check import CAUSE_REASONS
 from .georef import AreaSources
+from .plan_record import PlanRecord
 
 Layers = dict[str, dict[str, Any]]
 
@@ -230,28 +231,30 @@ def one_collection(layers: Layers) -> dict[str, Any]:
     return collection([item for layer in layers.values() for item in layer["features"]])
 
 
-def plan_summary(report: dict[str, Any], layers: Layers) -> dict[str, Any]:
-    """plan.html's side panel: the plan's figures as report.json gives them, per drone and in all."""
-    metrics, cover = report["metrics"], report.get("coverage") or {}
+def plan_summary(record: PlanRecord, layers: Layers) -> dict[str, Any]:
+    """plan.html's side panel: the plan's figures as its record (report.json) gives them, per drone and in all."""
+    metrics, cover = record.metrics, record.coverage
     drones = []
-    for k, drone in enumerate(report.get("drones") or []):
-        drones.append({"uav": drone["id"], "colour": uav_colour(k), "figures": {
-            "altitude": f"{drone['altitude_m']:g} m", "waypoints": str(drone["waypoints"]),
-            "length": f"{drone['length_m']:.0f} m", "flight": f"{drone['flight_s']:.0f} s",
-            "photos": str(drone["photos"]), "sorties": str(len(drone.get("sorties") or [1]))}})
-    figures = {"targets": f"{report['targets']} reachable, {report['unreachable']} unreachable",
-               "coverage": f"{metrics['coverage']:.1f} % of reachable, {cover.get('all_pct', metrics['coverage']):.1f} % of all",
-               "makespan": f"{metrics['makespan']} moves", "MMN / floor": f"{metrics['MMN'] / report['floor']:.2f}"
-               if report.get("floor") else "-"}
-    sep = report.get("separation") or {}
-    if sep.get("3d") is not None:
-        figures["closest approach"] = f"{sep['3d']} m (uav{sep['pair_3d'][0]}, uav{sep['pair_3d'][1]})"
-    clearance = report.get("clearance") or {}
-    if clearance.get("kept_m") is not None:
-        figures["clearance kept"] = f"{clearance['kept_m']:g} m (asked {clearance['required_m']:g} m)"
-    if report.get("credit"):
-        figures["map data"] = report["credit"]
-    status = "every reachable target covered" if report["success"] else f"FAILED: {report['failure']}"
-    return {"kind": "plan", "title": f"{report['map']}: {report['uavs']} drones, policy {report['policy']}",
-            "subtitle": status, "drones": drones, "figures": figures, "notes": list(cover.get("warnings") or []),
+    for k, drone in enumerate(record.drones or ()):
+        drones.append({"uav": drone.id, "colour": uav_colour(k), "figures": {
+            "altitude": f"{drone.altitude_m:g} m", "waypoints": str(drone.waypoints),
+            "length": f"{drone.length_m:.0f} m", "flight": f"{drone.flight_s:.0f} s",
+            "photos": str(drone.photos), "sorties": str(len(drone.sorties) or 1)}})
+    all_pct = cover.all_pct if cover is not None else metrics.coverage
+    figures = {"targets": f"{record.targets} reachable, {record.unreachable} unreachable",
+               "coverage": f"{metrics.coverage:.1f} % of reachable, {all_pct:.1f} % of all",
+               "makespan": f"{metrics.makespan} moves", "MMN / floor": f"{metrics.mmn / record.floor:.2f}"
+               if record.floor else "-"}
+    sep = record.separation
+    if sep is not None and sep.d3 is not None:
+        figures["closest approach"] = f"{sep.d3} m (uav{sep.closest.pair_3d[0]}, uav{sep.closest.pair_3d[1]})"
+    clearance = record.clearance
+    if clearance is not None and clearance.kept_m is not None:
+        figures["clearance kept"] = f"{clearance.kept_m:g} m (asked {clearance.required_m:g} m)"
+    if record.credit:
+        figures["map data"] = record.credit
+    status = "every reachable target covered" if record.success else f"FAILED: {record.failure}"
+    return {"kind": "plan", "title": f"{record.map}: {record.uavs} drones, policy {record.policy}",
+            "subtitle": status, "drones": drones, "figures": figures,
+            "notes": list(cover.warnings) if cover is not None else [],
             "layers": {name: len(layer["features"]) for name, layer in layers.items()}}

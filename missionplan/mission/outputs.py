@@ -13,11 +13,12 @@ else in the folder - the user's own files, fly's flight.json - is never looked a
 from __future__ import annotations
 
 import hashlib
-import json
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Iterable
+
+from .plan_record import listed_files
 
 # What `plan` writes: report.json, plan.png / .html / .gpkg / .kmz, tracks.geojson, uavK[-sJ].plan / .waypoints.
 OUR_FILE = re.compile(r"^(report\.json|plan\.(png|html|gpkg|kmz)|tracks\.geojson|uav\d+(-s\d+)?\.(plan|waypoints))$")
@@ -40,22 +41,8 @@ class PreviousOutputs:
 
 def previous_outputs(out: Path) -> PreviousOutputs:
     """The files the report.json in `out` says `plan` wrote (nothing when there is none or it is unreadable)."""
-    try:
-        report: Any = json.loads((out / "report.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return PreviousOutputs()
-    if not isinstance(report, dict):
-        return PreviousOutputs()
-    sums = report.get("files_sha256")
-    sha256 = {k: v for k, v in sums.items() if isinstance(k, str) and isinstance(v, str)} if isinstance(sums, dict) else {}
-    files = report.get("files")
-    if isinstance(files, list):
-        return PreviousOutputs([name for name in files if isinstance(name, str)], sha256)
-    names = []
-    for drone in report.get("drones") or []:  # reports written before `files` existed
-        if isinstance(drone, dict) and isinstance(drone.get("id"), int):
-            names += [f"uav{drone['id']}.plan", f"uav{drone['id']}.waypoints"]
-    return PreviousOutputs(names + (["tracks.geojson"] if names else []), sha256)
+    names, sha256 = listed_files(out)
+    return PreviousOutputs(names, sha256)
 
 
 @dataclass

@@ -74,7 +74,7 @@ def safety_settings(gmap: GridMap, altitude_m: float, *, min_separation: float |
     max_alt = _positive(Setting("max_altitude"), max_altitude)
     if altitude_m > max_alt:
         raise MapError(Named("{max_altitude} {0:g}: below the flight altitude {1:g} m", max_alt, altitude_m))
-    cell_m = float(gmap.meta.get("cell_m", 0.0) or 0.0)
+    cell_m = gmap.cell_m or 0.0
     if clearance is not None:
         if clearance < 0:
             raise MapError(Named("{clearance} {0:g}: a margin cannot be negative", clearance))
