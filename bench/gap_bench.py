@@ -40,7 +40,7 @@ import numpy as np
 from missionplan.grid.planner import POLICY_PATIENCE, Policy
 from missionplan.maps.gridmap import read_map_text
 from missionplan.maps.movingai import parse_movingai
-from missionplan.pipeline import make_policy, plan_map
+from missionplan.planning.pipeline import make_policy, plan_map
 
 import doctable  # bench/doctable.py: --write-doc
 

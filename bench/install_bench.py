@@ -6,7 +6,7 @@ installs it with constraints.txt into a fresh venv in a temp folder, and measure
 
 - MB on disk of the whole venv (what `du -sm` says), and the seconds the install took;
 - start-up: the median over several runs of `missionplan --help`,
-  `python -c "import missionplan.pipeline"`, loading the shipped network
+  `python -c "import missionplan.planning.pipeline"`, loading the shipped network
   (`make_policy("nn")`), and a small plan with it (Leonardo, 3 drones, `--policy nn`),
   each from a temp folder, after one untimed warm-up run. Each as CPU seconds (user + system
   of the child: steady on a busy machine) / wall seconds.
@@ -90,8 +90,8 @@ def measure(install: str, wheel: Path, constraints: Path | None, work: Path, run
     row = {
         "install": install, "torch": "yes" if has_torch else "no", "MB": disk_mb(venv), "install s": install_s,
         "--help": median_seconds([missionplan, "--help"], cwd, runs),
-        "import pipeline": median_seconds([python, "-c", "import missionplan.pipeline"], cwd, runs),
-        "load nn": median_seconds([python, "-c", "from missionplan.pipeline import make_policy; make_policy('nn')"],
+        "import pipeline": median_seconds([python, "-c", "import missionplan.planning.pipeline"], cwd, runs),
+        "load nn": median_seconds([python, "-c", "from missionplan.planning.pipeline import make_policy; make_policy('nn')"],
                                     cwd, runs),
         "plan nn": median_seconds([missionplan, "plan", "--map", str(LEONARDO), "--uavs", "3", "--policy", "nn",
                                      "--out", str(cwd / "plan"), "--quiet"], cwd, max(3, runs // 2)),

@@ -19,7 +19,7 @@ import time
 
 from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 from missionplan.maps.catalog import load_shipped, shipped_map_names
-from missionplan.pipeline import POLICIES, make_policy, plan_map
+from missionplan.planning.pipeline import POLICIES, make_policy, plan_map
 from missionplan.grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 
 import doctable  # bench/doctable.py: --write-doc

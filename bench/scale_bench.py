@@ -36,13 +36,13 @@ import numpy as np
 
 
 from missionplan.grid import metrics, planner
-from missionplan import pipeline
+from missionplan.planning import pipeline
 from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 from missionplan.base.atomic import atomic_path
 from missionplan.maps.gridmap import GridMap, read_map_text
 from missionplan.maps.movingai import parse_movingai
 from missionplan.maps.mapgen import CITY_LAUNCH_EDGE_MARGIN, launch_candidates, median_launch_cells
-from missionplan.pipeline import POLICIES, make_policy, plan_map
+from missionplan.planning.pipeline import POLICIES, make_policy, plan_map
 from missionplan.learn.trainmaps import TARGET, kind_of, random_city
 
 import doctable  # bench/doctable.py: --write-doc

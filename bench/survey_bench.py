@@ -11,7 +11,7 @@ Each row, times in the vehicles' seconds (simulated) unless named wall:
   --replan-after wait, the planning, the uploads;
 - `flown end`: when the last survivor landed, from the mission start (flight.json, the vehicles' clocks);
 - `ideal end`: the loss moment plus the makespan of a fresh plan for the survivors made at that very
-  moment from where they were, with the photos confirmed until then (missionplan.retask.plan_retask on
+  moment from where they were, with the photos confirmed until then (missionplan.planning.retask.plan_retask on
   the journal's records cut at the loss, no waiting, no upload): what re-tasking could at best give;
 - `extra`: flown end less ideal end (s, and % of the ideal end); `flying s`: the part of it not spent
   before the new missions were on board (`veh s`), i.e. the survivors flying their new plans slower
@@ -72,7 +72,7 @@ def _at(rec: Any, t: float) -> tuple[float, float, float]:
 def ideal_end(plan_dir: Path, scale: float) -> tuple[float, float]:
     """(the loss moment, the ideal end), vehicle seconds from the survivors' mission start."""
     from missionplan.flight.journal_read import read_flight
-    from missionplan.retask import Survivor, plan_retask
+    from missionplan.planning.retask import Survivor, plan_retask
 
     _, _, records = read_flight(plan_dir)
     lost = next(r for r in records if r.id == LOST)

@@ -58,7 +58,7 @@ from missionplan.grid.zones import split_zones
 from missionplan.maps.gridmap import Cell, GridMap, read_map_text
 from missionplan.maps.launches import spread_launches
 from missionplan.maps.movingai import parse_movingai
-from missionplan.pipeline import make_policy, plan_map
+from missionplan.planning.pipeline import make_policy, plan_map
 
 import doctable  # bench/doctable.py: --write-doc
 

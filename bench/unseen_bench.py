@@ -38,7 +38,7 @@ from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 from missionplan.maps.gridmap import GridMap, read_map_text
 from missionplan.maps.launches import largest_region
 from missionplan.maps.movingai import parse_movingai
-from missionplan.pipeline import POLICIES, make_policy, plan_map
+from missionplan.planning.pipeline import POLICIES, make_policy, plan_map
 
 import doctable  # bench/doctable.py: --write-doc
 from child_row import run_child_row

@@ -4,7 +4,7 @@ import pytest
 
 from missionplan.maps.catalog import load_shipped
 from missionplan.mission.corrector import chebyshev_to_segment, correct_path, path_length, total_turning
-from missionplan.pipeline import plan_map
+from missionplan.planning.pipeline import plan_map
 
 R = 4
 

@@ -5,6 +5,7 @@ judge's small honesty fixes."""
 from __future__ import annotations
 
 import time
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -17,6 +18,7 @@ from missionplan.bridge.link.readiness import (Vehicle, VehicleState, launch_off
                                                stream_rates)
 from missionplan.bridge.link.shared_link import SharedLink, parse_connects
 from missionplan.flight import flight_report as fr
+from missionplan.mission.plan_blocks import SeparationPromise
 from missionplan.testing.loopback import free_udp_port, wait_until
 
 MILAN = (45.4643, 9.1895, 120.0)
@@ -194,7 +196,9 @@ def test_site_problem_names_the_distance() -> None:
 # -------------------------------------------------------------------------------- the judge
 def test_separation_is_not_called_kept_when_fewer_than_two_drones_flew() -> None:
     track = np.column_stack([np.arange(10.0), np.zeros(10), np.arange(10.0), np.full(10, 20.0)])
-    sep = fr._separation({"separation": {"3d": 8.0, "horizontal": 8.0}}, [], {1: track}, {}, 1.0, 10.0)
+    # What _separation reads of the plan record: its separation promise (8 m), nothing else.
+    promise = SeparationPromise.from_json({"3d": 8.0, "horizontal": 8.0})
+    sep = fr._separation(SimpleNamespace(separation=promise), [], {1: track}, {}, 1.0, 10.0)  # type: ignore[arg-type]
     assert sep["kept"] is None and sep["3d"] is None and sep["tracks"] == 1
 
 
@@ -210,8 +214,6 @@ def test_vehicle_clock_of_a_sped_up_simulator_is_brought_to_ours() -> None:
 def test_only_a_streams_clock_starting_again_is_a_reboot() -> None:
     # PX4 sends messages whose time_boot_ms is the time of what they report (a setpoint, a photo),
     # seconds old: those must not look like a clock that started again. GLOBAL_POSITION_INT's does.
-    from types import SimpleNamespace
-
     from missionplan.bridge.link.connection import Link
 
     link = Link.__new__(Link)  # the boot tracking alone, without a connection

@@ -229,7 +229,7 @@ def test_plan_files_read_back_to_exactly_the_built_missions(tmp_path):
     from missionplan.mission.flightplan import make_flight_plans, write_flight_files
     from missionplan.mission.georef import shipped_frame
     from missionplan.mission.drone_missions import MissionSettings
-    from missionplan.pipeline import plan_map
+    from missionplan.planning.pipeline import plan_map
 
     gmap = load_shipped("leonardo")
     result = plan_map(gmap, 3)

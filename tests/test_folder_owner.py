@@ -37,7 +37,7 @@ from missionplan.cli import main
 from missionplan.flight.fly import fly
 from missionplan.flight.ledger import Ledger
 from missionplan.flight.mock_fleet import start_mock_fleet
-from missionplan.plan_folder import STAGING_PREFIX, flight_record
+from missionplan.planning.plan_folder import STAGING_PREFIX, flight_record
 
 ROOT = Path(__file__).resolve().parent.parent
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}

@@ -24,7 +24,7 @@ from missionplan.grid.world import FOOTPRINT_RADIUS, reachable_targets
 from missionplan.grid.zones import split_zones
 from missionplan.maps.gridmap import GridMap, save_map
 from missionplan.maps.launches import spread_launches
-from missionplan.pipeline import make_policy, plan_map
+from missionplan.planning.pipeline import make_policy, plan_map
 
 UP, RIGHT, DOWN, LEFT = 0, 1, 2, 3
 

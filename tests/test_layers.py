@@ -1,4 +1,4 @@
-"""Imports run one way: cli -> top -> flight -> mission -> learn -> grid -> maps -> geo -> bridge -> base, inside
+"""Imports run one way: cli -> planning -> flight -> mission -> learn -> grid -> maps -> geo -> bridge -> base, inside
 bridge/ from the transfers down to the flight models, inside missionplan/flight/ from fly down to the records; geo,
 maps, grid and learn import nothing from bridge (base has what they share with it); no module imports itself round a
 circle (a -> b -> a), inside a layer or across the top; and argparse stays in the command line: no module below
@@ -7,9 +7,9 @@ plugin), sits above them all: it may import the product, and nothing of the prod
 
 Every module is parsed with `ast` (imports inside functions included). A module's layer is the
 subpackage it sits in (missionplan/grid/world.py: grid; geo/ and bridge/ install as missionplan.geo and
-missionplan.bridge); the modules at the top of the package (the entry points plan_map / plan_field, the plan
-folder, replan, retask) may import any layer, and only the command line (missionplan/cli/, and __main__) may
-import them; nothing imports the command line.
+missionplan.bridge); missionplan/planning/ (plan_map, plan_field, the plan folder, replan, retask) may import
+every layer below it, and only the command line (missionplan/cli/, and __main__) imports it; nothing imports the
+command line.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 # Lowest first: a module may import its own layer and the layers before it.
-LAYERS = ("base", "bridge", "geo", "maps", "grid", "learn", "mission", "flight")
+LAYERS = ("base", "bridge", "geo", "maps", "grid", "learn", "mission", "flight", "planning")
 TOP = len(LAYERS)  # the modules directly in missionplan/
 CLI = TOP + 1  # the command line: missionplan/cli/ and `python -m missionplan` (__main__)
 SUPPORT = CLI + 1  # the test support, missionplan/testing/: drives the product as a user does, through the CLI too
@@ -150,10 +150,10 @@ def test_a_wrong_way_import_is_found() -> None:
         "missionplan.bridge", "missionplan.bridge.errors"]
     assert wrong_way("from .grid.w import W\nfrom .flight import f\n", "missionplan.cli") == []
     assert wrong_way("from ..plan_folder import p\nfrom ..bridge import e\n", "missionplan.cli.plan") == []
-    # The top-level modules sit below the command line: they may not import it.
-    assert wrong_way("from .cli.errors import said\n", "missionplan.replan") == [
+    # Planning sits below the command line: it may not import it.
+    assert wrong_way("from ..cli.errors import said\n", "missionplan.planning.replan") == [
         "missionplan.cli.errors", "missionplan.cli.errors.said"]
-    assert wrong_way("from .flight.fly import fly\n", "missionplan.replan") == []
+    assert wrong_way("from ..flight.fly import fly\n", "missionplan.planning.replan") == []
     # base is below every layer, bridge included.
     assert wrong_way("from missionplan.base.naming import Named\n", "missionplan.bridge.limits") == []
     assert wrong_way("from missionplan.bridge import BridgeError\n", "missionplan.base.naming") == [
@@ -231,7 +231,7 @@ def test_an_argparse_use_is_found() -> None:
     assert argparse_uses("def g(args: 'argparse.Namespace') -> 'Namespace':\n    pass\n") == [
         "line 1: .Namespace", "line 1: Namespace"]
     assert argparse_uses("from types import SimpleNamespace\nx = SimpleNamespace(a=1)\n") == []
-    assert below_the_command_line(ROOT / "missionplan" / "replan.py")
+    assert below_the_command_line(ROOT / "missionplan" / "planning" / "replan.py")
     assert not below_the_command_line(ROOT / "missionplan" / "cli" / "plan.py")
     assert not below_the_command_line(ROOT / "missionplan" / "__main__.py")
 

@@ -20,7 +20,7 @@ from missionplan.learn.trainmaps import training_maps
 from missionplan.grid.world import CoverageWorld, reachable_targets
 from missionplan.grid.zones import split_zones
 from missionplan.maps.catalog import load_shipped
-from missionplan.pipeline import plan_map
+from missionplan.planning.pipeline import plan_map
 
 try:
     import torch

@@ -172,7 +172,7 @@ def test_the_earlier_reports_hold_every_block() -> None:
 
 
 def test_a_written_plan_reads_back_as_the_record_it_was_written_from(tmp_path: Path) -> None:
-    from missionplan.plan_folder import PlanOptions, shipped_ground, write_plan_folder
+    from missionplan.planning.plan_folder import PlanOptions, shipped_ground, write_plan_folder
 
     folder = write_plan_folder(tmp_path / "leo", shipped_ground("leonardo", 3), PlanOptions())
     assert read_plan_record(tmp_path / "leo") == folder.record

@@ -95,7 +95,7 @@ def test_patience_is_how_long_a_fruitless_policy_keeps_the_drone():
 
 
 def test_plan_map_hands_its_patience_to_the_planner(monkeypatch):
-    from missionplan import pipeline
+    from missionplan.planning import pipeline
     from missionplan.maps.catalog import load_shipped
 
     seen = []

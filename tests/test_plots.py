@@ -21,7 +21,7 @@ from missionplan.flight.flight_plot import COVERED, MISSED, flight_figure
 from missionplan.maps.gridmap import GridMap
 from missionplan.mission import plot
 from missionplan.mission.plot import BAND, BUILDING, NORTH_ARROW_GID, ORIGIN_TEXT_GID, draw_plan, plan_figure
-from missionplan.pipeline import plan_map
+from missionplan.planning.pipeline import plan_map
 
 ROWS = ["............................",
         "............................",

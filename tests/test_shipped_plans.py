@@ -9,7 +9,7 @@ import json
 import pytest
 
 from missionplan.maps.catalog import load_shipped, shipped_map_names
-from missionplan.pipeline import plan_map
+from missionplan.planning.pipeline import plan_map
 from missionplan.mission.report import build_report
 from replay_check import replay
 

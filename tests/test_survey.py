@@ -409,14 +409,15 @@ def test_survivors_that_do_not_stop_for_a_retask_go_back_to_their_own_missions(
 
 
 def test_a_retask_beyond_the_battery_is_refused_with_the_reason(leonardo_3: Path) -> None:
-    from missionplan.retask import RetaskError, Survivor, plan_retask
+    from missionplan.planning.errors import RetaskPlanningError
+    from missionplan.planning.retask import Survivor, plan_retask
 
     record = read_plan_record(leonardo_3)
     budget = record.settings.safety.budget_s
     launch = [json.loads((leonardo_3 / f"uav{k}.plan").read_text())["mission"]["plannedHomePosition"][:2]
               for k in (1, 3)]
     tired = [Survivor(k, lat, lon, 1.2, (lat, lon), flown_s=budget - 5.0) for k, (lat, lon) in zip((1, 3), launch)]
-    with pytest.raises(RetaskError, match=r"uav1 would need \d+ s more; its battery budget has 5 s left"):
+    with pytest.raises(RetaskPlanningError, match=r"uav1 would need \d+ s more; its battery budget has 5 s left"):
         plan_retask(leonardo_3, record, tired, np.zeros((0, 2)))
     fresh = [Survivor(k, lat, lon, 1.2, (lat, lon), flown_s=0.0) for k, (lat, lon) in zip((1, 3), launch)]
     plan = plan_retask(leonardo_3, record, fresh, np.zeros((0, 2)))
@@ -433,7 +434,7 @@ def test_survivors_side_by_side_in_the_air_are_re_tasked_on_their_layers(leonard
     """Two survivors held a metre apart, one above the other: the re-task's separation is measured on
     the tracks they fly from there, in the air (not as if both took off from that spot), and its layers
     keep them the minimum separation plus a corner each apart."""
-    from missionplan.retask import Survivor, plan_retask
+    from missionplan.planning.retask import Survivor, plan_retask
 
     record = read_plan_record(leonardo_3)
     frame = frame_of(record)
@@ -456,7 +457,7 @@ def test_a_retasks_promise_holds_with_the_survivors_out_of_step(leonardo_3: Path
     """The re-task's separation is measured with the survivors ahead of or behind each other by their
     autopilot's slack (retask.OUT_OF_STEP): the more slack, the smaller the promise, and once it would
     fall under the minimum separation the survivors fly on altitude layers instead."""
-    from missionplan.retask import OUT_OF_STEP, Survivor, plan_retask
+    from missionplan.planning.retask import OUT_OF_STEP, Survivor, plan_retask
 
     record = read_plan_record(leonardo_3)
     launch = [json.loads((leonardo_3 / f"uav{k}.plan").read_text())["mission"]["plannedHomePosition"][:2]
@@ -480,7 +481,7 @@ def test_a_retasks_promise_holds_with_the_survivors_out_of_step(leonardo_3: Path
 
 
 def test_nothing_to_retask_when_everything_is_photographed(leonardo_3: Path) -> None:
-    from missionplan.retask import Survivor, plan_retask
+    from missionplan.planning.retask import Survivor, plan_retask
 
     record = read_plan_record(leonardo_3)
     frame, targets = frame_of(record), target_cells(record)

@@ -19,7 +19,7 @@ STRICT = (
     "missionplan.mission.plan_record", "missionplan.mission.plan_blocks", "missionplan.geo.georeference",
     "missionplan.geo.camera", "missionplan.geo.errors", "missionplan.mission.report", "missionplan.maps.gridmap",
     "missionplan.mission.drone_missions", "missionplan.mission.safety", "missionplan.mission.outputs",
-    "missionplan.flight.plan_report", "missionplan.flight.disk_space", "missionplan.plan_display",
+    "missionplan.flight.plan_report", "missionplan.flight.disk_space", "missionplan.cli.plan_display",
 )
 
 

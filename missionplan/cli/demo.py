@@ -1,6 +1,6 @@
 """`missionplan demo`: the whole flow on the embedded default, in one command (what `make demo` runs).
 
-Plans the shipped Leonardo map for 5 drones with the shipped network (missionplan/plan_folder.py, the
+Plans the shipped Leonardo map for 5 drones with the shipped network (missionplan/planning/plan_folder.py, the
 library call behind `missionplan plan`, printed as `plan` prints it), starts one in-process mock
 autopilot per drone on 127.0.0.1 (SITL-like: ArduCopter's flight, each camera configured as a team
 does, CAM1_TYPE and a reboot, so the judge has the vehicles' own photo reports), and flies the missions
@@ -23,8 +23,8 @@ from typing import Any
 from missionplan.bridge.limits import check_integer, check_range
 
 from ..maps.gridmap import MapError
-from ..plan_display import EXIT_FAILED, print_plan
-from ..plan_folder import PlanOptions, check_out_folder, shipped_ground, write_plan_folder
+from .plan_display import EXIT_FAILED, print_plan
+from ..planning.plan_folder import PlanOptions, check_out_folder, shipped_ground, write_plan_folder
 from .parsing import runs
 
 DEMO_MAP, DEMO_UAVS, DEMO_POLICY = "leonardo", 5, "nn"

@@ -3,7 +3,7 @@ the work; this module checks the options, turns SIGTERM into Ctrl-C, and prints 
 
 Exit 0 when the flight is judged good, 1 when it is not (or a link cannot be opened), 2 for bad input, 3 when
 the flight's record is not whole in its folder (fly.EXIT_NOT_RECORDED), 130 when interrupted before any
-vehicle was started. `--replan` gives fly the live re-task planner (missionplan/retask.py)."""
+vehicle was started. `--replan` gives fly the live re-task planner (missionplan/planning/retask.py)."""
 
 from __future__ import annotations
 
@@ -58,8 +58,8 @@ def _sigterm_as_interrupt(signum: int, frame: Any) -> None:
 
 
 def _plan_retask(*args: Any, **kwargs: Any) -> Any:
-    """fly --replan's planner (missionplan/retask.py), imported when a re-task is planned."""
-    from ..retask import plan_retask
+    """fly --replan's planner (missionplan/planning/retask.py), imported when a re-task is planned."""
+    from ..planning.retask import plan_retask
 
     return plan_retask(*args, **kwargs)
 

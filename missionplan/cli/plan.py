@@ -23,9 +23,9 @@ from ..mission.georef import AreaRequest
 from ..mission.safety import DEFAULT_CLEARANCE_M
 from ..mission.separation import DEFAULT_MAX_ALTITUDE_M
 from ..mission.sorties import DEFAULT_ENDURANCE_MIN, DEFAULT_RESERVE
-from ..pipeline import DEFAULT_POLICY, POLICIES
-from ..plan_display import EXIT_FAILED, print_plan
-from ..plan_folder import NO_UNKNOWN_HEIGHTS, PlanGround, PlanOptions, grid_ground, write_plan_folder
+from ..planning.pipeline import DEFAULT_POLICY, POLICIES
+from .plan_display import EXIT_FAILED, print_plan
+from ..planning.plan_folder import NO_UNKNOWN_HEIGHTS, PlanGround, PlanOptions, grid_ground, write_plan_folder
 from .parsing import runs
 
 MAX_PLAN_ALTITUDE_M = 5_000.0  # above launch: beyond any survey multirotor's ceiling (the legal one is 120 m)

@@ -2,7 +2,7 @@
 `missionplan replan DIR --out NEW` (plan only what the survey still misses, for the vehicles given).
 
 status reads only (flight/survey_status.py: the status, missing.geojson, status.png). replan plans as `plan`
-does, with the settings the survey's root plan recorded (missionplan/replan.py: who flies it, the stored
+does, with the settings the survey's root plan recorded (missionplan/planning/replan.py: who flies it, the stored
 settings; plan_folder.write_plan_folder: the folder)."""
 
 from __future__ import annotations
@@ -28,10 +28,10 @@ from ..flight.survey_status import draw_status, survey_status
 from ..grid.world import check_starts
 from ..maps.gridmap import MapError
 from ..mission.plan_blocks import SurveyPointer
-from ..pipeline import POLICIES
-from ..plan_display import EXIT_FAILED, print_plan
-from ..plan_folder import PlanGround, PlanOptions, check_out_folder, write_plan_folder
-from ..replan import launch_at, launch_of_drones, stored_settings
+from ..planning.pipeline import POLICIES
+from .plan_display import EXIT_FAILED, print_plan
+from ..planning.plan_folder import PlanGround, PlanOptions, check_out_folder, write_plan_folder
+from ..planning.replan import launch_at, launch_of_drones, stored_settings
 from .parsing import runs
 
 

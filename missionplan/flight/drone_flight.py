@@ -136,7 +136,7 @@ class FleetGate:
 
 @dataclass
 class RetaskRequest:
-    """fly --replan's new mission for one vehicle in flight (missionplan.retask.RetaskPlan's share)."""
+    """fly --replan's new mission for one vehicle in flight (missionplan.planning.retask.RetaskPlan's share)."""
 
     mission: Any  # missionplan.bridge.formats.mission_items.Mission
     fence: Any  # missionplan.bridge.formats.mission_items.Mission (inclusion fence) or None

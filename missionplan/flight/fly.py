@@ -157,7 +157,7 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     the read-back must then equal what our own reader makes of the same file.
     on_abort: what Ctrl-C commands the vehicles this run started ("none": nothing; a second Ctrl-C
     within ABORT_WINDOW_S then commands RTL). command: the command line, kept in the journal.
-    replan: `fly --replan`, the planner of live re-tasks (missionplan.retask.plan_retask): a drone gone
+    replan: `fly --replan`, the planner of live re-tasks (missionplan.planning.retask.plan_retask): a drone gone
     (ended early, or silent for replan_after_s mid-mission) has what is left re-planned among the drones
     still flying, uploaded to them in flight (live_replan.Retasker)."""
     if upload_with not in UPLOADERS:

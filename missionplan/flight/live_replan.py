@@ -7,7 +7,7 @@ Then, once per gone drone:
 1. the drones still flying their missions are held where they are (ArduPilot GUIDED, PX4 HOLD: the
    autopilot brakes and hovers), so the plan starts where they really are and their new tracks start
    together;
-2. the planner fly was handed (missionplan.retask.plan_retask, through the CLI: this layer plans
+2. the planner fly was handed (missionplan.planning.retask.plan_retask, through the CLI: this layer plans
    nothing itself) plans what no confirmed photo has covered yet for them, from there, checked for
    endurance, separation and fences;
 3. each survivor's own thread puts its new mission on its vehicle (DroneFlight.retask,
@@ -47,7 +47,7 @@ class Retasker:
     plan_dir: Path
     record: PlanRecord  # the plan as this flight is judged (fly.flight_view)
     flights: list[DroneFlight]
-    planner: Callable[..., Any]  # missionplan.retask.plan_retask
+    planner: Callable[..., Any]  # missionplan.planning.retask.plan_retask
     alert: Callable[[str], None]
     lost_after_s: float = DEFAULT_REPLAN_AFTER_S
     time_scale: float | None = None
@@ -111,7 +111,7 @@ class Retasker:
         planning = time.monotonic()
         try:
             plan = self.planner(self.plan_dir, self.record, states, photos)
-        except ValueError as err:  # RetaskError / MapError: the reason, for the crew
+        except ValueError as err:  # RetaskPlanningError / MapError: the reason, for the crew
             self._refused(survivors, entry, str(err))
             return
         if plan is None:
@@ -169,7 +169,7 @@ class Retasker:
                    + (f" (NOT back in their mission mode: {stuck}; take them over)" if stuck else ""))
 
     def _survivor(self, f: DroneFlight, where: tuple[float, float, float]) -> dict[str, Any]:
-        """What the planner needs of a survivor (missionplan.retask.Survivor's fields), held at `where`."""
+        """What the planner needs of a survivor (missionplan.planning.retask.Survivor's fields), held at `where`."""
         rec = f.record
         lat, lon, up = where
         home = read_mission_file(f.plan_path).mission.home

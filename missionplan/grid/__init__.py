@@ -4,7 +4,7 @@ The grid planner: the coverage world, zones, path-finding, the expert policy, th
 metrics and its result.
 
 May import: missionplan.maps. Never learn/: the neural policy reaches the planner as a Policy object
-(missionplan.pipeline.make_policy builds it).
+(missionplan.planning.pipeline.make_policy builds it).
 Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_layers.py).
 
   expert          The algorithmic expert: the policy the neural network imitates (SPEC section 5).

@@ -13,7 +13,7 @@ from .plan_record import PlanRecord
 
 def build_report(result: PlanResult, seed: int) -> PlanRecord:
     """The record of a grid plan: zones, metrics, targets, the drones' paths and the grid; a georeferenced
-    plan adds its drones, promise, settings and georeference (plan_folder, fieldplan)."""
+    plan adds its drones, promise, settings and georeference (planning: plan_folder, field_plan)."""
     run, world = result.run, result.world
     uavs = len(result.starts)
     return PlanRecord(

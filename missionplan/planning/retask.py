@@ -18,7 +18,7 @@ survivor's new mission: its camera on where it is, its survey, the way home roun
   layers are chosen on those tracks as `plan` chooses them (separation.choose_layers), and that
   distance is the promise the flight is judged against from then on;
 - geofence: a new fence per survivor around its new zone, its track, its position and its home.
-Any of these failing ends the re-task with the reason (RetaskError); the survivors fly on with the
+Any of these failing ends the re-task with the reason (RetaskPlanningError); the survivors fly on with the
 missions they have, and `missionplan replan` plans the rest after landing.
 """
 
@@ -32,17 +32,17 @@ import numpy as np
 
 from missionplan.bridge.formats.mission_items import Mission
 
-from .fieldplan import plan_field
-from .flight.plan_report import frame_of, missing_map, planned_grid, target_cells, to_grid_m
-from .flight.ledger import Ledger, covered_cells
-from .maps.gridmap import MapError
-from .mission.clearance import clearance_band
-from .mission.flightplan import _Homing, _latlon
-from .mission.geofence import drone_fence
-from .mission.drone_missions import build_mission
-from .mission.plan_record import PlanRecord
-from .mission.separation import SeparationError, choose_layers
-from .mission.timeline import FlightModel, closest_approach_out_of_step, planned_track
+from .errors import RetaskPlanningError
+from .field_plan import plan_field
+from ..flight.plan_report import frame_of, missing_map, planned_grid, target_cells, to_grid_m
+from ..flight.ledger import Ledger, covered_cells
+from ..mission.clearance import clearance_band
+from ..mission.flightplan import _Homing, _latlon
+from ..mission.geofence import drone_fence
+from ..mission.drone_missions import build_mission
+from ..mission.plan_record import PlanRecord
+from ..mission.separation import SeparationError, choose_layers
+from ..mission.timeline import FlightModel, closest_approach_out_of_step, planned_track
 
 # How far out of step two survivors may fly, t seconds after their release: floor_s + rate * t, by the
 # autopilot the plan was made for. ArduCopter: its timeline is within 2-6 % of ArduCopter SITL
@@ -52,10 +52,6 @@ from .mission.timeline import FlightModel, closest_approach_out_of_step, planned
 # angle), and one re-task promised at 31 m was flown at 15 m, over 3 s out of step; PX4 flights run
 # within 13-20 % of their timeline (docs/px4-flight.md), two drones' errors partly cancelling.
 OUT_OF_STEP = {"ardupilot": (0.5, 0.05), "px4": (3.0, 0.10)}  # autopilot -> (floor_s, rate)
-
-
-class RetaskError(MapError):
-    """The re-task cannot be flown safely (or at all); the message says why."""
 
 
 @dataclass(frozen=True)
@@ -94,7 +90,7 @@ def _free_cell(free: np.ndarray, cell: tuple[int, int], taken: set[tuple[int, in
         found = (int(candidates[index, 0]), int(candidates[index, 1]))
         if found not in taken:
             return found
-    raise RetaskError("no free cell to start a survivor from")
+    raise RetaskPlanningError("no free cell to start a survivor from")
 
 
 def plan_retask(plan_dir: Path, record: PlanRecord, survivors: list[Survivor | dict[str, Any]],
@@ -108,7 +104,7 @@ def plan_retask(plan_dir: Path, record: PlanRecord, survivors: list[Survivor | d
     started = time.monotonic()
     stored = record.settings
     if stored is None:
-        raise RetaskError(f"{plan_dir / 'report.json'}: no `settings` (planned by an older missionplan): plan again")
+        raise RetaskPlanningError(f"{plan_dir / 'report.json'}: no `settings` (planned by an older missionplan): plan again")
     settings, safety = stored.mission, stored.safety
     frame = frame_of(record)
     cell = frame.cell_m
@@ -137,7 +133,7 @@ def plan_retask(plan_dir: Path, record: PlanRecord, survivors: list[Survivor | d
                        seed=0, progress=False, balance_zones=bool(stored.balance_zones),
                        lanes=stored.open_ground == "lanes")
     if field.plans is None:
-        raise RetaskError(f"the re-task could not be planned: {field.result.run.failure}")
+        raise RetaskPlanningError(f"the re-task could not be planned: {field.result.run.failure}")
     plans = field.plans
     model = FlightModel.for_autopilot(settings.autopilot, settings.speed_m_s, settings.acceptance_m)
     margin = max(0.5, safety.clearance_m / cell)
@@ -172,10 +168,10 @@ def plan_retask(plan_dir: Path, record: PlanRecord, survivors: list[Survivor | d
                                  measure=lambda tracks: closest_approach_out_of_step(tracks, floor_s, rate))
     except SeparationError as failure:
         if failure.layering is None:
-            raise RetaskError(f"the re-task's altitude layers would not fit under the ceiling{failure.ceiling}") from None
+            raise RetaskPlanningError(f"the re-task's altitude layers would not fit under the ceiling{failure.ceiling}") from None
         approach = failure.layering.approach
         a, b = approach["pair_3d"]
-        raise RetaskError(f"the re-task would bring uav{a} and uav{b} within {approach['3d']:.2f} m of each other "
+        raise RetaskPlanningError(f"the re-task would bring uav{a} and uav{b} within {approach['3d']:.2f} m of each other "
                           f"(at {approach['at_s']} s), under the minimum separation {safety.min_separation_m:g} m "
                           f"plus {corners:.2f} m for the corners each may cut, with either up to "
                           f"{floor_s:g} s + {rate:.0%} of the time out of step") from None
@@ -185,7 +181,7 @@ def plan_retask(plan_dir: Path, record: PlanRecord, survivors: list[Survivor | d
     for k, s in enumerate(survivors):
         flight_s[s.sysid] = float(tracks[s.sysid][-1, 0])
         if safety.budget_s is not None and s.flown_s + flight_s[s.sysid] > safety.budget_s:
-            raise RetaskError(f"uav{s.sysid} would need {flight_s[s.sysid]:.0f} s more; its battery budget has "
+            raise RetaskPlanningError(f"uav{s.sysid} would need {flight_s[s.sysid]:.0f} s more; its battery budget has "
                               f"{max(safety.budget_s - s.flown_s, 0.0):.0f} s left ({safety.budget_s:.0f} s less "
                               f"{s.flown_s:.0f} s flown): the rest is for `missionplan replan` after landing")
         mission = build_mission(k, (s.lat, s.lon), _latlon(frame, surveys[k]), surveys[k], here[k], layered,

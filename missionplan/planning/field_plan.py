@@ -18,13 +18,13 @@ import numpy as np
 
 from missionplan.geo.frame import GridFrame
 
-from .maps.gridmap import GridMap
-from .mission.clearance import band_coverage, flight_map, photograph_band
-from .mission.drone_missions import MissionSettings
-from .mission.plan_blocks import SafetyPromise
-from .mission.plan_record import PlanRecord
-from .mission.safety import SafetySettings
-from .mission.sorties import sortie_shares
+from ..maps.gridmap import GridMap
+from ..mission.clearance import band_coverage, flight_map, photograph_band
+from ..mission.drone_missions import MissionSettings
+from ..mission.plan_blocks import SafetyPromise
+from ..mission.plan_record import PlanRecord
+from ..mission.safety import SafetySettings
+from ..mission.sorties import sortie_shares
 from .pipeline import PlanResult, plan_map
 
 REBALANCE_ROUNDS = 1  # each is a whole re-plan (Turin, 2 drones, 10 min: a second round gained nothing)
@@ -65,7 +65,7 @@ def plan_field(gmap: GridMap, uavs: int, frame: GridFrame | None, settings: Miss
             result.run.paths, done.band_moves_added = photograph_band(
                 result.run.paths, plan_gmap, gmap, band, result.zones.zone)
         if frame is not None and settings is not None and result.run.success:
-            from .mission.flightplan import make_flight_plans
+            from ..mission.flightplan import make_flight_plans
 
             done.plans = make_flight_plans(result, frame, settings, safety, base=gmap)
         return done

@@ -1,10 +1,10 @@
 """Plan a map and write its plan folder: the library call behind `plan`, `replan` and `demo`.
 
-`write_plan_folder(out, ground, options)` plans the ground (missionplan/fieldplan.py: zones, the
+`write_plan_folder(out, ground, options)` plans the ground (missionplan/planning/field_plan.py: zones, the
 drones' paths, the clearance band, flight plans, sorties, separation, geofences) and writes the folder:
 report.json, plan.png, one mission per drone (.plan, .waypoints) and the map files (plan.html,
 plan.gpkg, plan.kmz, GeoJSON). It prints nothing: the caller prints the returned `PlanFolder`
-(missionplan/plan_display.py).
+(missionplan/cli/plan_display.py).
 
 The folder is the run's alone and a plan never lands over a flight: `out` is held for the whole run
 (missionplan.bridge.folder_lock: a second process gets one line naming this one), and a folder that
@@ -40,14 +40,15 @@ from missionplan.bridge.folder_lock import hold_folder
 from missionplan.geo.frame import GridFrame
 from missionplan.geo.georeference import Georeference
 
-from .grid.zones import DEFAULT_ZONE_METHOD
-from .maps.catalog import load_shipped
-from .maps.gridmap import GridMap, MapError
-from .mission.georef import AreaSources, UnknownHeights, mission_settings, shipped_frame
-from .mission.drone_missions import MissionSettings
-from .mission.plan_blocks import PlanSettings, SurveyPointer
-from .mission.plan_record import REPORT_NAME, PlanRecord, report_path, write_plan_record
-from .mission.safety import SafetySettings, safety_settings
+from ..grid.zones import DEFAULT_ZONE_METHOD
+from ..maps.catalog import load_shipped
+from ..maps.gridmap import GridMap
+from ..mission.georef import AreaSources, UnknownHeights, mission_settings, shipped_frame
+from ..mission.drone_missions import MissionSettings
+from ..mission.plan_blocks import PlanSettings, SurveyPointer
+from ..mission.plan_record import REPORT_NAME, PlanRecord, report_path, write_plan_record
+from ..mission.safety import SafetySettings, safety_settings
+from .errors import PlanFolderError
 from .pipeline import DEFAULT_POLICY, launch_cells, make_policy
 
 NO_UNKNOWN_HEIGHTS = UnknownHeights(0, 0, None, None)
@@ -90,10 +91,10 @@ class PlanOptions:
     def __post_init__(self) -> None:
         # A basemap URL that is no tile server's fails here, before any area is read or folder made.
         if self.basemap is not None:
-            from .mission.webmap import basemap_problem
+            from ..mission.webmap import basemap_problem
 
             if (problem := basemap_problem(self.basemap)) is not None:
-                raise MapError(Named("{basemap} {0}: {1}", self.basemap, problem))
+                raise PlanFolderError(Named("{basemap} {0}: {1}", self.basemap, problem))
 
 
 @dataclass
@@ -149,9 +150,9 @@ FLIGHT_RECORD_FILES = ("missed.geojson",)
 def flight_record(out: Path) -> list[str]:
     """The names of the files in `out` that say a flight was flown or judged there: the journal, the ledger
     and flight.json first, then the rest by name (empty when none, or when `out` is no folder)."""
-    from .flight.geotag import GEOTAG_FILES
-    from .flight.journal_db import COUNTER_NAME, JOURNAL_NAME
-    from .flight.ledger import LEDGER_NAME
+    from ..flight.geotag import GEOTAG_FILES
+    from ..flight.journal_db import COUNTER_NAME, JOURNAL_NAME
+    from ..flight.ledger import LEDGER_NAME
 
     first = [JOURNAL_NAME, LEDGER_NAME, "flight.json"]
     names = {*first, f"{JOURNAL_NAME}-wal", COUNTER_NAME, *GEOTAG_FILES, *FLIGHT_RECORD_FILES}
@@ -177,19 +178,19 @@ def check_out_folder(out: Path) -> None:
     the plan its flights were judged against)."""
     where = out.resolve()
     if where == Path(where.anchor):
-        raise MapError(Named("{out} {0}: the root folder is no plan folder (a plan writes and replaces files in "
+        raise PlanFolderError(Named("{out} {0}: the root folder is no plan folder (a plan writes and replaces files in "
                              "{out}); give a folder of its own, e.g. {out} {1}", out, where / "survey-1"))
     try:
         home: Path | None = Path.home().resolve()
     except (RuntimeError, KeyError):  # no HOME and no password entry: no home folder to protect
         home = None
     if where == home:
-        raise MapError(Named("{out} {0}: your home folder is no plan folder (a plan writes and replaces files in "
+        raise PlanFolderError(Named("{out} {0}: your home folder is no plan folder (a plan writes and replaces files in "
                              "{out}); give a folder of its own, e.g. {out} {1}", out, where / "survey-1"))
     flown = flight_record(out)
     if flown:
         shown = ", ".join(flown[:3]) + (f" and {len(flown) - 3} more" if len(flown) > 3 else "")
-        raise MapError(Named("{out} {0}: holds a survey's record ({1}): a plan here would replace the plan it "
+        raise PlanFolderError(Named("{out} {0}: holds a survey's record ({1}): a plan here would replace the plan it "
                              "belongs to; plan into a new folder, e.g. {out} {2}", out, shown, _new_folder_like(out)))
 
 
@@ -199,12 +200,12 @@ def _make_folder(out: Path) -> Path | None:
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
-        raise MapError(Named("{out} {0}: cannot create folder ({1})", out, err.strerror)) from None
+        raise PlanFolderError(Named("{out} {0}: cannot create folder ({1})", out, err.strerror)) from None
     try:
         probe_writable(out)
     except OSError as err:
         _remove_made(out, made)
-        raise MapError(Named("{out} {0}: cannot write files there ({1})", out, err.strerror)) from None
+        raise PlanFolderError(Named("{out} {0}: cannot write files there ({1})", out, err.strerror)) from None
     return made
 
 
@@ -225,7 +226,7 @@ def write_plan_folder(out: Path, ground: PlanGround, options: PlanOptions = Plan
     """Plan `ground` and write the plan folder `out` (created if missing); see the module docstring."""
     out = Path(out)
     if ground.safety is not None:  # a launch point inside the clearance band fails here, before any folder
-        from .mission.clearance import flight_map
+        from ..mission.clearance import flight_map
 
         flight_map(ground.gmap, ground.safety.clearance_m, ground.uavs)
     policy = make_policy(options.policy, options.weights)
@@ -242,14 +243,14 @@ def write_plan_folder(out: Path, ground: PlanGround, options: PlanOptions = Plan
 
 def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any) -> PlanFolder:
     """Plan, write every file into a staging folder inside `out`, then rename them into place."""
-    from .mission.plot import draw_plan  # matplotlib only when a picture is drawn
-    from .mission.report import build_report
+    from ..mission.plot import draw_plan  # matplotlib only when a picture is drawn
+    from ..mission.report import build_report
 
-    from .fieldplan import plan_field
-    from .mission.coverage_check import coverage_report, unreachable_causes
+    from .field_plan import plan_field
+    from ..mission.coverage_check import coverage_report, unreachable_causes
 
     gmap, frame, settings, safety, unknown = ground.gmap, ground.frame, ground.settings, ground.safety, ground.unknown
-    # Clearance band, band detours, flight plans, sorties, separation, geofences (missionplan/fieldplan.py).
+    # Clearance band, band detours, flight plans, sorties, separation, geofences (missionplan/planning/field_plan.py).
     field_plan = plan_field(gmap, ground.uavs, frame, settings, safety, balance_zones=options.balance_zones,
                             policy=policy, zone_method=options.zones, seed=options.seed, progress=options.progress,
                             lanes=options.open_ground == "lanes")
@@ -272,7 +273,7 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
         if plans is not None and frame is not None and settings is not None:
             from missionplan.bridge.formats.mission_items import Flavour
 
-            from .mission.flightplan import write_flight_files
+            from ..mission.flightplan import write_flight_files
 
             record = replace(record, georeference=Georeference(frame, settings.altitude_m,
                                                                trigger_distance_m=settings.trigger_distance_m))
@@ -297,8 +298,8 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
         record = replace(record, coverage=coverage)
         paths_latlon = None
         if plans is not None and frame is not None:
-            from .mission.layers import drone_paths_latlon, plan_layers, plan_summary
-            from .mission.mapfiles import write_map_files
+            from ..mission.layers import drone_paths_latlon, plan_layers, plan_summary
+            from ..mission.mapfiles import write_map_files
 
             layers = plan_layers(result, frame, plans, gmap, band=field_plan.band, causes=causes,
                                  sources=ground.sources, launch_labels=ground.launch_labels)
@@ -321,12 +322,12 @@ def _staging_folder(out: Path) -> Path:
     try:
         return Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=out))
     except OSError as err:
-        raise MapError(Named("{out} {0}: cannot write files there ({1})", out, err.strerror)) from None
+        raise PlanFolderError(Named("{out} {0}: cannot write files there ({1})", out, err.strerror)) from None
 
 
 def _sha256_of(staging: Path, names: list[str]) -> dict[str, str]:
     """Each staged file's sha256, report.json aside (a later plan removes a stale file only if it still matches)."""
-    from .mission.outputs import file_sha256
+    from ..mission.outputs import file_sha256
 
     return {name: file_sha256(staging / name) for name in names if name != "report.json"}
 
@@ -338,7 +339,7 @@ class _Committing(OSError):
 def _into_place(staging: Path, out: Path, names: list[str]) -> list[Path]:
     """Rename the staged files into `out`, then remove the earlier plan's stale files (outputs.py) and put
     report.json in place last; the earlier plan's files kept because they changed since it wrote them."""
-    from .mission.outputs import remove_stale_outputs
+    from ..mission.outputs import remove_stale_outputs
 
     try:
         for name in names:
@@ -351,12 +352,12 @@ def _into_place(staging: Path, out: Path, names: list[str]) -> list[Path]:
     return stale.kept
 
 
-def _write_failed(out: Path, err: OSError) -> MapError:
+def _write_failed(out: Path, err: OSError) -> PlanFolderError:
     """One line naming the folder, the file and the cause of a failed write."""
     name = Path(err.filename).name if err.filename else "the plan's files"
     cause = err.strerror or str(err)
     if isinstance(err, _Committing):
-        return MapError(Named("{out} {0}: cannot put {1} in place ({2}); the folder holds part of the new plan: plan "
+        return PlanFolderError(Named("{out} {0}: cannot put {1} in place ({2}); the folder holds part of the new plan: plan "
                               "again once the cause is fixed", out, name, cause))
-    return MapError(Named("{out} {0}: cannot write {1} ({2}); nothing of this plan was kept, and the folder's "
+    return PlanFolderError(Named("{out} {0}: cannot write {1} ({2}); nothing of this plan was kept, and the folder's "
                           "earlier files are as they were", out, name, cause))

@@ -1,7 +1,7 @@
 """What `plan`, `replan` and `demo` print about a written plan folder: the metrics table, each drone's
 mission, the separation and clearance kept, the warnings (stderr) and the files written.
 
-Reads only the returned PlanFolder (missionplan/plan_folder.py); plans and writes nothing. Text that came
+Reads only the returned PlanFolder (missionplan/planning/plan_folder.py); plans and writes nothing. Text that came
 from a file (the map's name, warnings naming buildings or files, the folder) is printed through printable():
 a file's control characters never reach the terminal.
 """
@@ -12,7 +12,7 @@ import sys
 
 from missionplan.bridge.terminal_text import printable
 
-from .plan_folder import PlanFolder
+from ..planning.plan_folder import PlanFolder
 
 EXIT_FAILED = 1  # the exit status of a plan written whole that failed (targets left unreached)
 

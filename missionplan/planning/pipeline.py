@@ -14,13 +14,14 @@ import numpy as np
 
 from missionplan.base.naming import Named
 
-from .grid.expert import ExpertPolicy
-from .grid.lanes import fleet_zones, open_zones
-from .grid.planner import POLICY_PATIENCE, Planner, Policy
-from .grid.planresult import PlanResult
-from .grid.world import CoverageWorld, check_starts, reachable_targets
-from .grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS, split_zones
-from .maps.gridmap import Cell, GridMap, MapError
+from ..grid.expert import ExpertPolicy
+from ..grid.lanes import fleet_zones, open_zones
+from ..grid.planner import POLICY_PATIENCE, Planner, Policy
+from ..grid.planresult import PlanResult
+from ..grid.world import CoverageWorld, check_starts, reachable_targets
+from ..grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS, split_zones
+from ..maps.gridmap import Cell, GridMap
+from .errors import PlanRequestError
 
 POLICIES = ("nn", "expert")
 DEFAULT_POLICY = "expert"
@@ -31,21 +32,21 @@ def make_policy(name: str, weights: str | Path | None = None) -> Policy:
     if name == "expert":
         return ExpertPolicy()
     if name == "nn":
-        from .learn.network import SHIPPED_WEIGHTS, NeuralPolicy, load_weights  # numpy only; loaded when asked for
+        from ..learn.network import SHIPPED_WEIGHTS, NeuralPolicy, load_weights  # numpy only; loaded when asked for
 
         try:
             return NeuralPolicy(load_weights(weights if weights is not None else SHIPPED_WEIGHTS))
         except ValueError as error:
-            raise MapError(str(error)) from None
-    raise MapError(f"unknown policy {name!r} (choose {', '.join(POLICIES)})")
+            raise PlanRequestError(str(error)) from None
+    raise PlanRequestError(f"unknown policy {name!r} (choose {', '.join(POLICIES)})")
 
 
 def launch_cells(gmap: GridMap, uavs: int) -> list[Cell]:
     """The first `uavs` launch cells of the map, checked."""
     if uavs < 1:
-        raise MapError(Named("{uavs} must be at least 1, got {0}", uavs))
+        raise PlanRequestError(Named("{uavs} must be at least 1, got {0}", uavs))
     if uavs > len(gmap.launch):
-        raise MapError(f"map {gmap.name} has launch cells for {len(gmap.launch)} drones, {uavs} asked")
+        raise PlanRequestError(f"map {gmap.name} has launch cells for {len(gmap.launch)} drones, {uavs} asked")
     starts = gmap.launch[:uavs]
     check_starts(gmap, starts)
     return starts
@@ -62,7 +63,7 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
     when every zone does (and no shares are asked), the zones are redrawn block by block for it;
     `patience`: fruitless policy steps before the path-finder takes a drone over (grid.planner)."""
     if zone_method not in ZONE_METHODS:
-        raise MapError(f"unknown zone method {zone_method!r} (choose {', '.join(ZONE_METHODS)})")
+        raise PlanRequestError(f"unknown zone method {zone_method!r} (choose {', '.join(ZONE_METHODS)})")
     chosen = make_policy(policy, weights) if isinstance(policy, str) else policy
     policy = chosen.name
     starts = launch_cells(gmap, uavs) if starts is None else starts

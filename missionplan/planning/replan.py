@@ -25,9 +25,9 @@ import numpy as np
 
 from missionplan.base.naming import Named
 
-from .flight.ledger import LedgerError, Survey
-from .maps.gridmap import MapError
-from .mission.plan_blocks import PlanSettings
+from ..flight.ledger import LedgerError, Survey
+from ..mission.plan_blocks import PlanSettings
+from .errors import ReplanError
 
 
 def stored_settings(survey: Survey) -> PlanSettings:
@@ -47,14 +47,14 @@ def parse_assignments(texts: list[str]) -> dict[int, int]:
     for text in texts:
         drone, sep, sysid = text.partition("=")
         if not sep or not drone.strip().isdigit():
-            raise MapError(Named("{sysid} {0}: expected K=ID (drone K of the re-plan is the vehicle with system id ID)",
+            raise ReplanError(Named("{sysid} {0}: expected K=ID (drone K of the re-plan is the vehicle with system id ID)",
                                  text))
         k = int(drone)
         if k in out:
-            raise MapError(Named("{sysid} {0}: drone {1} is given twice", text, k))
+            raise ReplanError(Named("{sysid} {0}: drone {1} is given twice", text, k))
         out[k] = parse_sysid(sysid.strip())
     if len(set(out.values())) != len(out):
-        raise MapError(Named("{sysid}: one system id for two drones ({0})", ", ".join(texts)))
+        raise ReplanError(Named("{sysid}: one system id for two drones ({0})", ", ".join(texts)))
     return out
 
 
@@ -68,7 +68,7 @@ def launch_of_drones(survey: Survey, drones: str) -> tuple[list[tuple[int, int]]
     cells = []
     for sysid in ids:
         if sysid not in known:
-            raise MapError(Named("{drones} {0}: the survey's plan has no drone {1} (it has {2}); give new launch "
+            raise ReplanError(Named("{drones} {0}: the survey's plan has no drone {1} (it has {2}); give new launch "
                                  "points with {launch} and {sysid}", drones, sysid, ", ".join(map(str, known))))
         cells.append(launch[known.index(sysid)])
     return cells, ids
@@ -76,13 +76,13 @@ def launch_of_drones(survey: Survey, drones: str) -> tuple[list[tuple[int, int]]
 
 def launch_at(survey: Survey, launch: list[str], sysid: list[str]) -> tuple[list[tuple[int, int]], list[int]]:
     """`--launch LAT,LON ... --sysid K=ID ...`: the grid cells of the points and the vehicles flying from them."""
-    from .mission.georef import parse_latlon
+    from ..mission.georef import parse_latlon
 
     assignment = parse_assignments(sysid)
     missing = [k for k in range(1, len(launch) + 1) if k not in assignment]
     extra = sorted(k for k in assignment if not 1 <= k <= len(launch))
     if missing or extra:
-        raise MapError(Named("{sysid}: say which vehicle flies each {launch} point: no {sysid} for drone {0}",
+        raise ReplanError(Named("{sysid}: say which vehicle flies each {launch} point: no {sysid} for drone {0}",
                              ", ".join(map(str, missing))) if missing else
                        Named("{sysid}: say which vehicle flies each {launch} point: drone {0} has no {launch} point "
                              "({1} given)", extra[0], len(launch)))
@@ -93,6 +93,6 @@ def launch_at(survey: Survey, launch: list[str], sysid: list[str]) -> tuple[list
         cell = (int(np.rint(np.atleast_1d(r)[0])), int(np.rint(np.atleast_1d(c)[0])))
         rows, cols = survey.shape
         if not (0 <= cell[0] < rows and 0 <= cell[1] < cols):
-            raise MapError(Named("{launch} {0}: outside the survey's grid", text))
+            raise ReplanError(Named("{launch} {0}: outside the survey's grid", text))
         cells.append(cell)
     return cells, [assignment[k] for k in range(1, len(launch) + 1)]
