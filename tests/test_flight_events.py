@@ -124,7 +124,7 @@ def test_events_reach_every_consumer_in_order_in_the_publishing_thread_and_every
     seen: list[tuple[str, FlightEvent, str]] = []
     events.subscribe(lambda e: seen.append(("first", e, threading.current_thread().name)))
     events.subscribe(lambda e: seen.append(("second", e, threading.current_thread().name)))
-    waiting = events.queue()
+    waiting = events.new_queue()
     published = [MissionStarted(1, 1.0), LinkQuiet(1, 2.0, 3.0)]
     follower = threading.Thread(target=lambda: [events.publish(e) for e in published], name="fly-uav1")
     follower.start()
@@ -204,7 +204,7 @@ def _retasker(flights: list[_Follower], events: queue.SimpleQueue[FlightEvent], 
 
 def test_the_retasker_decides_from_events_alone_who_is_gone_and_who_takes_over() -> None:
     events = FlightEvents()
-    waiting = events.queue()
+    waiting = events.new_queue()
     flights = [_Follower(1, hold_fails="GUIDED refused"), _Follower(2), _Follower(3)]
     said: list[str] = []
     retasker = _retasker(flights, waiting, said)

@@ -188,7 +188,7 @@ class FlightEvents:
         """Before any follower starts: called in the publishing thread."""
         self._consumers.append(consumer)
 
-    def queue(self) -> queue.SimpleQueue[FlightEvent]:
+    def new_queue(self) -> queue.SimpleQueue[FlightEvent]:
         """Before any follower starts: a queue of every event from now on, for another thread to read."""
         events: queue.SimpleQueue[FlightEvent] = queue.SimpleQueue()
         self._queues.append(events)

@@ -262,7 +262,7 @@ def _fly_journaled(plan_dir: Path, report: dict[str, Any], pool: LinkPool, journ
         # What the followers decide goes into their records and alerts in their own threads, and to the
         # re-tasker on a queue it reads in this one.
         fleet.events.subscribe(EventJournal({rec.id: rec for rec in runnable}, alert))
-        retask_events = fleet.events.queue() if replan is not None and not resume else None
+        retask_events = fleet.events.new_queue() if replan is not None and not resume else None
         flights = [DroneFlight(fleet, rec, files[rec.id], deadline, telemetry_hz, bars.get(rec.id), upload_with)
                    for rec in runnable]
         threads = [threading.Thread(target=f.run, name=f"fly-uav{f.sysid}", daemon=True) for f in flights]

@@ -59,7 +59,7 @@ class Retasker:
     flights: list[DroneFlight]
     planner: RetaskPlanner  # missionplan.retask.retask_planner
     alert: Callable[[str], None]
-    events: queue.SimpleQueue[FlightEvent]  # every follower's events (FlightEvents.queue, made before they start)
+    events: queue.SimpleQueue[FlightEvent]  # every follower's events (FlightEvents.new_queue, made before they start)
     silence: SilenceRule = field(default_factory=SilenceRule)  # when a silent drone is gone (--replan-after)
     time_scale: float | None = None
     handled: set[int] = field(default_factory=set)  # drones whose share was re-planned already
