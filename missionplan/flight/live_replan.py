@@ -94,7 +94,8 @@ class Retasker:
         """Hold the survivors where they are, plan from there, put the new missions on board (released
         together by the uploads); a refusal releases them to their old missions."""
         names = ", ".join(f"uav{f.sysid}" for f in gone)
-        lost_at = min(self.views[f.sysid].heard_at or time.monotonic() for f in gone)
+        now = time.monotonic()
+        lost_at = min(heard_at if (heard_at := self.views[f.sysid].heard_at) is not None else now for f in gone)
         entry: dict[str, Any] = {"gone": [f.sysid for f in gone], "survivors": [f.sysid for f in survivors],
                                  "why": {f.sysid: self.views[f.sysid].why_gone() for f in gone}}
         self.alert(f"re-plan: {names} gone; holding {', '.join(f'uav{f.sysid}' for f in survivors)} to plan what "
