@@ -10,6 +10,8 @@ Parts, lowest first; each subpackage's __init__ says what it owns and may import
   link           the ground station's MAVLink link: connections, signing, parameters, readiness and arming
   transfer       the mission protocol (pymavlink and MAVSDK backends), upload with read-back, live re-tasking,
                  onboard log download
+  session        one vehicle as the ground station talks to it: its actions, mission, streams, parameters and
+                 log, each request in one place
   sim            the pure-Python mock autopilot (its link and faults, one vehicle, kinematics, onboard log)
 """
 

@@ -148,7 +148,7 @@ def test_a_lost_mission_start_is_sent_again_within_a_few_round_trips(planned, mo
 
     def start_wait_s(flight: DroneFlight) -> float:
         wait_s = choose(flight)
-        chosen[flight.sysid] = (wait_s, flight.backend.link.ack_rtt_s[flight.sysid])
+        chosen[flight.sysid] = (wait_s, flight.session.ack_rtt_s())
         return wait_s
 
     monkeypatch.setattr(DroneFlight, "_start_wait_s", start_wait_s)

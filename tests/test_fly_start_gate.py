@@ -5,7 +5,7 @@ from __future__ import annotations
 import threading
 import time
 
-from missionplan.flight.drone_flight import FleetGate
+from missionplan.flight.fleet_start import FleetGate
 
 
 def _ready(gate: FleetGate, released: list[float]) -> threading.Thread:

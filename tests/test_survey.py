@@ -382,8 +382,8 @@ def test_survivors_that_do_not_stop_for_a_retask_go_back_to_their_own_missions(
         leonardo_3: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
     # A vehicle that never gets under the hold speed (a gusty day, a slow brake): the re-task is refused
     # with what each was doing, and no survivor is left hovering in GUIDED; they finish what they had.
-    monkeypatch.setattr("missionplan.flight.drone_flight.HOLD_SPEED", 0.0)
-    monkeypatch.setattr("missionplan.flight.drone_flight.HOLD_S", 1.0)
+    monkeypatch.setattr("missionplan.flight.retask_actions.HOLD_SPEED", 0.0)
+    monkeypatch.setattr("missionplan.flight.retask_actions.HOLD_S", 1.0)
     plan = _copy(leonardo_3, tmp_path / "plan")
     planned = {k: read_mission_file(plan / f"uav{k}.plan").mission.items for k in (1, 3)}
     mock = start_mock_fleet(plan, RETASK_SPEEDUP)

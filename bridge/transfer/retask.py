@@ -29,9 +29,9 @@ A vehicle that is not flying its mission (not armed, or in another mode: RTL aft
 is not touched: re-tasking must never override what the pilot or a failsafe chose.
 
 In `fly` each vehicle's link is a view of a shared link read by that drone's thread
-(link.shared_link.VehicleLink): call this from that thread with its backend and view, and pass
-`observe` (DroneFlight's `vehicle.take`) to keep every message of the vehicle that arrives meanwhile
-(positions, MISSION_ITEM_REACHED, STATUSTEXT) in the flight's record. A new geofence (`fence`) goes
+(link.shared_link.VehicleLink): call this from that thread with its backend and view (its vehicle session,
+missionplan.bridge.session, does), and pass `observe` (the session's `take`) to keep every message of the
+vehicle that arrives meanwhile (positions, MISSION_ITEM_REACHED, STATUSTEXT) in the flight's record. A new geofence (`fence`) goes
 up before the mission (ArduPilot: during the pause), so the vehicle never flies the new mission inside
 the old fence; a fence or mission refused raises RetaskError with what was left on the vehicle.
 """

@@ -11,9 +11,12 @@ import shlex
 import signal
 import sys
 import threading
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from missionplan.bridge.errors import BridgeError, BridgeUsageError
 from missionplan.bridge.limits import check_integer, check_range
@@ -21,10 +24,12 @@ from missionplan.bridge.link.readiness import DEFAULT_LAUNCH_OFFSET_M
 from missionplan.bridge.terminal_text import printable
 
 from ..flight.display import print_flight
-from ..flight.drone_flight import DEFAULT_READY_S
+from ..flight.fleet_start import DEFAULT_READY_S
 from ..flight.fly import (ABORT_WINDOW_S, DEFAULT_TELEMETRY_HZ, EXIT_NOT_RECORDED, ON_ABORT, UPLOADERS, fly,
                           refuse_empty_missions)
-from ..flight.live_replan import DEFAULT_REPLAN_AFTER_S
+from ..flight.link_silence import GONE_SILENT_S
+from ..flight.retask_planner import RetaskPlan, Survivor
+from ..mission.plan_record import PlanRecord
 from .errors import said
 from .parsing import runs
 from .vehicle import CONNECT_HELP, DEFAULT_CONNECT, GcsIdentity, add_gcs_arguments, gcs_identity, signing_key
@@ -57,11 +62,13 @@ def _sigterm_as_interrupt(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt
 
 
-def _plan_retask(*args: Any, **kwargs: Any) -> Any:
-    """fly --replan's planner (missionplan/planning/retask.py), imported when a re-task is planned."""
-    from ..planning.retask import plan_retask
+def _plan_retask(plan_dir: Path, record: PlanRecord, survivors: Sequence[Survivor],
+                 photos_latlon: np.ndarray) -> RetaskPlan | None:
+    """fly --replan's planner (missionplan/planning/retask.py: a flight.retask_planner.RetaskPlanner), imported when a
+    re-task is planned."""
+    from ..planning.retask import retask_planner
 
-    return plan_retask(*args, **kwargs)
+    return retask_planner(plan_dir, record, survivors, photos_latlon)
 
 
 def cmd_fly(request: FlyRequest) -> int:
@@ -145,9 +152,9 @@ def register(subparsers: Any) -> None:
                    help="live re-tasking: when a drone is lost or ends early, plan what is left for the drones still "
                         "flying, from where they are (endurance, separation and fences checked), and upload it to "
                         "them in flight; a lost drone heard again is sent home (RTL)")
-    p.add_argument("--replan-after", type=float, default=DEFAULT_REPLAN_AFTER_S, metavar="S",
+    p.add_argument("--replan-after", type=float, default=GONE_SILENT_S, metavar="S",
                    help=f"with --replan: a drone not heard for S seconds mid-mission counts as lost "
-                        f"(default {DEFAULT_REPLAN_AFTER_S:g})")
+                        f"(default {GONE_SILENT_S:g})")
     p.add_argument("--on-abort", choices=ON_ABORT, default="none",
                    help="what Ctrl-C commands the vehicles this run started: nothing (default: they fly on with their "
                         f"missions; a second Ctrl-C within {ABORT_WINDOW_S:g} s sends them home), rtl or land")

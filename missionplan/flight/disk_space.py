@@ -5,7 +5,7 @@ drone's record), its write-ahead log, and the files fly writes once the flight i
 flight.png, flight.html / .gpkg / .kmz, missed.geojson, the ledger's rows, photos.csv / .geojson and
 geo.txt). Each term below is a size measured by bench/journal_bench.py (which prints them, and the
 estimate next to what real mock flights wrote), never a guess; the estimate is an upper bound:
-- every drone is followed for as long as fly would wait for it at most (drone_flight's LINK_WAIT_FACTOR
+- every drone is followed for as long as fly would wait for it at most (link_silence's LINK_WAIT_FACTOR
   times its planned flight plus LINK_MARGIN_S, vehicle seconds), at the telemetry rate asked, in
   vehicle seconds (a sped-up simulator sends fewer samples per vehicle second, a real vehicle as many);
 - every planned photo is taken PHOTO_MARGIN times over (repeated reports, a log read after a gap);
@@ -20,7 +20,7 @@ from pathlib import Path
 
 from ..mission.plan_blocks import SortiePlan
 from ..mission.plan_record import PlanRecord
-from .drone_flight import LINK_MARGIN_S, LINK_WAIT_FACTOR
+from .link_silence import LINK_MARGIN_S, LINK_WAIT_FACTOR
 from .journal_db import JournalError
 
 # Bytes in journal.sqlite (rows, their index entries, the pages' slack), as bench/journal_bench.py measured

@@ -30,7 +30,7 @@ import threading
 import time
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -38,33 +38,34 @@ from missionplan.base.naming import Named
 from missionplan.bridge.errors import BridgeUsageError
 from missionplan.bridge.folder_lock import holding_folder
 from missionplan.bridge.link.connection import GCS_COMPONENT_ID, GCS_SYSTEM_ID, mavlink, parse_gcs_sysid
-from missionplan.bridge.formats.mission_items import Flavour
 from missionplan.bridge.formats.missionfile import read_mission_file
-from missionplan.bridge.link.readiness import (ARDUPILOT_LAND, ARDUPILOT_RTL, DEFAULT_LAUNCH_OFFSET_M, PX4_AUTO_MAIN,
-                                               PX4_LAND_SUB, PX4_RTL_SUB, ground_distance_m, mode_params)
+from missionplan.bridge.link.readiness import DEFAULT_LAUNCH_OFFSET_M, ground_distance_m
 from missionplan.bridge.link.shared_link import LinkPool
 from missionplan.bridge.terminal_text import printable
 from missionplan.bridge.link.signing import SigningKey
+from missionplan.bridge.session.action import HOMING
 from missionplan.bridge.transfer.uploader import check_gcs_identity
 
 from ..mission.plan_record import PlanRecord, PlanRecordError, read_plan_record
 from ..mission.sorties import sortie_file
 from .disk_space import check_space
 from .display import progress_display
-from .drone_flight import DEFAULT_READY_S, DroneFlight, FleetGate, FleetStart
+from .drone_flight import DroneFlight
+from .event_journal import EventJournal
+from .fleet_start import DEFAULT_READY_S, FleetGate, FleetStart
 from .flight_report import FlightResult, judge, live_tolerance, sortie_view
 from .journal import RETRY_S, Journal, write_fallback
 from .journal_db import JournalError
-from .live_replan import DEFAULT_REPLAN_AFTER_S, Retasker
+from .link_silence import GONE_SILENT_S, SilenceRule
+from .live_replan import Retasker
+from .retask_planner import RetaskPlanner
 from .record import DroneRecord
 
 DEFAULT_TELEMETRY_HZ = 25.0
 UPLOADERS = ("missionplan", "mavsdk")  # who reads the .plan files and uploads them
-ON_ABORT = ("none", "rtl", "land")
+ON_ABORT = ("none", *HOMING)
 ABORT_WINDOW_S = 5.0  # after a Ctrl-C, a second one this soon commands the fleet home
 WATCH_S = 1.0  # the live separation watch looks this often
-ARDUPILOT_MODES = {"rtl": ARDUPILOT_RTL, "land": ARDUPILOT_LAND}
-PX4_AUTO_SUBS = {"rtl": PX4_RTL_SUB, "land": PX4_LAND_SUB}
 EXIT_NOT_RECORDED = 3  # the flight's record is not whole in its folder (the rest went to a fallback file)
 
 
@@ -114,17 +115,13 @@ class SeparationWatch:
 
 
 def _abort(flights: list[DroneFlight], action: str, alert: Any) -> None:
-    """Command every vehicle this run started and that is still armed to return (RTL) or land."""
+    """Command every vehicle this run started and that is still armed to return (RTL) or land (their
+    followers have stopped: the messages meanwhile are left unread)."""
     for flight in flights:
-        rec, backend = flight.record, flight.backend
-        if not rec.started or backend is None or flight.vehicle is None or not flight.armed:
+        rec, session = flight.record, flight.session
+        if not rec.started or session is None or not flight.armed:
             continue
-        if backend.vehicle.flavour is Flavour.PX4:
-            params = mode_params(PX4_AUTO_MAIN, PX4_AUTO_SUBS[action])
-        else:
-            params = mode_params(ARDUPILOT_MODES[action])
-        flight.commanded.update({action.upper(), "RTL", "LAND"})
-        result = backend.link.command_long(rec.id, mavlink.MAV_CMD_DO_SET_MODE, params, time.monotonic() + 5.0)
+        result = session.action.homing_mode(action, time.monotonic() + 5.0, observe=False)
         text = f"commanded {action.upper()}: " + ("accepted" if result == mavlink.MAV_RESULT_ACCEPTED else
                                                  "not acknowledged" if result is None else f"refused ({result})")
         rec.add_event(time.time(), f"fly: {text}")
@@ -138,8 +135,8 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
         max_launch_offset_m: float = DEFAULT_LAUNCH_OFFSET_M, photos_from_track: bool = False,
         key: SigningKey | None = None, source_system: int = GCS_SYSTEM_ID,
         source_component: int = GCS_COMPONENT_ID, resume: bool = False, on_abort: str = "none",
-        command: str = "", replan: Callable[..., Any] | None = None,
-        replan_after_s: float = DEFAULT_REPLAN_AFTER_S) -> FlightResult:
+        command: str = "", replan: RetaskPlanner | None = None,
+        replan_after_s: float = GONE_SILENT_S) -> FlightResult:
     """Fly every drone of plan_dir at once (or, resume=True, follow again the flight a stopped run
     left), journal it as it happens, and judge it from the journal: flight.json, flight.png,
     missed.geojson.
@@ -157,7 +154,7 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     the read-back must then equal what our own reader makes of the same file.
     on_abort: what Ctrl-C commands the vehicles this run started ("none": nothing; a second Ctrl-C
     within ABORT_WINDOW_S then commands RTL). command: the command line, kept in the journal.
-    replan: `fly --replan`, the planner of live re-tasks (missionplan.planning.retask.plan_retask): a drone gone
+    replan: `fly --replan`, the planner of live re-tasks (missionplan.planning.retask.retask_planner): a drone gone
     (ended early, or silent for replan_after_s mid-mission) has what is left re-planned among the drones
     still flying, uploaded to them in flight (live_replan.Retasker)."""
     if upload_with not in UPLOADERS:
@@ -227,8 +224,8 @@ def _keep_the_rest(plan_dir: Path, journal: Journal, result: FlightResult | None
 def _fly_journaled(plan_dir: Path, record: PlanRecord, pool: LinkPool, journal: Journal, timeout_s: float,
                    progress: bool, time_scale: float | None, telemetry_hz: float, upload_with: str, ready_s: float,
                    max_launch_offset_m: float, photos_from_track: bool, key: SigningKey | None, resume: bool,
-                   on_abort: str, source_system: int, replan: Callable[..., Any] | None = None,
-                   replan_after_s: float = DEFAULT_REPLAN_AFTER_S) -> FlightResult:
+                   on_abort: str, source_system: int, replan: RetaskPlanner | None = None,
+                   replan_after_s: float = GONE_SILENT_S) -> FlightResult:
     sortie = journal.sortie
     files = {d.id: plan_dir / sortie_file(d.id, sortie) for d in record.drones or ()}
     view = flight_view(plan_dir, record, sortie)
@@ -262,7 +259,12 @@ def _fly_journaled(plan_dir: Path, record: PlanRecord, pool: LinkPool, journal: 
         planned_s = {d.id: float(d.flight_s) for d in drones}
         fleet = FleetStart(pool, FleetGate(len(runnable)), FleetGate(len(runnable)), threading.Event(), key=key,
                            ready_s=ready_s, max_offset_m=max_launch_offset_m, say=say, alert=alert, resume=resume,
-                           time_scale=time_scale, planned_s=planned_s, commit=journal.flush)
+                           time_scale=time_scale, planned_s=planned_s, commit=journal.flush,
+                           silence=SilenceRule(replan_after_s))
+        # What the followers decide goes into their records and alerts in their own threads, and to the
+        # re-tasker on a queue it reads in this one.
+        fleet.events.subscribe(EventJournal({rec.id: rec for rec in runnable}, alert))
+        retask_events = fleet.events.new_queue() if replan is not None and not resume else None
         flights = [DroneFlight(fleet, rec, files[rec.id], deadline, telemetry_hz, bars.get(rec.id), upload_with)
                    for rec in runnable]
         threads = [threading.Thread(target=f.run, name=f"fly-uav{f.sysid}", daemon=True) for f in flights]
@@ -270,8 +272,8 @@ def _fly_journaled(plan_dir: Path, record: PlanRecord, pool: LinkPool, journal: 
             thread.start()
         watch = SeparationWatch(runnable, promised_3d(view), live_tolerance(runnable, time_scale or 1.0, telemetry_hz),
                                 alert)
-        retasker = None if replan is None or resume else Retasker(plan_dir, view, flights, replan, alert,
-                                                                   replan_after_s, time_scale)
+        retasker = None if replan is None or retask_events is None else Retasker(
+            plan_dir, view, flights, replan, alert, retask_events, fleet.silence, time_scale)
         try:
             while any(t.is_alive() for t in threads) and time.monotonic() < deadline + 5.0:
                 _wait_any(threads, WATCH_S)

@@ -1,29 +1,31 @@
 """`fly --replan`: watch the fleet for a drone that is lost or ends early, and re-task the others in flight.
 
-fly's main thread calls Retasker.look() every WATCH_S. A drone counts as gone when it ended its mission
-early (a landing), was switched to a return by someone else than fly (a failsafe's RTL or LAND), or has
-not been heard for --replan-after seconds while its mission ran.
+fly's main thread calls Retasker.look() every WATCH_S. The re-tasker knows the fleet from the events its
+followers publish (events.py, on a queue read here), not from their threads' state: a drone counts as
+gone when it ended its mission early (a landing), was switched to a return by someone else than fly (a
+failsafe's RTL or LAND), or has been silent mid-mission for --replan-after seconds (link_silence decides).
 Then, once per gone drone:
 1. the drones still flying their missions are held where they are (ArduPilot GUIDED, PX4 HOLD: the
    autopilot brakes and hovers), so the plan starts where they really are and their new tracks start
    together;
-2. the planner fly was handed (missionplan.planning.retask.plan_retask, through the CLI: this layer plans
-   nothing itself) plans what no confirmed photo has covered yet for them, from there, checked for
-   endurance, separation and fences;
-3. each survivor's own thread puts its new mission on its vehicle (DroneFlight.retask,
-missionplan.bridge.transfer.retask),
-   the main thread waiting, bounded, for all of them; then all are released to their mission mode at
+2. the planner fly was handed (a retask_planner.RetaskPlanner: missionplan.planning.retask.retask_planner, through
+   the CLI; this layer plans nothing itself) plans what no confirmed photo (events.PhotoTaken) has covered
+   yet for them, from there, checked for endurance, separation and fences;
+3. each survivor's own thread puts its new mission on its vehicle (retask_actions, through its vehicle
+   session: missionplan.bridge.transfer.retask), the main thread waiting, bounded, for all of them; then all are released to their mission mode at
    once, so the new tracks start together. One whose upload failed keeps holding, and the crew is told.
 A refusal (a survivor that cannot be held, a plan that fails a check) is said with its reason and the
 held survivors are released to their old missions where they were.
 
 A gone drone that is heard again after its share was given away would fly the same streets as the
-drones that took it over: it is sent home (RTL), which is what --replan asks for, and said.
+drones that took it over: its follower is told (events.ShareGivenAway) and sends it home (RTL), which is
+what --replan asks for, and says so.
 Every step is journaled in the drones' records (events and notes) and so reaches flight.json.
 """
 
 from __future__ import annotations
 
+import queue
 import time
 from collections.abc import Callable
 from concurrent.futures import TimeoutError as FutureTimeout
@@ -36,10 +38,19 @@ import numpy as np
 from missionplan.bridge.formats.missionfile import read_mission_file
 
 from ..mission.plan_record import PlanRecord
-from .drone_flight import HOLD_S, RETASK_UPLOAD_S, RETURN_MODES, DroneFlight, RetaskRequest
+from .drone_flight import DroneFlight
+from .events import FlightEvent, ShareGivenAway, drain
+from .fleet_view import DroneView, confirmed_photos
 from .flight_report import vehicle_rate
+from .link_silence import SilenceRule
+from .retask_actions import HOLD_S, RETASK_UPLOAD_S, RetaskActions
+from .retask_planner import RetaskPlanner, RetaskPlanningError, Survivor
 
-DEFAULT_REPLAN_AFTER_S = 15.0  # silent this long (our seconds) mid-mission: lost, for re-tasking
+
+def _actions(flight: DroneFlight) -> RetaskActions:
+    """A survivor's re-task actions (it is flying its mission: its follower has its session)."""
+    assert flight.retasking is not None
+    return flight.retasking
 
 
 @dataclass
@@ -47,85 +58,75 @@ class Retasker:
     plan_dir: Path
     record: PlanRecord  # the plan as this flight is judged (fly.flight_view)
     flights: list[DroneFlight]
-    planner: Callable[..., Any]  # missionplan.planning.retask.plan_retask
+    planner: RetaskPlanner  # missionplan.planning.retask.retask_planner
     alert: Callable[[str], None]
-    lost_after_s: float = DEFAULT_REPLAN_AFTER_S
+    events: queue.SimpleQueue[FlightEvent]  # every follower's events (FlightEvents.new_queue, made before they start)
+    silence: SilenceRule = field(default_factory=SilenceRule)  # when a silent drone is gone (--replan-after)
     time_scale: float | None = None
     handled: set[int] = field(default_factory=set)  # drones whose share was re-planned already
     retasks: list[dict[str, Any]] = field(default_factory=list)
+    views: dict[int, DroneView] = field(init=False)  # what the events said of each drone
 
-    def gone(self, flight: DroneFlight, now: float) -> bool:
-        """Ended its mission early, switched to a return (a failsafe's RTL or LAND, not by fly), or silent
-        for lost_after_s mid-mission."""
-        rec = flight.record
-        if not rec.started or rec.finished or flight.sysid in self.handled:
-            return False
-        return (bool(rec.ended_early) or flight.left_mission in RETURN_MODES
-                or now - flight.heard_at > self.lost_after_s)
+    def __post_init__(self) -> None:
+        self.views = {f.sysid: DroneView(f.sysid) for f in self.flights}
 
-    def flying(self, flight: DroneFlight, now: float) -> bool:
-        """Still flying its mission, heard lately, in its mission mode: can take more."""
-        rec = flight.record
-        if not rec.started or rec.finished or rec.ended_early or not flight.armed or flight.vehicle is None:
-            return False
-        if now - flight.heard_at > 2.0:  # a drone in a link gap cannot take an upload now
-            return False
-        return bool(flight.vehicle.state.in_auto)  # AUTO / AUTO.MISSION: not RTL, not a pilot's mode
+    def _read_events(self) -> None:
+        for event in drain(self.events):
+            self.views[event.sysid].take(event)
 
     def look(self) -> None:
+        self._read_events()
         now = time.monotonic()
-        gone = [f for f in self.flights if self.gone(f, now)]
+        gone = [f for f in self.flights if f.sysid not in self.handled and self.views[f.sysid].gone(now, self.silence)]
         if not gone:
             return
         self.handled.update(f.sysid for f in gone)
         for f in gone:
-            f.given_away = True
-        survivors = [f for f in self.flights if f not in gone and self.flying(f, now)]
+            f.tell(ShareGivenAway())
+        survivors = [f for f in self.flights if f not in gone and self.views[f.sysid].flying(now, self.silence)]
         names = ", ".join(f"uav{f.sysid}" for f in gone)
         if not survivors:
             self.alert(f"re-plan: {names} gone and no drone still flying its mission to take its share; "
                        "`missionplan replan` plans it after landing")
             return
-        self._retask(gone, survivors, now)
+        self._retask(gone, survivors)
 
-    def _retask(self, gone: list[DroneFlight], survivors: list[DroneFlight], now: float) -> None:
+    def _retask(self, gone: list[DroneFlight], survivors: list[DroneFlight]) -> None:
         """Hold the survivors where they are, plan from there, put the new missions on board (released
         together by the uploads); a refusal releases them to their old missions."""
         names = ", ".join(f"uav{f.sysid}" for f in gone)
-        lost_at = min(f.heard_at for f in gone)
+        now = time.monotonic()
+        lost_at = min(heard_at if (heard_at := self.views[f.sysid].heard_at) is not None else now for f in gone)
         entry: dict[str, Any] = {"gone": [f.sysid for f in gone], "survivors": [f.sysid for f in survivors],
-                                 "why": {f.sysid: f.record.ended_early or (f"switched to {f.left_mission}"
-                                                                           if f.left_mission else "not heard")
-                                         for f in gone}}
+                                 "why": {f.sysid: self.views[f.sysid].why_gone() for f in gone}}
         self.alert(f"re-plan: {names} gone; holding {', '.join(f'uav{f.sysid}' for f in survivors)} to plan what "
                    "is left from where they are")
         # Held first: planned from where they hover, the new tracks start where the plan says, together.
-        held = self._all(survivors, lambda f: f.hold, HOLD_S + 5.0)
+        held = self._all(survivors, lambda f: _actions(f).hold, HOLD_S + 5.0)
         failed = {k: v for k, v in held.items() if isinstance(v, str)}
         if failed:
             self._refused(survivors, entry, "could not hold " + "; ".join(f"uav{k}: {v}" for k, v in failed.items()))
             return
-        photos = np.array([[lat, lon] for f in self.flights for (_, lat, lon, _) in f.record.camera.values()],
-                          dtype=float).reshape(-1, 2)
+        self._read_events()  # the photos confirmed until now
+        photos = confirmed_photos(list(self.views.values()))
         states = [self._survivor(f, held[f.sysid]) for f in survivors]
         planning = time.monotonic()
         try:
             plan = self.planner(self.plan_dir, self.record, states, photos)
-        except ValueError as err:  # RetaskPlanningError / MapError: the reason, for the crew
+        except RetaskPlanningError as err:  # the reason, for the crew
             self._refused(survivors, entry, str(err))
             return
         if plan is None:
             self._refused(survivors, entry, "every target is already photographed")
             return
         planned_at = time.monotonic()
-        requests = {f.sysid: RetaskRequest(plan.missions[f.sysid], plan.fences.get(f.sysid),
-                                           plan.resume_index[f.sysid], photos=plan.photos[f.sysid]) for f in survivors}
-        said = self._all(survivors, lambda f: (lambda: f.retask(requests[f.sysid])), RETASK_UPLOAD_S + 5.0)
+        requests = {f.sysid: plan.request(f.sysid) for f in survivors}
+        said = self._all(survivors, lambda f: (lambda: _actions(f).retask(requests[f.sysid])), RETASK_UPLOAD_S + 5.0)
         failed = {k: v for k, v in said.items() if not v.startswith("re-tasked")}
         # Released together: the new tracks start at one moment, as the separation check assumed. A survivor
         # whose upload failed keeps holding (ArduPilot may hold half of the new mission): the crew takes it.
         go = [f for f in survivors if f.sysid not in failed]
-        released = self._all(go, lambda f: f.release, HOLD_S + 5.0)
+        released = self._all(go, lambda f: _actions(f).release, HOLD_S + 5.0)
         failed.update({k: f"not released: {v}" for k, v in released.items() if v is not None})
         for f in survivors:
             self.alert(f"uav{f.sysid}: {said[f.sysid]}" if f.sysid not in failed
@@ -158,7 +159,7 @@ class Retasker:
 
     def _refused(self, survivors: list[DroneFlight], entry: dict[str, Any], why: str) -> None:
         """The re-task will not be flown: the held survivors go back to their missions, and it is said."""
-        released = self._all(survivors, lambda f: f.release, HOLD_S + 5.0)
+        released = self._all(survivors, lambda f: _actions(f).release, HOLD_S + 5.0)
         stuck = {k: v for k, v in released.items() if v is not None}
         entry["outcome"] = f"not re-tasked: {why}"
         if stuck:
@@ -168,16 +169,15 @@ class Retasker:
         self.alert(f"re-plan refused: {why}; the others fly on with their missions"
                    + (f" (NOT back in their mission mode: {stuck}; take them over)" if stuck else ""))
 
-    def _survivor(self, f: DroneFlight, where: tuple[float, float, float]) -> dict[str, Any]:
-        """What the planner needs of a survivor (missionplan.planning.retask.Survivor's fields), held at `where`."""
+    def _survivor(self, f: DroneFlight, where: tuple[float, float, float]) -> Survivor:
+        """What the planner needs of a survivor, held at `where`."""
         rec = f.record
         lat, lon, up = where
         home = read_mission_file(f.plan_path).mission.home
         rate = self.time_scale or (vehicle_rate(np.array(rec.samples)) if len(rec.samples) >= 10 else None) or 1.0
         flown = (time.time() - (rec.t_start or time.time())) * rate
-        return {"sysid": f.sysid, "lat": float(lat), "lon": float(lon), "up_m": float(up),
-                "home": (float(home[0]), float(home[1])) if home is not None else (float(lat), float(lon)),
-                "flown_s": float(flown)}
+        return Survivor(f.sysid, float(lat), float(lon), float(up),
+                        (float(home[0]), float(home[1])) if home is not None else (float(lat), float(lon)), float(flown))
 
     def _note(self, flights: list[DroneFlight], entry: dict[str, Any]) -> None:
         text = "re-plan: " + ", ".join(f"{k} {v}" for k, v in entry.items())

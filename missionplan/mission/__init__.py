@@ -38,6 +38,8 @@ Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_l
                   endurance.
   timeline        Where every drone is when: planned missions as timed 3-D tracks, and the closest
                   approach of two tracks.
+  track_missions  Tracks -> missions: the ways out and home round the obstacles, and a drone's mission from
+                  its tracks (the stage `plan` and the live re-task end with).
   webmap          plan.html / flight.html: one self-contained page, the layers over the city (Leaflet
                   inlined, webmap_assets/).
 """

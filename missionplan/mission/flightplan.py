@@ -26,10 +26,11 @@ from ..maps.gridmap import GridMap, MapError
 from .corrector import MARGIN_CELLS, CorrectedPath, correct_path
 from .geofence import Fence, drone_fence
 from .plan_blocks import ClearancePromise, Closest, DronePlan, FencePlan, PathShape, SeparationPromise, SortiePlan
-from .drone_missions import DroneMission, MissionSettings, build_mission
+from .drone_missions import DroneMission, MissionSettings
 from .safety import SafetySettings
 from .separation import Layering, SeparationError, choose_layers, closest_over_sorties, position_at
 from .sorties import Sortie, sortie_file, split_sorties
+from .track_missions import LaunchWays, track_mission
 from .timeline import ASSUMES, PX4_ASSUMES, FlightModel, closest_approach, planned_track
 
 SORTIE_FIT_TRIES = 6  # re-cuts of a drone's sorties when one came out over the budget on the timeline
@@ -136,55 +137,6 @@ def _place(frame: GridFrame, point_m: np.ndarray) -> str:
     return f"{float(lat[0]):.6f},{float(lon[0]):.6f}, {point_m[2]:.1f} m up"
 
 
-def _latlon(frame: GridFrame, points_m: np.ndarray) -> np.ndarray:
-    """(n, 2) grid metres -> (n, 2) latitude, longitude."""
-    if not len(points_m):
-        return np.zeros((0, 2))
-    grid = np.asarray(points_m, dtype=float) / frame.cell_m
-    return np.column_stack(frame.grid_to_latlon(grid[:, 0], grid[:, 1]))
-
-
-class _Homing:
-    """One drone's ways between its launch point and any cell, along free cells (breadth first, once),
-    straightened by the corrector with the clearance margin and no coverage duty."""
-
-    def __init__(self, free: np.ndarray, launch: tuple[int, int], obstacle: np.ndarray, margin_cells: float,
-                 cell_m: float) -> None:
-        from .clearance import steps_toward
-
-        source = np.zeros(free.shape, dtype=bool)
-        source[tuple(launch)] = True
-        self.steps, self.toward = steps_toward(free, source)
-        self.launch, self.obstacle, self.margin, self.cell = tuple(launch), obstacle, margin_cells, cell_m
-        self.cols = free.shape[1]
-        self._ways: dict[tuple[int, int], np.ndarray] = {}
-
-    def _cell(self, point_m: np.ndarray) -> tuple[int, int]:
-        return int(round(point_m[0] / self.cell)), int(round(point_m[1] / self.cell))
-
-    def home_m(self, point_m: np.ndarray) -> float:
-        """Length of the free-cell way from the launch point to `point_m` (an upper bound of the flown one)."""
-        steps = self.steps[self._cell(point_m)]
-        return float(steps) * self.cell if steps >= 0 else float(np.hypot(*point_m)) + 1e9
-
-    def way(self, point_m: np.ndarray, outbound: bool) -> np.ndarray:
-        """Waypoints (metres) strictly between the launch point and `point_m`, out from launch or home to it;
-        the way home ends over the launch point itself."""
-        start = self._cell(point_m)
-        if start not in self._ways:
-            cells = [start]
-            while cells[-1] != self.launch and self.toward[cells[-1]] >= 0 and len(cells) <= self.steps.size:
-                flat = int(self.toward[cells[-1]])
-                cells.append((flat // self.cols, flat % self.cols))
-            track = correct_path(np.array(cells), self.obstacle, np.zeros(self.obstacle.shape, dtype=bool),
-                                 margin_cells=self.margin)
-            self._ways[start] = np.asarray(track.waypoints, dtype=float) * self.cell  # point ... launch
-        home = self._ways[start]
-        if outbound:
-            return home[::-1][1:-1]
-        return home[1:]
-
-
 def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSettings,
                       safety: SafetySettings | None = None, base: GridMap | None = None) -> FlightPlans:
     """Correct every drone's path and build its missions.
@@ -216,7 +168,7 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
     budget = safety.budget_s if safety is not None else None
     # With safety settings, the way out to a sortie's start and the way home go round the obstacles
     # (along free cells of the planner's map, then through the corrector), never straight through them.
-    homing = [_Homing(result.gmap.free, result.starts[k], base.obstacle, margin_cells, cell) if safety is not None
+    homing = [LaunchWays(result.gmap.free, result.starts[k], base.obstacle, margin_cells, cell) if safety is not None
               else None for k in range(uavs)]
 
     def split_one(k: int, altitude: float) -> list[Sortie]:
@@ -285,10 +237,9 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
         drone_missions = []
         for j, sortie in enumerate(all_sorties[k]):
             out, back = legs(k, sortie)
-            drone_missions.append(build_mission(k, home, _latlon(frame, sortie.waypoints_m), sortie.waypoints_m,
-                                                launches[k], settings, flight_s=float(sortie_tracks[j][k + 1][-1, 0]),
-                                                end=sortie.end, resumes=sortie.resumes,
-                                                transit=(_latlon(frame, out), out), back=(_latlon(frame, back), back)))
+            drone_missions.append(track_mission(frame, k, home, sortie.waypoints_m, launches[k], settings,
+                                                flight_s=float(sortie_tracks[j][k + 1][-1, 0]), end=sortie.end,
+                                                resumes=sortie.resumes, out_m=out, back_m=back))
         missions.append(drone_missions)
         starts.append(np.array([s.waypoints_m[0] / cell for s in all_sorties[k] if len(s.waypoints_m)]).reshape(-1, 2))
         if safety is not None:

@@ -3,6 +3,7 @@ what could not be planned. Each is a MapError too (what the command line prints 
 
 from __future__ import annotations
 
+from ..flight.retask_planner import RetaskPlanningError as RetaskRefused
 from ..maps.gridmap import MapError
 
 
@@ -23,5 +24,6 @@ class ReplanError(PlanningError):
     """A re-plan after landing whose drones or launch points do not fit the survey."""
 
 
-class RetaskPlanningError(PlanningError):
-    """A live re-task that cannot be planned; the survivors fly on with their own missions."""
+class RetaskPlanningError(PlanningError, RetaskRefused):
+    """A live re-task that cannot be planned; the survivors fly on with their own missions (fly's re-tasker
+    catches it as the flight side's RetaskPlanningError)."""

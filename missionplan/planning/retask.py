@@ -1,13 +1,13 @@
 """Live re-tasking (`fly --replan`): when a drone is lost or ends early, plan what the flight has
 not photographed yet for the drones still flying, from where they are, and prove it safe first.
 
-Called by fly (missionplan/flight/fly.py, through the planner missionplan/cli/fly.py hands it) with what the
-flight knows at that moment: the photos the vehicles confirmed, each survivor's position, home and
+Called by fly (missionplan/flight/fly.py, through the planner missionplan/cli/fly.py hands it: retask_planner,
+fly's flight.retask_planner.RetaskPlanner) with what the flight knows at that moment: the photos the vehicles confirmed, each survivor's position, home and
 flight time so far. It plans *everything* left, not only the lost drone's share: the survivors'
 own unflown parts are re-split with it, so the result is a fresh plan for the survivors from that
 moment (Lloyd/Voronoi zones, the same policy, clearance band and altitude layers as `plan`). Each
 survivor's new mission: its camera on where it is, its survey, the way home round the obstacles
-(flightplan's homing) to its real home, RTL. Before anything is uploaded:
+(mission.track_missions: LaunchWays, track_mission) to its real home, RTL. Before anything is uploaded:
 - endurance: each survivor's new flight, on the timeline, fits in what its battery budget (the
   plan's endurance less the reserve) has left after the time it has flown;
 - separation: the new tracks, all starting now from the survivors' positions in the air, never come
@@ -24,9 +24,9 @@ missions they have, and `missionplan replan` plans the rest after landing.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -34,15 +34,15 @@ from missionplan.bridge.formats.mission_items import Mission
 
 from .errors import RetaskPlanningError
 from .field_plan import plan_field
+from ..flight.retask_planner import RetaskPlan, Survivor
 from ..flight.plan_report import frame_of, missing_map, planned_grid, target_cells, to_grid_m
 from ..flight.ledger import Ledger, covered_cells
 from ..mission.clearance import clearance_band
-from ..mission.flightplan import _Homing, _latlon
 from ..mission.geofence import drone_fence
-from ..mission.drone_missions import build_mission
 from ..mission.plan_record import PlanRecord
 from ..mission.separation import SeparationError, choose_layers
 from ..mission.timeline import FlightModel, closest_approach_out_of_step, planned_track
+from ..mission.track_missions import LaunchWays, track_mission
 
 # How far out of step two survivors may fly, t seconds after their release: floor_s + rate * t, by the
 # autopilot the plan was made for. ArduCopter: its timeline is within 2-6 % of ArduCopter SITL
@@ -54,28 +54,6 @@ from ..mission.timeline import FlightModel, closest_approach_out_of_step, planne
 OUT_OF_STEP = {"ardupilot": (0.5, 0.05), "px4": (3.0, 0.10)}  # autopilot -> (floor_s, rate)
 
 
-@dataclass(frozen=True)
-class Survivor:
-    """A drone still flying its mission when the re-task is planned."""
-
-    sysid: int
-    lat: float
-    lon: float
-    up_m: float
-    home: tuple[float, float]  # where its RTL goes: its launch point
-    flown_s: float  # seconds of flight so far (vehicle time), against its endurance
-
-
-@dataclass
-class RetaskPlan:
-    missions: dict[int, Mission]  # sysid -> the new mission (seq order as in a .plan: takeoff first)
-    fences: dict[int, Mission]  # sysid -> its new inclusion fence
-    resume_index: dict[int, int]  # sysid -> index in missions[sysid].items to continue at (after the take-off)
-    flight_s: dict[int, float]  # sysid -> planned seconds of the new flight, from now to landing
-    photos: dict[int, int]  # sysid -> photos the new mission plans
-    targets_left: int  # target cells no confirmed photo had covered when it was planned
-    separation_m: float | None  # closest approach of the new tracks (None with one survivor)
-    plan_s: float  # seconds spent planning
 
 
 def _free_cell(free: np.ndarray, cell: tuple[int, int], taken: set[tuple[int, int]]) -> tuple[int, int]:
@@ -93,14 +71,24 @@ def _free_cell(free: np.ndarray, cell: tuple[int, int], taken: set[tuple[int, in
     raise RetaskPlanningError("no free cell to start a survivor from")
 
 
-def plan_retask(plan_dir: Path, record: PlanRecord, survivors: list[Survivor | dict[str, Any]],
+def retask_planner(plan_dir: Path, record: PlanRecord, survivors: Sequence[Survivor],
+                   photos_latlon: np.ndarray) -> RetaskPlan | None:
+    """plan_retask as fly's RetaskPlanner (flight.retask_planner): a plan that cannot be made, for any reason
+    the planning side names (a map, a setting, a check), is a RetaskPlanningError with that reason."""
+    try:
+        return plan_retask(plan_dir, record, survivors, photos_latlon)
+    except RetaskPlanningError:
+        raise
+    except ValueError as err:  # MapError, GeoError, SeparationError...: their one-line reason
+        raise RetaskPlanningError(str(err)) from err
+
+
+def plan_retask(plan_dir: Path, record: PlanRecord, survivors: Sequence[Survivor],
                 photos_latlon: np.ndarray, policy: str | None = None) -> RetaskPlan | None:
-    """The re-task of `survivors` (Survivor, or dicts of its fields: fly's Retasker sends those) (see the
-    module docstring); None when nothing is left to photograph.
+    """The re-task of `survivors` (see the module docstring); None when nothing is left to photograph.
     photos_latlon: (n, 2) lat, lon of every photo the vehicles confirmed so far in this flight."""
     import time
 
-    survivors = [s if isinstance(s, Survivor) else Survivor(**s) for s in survivors]
     started = time.monotonic()
     stored = record.settings
     if stored is None:
@@ -143,7 +131,7 @@ def plan_retask(plan_dir: Path, record: PlanRecord, survivors: list[Survivor | d
         homes.append(to_grid_m(frame, [s.home[0]], [s.home[1]])[0])
         home_cell = _free_cell(flyable, (int(np.rint(homes[k][0] / cell)), int(np.rint(homes[k][1] / cell))), set())
         surveys.append(np.asarray(plans.corrected[k].waypoints, dtype=float) * cell)
-        homing = _Homing(flyable, home_cell, base.obstacle, margin, cell)
+        homing = LaunchWays(flyable, home_cell, base.obstacle, margin, cell)
         backs.append(homing.way(surveys[k][-1], outbound=False) if len(surveys[k]) else np.zeros((0, 2)))
         routes.append(np.vstack([surveys[k], backs[k], homes[k][None, :]]))
 
@@ -184,8 +172,8 @@ def plan_retask(plan_dir: Path, record: PlanRecord, survivors: list[Survivor | d
             raise RetaskPlanningError(f"uav{s.sysid} would need {flight_s[s.sysid]:.0f} s more; its battery budget has "
                               f"{max(safety.budget_s - s.flown_s, 0.0):.0f} s left ({safety.budget_s:.0f} s less "
                               f"{s.flown_s:.0f} s flown): the rest is for `missionplan replan` after landing")
-        mission = build_mission(k, (s.lat, s.lon), _latlon(frame, surveys[k]), surveys[k], here[k], layered,
-                                flight_s=flight_s[s.sysid], end="rtl", back=(_latlon(frame, backs[k]), backs[k]))
+        mission = track_mission(frame, k, (s.lat, s.lon), surveys[k], here[k], layered, flight_s=flight_s[s.sysid],
+                                end="rtl", back_m=backs[k])
         missions[s.sysid] = Mission(items=mission.mission.items, home=(s.home[0], s.home[1], 0.0))
         photos[s.sysid] = mission.photos
         resume[s.sysid] = 1  # after the NAV_TAKEOFF: the speed, the camera, then the survey
