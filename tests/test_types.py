@@ -20,6 +20,9 @@ STRICT = (
     "missionplan.geo.camera", "missionplan.geo.errors", "missionplan.mission.report", "missionplan.maps.gridmap",
     "missionplan.mission.drone_missions", "missionplan.mission.safety", "missionplan.mission.outputs",
     "missionplan.flight.plan_report", "missionplan.flight.disk_space", "missionplan.cli.plan_display",
+    # the flight's events, its silence rule, the re-tasker's view of the fleet and the re-task planner's contract
+    "missionplan.flight.events", "missionplan.flight.link_silence", "missionplan.flight.fleet_view",
+    "missionplan.flight.retask_planner",
 )
 
 

@@ -12,11 +12,13 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
 from missionplan.bridge.formats.mission_items import Mission
+
+from ..mission.plan_record import PlanRecord
 
 
 @dataclass(frozen=True)
@@ -66,8 +68,8 @@ class RetaskPlanningError(Exception):
 
 class RetaskPlanner(Protocol):
     """Plans what is left for the survivors, from where they are: None when nothing is left to photograph;
-    RetaskPlanningError when it will not. plan_dir: the plan folder; report: its report.json as this flight
+    RetaskPlanningError when it will not. plan_dir: the plan folder; record: its plan record as this flight
     is judged (fly.flight_view); photos_latlon: (n, 2) lat, lon of every photo confirmed in this flight."""
 
-    def __call__(self, plan_dir: Path, report: dict[str, Any], survivors: Sequence[Survivor],
+    def __call__(self, plan_dir: Path, record: PlanRecord, survivors: Sequence[Survivor],
                  photos_latlon: np.ndarray) -> RetaskPlan | None: ...
