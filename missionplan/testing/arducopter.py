@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import socket
 import subprocess
 import tempfile
 import time
@@ -35,7 +34,7 @@ from pathlib import Path
 from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, mavlink
 from missionplan.bridge.link.readiness import ARDUPILOT_GUIDED, mode_params
 from missionplan.testing import simulators
-from missionplan.testing.loopback import stop_process_group, wait_until
+from missionplan.testing.loopback import ANY_INTERFACE, stop_process_group, tcp_port_free, udp_port_free, wait_until
 
 SPEEDUP = 10  # stable on 2 shared cores (the SITL README)
 FIRST_INSTANCE = 20  # stay clear of the usual 0..9 a person would start by hand
@@ -65,28 +64,11 @@ def sitl_or_skip() -> Path:
     return found
 
 
-def _tcp_free(port: int) -> bool:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-        try:
-            sock.bind(("0.0.0.0", port))  # SITL binds every interface
-        except OSError:
-            return False
-    return True
-
-
-def _udp_free(port: int) -> bool:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        try:
-            sock.bind(("0.0.0.0", port))
-        except OSError:
-            return False
-    return True
-
-
 def instance_free(instance: int) -> bool:
     """Whether every port instance I would bind is free now."""
     base = 5760 + 10 * instance
-    return all(_tcp_free(p) for p in (base, base + 2, base + 3)) and _udp_free(5501 + 10 * instance)
+    return (all(tcp_port_free(p, ANY_INTERFACE) for p in (base, base + 2, base + 3))
+            and udp_port_free(5501 + 10 * instance, ANY_INTERFACE))
 
 
 def free_instance(start: int = FIRST_INSTANCE, skip: set[int] | None = None) -> int:

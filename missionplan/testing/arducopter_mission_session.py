@@ -24,7 +24,7 @@ from missionplan.bridge.link.params import ParamClient
 from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.bridge.transfer.protocol import Timeouts
 from missionplan.bridge.transfer.uploader import PymavlinkBackend
-from missionplan.testing.plans import same_answer, wire_item as _w
+from missionplan.testing.plans import next_message, same_answer, wire_item as _w
 
 HOME = (45.4643, 9.1895, 120.0)
 LAT, LON = 454643000, 91895000
@@ -50,14 +50,6 @@ RALLY = [_w(0, 3, 5100, p1=1.0, x=LAT + 2000, y=LON + 3000, z=15.7, mission_type
          _w(1, 0, 5100, x=LAT - 2000, y=LON + 3000, z=-2.5, mission_type=2)]
 
 
-def _wait(link: Link, sysid: int, wanted: Any, seconds: float = 3.0) -> Any:
-    deadline = time.monotonic() + seconds
-    while (msg := link.recv(deadline)) is not None:
-        if msg.get_srcSystem() == sysid and wanted(msg):
-            return msg
-    return None
-
-
 def _out_of_turn_answers(link: Link, sysid: int) -> dict[str, Any]:
     """Raw upload of 3 items with an early item first, then a stray item after the end."""
     mav = link.mav
@@ -65,24 +57,24 @@ def _out_of_turn_answers(link: Link, sysid: int) -> dict[str, Any]:
     is_ack = lambda m: m.get_type() == "MISSION_ACK" and m.mission_type == MissionType.MISSION  # noqa: E731
     is_request = lambda m: m.get_type() in ("MISSION_REQUEST", "MISSION_REQUEST_INT")  # noqa: E731
     mav.mission_count_send(sysid, AUTOPILOT_COMPONENT_ID, len(items), MissionType.MISSION)
-    first = _wait(link, sysid, is_request)
+    first = next_message(link, sysid, is_request)
     answers: dict[str, Any] = {"request": first.get_type() if first else None}
     mav.mission_item_int_send(sysid, AUTOPILOT_COMPONENT_ID, **items[2].fields())  # not asked for yet
-    early = _wait(link, sysid, is_ack, 1.0)
+    early = next_message(link, sysid, is_ack, 1.0)
     answers["early item"] = int(early.type) if early else None
     request, final = first, None
     for _ in range(10):  # answer what is asked until the end (bounded)
         if request is None:
             break
         mav.mission_item_int_send(sysid, AUTOPILOT_COMPONENT_ID, **items[int(request.seq)].fields())
-        msg = _wait(link, sysid, lambda m: is_request(m) or is_ack(m), 2.5)
+        msg = next_message(link, sysid, lambda m: is_request(m) or is_ack(m), 2.5)
         if msg is not None and msg.get_type() == "MISSION_ACK":
             final = int(msg.type)
             break
         request = msg
     answers["final"] = final
     mav.mission_item_int_send(sysid, AUTOPILOT_COMPONENT_ID, **items[2].fields())  # after the end
-    stray = _wait(link, sysid, is_ack, 1.0)
+    stray = next_message(link, sysid, is_ack, 1.0)
     answers["stray item"] = int(stray.type) if stray else None
     return answers
 
@@ -115,7 +107,7 @@ def session(url: str, sysid: int) -> dict[str, Any]:
         # below its documented range
         params.link.mav.param_set_send(sysid, AUTOPILOT_COMPONENT_ID, b"WPNAV_RADIUS", 3.0,
                                        mavlink.MAV_PARAM_TYPE_REAL32)
-        answer = _wait(backend.link, sysid, lambda m: m.get_type() == "PARAM_VALUE"
+        answer = next_message(backend.link, sysid, lambda m: m.get_type() == "PARAM_VALUE"
                        and str(m.param_id).rstrip("\x00") == "WPNAV_RADIUS", 5.0)  # what it made of it
         out["WPNAV_RADIUS answer to setting 3"] = None if answer is None else float(answer.param_value)
         out["WPNAV_RADIUS after setting 3"] = params.get("WPNAV_RADIUS")

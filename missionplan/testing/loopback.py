@@ -12,6 +12,8 @@ from collections.abc import Callable
 from typing import TypeVar
 
 T = TypeVar("T")
+# Where SITL and PX4 bind their ports: every interface, so a port is free for them only if it is free there.
+ANY_INTERFACE = "0.0.0.0"
 
 
 def let_children_hear_ctrl_c() -> None:
@@ -33,6 +35,16 @@ def free_udp_port() -> int:
 def udp_port_free(port: int, host: str = "127.0.0.1") -> bool:
     """Whether nobody has bound UDP `port` on `host` (a peer started elsewhere has, once it listens)."""
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        try:
+            sock.bind((host, port))
+        except OSError:
+            return False
+    return True
+
+
+def tcp_port_free(port: int, host: str = "127.0.0.1") -> bool:
+    """Whether nobody listens on TCP `port` on `host` (bound, so a peer could not take it now)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
         try:
             sock.bind((host, port))
         except OSError:

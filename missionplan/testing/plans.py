@@ -1,12 +1,14 @@
 """Plans made for a test: a small area given as a GeoJSON ring, planned by the CLI (plan_area); single
-mission items on the wire for the mission-protocol sessions (wire_item); and how two autopilots'
-answers are compared (same_answer)."""
+mission items on the wire for the mission-protocol sessions (wire_item), the next message a vehicle sends
+them (next_message); and how two autopilots' answers are compared (same_answer)."""
 
 from __future__ import annotations
 
 import json
 import math
+import time
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 from missionplan.bridge.formats.mission_items import MissionType, WireItem
@@ -33,6 +35,15 @@ def wire_item(seq: int, frame: int, cmd: int, p1: float = 0.0, p2: float = 0.0, 
     """One item as sent: the mission's seq 0 flagged current, as to_wire does."""
     current = 1 if seq == 0 and mission_type == MissionType.MISSION else 0
     return WireItem(seq, frame, cmd, current, autocontinue, p1, p2, p3, p4, x, y, z, int(mission_type))
+
+
+def next_message(link: Any, sysid: int, wanted: Callable[[Any], bool], seconds: float = 3.0) -> Any:
+    """The next message from vehicle `sysid` that `wanted` accepts, within `seconds` (None: none came)."""
+    deadline = time.monotonic() + seconds
+    while (msg := link.recv(deadline)) is not None:
+        if msg.get_srcSystem() == sysid and wanted(msg):
+            return msg
+    return None
 
 
 def same_answer(a: Any, b: Any) -> bool:

@@ -68,25 +68,33 @@ def pytest_unconfigure(config: pytest.Config) -> None:
             os.environ[simulators.ENV] = previous
 
 
+def _vehicles(make: Callable[..., Any], start_options: tuple[str, ...] = ()) -> Iterator[Callable[..., Any]]:
+    """A fixture's factory of simulated vehicles: each call makes one (`make(**options)`, the options named
+    in start_options going to its start() instead) and starts it; every vehicle made is stopped after the
+    test, even when it fails."""
+    made: list[Any] = []
+
+    def start(**options: Any) -> Any:
+        at_start = {name: options.pop(name) for name in start_options if name in options}
+        vehicle = make(**options)
+        made.append(vehicle)
+        return vehicle.start(**at_start)
+
+    try:
+        yield start
+    finally:
+        for vehicle in made:
+            vehicle.stop()
+
+
 @pytest.fixture()
 def arducopter() -> Iterator[Callable[..., Any]]:
     """A factory: arducopter(sysid=..., home=..., serial0=..., wait=...) starts an instance (ready for
     missions unless wait=False), stopped at teardown, even when the test fails."""
     from missionplan.testing.arducopter import ArduCopter, sitl_or_skip
 
-    started: list[ArduCopter] = []
-
-    def start(wait: bool = True, **kwargs: Any) -> ArduCopter:
-        vehicle = ArduCopter(**kwargs)
-        started.append(vehicle)
-        return vehicle.start(wait=wait)
-
     sitl_or_skip()
-    try:
-        yield start
-    finally:
-        for vehicle in started:
-            vehicle.stop()
+    yield from _vehicles(ArduCopter, start_options=("wait",))
 
 
 @pytest.fixture()
@@ -95,19 +103,8 @@ def px4() -> Iterator[Callable[..., Any]]:
     stopped and its folder removed at teardown, even when the test fails."""
     from missionplan.testing.px4_sih import PX4, px4_or_skip
 
-    started: list[PX4] = []
-
-    def start(**kwargs: Any) -> PX4:
-        vehicle = PX4(**kwargs)
-        started.append(vehicle)
-        return vehicle.start()
-
     px4_or_skip()
-    try:
-        yield start
-    finally:
-        for vehicle in started:
-            vehicle.stop()
+    yield from _vehicles(PX4)
 
 
 @pytest.fixture()

@@ -25,7 +25,7 @@ from missionplan.bridge.link.connection import AUTOPILOT_COMPONENT_ID, Link, mav
 from missionplan.bridge.formats.mission_items import MissionType, WireItem
 from missionplan.bridge.transfer.protocol import Timeouts
 from missionplan.bridge.transfer.uploader import PymavlinkBackend, read_back_differences
-from missionplan.testing.plans import same_answer, wire_item as w
+from missionplan.testing.plans import next_message, same_answer, wire_item as w
 
 HOME = (45.4641, 9.1891, 120.0)
 LAT, LON = 454641000, 91891000
@@ -61,20 +61,12 @@ RALLY = [w(0, 3, 5100, x=LAT + 2000, y=LON + 3000, z=15.7, mission_type=2),
          w(1, 0, 5100, x=LAT - 2000, y=LON + 3000, z=135.5, mission_type=2)]
 
 
-def _wait(link: Link, sysid: int, wanted: Any, seconds: float = 3.0) -> Any:
-    deadline = time.monotonic() + seconds
-    while (msg := link.recv(deadline)) is not None:
-        if msg.get_srcSystem() == sysid and wanted(msg):
-            return msg
-    return None
-
-
 def raw_upload(link: Link, sysid: int, items: list[WireItem], mission_type: int = 0) -> tuple[str | None, int | None]:
     """Upload item by item as asked; (type of the first request, final MISSION_ACK type or None)."""
     is_ack = lambda m: m.get_type() == "MISSION_ACK" and m.mission_type == mission_type  # noqa: E731
     is_request = lambda m: m.get_type() in ("MISSION_REQUEST", "MISSION_REQUEST_INT")  # noqa: E731
     link.mav.mission_count_send(sysid, AUTOPILOT_COMPONENT_ID, len(items), mission_type)
-    first = _wait(link, sysid, lambda m: is_request(m) or is_ack(m))
+    first = next_message(link, sysid, lambda m: is_request(m) or is_ack(m))
     if first is None or is_ack(first):
         return None, None if first is None else int(first.type)
     msg = first
@@ -84,7 +76,7 @@ def raw_upload(link: Link, sysid: int, items: list[WireItem], mission_type: int 
         if is_ack(msg):
             return first.get_type(), int(msg.type)
         link.mav.mission_item_int_send(sysid, AUTOPILOT_COMPONENT_ID, **items[int(msg.seq)].fields())
-        msg = _wait(link, sysid, lambda m: is_request(m) or is_ack(m), 3.0)
+        msg = next_message(link, sysid, lambda m: is_request(m) or is_ack(m), 3.0)
     return first.get_type(), None
 
 
@@ -92,7 +84,7 @@ def _list_answered(link: Link, sysid: int, component: int) -> bool:
     """Whether MISSION_REQUEST_LIST to this component draws a MISSION_COUNT (the download is then
     closed with an ACK: PX4 refuses uploads with ERROR while a download is open)."""
     link.mav.mission_request_list_send(sysid, component, 0)
-    answered = _wait(link, sysid, lambda m: m.get_type() == "MISSION_COUNT", 2.0) is not None
+    answered = next_message(link, sysid, lambda m: m.get_type() == "MISSION_COUNT", 2.0) is not None
     link.mav.mission_ack_send(sysid, AUTOPILOT_COMPONENT_ID, mavlink.MAV_MISSION_ACCEPTED, MissionType.MISSION)
     return answered
 
@@ -114,7 +106,7 @@ def _upload_until_held(backend: PymavlinkBackend, items: list[WireItem]) -> None
         backend.upload(MissionType.MISSION, items)
         if read_back_differences(backend, MissionType.MISSION, items):
             continue
-        _wait(backend.link, sysid, lambda m: m.get_type() == "MISSION_CURRENT", 3.0)
+        next_message(backend.link, sysid, lambda m: m.get_type() == "MISSION_CURRENT", 3.0)
         if not read_back_differences(backend, MissionType.MISSION, items):
             return
     raise AssertionError(f"vehicle {sysid} did not keep a {len(items)}-item mission in {SETTLE_TRIES} uploads")
@@ -167,7 +159,7 @@ def wait_home(link: Link, sysid: int, seconds: float) -> Any:
     while time.monotonic() < deadline:
         link.mav.command_long_send(sysid, AUTOPILOT_COMPONENT_ID, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
                                    mavlink.MAVLINK_MSG_ID_HOME_POSITION, 0, 0, 0, 0, 0, 0)
-        msg = _wait(link, sysid, lambda m: m.get_type() == "HOME_POSITION", 1.0)
+        msg = next_message(link, sysid, lambda m: m.get_type() == "HOME_POSITION", 1.0)
         if msg is not None:
             return msg
     return None

@@ -44,13 +44,12 @@ import errno
 import fcntl
 import os
 import shutil
-import socket
 import subprocess
 import tempfile
 from pathlib import Path
 
 from missionplan.testing import simulators
-from missionplan.testing.loopback import free_udp_port, stop_process_group, wait_until
+from missionplan.testing.loopback import ANY_INTERFACE, free_udp_port, stop_process_group, udp_port_free, wait_until
 
 FIRST_INSTANCE, INSTANCE_SPAN = 10, 100  # numbers 10..109: clear of the 0, 1, 2 a person starts by hand
 DEFAULT_HOME = (45.4641, 9.1891, 120.0)
@@ -100,15 +99,6 @@ def e7(degrees: float) -> int:
     return int(round(degrees * 1e7))
 
 
-def _udp_free(port: int) -> bool:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        try:
-            sock.bind(("0.0.0.0", port))
-        except OSError:
-            return False
-    return True
-
-
 def instance_ports(instance: int) -> tuple[int, ...]:
     """Every UDP port instance I binds."""
     return (18570 + instance, 14580 + instance, 14280 + instance, 13030 + instance, 19450 + instance)
@@ -136,7 +126,7 @@ def _lock_free(instance: int) -> bool:
 
 def instance_free(instance: int) -> bool:
     """Whether instance I's lock and every port it would bind are free now."""
-    return _lock_free(instance) and all(_udp_free(p) for p in instance_ports(instance))
+    return _lock_free(instance) and all(udp_port_free(p, ANY_INTERFACE) for p in instance_ports(instance))
 
 
 def free_instance(skip: set[int] | None = None) -> int:
