@@ -15,6 +15,7 @@ command line.
 from __future__ import annotations
 
 import ast
+import functools
 import re
 from pathlib import Path
 
@@ -37,17 +38,23 @@ def module_name(path: Path, root: Path = ROOT) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
-def imported_modules(source: str, name: str, is_package: bool = False) -> list[str]:
-    """Absolute names of every module `source` (the module `name`) imports, at any depth."""
-    package = name if is_package else name.rpartition(".")[0]
+@functools.lru_cache(maxsize=None)
+def code_nodes(source: str) -> tuple[ast.AST, ...]:
+    """Every node of `source`, parsed once for all the rules below (a module's source is asked for by each).
+    An annotation written as a string ("argparse.Namespace") is code too: it is parsed where it stands."""
     tree = ast.parse(source)
-    # An annotation written as a string ("argparse.Namespace") is code too: parse it where it stands.
     annotations = [n.annotation for n in ast.walk(tree) if isinstance(n, (ast.arg, ast.AnnAssign))] + [
         n.returns for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))]
     quoted = [ast.fix_missing_locations(ast.copy_location(ast.parse(a.value, mode="eval").body, a))
               for a in annotations if isinstance(a, ast.Constant) and isinstance(a.value, str)]
+    return tuple(node for root in [tree, *quoted] for node in ast.walk(root))
+
+
+def imported_modules(source: str, name: str, is_package: bool = False) -> list[str]:
+    """Absolute names of every module `source` (the module `name`) imports, at any depth."""
+    package = name if is_package else name.rpartition(".")[0]
     found = []
-    for node in [n for root in [tree, *quoted] for n in ast.walk(root)]:
+    for node in code_nodes(source):
         if isinstance(node, ast.Import):
             found += [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -193,14 +200,8 @@ def test_an_import_of_bridge_is_found() -> None:
 def argparse_uses(source: str) -> list[str]:
     """Where a module uses argparse: an import of it, or the name Namespace (argparse.Namespace, or imported
     bare), each as "line N: what"."""
-    tree = ast.parse(source)
-    # An annotation written as a string ("argparse.Namespace") is code too: parse it where it stands.
-    annotations = [n.annotation for n in ast.walk(tree) if isinstance(n, (ast.arg, ast.AnnAssign))] + [
-        n.returns for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))]
-    quoted = [ast.fix_missing_locations(ast.copy_location(ast.parse(a.value, mode="eval").body, a))
-              for a in annotations if isinstance(a, ast.Constant) and isinstance(a.value, str)]
     found = []
-    for node in [n for root in [tree, *quoted] for n in ast.walk(root)]:
+    for node in code_nodes(source):
         if isinstance(node, ast.Import):
             found += [f"line {node.lineno}: import {a.name}" for a in node.names if a.name.split(".")[0] == "argparse"]
         elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "argparse":
