@@ -196,9 +196,8 @@ def test_site_problem_names_the_distance() -> None:
 # -------------------------------------------------------------------------------- the judge
 def test_separation_is_not_called_kept_when_fewer_than_two_drones_flew() -> None:
     track = np.column_stack([np.arange(10.0), np.zeros(10), np.arange(10.0), np.full(10, 20.0)])
-    # What _separation reads of the plan record: its separation promise (8 m), nothing else.
     promise = SeparationPromise.from_json({"3d": 8.0, "horizontal": 8.0})
-    sep = fr._separation(SimpleNamespace(separation=promise), [], {1: track}, {}, 1.0, 10.0)  # type: ignore[arg-type]
+    sep = fr._separation(promise, [], {1: track}, {}, 1.0, 10.0)
     assert sep["kept"] is None and sep["3d"] is None and sep["tracks"] == 1
 
 

@@ -51,7 +51,7 @@ from .flight_layers import flight_layers, flight_summary, plan_layers_on_disk
 from .flight_plot import draw_flight
 from .phases import event_rows, on_vehicle_clock, phase_rows
 from .photo_positions import ledger_photos, photo_positions
-from ..mission.plan_blocks import cells_of
+from ..mission.plan_blocks import SeparationPromise, cells_of
 from ..mission.plan_record import PlanRecord
 from .plan_report import (SLACK_CELLS, frame_of, georeference_of, planned_grid, target_cells, to_grid_m,
                           trigger_distance_m)
@@ -354,7 +354,7 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
     percent_with_placed = 100.0 * float(covered_with_placed.mean()) if len(targets) else 100.0
     other_rules = {name: round(100.0 * float(covered_by_gap(frame, gap, footprint, frame.cell_m * cells).mean()), 2)
                    if len(targets) else 100.0 for name, cells in (("whole_cell", 0.0), ("cell_centre", 0.5))}
-    separation = _separation(record, records, timed, liftoff, scale, telemetry_hz)
+    separation = _separation(record.separation, records, timed, liftoff, scale, telemetry_hz)
     problems = [p for rec in records for p in rec.problems]
     problems += [f"uav{rec.id}: mission not finished" for rec in records
                  if rec.started and not rec.finished and not rec.problems]
@@ -452,16 +452,15 @@ def live_tolerance(records: list[DroneRecord], scale: float, telemetry_hz: float
     return 2 * acceptance + speed * scale / telemetry_hz
 
 
-def _separation(record: PlanRecord, records: list[DroneRecord], timed: dict[int, np.ndarray],
+def _separation(promise: SeparationPromise | None, records: list[DroneRecord], timed: dict[int, np.ndarray],
                 liftoff: dict[int, float], scale: float, telemetry_hz: float) -> dict[str, Any]:
-    """Flown closest approach next to the plan's promise, and whether the promise was kept.
+    """Flown closest approach next to the plan's promise (None: it promised none), and whether it was kept.
 
     The tolerance is what telemetry cannot pin down (two acceptance radii, one telemetry interval of
     flight) plus how far apart the vehicles really left the ground, which the plan assumed all at once;
     it never exceeds half the promise, so a start spread (or a vehicle that never took off with the
     others) cannot make the check unable to fail."""
     flown = closest_approach(timed)
-    promise = record.separation
     speed, _ = _flight_speed_and_acceptance(records)
     start_spread_s = (max(liftoff.values()) - min(liftoff.values())) * scale if liftoff else 0.0
     planned_3d = promise.closest.d3 if promise is not None else None
