@@ -1,40 +1,17 @@
 """How the command line says a library error: one line, each setting it names spelled as the option that
-gives it. The library names settings by what they mean (missionplan.base.naming: `max_altitude`); the
-option names live here, beside the parsers that define them, so a message reads `--max-altitude 90: below
-the flight altitude 120 m` whichever layer found the fault."""
+gives it. The library names a setting by what it means, the name of the option's value (its argparse dest,
+missionplan.base.naming: `max_altitude`); the command line spells it as the option, so a message reads
+`--max-altitude 90: below the flight altitude 120 m` whichever layer found the fault."""
 
 from __future__ import annotations
 
 from missionplan.base.naming import Named, Setting
 
-# Each setting a library error may name -> the option that gives it (tests/test_cli_errors.py checks that
-# every setting the library names is here).
-OPTIONS = {
-    # plan: the area and the camera
-    "area": "--area", "launch": "--launch", "altitude": "--altitude", "osm": "--osm",
-    "height_field": "--height-field", "unknown_building_height": "--unknown-building-height", "fov": "--fov",
-    "sensor_width": "--sensor-width", "sensor_height": "--sensor-height", "focal_length": "--focal-length",
-    "rotation": "--rotation",
-    # plan: the missions and their safety
-    "uavs": "--uavs", "speed": "--speed", "overlap": "--overlap", "altitude_step": "--altitude-step",
-    "min_separation": "--min-separation", "max_altitude": "--max-altitude", "clearance": "--clearance",
-    "endurance": "--endurance", "reserve": "--reserve",
-    # plan / replan: the folder and its page
-    "out": "--out", "basemap": "--basemap",
-    # replan: who flies it
-    "drones": "--drones", "sysid": "--sysid",
-    # the link: upload, download, clear, fly, mock
-    "connect": "--connect", "compid": "--compid", "gcs_sysid": "--gcs-sysid", "gcs_compid": "--gcs-compid",
-    "signing_key": "--signing-key", "backend": "--backend", "listen": "--listen", "speedup": "--speedup",
-    "home": "--home",
-    # fly
-    "upload_with": "--upload-with", "on_abort": "--on-abort", "sortie": "--sortie",
-}
-
 
 def option(setting: Setting) -> str:
-    """The option that gives `setting` (a setting with no entry: its key as an option, `--key-name`)."""
-    return OPTIONS.get(setting.key, "--" + setting.key.replace("_", "-"))
+    """The option that gives `setting`: its key as argparse spells a dest as an option, `max_altitude` ->
+    `--max-altitude` (tests/test_cli_errors.py checks that every setting the library names is an option)."""
+    return "--" + setting.key.replace("_", "-")
 
 
 def said(err: BaseException) -> str:
