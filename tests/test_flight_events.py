@@ -19,6 +19,7 @@ from missionplan.flight.events import (ArmingChanged, EndedEarly, Finished, Flig
                                        FollowingStopped, LeftMission, LinkBack, LinkLost, LinkQuiet, MissionStarted,
                                        ModeChanged, PhotoTaken, SentHome, ShareGivenAway, VehicleSaid, drain)
 from missionplan.flight.fleet_view import DroneView, confirmed_photos
+from missionplan.flight.follower_mail import RecordNote
 from missionplan.flight.link_silence import (GONE_SILENT_S, LINK_LOST_S, UPLOAD_HEARD_S, LinkWatch, SilenceOver,
                                              SilenceRule, SilenceStep, give_up_at)
 from missionplan.flight.live_replan import Retasker
@@ -217,7 +218,10 @@ def test_the_retasker_decides_from_events_alone_who_is_gone_and_who_takes_over()
     events.publish(LinkQuiet(2, 0.0, heard_at=now - 3.5))  # silent past --replan-after 3
     events.publish(LinkQuiet(3, 0.0, heard_at=now - 2.5))  # quiet: neither gone nor able to take an upload
     retasker.look()
-    assert flights[1].told == [ShareGivenAway()] and flights[0].told == flights[2].told == []
+    assert flights[1].told == [ShareGivenAway()] and flights[2].told == []
+    # The refused re-task's note goes to the survivor's follower, which writes it into its record.
+    assert [type(m) for m in flights[0].told] == [RecordNote] and flights[0].record.notes == []
+    assert flights[0].told[0].text.startswith("re-plan: gone [2], survivors [1]")
     assert retasker.handled == {2}
     assert said[0] == "re-plan: uav2 gone; holding uav1 to plan what is left from where they are"
     assert flights[0].asked == ["hold", "release"] and flights[2].asked == []  # refused: released again

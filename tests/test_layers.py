@@ -355,7 +355,7 @@ FLIGHT_TIERS = (
     ("ledger_repair",),  # a ledger rebuilt from the journals
     ("geotag", "survey_status"),  # what the photos and the survey come to
     ("flight_report",),  # judging a flown fleet
-    ("event_journal", "telemetry_record", "fleet_start"),  # events into records and alerts; messages into records
+    ("event_journal", "telemetry_record", "fleet_start", "follower_mail"),  # events, messages and posts into records
     ("after_landing", "fleet_view", "retask_actions"),  # after landing; the fleet as events tell it; a re-task's part
     ("drone_flight", "display"),  # one drone's flight; what a crew sees
     ("live_replan", "disk_space"),  # taking over a lost drone's cells in flight; room for a flight's record

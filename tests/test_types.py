@@ -22,7 +22,7 @@ STRICT = (
     "missionplan.flight.plan_report", "missionplan.flight.disk_space", "missionplan.cli.plan_display",
     # the flight's events, its silence rule, the re-tasker's view of the fleet and the re-task planner's contract
     "missionplan.flight.events", "missionplan.flight.link_silence", "missionplan.flight.fleet_view",
-    "missionplan.flight.retask_planner",
+    "missionplan.flight.retask_planner", "missionplan.flight.follower_mail",
 )
 
 

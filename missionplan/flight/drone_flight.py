@@ -57,6 +57,7 @@ from .events import (EndedEarly, Finished, FlightEvent, FollowingStopped, GaveUp
                      MissionStarted, Rebooted, SentHome, ShareGivenAway, TimedOut)
 from .fleet_start import FleetStart
 from .flight_report import vehicle_rate
+from .follower_mail import Mailbox, Message
 from .link_silence import LinkWatch, SilenceStep, give_up_at
 from .record import DroneRecord
 from .retask_actions import RetaskActions
@@ -86,8 +87,9 @@ class DroneFlight:
     is published on fleet.events."""
 
     def __init__(self, fleet: FleetStart, record: DroneRecord, plan_path: Path, deadline: float,
-                 telemetry_hz: float, bar: Any, upload_with: str = "missionplan") -> None:
+                 telemetry_hz: float, bar: Any, upload_with: str = "missionplan", mail: Mailbox | None = None) -> None:
         self.fleet, self.record, self.plan_path, self.deadline = fleet, record, plan_path, deadline
+        self.mail = mail if mail is not None else Mailbox(record)  # what other threads tell this one
         self.upload_with = upload_with
         self.telemetry_hz, self.stop, self.bar = telemetry_hz, fleet.stop, bar
         self.session: VehicleSession | None = None
@@ -105,7 +107,6 @@ class DroneFlight:
         # fly --replan: what the main thread asks this one to do with the vehicle (retask_actions: hold, re-task,
         # release), run here because this thread owns the link's receive loop; each answers through its Future.
         self.requests: queue.SimpleQueue[tuple[Callable[[], Any], Future[Any]]] = queue.SimpleQueue()
-        self.inbox: queue.SimpleQueue[ShareGivenAway] = queue.SimpleQueue()  # what other threads tell this one
         self.given_away = False  # fly --replan gave this drone's share to others: heard again, it goes home
 
     @property
@@ -145,6 +146,7 @@ class DroneFlight:
                     self._leave_safe()  # a vehicle this run got ready (or armed) but will not fly
             if self.session is not None:
                 self.session.close()
+            self.mail.close()  # from here on the record is fly's main thread's, which joins this one
 
     # ------------------------------------------------------------------ finding the vehicle
     def _connect(self) -> bool:
@@ -437,9 +439,9 @@ class DroneFlight:
                 self.publish(GaveUpWaiting(self.sysid, time.time(), now - watch.lost_since, rec.current, last_seq))
                 return
             msg = session.recv(min(self.deadline, now + 0.5))
+            self._read_mail()
             if msg is None or msg.get_srcSystem() != self.sysid:
                 continue
-            self._read_inbox()
             self._heard(last_seq)
             if session.reboots() > reboots:
                 self.publish(Rebooted(self.sysid, time.time(), rec.current, last_seq))
@@ -480,20 +482,17 @@ class DroneFlight:
             if self.given_away and self.armed:
                 self._send_home()
 
-    def _read_inbox(self) -> None:
-        """What the other threads told this one (the re-tasker: its share was given away)."""
-        while True:
-            try:
-                message = self.inbox.get_nowait()
-            except queue.Empty:
-                return
-            if isinstance(message, ShareGivenAway):
+    def _read_mail(self) -> None:
+        """What the other threads told this one: lines for its record, written here; the re-tasker's order
+        (its share was given away)."""
+        for order in self.mail.take():
+            if isinstance(order, ShareGivenAway):
                 self.given_away = True
 
     # ------------------------------------------------------------------ fly --replan
-    def tell(self, message: ShareGivenAway) -> None:
-        """From another thread: taken by this one before it next acts on what it hears."""
-        self.inbox.put(message)
+    def tell(self, message: Message) -> None:
+        """From another thread: taken by this one before it next acts on what it hears (follower_mail)."""
+        self.mail.post(message)
 
     def ask(self, action: Callable[[], Any]) -> Future[Any]:
         """Have this drone's thread run `action` between two of its vehicle's messages; its outcome."""

@@ -8,8 +8,8 @@ FlightEvents as it decides them. Consumers:
   the fleet from these events alone.
 `t` is our wall clock (time.time(), as in the record); `heard_at` our monotonic clock (time.monotonic()),
 the moment the vehicle was last heard. `item` / `last_seq` say where in its mission the vehicle was.
-The messages the other way, to a follower, are not events: ShareGivenAway below, and the requests a
-re-task makes (DroneFlight.ask).
+The messages the other way, to a follower, are not events: ShareGivenAway below and the lines for its
+record (follower_mail), and the requests a re-task makes (DroneFlight.ask).
 """
 
 from __future__ import annotations

@@ -53,6 +53,7 @@ from .display import progress_display
 from .drone_flight import DroneFlight
 from .event_journal import EventJournal
 from .fleet_start import DEFAULT_READY_S, FleetGate, FleetStart
+from .follower_mail import Mailbox, RecordEvent, RecordProblem
 from .flight_report import FlightResult, judge, live_tolerance, sortie_view
 from .journal import RETRY_S, Journal, write_fallback
 from .journal_db import JournalError
@@ -85,8 +86,9 @@ class SeparationWatch:
     are apart again."""
 
     def __init__(self, records: list[DroneRecord], promised_3d: float | None, tolerance: float,
-                 alert: Any) -> None:
+                 alert: Any, mail: dict[int, Mailbox]) -> None:
         self.records, self.promised, self.tolerance, self.alert = records, promised_3d, tolerance, alert
+        self.mail = mail  # the alert goes into both drones' records through their followers
         self.close: set[tuple[int, int]] = set()
 
     def look(self) -> None:
@@ -105,9 +107,8 @@ class SeparationWatch:
                     self.close.add(pair)
                     text = (f"uav{a} and uav{b}: separation breach, {apart:.1f} m apart (the plan promised "
                             f"{self.promised:g} m, tolerance {self.tolerance:.1f} m)")
-                    for rec in self.records:
-                        if rec.id in pair:
-                            rec.add_event(time.time(), f"alert: {text}")
+                    for sysid in pair:
+                        self.mail[sysid].post(RecordEvent(time.time(), f"alert: {text}"))
                     self.alert(text)
                 elif apart >= self.promised and pair in self.close:
                     self.close.discard(pair)
@@ -115,16 +116,22 @@ class SeparationWatch:
 
 
 def _abort(flights: list[DroneFlight], action: str, alert: Any) -> None:
-    """Command every vehicle this run started and that is still armed to return (RTL) or land (their
-    followers have stopped: the messages meanwhile are left unread)."""
+    """Command every vehicle this run started and that is still armed to return (RTL) or land. Only the
+    drones whose followers have ended (joined: their sessions are this thread's now; the messages meanwhile
+    are left unread); one whose follower is still running is not commanded, and that is said."""
     for flight in flights:
         rec, session = flight.record, flight.session
-        if not rec.started or session is None or not flight.armed:
+        if not rec.started or session is None:
+            continue
+        if not flight.mail.closed:
+            alert(f"uav{rec.id}: not commanded {action.upper()}: its follower had not stopped; command it by hand")
+            continue
+        if not flight.armed:
             continue
         result = session.action.homing_mode(action, time.monotonic() + 5.0, observe=False)
         text = f"commanded {action.upper()}: " + ("accepted" if result == mavlink.MAV_RESULT_ACCEPTED else
                                                  "not acknowledged" if result is None else f"refused ({result})")
-        rec.add_event(time.time(), f"fly: {text}")
+        flight.tell(RecordEvent(time.time(), f"fly: {text}"))
         alert(f"uav{rec.id}: {text}")
 
 
@@ -244,11 +251,13 @@ def _fly_journaled(plan_dir: Path, record: PlanRecord, pool: LinkPool, journal: 
         if not files[rec.id].exists():
             rec.add_problem(f"uav{rec.id}: {files[rec.id]} is missing")
     runnable = [rec for rec in records if files[rec.id].exists()]
+    # From here on a drone's record is written by its follower's thread; other threads post to its mailbox.
+    mail = {rec.id: Mailbox(rec, followed=rec in runnable) for rec in records}
     bars, say, alert = progress_display({rec.id: f"uav{rec.id}" for rec in runnable}, progress)
 
-    def journal_alert(text: str) -> None:  # the journal paused or resumed: said as every in-flight alert is
-        for rec in records:
-            rec.add_event(time.time(), f"alert: {text}")
+    def journal_alert(text: str) -> None:  # the journal paused or resumed (its writer's thread): said as every alert
+        for box in mail.values():
+            box.post(RecordEvent(time.time(), f"alert: {text}"))
         alert(text)
 
     journal.set_alert(journal_alert)
@@ -265,13 +274,13 @@ def _fly_journaled(plan_dir: Path, record: PlanRecord, pool: LinkPool, journal: 
         # re-tasker on a queue it reads in this one.
         fleet.events.subscribe(EventJournal({rec.id: rec for rec in runnable}, alert))
         retask_events = fleet.events.new_queue() if replan is not None and not resume else None
-        flights = [DroneFlight(fleet, rec, files[rec.id], deadline, telemetry_hz, bars.get(rec.id), upload_with)
-                   for rec in runnable]
+        flights = [DroneFlight(fleet, rec, files[rec.id], deadline, telemetry_hz, bars.get(rec.id), upload_with,
+                               mail[rec.id]) for rec in runnable]
         threads = [threading.Thread(target=f.run, name=f"fly-uav{f.sysid}", daemon=True) for f in flights]
         for thread in threads:
             thread.start()
         watch = SeparationWatch(runnable, promised_3d(view), live_tolerance(runnable, time_scale or 1.0, telemetry_hz),
-                                alert)
+                                alert, mail)
         retasker = None if replan is None or retask_events is None else Retasker(
             plan_dir, view, flights, replan, alert, retask_events, fleet.silence, time_scale)
         try:
@@ -295,11 +304,13 @@ def _fly_journaled(plan_dir: Path, record: PlanRecord, pool: LinkPool, journal: 
         pool.close()
         for bar in bars.values():
             bar.close()
+        for box in mail.values():  # a follower that did not stop within its bound: what waits for it is written
+            box.close()            # now, and its record is judged as it stands
     if interrupted:
         for flight in flights:
             if flight.record.started and not (flight.record.finished or flight.record.ended_early):
-                flight.record.add_problem(f"uav{flight.sysid}: not followed to the end (fly was stopped); it flies "
-                                          f"on with its mission: `missionplan fly --resume {plan_dir}` follows it")
+                flight.tell(RecordProblem(f"uav{flight.sysid}: not followed to the end (fly was stopped); it flies "
+                                          f"on with its mission: `missionplan fly --resume {plan_dir}` follows it"))
     # flight.json is a view of the journal: the records read back from it, both runs' if resumed. A journal
     # still paused (its disk full) gets two more tries; failing those, the records kept here are judged
     # (the same changes, in memory) and what the journal lacks goes to the fallback file when it closes.
@@ -351,7 +362,8 @@ def _stopped(fleet: FleetStart, flights: list[DroneFlight], threads: list[thread
     fleet.stop.set()
     for thread in threads:
         thread.join(2.0)
-    flying = [f for f in flights if f.record.started and f.armed]
+    # A follower that has ended hands its record and session to this thread; one still running keeps them.
+    flying = [f for f in flights if f.record.started and (not f.mail.closed or f.armed)]
     if on_abort != "none":
         alert(f"stopped following; --on-abort {on_abort}: commanding the vehicles this run started")
         _abort(flights, on_abort, alert)

@@ -41,6 +41,7 @@ from ..mission.plan_record import PlanRecord
 from .drone_flight import DroneFlight
 from .events import FlightEvent, ShareGivenAway, drain
 from .fleet_view import DroneView, confirmed_photos
+from .follower_mail import RecordNote
 from .flight_report import vehicle_rate
 from .link_silence import SilenceRule
 from .retask_actions import HOLD_S, RETASK_UPLOAD_S, RetaskActions
@@ -182,4 +183,4 @@ class Retasker:
     def _note(self, flights: list[DroneFlight], entry: dict[str, Any]) -> None:
         text = "re-plan: " + ", ".join(f"{k} {v}" for k, v in entry.items())
         for f in flights:
-            f.record.add_note(text)
+            f.tell(RecordNote(text))  # written by its follower (follower_mail)
