@@ -12,8 +12,11 @@ It has two spellings on disk, both written and read here and nowhere else:
 * report.json's `georeference` block (`to_json` / `from_json`): the frame's strings, then altitude_m,
   footprint_m and trigger_distance_m as numbers.
 
-What comes next (a ground model under the grid: terrain heights from a DEM) is a field added here,
-written and read by both spellings.
+A plan made over a DEM (`plan --dem`) carries `terrain` (TerrainRecord): the ground under the plan as the
+plan folder keeps it (a GeoTIFF of heights above sea level beside report.json, which fly, the mock and the
+judge read) and where it came from. Its altitude is then a height above the ground under the drone, not
+above the launch point. It is written in report.json only (a .map file has no ground), and only when
+there is one, so a plan over flat ground is written as before.
 """
 
 from __future__ import annotations
@@ -32,14 +35,40 @@ HEADER_KEYS = (*FRAME_KEYS, "altitude_m", "fov_deg", "safety_margin_m")
 
 
 @dataclass(frozen=True)
+class TerrainRecord:
+    """The ground a plan was made over: the plan folder's copy of it, the DEM files it was read from, their
+    CRSs and coarsest pixel, and the range of its heights under the area (metres above sea level, as the
+    DEM gives them)."""
+
+    file: str  # in the plan folder: the ground the plan used, which fly serves and the judge measures against
+    sources: tuple[str, ...]
+    crs: tuple[str, ...]
+    resolution_m: float
+    lowest_m: float
+    highest_m: float
+
+    def to_json(self) -> dict[str, Any]:
+        return {"file": self.file, "sources": list(self.sources), "crs": list(self.crs),
+                "resolution_m": self.resolution_m, "lowest_m": self.lowest_m, "highest_m": self.highest_m}
+
+    @classmethod
+    def from_json(cls, doc: Mapping[str, Any]) -> "TerrainRecord":
+        return cls(doc["file"], tuple(doc["sources"]), tuple(doc["crs"]), float(doc["resolution_m"]),
+                   float(doc["lowest_m"]), float(doc["highest_m"]))
+
+
+@dataclass(frozen=True)
 class Georeference:
     """A grid on the Earth: its frame, and the altitude and camera it is photographed from."""
 
     frame: GridFrame
-    altitude_m: float | None = None  # flight altitude above the launch points (None: the map leaves it to the crew)
+    # flight altitude above the launch points, or above the ground under the drone with `terrain` (None: the
+    # map leaves it to the crew)
+    altitude_m: float | None = None
     camera: Camera | None = None  # the camera the cell was sized for (None: not recorded, e.g. in a plan report)
     safety_margin_m: float | None = None  # an area's buildings this far under the altitude are obstacles
     trigger_distance_m: float | None = None  # a plan's distance between photos along a track (None: no plan yet)
+    terrain: TerrainRecord | None = None  # the ground a plan was made over (None: taken as flat)
 
     @property
     def cell_m(self) -> float:
@@ -76,12 +105,18 @@ class Georeference:
 
     # ---- report.json's `georeference` block ---------------------------------------------
     def to_json(self) -> dict[str, Any]:
-        """report.json's `georeference`: the frame's strings, the altitude, footprint and trigger distance."""
-        return {**self.frame.to_meta(), "altitude_m": self.altitude_m, "footprint_m": self.footprint_m,
-                "trigger_distance_m": self.trigger_distance_m}
+        """report.json's `georeference`: the frame's strings, the altitude, footprint and trigger distance, and
+        the terrain when there is one."""
+        doc: dict[str, Any] = {**self.frame.to_meta(), "altitude_m": self.altitude_m, "footprint_m": self.footprint_m,
+                               "trigger_distance_m": self.trigger_distance_m}
+        if self.terrain is not None:
+            doc["terrain"] = self.terrain.to_json()
+        return doc
 
     @classmethod
     def from_json(cls, doc: Mapping[str, Any], rows: int, cols: int) -> "Georeference":
         """The block to_json writes, on a rows x cols grid (the plan's grid gives the size)."""
-        frame = GridFrame.from_meta({key: str(value) for key, value in doc.items()}, rows, cols)
-        return cls(frame, altitude_m=doc.get("altitude_m"), trigger_distance_m=doc.get("trigger_distance_m"))
+        frame = GridFrame.from_meta({key: str(value) for key, value in doc.items() if key != "terrain"}, rows, cols)
+        terrain = TerrainRecord.from_json(doc["terrain"]) if doc.get("terrain") is not None else None
+        return cls(frame, altitude_m=doc.get("altitude_m"), trigger_distance_m=doc.get("trigger_distance_m"),
+                   terrain=terrain)

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from missionplan.cli import main
 from missionplan.geo.camera import Camera
 from missionplan.geo.frame import GridFrame
-from missionplan.geo.georeference import Georeference
+from missionplan.geo.georeference import Georeference, TerrainRecord
 from missionplan.geo.sources import Omission
 from missionplan.mission.drone_missions import MissionSettings
 from missionplan.mission.plan_blocks import (BandCounts, BuildingsRead, ClearancePromise, Closest, CoverageSummary,
@@ -76,6 +76,7 @@ mission_settings = st.builds(MissionSettings, numbers, numbers, numbers, numbers
 safety_settings = st.builds(SafetySettings, numbers, numbers, numbers, maybe_numbers, numbers)
 plan_settings = st.builds(PlanSettings, mission_settings, safety_settings, texts, texts, st.booleans(), texts)
 pointers = st.builds(SurveyPointer, texts, st.none() | counts, st.none() | texts)
+terrains = st.builds(TerrainRecord, texts, tuples(texts), tuples(texts), numbers, numbers, numbers)
 
 
 @st.composite
@@ -86,7 +87,8 @@ def records(draw: st.DrawFn) -> PlanRecord:
     if draw(st.booleans()):
         frame = draw(frames)
         frame = GridFrame(frame.utm_epsg, frame.origin_e, frame.origin_n, frame.cell_m, rows, cols, frame.rotation_deg)
-        georef = Georeference(frame, draw(maybe_numbers), trigger_distance_m=draw(maybe_numbers))
+        georef = Georeference(frame, draw(maybe_numbers), trigger_distance_m=draw(maybe_numbers),
+                              terrain=draw(st.none() | terrains))
     return PlanRecord(
         draw(texts), draw(counts), draw(texts), draw(texts), draw(st.booleans()), draw(tuples(counts)), draw(counts),
         draw(st.booleans()), draw(st.none() | texts), draw(metrics), draw(counts), draw(counts), draw(tuples(cells)),
@@ -108,7 +110,7 @@ BLOCKS = [(PlanMetrics, metrics), (Decisions, decisions), (Timing, timings), (Pa
           (SortiePlan, sorties), (FencePlan, fences), (DronePlan, drones), (Closest, closest),
           (SeparationPromise, separations), (BandCounts, bands), (ClearancePromise, clearances),
           (SmallShare, small_shares), (CoverageSummary, coverages), (InputFile, inputs), (PlanSettings, plan_settings),
-          (SurveyPointer, pointers), (Omission, omissions), (PlanRecord, records())]
+          (SurveyPointer, pointers), (Omission, omissions), (TerrainRecord, terrains), (PlanRecord, records())]
 
 
 @pytest.mark.parametrize("cls, strategy", BLOCKS, ids=[cls.__name__ for cls, _ in BLOCKS])
@@ -129,6 +131,20 @@ def test_a_georeference_goes_through_report_json_and_back(frame: GridFrame, alti
     doc = through_json(georef.to_json())
     assert Georeference.from_json(doc, frame.rows, frame.cols) == georef
     assert doc["footprint_m"] == 9 * frame.cell_m  # written, never stored apart from the cell
+
+
+@settings(max_examples=30, deadline=None)
+@given(records())
+def test_a_plan_over_a_dem_is_written_in_version_2_and_a_flat_one_in_version_1(record: PlanRecord) -> None:
+    """The oldest version that holds the plan: a missionplan that cannot fly terrain refuses a terrain plan."""
+    doc = through_json(record.to_json())
+    terrain = record.georeference is not None and record.georeference.terrain is not None
+    if terrain:
+        assert next(iter(doc)) == "schema_version" and doc["schema_version"] == 2
+        assert doc["georeference"]["terrain"]["file"] == record.georeference.terrain.file
+    else:
+        assert "schema_version" not in doc and "terrain" not in (doc.get("georeference") or {})
+    assert PlanRecord.from_json(doc) == record
 
 
 @settings(max_examples=40, deadline=None)

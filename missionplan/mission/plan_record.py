@@ -7,12 +7,15 @@ benches) reads it with `read_plan_record`. No other module opens report.json for
 (plan_blocks: drones, the safety promise, coverage, inputs, settings; geo.georeference.Georeference: where
 the grid lies and how it is photographed).
 
-report.json as written is byte for byte what missionplan wrote before the record existed: the same keys in
-the same order, numbers as computed, `json.dumps(indent=1)`. Its schema version is SCHEMA_VERSION, 1: that
-format, which has no version key (a report.json without `schema_version` is version 1, as every earlier
-missionplan wrote it). A later format (terrain, capture) raises SCHEMA_VERSION and writes `schema_version`
-first, and reads version 1 as it is; a report.json of a version this missionplan does not know fails in one
-line naming the file and the version.
+A plan is written in the oldest schema version that holds it, so a missionplan that cannot fly a plan
+refuses it in one line instead of flying it wrongly, and one that can reads it:
+* version 1, with no version key (as every earlier missionplan wrote it): a plan over flat ground, byte for
+  byte what missionplan wrote before the record existed: the same keys in the same order, numbers as
+  computed, `json.dumps(indent=1)`;
+* version 2, `"schema_version": 2` first: a plan over a DEM (georeference.terrain: its heights are above the
+  ground, its missions follow the terrain).
+SCHEMA_VERSION is the newest this missionplan writes and reads; a report.json of a version it does not know
+fails in one line naming the file and the version.
 
 Keys of version 1, in order (the optional ones are left out when None): map, uavs, policy, zones,
 zones_balanced, zone_sizes, seed, success, failure, metrics, targets (reachable target cells U), unreachable
@@ -42,7 +45,8 @@ from .plan_blocks import (ClearancePromise, CoverageSummary, Decisions, DronePla
                           PlanSettings, SafetyPromise, SeparationPromise, SurveyPointer, Timing, cells_json, cells_of)
 
 REPORT_NAME = "report.json"
-SCHEMA_VERSION = 1  # the format this missionplan writes and the newest it reads
+SCHEMA_VERSION = 2  # the newest format this missionplan writes and reads
+TERRAIN_VERSION = 2  # the first that holds a plan over a DEM
 
 
 class PlanRecordError(MapError):
@@ -120,6 +124,12 @@ class PlanRecord:
         return self.promise.clearance if self.promise is not None else None
 
     @property
+    def version(self) -> int:
+        """The schema version this record is written in: the oldest that holds it (module docstring)."""
+        terrain = self.georeference is not None and self.georeference.terrain is not None
+        return TERRAIN_VERSION if terrain else 1
+
+    @property
     def sorties(self) -> int:
         """The most battery sorties any drone flies (1 without drones)."""
         return max((len(d.sorties) or 1 for d in self.drones or ()), default=1)
@@ -127,7 +137,8 @@ class PlanRecord:
     # ---- report.json ----------------------------------------------------------------
     def to_json(self) -> dict[str, Any]:
         """The object report.json holds (see the module docstring for its keys); version 1 writes no version."""
-        doc: dict[str, Any] = {
+        doc: dict[str, Any] = {} if self.version == 1 else {"schema_version": self.version}
+        doc |= {
             "map": self.map, "uavs": self.uavs, "policy": self.policy, "zones": self.zones,
             "zones_balanced": self.zones_balanced, "zone_sizes": list(self.zone_sizes), "seed": self.seed,
             "success": self.success, "failure": self.failure, "metrics": self.metrics.to_json(),
