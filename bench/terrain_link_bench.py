@@ -5,8 +5,9 @@ For each TERRAIN_SPACING a fresh ArduCopter SITL (../shared/sitl/arducopter, spe
 set to that spacing and served a sloping ground (a plain function, no DEM file) by
 missionplan.bridge.session.terrain's TerrainServer over TCP loopback, with TERRAIN_CHECK on a 250 m lattice over
 a square area of `side` metres centred on its home, until it reports no block pending and ground at every
-point (wait_terrain_loaded). The table gives the spacing its TERRAIN_REPORT then says, the TERRAIN_REQUESTs answered, the TERRAIN_DATA blocks and bytes
-sent (MAVLink 2, unsigned), the wall time over loopback and the vehicle's own seconds for it (SYSTEM_TIME
+point (wait_terrain_loaded). The table gives the spacing its TERRAIN_REPORT then says, the TERRAIN_REQUESTs
+answered, the TERRAIN_DATA blocks sent and those it holds at the end (its cache keeps TERRAIN_CACHE_SZ grids of
+56), their bytes (MAVLink 2, unsigned), the wall time over loopback and the vehicle's own seconds (SYSTEM_TIME
 before and after; it asks for one grid per 2 s of its clock), and the time those bytes take on a 57,600 baud
 telemetry radio, computed (10 bits a byte: start, 8 data, stop; the radio's own framing and the vehicle's
 requests and reports going the other way not counted). No assertions: a measurement, not a test.
@@ -68,7 +69,8 @@ def load_once(spacing: int, side_m: float) -> dict[str, float]:
             (vehicle_after - vehicle_before) / 1000.0)
         session.close()
         return {"requests": served.requests, "blocks": served.blocks_sent, "bytes": served.bytes_sent,
-                "loaded": status.loaded or 0, "reported_spacing": status.own.spacing if status.own else 0, "wall_s": wall_s, "vehicle_s": vehicle_s,
+                "loaded": status.loaded or 0, "reported_spacing": status.own.spacing if status.own else 0,
+                "wall_s": wall_s, "vehicle_s": vehicle_s,
                 "radio_s": served.bytes_sent * BITS_PER_BYTE / RADIO_BAUD}
 
 
@@ -81,8 +83,9 @@ def table(args: argparse.Namespace) -> int:
     for text in args.spacings.split(","):
         spacing = int(text)
         r = load_once(spacing, side)
-        print(f"{spacing:>9} {r['reported_spacing']:>8.0f} {r['requests']:>8.0f} {r['blocks']:>7.0f} {r['loaded']:>7.0f} {r['bytes']:>7.0f} "
-              f"{r['wall_s']:>7.1f} {r['vehicle_s']:>9.1f} {r['radio_s']:>12.1f}", flush=True)
+        print(f"{spacing:>9} {r['reported_spacing']:>8.0f} {r['requests']:>8.0f} {r['blocks']:>7.0f} "
+              f"{r['loaded']:>7.0f} {r['bytes']:>7.0f} {r['wall_s']:>7.1f} {r['vehicle_s']:>9.1f} "
+              f"{r['radio_s']:>12.1f}", flush=True)
     return 0
 
 

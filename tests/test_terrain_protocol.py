@@ -227,16 +227,16 @@ def test_all_heights_of_a_request_are_asked_for_in_one_call():
 
 
 def test_blocks_without_ground_are_not_sent_but_counted_with_where():
+    corner_east = degree_offsets(np.array([SITL_CORNER[0] / E7]), np.array([SITL_CORNER[1] / E7]))[1][0]
+
     def half_known(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
-        heights = tilted_plane(lat, lon)
-        north, east = degree_offsets(lat, lon)
-        return np.where(east > degree_offsets(np.array([SITL_CORNER[0] / E7]),
-                                              np.array([SITL_CORNER[1] / E7]))[1] + 1550.0, np.nan, heights)
+        """The plane up to 1550 m east of the grid's corner, nothing beyond."""
+        return np.where(degree_offsets(lat, lon)[1] > corner_east + 1550.0, np.nan, tilted_plane(lat, lon))
 
     link = FakeArduPilot()
     server = TerrainServer(half_known)
     sent = server.answer(link, request(SITL_CORNER, (1 << 56) - 1))
-    # Columns of blocks 0..3 reach 1500 m east of the corner; block column 3's last points (1500 m) are in, column 4 (1600 m on) is out.
+    # Block columns 0..3 end 1500 m east of the corner: all in; column 4 starts at 1600 m: out, in all 7 rows.
     assert sent == 7 * 4
     assert sorted({m.gridbit % 8 for m in link.sent("TERRAIN_DATA")}) == [0, 1, 2, 3]
     again = server.answer(link, request(SITL_CORNER, (1 << 56) - 1))
@@ -302,7 +302,8 @@ def test_wait_terrain_loaded_is_bounded_and_says_what_is_missing():
 
 # ------------------------------------------------------------------ parameters
 def test_terrain_settings_for_an_ardupilot_multirotor_only():
-    copter = VehicleInfo(1, 1, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, mavlink.MAV_TYPE_QUADROTOR, Flavour.ARDUPILOT, False)
+    copter = VehicleInfo(1, 1, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, mavlink.MAV_TYPE_QUADROTOR, Flavour.ARDUPILOT,
+                         False)
     px4 = VehicleInfo(1, 1, mavlink.MAV_AUTOPILOT_PX4, mavlink.MAV_TYPE_QUADROTOR, Flavour.PX4, False)
     settings = {s.name: s.value for s in terrain_settings(copter)}
     assert settings == {"TERRAIN_ENABLE": 1.0, "TERRAIN_OPTIONS": 0.0, "WPNAV_RFND_USE": 0.0}

@@ -39,7 +39,6 @@ The layout, from ArduPilot's libraries/AP_Terrain (AP_Terrain.h, TerrainGCS.cpp,
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -135,7 +134,8 @@ class TerrainServed:
         if not self.blocks_without_ground or self.no_ground_at is None:
             return ""
         lat, lon = self.no_ground_at
-        return f"no ground in the DEM for {self.blocks_without_ground} terrain blocks (the first at {lat:.5f}, {lon:.5f})"
+        return (f"no ground in the DEM for {self.blocks_without_ground} terrain blocks "
+                f"(the first at {lat:.5f}, {lon:.5f})")
 
 
 class TerrainServer:
@@ -402,10 +402,3 @@ def read_terrain_params(session: Any) -> dict[str, float]:
     """TERRAIN_REPORTED as the vehicle has them (those it answers for)."""
     return read_params(ParamClient(session.link, session.backend.vehicle), list(TERRAIN_REPORTED))
 
-
-def describe_spacing(values: dict[str, float]) -> str:
-    """The vehicle's terrain grid, for a report line ('' when it did not say)."""
-    spacing = values.get("TERRAIN_SPACING")
-    if spacing is None or not math.isfinite(spacing):
-        return ""
-    return f"TERRAIN_SPACING = {spacing:g} m (the vehicle's terrain grid; kept)"
