@@ -127,7 +127,8 @@ class ParamSetting:
     def describe(self, old: float | None = None) -> str:
         was = f" (was {old:g})" if old is not None and not math.isclose(old, self.value, abs_tol=1e-6) else ""
         clamp = f", clamped from {self.wanted:g}" if self.clamped else ""
-        return f"{self.name} = {self.value:g} {self.unit}{was}{clamp}: {self.why}"
+        unit = f" {self.unit}" if self.unit else ""  # a switch (TERRAIN_ENABLE = 1) has none
+        return f"{self.name} = {self.value:g}{unit}{was}{clamp}: {self.why}"
 
 
 def plan_acceptance_radius(mission: Mission) -> float | None:

@@ -301,11 +301,15 @@ class Vehicle:
         self.state = VehicleState(info.flavour)
         self.say = say or (lambda text: None)
         self.also = also
+        # Answers the vehicle's TERRAIN_REQUESTs whoever reads (VehicleSession.serve_terrain sets it).
+        self.terrain: Callable[[Any], Any] | None = None
 
     def take(self, msg: Any) -> None:
         if msg.get_srcSystem() != self.sysid:
             return
         self.state.take(msg)
+        if self.terrain is not None and msg.get_type() == "TERRAIN_REQUEST":
+            self.terrain(msg)
         for text in self.state.new_texts:
             self.say(f"uav{self.sysid} says: {text}")
         self.state.new_texts.clear()

@@ -7,4 +7,6 @@ May import: missionplan.bridge.errors, .formats, .link, .transfer, .flight_model
                    home, land, the safe stop), each command sent from here only
   mission          MissionPlugin: the mission on the vehicle (upload with read-back, MAVSDK's upload, read
                    back, the plan's parameters, replacing it in flight)
+  terrain          TerrainServer: the MAVLink terrain protocol (a DEM served to an ArduPilot vehicle that asks;
+                   TERRAIN_CHECK / TERRAIN_REPORT read back) and the parameters terrain flight needs
 """

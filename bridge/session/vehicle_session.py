@@ -7,7 +7,8 @@ plugins do:
 - mission (session.mission.MissionPlugin): upload with read-back, read back, replace in flight;
 - telemetry (request_streams here): the streams a follower reads, asked for by SET_MESSAGE_INTERVAL;
 - parameters (navigation_params here): the navigation parameters a vehicle flies with;
-- logs (photos_from_log here): the photos read from the vehicle's own log after landing.
+- logs (photos_from_log here): the photos read from the vehicle's own log after landing;
+- terrain (serve_terrain here, session.terrain): the ground served to an ArduPilot vehicle that asks.
 Everything the vehicle sends while one of these waits goes to the session's `take` (its readiness
 state, then `observe`: a follower's record), so nothing it says is dropped.
 """
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 from ..flight_models.copter_model import PARAMETERS as COPTER_PARAMETERS
@@ -28,6 +30,7 @@ from ..transfer.protocol import Timeouts
 from ..transfer.uploader import MissionBackend, open_backend
 from .action import Action
 from .mission import MissionPlugin
+from .terrain import TerrainServer
 
 # The parameters a vehicle's flight is re-timed with (its autopilot's flight model), by autopilot.
 NAVIGATION_PARAMETERS = {Flavour.ARDUPILOT: list(COPTER_PARAMETERS), Flavour.PX4: list(PX4_PARAMETERS)}
@@ -42,6 +45,7 @@ class VehicleSession:
         self.sysid, self.flavour = vehicle.sysid, vehicle.info.flavour
         self.action = Action(self.link, vehicle)
         self.mission = MissionPlugin(backend, vehicle)
+        self.terrain_server: TerrainServer | None = None
 
     @classmethod
     def open(cls, link: Any, sysid: int, connect_s: float, timeouts: Timeouts, say: Say | None = None,
@@ -92,6 +96,14 @@ class VehicleSession:
         """Why the vehicle may not answer, when MAVLink 2 signing is the likely reason ('' otherwise)."""
         hint: str = self.link.signing_hint(self.sysid)
         return hint
+
+    def serve_terrain(self, server: TerrainServer | None) -> None:
+        """From now on answer the vehicle's TERRAIN_REQUESTs from `server` in every wait that reads it
+        (readiness, commands, a follower's loop: they all go through the vehicle's `take`); None stops.
+        Messages read by the mission transfers and parameter requests are not taken: a request lost
+        there is asked again by the vehicle (every 2 s of its clock)."""
+        self.terrain_server = server
+        self.vehicle.terrain = None if server is None else partial(server.answer, self.link)
 
     # ------------------------------------------------------------------ telemetry, parameters, logs
     def request_streams(self, telemetry_hz: float, deadline: float) -> list[str]:
