@@ -13,8 +13,9 @@ is made up: a point where no file has data (outside every window, or a nodata pi
 or a value no ground has, below -500 m or above 9000 m) is NaN, and `Ground.heights` refuses it in one line
 that names the point, what it belongs to and why.
 
-rasterio is the `terrain` extra: it is imported only when a DEM is read, so missionplan without it plans as
-before and says, when asked for a DEM, how to install it.
+A `Ground` is a value: its arrays are read-only and pyproj's transformers are thread-safe (pyproj 3.1+), so
+the threads of a flight may share one. rasterio is the `terrain` extra: it is imported only when a DEM is
+read, so missionplan without it plans as before and says, when asked for a DEM, how to install it.
 """
 
 from __future__ import annotations
@@ -250,10 +251,14 @@ def _may_reach(path: Path, wide: tuple[float, float, float, float]) -> bool:
     south = int(match[2]) * (1 if match[1].upper() == "N" else -1)
     west = int(match[4]) * (1 if match[3].upper() == "E" else -1)
     edge = 0.001  # the tile's edge pixels reach half a pixel past its degree lines
-    return south - edge <= wide[2] and wide[0] <= south + 1 + edge and west - edge <= wide[3] and wide[1] <= west + 1 + edge
+    return (south - edge <= wide[2] and wide[0] <= south + 1 + edge
+            and west - edge <= wide[3] and wide[1] <= west + 1 + edge)
 
 
 def _first_line(err: BaseException) -> str:
+    """GDAL's own words: rasterio's "Read failed. See previous exception" carries them as its cause."""
+    while err.__cause__ is not None:
+        err = err.__cause__
     text = (str(err).strip().splitlines() or [type(err).__name__])[0]
     return text if len(text) <= 200 else text[:197] + "..."
 
@@ -312,7 +317,8 @@ def _transformer(crs: pyproj.CRS) -> pyproj.Transformer | None:
     return pyproj.Transformer.from_crs(_WGS84, horizontal, always_xy=True)
 
 
-def _read_window(rasterio: ModuleType, path: Path, name: str, wide: tuple[float, float, float, float]) -> DemWindow | None:
+def _read_window(rasterio: ModuleType, path: Path, name: str,
+                 wide: tuple[float, float, float, float]) -> DemWindow | None:
     """The window of one file that covers `wide`, with a pixel to spare on every side; None when the file does
     not reach it."""
     try:
@@ -341,6 +347,7 @@ def _read_window(rasterio: ModuleType, path: Path, name: str, wide: tuple[float,
         with np.errstate(invalid="ignore"):
             no_ground = ~valid | ~np.isfinite(heights) | (heights < LOWEST_GROUND_M) | (heights > HIGHEST_GROUND_M)
         heights[no_ground] = np.nan
+        heights.setflags(write=False)
         # Pixel centres at integers: the affine from x, y to the window's (col, row) of pixel corners, less half.
         inverse = ~rasterio.windows.transform(window, dataset.transform)
         to_pixel = (inverse.a, inverse.b, inverse.c - 0.5, inverse.d, inverse.e, inverse.f - 0.5)

@@ -99,7 +99,8 @@ def test_an_srtm_tile_reads_its_int16_heights_exactly(tmp_path: Path) -> None:
 
 def test_two_tiles_answer_across_their_seam(tmp_path: Path) -> None:
     on_seam = functools.partial(hill, centre=(45.5, 8.0), radius_m=1500.0)  # smooth enough for a 90 m grid
-    west, east = write_srtm_tile(tmp_path, 45, 7, on_seam, arcsec=3), write_srtm_tile(tmp_path, 45, 8, on_seam, arcsec=3)
+    west = write_srtm_tile(tmp_path, 45, 7, on_seam, arcsec=3)
+    east = write_srtm_tile(tmp_path, 45, 8, on_seam, arcsec=3)
     (tmp_path / "N47E008.hgt").write_bytes(b"broken")  # far from the box: its name says so, it is not opened
     (tmp_path / "readme.txt").write_text("SRTM tiles\n")  # not a raster: a folder's other files are not read
     box = (45.49, 7.99, 45.51, 8.01)
@@ -150,7 +151,8 @@ def test_a_point_without_ground_is_named_with_why(tmp_path: Path) -> None:
     assert np.isnan(ground.height_amsl(lat, lon)).tolist() == [False, True, False]
     with pytest.raises(GeoError) as err:
         ground.heights(lat, lon, "uav2's track")
-    assert _one_line(err) == f"DEM {path}: no ground height at 45.07012, 7.68543 (uav2's track): a hole (nodata) in the DEM"
+    assert _one_line(err) == (f"DEM {path}: no ground height at 45.07012, 7.68543 (uav2's track): "
+                              f"a hole (nodata) in the DEM")
     # West of the hole: between its last pixels with data no height is missing; half a pixel further east,
     # where a nodata pixel is among the four used, there is no height.
     with rasterio.open(path) as dataset:
@@ -160,7 +162,8 @@ def test_a_point_without_ground_is_named_with_why(tmp_path: Path) -> None:
         # Pixel (r, c) spans corners c..c+1, r..r+1: these points lie halfway between four pixel centres.
         (west_x, y), (east_x, _) = dataset.xy(row + 1, col, offset="ul"), dataset.xy(row + 1, col + 1, offset="ul")
     assert np.isnan(ground.height_amsl(np.array([y, y]), np.array([west_x, east_x]))).tolist() == [False, True]
-    with pytest.raises(GeoError, match=r": no ground height at 45\.10000, 7\.68000 \(the launch point\): outside the DEM$"):
+    with pytest.raises(GeoError, match=r": no ground height at 45\.10000, 7\.68000 \(the launch point\): "
+                                       r"outside the DEM$"):
         ground.heights(np.array([45.1]), np.array([7.68]), "the launch point")
     with pytest.raises(GeoError, match=r"at 45\.07900, 7\.68000 \(the area\): outside the part of the DEM read "
                                        r"\(lat 45\.06"):
@@ -178,7 +181,10 @@ def test_files_that_are_not_dems_are_refused_in_one_line_naming_them(tmp_path: P
     with rasterio.open(photo, "w", driver="GTiff", width=8, height=8, count=3, dtype="uint8", crs="EPSG:4326",
                        transform=from_origin(7.6, 45.1, 0.01, 0.01), photometric="RGB") as dst:
         dst.write(np.zeros((3, 8, 8), dtype=np.uint8))
+    cut = write_geotiff(tmp_path / "cut.tif", GROUND, FILE_BOUNDS, 10.0, crs="EPSG:32632")
+    cut.write_bytes(cut.read_bytes()[:20_000])  # a download cut short: its header whole, its heights not
     cases = [(text, f"{text}: not a raster GDAL can read ("),
+             (cut, f"{cut}: cannot read its heights (TIFF"),
              (bare, f"{bare}: the DEM has no coordinate reference system"),
              (photo, f"{photo}: an image (band 1 is red), not a DEM's heights"),
              (tmp_path / "absent.tif", f"{tmp_path / 'absent.tif'}: no such DEM file or folder")]

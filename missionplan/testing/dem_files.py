@@ -65,8 +65,9 @@ def write_geotiff(path: Path, ground_fn: GroundFn, bounds: tuple[float, float, f
         north = (lat - hole_lat) * M_PER_DEG
         east = (lon - hole_lon) * M_PER_DEG * math.cos(math.radians(hole_lat))
         heights[north ** 2 + east ** 2 <= radius_m ** 2] = NODATA
-    with rasterio.open(path, "w", driver="GTiff", width=cols, height=rows, count=1, dtype="float32", crs=target.to_wkt(),
-                       transform=from_origin(left, top, step_x, step_y), nodata=NODATA, compress="deflate") as dst:
+    with rasterio.open(path, "w", driver="GTiff", width=cols, height=rows, count=1, dtype="float32",
+                       crs=target.to_wkt(), transform=from_origin(left, top, step_x, step_y), nodata=NODATA,
+                       compress="deflate") as dst:
         dst.write(heights, 1)
     return path
 
