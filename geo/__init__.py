@@ -18,6 +18,8 @@ nothing else from missionplan. One job per module:
                   `sources` (Feature, Building, and `SourceFile`: how a file was read, what it left out).
 * `missionplan.geo.area`    - `build_grid_map`: rasterise area, obstacles, buildings, no-fly into an `AreaRaster`
                   (plain arrays, wrapped into a GridMap by the planner).
+* `missionplan.geo.dem`     - `read_ground`: the window of a crew's DEM files (GeoTIFF, SRTM .hgt, any GDAL
+                  raster; rasterio, the `terrain` extra) around an area; `Ground.height_amsl` at WGS84 points.
 * `missionplan.geo.cells`   - grid cells back on the Earth: merged lon/lat polygons, a GeoJSON feature.
 * `missionplan.geo.geojson_layers` - GeoJSON layers for GIS files: RFC 7946 ring order (`rfc7946`), a layer's
                   geometry type and property types.

@@ -11,6 +11,7 @@ plugin that hands them out as fixtures (docs/testing.md).
   arducopter_mission_session, px4_mission_session
                           the mission sessions the mock is compared on with each autopilot
   limit_cases             out-of-range items and what each autopilot answered
+  dem_files               DEM files made in a test: an analytic hill, GeoTIFFs in any CRS, real SRTM tiles
   retask_harness          a survey flown to mid-leg, re-tasked, watched and judged
   plugin                  the pytest plugin (the pytest11 entry point): fixtures, markers, --simulators
 
