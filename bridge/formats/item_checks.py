@@ -5,9 +5,9 @@ latitude beyond +-90, a frame that is not a uint8) because MISSION_ITEM_INT woul
 and the read-back would still agree with it. Nor anything beyond bridge.limits: more items than one MAVLink
 transfer carries (`too_many`), a positional altitude outside its frame's range, an angle / speed / hold time
 outside its range (PARAM_RANGES), a DO_JUMP outside the mission or repeating for ever in place (`check_jumps`),
-an altitude only QGroundControl's terrain data could give (`refuse_terrain_altitude`, which reads the ones
-it did give as altitudes above sea level), a home position that is
-no place (`check_home`). Also the home a writer puts in a file when the mission names none (`default_home`).
+an altitude only QGroundControl's terrain data could give (`refuse_terrain_altitude`, which reads the ones it
+did give as altitudes above sea level), a home position that is no place (`check_home`). Also the home a writer
+puts in a file when the mission names none (`default_home`).
 Each problem is one BridgeUsageError naming the file, the item and the problem.
 """
 

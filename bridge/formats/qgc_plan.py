@@ -399,7 +399,7 @@ def plan_document(plan: PlanFile) -> dict[str, Any]:
     for number, (item, mode) in enumerate(zip(plan.mission.items, modes), start=1):
         entry: dict[str, Any] = {}
         if with_modes and mode is not None:  # QGroundControl's keys sort first, as it writes them
-            entry.update({"AMSLAltAboveTerrain": None, "Altitude": _json_number(item.z), "AltitudeMode": mode})
+            entry.update(zip(ALTITUDE_MODE_KEYS, (None, _json_number(item.z), mode)))
         entry.update({"autoContinue": bool(item.autocontinue), "command": int(item.command), "doJumpId": number,
                       "frame": int(item.frame), "params": [_json_number(v) for v in item.params],
                       "type": "SimpleItem"})
