@@ -226,9 +226,9 @@ def test_terrain_items_refused_unless_the_vehicle_gets_a_number_it_can_fly(tmp_p
                       [0, 0, 0, None, 47.633, -122.086, 30])
     calc = _simple(mavlink.MAV_CMD_NAV_WAYPOINT, 2, mavlink.MAV_FRAME_GLOBAL,
                    [0, 0, 0, None, 47.6035618, -122.046391, 240.5], AltitudeMode=3, Altitude=80,
-                   AMSLAltAboveTerrain=240.5)  # a number from QGC's terrain data at save time: still refused
-    message = _refusal(_write(tmp_path, "calc.plan", _plan([takeoff, calc])))
-    assert "mission item 2: altitude is terrain-relative (QGroundControl's AltitudeMode 3" in message
+                   AMSLAltAboveTerrain=240.5)  # the altitude QGC computed from its terrain data: what it uploads
+    item = read_mission_file(_write(tmp_path, "calc.plan", _plan([takeoff, calc]))).mission.items[1]
+    assert (item.frame, item.z, item.x) == (0, 240.5, 47.6035618)
     for frame, name in ((10, "MAV_FRAME_GLOBAL_TERRAIN_ALT"), (11, "MAV_FRAME_GLOBAL_TERRAIN_ALT_INT")):
         blank = _simple(mavlink.MAV_CMD_NAV_WAYPOINT, 2, frame, [0, 0, 0, None, 47.6035618, -122.1263702, None],
                         AltitudeMode=4)

@@ -5,8 +5,9 @@ latitude beyond +-90, a frame that is not a uint8) because MISSION_ITEM_INT woul
 and the read-back would still agree with it. Nor anything beyond bridge.limits: more items than one MAVLink
 transfer carries (`too_many`), a positional altitude outside its frame's range, an angle / speed / hold time
 outside its range (PARAM_RANGES), a DO_JUMP outside the mission or repeating for ever in place (`check_jumps`),
-an altitude only QGroundControl's terrain data could give (`refuse_terrain_altitude`), a home position that is
-no place (`check_home`). Also the home a writer puts in a file when the mission names none (`default_home`).
+an altitude only QGroundControl's terrain data could give (`refuse_terrain_altitude`, which reads the ones it
+did give as altitudes above sea level), a home position that is no place (`check_home`). Also the home a writer
+puts in a file when the mission names none (`default_home`).
 Each problem is one BridgeUsageError naming the file, the item and the problem.
 """
 
@@ -54,8 +55,9 @@ from .mission_items import (
     is_global,
 )
 
-# QGroundControl's AltitudeMode (QGroundControlQmlGlobal::AltMode) that it turns into an altitude above
-# sea level from its own terrain data when it loads the plan: the number in the file is not what it flies.
+# QGroundControl's AltitudeMode (QGroundControlQmlGlobal::AltMode) whose altitude QGroundControl computes: it keeps
+# the height above terrain aside ("Altitude") and puts terrain + height into param 7, in MAV_FRAME_GLOBAL, from its
+# own terrain data, again whenever that data comes (SimpleMissionItem::_terrainAltChanged).
 ALT_MODE_CALC_ABOVE_TERRAIN = 3
 TERRAIN_FRAMES = {FRAME_GLOBAL_TERRAIN_ALT: "MAV_FRAME_GLOBAL_TERRAIN_ALT",
                   FRAME_GLOBAL_TERRAIN_ALT_INT: "MAV_FRAME_GLOBAL_TERRAIN_ALT_INT"}
@@ -213,24 +215,39 @@ def check_jumps(items: list[MissionItem], wheres: list[str], path: str | os.Path
                                    "of the mission")
 
 
-def refuse_terrain_altitude(item: MissionItem, where: str, path: str | os.PathLike[str],
-                            altitude_mode: Any = None) -> None:
-    """BridgeUsageError for an item whose altitude is above terrain and known only from terrain data.
+def refuse_terrain_altitude(item: MissionItem, where: str, path: str | os.PathLike[str], altitude_mode: Any = None,
+                            amsl_above_terrain: Any = None) -> MissionItem:
+    """The item as the vehicle is to fly it, or BridgeUsageError when its altitude is above terrain and known
+    only from terrain data this tool does not have.
 
-    QGroundControl's AltitudeMode 3 ("calculated above terrain") keeps the height above terrain aside and
-    puts into param 7 an altitude above sea level that it computes from its terrain data whenever it loads
-    the plan (null until that data has come). A terrain frame (10, 11) without an altitude is the same
-    question unanswered. A terrain frame with an altitude goes to the vehicle as it is, as QGroundControl
-    sends it: the autopilot follows the terrain itself (ArduPilot does; PX4 refuses the frame).
+    QGroundControl's AltitudeMode 3 ("calculated above terrain") keeps the height above terrain aside and puts
+    into param 7 the altitude above sea level it computed from its terrain data (null until that data came),
+    in frame 0, and the same number into AMSLAltAboveTerrain when it saves. Such an item is read as what
+    QGroundControl would upload: an item in frame 0 at that altitude (param 7, else AMSLAltAboveTerrain); with
+    neither, it is refused. A terrain frame (10, 11) without an altitude is the same question unanswered. A
+    terrain frame with an altitude goes to the vehicle as it is, as QGroundControl sends it: the autopilot
+    follows the terrain itself (ArduPilot does; PX4 refuses the frame).
     """
-    if type(altitude_mode) in (int, float) and altitude_mode == ALT_MODE_CALC_ABOVE_TERRAIN:
-        raise BridgeUsageError(f"{path}: {where}: altitude is terrain-relative (QGroundControl's AltitudeMode 3: a "
-                               "height above terrain that QGroundControl turns into an altitude above sea level "
-                               f"from its terrain data when it loads the plan); {TERRAIN_ADVICE}")
     positional = item.command in POSITIONAL_COMMANDS and is_global(item.frame)
+    if type(altitude_mode) in (int, float) and altitude_mode == ALT_MODE_CALC_ABOVE_TERRAIN and positional:
+        mode = "QGroundControl's AltitudeMode 3, a height above terrain QGroundControl turns into an altitude above " \
+               "sea level from its terrain data"
+        if item.frame not in AMSL_FRAMES:
+            raise BridgeUsageError(f"{path}: {where}: altitude is terrain-relative ({mode}) but the item is in frame "
+                                   f"{item.frame}, not 0 (MAV_FRAME_GLOBAL) where QGroundControl puts that altitude; "
+                                   f"{TERRAIN_ADVICE}")
+        stored = amsl_above_terrain if type(amsl_above_terrain) in (int, float) else math.nan
+        altitude = item.z if math.isfinite(item.z) else float(stored)
+        if not math.isfinite(altitude):
+            raise BridgeUsageError(f"{path}: {where}: altitude is terrain-relative ({mode}) and the file holds none "
+                                   "above sea level for it (param 7 and AMSLAltAboveTerrain are null: QGroundControl "
+                                   "saved the plan before its terrain data came); open the plan in QGroundControl, let "
+                                   f"its terrain heights load and save it again, or {TERRAIN_ADVICE}")
+        item.frame, item.z = FRAME_GLOBAL, altitude
     if item.frame in TERRAIN_FRAMES and positional and math.isnan(item.z):
         raise BridgeUsageError(f"{path}: {where}: altitude is terrain-relative (frame {item.frame}, "
                                f"{TERRAIN_FRAMES[item.frame]}) and has no value; {TERRAIN_ADVICE}")
+    return item
 
 
 def default_home(mission: Mission) -> tuple[float, float, float]:

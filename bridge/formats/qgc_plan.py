@@ -7,9 +7,17 @@
   file go through formats.qgc_legacy; a survey or corridor-scan ComplexItem contributes the
   waypoints QGroundControl stored in it ("TransectStyleComplexItem".Items, the ones QGroundControl
   flies from a loaded plan); a ComplexItem without stored waypoints (structure scan, landing
-  pattern, old surveys), whose waypoints QGroundControl generates on load, is refused, as is an item
-  whose altitude QGroundControl computes from its terrain data (AltitudeMode 3, or a terrain frame
-  without an altitude): this tool has no terrain data to convert it with.
+  pattern, old surveys), whose waypoints QGroundControl generates on load, is refused. An item "calculated
+  above terrain" (AltitudeMode 3) is read as the altitude above sea level QGroundControl computed for it
+  (frame 0); one saved before QGroundControl had terrain data for it (no such altitude), or in a terrain frame
+  without an altitude, is refused: this tool has no terrain data to convert it with.
+- Altitude modes written: a plan with an item in frame 0 (above sea level) or 10 (above terrain) gives every
+  item that has an altitude QGroundControl's three keys (ALTITUDE_MODE_KEYS): "AltitudeMode" from its frame
+  (ALTITUDE_MODES), "Altitude" its altitude, "AMSLAltAboveTerrain" null, as QGroundControl's
+  SimpleMissionItem::save writes them. Frame 0 is written as absolute (2), not as calculated above terrain
+  (3): QGroundControl recomputes a mode 3 item's altitude from its own terrain data when it loads the plan,
+  and would replace the altitudes of the DEM the plan was made with. A plan of relative items (frame 3) has
+  none of those keys, as before.
 DO_JUMP targets: a `.plan` names them by doJumpId; they become the model's 1-based item number, and a plan
 written here gives each item its number as doJumpId. Every item goes through formats.item_checks; a JSON file
 larger than any legal one (MAX_JSON_BYTES) is refused unread.
@@ -28,7 +36,8 @@ from . import qgc_legacy
 from ..errors import BridgeUsageError
 from ..limits import ALTITUDE_RELATIVE_M, MAVLINK_MAX_ITEMS, MAX_MISSION_ITEMS, SPEED_M_S, check_range
 from .file_text import check_file, read_text, write_text
-from .item_checks import check_home, check_item, check_jumps, default_home, refuse_terrain_altitude, too_many
+from .item_checks import (POSITIONAL_COMMANDS, check_home, check_item, check_jumps, default_home, refuse_terrain_altitude,
+                          too_many)
 from .mission_items import (
     CMD_DO_JUMP,
     CMD_FENCE_CIRCLE_EXCLUSION,
@@ -38,11 +47,14 @@ from .mission_items import (
     CMD_RALLY_POINT,
     FRAME_GLOBAL,
     FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_GLOBAL_TERRAIN_ALT,
     MAV_TYPE_QUADROTOR,
     Flavour,
     Mission,
     MissionItem,
     MissionType,
+    is_global,
+    normalize_frame,
 )
 
 PLAN_MISSION_VERSION = 2  # the only mission.version QGroundControl reads
@@ -63,6 +75,13 @@ SURVEY_VERSIONS = range(2, 6)  # QGroundControl reads survey versions 2-5; 2 and
 # limit (65,535 items each) stays under 75 MiB. A larger file cannot be a mission any vehicle takes; refusing it
 # before it is read keeps a 1,000,000-item file from being parsed into a gigabyte of objects.
 MAX_JSON_BYTES = 96 * 2**20
+
+# QGroundControl's AltitudeMode (QGroundControlQmlGlobal::AltMode: Mixed 0, Relative 1, Absolute 2,
+# CalcAboveTerrain 3, TerrainFrame 4) for the frame an item is in, as SimpleMissionItem maps them.
+ALT_MODE_MIXED = 0
+ALTITUDE_MODES = {FRAME_GLOBAL_RELATIVE_ALT: 1, FRAME_GLOBAL: 2, FRAME_GLOBAL_TERRAIN_ALT: 4}
+ALTITUDE_MODE_KEYS = ("AMSLAltAboveTerrain", "Altitude", "AltitudeMode")  # all three on an item, or none
+GLOBAL_PLAN_ALTITUDE_MODE = 1  # what a plan of relative items names as the mode for new items
 
 
 @dataclass
@@ -269,7 +288,7 @@ def _simple_item(entry: dict[str, Any], where: str, path: Path) -> tuple[Mission
     command = _integer(entry.get("command"), f"{where} command", path, 0, 65535)  # uint16
     item = MissionItem(command=command, frame=frame, param1=p[0], param2=p[1], param3=p[2], param4=p[3],
                        x=p[4], y=p[5], z=p[6], autocontinue=bool(entry.get("autoContinue", True)))
-    refuse_terrain_altitude(item, where, path, entry.get("AltitudeMode"))
+    refuse_terrain_altitude(item, where, path, entry.get("AltitudeMode"), entry.get("AMSLAltAboveTerrain"))
     check_item(item, where, path)
     jump_id = entry.get("doJumpId")
     return item, None if jump_id is None else _integer(jump_id, f"{where} doJumpId", path)
@@ -364,19 +383,35 @@ def _json_number(value: float) -> float | int | None:
     return int(value) if float(value).is_integer() and abs(value) < 2**53 else value
 
 
+def _altitude_mode(item: MissionItem) -> int | None:
+    """QGroundControl's AltitudeMode for an item that has an altitude (a position in a global frame), else None."""
+    if item.command not in POSITIONAL_COMMANDS or not is_global(item.frame):
+        return None
+    return ALTITUDE_MODES[normalize_frame(item.frame)]
+
+
 def plan_document(plan: PlanFile) -> dict[str, Any]:
     """The QGroundControl JSON document for a plan (doJumpId = item number, so DO_JUMP is unchanged)."""
+    modes = [_altitude_mode(item) for item in plan.mission.items]
+    # Relative items alone need no altitude mode: such a plan is written as it always was.
+    with_modes = any(mode not in (None, ALTITUDE_MODES[FRAME_GLOBAL_RELATIVE_ALT]) for mode in modes)
     items = []
-    for number, item in enumerate(plan.mission.items, start=1):
-        items.append({"autoContinue": bool(item.autocontinue), "command": int(item.command), "doJumpId": number,
+    for number, (item, mode) in enumerate(zip(plan.mission.items, modes), start=1):
+        entry: dict[str, Any] = {}
+        if with_modes and mode is not None:  # QGroundControl's keys sort first, as it writes them
+            entry.update(zip(ALTITUDE_MODE_KEYS, (None, _json_number(item.z), mode)))
+        entry.update({"autoContinue": bool(item.autocontinue), "command": int(item.command), "doJumpId": number,
                       "frame": int(item.frame), "params": [_json_number(v) for v in item.params],
                       "type": "SimpleItem"})
+        items.append(entry)
+    used = {mode for mode in modes if mode is not None}
+    global_mode = GLOBAL_PLAN_ALTITUDE_MODE if not with_modes else used.pop() if len(used) == 1 else ALT_MODE_MIXED
     home = default_home(plan.mission)
     firmware = plan.firmware or Flavour.ARDUPILOT
     mission_doc: dict[str, Any] = {
         "cruiseSpeed": plan.cruise_speed if plan.cruise_speed is not None else 5,
         "firmwareType": firmware.autopilot,
-        "globalPlanAltitudeMode": 1,
+        "globalPlanAltitudeMode": global_mode,
         "hoverSpeed": plan.hover_speed if plan.hover_speed is not None else 5,
         "items": items,
         "plannedHomePosition": [home[0], home[1], home[2]],
