@@ -111,7 +111,8 @@ class DemWindow:
         if 0 <= row <= rows - 1 and 0 <= col <= cols - 1:
             return "hole"
         row, col = row + self.offset[0], col + self.offset[1]
-        if -0.5 <= row <= self.file_shape[0] - 0.5 and -0.5 <= col <= self.file_shape[1] - 0.5:
+        # Between the file's outer pixel centres and its edge no height is interpolated: that is outside too.
+        if 0 <= row <= self.file_shape[0] - 1 and 0 <= col <= self.file_shape[1] - 1:
             return "unread"
         return None
 

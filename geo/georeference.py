@@ -36,11 +36,11 @@ HEADER_KEYS = (*FRAME_KEYS, "altitude_m", "fov_deg", "safety_margin_m")
 
 @dataclass(frozen=True)
 class TerrainRecord:
-    """The ground a plan was made over: the plan folder's copy of it, the DEM files it was read from, their
+    """The ground a plan was made over: the plan folder's copies of it, the DEM files it was read from, their
     CRSs and coarsest pixel, and the range of its heights under the area (metres above sea level, as the
     DEM gives them)."""
 
-    file: str  # in the plan folder: the ground the plan used, which fly serves and the judge measures against
+    files: tuple[str, ...]  # in the plan folder: the ground the plan used (dem_copy), served by fly, judged against
     sources: tuple[str, ...]
     crs: tuple[str, ...]
     resolution_m: float
@@ -48,12 +48,12 @@ class TerrainRecord:
     highest_m: float
 
     def to_json(self) -> dict[str, Any]:
-        return {"file": self.file, "sources": list(self.sources), "crs": list(self.crs),
+        return {"files": list(self.files), "sources": list(self.sources), "crs": list(self.crs),
                 "resolution_m": self.resolution_m, "lowest_m": self.lowest_m, "highest_m": self.highest_m}
 
     @classmethod
     def from_json(cls, doc: Mapping[str, Any]) -> "TerrainRecord":
-        return cls(doc["file"], tuple(doc["sources"]), tuple(doc["crs"]), float(doc["resolution_m"]),
+        return cls(tuple(doc["files"]), tuple(doc["sources"]), tuple(doc["crs"]), float(doc["resolution_m"]),
                    float(doc["lowest_m"]), float(doc["highest_m"]))
 
 

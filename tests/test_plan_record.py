@@ -76,7 +76,7 @@ mission_settings = st.builds(MissionSettings, numbers, numbers, numbers, numbers
 safety_settings = st.builds(SafetySettings, numbers, numbers, numbers, maybe_numbers, numbers)
 plan_settings = st.builds(PlanSettings, mission_settings, safety_settings, texts, texts, st.booleans(), texts)
 pointers = st.builds(SurveyPointer, texts, st.none() | counts, st.none() | texts)
-terrains = st.builds(TerrainRecord, texts, tuples(texts), tuples(texts), numbers, numbers, numbers)
+terrains = st.builds(TerrainRecord, tuples(texts), tuples(texts), tuples(texts), numbers, numbers, numbers)
 
 
 @st.composite
@@ -141,7 +141,7 @@ def test_a_plan_over_a_dem_is_written_in_version_2_and_a_flat_one_in_version_1(r
     terrain = record.georeference is not None and record.georeference.terrain is not None
     if terrain:
         assert next(iter(doc)) == "schema_version" and doc["schema_version"] == 2
-        assert doc["georeference"]["terrain"]["file"] == record.georeference.terrain.file
+        assert doc["georeference"]["terrain"]["files"] == list(record.georeference.terrain.files)
     else:
         assert "schema_version" not in doc and "terrain" not in (doc.get("georeference") or {})
     assert PlanRecord.from_json(doc) == record

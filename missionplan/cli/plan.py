@@ -45,6 +45,7 @@ class PlanRequest:
     area: Path | None
     uavs: int | None
     obstacles: tuple[Path, ...]
+    dem: tuple[Path, ...]
     osm: Path | None
     height_field: str | None
     unknown_building_height: float | None
@@ -108,7 +109,11 @@ def register(sub: Any) -> None:
                            "(default: unknown, so they are obstacles)")
     plan.add_argument("--launch", action="append", default=[], metavar="LAT,LON",
                       help="a launch point, one per drone (with --area; -33.86,151.21 works after a space)")
-    plan.add_argument("--altitude", type=float, help="flight height above the launch points, metres (with --area)")
+    plan.add_argument("--altitude", type=float, help="flight height above the launch points, metres (with --area); "
+                      "with --dem, above the ground under the drone")
+    plan.add_argument("--dem", type=Path, action="append", default=[], metavar="FILE",
+                      help="the ground's heights above sea level: a GeoTIFF, SRTM .hgt tiles or any raster GDAL reads, "
+                           "or a folder of tiles (repeatable); heights then hold above the ground (docs/terrain.md)")
     plan.add_argument("--fov", type=float, help="camera field of view, degrees")
     plan.add_argument("--sensor-width", type=float, help="sensor width, mm (with --sensor-height and --focal-length)")
     plan.add_argument("--sensor-height", type=float, help="sensor height, mm")
@@ -185,9 +190,17 @@ def _plan_ground(request: PlanRequest) -> PlanGround:
                "altitude_step": request.altitude_step, "altitude": request.altitude, "autopilot": request.autopilot}
     safety = {"min_separation": request.min_separation, "max_altitude": request.max_altitude,
               "clearance": request.clearance, "endurance": request.endurance, "reserve": request.reserve}
-    return grid_ground(gmap, uavs, frame, mission, safety, unknown=unknown, sources=sources,
-                       from_osm=request.area is not None and request.osm is not None,
-                       launch_labels=list(request.launch[:uavs]) if request.area is not None else None)
+    ground = grid_ground(gmap, uavs, frame, mission, safety, unknown=unknown, sources=sources,
+                         from_osm=request.area is not None and request.osm is not None,
+                         launch_labels=list(request.launch[:uavs]) if request.area is not None else None)
+    if request.dem:
+        if frame is None:
+            raise MapError(f"--dem needs a plan on the Earth: {printable(gmap.name)} has no origin (use --area, "
+                           "or a map with origin_lat / origin_lon)")
+        from ..planning.terrain import plan_terrain
+
+        ground.terrain = plan_terrain(request.dem, frame, gmap, ground.starts)
+    return ground
 
 
 def _check_plan_numbers(request: PlanRequest) -> None:

@@ -12,7 +12,12 @@ Each drone's mission, in order:
 
 Positions use the relative-altitude frame (MAV_FRAME_GLOBAL_RELATIVE_ALT). Drone k (from 0)
 flies at altitude H + k * altitude_step: layers go up from H, never below it, so the
-footprint (and the coverage) never shrinks. The trigger distance is the footprint side
+footprint (and the coverage) never shrinks. Over a DEM (`ground`: heights above sea level) H is a height
+above the ground under the drone and the home position is at the ground's height: ArduPilot gets its
+waypoints in the terrain frame (MAV_FRAME_GLOBAL_TERRAIN_ALT: it follows the terrain the ground station
+serves it); PX4, which takes no terrain frame, gets altitudes above sea level (MAV_FRAME_GLOBAL), each
+leg split where the ground departs from the straight line (terrain_legs.amsl_track). The take-off climbs
+to H above the launch point in either case, which is the home. The trigger distance is the footprint side
 times (1 - frontal overlap); the default overlap 8/9 gives one photo per grid cell.
 
 The result is a `missionplan.bridge.formats.mission_items.Mission`, a plain list of items: bridge/ uploads it without
@@ -21,13 +26,14 @@ knowing anything about grids.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND,
                             CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT,
-                            FRAME_MISSION, SPEED_TYPE_GROUNDSPEED, Mission, MissionItem)
+                            FRAME_GLOBAL_TERRAIN_ALT, FRAME_MISSION, SPEED_TYPE_GROUNDSPEED, Mission, MissionItem)
 from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 
 DEFAULT_SPEED_M_S = 5.0
@@ -36,6 +42,8 @@ DEFAULT_SPEED_M_S = 5.0
 # coverage to the footprint's margin.
 DEFAULT_OVERLAP = (CELLS_PER_FOOTPRINT - 1) / CELLS_PER_FOOTPRINT
 END_ACTIONS = ("rtl", "land")
+# The ground under a plan: heights above sea level (m) at arrays of latitudes and longitudes (geo.dem.Ground).
+GroundHeights = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -78,7 +86,7 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
                   waypoints_m: np.ndarray, launch_m: np.ndarray, settings: MissionSettings,
                   flight_s: float | None = None, end: str | None = None, resumes: bool = False,
                   transit: tuple[np.ndarray, np.ndarray] | None = None,
-                  back: tuple[np.ndarray, np.ndarray] | None = None) -> DroneMission:
+                  back: tuple[np.ndarray, np.ndarray] | None = None, ground: GroundHeights | None = None) -> DroneMission:
     """The mission of drone `drone` (0-based; its system id is drone + 1).
 
     A battery sortie after the first (`resumes`) flies from the launch point to its first waypoint
@@ -90,6 +98,7 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
     `waypoints_latlon` (n, 2) are the corrected waypoints; `waypoints_m` the same points in
     a local metric frame and `launch_m` the launch point there, for lengths and photo counts.
     `flight_s` is the planned duration (missionplan.mission.timeline); without it, length over cruise speed.
+    `ground`: the plan is over a DEM (the module docstring says how each autopilot gets its heights).
     """
     altitude = settings.altitude_of(drone)
     end = settings.end if end is None else end
@@ -98,6 +107,8 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
     back_latlon, back_m = back if back is not None else empty
     camera_off = resumes or len(transit_latlon) > 0
     lat0, lon0 = launch_latlon
+    # Where the positions' heights are measured from: the launch point (home), or the ground under the drone.
+    frame = FRAME_GLOBAL_RELATIVE_ALT if ground is None else FRAME_GLOBAL_TERRAIN_ALT
     items = [
         MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=lat0, y=lon0, z=altitude),
         MissionItem(CMD_DO_CHANGE_SPEED, FRAME_MISSION, param1=SPEED_TYPE_GROUNDSPEED, param2=settings.speed_m_s,
@@ -108,7 +119,7 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
                     param3=0.0 if camera_off else 1.0),
     ]
     for lat, lon in transit_latlon:  # camera off on the way out
-        items.append(MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=settings.acceptance_m,
+        items.append(MissionItem(CMD_NAV_WAYPOINT, frame, param2=settings.acceptance_m,
                                  x=float(lat), y=float(lon), z=altitude))
     # After every waypoint, DO_SET_CAM_TRIGG_DIST again with "trigger once now": a photo where the
     # track turns, and the distance count restarts there, so photos stay aligned with each leg's start
@@ -116,14 +127,14 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
     # sets the distance to 0: one photo at the end of the track, then the camera stops.
     for index, (lat, lon) in enumerate(waypoints_latlon):
         last = index == len(waypoints_latlon) - 1
-        items.append(MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=settings.acceptance_m,
+        items.append(MissionItem(CMD_NAV_WAYPOINT, frame, param2=settings.acceptance_m,
                                  x=float(lat), y=float(lon), z=altitude))
         items.append(MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION,
                                  param1=0.0 if last else settings.trigger_distance_m, param3=1.0))
     if not len(waypoints_latlon):
         items.append(MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0))
     for lat, lon in back_latlon:  # camera off on the way home, round the obstacles RTL would fly through
-        items.append(MissionItem(CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, param2=settings.acceptance_m,
+        items.append(MissionItem(CMD_NAV_WAYPOINT, frame, param2=settings.acceptance_m,
                                  x=float(lat), y=float(lon), z=altitude))
     if end == "rtl":
         items.append(MissionItem(CMD_NAV_RETURN_TO_LAUNCH, FRAME_MISSION))
@@ -144,7 +155,12 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
     photos = (0 if camera_off else 1) + len(waypoints_m)
     if settings.trigger_distance_m > 0 and len(photo_legs):
         photos += int(np.maximum(np.ceil(photo_legs / settings.trigger_distance_m - 1e-9) - 1, 0).sum())
-    mission = Mission(items=items, home=(lat0, lon0, 0.0))
+    home_amsl = 0.0 if ground is None else float(ground(np.array([lat0]), np.array([lon0]))[0])
+    mission = Mission(items=items, home=(lat0, lon0, home_amsl))
+    if ground is not None and settings.autopilot == "px4":
+        from .terrain_missions import px4_over_ground
+
+        mission = px4_over_ground(mission, ground)
     count = len(transit_latlon) + len(waypoints_latlon) + len(back_latlon)
     return DroneMission(sysid=drone + 1, mission=mission, waypoints=count, length_m=length,
                         flight_s=length / settings.speed_m_s if flight_s is None else flight_s, photos=photos)

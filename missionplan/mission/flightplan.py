@@ -26,7 +26,7 @@ from ..maps.gridmap import GridMap, MapError
 from .corrector import MARGIN_CELLS, CorrectedPath, correct_path
 from .geofence import Fence, drone_fence
 from .plan_blocks import ClearancePromise, Closest, DronePlan, FencePlan, PathShape, SeparationPromise, SortiePlan
-from .drone_missions import DroneMission, MissionSettings
+from .drone_missions import DroneMission, GroundHeights, MissionSettings
 from .safety import SafetySettings
 from .separation import Layering, SeparationError, choose_layers, closest_over_sorties, position_at
 from .sorties import Sortie, sortie_file, split_sorties
@@ -138,14 +138,16 @@ def _place(frame: GridFrame, point_m: np.ndarray) -> str:
 
 
 def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSettings,
-                      safety: SafetySettings | None = None, base: GridMap | None = None) -> FlightPlans:
+                      safety: SafetySettings | None = None, base: GridMap | None = None,
+                      ground: GroundHeights | None = None) -> FlightPlans:
     """Correct every drone's path and build its missions.
 
     With `safety`: routes longer than the endurance become sorties, the altitude layers are chosen so
     the separation holds (SeparationError names the pair and the place otherwise), each drone gets a
     geofence. Without it: one mission per drone at the altitudes of `settings`, nothing enforced.
     `base`: the map as given when the planner flew it with a clearance band (missionplan.mission.clearance): the
-    corrector keeps the clearance from its obstacles and every target the grid path photographed."""
+    corrector keeps the clearance from its obstacles and every target the grid path photographed.
+    `ground`: the plan is over a DEM; its altitudes are heights above the ground (drone_missions)."""
     paths = result.run.paths
     base = result.gmap if base is None else base
     targets = result.world.reachable if base is result.gmap else base.target
@@ -239,7 +241,7 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
             out, back = legs(k, sortie)
             drone_missions.append(track_mission(frame, k, home, sortie.waypoints_m, launches[k], settings,
                                                 flight_s=float(sortie_tracks[j][k + 1][-1, 0]), end=sortie.end,
-                                                resumes=sortie.resumes, out_m=out, back_m=back))
+                                                resumes=sortie.resumes, out_m=out, back_m=back, ground=ground))
         missions.append(drone_missions)
         starts.append(np.array([s.waypoints_m[0] / cell for s in all_sorties[k] if len(s.waypoints_m)]).reshape(-1, 2))
         if safety is not None:

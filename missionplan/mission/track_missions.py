@@ -18,7 +18,7 @@ import numpy as np
 from missionplan.geo.frame import GridFrame
 
 from .corrector import correct_path
-from .drone_missions import DroneMission, MissionSettings, build_mission
+from .drone_missions import DroneMission, GroundHeights, MissionSettings, build_mission
 
 
 def grid_m_to_latlon(frame: GridFrame, points_m: np.ndarray) -> np.ndarray:
@@ -73,12 +73,12 @@ class LaunchWays:
 def track_mission(frame: GridFrame, drone: int, home_latlon: tuple[float, float], survey_m: np.ndarray,
                   start_m: np.ndarray, settings: MissionSettings, flight_s: float, end: str | None = None,
                   resumes: bool = False, out_m: np.ndarray | None = None,
-                  back_m: np.ndarray | None = None) -> DroneMission:
+                  back_m: np.ndarray | None = None, ground: GroundHeights | None = None) -> DroneMission:
     """Drone `drone`'s mission (0-based) from its survey track `survey_m` (grid metres), flown from
     `start_m` (its launch point, or where it hovers), with its RTL home at home_latlon. out_m / back_m:
     the ways out to the survey and home from it (LaunchWays.way), flown with the camera off; None: none.
-    flight_s, end, resumes: as drone_missions.build_mission takes them."""
+    flight_s, end, resumes, ground: as drone_missions.build_mission takes them."""
     transit = None if out_m is None else (grid_m_to_latlon(frame, out_m), out_m)
     back = None if back_m is None else (grid_m_to_latlon(frame, back_m), back_m)
     return build_mission(drone, home_latlon, grid_m_to_latlon(frame, survey_m), survey_m, start_m, settings,
-                         flight_s=flight_s, end=end, resumes=resumes, transit=transit, back=back)
+                         flight_s=flight_s, end=end, resumes=resumes, transit=transit, back=back, ground=ground)

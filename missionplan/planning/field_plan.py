@@ -20,7 +20,7 @@ from missionplan.geo.frame import GridFrame
 
 from ..maps.gridmap import GridMap
 from ..mission.clearance import band_coverage, flight_map, photograph_band
-from ..mission.drone_missions import MissionSettings
+from ..mission.drone_missions import GroundHeights, MissionSettings
 from ..mission.plan_blocks import SafetyPromise
 from ..mission.plan_record import PlanRecord
 from ..mission.safety import SafetySettings
@@ -54,8 +54,10 @@ class FieldPlan:
 
 
 def plan_field(gmap: GridMap, uavs: int, frame: GridFrame | None, settings: MissionSettings | None,
-               safety: SafetySettings | None, balance_zones: bool = True, **planning: Any) -> FieldPlan:
-    """Plan `gmap` for `uavs` drones; `planning`: plan_map's policy, zone_method, seed, progress, lanes."""
+               safety: SafetySettings | None, balance_zones: bool = True, ground: GroundHeights | None = None,
+               **planning: Any) -> FieldPlan:
+    """Plan `gmap` for `uavs` drones; `ground`: over a DEM (flightplan.make_flight_plans); `planning`: plan_map's
+    policy, zone_method, seed, progress, lanes."""
     plan_gmap, band = flight_map(gmap, safety.clearance_m, uavs) if safety is not None else (gmap, None)
 
     def attempt(shares: np.ndarray | None) -> FieldPlan:
@@ -67,7 +69,7 @@ def plan_field(gmap: GridMap, uavs: int, frame: GridFrame | None, settings: Miss
         if frame is not None and settings is not None and result.run.success:
             from ..mission.flightplan import make_flight_plans
 
-            done.plans = make_flight_plans(result, frame, settings, safety, base=gmap)
+            done.plans = make_flight_plans(result, frame, settings, safety, base=gmap, ground=ground)
         return done
 
     best = attempt(None)

@@ -37,6 +37,7 @@ import numpy as np
 from missionplan.base.atomic import probe_writable
 from missionplan.base.naming import Named
 from missionplan.bridge.folder_lock import hold_folder
+from missionplan.geo.dem import Ground
 from missionplan.geo.frame import GridFrame
 from missionplan.geo.georeference import Georeference
 
@@ -67,6 +68,7 @@ class PlanGround:
     sources: AreaSources | None = None  # the area and buildings an --area grid was drawn from
     from_osm: bool = False  # drawn from OpenStreetMap buildings (--area with --osm)
     launch_labels: list[str] | None = None  # the launch points as given (--launch LAT,LON), for the pictures
+    terrain: Ground | None = None  # the ground under the plan (plan --dem: planning/terrain.py); None: flat
 
     @property
     def uavs(self) -> int:
@@ -251,7 +253,9 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
 
     gmap, frame, settings, safety, unknown = ground.gmap, ground.frame, ground.settings, ground.safety, ground.unknown
     # Clearance band, band detours, flight plans, sorties, separation, geofences (missionplan/planning/field_plan.py).
+    terrain = ground.terrain
     field_plan = plan_field(gmap, ground.uavs, frame, settings, safety, balance_zones=options.balance_zones,
+                            ground=terrain.height_amsl if terrain is not None else None,
                             policy=policy, zone_method=options.zones, seed=options.seed, progress=options.progress,
                             lanes=options.open_ground == "lanes")
     result, plans = field_plan.result, field_plan.plans
@@ -275,9 +279,19 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
 
             from ..mission.flightplan import write_flight_files
 
+            terrain_block = None
+            if terrain is not None:  # the ground it was planned over, kept beside it (geo/dem_copy.py)
+                from missionplan.geo.dem_copy import write_ground_copy
+
+                from .terrain import terrain_record
+
+                copies = write_ground_copy(terrain, staging)
+                written += copies
+                terrain_block = terrain_record(terrain, [p.name for p in copies], frame, gmap)
             record = replace(record, georeference=Georeference(frame, settings.altitude_m,
-                                                               trigger_distance_m=settings.trigger_distance_m))
-            written = write_flight_files(staging, plans, Flavour(settings.autopilot))
+                                                               trigger_distance_m=settings.trigger_distance_m,
+                                                               terrain=terrain_block))
+            written += write_flight_files(staging, plans, Flavour(settings.autopilot))
             sortie_starts = plans.sortie_starts
         unreachable_mask = _cell_mask(gmap.shape, record.unreachable_cells)
         clearance_m = float(record.clearance.required_m or 0.0) if record.clearance is not None else 0.0

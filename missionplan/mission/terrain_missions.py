@@ -1,0 +1,63 @@
+"""A mission over a DEM for an autopilot that takes no terrain frame (PX4): altitudes above sea level.
+
+drone_missions.build_mission writes a plan over a DEM with its waypoints in the terrain frame (a height
+above the ground under the drone), which ArduPilot flies as it is. PX4 refuses that frame, so for PX4
+each waypoint becomes an altitude above sea level (MAV_FRAME_GLOBAL: the ground there plus the height), and
+each leg is split where the ground under it departs from the straight line between its ends by more
+than TERRAIN_TOLERANCE_M (terrain_legs.amsl_track), as QGroundControl does for PX4. The added points are
+plain waypoints: the camera commands stay after the waypoints they followed, so the photos are spaced
+as before (the trigger distance runs on through an added point).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+
+from missionplan.bridge.formats.mission_items import (CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL,
+                                                       FRAME_GLOBAL_TERRAIN_ALT, Mission, MissionItem)
+
+from .terrain_legs import amsl_track
+
+TERRAIN_TOLERANCE_M = 2.0  # the most a leg's straight line may depart from the height above the ground
+TERRAIN_STEP_M = 5.0  # the ground is looked at this often along each leg
+
+GroundHeights = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+def px4_over_ground(mission: Mission, ground: GroundHeights) -> Mission:
+    """`mission` (terrain-frame waypoints after a take-off from home) with its waypoints above sea level and
+    its legs split over the ground; every other item as it was."""
+    legs = [i for i, item in enumerate(mission.items) if item.frame == FRAME_GLOBAL_TERRAIN_ALT
+            and item.command == CMD_NAV_WAYPOINT]
+    if not legs:
+        return mission
+    assert mission.home is not None
+    home_lat, home_lon, _ = mission.home
+    takeoff = next(item for item in mission.items if item.command == CMD_NAV_TAKEOFF)
+    # The track starts over the launch point at the take-off height, so the first leg is split too.
+    lat = np.array([home_lat] + [mission.items[i].x for i in legs])
+    lon = np.array([home_lon] + [mission.items[i].y for i in legs])
+    height = np.array([takeoff.z] + [mission.items[i].z for i in legs])
+    out_lat, out_lon, amsl, source = amsl_track(lat, lon, height, ground, tolerance_m=TERRAIN_TOLERANCE_M,
+                                                step_m=TERRAIN_STEP_M)
+    added: dict[int, list[MissionItem]] = {}  # before item index: the points added on the leg that ends there
+    at: dict[int, float] = {}  # item index: its altitude above sea level
+    pending: list[MissionItem] = []
+    template = mission.items[legs[0]]  # an added point is a waypoint like the others, above sea level
+    for k in range(1, len(out_lat)):
+        if source[k] < 0:
+            pending.append(replace(template, frame=FRAME_GLOBAL, x=float(out_lat[k]), y=float(out_lon[k]),
+                                   z=float(amsl[k])))
+            continue
+        index = legs[int(source[k]) - 1]
+        at[index], added[index], pending = float(amsl[k]), pending, []
+    items: list[MissionItem] = []
+    for i, item in enumerate(mission.items):
+        if i in at:
+            items.extend(added[i])
+            item = replace(item, frame=FRAME_GLOBAL, z=at[i])
+        items.append(item)
+    return replace(mission, items=items)

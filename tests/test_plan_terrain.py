@@ -1,0 +1,149 @@
+"""`plan --dem`: a plan over a hill holds its height above the ground, for ArduPilot (terrain-frame items)
+and for PX4 (altitudes above sea level, legs split over the ground); a DEM that leaves the area without ground
+is refused in one line; the plan folder keeps an exact copy of the ground it used."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("rasterio", reason="plan --dem reads DEMs with rasterio: pip install -e '.[terrain]'")
+
+from missionplan.bridge.formats.mission_items import (CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL,  # noqa: E402
+                                                       FRAME_GLOBAL_TERRAIN_ALT)
+from missionplan.bridge.formats.missionfile import read_mission_file  # noqa: E402
+from missionplan.cli.app import main  # noqa: E402
+from missionplan.geo.dem import read_ground  # noqa: E402
+from missionplan.maps.catalog import load_shipped  # noqa: E402
+from missionplan.mission.georef import shipped_frame  # noqa: E402
+from missionplan.mission.plan_record import read_plan_record  # noqa: E402
+from missionplan.mission.terrain_legs import sample_legs  # noqa: E402
+from missionplan.planning.terrain import grid_box  # noqa: E402
+from missionplan.testing.dem_files import hill, write_geotiff  # noqa: E402
+
+MAP, UAVS = "old-town", 3
+PEAK_M, RADIUS_M = 40.0, 120.0  # slopes up to about 29 %: a leg's straight line departs from the ground
+
+
+def _box() -> tuple[float, float, float, float]:
+    return grid_box(shipped_frame(load_shipped(MAP)))
+
+
+def _ground(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
+    box = _box()
+    return hill(lat, lon, ((box[0] + box[2]) / 2, (box[1] + box[3]) / 2), peak_m=PEAK_M, radius_m=RADIUS_M)
+
+
+@pytest.fixture(scope="module")
+def dem(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A hill under the map, 5 m pixels, reaching well beyond it (ArduPilot asks for ground around it)."""
+    box, pad = _box(), 0.05
+    return write_geotiff(tmp_path_factory.mktemp("dem") / "hill.tif", _ground,
+                         (box[0] - pad, box[1] - pad, box[2] + pad, box[3] + pad), 5.0)
+
+
+def _plan(out: Path, *args: str) -> int:
+    return main(["plan", "--map", MAP, "--uavs", str(UAVS), "--quiet", "--out", str(out), *args])
+
+
+@pytest.fixture(scope="module")
+def planned(tmp_path_factory: pytest.TempPathFactory, dem: Path) -> dict[str, Path]:
+    root = tmp_path_factory.mktemp("plans")
+    folders = {}
+    for autopilot in ("ardupilot", "px4"):
+        assert _plan(root / autopilot, "--dem", str(dem), "--autopilot", autopilot) == 0
+        folders[autopilot] = root / autopilot
+    return folders
+
+
+def _positions(path: Path) -> tuple[tuple[float, float, float], list]:
+    mission = read_mission_file(path).mission
+    assert mission.home is not None
+    return mission.home, [item for item in mission.items if item.command in (CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT)]
+
+
+def test_ardupilot_gets_terrain_frame_waypoints_and_a_home_on_the_ground(planned: dict[str, Path], dem: Path) -> None:
+    folder = planned["ardupilot"]
+    record = read_plan_record(folder)
+    assert record.version == 2 and json.loads((folder / "report.json").read_text())["schema_version"] == 2
+    terrain = record.georeference.terrain if record.georeference is not None else None
+    assert terrain is not None and terrain.files == ("ground.tif",) and terrain.sources == (str(dem),)
+    assert PEAK_M - 15 < terrain.highest_m - terrain.lowest_m <= PEAK_M  # the area reaches up the hill
+    for drone in record.drones or ():
+        home, positions = _positions(folder / f"uav{drone.id}.plan")
+        assert home[2] == pytest.approx(float(_ground(np.array([home[0]]), np.array([home[1]]))[0]), abs=0.05)
+        takeoff, waypoints = positions[0], positions[1:]
+        assert takeoff.z == drone.altitude_m  # above the launch point, which is home
+        assert waypoints and all(w.frame == FRAME_GLOBAL_TERRAIN_ALT and w.z == drone.altitude_m for w in waypoints)
+
+
+def test_px4_gets_altitudes_above_sea_level_within_2_m_of_the_height_above_the_ground_along_every_leg(
+        planned: dict[str, Path]) -> None:
+    folder = planned["px4"]
+    record = read_plan_record(folder)
+    ground = read_ground([folder / "ground.tif"], _box())
+    added = 0
+    for drone in record.drones or ():
+        home, positions = _positions(folder / f"uav{drone.id}.plan")
+        waypoints = positions[1:]
+        assert all(w.frame == FRAME_GLOBAL for w in waypoints)
+        lat = np.array([home[0]] + [w.x for w in waypoints])
+        lon = np.array([home[1]] + [w.y for w in waypoints])
+        amsl = np.array([home[2] + drone.altitude_m] + [w.z for w in waypoints])
+        at_lat, at_lon, leg = sample_legs(lat, lon, 1.0)
+        # The altitude flown along each leg: a straight line between its ends' altitudes.
+        along = np.hypot((at_lat - lat[leg]) * 111_132.0, (at_lon - lon[leg]) * 111_132.0 * np.cos(np.radians(lat[leg])))
+        length = np.hypot((lat[leg + 1] - lat[leg]) * 111_132.0,
+                          (lon[leg + 1] - lon[leg]) * 111_132.0 * np.cos(np.radians(lat[leg])))
+        flown = amsl[leg] + (amsl[leg + 1] - amsl[leg]) * np.divide(along, length, out=np.zeros_like(along),
+                                                                     where=length > 0)
+        above = flown - ground.height_amsl(at_lat, at_lon)
+        assert np.abs(above - drone.altitude_m).max() <= 2.0 + 0.1, f"uav{drone.id}"
+        added += len(waypoints) - drone.waypoints
+    assert added > 0  # the hill is steep enough that legs were split
+
+
+def test_the_plan_folder_keeps_the_ground_exactly_as_read(planned: dict[str, Path], dem: Path) -> None:
+    box = _box()
+    original, copy = read_ground([dem], box), read_ground([planned["ardupilot"] / "ground.tif"], box)
+    rng = np.random.default_rng(7)
+    lat = rng.uniform(box[0], box[2], 2000)
+    lon = rng.uniform(box[1], box[3], 2000)
+    # The same pixels at the same places: equal but for the rounding of the transform written (a micrometre).
+    assert np.abs(original.height_amsl(lat, lon) - copy.height_amsl(lat, lon)).max() < 1e-6
+    assert copy.crs == original.crs
+
+
+def test_a_dem_that_leaves_part_of_the_area_without_ground_is_refused_in_one_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    box = _box()
+    half = write_geotiff(tmp_path / "half.tif", _ground, (box[0] - 0.05, box[1] - 0.05, box[2] + 0.05,
+                                                          (box[1] + box[3]) / 2), 5.0)
+    assert _plan(tmp_path / "out", "--dem", str(half)) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and err.startswith(f"missionplan: DEM {half}: no ground height at ")
+    assert err.endswith("(the area): outside the DEM")
+    assert not (tmp_path / "out").exists()  # refused before any folder was made
+
+
+def test_a_hole_in_the_dem_under_the_area_is_refused_in_one_line(tmp_path: Path,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    box, pad = _box(), 0.05
+    centre = ((box[0] + box[2]) / 2, (box[1] + box[3]) / 2)
+    holed = write_geotiff(tmp_path / "holed.tif", _ground, (box[0] - pad, box[1] - pad, box[2] + pad, box[3] + pad),
+                          5.0, nodata_hole=(centre[0], centre[1], 15.0))
+    assert _plan(tmp_path / "out", "--dem", str(holed)) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and err.endswith("(the area): a hole (nodata) in the DEM")
+
+
+def test_dem_needs_a_plan_on_the_earth(tmp_path: Path, capsys: pytest.CaptureFixture[str], dem: Path) -> None:
+    grid = tmp_path / "yard.map"
+    grid.write_text("name: yard\nlaunch: 1,1\ngrid:\n....\n....\n....\n")  # no origin: not on the Earth
+    code = main(["plan", "--map", str(grid), "--uavs", "1", "--quiet", "--dem", str(dem), "--out",
+                 str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and "--dem needs a plan on the Earth" in err
