@@ -9,6 +9,7 @@ a file's control characters never reach the terminal.
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 from missionplan.bridge.terminal_text import printable
 
@@ -52,12 +53,14 @@ def print_plan(folder: PlanFolder) -> None:
             ("plan s", f"{record.timing.plan_s:.2f}", "wall time, zones + planning")]
     for name, value, note in rows:
         print(f"  {name:<12} {value:>9}  {note}")
+    terrain = record.georeference.terrain if record.georeference is not None else None
+    above = " above the ground" if terrain is not None else ""
     for drone in record.drones or ():
         before, after = drone.before, drone.after
         sorties = f" in {len(drone.sorties)} sorties" if len(drone.sorties) > 1 else ""
         print(f"  uav{drone.id}: {drone.cells} cells -> {drone.waypoints} waypoints, "
               f"{drone.length_m:.0f} m, {drone.flight_s:.0f} s{sorties}, {drone.photos} photos "
-              f"at {drone.altitude_m:g} m (turning {before.turning_deg:.0f} -> {after.turning_deg:.0f} deg)")
+              f"at {drone.altitude_m:g} m{above} (turning {before.turning_deg:.0f} -> {after.turning_deg:.0f} deg)")
     sep = record.separation
     if sep is not None and sep.d3 is not None:
         closest = sep.closest
@@ -72,6 +75,13 @@ def print_plan(folder: PlanFolder) -> None:
             print(f"missionplan: warning: {cl.band.band_targets_missed} of the {cl.band.band_targets} target cells "
                   f"closer than --clearance {cl.required_m:g} m to an obstacle are out of every photo (narrow streets, "
                   f"courtyards); counted unreachable", file=sys.stderr)
+    if terrain is not None:
+        sources = ", ".join(printable(Path(source).name) for source in terrain.sources)
+        print(f"  ground: DEM {sources} ({', '.join(terrain.crs)}, {terrain.resolution_m:g} m pixels), "
+              f"{terrain.lowest_m:g} to {terrain.highest_m:g} m above sea level under the area; every height is "
+              f"above the ground under the drone (kept in {', '.join(terrain.files)})")
+    elif record.georeference is not None:
+        print("  ground: taken as flat (no --dem): heights are above the launch points")
     for warning in coverage.warnings:
         print(f"missionplan: warning: {printable(warning)}", file=sys.stderr)
     for path in folder.kept:
