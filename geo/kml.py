@@ -13,7 +13,8 @@ Heights: positions with an altitude are drawn at it with altitudeMode relativeTo
 and points: the flight paths, photo positions). The layers' altitudes are metres above the home /
 launch point, the autopilots' relative frame; relativeToGround measures from the terrain under each
 point instead. The two are equal on flat ground; where the ground under a point lies higher (lower)
-than at the launch point, Google Earth draws the point that much higher (lower) than flown. 2-D
+than at the launch point, Google Earth draws the point that much higher (lower) than flown. A plan over a
+DEM (`plan --dem`) gives heights above the ground under each point, which is what relativeToGround means. 2-D
 shapes lie clampToGround (polygons filled, outlined); a polygon feature with a finite, positive
 "height_m" (and no "known_height": false) is extruded from the ground to that height (buildings).
 

@@ -102,8 +102,10 @@ def test_px4_gets_altitudes_above_sea_level_within_2_m_of_the_height_above_the_g
                                                                      where=length > 0)
         above = flown - ground.height_amsl(at_lat, at_lon)
         assert np.abs(above - drone.altitude_m).max() <= 2.0 + 0.1, f"uav{drone.id}"
-        added += len(waypoints) - drone.waypoints
-    assert added > 0  # the hill is steep enough that legs were split
+        assert drone.waypoints == len(waypoints)  # the report counts the points the legs were split at
+        added += len(waypoints)
+    flat_frame = sum(d.waypoints for d in read_plan_record(planned["ardupilot"]).drones or ())
+    assert added > flat_frame  # the same tracks as ArduPilot's, and the hill is steep enough to split some legs
 
 
 def test_the_plan_folder_keeps_the_ground_exactly_as_read(planned: dict[str, Path], dem: Path) -> None:
@@ -147,3 +149,18 @@ def test_dem_needs_a_plan_on_the_earth(tmp_path: Path, capsys: pytest.CaptureFix
                  str(tmp_path / "out")])
     err = capsys.readouterr().err.strip()
     assert code == 2 and "\n" not in err and "--dem needs a plan on the Earth" in err
+
+
+@pytest.mark.parametrize("autopilot", ["ardupilot", "px4"])
+def test_the_map_layers_give_heights_above_the_ground(planned: dict[str, Path], autopilot: str) -> None:
+    """tracks.geojson's paths (and so the KMZ's relativeToGround lines): every waypoint at its height above the
+    ground, for both autopilots, though PX4's file holds altitudes above sea level."""
+    folder = planned[autopilot]
+    record = read_plan_record(folder)
+    heights = {d.id: d.altitude_m for d in record.drones or ()}
+    paths = [f for f in json.loads((folder / "tracks.geojson").read_text())["features"] if f["properties"]["layer"] == "paths"]
+    assert len(paths) == UAVS
+    for path in paths:
+        ups = np.array([point[2] for point in path["geometry"]["coordinates"]])
+        flying = ups[(ups > 0.5)]
+        assert np.allclose(flying, heights[path["properties"]["uav"]], atol=0.01), path["properties"]["uav"]

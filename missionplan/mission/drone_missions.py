@@ -155,12 +155,14 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
     photos = (0 if camera_off else 1) + len(waypoints_m)
     if settings.trigger_distance_m > 0 and len(photo_legs):
         photos += int(np.maximum(np.ceil(photo_legs / settings.trigger_distance_m - 1e-9) - 1, 0).sum())
+    count = len(transit_latlon) + len(waypoints_latlon) + len(back_latlon)
     home_amsl = 0.0 if ground is None else float(ground(np.array([lat0]), np.array([lon0]))[0])
     mission = Mission(items=items, home=(lat0, lon0, home_amsl))
     if ground is not None and settings.autopilot == "px4":
         from .terrain_missions import px4_over_ground
 
-        mission = px4_over_ground(mission, ground)
-    count = len(transit_latlon) + len(waypoints_latlon) + len(back_latlon)
+        over_ground = px4_over_ground(mission, ground)
+        count += len(over_ground.items) - len(mission.items)  # the points its legs were split at are waypoints too
+        mission = over_ground
     return DroneMission(sysid=drone + 1, mission=mission, waypoints=count, length_m=length,
                         flight_s=length / settings.speed_m_s if flight_s is None else flight_s, photos=photos)

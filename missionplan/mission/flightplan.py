@@ -50,6 +50,7 @@ class FlightPlans:
     fences: list[Fence] = field(default_factory=list)  # per drone; empty when no safety settings were given
     layering: Layering | None = None
     safety: SafetySettings | None = None
+    ground: GroundHeights | None = None  # the ground under a plan over a DEM (its heights are above it)
 
     def __post_init__(self) -> None:
         if not self.sorties:
@@ -252,7 +253,7 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
                       if s.end == "rtl" else np.vstack([launches[k][None, :], flown(k, s)])
                       for s in all_sorties[k]] for k in range(uavs)]
     return FlightPlans(corrected, latlons, [m[0] for m in missions], settings, sortie_tracks[0], missions,
-                       sortie_tracks, sortie_routes, starts, fences, layering, safety)
+                       sortie_tracks, sortie_routes, starts, fences, layering, safety, ground)
 
 
 def _separation_failure(failure: SeparationError, frame: GridFrame,

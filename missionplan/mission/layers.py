@@ -7,7 +7,8 @@ exterior rings counter-clockwise, holes clockwise), in drawing order:
   grid map); `clearance` the band drones keep out of; `zones` each drone's share;
 - `unreachable` the target cells no drone reaches, one feature per cause (`cause`, `reason`);
 - `fences` each drone's geofence; `paths` each sortie's flown-as-uploaded path, 3-D
-  (lon, lat, metres above home); `photos` where each photo is planned; `launch` the launch points.
+  (lon, lat, metres above home; in a plan over a DEM, metres above the ground under it, as the KMZ's
+  relativeToGround says); `photos` where each photo is planned; `launch` the launch points.
 
 The flight adds its own layers beside these (missionplan/flight/flight_layers.py). Each feature
 carries `layer` (its layer's name) so the one-file tracks.geojson can be split back into layers.
@@ -23,7 +24,7 @@ import shapely
 from shapely.geometry import mapping
 
 from missionplan.bridge.formats.mission_items import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND, CMD_NAV_RETURN_TO_LAUNCH,
-                                                      CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, MissionItem)
+                                                      CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL, MissionItem)
 from missionplan.geo.cells import cells_polygons
 from missionplan.geo.geojson_layers import rfc7946
 from missionplan.geo.frame import GridFrame
@@ -74,9 +75,12 @@ def cells_geometry(frame: GridFrame, mask: np.ndarray) -> dict[str, Any] | None:
     return mapping(shapely.MultiPolygon(polygons)) if polygons else None
 
 
-def mission_path(items: list[MissionItem], launch: tuple[float, float]) -> np.ndarray:
+def mission_path(items: list[MissionItem], launch: tuple[float, float],
+                 ground: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> np.ndarray:
     """(n, 3) lon, lat, metres above home of the path a mission flies: from the launch point up, through
-    its waypoints, and home (RTL) or down (LAND)."""
+    its waypoints, and home (RTL) or down (LAND). With `ground` (a plan over a DEM), metres above the
+    ground under each point: a waypoint's above-sea-level altitude (PX4's, frame 0) less the ground there;
+    the terrain frame's (ArduPilot's, 10) as it is."""
     lat0, lon0 = launch
     points = [(lon0, lat0, 0.0)]
     for item in items:
@@ -84,7 +88,10 @@ def mission_path(items: list[MissionItem], launch: tuple[float, float]) -> np.nd
         if item.command == CMD_NAV_TAKEOFF:
             points.append((here[0], here[1], float(item.z)))
         elif item.command == CMD_NAV_WAYPOINT:
-            points.append((float(item.y), float(item.x), float(item.z)))
+            up = float(item.z)
+            if ground is not None and item.frame == FRAME_GLOBAL:
+                up -= float(ground(np.array([item.x]), np.array([item.y]))[0])
+            points.append((float(item.y), float(item.x), up))
         elif item.command == CMD_NAV_RETURN_TO_LAUNCH:
             points += [(lon0, lat0, here[2]), (lon0, lat0, 0.0)]
         elif item.command == CMD_NAV_LAND:
@@ -189,7 +196,8 @@ def plan_layers(result: PlanResult, frame: GridFrame, plans: Any, base: GridMap,
         index = 0
         for j, drone in enumerate(missions):
             items = drone.mission.items
-            paths.append(feature("paths", {"type": "LineString", "coordinates": _round(mission_path(items, home))},
+            paths.append(feature("paths", {"type": "LineString",
+                                           "coordinates": _round(mission_path(items, home, plans.ground))},
                                  uav=sysid, sortie=j + 1, altitude_m=round(plans.settings.altitude_of(k), 2),
                                  waypoints=drone.waypoints, length_m=round(drone.length_m, 2),
                                  flight_s=round(drone.flight_s, 1), photos=drone.photos))

@@ -150,6 +150,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--peak", type=float, default=40.0, help="the hill's height above its base, m (default 40)")
     parser.add_argument("--radius", type=float, default=120.0, help="the hill's radius, m (default 120)")
     args = parser.parse_args(argv)
+    args.file.parent.mkdir(parents=True, exist_ok=True)
     path = hill_under_map(args.map, args.file, args.peak, args.radius)
     print(f"wrote {path}: a {args.peak:g} m hill of radius {args.radius:g} m under {args.map}")
     return 0
