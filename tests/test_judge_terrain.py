@@ -21,8 +21,10 @@ from missionplan.bridge.formats.mission_items import (CMD_NAV_TAKEOFF, CMD_NAV_W
                                                        to_wire)
 from missionplan.bridge.formats.missionfile import read_mission_file  # noqa: E402
 from missionplan.cli.app import main  # noqa: E402
+from missionplan.flight.flight_plot import flight_figure  # noqa: E402
 from missionplan.flight.flight_report import judge  # noqa: E402
 from missionplan.flight.geotag import CSV_COLUMNS  # noqa: E402
+from missionplan.flight.plan_report import planned_grid  # noqa: E402
 from missionplan.flight.record import DroneRecord  # noqa: E402
 from missionplan.geo.dem import read_ground  # noqa: E402
 from missionplan.maps.catalog import load_shipped  # noqa: E402
@@ -194,3 +196,21 @@ def test_a_plan_folder_without_its_ground_is_a_problem_not_a_crash(plans: dict[s
     lines = [p for p in result.problems if p.startswith("heights above the ground not judged: ")]
     assert len(lines) == 1 and "ground.tif" in lines[0] and "\n" not in lines[0]
     assert all("above_ground" not in row for row in result.doc["drones"])
+
+
+def test_flight_png_draws_the_heights_above_the_ground_only_for_a_plan_over_a_dem(plans: dict[str, Path]) -> None:
+    import matplotlib.pyplot as plt
+
+    record = read_plan_record(plans["hill"])
+    frame = record.georeference.frame if record.georeference is not None else None
+    empty, track = np.zeros((0, 2), dtype=np.int64), {1: np.zeros((2, 2))}
+    seconds = np.arange(5.0)
+    for heights, panels in ((None, 2), ({1: (seconds, 10.0 - seconds, 10.0, 2.5)}, 3)):
+        fig = flight_figure(planned_grid(record), frame, empty, np.zeros(0, dtype=bool), track, {1: 5.0}, 100.0,
+                            heights=heights)
+        try:
+            assert len(fig.axes) == panels
+            drawn = [line for ax in fig.axes for line in ax.get_lines() if line.get_gid() == "height-uav1"]
+            assert len(drawn) == (panels - 2)
+        finally:
+            plt.close(fig)

@@ -117,6 +117,17 @@ def acceptance_radius(rec: DroneRecord) -> float:
     return max((float(it.param2) for it in rec.wire if it.command == CMD_NAV_WAYPOINT), default=0.0)
 
 
+def survey_heights(plan: PlanGround, rec: DroneRecord) -> tuple[np.ndarray, np.ndarray]:
+    """The samples of a drone's survey (survey_window; (n, 7) as DroneRecord keeps them) and their heights above
+    the ground (NaN where the plan's ground has none)."""
+    window = survey_window(rec)
+    if window is None or not rec.samples:
+        return np.zeros((0, 7)), np.zeros(0)
+    samples = np.array(rec.samples, dtype=float)
+    samples = samples[(samples[:, 0] >= window[0]) & (samples[:, 0] <= window[1])]
+    return samples, plan.above_ground(rec.id, samples[:, 1], samples[:, 2], samples[:, 3])
+
+
 def judge_heights(plan: PlanGround, rec: DroneRecord, planned_m: float) -> tuple[dict[str, Any], str | None]:
     """flight.json's `above_ground` block of one drone, and its problem line when a sample of its survey
     left the tolerance (None when none did)."""
@@ -127,12 +138,7 @@ def judge_heights(plan: PlanGround, rec: DroneRecord, planned_m: float) -> tuple
     if rec.camera:
         photos = np.array([(lat, lon, up) for _, lat, lon, up in rec.camera.values()], dtype=float)
         block["photos"] = _stats(plan.above_ground(rec.id, photos[:, 0], photos[:, 1], photos[:, 2]))
-    window = survey_window(rec)
-    if window is None or not rec.samples:
-        return block, None
-    samples = np.array(rec.samples, dtype=float)
-    samples = samples[(samples[:, 0] >= window[0]) & (samples[:, 0] <= window[1])]
-    heights = plan.above_ground(rec.id, samples[:, 1], samples[:, 2], samples[:, 3])
+    samples, heights = survey_heights(plan, rec)
     block["samples"] = _stats(heights)
     off = np.abs(heights - planned_m)
     if not np.isfinite(off).any() or np.nanmax(off) <= tolerance:

@@ -48,9 +48,9 @@ from missionplan.geo.frame import GridFrame
 
 from ..mission.timeline import FlightModel, closest_approach, planned_motions
 from ..mission.layers import Layers, drone_paths_latlon, planned_photos
-from .above_ground import HEIGHT_TOLERANCE_M, PlanGround, judge_heights, plan_ground
+from .above_ground import HEIGHT_TOLERANCE_M, PlanGround, judge_heights, plan_ground, survey_heights
 from .flight_layers import flight_layers, flight_summary, plan_layers_on_disk
-from .flight_plot import draw_flight
+from .flight_plot import HeightProfiles, draw_flight
 from .phases import event_rows, on_vehicle_clock, phase_rows
 from .photo_positions import ledger_photos, photo_positions
 from ..mission.plan_blocks import SeparationPromise, cells_of
@@ -327,7 +327,7 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
                      "last_position": _last_position(rec),
                      "phases": phase_rows(rec, motions, scale),
                      "events": event_rows(rec, scale), "notes": rec.notes})
-    heights_problems, ground = _above_ground(plan_dir, record, records, rows)
+    heights_problems, ground, profiles = _above_ground(plan_dir, record, records, rows)
     all_photos = np.vstack(photos) if photos else np.zeros((0, 2))
     slack = frame.cell_m * SLACK_CELLS
     gap = nearest_photo_gap(frame, targets, all_photos)  # once; each rule is a threshold on it
@@ -403,7 +403,7 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
     plan = plan_layers_on_disk(plan_dir)
     _written(unwritten, png_path.name, lambda: draw_flight(
         png_path, planned_grid(record), frame, targets, covered, tracks_m, {r["id"]: r["flight_s"] for r in rows}, percent,
-        paths_latlon=drone_paths_latlon(plan) if plan.get("paths") else None))
+        paths_latlon=drone_paths_latlon(plan) if plan.get("paths") else None, heights=profiles))
     map_paths = _written(unwritten, "flight.html, flight.gpkg, flight.kmz", lambda: write_flight_maps(
         plan_dir, plan, record, doc, frame, records, kept, targets, covered)) or []
     return FlightResult(coverage=round(percent, 2), targets=int(len(targets)), separation=separation, drones=rows,
@@ -415,23 +415,29 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
 
 
 def _above_ground(plan_dir: Path, record: PlanRecord, records: list[DroneRecord],
-                  rows: list[dict[str, Any]]) -> tuple[list[str], PlanGround | None]:
-    """For a plan over a DEM: each drone's heights above the ground into its row (`above_ground`), and the
-    problems of the drones that left the tolerance (above_ground.py). Nothing for a plan taken as flat."""
+                  rows: list[dict[str, Any]]) -> tuple[list[str], PlanGround | None, HeightProfiles | None]:
+    """For a plan over a DEM: each drone's heights above the ground into its row (`above_ground`), the problems
+    of the drones that left the tolerance (above_ground.py) and the heights along each survey for flight.png.
+    Nothing for a plan taken as flat."""
     try:
         ground = plan_ground(plan_dir, record)
     except GeoError as err:
-        return [f"heights above the ground not judged: {err}"], None
+        return [f"heights above the ground not judged: {err}"], None, None
     if ground is None:
-        return [], None
+        return [], None, None
     planned = {d.id: d.altitude_m for d in record.drones or ()}
-    problems = []
+    problems: list[str] = []
+    profiles: HeightProfiles = {}
     for rec, row in zip(records, rows):
-        block, problem = judge_heights(ground, rec, planned.get(rec.id, takeoff_altitude(rec)))
+        height = planned.get(rec.id, takeoff_altitude(rec))
+        block, problem = judge_heights(ground, rec, height)
         row["above_ground"] = block
         if problem is not None:
             problems.append(problem)
-    return problems, ground
+        samples, above = survey_heights(ground, rec)
+        began = samples[0, 5] if len(samples) else 0.0  # the vehicle's clock: simulated seconds on a simulator
+        profiles[rec.id] = (samples[:, 5] - began, above, height, block["tolerance_m"])
+    return problems, ground, profiles
 
 
 def write_flight_maps(plan_dir: Path, plan: Layers, record: PlanRecord, doc: dict[str, Any], frame: GridFrame,
