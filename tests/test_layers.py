@@ -351,7 +351,8 @@ FLIGHT_TIERS = (
      "journal_db",  # the journal's tables
      "events", "link_silence", "retask_planner"),  # a follower's events, what a silence means, a re-task's contract
     ("journal_read", "journal_repair"),  # a journal read back; a damaged one repaired
-    ("ledger", "phases", "journal", "photo_positions"),  # the photos, the flight's phases, the journal on disk
+    ("ledger", "phases", "journal", "photo_positions",  # the photos, the flight's phases, the journal on disk
+     "above_ground"),  # heights above the ground of a flight over a DEM
     ("ledger_repair",),  # a ledger rebuilt from the journals
     ("geotag", "survey_status"),  # what the photos and the survey come to
     ("flight_report",),  # judging a flown fleet

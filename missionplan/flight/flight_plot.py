@@ -4,7 +4,9 @@ The map is plan.png's map view (mission.plot.MapView): metres east/north of the 
 corner with a scale bar, north arrow and the origin's lat/lon. On it: buildings, the targets the
 photos covered (green) and missed (red), the plan's unreachable targets, the tracks each drone
 really flew (from its telemetry) in its colour, and, faint, the waypoint lines it was given. Beside
-it, the flight time per drone. flight_report.judge decides what was covered; this module only draws.
+it, the flight time per drone, and, for a plan over a DEM, each drone's height above the ground along its
+survey against the planned height and its tolerance band (above_ground.py).
+flight_report.judge decides what was covered; this module only draws.
 matplotlib is imported when a picture is drawn, not when flight_report is imported.
 """
 
@@ -29,11 +31,13 @@ FREE = (1.0, 1.0, 1.0)
 UNJUDGED_TARGET = (0.80, 0.80, 0.80)  # a target outside the reachable set: nobody was sent there
 COVERED = (0.62, 0.87, 0.62)
 MISSED = (0.95, 0.35, 0.35)
+# sysid -> (seconds of the vehicle's clock since its survey began, height above the ground m, planned m, tolerance m)
+HeightProfiles = dict[int, tuple[np.ndarray, np.ndarray, float, float]]
 
 
 def flight_figure(gmap: GridMap, frame: GridFrame | None, targets: np.ndarray, covered: np.ndarray,
                   tracks_m: dict[int, np.ndarray], flight_s: dict[int, float], coverage_pct: float, *,
-                  paths_latlon: list[np.ndarray] | None = None) -> Figure:
+                  paths_latlon: list[np.ndarray] | None = None, heights: HeightProfiles | None = None) -> Figure:
     """The flight.png figure (see draw_flight); `gmap`: the grid the plan was made on (plan_report.planned_grid);
     the caller closes it."""
     import matplotlib.pyplot as plt
@@ -54,8 +58,13 @@ def flight_figure(gmap: GridMap, frame: GridFrame | None, targets: np.ndarray, c
     x, y = view.corners()
     aspect = float(np.ptp(y) / max(np.ptp(x), 1e-9))
     height = min(max(6.0, 8.5 * aspect + 3.2), 16.0)
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(12.5, height), gridspec_kw={"width_ratios": [4, 1]},
-                                 constrained_layout=True)
+    if heights is None:
+        fig, (ax, bx) = plt.subplots(1, 2, figsize=(12.5, height), gridspec_kw={"width_ratios": [4, 1]},
+                                     constrained_layout=True)
+    else:  # a plan over a DEM: the heights above the ground under the flight times
+        fig, axes = plt.subplot_mosaic([["map", "time"], ["map", "heights"]], figsize=(14.0, height),
+                                       width_ratios=[4, 1.5], constrained_layout=True)
+        ax, bx = axes["map"], axes["time"]
     view.cells(ax, codes, [FREE, BUILDING, UNJUDGED_TARGET, COVERED, MISSED])
     ids = sorted(flight_s) if flight_s else sorted(tracks_m)
     colour_of = {uid: TRACK_COLOURS[k % len(TRACK_COLOURS)] for k, uid in enumerate(sorted(set(ids) | set(tracks_m)))}
@@ -94,19 +103,38 @@ def flight_figure(gmap: GridMap, frame: GridFrame | None, targets: np.ndarray, c
     bx.set_ylabel("flight time (s, simulated)")
     bx.set_title("flight time")
     bx.tick_params(axis="x", labelrotation=45, labelsize=8)
+    if heights is not None:
+        _draw_heights(axes["heights"], heights, colour_of)
     return fig
+
+
+def _draw_heights(hx: Any, heights: HeightProfiles, colour_of: dict[int, Any]) -> None:
+    """Each drone's height above the ground along its survey, with its planned height and tolerance band."""
+    for uid, (seconds, above, planned, tolerance) in sorted(heights.items()):
+        colour = colour_of.get(uid, "0.3")
+        if len(seconds):
+            hx.axhspan(planned - tolerance, planned + tolerance, color=colour, alpha=0.12, lw=0)
+            hx.plot(seconds, above, "-", lw=0.9, color=colour, label=f"uav{uid}", gid=f"height-uav{uid}")
+        hx.axhline(planned, color=colour, lw=0.6, ls="--")
+    hx.set_xlabel("s of its survey (vehicle clock)", fontsize=8)
+    hx.set_ylabel("height above the ground (m)", fontsize=8)
+    hx.set_title("height above the ground (band: tolerance)", fontsize=9)
+    hx.tick_params(labelsize=7)
 
 
 def draw_flight(path: str | os.PathLike[str], gmap: GridMap, frame: GridFrame | None, targets: np.ndarray,
                 covered: np.ndarray, tracks_m: dict[int, np.ndarray], flight_s: dict[int, float],
-                coverage_pct: float, *, paths_latlon: list[np.ndarray] | None = None) -> None:
+                coverage_pct: float, *, paths_latlon: list[np.ndarray] | None = None,
+                heights: HeightProfiles | None = None) -> None:
     """Write flight.png of the plan's grid `gmap`. `targets` (n, 2) the judged target cells, `covered` (n,) which a photo covered;
     `tracks_m`: sysid -> (m, 2) recorded positions in metres along the grid's row and column axes
     (plan_report.to_grid_m); `flight_s`: sysid -> seconds flown; `paths_latlon`: per drone (launch
-    order), the planned waypoints' lat/lon, drawn faint."""
+    order), the planned waypoints' lat/lon, drawn faint; `heights`: a plan over a DEM's heights above the
+    ground per drone (HeightProfiles), drawn in a panel of their own."""
     import matplotlib.pyplot as plt
 
-    fig = flight_figure(gmap, frame, targets, covered, tracks_m, flight_s, coverage_pct, paths_latlon=paths_latlon)
+    fig = flight_figure(gmap, frame, targets, covered, tracks_m, flight_s, coverage_pct, paths_latlon=paths_latlon,
+                        heights=heights)
     try:
         with atomic_path(path) as tmp:
             fig.savefig(tmp, dpi=110, format="png", bbox_inches="tight", pad_inches=0.15)  # legend hangs below

@@ -43,12 +43,14 @@ from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_N
                                                       CMD_NAV_WAYPOINT)
 from missionplan.bridge.flight_models.px4_model import Px4Params
 from missionplan.geo.cells import cells_feature
+from missionplan.geo.errors import GeoError
 from missionplan.geo.frame import GridFrame
 
 from ..mission.timeline import FlightModel, closest_approach, planned_motions
 from ..mission.layers import Layers, drone_paths_latlon, planned_photos
+from .above_ground import HEIGHT_TOLERANCE_M, PlanGround, judge_heights, plan_ground, survey_heights
 from .flight_layers import flight_layers, flight_summary, plan_layers_on_disk
-from .flight_plot import draw_flight
+from .flight_plot import HeightProfiles, draw_flight
 from .phases import event_rows, on_vehicle_clock, phase_rows
 from .photo_positions import ledger_photos, photo_positions
 from ..mission.plan_blocks import SeparationPromise, cells_of
@@ -325,6 +327,7 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
                      "last_position": _last_position(rec),
                      "phases": phase_rows(rec, motions, scale),
                      "events": event_rows(rec, scale), "notes": rec.notes})
+    heights_problems, ground, profiles = _above_ground(plan_dir, record, records, rows)
     all_photos = np.vstack(photos) if photos else np.zeros((0, 2))
     slack = frame.cell_m * SLACK_CELLS
     gap = nearest_photo_gap(frame, targets, all_photos)  # once; each rule is a threshold on it
@@ -345,7 +348,7 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
         from_ledger = _written(unwritten, "ledger.sqlite", into_ledger)
         if from_ledger is not None:
             covered, survey, folder_photos = from_ledger
-            _written(unwritten, ", ".join(GEOTAG_FILES), lambda: write_geotags(plan_dir, folder_photos))
+            _written(unwritten, ", ".join(GEOTAG_FILES), lambda: write_geotags(plan_dir, folder_photos, ground))
         else:
             unwritten[", ".join(GEOTAG_FILES)] = "written from the survey ledger"
     percent = 100.0 * float(covered.mean()) if len(targets) else 100.0
@@ -358,6 +361,7 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
     problems = [p for rec in records for p in rec.problems]
     problems += [f"uav{rec.id}: mission not finished" for rec in records
                  if rec.started and not rec.finished and not rec.problems]
+    problems += heights_problems
     if separation["kept"] is False:
         problems.append(f"uav{separation['pair_3d'][0]} and uav{separation['pair_3d'][1]} came within "
                         f"{separation['3d']} m; the plan promised {separation['planned_3d']} m")
@@ -376,6 +380,13 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
                             f"short of at most {SLACK_CELLS:g} cell ({slack:.3f} m) on a side; photos placed on "
                             f"the track (their reports lost) are counted apart, in coverage_with_unconfirmed",
            "coverage_other_rules": other_rules}
+    if ground is not None:
+        doc["above_ground_rule"] = (
+            f"over the plan's ground ({', '.join(georeference_of(record).terrain.files)}), a drone's height above "
+            f"the ground is the ground at its launch point (its home) plus the height it reported, less the "
+            f"ground under it; every sample from its take-off's end to its last waypoint counts, and must stay "
+            f"within {HEIGHT_TOLERANCE_M:g} m (what the missions promise over the ground) plus the mission's "
+            f"waypoint acceptance radius (the vehicle's altitude-hold error) of the planned height")
     if survey is not None:
         doc["survey"] = survey
     if retasks:
@@ -392,7 +403,7 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
     plan = plan_layers_on_disk(plan_dir)
     _written(unwritten, png_path.name, lambda: draw_flight(
         png_path, planned_grid(record), frame, targets, covered, tracks_m, {r["id"]: r["flight_s"] for r in rows}, percent,
-        paths_latlon=drone_paths_latlon(plan) if plan.get("paths") else None))
+        paths_latlon=drone_paths_latlon(plan) if plan.get("paths") else None, heights=profiles))
     map_paths = _written(unwritten, "flight.html, flight.gpkg, flight.kmz", lambda: write_flight_maps(
         plan_dir, plan, record, doc, frame, records, kept, targets, covered)) or []
     return FlightResult(coverage=round(percent, 2), targets=int(len(targets)), separation=separation, drones=rows,
@@ -401,6 +412,32 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
                         coverage_with_unconfirmed=round(percent_with_placed, 2), survey=survey,
                         map_paths=map_paths, doc=doc, unwritten=unwritten, record_faults=list(record_faults or []),
                         notices=notices)
+
+
+def _above_ground(plan_dir: Path, record: PlanRecord, records: list[DroneRecord],
+                  rows: list[dict[str, Any]]) -> tuple[list[str], PlanGround | None, HeightProfiles | None]:
+    """For a plan over a DEM: each drone's heights above the ground into its row (`above_ground`), the problems
+    of the drones that left the tolerance (above_ground.py) and the heights along each survey for flight.png.
+    Nothing for a plan taken as flat."""
+    try:
+        ground = plan_ground(plan_dir, record)
+    except GeoError as err:
+        return [f"heights above the ground not judged: {err}"], None, None
+    if ground is None:
+        return [], None, None
+    planned = {d.id: d.altitude_m for d in record.drones or ()}
+    problems: list[str] = []
+    profiles: HeightProfiles = {}
+    for rec, row in zip(records, rows):
+        height = planned.get(rec.id, takeoff_altitude(rec))
+        block, problem = judge_heights(ground, rec, height)
+        row["above_ground"] = block
+        if problem is not None:
+            problems.append(problem)
+        samples, above = survey_heights(ground, rec)
+        began = samples[0, 5] if len(samples) else 0.0  # the vehicle's clock: simulated seconds on a simulator
+        profiles[rec.id] = (samples[:, 5] - began, above, height, block["tolerance_m"])
+    return problems, ground, profiles
 
 
 def write_flight_maps(plan_dir: Path, plan: Layers, record: PlanRecord, doc: dict[str, Any], frame: GridFrame,

@@ -12,6 +12,13 @@ geo.txt into OpenDroneMap. geo.txt follows ODM's image geolocation format: a pro
 (EPSG:4326), then `image lon lat alt_amsl yaw pitch roll` per photo (angles 0 where not reported, as
 ODM asks; the altitude is above mean sea level, as the vehicle reported it, or the launch-relative
 height where it did not).
+
+A plan made over a DEM (above_ground.PlanGround) adds, after alt_rel_m, each photo's height above the ground
+(`alt_agl_m`, above ground level, the height DJI, UgCS and Pix4D crews plan and check by) and the DEM's
+height under it (`ground_amsl_m`), in photos.csv and photos.geojson. Their sum, the ground at the launch
+point plus the height the vehicle reported above it, is then geo.txt's altitude above sea level: the datum
+the plan was made in, steadier from one flight to the next than the vehicle's GPS altitude (alt_amsl_m,
+kept as reported).
 """
 
 from __future__ import annotations
@@ -24,11 +31,15 @@ from pathlib import Path
 
 from missionplan.base.atomic import write_text_atomic
 
+import numpy as np
+
+from .above_ground import PlanGround, photo_heights
 from .ledger import LedgerPhoto
 
 IMAGE_NAME = "f{flight}-uav{vehicle}-{img_idx:05d}.jpg"
 CSV_COLUMNS = ("image", "flight", "vehicle", "img_idx", "time_utc", "lat", "lon", "alt_amsl_m", "alt_rel_m",
                "yaw_deg", "pitch_deg", "roll_deg", "source")
+TERRAIN_COLUMNS = ("alt_agl_m", "ground_amsl_m")  # after alt_rel_m, for a plan over a DEM
 GEOTAG_FILES = ("photos.csv", "photos.geojson", "geo.txt")
 
 
@@ -44,43 +55,70 @@ def _num(value: float | None, digits: int) -> str:
     return "" if value is None else f"{value:.{digits}f}"
 
 
-def photos_csv(photos: list[LedgerPhoto]) -> str:
+def _over_ground(photos: list[LedgerPhoto], ground: PlanGround | None) -> list[tuple[float | None, float | None]]:
+    """Per photo: (its height above the ground, the ground under it), None where unknown; [] without a DEM."""
+    if ground is None:
+        return []
+    under, agl = photo_heights(ground, [p.vehicle for p in photos], [p.lat for p in photos],
+                               [p.lon for p in photos], [p.alt_rel for p in photos])
+    return [(float(a) if np.isfinite(a) else None, float(g) if np.isfinite(g) else None) for a, g in zip(agl, under)]
+
+
+def _rounded(value: float | None) -> float | None:
+    return None if value is None else round(value, 2)
+
+
+def photos_csv(photos: list[LedgerPhoto], ground: PlanGround | None = None) -> str:
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(CSV_COLUMNS)
-    for p in photos:
-        writer.writerow([image_name(p), p.flight, p.vehicle, p.img_idx, _utc(p.time), f"{p.lat:.7f}", f"{p.lon:.7f}",
-                         _num(p.alt_amsl, 2), _num(p.alt_rel, 2), _num(p.yaw, 2), _num(p.pitch, 2), _num(p.roll, 2),
-                         p.source])
+    over = _over_ground(photos, ground)
+    at = CSV_COLUMNS.index("alt_rel_m") + 1
+    writer.writerow(CSV_COLUMNS if ground is None else CSV_COLUMNS[:at] + TERRAIN_COLUMNS + CSV_COLUMNS[at:])
+    for k, p in enumerate(photos):
+        row = [image_name(p), p.flight, p.vehicle, p.img_idx, _utc(p.time), f"{p.lat:.7f}", f"{p.lon:.7f}",
+               _num(p.alt_amsl, 2), _num(p.alt_rel, 2), _num(p.yaw, 2), _num(p.pitch, 2), _num(p.roll, 2), p.source]
+        if over:
+            row[at:at] = [_num(over[k][0], 2), _num(over[k][1], 2)]
+        writer.writerow(row)
     return out.getvalue()
 
 
-def photos_geojson(photos: list[LedgerPhoto]) -> dict:
+def photos_geojson(photos: list[LedgerPhoto], ground: PlanGround | None = None) -> dict:
     """One Point per photo, [lon, lat, height above the launch point] (RFC 7946 order), its facts as properties."""
     features = []
-    for p in photos:
+    over = _over_ground(photos, ground)
+    for k, p in enumerate(photos):
         coords = [round(p.lon, 7), round(p.lat, 7)] + ([round(p.alt_rel, 2)] if p.alt_rel is not None else [])
+        heights = {"alt_amsl_m": p.alt_amsl, "alt_rel_m": p.alt_rel}
+        if over:
+            heights.update({"alt_agl_m": _rounded(over[k][0]), "ground_amsl_m": _rounded(over[k][1])})
         features.append({"type": "Feature", "geometry": {"type": "Point", "coordinates": coords},
                          "properties": {"image": image_name(p), "flight": p.flight, "vehicle": p.vehicle,
-                                        "img_idx": p.img_idx, "time_utc": _utc(p.time), "alt_amsl_m": p.alt_amsl,
-                                        "alt_rel_m": p.alt_rel, "yaw_deg": p.yaw, "pitch_deg": p.pitch,
+                                        "img_idx": p.img_idx, "time_utc": _utc(p.time), **heights,
+                                        "yaw_deg": p.yaw, "pitch_deg": p.pitch,
                                         "roll_deg": p.roll, "source": p.source}})
     return {"type": "FeatureCollection", "features": features}
 
 
-def geo_txt(photos: list[LedgerPhoto]) -> str:
+def geo_txt(photos: list[LedgerPhoto], ground: PlanGround | None = None) -> str:
     lines = ["EPSG:4326"]
-    for p in photos:
-        alt = p.alt_amsl if p.alt_amsl is not None else (p.alt_rel or 0.0)
+    over = _over_ground(photos, ground)
+    for k, p in enumerate(photos):
+        agl, under = over[k] if over else (None, None)
+        if agl is not None and under is not None:
+            alt = agl + under  # over a DEM: the ground at the launch point plus the reported height above it
+        else:
+            alt = p.alt_amsl if p.alt_amsl is not None else (p.alt_rel or 0.0)
         yaw, pitch, roll = (v if v is not None else 0.0 for v in (p.yaw, p.pitch, p.roll))
         lines.append(f"{image_name(p)} {p.lon:.7f} {p.lat:.7f} {alt:.2f} {yaw:.2f} {pitch:.2f} {roll:.2f}")
     return "\n".join(lines) + "\n"
 
 
-def write_geotags(plan_dir: Path, photos: list[LedgerPhoto]) -> list[Path]:
-    """photos.csv, photos.geojson and geo.txt in plan_dir (each written whole, then renamed into place)."""
+def write_geotags(plan_dir: Path, photos: list[LedgerPhoto], ground: PlanGround | None = None) -> list[Path]:
+    """photos.csv, photos.geojson and geo.txt in plan_dir (each written whole, then renamed into place);
+    `ground`: the plan was made over a DEM (the module docstring says what it adds)."""
     paths = [Path(plan_dir) / name for name in GEOTAG_FILES]
-    write_text_atomic(paths[0], photos_csv(photos))
-    write_text_atomic(paths[1], json.dumps(photos_geojson(photos)) + "\n")
-    write_text_atomic(paths[2], geo_txt(photos))
+    write_text_atomic(paths[0], photos_csv(photos, ground))
+    write_text_atomic(paths[1], json.dumps(photos_geojson(photos, ground)) + "\n")
+    write_text_atomic(paths[2], geo_txt(photos, ground))
     return paths
