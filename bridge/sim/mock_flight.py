@@ -171,13 +171,14 @@ class FlightSim:
             self._last_offset = offset
         return self._last_offset
 
-    def _update_ground(self) -> None:
-        """FlightState.ground under the vehicle, looked up again once it has moved GROUND_RESAMPLE_M."""
+    def _update_ground(self, within: float = GROUND_RESAMPLE_M) -> None:
+        """FlightState.ground under the vehicle, looked up again once it has moved more than `within` metres
+        (0 when it lands: exactly where it touches down)."""
         if self.ground is None:
             return
         s = self.state
         here = self._to_local(s.lat, s.lon)
-        if self._ground_at is None or math.dist(here, self._ground_at) >= GROUND_RESAMPLE_M:
+        if self._ground_at is None or math.dist(here, self._ground_at) > within:
             self._ground_at = here
             s.ground = self.ground(s.lat, s.lon)
 
@@ -436,7 +437,7 @@ class FlightSim:
 
     def _descend(self, dt: float, events: list[FlightEvent]) -> float:
         s = self.state
-        self._update_ground()
+        self._update_ground(within=0.0)
         if s.on_ground:
             self._touchdown(events)
             return dt
@@ -456,6 +457,7 @@ class FlightSim:
 
     def _touchdown(self, events: list[FlightEvent]) -> None:
         s = self.state
+        self._update_ground(within=0.0)  # the ground exactly where it stands
         if s.armed:
             s.armed = False  # autopilots disarm after landing
             events.append(FlightEvent("landed", s.current))
