@@ -13,6 +13,7 @@ from __future__ import annotations
 import functools
 import math
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -39,7 +40,8 @@ from missionplan.bridge.link.readiness import mission_mode_params
 from missionplan.bridge.session.terrain import TerrainServer
 from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.bridge.transfer.protocol import MissionClient, Timeouts
-from missionplan.testing.dem_files import M_PER_DEG, hill
+from missionplan.cli.app import main
+from missionplan.testing.dem_files import M_PER_DEG, hill, write_geotiff
 
 HOME = (45.0700, 7.6800)
 HILL_CENTRE = (45.0700, 7.6880)  # 630 m east of home
@@ -275,3 +277,26 @@ def test_it_lands_on_the_true_ground_and_reports_sea_level_altitudes(flavour: Fl
     assert state.alt == pytest.approx(ground_there - home_amsl, abs=0.02)  # relative: its ground less home's
     assert last.relative_alt / 1000 == pytest.approx(ground_there - home_amsl, abs=0.05)
     assert last.alt / 1000 == pytest.approx(ground_there, abs=0.05)  # sea level: home's plus relative
+
+
+def test_the_mock_command_gives_every_vehicle_the_ground_of_its_dem(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    dem = write_geotiff(tmp_path / "hill.tif", GROUND.height_amsl, (45.05, 7.66, 45.09, 7.71), 30.0)
+    made: list[MockAutopilot] = []
+    monkeypatch.setattr(MockAutopilot, "start", lambda self: made.append(self) or self)  # nothing served: its set-up
+    assert main(["mock", "--sysid", "1,2", "--listen", "udpin:127.0.0.1:0", "--home", f"{HOME[0]},{HOME[1]},5",
+                 "--dem", str(dem), "--duration", "0.01"]) == 0
+    out = capsys.readouterr().out
+    for sysid, vehicle in made[0].vehicles.items():
+        lat, lon, alt = vehicle.options.home
+        assert alt == pytest.approx(float(GROUND.height_amsl(lat, lon)), abs=0.5)  # the DEM's, not --home's 5 m
+        assert f"system {sysid} starts at {lat:.7f}, {lon:.7f}, {alt:g} m AMSL" in out
+        assert vehicle.terrain is not None and vehicle.params["TERRAIN_ENABLE"] == 1.0
+    assert f"ground: {dem} (30 m)" in out
+    # One line when the DEM does not reach a home, or a vehicle has no home to read it around.
+    assert main(["mock", "--sysid", "1", "--listen", "udpin:127.0.0.1:0", "--home", "45.2,7.68", "--dem", str(dem),
+                 "--duration", "0.01"]) == 2
+    assert main(["mock", "--sysid", "1", "--listen", "udpin:127.0.0.1:0", "--dem", str(dem), "--duration", "0.01"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err[0].startswith(f"missionplan: DEM {dem}: no file covers lat 45.20000") and len(err) == 2
+    assert err[1] == "missionplan: --dem needs each vehicle's home (--home or --plan): none for system id 1"
