@@ -40,6 +40,7 @@ from ..formats.mission_items import (
     FRAME_GLOBAL_TERRAIN_ALT_INT,
     Flavour,
     MissionType,
+    WireItem,
 )
 from ..formats.terrain_grid import (
     ALL_BLOCKS,
@@ -116,7 +117,7 @@ class MockTerrain(VehiclePart):
         self._last_request = -REQUEST_PACING_S
         self.home_height: float | None = None
         self.current_height: float | None = None  # the ground under it when it last had it (extrapolation)
-        self._mission_seen: list[Any] | None = None
+        self._mission_seen: list[WireItem] | None = None
         self._next_mission_index = 0  # 0: the mission's points are all loaded (or there is none)
         self._next_mission_pos = 0
 
@@ -130,7 +131,7 @@ class MockTerrain(VehiclePart):
         return self.vehicle.params.get("TERRAIN_ENABLE", 1.0) > 0 and self.spacing > 0
 
     def _clock(self, now: float) -> float:
-        return self.vehicle.time_boot_ms(now) / 1000.0
+        return int(self.vehicle.time_boot_ms(now)) / 1000.0
 
     def _position_e7(self) -> tuple[int, int]:
         s = self.vehicle.flight.state
@@ -244,8 +245,9 @@ class MockTerrain(VehiclePart):
         step_east = GRID_POINTS_EAST * SURROUNDING_GRID_FRACTION * self.spacing
         return [offset_e7(lat_e7, lon_e7, x * step_north, y * step_east) for x in (-1, 0, 1) for y in (-1, 0, 1)]
 
-    def _mission_items(self) -> list[Any]:
-        return self.vehicle.mission_server.stores[MissionType.MISSION]
+    def _mission_items(self) -> list[WireItem]:
+        items: list[WireItem] = self.vehicle.mission_server.stores[MissionType.MISSION]
+        return items
 
     def _update_mission(self) -> None:
         """TerrainMission.cpp update_mission_data: each waypoint's 5 points (4 around it, then itself), from the
