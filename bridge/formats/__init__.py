@@ -13,4 +13,5 @@ May import: missionplan.bridge.errors, .limits; missionplan.base.
   item_checks    what every reader refuses: numbers the wire cannot carry, out-of-range values, DO_JUMP loops
   file_text      a mission file's text: one-line read errors, atomic writes
   qgc_legacy     QGroundControl's older item layouts and legacy .mission files, in the current .plan shape
+  terrain_grid   ArduPilot's terrain grid: where each height of the MAVLink terrain protocol lies
 """

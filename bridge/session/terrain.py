@@ -13,23 +13,8 @@ height at a point and TERRAIN_REPORT tells (its pending and loaded blocks too). 
 - terrain_settings: the parameters terrain flight needs on ArduCopter (set by the upload as it sets
   WPNAV_RADIUS), and TERRAIN_REPORTED, the ones read and reported but left as the vehicle has them.
 
-The layout, from ArduPilot's libraries/AP_Terrain (AP_Terrain.h, TerrainGCS.cpp, TerrainUtil.cpp):
-- Grids start from whole degrees. TerrainUtil.cpp calculate_grid_info: a position's offset (north, east)
-  in metres from the degree corner (floor of lat and lon) is Location::get_distance_NE; it is cut into
-  grids of 28 x 32 points (north x east, TERRAIN_GRID_BLOCK_SIZE_X/Y) placed every 24 x 28 points
-  (TERRAIN_GRID_BLOCK_SPACING_X/Y: neighbours overlap by one row), so point (i, j) of grid (gx, gy) is
-  the ground at north (24 gx + i) * spacing, east (28 gy + j) * spacing from the degree corner; the
-  grid's corner sent in TERRAIN_REQUEST is the degree corner moved by Location::offset.
-- TerrainGCS.cpp handle_terrain_data: bit b of the mask is the 4 x 4 block whose first point is
-  i0 = (b / 8) * 4 north, j0 = (b % 8) * 4 east (TERRAIN_GRID_BLOCK_MUL_Y = 8 blocks east), and
-  data[4 x + y] is height[i0 + x][j0 + y]: x counts north, y east. Heights are int16 metres.
-- AP_Math Location::get_distance_NE: north = dlat * LOCATION_SCALING_FACTOR, east = dlon *
-  LOCATION_SCALING_FACTOR * cos(mean latitude of the two positions), in 1e-7 degrees; the points
-  below invert exactly that, so each height is the ground where the vehicle will look it up.
-  MAVProxy, QGroundControl and ArduPilot's own terrain file generator (terraingen's terrain_gen.py)
-  instead step from the grid's corner by great-circle or flat offsets; they agree with this to metres
-  near the degree corner and drift apart by tens of metres across a degree (the gap terraingen's
-  slice_graph.py is there to show).
+The layout (which ground each height of a TERRAIN_DATA is, from ArduPilot's libraries/AP_Terrain) is
+formats/terrain_grid.py's, shared with the mock autopilot that asks for it. From TerrainGCS.cpp:
 - TerrainGCS.cpp send_request: the vehicle asks again for what is still missing, at most every 2 s
   of its own clock, one grid at a time; a loaded vehicle (pre_arm_checks) has no pending block and
   ground at its position and home ("waiting for terrain data" until then). TERRAIN_REPORT's spacing
@@ -48,23 +33,12 @@ from typing import Any
 import numpy as np
 
 from ..formats.mission_items import Flavour
+from ..formats.terrain_grid import INT16, grid_points, mask_bits
 from ..link.connection import VehicleInfo, mavlink
 from ..link.params import MULTIROTOR_TYPES, ParamClient, ParamSetting, read_params
 from ..link.readiness import request_streams
 
 HeightFunction = Callable[[np.ndarray, np.ndarray], np.ndarray]
-
-BLOCK_SIDE = 4              # TERRAIN_GRID_MAVLINK_SIZE: one TERRAIN_DATA is 4 x 4 heights
-BLOCKS_NORTH, BLOCKS_EAST = 7, 8  # TERRAIN_GRID_BLOCK_MUL_X / _Y: a grid is 7 x 8 blocks
-MASK_BITS = BLOCKS_NORTH * BLOCKS_EAST  # 56
-GRID_STEP_NORTH = (BLOCKS_NORTH - 1) * BLOCK_SIDE  # 24 points: TERRAIN_GRID_BLOCK_SPACING_X
-GRID_STEP_EAST = (BLOCKS_EAST - 1) * BLOCK_SIDE    # 28 points: TERRAIN_GRID_BLOCK_SPACING_Y
-LOCATION_SCALING_FACTOR = 0.011131884502145034  # AP_Math: metres per 1e-7 degree of latitude
-E7 = 10_000_000
-INT16 = (-32768, 32767)
-# Within one block, point k of TERRAIN_DATA's data is x = k // 4 north, y = k % 4 east.
-CELL_NORTH = np.repeat(np.arange(BLOCK_SIDE), BLOCK_SIDE)
-CELL_EAST = np.tile(np.arange(BLOCK_SIDE), BLOCK_SIDE)
 
 TERRAIN_STREAM_HZ = 2.0  # TERRAIN_REQUEST (the vehicle's 2 s pacing is its own) and TERRAIN_REPORT
 TERRAIN_STREAMS = {mavlink.MAVLINK_MSG_ID_TERRAIN_REQUEST: "TERRAIN_REQUEST",
@@ -76,33 +50,7 @@ CHECK_RESEND_S = 1.0  # a TERRAIN_CHECK not answered (or answered without ground
 TERRAIN_REPORTED = ("TERRAIN_SPACING", "TERRAIN_OFS_MAX")
 
 
-# ---------------------------------------------------------------------------------------------- layout
-def _longitude_scale(lat_e7: np.ndarray | float) -> np.ndarray:
-    """AP_Math longitude_scale: cos(latitude), never below 0.01."""
-    return np.maximum(np.cos(np.radians(np.asarray(lat_e7, dtype=float) * 1e-7)), 0.01)
-
-
-def grid_points(lat_e7: int, lon_e7: int, spacing: int, bits: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
-    """(lat, lon) in degrees, shape (len(bits), 16), of the heights TERRAIN_DATA carries for each bit of
-    the grid whose south-west corner is (lat_e7, lon_e7): point k of a block in the order of its data."""
-    ref_lat, ref_lon = (lat_e7 // E7) * E7, (lon_e7 // E7) * E7  # the degree corner (floor, as C's rounding there)
-    corner_north = (lat_e7 - ref_lat) * LOCATION_SCALING_FACTOR
-    corner_east = (lon_e7 - ref_lon) * LOCATION_SCALING_FACTOR * float(_longitude_scale((lat_e7 + ref_lat) / 2))
-    grid_north = round(corner_north / (GRID_STEP_NORTH * spacing))  # which grid of the degree this is
-    grid_east = round(corner_east / (GRID_STEP_EAST * spacing))
-    bit = np.asarray(bits, dtype=np.int64)[:, None]
-    north_m = (grid_north * GRID_STEP_NORTH + (bit // BLOCKS_EAST) * BLOCK_SIDE + CELL_NORTH) * float(spacing)
-    east_m = (grid_east * GRID_STEP_EAST + (bit % BLOCKS_EAST) * BLOCK_SIDE + CELL_EAST) * float(spacing)
-    lat = ref_lat + north_m / LOCATION_SCALING_FACTOR
-    lon = ref_lon + east_m / (LOCATION_SCALING_FACTOR * _longitude_scale((ref_lat + lat) / 2))
-    return lat / E7, (lon / E7 + 180.0) % 360.0 - 180.0
-
-
-def mask_bits(mask: int) -> list[int]:
-    """The blocks a TERRAIN_REQUEST's mask asks for, lowest bit first."""
-    return [bit for bit in range(MASK_BITS) if mask >> bit & 1]
-
-
+# ---------------------------------------------------------------------------------------------- sending
 def _mav(via: Any) -> Any:
     """The pymavlink sender of a Link, a shared link's VehicleLink, or a VehicleSession (its link)."""
     return via.mav if hasattr(via, "mav") else via.link.mav

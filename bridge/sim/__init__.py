@@ -10,4 +10,5 @@ May import: missionplan.bridge.errors, .formats, .link (pymavlink's set-up and U
   vehicle_part      what those parts share: the vehicle they belong to, the messages each answers
   mock_flight       its kinematics: a point that flies a mission, on the autopilots' flight models
   mock_log          its onboard DataFlash log, served over MAVLink
+  mock_terrain      its terrain database over a ground (ArduPilot): TERRAIN_REQUEST / _DATA / _CHECK / _REPORT
 """

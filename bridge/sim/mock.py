@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import heapq
 import itertools
+import math
 import os
 import random
 import select
@@ -46,7 +47,8 @@ from missionplan.base.naming import Named
 from ..errors import BridgeUsageError
 from ..link.connection import ConnectionSpec, mavlink, parse_url
 from ..formats.mission_items import Flavour
-from .mock_vehicle import MockVehicle, VehicleOptions
+from .mock_terrain import GroundModel
+from .mock_vehicle import MockVehicle, VehicleOptions, ground_amsl
 from .vehicle_part import log_error
 from ..link.signing import SigningKey, apply_key
 
@@ -114,7 +116,7 @@ class MockAutopilot:
                  cruise_speed: float = 5.0, max_items: int = 10_000,
                  clock: Callable[[], float] | None = None, gps_fix_after: float = 0.0,
                  streams_until_asked: bool = False, sitl_like: bool = False,
-                 mission_check_s: float | None = None) -> None:
+                 mission_check_s: float | None = None, ground: GroundModel | None = None) -> None:
         """clock: the vehicles' wall clock (seconds since 1970) for signing timestamps; default time.time.
         gps_fix_after: simulated seconds until each vehicle has a GPS fix, EKF, home and lets itself be
         armed (ArduCopter SITL: 35-40); streams_until_asked: no telemetry but HEARTBEAT until
@@ -122,7 +124,11 @@ class MockAutopilot:
         sitl_like: each vehicle also behaves like ArduCopter SITL in flight (mock_vehicle's module doc):
         no camera until CAM1_TYPE is set and the vehicle rebooted (configure_camera), img_idx from 1
         across flights, ArduCopter's navigation parameters and flight. mission_check_s (PX4): simulated
-        seconds after a mission upload during which MISSION_START is DENIED ("No valid mission")."""
+        seconds after a mission upload during which MISSION_START is DENIED ("No valid mission").
+        ground: the true ground of every vehicle's world (a DEM, geo.dem.Ground): its home altitude is the
+        ground's at its home, it lands on the ground, and an ArduPilot vehicle asks for its terrain as ArduCopter
+        SITL does with no terrain files and flies terrain-frame items from what it was sent (mock_terrain).
+        BridgeUsageError when the ground has no height at a vehicle's home."""
         if str(listen).strip().lower() == "pty":
             self.spec = ConnectionSpec("pty", baud=57600)
         else:
@@ -155,11 +161,14 @@ class MockAutopilot:
         base_home = (45.0703, 7.6869, 240.0)
         for index, sysid in enumerate(sysids):
             home = (homes or {}).get(sysid, (base_home[0] + 0.0005 * index, base_home[1], base_home[2]))
+            if ground is not None and not math.isfinite(ground_amsl(ground, home[0], home[1])):
+                raise BridgeUsageError(f"the ground has no height at vehicle {sysid}'s home {home[0]:.7f}, "
+                                       f"{home[1]:.7f}")
             options = VehicleOptions(flavour=self.flavour, home=home, request_interval=request_interval,
                                      upload_timeout=upload_timeout, speedup=speedup, cruise_speed=cruise_speed,
                                      max_items=max_items, gps_fix_after=gps_fix_after,
                                      streams_until_asked=streams_until_asked, sitl_like=sitl_like,
-                                     mission_check_s=mission_check_s)
+                                     mission_check_s=mission_check_s, ground=ground)
             encoder = mavlink.MAVLink(_Writer(self), srcSystem=sysid, srcComponent=mavlink.MAV_COMP_ID_AUTOPILOT1)
             apply_key(encoder, key, link_id=index, clock=clock)
             self.vehicles[sysid] = MockVehicle(sysid, options, encoder, now)

@@ -13,6 +13,12 @@ flavour's SITL-like mode) it flies as PX4 SIH does: take-off at MPC_TKO_SPEED, a
 before every leg, PX4's RTL and its three landing speeds. No MAVLink here: the vehicle (mock_vehicle) feeds it the
 stored wire items and publishes the events it returns (current item changed, item reached).
 Positions use a local flat-earth approximation around home, good to centimetres over a city.
+Over a ground (mock_vehicle's VehicleOptions.ground) two more things hold. Terrain-frame items (MAV_FRAME
+10 / 11, `terrain`: the vehicle's own terrain database, mock_terrain) are flown as ArduCopter's AC_WPNav flies
+them: the leg runs in height above the terrain, and the altitude above home at each point is that height plus
+the terrain there less the terrain at home, from the database (what the vehicle was sent); without a database
+they are flown as relative items. Landing (LAND, RTL, a LAND item) ends on the true ground (`ground`: the DEM,
+the world the vehicle lives in), whose height above the home's ground is FlightState.ground under it.
 """
 
 from __future__ import annotations
@@ -41,12 +47,21 @@ from ..formats.mission_items import (
     CMD_NAV_WAYPOINT,
     FRAME_GLOBAL,
     FRAME_GLOBAL_INT,
+    FRAME_GLOBAL_TERRAIN_ALT,
+    FRAME_GLOBAL_TERRAIN_ALT_INT,
     WireItem,
     is_global,
 )
 
 EARTH_RADIUS = 6_378_137.0
 TRIGGER_TOLERANCE_M = 1e-6  # a photo this close to its trigger distance is due now
+TERRAIN_FRAMES = frozenset({FRAME_GLOBAL_TERRAIN_ALT, FRAME_GLOBAL_TERRAIN_ALT_INT})
+GROUND_RESAMPLE_M = 1.0  # the true ground under the vehicle is looked up again once it has moved this far
+# The vehicle's terrain database (mock_terrain.MockTerrain.terrain_offset): the terrain at (lat, lon) above the
+# terrain at home, in metres; None when it has none.
+TerrainOffset = Callable[[float, float], "float | None"]
+# The true ground (the DEM) at (lat, lon) above the ground at home, in metres.
+GroundAbove = Callable[[float, float], float]
 NAV_COMMANDS_WITH_POSITION = frozenset({CMD_NAV_WAYPOINT, CMD_NAV_LOITER_UNLIM, CMD_NAV_LOITER_TURNS,
                                         CMD_NAV_LOITER_TIME, CMD_NAV_LAND, CMD_NAV_TAKEOFF, CMD_NAV_LOITER_TO_ALT})
 
@@ -77,10 +92,11 @@ class FlightState:
     track: list[tuple[float, float, float, float]] = field(default_factory=list)  # t, lat, lon, alt
     distance: float = 0.0
     sim_time: float = 0.0
+    ground: float = 0.0  # the true ground under it, metres above the home's ground (0 over a flat world)
 
     @property
     def on_ground(self) -> bool:
-        return self.alt <= 0.01
+        return self.alt - self.ground <= 0.01
 
 
 class FlightSim:
@@ -88,7 +104,13 @@ class FlightSim:
 
     def __init__(self, home: tuple[float, float, float], cruise_speed: float = 5.0, climb_rate: float = 2.5,
                  land_rate: float = 1.5, default_acceptance: float = 1.0, track_interval: float = 1.0,
-                 copter: CopterParams | None = None, px4: Px4Params | None = None) -> None:
+                 copter: CopterParams | None = None, px4: Px4Params | None = None,
+                 terrain: TerrainOffset | None = None, ground: GroundAbove | None = None) -> None:
+        self.terrain = terrain  # None: terrain-frame items flown as relative ones
+        self.ground = ground  # None: a flat world, the ground at home's height everywhere
+        self._ground_at: tuple[float, float] | None = None  # (north, east) where FlightState.ground was looked up
+        self._last_offset = 0.0  # the terrain offset last known (it stands in where the database has none)
+        self._motions_terrain = False  # the motions flown now are in height above the terrain
         self.copter = copter  # None: straight legs at the cruise speed; else ArduCopter's flight (copter_model)
         self.px4 = px4  # with copter: PX4's flight instead (px4_model)
         self._motions: list[cm.Motion] = []
@@ -136,6 +158,34 @@ class FlightSim:
             alt -= s.home[2]  # AMSL -> above home
         return lat, lon, alt
 
+    def _follows_terrain(self, item: WireItem) -> bool:
+        """A terrain-frame item (its z is a height above the terrain) on a vehicle with a terrain database."""
+        return self.terrain is not None and item.frame in TERRAIN_FRAMES
+
+    def terrain_offset(self, lat: float, lon: float) -> float:
+        """The vehicle's terrain at (lat, lon) above its terrain at home; where its database has none, the last
+        it had (ArduPilot extrapolates the same way)."""
+        assert self.terrain is not None
+        offset = self.terrain(lat, lon)
+        if offset is not None:
+            self._last_offset = offset
+        return self._last_offset
+
+    def _update_ground(self, within: float = GROUND_RESAMPLE_M) -> None:
+        """FlightState.ground under the vehicle, looked up again once it has moved more than `within` metres
+        (0 when it lands: exactly where it touches down)."""
+        if self.ground is None:
+            return
+        s = self.state
+        here = self._to_local(s.lat, s.lon)
+        if self._ground_at is None or math.dist(here, self._ground_at) > within:
+            self._ground_at = here
+            s.ground = self.ground(s.lat, s.lon)
+
+    def ground_below(self, lat: float, lon: float) -> float:
+        """The true ground at (lat, lon) above the home's ground (0 over a flat world)."""
+        return 0.0 if self.ground is None else self.ground(lat, lon)
+
     # ------------------------------------------------------------------------------- control
     def load(self, items: list[WireItem], first_seq: int) -> None:
         self.items = list(items)
@@ -174,6 +224,7 @@ class FlightSim:
             remaining -= used
             if used <= 0 and not self._pending_instant():
                 break
+        self._update_ground()
         s.sim_time += dt
         if s.sim_time - self._last_track >= self.track_interval and s.armed:
             self._last_track = s.sim_time
@@ -288,10 +339,12 @@ class FlightSim:
             return used + used2
         # waypoint (and loiter commands, flown as waypoints)
         lat, lon, alt = self._target_of(item)
+        terrain = self._follows_terrain(item)
         if self._accepted_at_entry is None:  # the item's first tick
             radius = float(item.param2) if item.param2 > 0 else self.default_acceptance
-            self._accepted_at_entry = math.hypot(*self._leg_to(lat, lon, alt)[2:]) <= radius
-        used, arrived = (0.0, True) if self._accepted_at_entry else self._fly_to(lat, lon, alt, dt)
+            above_home = alt + self.terrain_offset(lat, lon) if terrain else alt
+            self._accepted_at_entry = math.hypot(*self._leg_to(lat, lon, above_home)[2:]) <= radius
+        used, arrived = (0.0, True) if self._accepted_at_entry else self._fly_to(lat, lon, alt, dt, terrain)
         if not arrived:
             return used
         return self._hold_then_advance(events, used, dt)
@@ -334,12 +387,16 @@ class FlightSim:
         n1, e1 = self._to_local(lat, lon)
         return n0, e0, n1 - n0, e1 - e0, alt - self.state.alt
 
-    def _fly_to(self, lat: float, lon: float, alt: float, dt: float) -> tuple[float, bool]:
+    def _fly_to(self, lat: float, lon: float, alt: float, dt: float, terrain: bool = False) -> tuple[float, bool]:
         """Straight 3-D leg at the cruise speed to the target itself. ArduCopter all but stops at every
         corner of our missions (copter_model); a leg that ended wherever a tick first got inside the
-        acceptance radius would make the track, and every photo, depend on the ticks' lengths."""
+        acceptance radius would make the track, and every photo, depend on the ticks' lengths.
+        `terrain`: `alt` is a height above the terrain, and the leg is flown in that height (AC_WPNav's
+        terrain following): the altitude above home is the height plus the terrain offset where it is."""
         s = self.state
+        offset0 = self.terrain_offset(s.lat, s.lon) if terrain else 0.0
         n0, e0, dn, de, du = self._leg_to(lat, lon, alt)
+        du += offset0  # the leg's vertical: from its height above the terrain now (above home without `terrain`)
         dist = math.sqrt(dn * dn + de * de + du * du)
         if dist <= 1e-9:
             return 0.0, True
@@ -352,12 +409,15 @@ class FlightSim:
         alt0 = s.alt
         s.lat, s.lon = self._to_global(n0 + dn * frac, e0 + de * frac)
         s.alt += du * frac
+        if terrain:
+            s.alt += self.terrain_offset(s.lat, s.lon) - offset0
+        climb = s.alt - alt0
         s.distance += horizontal
         if used > 0:
-            s.vn, s.ve, s.vz = dn * frac / used, de * frac / used, -du * frac / used
+            s.vn, s.ve, s.vz = dn * frac / used, de * frac / used, -climb / used
         if horizontal > 0:
             s.heading = math.degrees(math.atan2(de, dn)) % 360
-        self._count_photos(horizontal, (n0, e0, alt0), (dn * frac, de * frac, du * frac))
+        self._count_photos(horizontal, (n0, e0, alt0), (dn * frac, de * frac, climb))
         return used, arrived
 
     def _count_photos(self, horizontal: float, start: tuple[float, float, float],
@@ -377,24 +437,27 @@ class FlightSim:
 
     def _descend(self, dt: float, events: list[FlightEvent]) -> float:
         s = self.state
+        self._update_ground(within=0.0)
         if s.on_ground:
             self._touchdown(events)
             return dt
         step = self.land_rate * dt
-        if step >= s.alt:
-            used = s.alt / self.land_rate
-            s.alt = 0.0
+        height = s.alt - s.ground
+        if step >= height:
+            used = height / self.land_rate
+            s.alt = s.ground
             self._touchdown(events)
             return used
         s.alt -= step
         s.vz = self.land_rate
         if s.on_ground:  # within a centimetre: down, or a LAND item would finish still armed
-            s.alt = 0.0
+            s.alt = s.ground
             self._touchdown(events)
         return dt
 
     def _touchdown(self, events: list[FlightEvent]) -> None:
         s = self.state
+        self._update_ground(within=0.0)  # the ground exactly where it stands
         if s.armed:
             s.armed = False  # autopilots disarm after landing
             events.append(FlightEvent("landed", s.current))
@@ -418,11 +481,12 @@ class FlightSim:
         return self._motions[0].kind if self._motions else None
 
     def _run_motions(self, key: tuple[object, ...], build: Callable[[], list[cm.Motion]],
-                     dt: float) -> tuple[float, bool]:
+                     dt: float, terrain: bool = False) -> tuple[float, bool]:
         """Fly the motions `build` makes (made once per key: an item entered, a mode set) for up to dt
-        seconds: (seconds used, all flown)."""
+        seconds: (seconds used, all flown). `terrain`: their altitudes are heights above the terrain."""
         if self._motions_key != key:
             self._motions_key, self._motions, self._motion_t = key, build(), 0.0
+            self._motions_terrain = terrain
         used = 0.0
         while self._motions and used < dt - 1e-12:
             motion = self._motions[0]
@@ -439,6 +503,8 @@ class FlightSim:
         s = self.state
         (n0, e0, a0), (n1, e1, a1) = motion.position(np.array([t0, t1]))
         s.lat, s.lon = self._to_global(float(n1), float(e1))
+        if self._motions_terrain:  # heights above the terrain: the altitude above home is that plus the offset
+            a0, a1 = s.alt, a1 + self.terrain_offset(s.lat, s.lon)
         s.alt = float(a1)
         dn, de, du = float(n1 - n0), float(e1 - e0), float(a1 - a0)
         if step > 0:
@@ -474,10 +540,12 @@ class FlightSim:
         return cm.rtl(here, (0.0, 0.0, 0.0), self.copter)
 
     def _landing_motions(self, here: tuple[float, float, float]) -> list[cm.Motion]:
+        """Down to the true ground under `here` (north, east, altitude above home)."""
         assert self.copter is not None
+        ground = self.ground_below(*self._to_global(here[0], here[1]))
         if self.px4 is not None:
-            return px4_model.landing(here, 0.0, self.px4)
-        return cm.landing(here, 0.0, self.copter)
+            return px4_model.landing(here, ground, self.px4)
+        return cm.landing(here, ground, self.copter)
 
     def _step_copter_item(self, item: WireItem, dt: float, events: list[FlightEvent]) -> float:
         """One positional mission item flown as ArduCopter (copter_model) or PX4 (px4_model) does."""
@@ -511,7 +579,11 @@ class FlightSim:
                 return dt
             return used
         # waypoint (and loiter commands, flown as waypoints): from rest to rest, then the hold time
-        used, done = self._run_motions(key, lambda: self._leg_motions(here, (north, east, alt)), dt)
+        if self._follows_terrain(item):  # the leg in height above the terrain, from its height now
+            start = (here[0], here[1], here[2] - self.terrain_offset(self.state.lat, self.state.lon))
+            used, done = self._run_motions(key, lambda: self._leg_motions(start, (north, east, alt)), dt, terrain=True)
+        else:
+            used, done = self._run_motions(key, lambda: self._leg_motions(here, (north, east, alt)), dt)
         if not done:
             return used
         return self._hold_then_advance(events, used, dt)

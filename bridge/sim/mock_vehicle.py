@@ -21,6 +21,11 @@ state and reaches the others through the vehicle:
   vehicle_commands  CommandHandler: COMMAND_LONG / COMMAND_INT and SET_MODE
   vehicle_params    ParamServer: the parameter table, PARAM_REQUEST_READ / PARAM_SET
   mock_log          OnboardLogs: the onboard DataFlash log and the LOG_REQUEST_* transfer
+  mock_terrain      MockTerrain (ArduPilot over a ground): the terrain database, TERRAIN_REQUEST / _DATA / _CHECK /
+                    _REPORT, and its pre-arm check
+Over a ground (VehicleOptions.ground, a DEM: geo.dem.Ground) the vehicle lives in a world that is not flat: its
+home altitude is the ground's at home, it lands on the ground (mock_flight), and an ArduPilot vehicle flies
+terrain-frame items from the terrain it was sent (mock_terrain), never from the ground itself.
 The SITL-like mode (VehicleOptions.sitl_like) adds what ArduCopter SITL does in flight: no
 CAMERA_FEEDBACK until a camera is configured (CAM1_TYPE set, then a reboot:
 MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN), img_idx from 1 and counting on across flights until a reboot,
@@ -32,8 +37,11 @@ on the mock's one loop thread.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Any
+
+import numpy as np
 
 from ..flight_models.copter_model import CopterParams
 from ..flight_models.px4_model import Px4Params
@@ -42,6 +50,7 @@ from ..link.connection import mavlink
 from .mission_server import MissionServer, Upload
 from .mock_flight import FlightSim
 from .mock_log import OnboardLogs
+from .mock_terrain import GroundModel, MockTerrain
 from .telemetry import Telemetry
 from .vehicle_commands import CommandHandler
 from .vehicle_params import ARDUPILOT_BATTERY_PARAMS, ParamServer
@@ -74,15 +83,26 @@ class VehicleOptions:
     # check, then commander's health checks): a MISSION_START before then is DENIED, "No valid mission".
     # None: PX4_MISSION_CHECK_S when sitl_like, else 0.
     mission_check_s: float | None = None
+    # The true ground (a DEM; mock_terrain.GroundModel): the home's altitude is the ground's there, the vehicle
+    # lands on it, and an ArduPilot vehicle asks the ground station for its terrain. None: a flat world.
+    ground: GroundModel | None = None
 
     def resolved(self) -> VehicleOptions:
         ardupilot = self.flavour is Flavour.ARDUPILOT
-        return replace(self,
+        home = self.home
+        if self.ground is not None and math.isfinite(at_home := ground_amsl(self.ground, home[0], home[1])):
+            home = (home[0], home[1], at_home)
+        return replace(self, home=home,
                        request_interval=self.request_interval or (1.0 if ardupilot else 0.25),
                        upload_timeout=self.upload_timeout or (8.0 if ardupilot else 5.0),
                        legacy_requests=ardupilot if self.legacy_requests is None else self.legacy_requests,
                        mission_check_s=(self.mission_check_s if self.mission_check_s is not None
                                         else PX4_MISSION_CHECK_S if self.sitl_like and not ardupilot else 0.0))
+
+
+def ground_amsl(ground: GroundModel, lat: float, lon: float) -> float:
+    """The ground's height above sea level at one point (NaN where it has none)."""
+    return float(ground.height_amsl(np.array([lat]), np.array([lon]))[0])
 
 
 class MockVehicle:
@@ -105,6 +125,9 @@ class MockVehicle:
         self.telemetry = Telemetry(self)
         self.mission_server = MissionServer(self)
         self.command_handler = CommandHandler(self)
+        # ArduPilot over a ground asks for its terrain; PX4 takes no terrain frame, so it has no terrain database.
+        self.terrain = (MockTerrain(self) if self.options.ground is not None and self.flavour is Flavour.ARDUPILOT
+                        else None)
         self.logs = OnboardLogs(self.flavour, encoder, self.telemetry.send_text)  # on its SD card: survives reboots
         self._boot(now)
 
@@ -117,7 +140,11 @@ class MockVehicle:
         params = self.params
         copter = CopterParams.from_params(params) if self.options.sitl_like else None
         px4 = Px4Params.from_params(params) if self.options.sitl_like and self.flavour is Flavour.PX4 else None
-        self.flight = FlightSim(self.options.home, cruise_speed=self.options.cruise_speed, copter=copter, px4=px4)
+        if self.terrain is not None:
+            self.terrain.on_boot(now)
+        self.flight = FlightSim(self.options.home, cruise_speed=self.options.cruise_speed, copter=copter, px4=px4,
+                                terrain=None if self.terrain is None else self.terrain.terrain_offset,
+                                ground=self._ground_above_home if self.options.ground is not None else None)
         if "WPNAV_RADIUS" in params:  # ArduCopter turns within WPNAV_RADIUS of every waypoint
             self.flight.default_acceptance = max(params["WPNAV_RADIUS"], 5.0) / 100.0
         self.mission_server.on_boot()  # every list forgotten; the flight takes what is left
@@ -126,6 +153,12 @@ class MockVehicle:
         self.consumed_mah = 0.0
         self.battery_failsafe_sim_time: float | None = None  # the flight's simulated time when it acted
         self._low_since: dict[int, float | None] = {1: None, 2: None}  # simulated s: below the level since
+
+    def _ground_above_home(self, lat: float, lon: float) -> float:
+        """The true ground at a point above the home's (where the DEM has none: the home's, a flat world)."""
+        assert self.options.ground is not None
+        height = ground_amsl(self.options.ground, lat, lon)
+        return height - self.options.home[2] if math.isfinite(height) else 0.0
 
     @property
     def ready(self) -> bool:
@@ -192,6 +225,8 @@ class MockVehicle:
             self._check_battery(now)
         self.logs.tick()
         self.telemetry.tick(now)
+        if self.terrain is not None:
+            self.terrain.tick(now)
         self.mission_server.tick(now)  # the upload's re-requests and time-out
 
     # ------------------------------------------------------------------------------ the battery
@@ -276,6 +311,8 @@ class MockVehicle:
         for part in (self.mission_server, self.command_handler, self.param_server):
             if part.handle(msg, peer, now):
                 return
+        if self.terrain is not None:
+            self.terrain.handle(msg, peer, now)
 
     # ------------------------------------------------------------------------------ its parts' state, read here
     # What the mock (mock.py), the tests and the bench read on the vehicle; each part keeps its own.

@@ -1,16 +1,17 @@
 """The mock vehicle's commands: COMMAND_LONG / COMMAND_INT and SET_MODE, each answered as the autopilots do.
 
-Owns, for one mock vehicle (mock_vehicle), what the ground station may tell it to do, each command answered
-with one COMMAND_ACK: arm / disarm (refused before the vehicle is ready, as ArduCopter SITL refuses it with FAILED
-and its STATUSTEXT reasons and PX4 SIH with TEMPORARILY_REJECTED and its own, and on ArduPilot below a battery
-failsafe voltage; a forced arm or disarm, param2 21196, skips the checks and stops the motors in flight), mode
-changes (SET_MODE, MAV_CMD_DO_SET_MODE: the autopilots' own custom_mode numbers; AUTO needs a mission, and PX4
-refuses it while it still checks a new one), MAV_CMD_MISSION_START (refused while there is no mission or the
-vehicle is disarmed; on PX4 with "Mission start denied! No valid mission" when the mission server's
-start_refusals say so, or before its mission check is done; a repeated start while flying the mission does not
-restart it), DO_SET_MISSION_CURRENT, RETURN_TO_LAUNCH, LAND, the requests for HOME_POSITION, AUTOPILOT_VERSION,
-HEARTBEAT and (ArduPilot) MISSION_CURRENT, SET_MESSAGE_INTERVAL for the telemetry's streams, and in the
-SITL-like mode MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN (a reboot once its acknowledgement is out; refused while armed).
+Owns, for one mock vehicle (mock_vehicle), what the ground station may tell it to do, each command answered with one
+COMMAND_ACK: arm / disarm (refused before the vehicle is ready, as ArduCopter SITL refuses it with FAILED and its
+STATUSTEXT reasons and PX4 SIH with TEMPORARILY_REJECTED and its own, and on ArduPilot below a battery failsafe
+voltage or while its terrain is loading (mock_terrain); a forced arm or disarm, param2 21196, skips the checks and
+stops the motors in flight), mode changes (SET_MODE, MAV_CMD_DO_SET_MODE: the autopilots' own custom_mode numbers;
+AUTO needs a mission, and PX4 refuses it while it still checks a new one), MAV_CMD_MISSION_START (refused while
+there is no mission or the vehicle is disarmed; on PX4 with "Mission start denied! No valid mission" when the
+mission server's start_refusals say so, or before its mission check is done; a repeated start while flying the
+mission does not restart it), DO_SET_MISSION_CURRENT, RETURN_TO_LAUNCH, LAND, the requests for HOME_POSITION,
+AUTOPILOT_VERSION, HEARTBEAT and (ArduPilot) MISSION_CURRENT, SET_MESSAGE_INTERVAL for the telemetry's streams (and
+the terrain's), and in the SITL-like mode MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN (a reboot once its acknowledgement is
+out; refused while armed).
 """
 
 from __future__ import annotations
@@ -99,6 +100,10 @@ class CommandHandler(VehiclePart):
                 if (problem := vehicle.battery_arming_problem()) and int(p[1]) != FORCE_ARM_DISARM:
                     telemetry.send_text(f"PreArm: Battery 1 {problem}")  # AP_BattMonitor_Backend::arming_checks
                     return mavlink.MAV_RESULT_FAILED
+                if vehicle.terrain is not None and (problem := vehicle.terrain.arming_problem()) \
+                        and int(p[1]) != FORCE_ARM_DISARM:
+                    telemetry.send_text(problem)  # AP_Arming::terrain_checks
+                    return mavlink.MAV_RESULT_FAILED
                 s.armed = True
                 vehicle.logs.on_armed("ArduCopter V4.7.0-dev (mock)", vehicle.time_us(now))  # a new log (mock_log)
             else:
@@ -161,7 +166,9 @@ class CommandHandler(VehiclePart):
                 return mavlink.MAV_RESULT_ACCEPTED
             return mavlink.MAV_RESULT_UNSUPPORTED
         if command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
-            supported = telemetry.set_interval(int(p[0]), p[1], now)
+            terrain = vehicle.terrain
+            supported = (terrain is not None and terrain.set_interval(int(p[0]), p[1], now)) \
+                or telemetry.set_interval(int(p[0]), p[1], now)
             return mavlink.MAV_RESULT_ACCEPTED if supported else mavlink.MAV_RESULT_UNSUPPORTED
 
         return mavlink.MAV_RESULT_UNSUPPORTED

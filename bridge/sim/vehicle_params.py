@@ -4,7 +4,8 @@ Owns, for one mock vehicle (mock_vehicle), the parameter table and the ground st
 survives a reboot, like ArduPilot's EEPROM, and holds only what the bridge and the tests set or read: the
 ArduPilot flavour's WPNAV_RADIUS (200 cm; every waypoint is flown to it, not to param2) and its battery monitor
 and failsafe (ARDUPILOT_BATTERY_PARAMS, SITL's SIM_BATT_VOLTAGE among them), the PX4 flavour's MIS_DIST_1WP
-(formats.px4_rules); in the SITL-like mode also the autopilot's navigation parameters (flight_models:
+(formats.px4_rules), the ArduPilot flavour's terrain parameters over a ground (mock_terrain.TERRAIN_PARAMS); in
+the SITL-like mode also the autopilot's navigation parameters (flight_models:
 copter_model.CopterParams, px4_model.Px4Params) and its camera parameter (CAM1_TYPE, PX4's TRIG_MODE), 0.
 PARAM_REQUEST_READ of a name is answered with its PARAM_VALUE, an unknown name not at all (as on ArduPilot);
 PARAM_SET stores the value as given, out of range or not (as ArduCopter SITL does), answers with PARAM_VALUE,
@@ -20,6 +21,7 @@ from ..flight_models.px4_model import Px4Params
 from ..formats.mission_items import Flavour
 from ..formats.px4_rules import MIS_DIST_1WP_DEFAULT
 from ..link.connection import mavlink
+from .mock_terrain import TERRAIN_PARAMS
 from .vehicle_part import VehiclePart
 
 PX4_CAMERA_PARAM, ARDUPILOT_CAMERA_PARAM = "TRIG_MODE", "CAM1_TYPE"  # read at boot: the camera reports only then
@@ -42,6 +44,8 @@ class ParamServer(VehiclePart):
             self.values.update(ARDUPILOT_BATTERY_PARAMS)
         if flavour is Flavour.PX4:
             self.values["MIS_DIST_1WP"] = MIS_DIST_1WP_DEFAULT  # its mission feasibility check (formats.px4_rules)
+        if flavour is Flavour.ARDUPILOT and vehicle.options.ground is not None:
+            self.values.update(TERRAIN_PARAMS)  # its terrain database (mock_terrain), as ArduCopter has it
         if sitl_like and flavour is Flavour.PX4:
             self.values.update({**Px4Params().as_params(), PX4_CAMERA_PARAM: 0.0})
         elif sitl_like:

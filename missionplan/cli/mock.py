@@ -1,6 +1,6 @@
 """`missionplan mock`: run mock autopilots (bridge.sim.mock.MockAutopilot) on loopback, a serial device or a
-pty until interrupted, with the faults, homes and kills asked for; say what it serves and, when stopped, what
-it did."""
+pty until interrupted, with the faults, homes, kills and ground (--dem) asked for; say what it serves and, when
+stopped, what it did."""
 
 from __future__ import annotations
 
@@ -20,6 +20,7 @@ from .vehicle import SIGNING_KEY_HELP, signing_key
 
 DEFAULT_LISTEN = "udpin:127.0.0.1:14550"
 DEFAULT_HOME_ALT = 0.0  # metres AMSL when --home gives none
+MOCK_DEM_MARGIN_M = 10_000.0  # --dem is read this far around the homes: where the vehicles fly and land
 
 
 @dataclass(frozen=True)
@@ -44,6 +45,7 @@ class MockRequest:
     sitl_like: bool
     camera_configured: bool
     kill: tuple[str, ...]
+    dem: tuple[Path, ...]
     seed: int | None
     duration: float | None
 
@@ -84,6 +86,11 @@ def register(subparsers: Any) -> None:
     mock.add_argument("--kill", action="append", default=[], metavar="SYSID@ITEM",
                       help="vehicle SYSID goes silent for good once it reaches mission item ITEM, as a SITL process "
                            "killed in flight; repeatable")
+    mock.add_argument("--dem", type=Path, action="append", default=[], metavar="FILE",
+                      help="the world's ground (a GeoTIFF, SRTM .hgt tiles or a folder of them; repeatable): each "
+                           "vehicle's home is at the ground's height, it lands on the ground, and an ArduPilot vehicle "
+                           "asks the ground station for its terrain and flies terrain-frame items from what it was sent "
+                           "(docs/terrain.md)")
     mock.add_argument("--seed", type=int, default=None, help="seed of the fault injection")
     mock.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
     mock.set_defaults(handler=runs(MockRequest, cmd_mock))
@@ -150,6 +157,27 @@ def parse_kills(texts: list[str] | tuple[str, ...], sysids: list[int]) -> dict[i
     return kills
 
 
+def mock_ground(dem: tuple[Path, ...], sysids: list[int], homes: dict[int, tuple[float, float, float]]) -> Any:
+    """The ground of --dem (geo.dem.Ground), read MOCK_DEM_MARGIN_M around the vehicles' homes; one line
+    (BridgeUsageError, GeoError) when a vehicle has no home given or the DEM no height at one."""
+    import numpy as np
+
+    from missionplan.geo.dem import read_ground
+
+    missing = [sysid for sysid in sysids if sysid not in homes]
+    if missing:
+        raise BridgeUsageError(f"--dem needs each vehicle's home (--home or --plan): none for system id "
+                               f"{', '.join(map(str, missing))}")
+    lats, lons = [home[0] for home in homes.values()], [home[1] for home in homes.values()]
+    ground = read_ground(list(dem), around=(min(lats), min(lons), max(lats), max(lons)), margin_m=MOCK_DEM_MARGIN_M)
+    for sysid in sysids:
+        lat, lon, _ = homes[sysid]
+        if not np.isfinite(ground.height_amsl(np.array([lat]), np.array([lon]))[0]):
+            raise BridgeUsageError(f"--dem {', '.join(map(str, dem))}: no ground at system {sysid}'s home "
+                                   f"{lat:.7f}, {lon:.7f}")
+    return ground
+
+
 def cmd_mock(request: MockRequest) -> int:
     from missionplan.bridge.link.connection import parse_sysids
     from missionplan.bridge.sim.mock import LinkFaults, MockAutopilot
@@ -173,10 +201,11 @@ def cmd_mock(request: MockRequest) -> int:
     kills = parse_kills(request.kill, sysids)
     if request.camera_configured and not request.sitl_like:
         raise BridgeUsageError("--camera-configured needs --sitl-like (without it every mock vehicle's camera works)")
+    ground = mock_ground(request.dem, sysids, homes) if request.dem else None
     mock = MockAutopilot(request.listen, sysids=sysids, flavour=request.flavour, speedup=request.speedup,
                          faults=faults, key=key, request_interval=request.request_interval, homes=homes,
                          gps_fix_after=request.ready_after, streams_until_asked=request.streams_until_asked,
-                         sitl_like=request.sitl_like)
+                         sitl_like=request.sitl_like, ground=ground)
     ids = ",".join(str(s) for s in sysids)
     if mock.spec.scheme == "serial":
         where, connect = f"serial device {mock.device}", f"the other end of {mock.device}"
@@ -186,7 +215,10 @@ def cmd_mock(request: MockRequest) -> int:
         where, connect = f"{request.listen} (port {mock.port})", mock.client_url
     print(f"mock autopilot: systems {ids} ({request.flavour}{', signed' if key else ''}) on {where}; "
           f"connect with --connect {connect}; Ctrl-C stops", flush=True)
-    for sysid, (lat, lon, alt) in sorted(homes.items()):
+    if ground is not None:
+        print(f"  ground: {', '.join(ground.sources)} ({ground.resolution_m:.0f} m); homes at its height", flush=True)
+    for sysid in sorted(homes):
+        lat, lon, alt = mock.vehicle(sysid).options.home
         print(f"  system {sysid} starts at {lat:.7f}, {lon:.7f}, {alt:g} m AMSL", flush=True)
     for sysid, item in kills.items():
         mock.kill(sysid, at_item=item)
