@@ -15,7 +15,9 @@ from pathlib import Path
 import numpy as np
 import pyproj
 
-from .dem import Ground, _rasterio
+from .dem import Ground, _rasterio, read_ground
+from .frame import GridFrame
+from .georeference import TerrainRecord
 
 NODATA = -32768.0  # written for NaN: SRTM's own void value, outside every real ground
 
@@ -53,3 +55,10 @@ def write_ground_copy(ground: Ground, folder: Path) -> list[Path]:
             raise OSError(f"{path}: cannot write the plan's ground ({err})") from None
         paths.append(path)
     return paths
+
+
+def read_ground_copy(folder: Path, terrain: TerrainRecord, frame: GridFrame, margin_m: float = 200.0) -> Ground:
+    """The ground a plan folder keeps (report.json's georeference.terrain), read around its grid plus margin_m:
+    what fly serves, the mock flies over, a re-plan plans over and the judge measures against. GeoError, one
+    line, when a copy is gone or unreadable (or rasterio is not installed)."""
+    return read_ground([Path(folder) / name for name in terrain.files], frame.latlon_box(), margin_m=margin_m)

@@ -214,6 +214,12 @@ class GridFrame:
         lat, lon = self.grid_to_latlon(-0.5, -0.5)
         return float(lat), float(lon)
 
+    def latlon_box(self) -> tuple[float, float, float, float]:
+        """(min_lat, min_lon, max_lat, max_lon) of the grid's four outer corners (it may be rotated)."""
+        lat, lon = self.grid_to_latlon(np.array([-0.5, -0.5, self.rows - 0.5, self.rows - 0.5]),
+                                       np.array([-0.5, self.cols - 0.5, -0.5, self.cols - 0.5]))
+        return float(lat.min()), float(lon.min()), float(lat.max()), float(lon.max())
+
     def contains_cell(self, row: int, col: int) -> bool:
         return 0 <= row < self.rows and 0 <= col < self.cols
 

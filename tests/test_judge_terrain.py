@@ -31,7 +31,6 @@ from missionplan.maps.catalog import load_shipped  # noqa: E402
 from missionplan.mission.georef import shipped_frame  # noqa: E402
 from missionplan.mission.plan_record import PlanRecord, read_plan_record  # noqa: E402
 from missionplan.mission.terrain_legs import sample_legs  # noqa: E402
-from missionplan.planning.terrain import grid_box  # noqa: E402
 from missionplan.testing.dem_files import hill, write_geotiff  # noqa: E402
 
 MAP, UAVS = "old-town", 2
@@ -44,7 +43,7 @@ GPS_OFFSET_M = 3.5  # the vehicle's own sea-level altitude is off the DEM's by t
 
 
 def _box() -> tuple[float, float, float, float]:
-    return grid_box(shipped_frame(load_shipped(MAP)))
+    return shipped_frame(load_shipped(MAP)).latlon_box()
 
 
 def _ground(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:

@@ -148,7 +148,9 @@ def test_a_mock_vehicle_over_a_hill_asks_for_its_terrain_and_reports_what_it_was
         # Its own grid and the 8 around it: 6 grids of 56 blocks at this home, as ArduCopter SITL reports a fresh
         # home (pending 336); one grid per 2 s of its clock at most.
         assert report.loaded == 336 and server.served().blocks_sent == 336
-        assert len(asked) == 6 and vehicle.terrain.requests_sent == 6
+        # Six requests, one a grid; a loaded machine may let it ask a grid again (as ArduPilot does, 2 s on) before
+        # the answer is in, or send one more that was not read yet.
+        assert 6 <= len(asked) <= vehicle.terrain.requests_sent
         assert min(b - a for a, b in zip(asked, asked[1:])) >= 2.0 / SPEEDUP * 0.9
         assert report.terrain_height == pytest.approx(served_height(*HOME), abs=1e-3)
         assert report.current_height == pytest.approx(0.0, abs=1e-3)  # on the ground at home

@@ -21,7 +21,6 @@ from missionplan.maps.catalog import load_shipped  # noqa: E402
 from missionplan.mission.georef import shipped_frame  # noqa: E402
 from missionplan.mission.plan_record import read_plan_record  # noqa: E402
 from missionplan.mission.terrain_legs import sample_legs  # noqa: E402
-from missionplan.planning.terrain import grid_box  # noqa: E402
 from missionplan.testing.dem_files import hill, write_geotiff  # noqa: E402
 
 MAP, UAVS = "old-town", 3
@@ -29,7 +28,7 @@ PEAK_M, RADIUS_M = 40.0, 120.0  # slopes up to about 29 %: a leg's straight line
 
 
 def _box() -> tuple[float, float, float, float]:
-    return grid_box(shipped_frame(load_shipped(MAP)))
+    return shipped_frame(load_shipped(MAP)).latlon_box()
 
 
 def _ground(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
@@ -164,3 +163,20 @@ def test_the_map_layers_give_heights_above_the_ground(planned: dict[str, Path], 
         ups = np.array([point[2] for point in path["geometry"]["coordinates"]])
         flying = ups[(ups > 0.5)]
         assert np.allclose(flying, heights[path["properties"]["uav"]], atol=0.01), path["properties"]["uav"]
+
+
+def test_a_replan_of_a_survey_over_a_dem_plans_over_the_same_ground(planned: dict[str, Path], tmp_path: Path) -> None:
+    """`replan` reads the survey's ground from its folder (the crew's DEM may be gone): the new folder keeps its
+    own copy and flies terrain-frame waypoints from the same home heights."""
+    out = tmp_path / "rest"
+    assert main(["replan", str(planned["ardupilot"]), "--drones", "1,2", "--out", str(out), "--quiet"]) == 0
+    record = read_plan_record(out)
+    terrain = record.georeference.terrain if record.georeference is not None else None
+    assert record.version == 2 and terrain is not None and (out / "ground.tif").is_file()
+    first = read_plan_record(planned["ardupilot"]).georeference.terrain
+    assert terrain.sources == (str(planned["ardupilot"] / "ground.tif"),)
+    assert (terrain.lowest_m, terrain.highest_m) == (first.lowest_m, first.highest_m)
+    for drone in record.drones or ():
+        home, positions = _positions(out / f"uav{drone.id}.plan")
+        assert home[2] == pytest.approx(float(_ground(np.array([home[0]]), np.array([home[1]]))[0]), abs=0.05)
+        assert all(w.frame == FRAME_GLOBAL_TERRAIN_ALT for w in positions[1:])

@@ -31,6 +31,7 @@ from ..mission.plan_blocks import SurveyPointer
 from ..planning.pipeline import POLICIES
 from .plan_display import EXIT_FAILED, print_plan
 from ..planning.plan_folder import PlanGround, PlanOptions, check_out_folder, write_plan_folder
+from ..planning.terrain import checked_ground, folder_terrain
 from ..planning.replan import launch_at, launch_of_drones, stored_settings
 from .parsing import runs
 
@@ -169,6 +170,10 @@ def cmd_replan(request: ReplanRequest) -> int:
     options = PlanOptions(policy=request.policy or stored.policy, weights=request.weights, zones=stored.zones,
                           balance_zones=stored.balance_zones, open_ground=stored.open_ground, seed=request.seed,
                           progress=not request.quiet and sys.stderr.isatty(), drone_ids=ids, survey=pointer)
-    folder = write_plan_folder(out, PlanGround(gmap, cells, survey.frame, stored.mission, stored.safety), options)
+    ground = PlanGround(gmap, cells, survey.frame, stored.mission, stored.safety)
+    terrain = folder_terrain(survey.root, survey.record)  # over the survey's ground, when it was planned over a DEM
+    if terrain is not None:
+        ground.terrain = checked_ground(terrain, survey.frame, gmap, cells)
+    folder = write_plan_folder(out, ground, options)
     print_plan(folder)
     return 0 if folder.success else EXIT_FAILED

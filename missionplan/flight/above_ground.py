@@ -34,8 +34,8 @@ from typing import Any
 import numpy as np
 
 from missionplan.bridge.formats.mission_items import CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT
-from missionplan.geo.dem import Ground, read_ground
-from missionplan.geo.frame import GridFrame
+from missionplan.geo.dem import Ground
+from missionplan.geo.dem_copy import read_ground_copy
 
 from ..mission.plan_record import PlanRecord
 from .record import DroneRecord
@@ -61,14 +61,6 @@ class PlanGround:
         return self.altitude_amsl(vehicle, up_m) - self.ground.height_amsl(lat, lon)
 
 
-def _frame_box(frame: GridFrame) -> tuple[float, float, float, float]:
-    """(min_lat, min_lon, max_lat, max_lon) of the grid's four outer corners (it may be rotated)."""
-    rows = np.array([-0.5, -0.5, frame.rows - 0.5, frame.rows - 0.5])
-    cols = np.array([-0.5, frame.cols - 0.5, -0.5, frame.cols - 0.5])
-    lat, lon = frame.grid_to_latlon(rows, cols)
-    return float(np.min(lat)), float(np.min(lon)), float(np.max(lat)), float(np.max(lon))
-
-
 def plan_ground(plan_dir: Path, record: PlanRecord) -> PlanGround | None:
     """The ground of a plan made over a DEM, read from its folder's copy around the grid; None for a plan taken
     as flat. GeoError (one line) when the copy cannot be read (gone, or rasterio not installed)."""
@@ -76,8 +68,7 @@ def plan_ground(plan_dir: Path, record: PlanRecord) -> PlanGround | None:
     if georef is None or georef.terrain is None:
         return None
     frame = georef.frame
-    ground = read_ground([Path(plan_dir) / name for name in georef.terrain.files], _frame_box(frame),
-                         margin_m=GROUND_MARGIN_M)
+    ground = read_ground_copy(Path(plan_dir), georef.terrain, frame, margin_m=GROUND_MARGIN_M)
     ids = list(record.drone_ids or range(1, len(record.launch) + 1))
     rows = np.array([cell[0] for cell in record.launch], dtype=float)
     cols = np.array([cell[1] for cell in record.launch], dtype=float)

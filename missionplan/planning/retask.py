@@ -34,6 +34,7 @@ from missionplan.bridge.formats.mission_items import Mission
 
 from .errors import RetaskPlanningError
 from .field_plan import plan_field
+from .terrain import folder_terrain
 from ..flight.retask_planner import RetaskPlan, Survivor
 from ..flight.plan_report import frame_of, missing_map, planned_grid, target_cells, to_grid_m
 from ..flight.ledger import Ledger, covered_cells
@@ -115,8 +116,10 @@ def plan_retask(plan_dir: Path, record: PlanRecord, survivors: Sequence[Survivor
     gmap = missing_map(record, left, starts, suffix="retask")
     # Endurance and separation are checked below, on the tracks the survivors will fly: plan_field's own
     # checks model drones taking off from the ground where they start, and these are in the air.
+    terrain = folder_terrain(plan_dir, record)  # a plan over a DEM is re-tasked over the same ground
+    ground = terrain.height_amsl if terrain is not None else None
     field = plan_field(gmap, len(survivors), frame, settings,
-                       replace(safety, endurance_s=None, min_separation_m=0.0),
+                       replace(safety, endurance_s=None, min_separation_m=0.0), ground=ground,
                        policy=policy or stored.policy, zone_method=stored.zones,
                        seed=0, progress=False, balance_zones=bool(stored.balance_zones),
                        lanes=stored.open_ground == "lanes")
@@ -173,8 +176,9 @@ def plan_retask(plan_dir: Path, record: PlanRecord, survivors: Sequence[Survivor
                               f"{max(safety.budget_s - s.flown_s, 0.0):.0f} s left ({safety.budget_s:.0f} s less "
                               f"{s.flown_s:.0f} s flown): the rest is for `missionplan replan` after landing")
         mission = track_mission(frame, k, (s.lat, s.lon), surveys[k], here[k], layered, flight_s=flight_s[s.sysid],
-                                end="rtl", back_m=backs[k])
-        missions[s.sysid] = Mission(items=mission.mission.items, home=(s.home[0], s.home[1], 0.0))
+                                end="rtl", back_m=backs[k], ground=ground)
+        home_amsl = 0.0 if ground is None else float(ground(np.array([s.home[0]]), np.array([s.home[1]]))[0])
+        missions[s.sysid] = Mission(items=mission.mission.items, home=(s.home[0], s.home[1], home_amsl))
         photos[s.sysid] = mission.photos
         resume[s.sysid] = 1  # after the NAV_TAKEOFF: the speed, the camera, then the survey
         zone = np.argwhere(field.result.zones.zone == k)

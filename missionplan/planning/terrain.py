@@ -5,8 +5,8 @@ the point, a DEM that leaves any cell a drone may fly over, or a launch point, w
 read reaches DEM_MARGIN_M beyond the grid where the DEM does: ArduPilot asks its ground station for the
 terrain grids around where it flies (28 x 32 points at TERRAIN_SPACING, 100 m by default, aligned to whole
 degrees, so up to about 3 km beyond), and `fly` serves them from the plan folder's copy
-(geo.dem_copy), which is the ground every later step (fly, the mock, the judge) measures against.
-`terrain_record` is what report.json says of it.
+(geo.dem_copy), which is the ground every later step (fly, the mock, the judge, a re-plan: `folder_terrain`)
+measures against. `terrain_record` is what report.json says of it.
 """
 
 from __future__ import annotations
@@ -17,26 +17,34 @@ from pathlib import Path
 import numpy as np
 
 from missionplan.geo.dem import Ground, read_ground
+from missionplan.geo.dem_copy import read_ground_copy
 from missionplan.geo.frame import GridFrame
 from missionplan.geo.georeference import TerrainRecord
 
 from ..maps.gridmap import GridMap
+from ..mission.plan_record import PlanRecord
 
 DEM_MARGIN_M = 3_500.0  # around the grid: the terrain grids ArduPilot asks for (see the module docstring)
-
-
-def grid_box(frame: GridFrame) -> tuple[float, float, float, float]:
-    """(min_lat, min_lon, max_lat, max_lon) of the grid's four outer corners (it may be rotated)."""
-    rows = np.array([-0.5, -0.5, frame.rows - 0.5, frame.rows - 0.5])
-    cols = np.array([-0.5, frame.cols - 0.5, -0.5, frame.cols - 0.5])
-    lat, lon = frame.grid_to_latlon(rows, cols)
-    return float(lat.min()), float(lon.min()), float(lat.max()), float(lon.max())
 
 
 def plan_terrain(dem: Sequence[Path], frame: GridFrame, gmap: GridMap, starts: Sequence[tuple[int, int]]) -> Ground:
     """The ground of the DEM files `dem` under the grid; GeoError, one line, where a drone could fly over no
     ground (a cell that is not an obstacle) or a launch point has none."""
-    ground = read_ground(dem, grid_box(frame), margin_m=DEM_MARGIN_M)
+    return checked_ground(read_ground(dem, frame.latlon_box(), margin_m=DEM_MARGIN_M), frame, gmap, starts)
+
+
+def folder_terrain(folder: Path, record: PlanRecord) -> Ground | None:
+    """The ground a plan folder was planned over (its copy, geo.dem_copy), as far as it reaches: what a re-plan
+    after landing and a re-task in flight plan over; None for a plan taken as flat."""
+    georef = record.georeference
+    if georef is None or georef.terrain is None:
+        return None
+    return read_ground_copy(folder, georef.terrain, georef.frame, margin_m=DEM_MARGIN_M)
+
+
+def checked_ground(ground: Ground, frame: GridFrame, gmap: GridMap, starts: Sequence[tuple[int, int]]) -> Ground:
+    """`ground`, or GeoError (one line) naming the first cell a drone may fly over (not an obstacle) or the first
+    launch point where it has no height."""
     rows, cols = np.nonzero(~gmap.obstacle)
     lat, lon = frame.cell_to_latlon(rows, cols)
     ground.heights(lat, lon, "the area")

@@ -126,35 +126,14 @@ def hill_under_map(name: str, path: Path, peak_m: float = 40.0, radius_m: float 
     (ArduPilot asks for terrain grids kilometres around it): the ground of the docs' and benches' examples."""
     from missionplan.maps.catalog import load_shipped
     from missionplan.mission.georef import shipped_frame
-    from missionplan.planning.terrain import grid_box
 
     frame = shipped_frame(load_shipped(name))
     if frame is None:
         raise ValueError(f"{name}: the map has no origin, so no place on the Earth for a hill")
-    box = grid_box(frame)
+    box = frame.latlon_box()
     centre = ((box[0] + box[2]) / 2, (box[1] + box[3]) / 2)
     pad_lat = reach_m / M_PER_DEG
     pad_lon = pad_lat / math.cos(math.radians(centre[0]))
     return write_geotiff(path, lambda lat, lon: hill(lat, lon, centre, peak_m=peak_m, radius_m=radius_m),
                          (box[0] - pad_lat, box[1] - pad_lon, box[2] + pad_lat, box[3] + pad_lon), resolution_m)
 
-
-def main(argv: list[str] | None = None) -> int:
-    """`python -m missionplan.testing.dem_files MAP FILE`: write a hill DEM under a shipped map (hill_under_map)."""
-    import argparse
-
-    parser = argparse.ArgumentParser(prog="python -m missionplan.testing.dem_files",
-                                     description="write a GeoTIFF of a smooth hill under a shipped map (a test DEM)")
-    parser.add_argument("map", help="a shipped map's name, or a .map file with an origin")
-    parser.add_argument("file", type=Path, help="the GeoTIFF to write")
-    parser.add_argument("--peak", type=float, default=40.0, help="the hill's height above its base, m (default 40)")
-    parser.add_argument("--radius", type=float, default=120.0, help="the hill's radius, m (default 120)")
-    args = parser.parse_args(argv)
-    args.file.parent.mkdir(parents=True, exist_ok=True)
-    path = hill_under_map(args.map, args.file, args.peak, args.radius)
-    print(f"wrote {path}: a {args.peak:g} m hill of radius {args.radius:g} m under {args.map}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
