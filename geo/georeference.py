@@ -46,15 +46,19 @@ class TerrainRecord:
     resolution_m: float
     lowest_m: float
     highest_m: float
+    # ArduPilot's TERRAIN_SPACING (m) at which its terrain following was checked to hold the plan's heights; upload
+    # and fly set it (None: a PX4 plan, whose altitudes are above sea level).
+    spacing_m: int | None = None
 
     def to_json(self) -> dict[str, Any]:
         return {"files": list(self.files), "sources": list(self.sources), "crs": list(self.crs),
-                "resolution_m": self.resolution_m, "lowest_m": self.lowest_m, "highest_m": self.highest_m}
+                "resolution_m": self.resolution_m, "lowest_m": self.lowest_m, "highest_m": self.highest_m,
+                "spacing_m": self.spacing_m}
 
     @classmethod
     def from_json(cls, doc: Mapping[str, Any]) -> "TerrainRecord":
         return cls(tuple(doc["files"]), tuple(doc["sources"]), tuple(doc["crs"]), float(doc["resolution_m"]),
-                   float(doc["lowest_m"]), float(doc["highest_m"]))
+                   float(doc["lowest_m"]), float(doc["highest_m"]), doc.get("spacing_m"))
 
 
 @dataclass(frozen=True)

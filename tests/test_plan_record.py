@@ -52,7 +52,7 @@ shapes = st.builds(PathShape, counts, numbers, numbers)
 sorties = st.builds(SortiePlan, texts, numbers, counts, counts)
 fences = st.builds(FencePlan, counts, numbers, maybe_numbers)
 drones = st.builds(DronePlan, counts, counts, counts, numbers, numbers, counts, numbers, shapes, shapes,
-                   tuples(sorties), st.none() | fences)
+                   tuples(sorties), st.none() | fences, st.none() | st.tuples(numbers, numbers))
 closest = st.builds(Closest, maybe_numbers, maybe_numbers, tuples(counts, 2), tuples(counts, 2), maybe_numbers)
 separations = st.one_of(
     st.builds(SeparationPromise, closest, st.none() | counts, texts, tuples(closest)),
@@ -76,7 +76,8 @@ mission_settings = st.builds(MissionSettings, numbers, numbers, numbers, numbers
 safety_settings = st.builds(SafetySettings, numbers, numbers, numbers, maybe_numbers, numbers)
 plan_settings = st.builds(PlanSettings, mission_settings, safety_settings, texts, texts, st.booleans(), texts)
 pointers = st.builds(SurveyPointer, texts, st.none() | counts, st.none() | texts)
-terrains = st.builds(TerrainRecord, tuples(texts), tuples(texts), tuples(texts), numbers, numbers, numbers)
+terrains = st.builds(TerrainRecord, tuples(texts), tuples(texts), tuples(texts), numbers, numbers, numbers,
+                     st.none() | counts)
 
 
 @st.composite

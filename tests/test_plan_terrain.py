@@ -180,3 +180,37 @@ def test_a_replan_of_a_survey_over_a_dem_plans_over_the_same_ground(planned: dic
         home, positions = _positions(out / f"uav{drone.id}.plan")
         assert home[2] == pytest.approx(float(_ground(np.array([home[0]]), np.array([home[1]]))[0]), abs=0.05)
         assert all(w.frame == FRAME_GLOBAL_TERRAIN_ALT for w in positions[1:])
+
+
+def test_ardupilot_terrain_grid_is_chosen_fine_enough_to_hold_the_height(planned: dict[str, Path]) -> None:
+    """On ArduCopter's default 100 m terrain grid this hill (40 m high, 120 m across) would be flown metres off;
+    the plan picks the coarsest TERRAIN_SPACING that holds every leg within FOLLOW_TOLERANCE_M and says it."""
+    from missionplan.mission.terrain_missions import FOLLOW_TOLERANCE_M, flown_above_ground
+
+    folder = planned["ardupilot"]
+    record = read_plan_record(folder)
+    terrain = record.georeference.terrain if record.georeference is not None else None
+    assert terrain is not None and terrain.spacing_m is not None and terrain.spacing_m < 100
+    ground = read_ground([folder / "ground.tif"], _box())
+    for drone in record.drones or ():
+        mission = read_mission_file(folder / f"uav{drone.id}.plan").mission
+        assert drone.above_ground_m is not None
+        low, high = drone.above_ground_m
+        assert drone.altitude_m - FOLLOW_TOLERANCE_M <= low <= high <= drone.altitude_m + FOLLOW_TOLERANCE_M
+        on_default = flown_above_ground(mission, ground.height_amsl, 100)
+        assert np.abs(on_default - drone.altitude_m).max() > 2.0  # why the default grid is not kept
+    assert read_plan_record(planned["px4"]).georeference.terrain.spacing_m is None  # PX4 flies altitudes above sea level
+
+
+def test_the_served_ground_is_the_dem_rounded_at_ardupilots_grid_points() -> None:
+    """terrain_grid.served_heights looks the ground up where ArduPilot's grid puts its points (the layout
+    TerrainServer serves): at those points it is the DEM rounded to whole metres."""
+    from missionplan.bridge.formats.terrain_grid import grid_info, grid_points, served_heights
+
+    def plane(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
+        return 200.0 + (lat - 44.41) * 1.3e4 + (lon - 8.93) * 5.1e3
+
+    info = grid_info(int(44.4123e7), int(8.9281e7), 30)
+    lat, lon = grid_points(info.grid_lat_e7, info.grid_lon_e7, 30, list(range(56)))
+    served = served_heights(lat, lon, 30, plane)
+    assert np.abs(served - np.rint(plane(lat, lon))).max() < 0.02

@@ -25,7 +25,7 @@ TerrainGCS.cpp, TerrainUtil.cpp) and AP_Math's Location:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -115,3 +115,27 @@ def grid_info(lat_e7: int, lon_e7: int, spacing: int) -> GridInfo:
                        grid_east * GRID_STEP_EAST * float(spacing))
     return GridInfo(corner[0], corner[1], idx_north % GRID_STEP_NORTH, idx_east % GRID_STEP_EAST,
                     (north - idx_north * spacing) / spacing, (east - idx_east * spacing) / spacing)
+
+
+def served_heights(lat: np.ndarray, lon: np.ndarray, spacing: int,
+                   height_amsl: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> np.ndarray:
+    """The ground ArduPilot flies over at each point (degrees) when its ground station serves it `height_amsl`
+    at TERRAIN_SPACING `spacing`: the four grid points around it (as calculate_grid_info places them), each
+    height rounded to whole metres as TERRAIN_DATA carries it, bilinear between them (AP_Terrain height_amsl).
+    NaN where the ground has no height at one of the four. Vectorised: a plan looks up every metre of its tracks."""
+    lat_e7 = np.asarray(lat, dtype=float) * E7
+    lon_e7 = np.asarray(lon, dtype=float) * E7
+    ref_lat, ref_lon = np.floor(lat_e7 / E7) * E7, np.floor(lon_e7 / E7) * E7  # the degree corner
+    north = (lat_e7 - ref_lat) * LOCATION_SCALING_FACTOR
+    east = (lon_e7 - ref_lon) * LOCATION_SCALING_FACTOR * longitude_scale((ref_lat + lat_e7) / 2)
+    i, j = np.floor(north / spacing), np.floor(east / spacing)
+    frac_north, frac_east = north / spacing - i, east / spacing - j
+    corners = []
+    for di, dj in ((0, 0), (1, 0), (0, 1), (1, 1)):
+        point_lat = ref_lat + (i + di) * spacing / LOCATION_SCALING_FACTOR
+        point_lon = ref_lon + (j + dj) * spacing / (LOCATION_SCALING_FACTOR * longitude_scale((ref_lat + point_lat) / 2))
+        corners.append(np.rint(height_amsl(point_lat / E7, point_lon / E7)))
+    south_west, north_west, south_east, north_east = corners
+    west = (1.0 - frac_north) * south_west + frac_north * north_west
+    east_side = (1.0 - frac_north) * south_east + frac_north * north_east
+    return (1.0 - frac_east) * west + frac_east * east_side

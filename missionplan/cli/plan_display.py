@@ -54,10 +54,13 @@ def print_plan(folder: PlanFolder) -> None:
     for name, value, note in rows:
         print(f"  {name:<12} {value:>9}  {note}")
     terrain = record.georeference.terrain if record.georeference is not None else None
-    above = " above the ground" if terrain is not None else ""
     for drone in record.drones or ():
         before, after = drone.before, drone.after
         sorties = f" in {len(drone.sorties)} sorties" if len(drone.sorties) > 1 else ""
+        above = ""
+        if terrain is not None:
+            flown = drone.above_ground_m
+            above = " above the ground" + (f" ({flown[0]:g}-{flown[1]:g} m as flown)" if flown is not None else "")
         print(f"  uav{drone.id}: {drone.cells} cells -> {drone.waypoints} waypoints, "
               f"{drone.length_m:.0f} m, {drone.flight_s:.0f} s{sorties}, {drone.photos} photos "
               f"at {drone.altitude_m:g} m{above} (turning {before.turning_deg:.0f} -> {after.turning_deg:.0f} deg)")
@@ -79,7 +82,15 @@ def print_plan(folder: PlanFolder) -> None:
         sources = ", ".join(printable(Path(source).name) for source in terrain.sources)
         print(f"  ground: DEM {sources} ({', '.join(terrain.crs)}, {terrain.resolution_m:g} m pixels), "
               f"{terrain.lowest_m:g} to {terrain.highest_m:g} m above sea level under the area; every height is "
-              f"above the ground under the drone (kept in {', '.join(terrain.files)})")
+              f"above the ground under the drone (kept in {', '.join(terrain.files)})"
+              + (f"; ArduPilot follows it on a {terrain.spacing_m} m terrain grid (TERRAIN_SPACING, set at upload)"
+                 if terrain.spacing_m is not None else ""))
+        off = [(d.id, d.altitude_m, d.above_ground_m) for d in record.drones or () if d.above_ground_m is not None
+               and max(abs(d.above_ground_m[0] - d.altitude_m), abs(d.above_ground_m[1] - d.altitude_m)) > 2.0]
+        for sysid, wanted, (low, high) in off:
+            print(f"missionplan: warning: uav{sysid} would fly {low:g}-{high:g} m above the ground, not {wanted:g} m "
+                  "within 2 m: the ground is steeper than its terrain grid follows (a finer DEM, or a higher "
+                  "--altitude)", file=sys.stderr)
     elif record.georeference is not None:
         print("  ground: taken as flat (no --dem): heights are above the launch points")
     for warning in coverage.warnings:

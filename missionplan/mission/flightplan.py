@@ -51,6 +51,8 @@ class FlightPlans:
     layering: Layering | None = None
     safety: SafetySettings | None = None
     ground: GroundHeights | None = None  # the ground under a plan over a DEM (its heights are above it)
+    terrain_spacing: int | None = None  # ArduPilot's TERRAIN_SPACING the plan was checked at (terrain_missions)
+    above_ground: list[tuple[float, float]] = field(default_factory=list)  # per drone: lowest, highest as flown
 
     def __post_init__(self) -> None:
         if not self.sorties:
@@ -129,7 +131,7 @@ class FlightPlans:
                 before=PathShape.from_json(track.before), after=PathShape.from_json(track.after),
                 sorties=tuple(SortiePlan(sortie_file(sysid, j + 1), round(m.flight_s, 1), m.photos, m.waypoints)
                               for j, m in enumerate(missions)),
-                geofence=fence))
+                geofence=fence, above_ground_m=self.above_ground[k] if self.above_ground else None))
         return tuple(rows)
 
 
@@ -252,8 +254,26 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
     sortie_routes = [[np.vstack([launches[k][None, :], flown(k, s), launches[k][None, :]])
                       if s.end == "rtl" else np.vstack([launches[k][None, :], flown(k, s)])
                       for s in all_sorties[k]] for k in range(uavs)]
-    return FlightPlans(corrected, latlons, [m[0] for m in missions], settings, sortie_tracks[0], missions,
-                       sortie_tracks, sortie_routes, starts, fences, layering, safety, ground)
+    plans = FlightPlans(corrected, latlons, [m[0] for m in missions], settings, sortie_tracks[0], missions,
+                        sortie_tracks, sortie_routes, starts, fences, layering, safety, ground)
+    if ground is not None:
+        _heights_over_ground(plans, ground)
+    return plans
+
+
+def _heights_over_ground(plans: FlightPlans, ground: GroundHeights) -> None:
+    """A plan over a DEM: the TERRAIN_SPACING ArduPilot needs to follow it, and each drone's lowest and highest
+    height above the ground as its autopilot will fly its waypoint legs (terrain_missions)."""
+    from .terrain_missions import flown_above_ground, terrain_spacing
+
+    every = [m.mission for missions in plans.sorties for m in missions]
+    if plans.settings.autopilot != "px4":
+        plans.terrain_spacing = terrain_spacing(every, ground)
+    for missions in plans.sorties:
+        flown = np.concatenate([flown_above_ground(m.mission, ground, plans.terrain_spacing) for m in missions])
+        flown = flown[np.isfinite(flown)]
+        plans.above_ground.append((round(float(flown.min()), 2), round(float(flown.max()), 2)) if len(flown)
+                                  else (float("nan"), float("nan")))
 
 
 def _separation_failure(failure: SeparationError, frame: GridFrame,

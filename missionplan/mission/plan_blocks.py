@@ -159,6 +159,9 @@ class DronePlan:
     after: PathShape
     sorties: tuple[SortiePlan, ...]
     geofence: FencePlan | None = None
+    # A plan over a DEM: the lowest and highest height above the ground along its waypoint legs as its autopilot
+    # flies them (mission.terrain_missions.flown_above_ground); None over flat ground.
+    above_ground_m: tuple[float, float] | None = None
 
     @property
     def planned_sorties(self) -> tuple[SortiePlan, ...]:
@@ -183,16 +186,20 @@ class DronePlan:
                "sorties": [s.to_json() for s in self.sorties]}
         if self.geofence is not None:
             doc["geofence"] = self.geofence.to_json()
+        if self.above_ground_m is not None:
+            doc["above_ground_m"] = list(self.above_ground_m)
         return doc
 
     @classmethod
     def from_json(cls, doc: Mapping[str, Any]) -> DronePlan:
         smoothing = doc["smoothing"]
         fence = doc.get("geofence")
+        above = doc.get("above_ground_m")
         return cls(doc["id"], doc["cells"], doc["waypoints"], doc["length_m"], doc["flight_s"], doc["photos"],
                    doc["altitude_m"], PathShape.from_json(smoothing["before"]), PathShape.from_json(smoothing["after"]),
                    tuple(SortiePlan.from_json(s) for s in doc.get("sorties") or []),
-                   FencePlan.from_json(fence) if fence is not None else None)
+                   FencePlan.from_json(fence) if fence is not None else None,
+                   (float(above[0]), float(above[1])) if above is not None else None)
 
 
 # ------------------------------------------------------------------------------------------- the safety promise

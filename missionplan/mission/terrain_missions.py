@@ -61,3 +61,64 @@ def px4_over_ground(mission: Mission, ground: GroundHeights) -> Mission:
             item = replace(item, frame=FRAME_GLOBAL, z=at[i])
         items.append(item)
     return replace(mission, items=items)
+
+
+# ------------------------------------------------------------------------------------------- as flown
+# ArduPilot follows the ground it is served on a grid TERRAIN_SPACING apart (bilinear between grid points), not
+# the DEM itself: over a hill narrower than a few grid squares it cuts the crest and sags into the hollows. A
+# plan looks at every metre of its tracks on that grid and picks the coarsest spacing that stays within
+# FOLLOW_TOLERANCE_M of the DEM (the rest of TERRAIN_TOLERANCE_M is the vehicle's own height hold); upload and fly
+# set TERRAIN_SPACING to it.
+TERRAIN_SPACINGS = (100, 50, 30, 20, 10)  # ArduCopter's default first; each quadruples the blocks of the last
+FOLLOW_TOLERANCE_M = 1.0
+
+
+def _waypoint_legs(mission: Mission) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """lat, lon, the altitude as written and the frame of each positional waypoint after the take-off."""
+    points = [(item.x, item.y, item.z, item.frame) for item in mission.items if item.command == CMD_NAV_WAYPOINT]
+    if not points:
+        return np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0, dtype=int)
+    lat, lon, z, frame = (np.array(column) for column in zip(*points))
+    return lat, lon, z, frame.astype(int)
+
+
+def flown_above_ground(mission: Mission, ground: GroundHeights, spacing: int | None,
+                       step_m: float = TERRAIN_STEP_M) -> np.ndarray:
+    """Heights above the DEM along a mission's waypoint legs as its autopilot flies them: terrain-frame legs on
+    ArduPilot's grid at `spacing` (the height interpolated between the waypoints' heights, over the ground it
+    was served), above-sea-level legs (PX4's) straight. Empty for a mission of fewer than two waypoints."""
+    from missionplan.bridge.formats.terrain_grid import served_heights
+
+    from .terrain_legs import flown_heights, sample_legs
+
+    lat, lon, z, frames = _waypoint_legs(mission)
+    if len(lat) < 2:
+        return np.zeros(0)
+    if (frames == FRAME_GLOBAL).all():
+        return flown_heights(lat, lon, z, ground, step_m)
+    at_lat, at_lon, leg = sample_legs(lat, lon, step_m)
+    # Where along its leg each sample lies (0 at its start, 1 at its end), for the height between the two.
+    start = np.column_stack([lat[leg], lon[leg]])
+    span = np.column_stack([lat[leg + 1], lon[leg + 1]]) - start
+    travelled = np.column_stack([at_lat, at_lon]) - start
+    length2 = (span ** 2).sum(axis=1)
+    share = np.divide((travelled * span).sum(axis=1), length2, out=np.zeros_like(length2), where=length2 > 0)
+    height = z[leg] + (z[leg + 1] - z[leg]) * np.clip(share, 0.0, 1.0)
+    served = served_heights(at_lat, at_lon, int(spacing or TERRAIN_SPACINGS[0]), ground)
+    return served + height - ground(at_lat, at_lon)
+
+
+def terrain_spacing(missions: list[Mission], ground: GroundHeights) -> int:
+    """The coarsest of TERRAIN_SPACINGS at which every terrain-frame mission stays within FOLLOW_TOLERANCE_M of
+    its heights above the DEM; the finest when none does (the plan then says how far off it is)."""
+    for spacing in TERRAIN_SPACINGS:
+        worst = 0.0
+        for mission in missions:
+            _, _, z, _ = _waypoint_legs(mission)
+            flown = flown_above_ground(mission, ground, spacing)
+            if len(flown):
+                wanted = float(np.max(z))  # a survey holds one height above the ground
+                worst = max(worst, float(np.nanmax(np.abs(flown - wanted))))
+        if worst <= FOLLOW_TOLERANCE_M:
+            return spacing
+    return TERRAIN_SPACINGS[-1]

@@ -287,7 +287,7 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
 
                 copies = write_ground_copy(terrain, staging)
                 written += copies
-                terrain_block = terrain_record(terrain, [p.name for p in copies], frame, gmap)
+                terrain_block = terrain_record(terrain, [p.name for p in copies], frame, gmap, plans.terrain_spacing)
             record = replace(record, georeference=Georeference(frame, settings.altitude_m,
                                                                trigger_distance_m=settings.trigger_distance_m,
                                                                terrain=terrain_block))

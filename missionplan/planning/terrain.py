@@ -54,10 +54,11 @@ def checked_ground(ground: Ground, frame: GridFrame, gmap: GridMap, starts: Sequ
     return ground
 
 
-def terrain_record(ground: Ground, files: Sequence[str], frame: GridFrame, gmap: GridMap) -> TerrainRecord:
-    """report.json's georeference.terrain: the copies written, the DEM files, and the ground's range under the
-    cells a drone may fly over."""
+def terrain_record(ground: Ground, files: Sequence[str], frame: GridFrame, gmap: GridMap,
+                   spacing_m: int | None = None) -> TerrainRecord:
+    """report.json's georeference.terrain: the copies written, the DEM files, the ground's range under the
+    cells a drone may fly over, and ArduPilot's TERRAIN_SPACING the plan needs (flightplan.FlightPlans)."""
     rows, cols = np.nonzero(~gmap.obstacle)
     heights = ground.height_amsl(*frame.cell_to_latlon(rows, cols))
     return TerrainRecord(tuple(files), ground.sources, ground.crs, round(ground.resolution_m, 2),
-                         round(float(np.nanmin(heights)), 2), round(float(np.nanmax(heights)), 2))
+                         round(float(np.nanmin(heights)), 2), round(float(np.nanmax(heights)), 2), spacing_m)
