@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable
 from typing import Any
 
 import matplotlib
@@ -197,7 +198,8 @@ def _plan_codes(result: PlanResult, obstacle: np.ndarray, band: np.ndarray | Non
 def plan_figure(result: PlanResult, sortie_starts: list[np.ndarray] | None = None, *,
                 frame: GridFrame | None = None, paths_latlon: list[np.ndarray] | None = None,
                 obstacle: np.ndarray | None = None, band: np.ndarray | None = None,
-                unreachable_causes: dict[str, np.ndarray] | None = None) -> Figure:
+                unreachable_causes: dict[str, np.ndarray] | None = None,
+                ground: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> Figure:
     """The plan.png figure (see draw_plan); the caller closes it."""
     gmap, run = result.gmap, result.run
     num = len(result.starts)
@@ -223,6 +225,8 @@ def plan_figure(result: PlanResult, sortie_starts: list[np.ndarray] | None = Non
 
     codes, palette, cell_legend = _plan_codes(result, obstacle, band, unreachable_causes, colours)
     view.cells(ax_map, codes, palette)
+    if ground is not None and frame is not None:
+        _contours(ax_map, view, frame, gmap.shape, ground)
     flown = paths_latlon is not None and frame is not None
     for k in range(num):
         uploaded = flown and k < len(paths_latlon)  # type: ignore[arg-type]
@@ -290,10 +294,25 @@ def plan_figure(result: PlanResult, sortie_starts: list[np.ndarray] | None = Non
     return fig
 
 
+def _contours(ax: Any, view: MapView, frame: GridFrame, shape: tuple[int, int],
+              ground: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> None:
+    """The ground of a plan over a DEM, as labelled contour lines (metres above sea level) under the tracks."""
+    rows, cols = np.meshgrid(np.arange(shape[0], dtype=float), np.arange(shape[1], dtype=float), indexing="ij")
+    heights = ground(*frame.grid_to_latlon(rows, cols))
+    if not np.isfinite(heights).any() or np.nanmax(heights) - np.nanmin(heights) < 1.0:
+        return
+    x, y = view.grid_xy(rows, cols)
+    # Light on the dark buildings and on the zones' pale tints alike; labelled in metres above sea level.
+    lines = ax.contour(x, y, heights, levels=8, colors="#d9a441", linewidths=0.8, alpha=0.95, zorder=2)
+    ax.clabel(lines, fontsize=6.5, fmt="%.0f m")
+    lines.set_label("ground (m above sea level)")
+
+
 def draw_plan(result: PlanResult, path: str | os.PathLike[str], sortie_starts: list[np.ndarray] | None = None, *,
               frame: GridFrame | None = None, paths_latlon: list[np.ndarray] | None = None,
               obstacle: np.ndarray | None = None, band: np.ndarray | None = None,
-              unreachable_causes: dict[str, np.ndarray] | None = None) -> None:
+              unreachable_causes: dict[str, np.ndarray] | None = None,
+              ground: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> None:
     """Write plan.png: the map (see MapView) with zones, the waypoint lines flown, launch points and
     unreachable targets by cause; coverage growth; the planner's decisions.
 
@@ -301,9 +320,10 @@ def draw_plan(result: PlanResult, path: str | os.PathLike[str], sortie_starts: l
     and later are marked with their number. `paths_latlon`: per drone, (n, 2) lat/lon of the uploaded
     missions' waypoints in flying order (drawn instead of the grid path; needs `frame`). `obstacle`: the
     buildings (default: the planner's obstacles without `band`); `band`: the clearance band's free cells;
-    `unreachable_causes`: cause -> cell mask (default: every unreachable target as "unreachable")."""
+    `unreachable_causes`: cause -> cell mask (default: every unreachable target as "unreachable"); `ground`: a
+    plan over a DEM, drawn as contour lines."""
     fig = plan_figure(result, sortie_starts, frame=frame, paths_latlon=paths_latlon, obstacle=obstacle, band=band,
-                      unreachable_causes=unreachable_causes)
+                      unreachable_causes=unreachable_causes, ground=ground)
     try:
         with atomic_path(path) as tmp:
             fig.savefig(tmp, dpi=110, format="png", bbox_inches="tight", pad_inches=0.15)  # legend hangs below

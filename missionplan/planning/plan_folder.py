@@ -320,7 +320,8 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
             written += write_map_files(staging, "plan", layers, plan_summary(record, layers), basemap=options.basemap)
             paths_latlon = drone_paths_latlon(layers)
         draw_plan(result, staging / "plan.png", sortie_starts=sortie_starts, frame=frame, paths_latlon=paths_latlon,
-                  obstacle=gmap.obstacle, band=field_plan.band, unreachable_causes=causes)
+                  obstacle=gmap.obstacle, band=field_plan.band, unreachable_causes=causes,
+                  ground=terrain.height_amsl if terrain is not None else None)
         files = sorted({p.name for p in written} | {REPORT_NAME, "plan.png"})
         record = replace(record, files=tuple(files), files_sha256=_sha256_of(staging, files))
         write_plan_record(record, report_path(staging))  # in staging: it goes into place last
