@@ -41,9 +41,9 @@ pytestmark = pytest.mark.sitl  # starts real autopilots: `pytest -m "not sitl"` 
 AREA = [[9.1890, 45.4640], [9.1905, 45.4640], [9.1905, 45.4648], [9.1890, 45.4648], [9.1890, 45.4640]]
 LAUNCHES = ("45.4641,9.1891", "45.4641,9.1904")
 HILL = functools.partial(hill, centre=(45.4665, 9.1898), peak_m=60.0, base_m=120.0, radius_m=400.0)
-# Beyond the block the DEM reaches farther than the plan reads (3.5 km) and than the terrain grids ArduPilot asks for
-# around its home (28 x 32 points 100 m apart, aligned to whole degrees).
-DEM_PAD_DEG = 0.06
+# Beyond the block the DEM reaches farther than the plan reads (planning.terrain.DEM_MARGIN_M, 5.5 km: the
+# terrain grids ArduPilot asks for around where it is, 28 x 32 points 100 m apart aligned to whole degrees).
+DEM_PAD_DEG = 0.08  # 8.9 km north and south, 6.2 km east and west
 HEIGHT_TOLERANCE_M = 2.0
 
 
@@ -109,7 +109,8 @@ def test_fly_serves_the_ground_and_sitl_flies_the_planned_height_above_it(
         departure = flown_amsl - wanted_amsl
         worst = float(np.abs(departure).max())
         ground = HILL(samples[:, 1], samples[:, 2])
-        print(f"uav{rec.id}: {len(samples)} positions on its survey legs, ground {ground.min():.1f}-{ground.max():.1f} m, "
+        print(f"uav{rec.id}: {len(samples)} positions on its survey legs, ground {ground.min():.1f}-"
+              f"{ground.max():.1f} m, "
               f"planned {planned[rec.id]:g} m above it: flown {departure.mean():+.2f} m on average, worst "
               f"{worst:.2f} m (median |d| {np.median(np.abs(departure)):.2f} m); {loaded[0]}; {served[-1]}")
         assert worst <= HEIGHT_TOLERANCE_M, (rec.id, worst)

@@ -38,10 +38,10 @@ from missionplan.geo.dem import Ground, read_ground
 
 from ..mission.plan_record import PlanRecord
 
-# Beyond the grid, the ground served reaches as far as the plan read it (planning.terrain.DEM_MARGIN_M):
-# ArduPilot asks for the terrain grids around where it flies, 28 x 32 points at TERRAIN_SPACING (100 m by
-# default) aligned to whole degrees, so up to about 3 km beyond its track.
-SERVE_MARGIN_M = 3_500.0
+# The copy holds the ground the plan read, the grid and up to planning.terrain.DEM_MARGIN_M (5.5 km) beyond it,
+# where ArduPilot asks for its terrain grids (28 x 32 points at TERRAIN_SPACING, aligned to whole degrees):
+# it is read whole, with a margin wider than any plan reads.
+SERVE_MARGIN_M = 20_000.0
 # TERRAIN_CHECK points per vehicle: one a second each until answered, so a long survey's hundreds of
 # waypoints are thinned to this many, spread along the mission (the vehicle's own "pending 0" covers the
 # grids of every waypoint: AP_Terrain loads them for the mission it holds).
@@ -52,8 +52,8 @@ ASK_S = 5.0  # for the vehicle's answer to our stream requests
 
 
 def plan_ground(plan_dir: Path, record: PlanRecord) -> Ground | None:
-    """The ground of a plan folder made over a DEM (its copy, geo.dem_copy), around the grid and
-    SERVE_MARGIN_M beyond; None for a plan taken over flat ground. GeoError, one line, when the copy is
+    """The ground of a plan folder made over a DEM (its copy, geo.dem_copy, read whole: around the grid and
+    SERVE_MARGIN_M beyond); None for a plan taken over flat ground. GeoError, one line, when the copy is
     missing or unreadable."""
     georef = record.georeference
     if georef is None or georef.terrain is None:
