@@ -349,7 +349,8 @@ def test_a_wrong_way_import_inside_bridge_is_found() -> None:
 FLIGHT_TIERS = (
     ("record", "plan_report", "flight_layers", "flight_plot", "mock_fleet", "salvage",  # what was planned and recorded
      "journal_db",  # the journal's tables
-     "events", "link_silence", "retask_planner"),  # a follower's events, what a silence means, a re-task's contract
+     "events", "link_silence", "retask_planner",  # a follower's events, what a silence means, a re-task's contract
+     "terrain_service"),  # the plan's ground served to its ArduPilot vehicles
     ("journal_read", "journal_repair"),  # a journal read back; a damaged one repaired
     ("ledger", "phases", "journal", "photo_positions",  # the photos, the flight's phases, the journal on disk
      "above_ground"),  # heights above the ground of a flight over a DEM

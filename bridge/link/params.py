@@ -1,4 +1,5 @@
-"""Vehicle parameters over MAVLink, and the one the mission upload sets: ArduCopter's WPNAV_RADIUS.
+"""Vehicle parameters over MAVLink, and the ones the mission upload sets: ArduCopter's WPNAV_RADIUS, and
+for a plan over the ground (terrain-frame waypoints) the terrain parameters.
 
 Owns:
 - ParamClient: read one parameter (PARAM_REQUEST_READ -> PARAM_VALUE) and set one (PARAM_SET, proved
@@ -8,6 +9,12 @@ Owns:
   waypoint when within WPNAV_RADIUS (cm, default 200, legal range 5..1000). So for an ArduPilot
   multirotor the plan's radius (the smallest positive param2 of its waypoints) goes to WPNAV_RADIUS,
   clamped to that range. PX4 and other autopilots read param2 per waypoint: nothing to set.
+- terrain_settings, terrain_plan_settings: what an ArduPilot multirotor needs to fly a mission whose
+  waypoints are heights above the ground (MAV_FRAME_GLOBAL_TERRAIN_ALT) from the DEM the ground station
+  serves (session.terrain): TERRAIN_ENABLE, TERRAIN_OPTIONS, WPNAV_RFND_USE, and RTL_ALT_TYPE = 1 so that
+  its return keeps its height above the ground rather than above home (ArduCopter's ModeRTL::RTLAltType:
+  0 relative to home, 1 terrain; refused at arming, "RTL_ALT_TYPE is above-terrain but no terrain data",
+  while the vehicle has no terrain). PX4 takes no terrain frame (its plans carry sea-level altitudes).
 """
 
 from __future__ import annotations
@@ -19,7 +26,8 @@ from dataclasses import dataclass
 
 from ..errors import BridgeError
 from .connection import Link, VehicleInfo, mavlink
-from ..formats.mission_items import CMD_NAV_WAYPOINT, Flavour, Mission, as_float32
+from ..formats.mission_items import (CMD_NAV_WAYPOINT, FRAME_GLOBAL_TERRAIN_ALT, FRAME_GLOBAL_TERRAIN_ALT_INT, Flavour,
+                                     Mission, as_float32)
 
 PARAM_TRIES = 5
 PARAM_WAIT_S = 1.0  # per try: ArduPilot answers within a few ms, a radio within a second
@@ -29,6 +37,9 @@ WPNAV_RADIUS_RANGE_CM = (5.0, 1000.0)  # ArduCopter's AC_WPNav: @Range 5 1000, m
 # MAV_TYPE of the multirotors ArduCopter flies (quad, coaxial, helicopter, hexa, octo, tri, dodeca,
 # deca): they all navigate with AC_WPNav.
 MULTIROTOR_TYPES = frozenset({2, 3, 4, 13, 14, 15, 29, 35})
+TERRAIN_FRAMES = frozenset({FRAME_GLOBAL_TERRAIN_ALT, FRAME_GLOBAL_TERRAIN_ALT_INT})
+RTL_ALT_TYPE = "RTL_ALT_TYPE"
+RTL_ALT_TYPE_TERRAIN = 1.0  # ArduCopter ModeRTL::RTLAltType::TERRAIN
 
 
 class ParamClient:
@@ -150,3 +161,52 @@ def acceptance_radius_setting(vehicle: VehicleInfo, mission: Mission) -> ParamSe
     value = float(min(max(wanted, low), high))
     return ParamSetting(WPNAV_RADIUS, value, radius_m * 100.0, "cm",
                         "the plan's acceptance radius (ArduCopter ignores the waypoints' param2)")
+
+
+def _ardupilot_multirotor(vehicle: VehicleInfo) -> bool:
+    return vehicle.flavour is Flavour.ARDUPILOT and vehicle.mav_type in MULTIROTOR_TYPES
+
+
+def terrain_settings(vehicle: VehicleInfo, use_rangefinder: bool = False) -> list[ParamSetting]:
+    """The parameters an ArduPilot multirotor needs to fly terrain-frame items from the DEM we serve
+    (names as ArduCopter 4.7 has them); [] for other vehicles (PX4 takes no terrain frame)."""
+    if not _ardupilot_multirotor(vehicle):
+        return []
+    rangefinder = 1.0 if use_rangefinder else 0.0
+    return [
+        ParamSetting("TERRAIN_ENABLE", 1.0, 1.0, "",
+                     "keep a terrain database, filled from the ground station's DEM"),
+        ParamSetting("TERRAIN_OPTIONS", 0.0, 0.0, "",
+                     "bit 0 (Disable Download) off, so that the vehicle asks the ground station for its terrain"),
+        ParamSetting("WPNAV_RFND_USE", rangefinder, rangefinder, "",
+                     "terrain-frame waypoints follow the rangefinder, as asked" if use_rangefinder else
+                     "terrain-frame waypoints follow the terrain database (the DEM), not a rangefinder"),
+    ]
+
+
+def rtl_terrain_setting(vehicle: VehicleInfo) -> ParamSetting | None:
+    """RTL_ALT_TYPE = 1 for an ArduPilot multirotor (its return at RTL_ALT above the ground); None otherwise.
+    Older ArduCopters have no such parameter: the upload then says so and goes on."""
+    if not _ardupilot_multirotor(vehicle):
+        return None
+    return ParamSetting(RTL_ALT_TYPE, RTL_ALT_TYPE_TERRAIN, RTL_ALT_TYPE_TERRAIN, "",
+                        "RTL returns at its altitude above the ground (terrain), not above home")
+
+
+def uses_terrain(mission: Mission) -> bool:
+    """Whether any item of the mission is a height above the ground (the terrain frame)."""
+    return any(item.frame in TERRAIN_FRAMES for item in mission.items)
+
+
+def terrain_plan_settings(vehicle: VehicleInfo, mission: Mission, spacing: int | None = None) -> list[ParamSetting]:
+    """For a mission with terrain-frame items on an ArduPilot multirotor: terrain_settings, TERRAIN_SPACING when
+    the plan says at which grid its heights hold (report.json georeference.terrain.spacing_m), then RTL_ALT_TYPE
+    (the one a vehicle may lack: the last); [] otherwise."""
+    if not uses_terrain(mission):
+        return []
+    settings = terrain_settings(vehicle)
+    if settings and spacing is not None:
+        settings.append(ParamSetting("TERRAIN_SPACING", float(spacing), float(spacing), "m",
+                                     "the terrain grid the plan checked its heights above the ground on"))
+    rtl = rtl_terrain_setting(vehicle)
+    return settings + ([rtl] if rtl is not None else [])

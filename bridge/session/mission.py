@@ -25,9 +25,9 @@ class MissionPlugin:
     def __init__(self, backend: MissionBackend, vehicle: Vehicle) -> None:
         self.backend, self.vehicle = backend, vehicle
 
-    def upload(self, parts: list[Mission], verify: bool = True) -> UploadReport:
+    def upload(self, parts: list[Mission], verify: bool = True, terrain_spacing: int | None = None) -> UploadReport:
         """Mission, fence and rally, proven by read-back (transfer.uploader.upload_plan)."""
-        return upload_plan(self.backend, parts, verify=verify)
+        return upload_plan(self.backend, parts, verify=verify, terrain_spacing=terrain_spacing)
 
     def upload_qgc_plan_by_mavsdk(self, plan_path: Path, url: str, key: SigningKey | None, connect_s: float,
                                   timeouts: Timeouts) -> None:
@@ -44,9 +44,9 @@ class MissionPlugin:
         """What the vehicle's mission differs in from `wire`, item by item ([]: it holds exactly that)."""
         return read_back_differences(self.backend, 0, wire)
 
-    def set_plan_params(self, mission: Mission) -> list[str]:
-        """What the vehicle needs to fly `mission` as written (WPNAV_RADIUS on ArduCopter)."""
-        return set_plan_params(self.backend, mission)
+    def set_plan_params(self, mission: Mission, terrain_spacing: int | None = None) -> list[str]:
+        """What the vehicle needs to fly `mission` as written (WPNAV_RADIUS on ArduCopter; the terrain's)."""
+        return set_plan_params(self.backend, mission, terrain_spacing)
 
     def replace_in_flight(self, wire: list[WireItem], resume_seq: int, deadline: float,
                           fence: list[WireItem] | None) -> RetaskReport:

@@ -10,8 +10,9 @@ height at a point and TERRAIN_REPORT tells (its pending and loaded blocks too). 
   but counted, so the caller can say where the DEM ends; counts requests, blocks and bytes;
 - check_terrain / wait_terrain_loaded: TERRAIN_CHECK for a mission's points and the vehicle's
   TERRAIN_REPORTs read back, bounded, with a TerrainStatus that says in one line what is missing;
-- terrain_settings: the parameters terrain flight needs on ArduCopter (set by the upload as it sets
-  WPNAV_RADIUS), and TERRAIN_REPORTED, the ones read and reported but left as the vehicle has them.
+- terrain_settings (defined in link.params, where the upload that sets them as it sets WPNAV_RADIUS can
+  reach it): the parameters terrain flight needs on ArduCopter; TERRAIN_REPORTED, the ones read and
+  reported but left as the vehicle has them.
 
 The layout (which ground each height of a TERRAIN_DATA is, from ArduPilot's libraries/AP_Terrain) is
 formats/terrain_grid.py's, shared with the mock autopilot that asks for it. From TerrainGCS.cpp:
@@ -32,10 +33,10 @@ from typing import Any
 
 import numpy as np
 
-from ..formats.mission_items import Flavour
 from ..formats.terrain_grid import INT16, grid_points, mask_bits
-from ..link.connection import VehicleInfo, mavlink
-from ..link.params import MULTIROTOR_TYPES, ParamClient, ParamSetting, read_params
+from ..link.connection import mavlink
+from ..link.params import ParamClient, read_params
+from ..link.params import terrain_settings as terrain_settings  # the upload sets them (link.params)
 from ..link.readiness import request_streams
 
 HeightFunction = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -329,23 +330,6 @@ def wait_terrain_loaded(session: Any, server: TerrainServer, deadline: float,
 
 
 # ---------------------------------------------------------------------------------------------- parameters
-def terrain_settings(vehicle: VehicleInfo, use_rangefinder: bool = False) -> list[ParamSetting]:
-    """The parameters an ArduPilot multirotor needs to fly terrain-frame items from the DEM we serve
-    (names as ArduCopter 4.7 has them); [] for other vehicles (PX4 takes no terrain frame)."""
-    if vehicle.flavour is not Flavour.ARDUPILOT or vehicle.mav_type not in MULTIROTOR_TYPES:
-        return []
-    rangefinder = 1.0 if use_rangefinder else 0.0
-    return [
-        ParamSetting("TERRAIN_ENABLE", 1.0, 1.0, "",
-                     "keep a terrain database, filled from the ground station's DEM"),
-        ParamSetting("TERRAIN_OPTIONS", 0.0, 0.0, "",
-                     "bit 0 (Disable Download) off, so that the vehicle asks the ground station for its terrain"),
-        ParamSetting("WPNAV_RFND_USE", rangefinder, rangefinder, "",
-                     "terrain-frame waypoints follow the rangefinder, as asked" if use_rangefinder else
-                     "terrain-frame waypoints follow the terrain database (the DEM), not a rangefinder"),
-    ]
-
-
 def read_terrain_params(session: Any) -> dict[str, float]:
     """TERRAIN_REPORTED as the vehicle has them (those it answers for)."""
     return read_params(ParamClient(session.link, session.backend.vehicle), list(TERRAIN_REPORTED))

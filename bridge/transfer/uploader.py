@@ -10,7 +10,8 @@ Owns:
   upload each (clear the fence / rally when the file has none), read each back and compare item by
   item by the flavour's rule (ArduPilot's item 0 is its home and is skipped). It succeeds only when
   the vehicle holds exactly what was sent. It also sets the parameters the vehicle needs to fly the
-  plan as written (link.params: WPNAV_RADIUS on ArduCopter), unless told not to. A PX4 vehicle is
+  plan as written (link.params: WPNAV_RADIUS on ArduCopter; over the ground, the terrain parameters and
+  RTL_ALT_TYPE), unless told not to. A PX4 vehicle is
   first asked for its home: a plan PX4 would refuse to start from there, or fly without its
   geofence (formats.px4_rules), is not uploaded.
 """
@@ -29,7 +30,8 @@ from ..link.connection import (AUTOPILOT_COMPONENT_ID, GCS_COMPONENT_ID, GCS_SYS
                                wait_vehicle)
 from ..formats.mission_items import Flavour, Mission, MissionType, WireItem, from_wire, to_wire
 from ..formats.readback import compare_wire
-from ..link.params import ParamClient, ParamSetting, acceptance_radius_setting, set_param
+from ..link.params import (RTL_ALT_TYPE, ParamClient, ParamSetting, acceptance_radius_setting, set_param,
+                           terrain_plan_settings)
 from ..formats.px4_rules import MIS_DIST_1WP_DEFAULT, START_DENIED, fence_problems, start_refusals
 from .protocol import MissionClient, MissionTransferError, ProgressFn, Timeouts, UploadUnconfirmed
 from ..link.signing import SigningKey
@@ -152,7 +154,7 @@ class UploadReport:
     flavour: str
     backend: str
     parts: list[PartReport] = field(default_factory=list)
-    params: list[str] = field(default_factory=list)  # parameters set, each described in one phrase
+    params: list[str] = field(default_factory=list)  # each parameter, one phrase: "set NAME = ...", or why not
     seconds: float = 0.0
 
     @property
@@ -172,7 +174,7 @@ class UploadReport:
             how = f"verified by read-back ({' and '.join(readers)})"
         else:
             how = "not verified (--no-verify)"
-        params = "".join(f"; set {text}" for text in self.params)
+        params = "".join(f"; {text}" for text in self.params)
         return (f"uploaded {self.items} items ({counts}) to vehicle {self.sysid} ({self.flavour}, {self.backend}); "
                 f"{how}{params}; {self.seconds:.2f} s")
 
@@ -222,14 +224,26 @@ def _send_part(backend: MissionBackend, mtype: MissionType, part: Mission, wire:
     return False, False
 
 
-def set_plan_params(backend: MissionBackend, mission: Mission) -> list[str]:
-    """Set what the vehicle needs to fly `mission` as written (link.params: WPNAV_RADIUS on an
-    ArduPilot multirotor); one phrase per parameter set, for the report."""
-    setting: ParamSetting | None = acceptance_radius_setting(backend.vehicle, mission)
-    if setting is None:
-        return []
-    old, _ = backend.set_param(setting.name, setting.value)
-    return [setting.describe(old)]
+def set_plan_params(backend: MissionBackend, mission: Mission, terrain_spacing: int | None = None) -> list[str]:
+    """Set what the vehicle needs to fly `mission` as written (link.params): WPNAV_RADIUS on an ArduPilot
+    multirotor, and for a mission with terrain-frame waypoints the terrain parameters and RTL_ALT_TYPE
+    (terrain_plan_settings); one phrase per parameter for the report ("set WPNAV_RADIUS = ..."). RTL_ALT_TYPE alone may be missing
+    on the vehicle (an ArduCopter older than the parameter): said, not fatal."""
+    vehicle = backend.vehicle
+    radius: ParamSetting | None = acceptance_radius_setting(vehicle, mission)
+    settings = ([radius] if radius is not None else []) + terrain_plan_settings(vehicle, mission, terrain_spacing)
+    said = []
+    for setting in settings:
+        try:
+            old, _ = backend.set_param(setting.name, setting.value)
+        except BridgeError:
+            if setting.name != RTL_ALT_TYPE:
+                raise
+            said.append(f"{RTL_ALT_TYPE} not set: the vehicle has no such parameter (its RTL altitude stays above "
+                        "home)")
+            continue
+        said.append(f"set {setting.describe(old)}")
+    return said
 
 
 HOME_WAIT_S = 2.0  # how long upload waits for a PX4 vehicle's HOME_POSITION before skipping the start check
@@ -280,11 +294,13 @@ def px4_start_problems(backend: MissionBackend, parts: list[Mission]) -> str | N
 
 
 def upload_plan(backend: MissionBackend, parts: list[Mission], verify: bool = True,
-                progress: ProgressFactory | None = None, set_params: bool = True) -> UploadReport:
+                progress: ProgressFactory | None = None, set_params: bool = True,
+                terrain_spacing: int | None = None) -> UploadReport:
     """Upload mission, fence and rally (an absent or empty fence / rally list is cleared on the vehicle)
     and, with verify, prove by read-back that the vehicle holds exactly those three lists, by the
     flavour's rule (formats.readback.stored_form). With set_params, first set what the vehicle needs to
-    fly the plan as written (link.params: WPNAV_RADIUS on ArduCopter)."""
+    fly the plan as written (link.params: WPNAV_RADIUS on ArduCopter; the terrain parameters, TERRAIN_SPACING
+    `terrain_spacing` among them, for terrain-frame waypoints)."""
     start = time.monotonic()
     vehicle = backend.vehicle
     report = UploadReport(sysid=vehicle.sysid, flavour=vehicle.flavour.value, backend=backend.name)
@@ -295,7 +311,7 @@ def upload_plan(backend: MissionBackend, parts: list[Mission], verify: bool = Tr
     if refusal is not None:
         raise BridgeError(refusal)
     if set_params:
-        report.params = set_plan_params(backend, parts[0])
+        report.params = set_plan_params(backend, parts[0], terrain_spacing)
     for part in parts:
         mtype = MissionType(part.mission_type)
         wire = to_wire(part, vehicle.flavour)

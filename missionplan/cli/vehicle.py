@@ -5,6 +5,10 @@ A handler takes its typed request and returns the exit code: 0 on success (for u
 exactly the mission sent, unless --no-verify), 1 after printing one line to stderr when the vehicle or the
 link fails. Bad input (missing file, bad URL, bad system id, bad key file) raises BridgeUsageError, which
 main() prints in one line, exit 2. The work is the bridge's (transfer.uploader, formats.missionfile).
+A mission of a plan folder made over a DEM (heights above the ground) uploaded to ArduPilot: the folder's
+ground is served to the vehicle from before the upload until it reports it loaded, bounded
+(flight.terrain_service.UploadTerrain); the line that says so follows the upload's (stderr when it did
+not load: the mission is on board all the same, exit 0, and fly serves the ground again before arming).
 
 The link options (add_gcs_arguments, CONNECT_HELP, DEFAULT_CONNECT) are shared with `fly`, so every
 command has the same default connection, signing key and ground-station identity. No parser here
@@ -97,7 +101,8 @@ def register(subparsers: Any) -> None:
                     help="let a file without mission items clear the vehicle's mission (refused otherwise)")
     up.add_argument("--keep-params", action="store_true",
                     help="set no vehicle parameter (by default an ArduCopter gets WPNAV_RADIUS = the plan's "
-                         "acceptance radius, which it does not read from the waypoints)")
+                         "acceptance radius, which it does not read from the waypoints, and for waypoints above the "
+                         "ground the terrain parameters and RTL_ALT_TYPE = 1)")
     up.set_defaults(handler=runs(UploadRequest, cmd_upload))
 
     down = subparsers.add_parser("download", help="download a vehicle's mission to a .plan or .waypoints file",
@@ -205,8 +210,11 @@ class _Bars:
 # ----------------------------------------------------------------------------------------- handlers
 
 def cmd_upload(request: UploadRequest) -> int:
+    from missionplan.bridge.formats.mission_items import to_wire
     from missionplan.bridge.formats.missionfile import check_firmware, read_mission_file
     from missionplan.bridge.transfer.uploader import open_backend, upload_plan
+
+    from ..flight.terrain_service import UPLOAD_LOAD_S
 
     opts = _checked(request, request.backend)
     plan = read_mission_file(request.file)
@@ -214,15 +222,24 @@ def cmd_upload(request: UploadRequest) -> int:
         # Uploading nothing replaces the vehicle's mission with nothing: never by accident.
         raise BridgeUsageError(f"{request.file}: the file holds no mission items; uploading it would wipe the "
                                "vehicle's mission (pass --allow-empty to mean that, or use `missionplan clear`)")
+    ground, spacing = _ground_beside(request.file, plan)  # a plan over a DEM: its ground, served to ArduPilot
     bars = _Bars(request.quiet)
     backend = None
+    terrain: list[tuple[Any, str]] = []  # what the ground's serving came to: (stream, line)
     try:
         backend = open_backend(request.backend, opts["url"], opts["sysid"], opts["compid"], opts["key"],
                                opts["timeouts"], opts["connect_timeout"], source_system=opts["source_system"],
                                source_component=opts["source_component"])
         check_firmware(plan, request.file, backend.vehicle.flavour, opts["sysid"])  # learned from its HEARTBEAT
+        served = _serve_ground(backend, ground, terrain)
         report = upload_plan(backend, plan.parts(), verify=not request.no_verify, progress=bars,
-                             set_params=not request.keep_params)
+                             set_params=not request.keep_params, terrain_spacing=spacing)
+        if served is not None:
+            bars.close()
+            status = served.finish(to_wire(plan.mission, Flavour.ARDUPILOT), UPLOAD_LOAD_S)
+            line = f"uav{opts['sysid']}: {status.line()}"
+            terrain.append((sys.stdout, line) if status.loaded_ok else
+                           (sys.stderr, f"missionplan upload: {line} (fly serves it again before arming)"))
     except BridgeUsageError:
         raise  # a file for the other autopilot: bad input, exit 2
     except BridgeError as err:
@@ -233,7 +250,40 @@ def cmd_upload(request: UploadRequest) -> int:
         if backend is not None:
             backend.close()
     print(report.summary())
+    for stream, line in terrain:
+        print(printable(line), file=stream)
     return 0
+
+
+def _ground_beside(path: Path, plan: Any) -> tuple[Any, int | None]:
+    """The ground of the plan folder `path` is in (report.json's georeference.terrain, its copy of the DEM) and
+    the TERRAIN_SPACING its heights were checked on, when the mission flies heights above the ground on
+    ArduPilot; (None, None) otherwise. GeoError, one line, when the folder's copy of the ground cannot be read."""
+    from missionplan.bridge.link.params import uses_terrain
+
+    from ..flight.terrain_service import plan_ground
+    from ..mission.plan_record import read_plan_record
+
+    folder = path.parent
+    if plan.firmware is Flavour.PX4 or not uses_terrain(plan.mission) or not (folder / "report.json").is_file():
+        return None, None
+    record = read_plan_record(folder)
+    terrain = record.georeference.terrain if record.georeference is not None else None
+    return plan_ground(folder, record), terrain.spacing_m if terrain is not None else None
+
+
+def _serve_ground(backend: Any, ground: Any, said: list[tuple[Any, str]]) -> Any:
+    """Begin serving `ground` on the upload's link (terrain_service.UploadTerrain); None when there is none
+    to serve, or when the backend owns its link (said in `said`)."""
+    if ground is None:
+        return None
+    from ..flight.terrain_service import UploadTerrain
+
+    served = UploadTerrain.start(backend, ground)
+    if served is None and backend.vehicle.flavour is Flavour.ARDUPILOT:
+        said.append((sys.stderr, f"missionplan upload: uav{backend.vehicle.sysid}: terrain not served: the "
+                                 f"{backend.name} backend reads the link itself (fly serves it before arming)"))
+    return served
 
 
 def cmd_download(request: DownloadRequest) -> int:

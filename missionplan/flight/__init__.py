@@ -37,4 +37,5 @@ Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_l
   retask_planner  The contract of fly --replan's planner: typed survivors in, a typed plan out, its own error.
   salvage         SQLite files on a bad disk: a damaged one read row by row, a read-only one read as it is.
   telemetry_record One followed vehicle's messages into its record, and as events where someone acts on them.
+  terrain_service The plan's ground served to its ArduPilot vehicles (fly, upload) until they report it loaded.
 """

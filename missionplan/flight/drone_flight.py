@@ -10,7 +10,9 @@ A fresh flight (`fly DIR`):
    pre-arm checks, saying what it waits for and what the vehicle says (STATUSTEXT);
 3. site check: its home within --max-launch-offset (plus its GPS error) of the plan's launch point,
    else nothing is uploaded to it and no drone arms at all (the arm gate's veto);
-4. upload uavK.plan (or let MAVSDK's QGroundControl importer upload it) and prove it by read-back;
+4. upload uavK.plan (or let MAVSDK's QGroundControl importer upload it) and prove it by read-back; over a
+   DEM, an ArduPilot vehicle (served the plan's ground from when it was found: terrain_service) must then
+   report that ground loaded for its waypoints within --ready-timeout, else it vetoes arming as in 3;
 5. the arm gate (nobody arms until every drone got this far), GUIDED (ArduPilot), arm (retried while
    the vehicle says it is not ready), the start gate, MAV_CMD_MISSION_START: all start together;
 6. follow it (below) until it has landed and disarmed.
@@ -62,6 +64,7 @@ from .link_silence import LinkWatch, SilenceStep, give_up_at
 from .record import DroneRecord
 from .retask_actions import RetaskActions
 from .telemetry_record import TelemetryRecorder
+from .terrain_service import DroneTerrain
 
 PX4_START_RETRY_S = 5.0   # MISSION_START retried this long while PX4 checks a new mission (see _mission_start)
 START_RETRY_WAIT_S = 0.5
@@ -108,6 +111,7 @@ class DroneFlight:
         # release), run here because this thread owns the link's receive loop; each answers through its Future.
         self.requests: queue.SimpleQueue[tuple[Callable[[], Any], Future[Any]]] = queue.SimpleQueue()
         self.given_away = False  # fly --replan gave this drone's share to others: heard again, it goes home
+        self.terrain: DroneTerrain | None = None  # a plan over a DEM, an ArduPilot vehicle: its ground, served
 
     @property
     def sysid(self) -> int:
@@ -130,7 +134,7 @@ class DroneFlight:
                 if self._connect() and self._attach():
                     self._follow_to_the_end()
             elif (self._connect() and self._not_airborne() and self._streams() and self._ready() and self._site()
-                  and self._upload() and self._arm() and self._start()):
+                  and self._upload() and self._terrain_loaded() and self._arm() and self._start()):
                 self._follow_to_the_end()
         except Exception as err:  # noqa: BLE001 - one drone's failure must not hide the others'
             self.problem(f"{type(err).__name__}: {err}")
@@ -144,6 +148,8 @@ class DroneFlight:
                     self.fleet.start_gate.check_in(0.0)
                 if not self.record.started and self.session is not None and not self.found_armed:
                     self._leave_safe()  # a vehicle this run got ready (or armed) but will not fly
+            if self.terrain is not None:
+                self.record.add_note(self.terrain.served_line())
             if self.session is not None:
                 self.session.close()
             self.mail.close()  # from here on the record is fly's main thread's, which joins this one
@@ -164,6 +170,10 @@ class DroneFlight:
         self.recorder = TelemetryRecorder(rec, self.session.state, self.session.action.commanded, self.publish,
                                           self.bar)
         self.retasking = RetaskActions(self.session, rec, self.recorder, self.deadline, self.problem, self.bar)
+        if self.fleet.terrain is not None:  # ArduPilot asks for its ground from its first seconds
+            self.terrain = self.fleet.terrain.for_vehicle(self.session.flavour)
+            if self.terrain is not None:
+                self.terrain.attach(self.session)
         self.session.wait_heartbeat(min(self.deadline, time.monotonic() + HEARTBEAT_WAIT_S))
         return True
 
@@ -191,6 +201,8 @@ class DroneFlight:
         """Ask for every stream fly reads (telemetry only: nothing that moves the vehicle)."""
         assert self.session is not None
         refused_streams = self.session.request_streams(self.telemetry_hz, self.deadline)
+        if self.terrain is not None:  # its requests and reports, so that it loads while it gets ready
+            refused_streams += self.terrain.ask(self.session, self.deadline)
         if refused_streams:
             self.record.add_note(unanswered(f"streams not accepted (SET_MESSAGE_INTERVAL): "
                                             f"{', '.join(refused_streams)}; the vehicle's own rates", self.session))
@@ -236,10 +248,14 @@ class DroneFlight:
                 if differences:
                     raise BridgeError("the mission MAVSDK read from the .plan and uploaded differs from ours: "
                                       + "; ".join(differences))
-                self.session.mission.set_plan_params(plan.mission)  # WPNAV_RADIUS: MAVSDK sets no parameters
+                # MAVSDK sets no parameters
+                params_set = self.session.mission.set_plan_params(plan.mission, self._terrain_spacing())
             else:
-                self.session.mission.upload(plan.parts(), verify=True)
+                params_set = self.session.mission.upload(plan.parts(), verify=True,
+                                                         terrain_spacing=self._terrain_spacing()).params
             rec.set(uploaded=True, flavour=self.session.flavour.value)
+            if self.terrain is not None:  # what the vehicle flies over the ground with
+                rec.add_note("; ".join(params_set))
             params = self.session.navigation_params()  # what it will fly with: re-times the plan (its autopilot's model)
             if params is not None:
                 rec.set(params=params)
@@ -273,6 +289,25 @@ class DroneFlight:
         self.fleet.arm_gate.check_in(0.0, veto=f"uav{self.sysid} failed the site check")
         return False
 
+    def _terrain_spacing(self) -> int | None:
+        return self.terrain.spacing if self.terrain is not None else None
+
+    def _terrain_loaded(self) -> bool:
+        """Over a DEM, an ArduPilot vehicle's ground loaded for its waypoints, bounded by --ready-timeout; a
+        vehicle without it vetoes arming for the fleet (it would refuse to arm, or fly without its ground)."""
+        if self.terrain is None:
+            return True
+        assert self.session is not None
+        status = self.terrain.wait_loaded(self.session, min(self.deadline, time.monotonic() + self.fleet.ready_s),
+                                          self.record.wire)
+        if status.loaded_ok:
+            self.record.add_note(status.line())
+            return True
+        self.problem(unanswered(f"not armed: {status.line()}", self.session))
+        self.arm_checked_in = True
+        self.fleet.arm_gate.check_in(0.0, veto=f"uav{self.sysid} has not loaded its terrain")
+        return False
+
     def _arm(self) -> bool:
         """The arm gate (nobody arms while a drone is still getting ready, none if any was vetoed),
         then GUIDED (ArduPilot) and arming, retried while not ready."""
@@ -280,8 +315,8 @@ class DroneFlight:
         self.arm_checked_in = True
         vetoes = self.fleet.arm_gate.check_in(self.deadline - time.monotonic())
         if vetoes:
-            self.problem(f"not armed: {'; '.join(vetoes)} (no drone arms when one is at the wrong site or "
-                         "already armed)")
+            self.problem(f"not armed: {'; '.join(vetoes)} (no drone arms when one is at the wrong site, "
+                         "already armed or without its terrain)")
             return False
         if self.stop.is_set():
             return False

@@ -2,8 +2,9 @@
 
 fly makes one FleetStart for a flight and hands it to every drone's follower (drone_flight.DroneFlight):
 the links (one shared connection per URL), the arm and start gates (FleetGate), the stop flag Ctrl-C
-sets, how to say things (progress lines, alerts), the events each follower publishes (events.FlightEvents)
-and the rule of what a silence means (link_silence.SilenceRule).
+sets, how to say things (progress lines, alerts), the events each follower publishes (events.FlightEvents),
+the rule of what a silence means (link_silence.SilenceRule) and, for a plan over a DEM, the ground each
+ArduPilot vehicle is served (terrain_service.FleetTerrain).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from missionplan.bridge.link.signing import SigningKey
 
 from .events import FlightEvents
 from .link_silence import SilenceRule
+from .terrain_service import FleetTerrain
 
 DEFAULT_READY_S = 120.0  # a real vehicle's GPS and EKF may take a minute or two after power-on
 
@@ -72,6 +74,7 @@ class FleetStart:
     log_locks: dict[str, threading.Lock] = field(default_factory=dict)
     events: FlightEvents = field(default_factory=FlightEvents)  # what the followers decide and hear
     silence: SilenceRule = field(default_factory=SilenceRule)  # what a silence means (fly --replan-after)
+    terrain: FleetTerrain | None = None  # a plan over a DEM: the ground its ArduPilot vehicles are served
 
     def log_lock(self, url: str) -> threading.Lock:
         return self.log_locks.setdefault(url, threading.Lock())  # atomic: one lock per url, whoever asks first

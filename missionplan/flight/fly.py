@@ -18,6 +18,9 @@ opens signs with --signing-key when given and speaks as ground station --gcs-sys
 (missionplan.cli.vehicle.add_gcs_arguments). The command line (its options, the exit codes) is
 missionplan/cli/fly.py.
 
+The ground: a plan over a DEM has each ArduPilot vehicle served the plan folder's copy of it from when it is
+found to the end of its flight, and none armed before each has it loaded (terrain_service, drone_flight).
+
 The disk: fly checks before any link is opened that the plan folder's disk has room for the flight's
 record (disk_space.py); in flight a journal that cannot write pauses and says so (journal.py); what of
 the record the folder would not take goes to a fallback file, said in one line, exit EXIT_NOT_RECORDED.
@@ -38,6 +41,7 @@ from missionplan.base.naming import Named
 from missionplan.bridge.errors import BridgeUsageError
 from missionplan.bridge.folder_lock import holding_folder
 from missionplan.bridge.link.connection import GCS_COMPONENT_ID, GCS_SYSTEM_ID, mavlink, parse_gcs_sysid
+from missionplan.bridge.formats.mission_items import Flavour
 from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.bridge.link.readiness import DEFAULT_LAUNCH_OFFSET_M, ground_distance_m
 from missionplan.bridge.link.shared_link import LinkPool
@@ -61,6 +65,7 @@ from .link_silence import GONE_SILENT_S, SilenceRule
 from .live_replan import Retasker
 from .retask_planner import RetaskPlanner
 from .record import DroneRecord
+from .terrain_service import FleetTerrain, plan_ground
 
 DEFAULT_TELEMETRY_HZ = 25.0
 UPLOADERS = ("missionplan", "mavsdk")  # who reads the .plan files and uploads them
@@ -177,6 +182,7 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     pool = LinkPool([connect] if isinstance(connect, str) else list(connect), key, source_system, source_component)
     if sortie < 1:
         raise BridgeUsageError(Named("{sortie} must be 1 or more, got {0}", sortie))
+    terrain = fleet_terrain(plan_dir, record)  # a missing or broken ground copy: one line, before anything is written
     try:
         # Room for the flight's record, before any link is opened (a resume writes as much at most).
         check_space(plan_dir, record, telemetry_hz, None if resume else sortie)
@@ -190,7 +196,7 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     try:
         result = _fly_journaled(plan_dir, record, pool, journal, timeout_s, progress, time_scale, telemetry_hz,
                                 upload_with, ready_s, max_launch_offset_m, photos_from_track, key, resume, on_abort,
-                                source_system, replan=replan, replan_after_s=replan_after_s)
+                                source_system, replan=replan, replan_after_s=replan_after_s, terrain=terrain)
         return result
     finally:
         journal.close()
@@ -232,7 +238,7 @@ def _fly_journaled(plan_dir: Path, record: PlanRecord, pool: LinkPool, journal: 
                    progress: bool, time_scale: float | None, telemetry_hz: float, upload_with: str, ready_s: float,
                    max_launch_offset_m: float, photos_from_track: bool, key: SigningKey | None, resume: bool,
                    on_abort: str, source_system: int, replan: RetaskPlanner | None = None,
-                   replan_after_s: float = GONE_SILENT_S) -> FlightResult:
+                   replan_after_s: float = GONE_SILENT_S, terrain: FleetTerrain | None = None) -> FlightResult:
     sortie = journal.sortie
     files = {d.id: plan_dir / sortie_file(d.id, sortie) for d in record.drones or ()}
     view = flight_view(plan_dir, record, sortie)
@@ -269,7 +275,7 @@ def _fly_journaled(plan_dir: Path, record: PlanRecord, pool: LinkPool, journal: 
         fleet = FleetStart(pool, FleetGate(len(runnable)), FleetGate(len(runnable)), threading.Event(), key=key,
                            ready_s=ready_s, max_offset_m=max_launch_offset_m, say=say, alert=alert, resume=resume,
                            time_scale=time_scale, planned_s=planned_s, commit=journal.flush,
-                           silence=SilenceRule(replan_after_s))
+                           silence=SilenceRule(replan_after_s), terrain=terrain)
         # What the followers decide goes into their records and alerts in their own threads, and to the
         # re-tasker on a queue it reads in this one.
         fleet.events.subscribe(EventJournal({rec.id: rec for rec in runnable}, alert))
@@ -330,6 +336,22 @@ def _fly_journaled(plan_dir: Path, record: PlanRecord, pool: LinkPool, journal: 
         print(f"missionplan fly: {printable(notice)}", file=sys.stderr)
     journal.mark_judged(photos_from_track)
     return result
+
+
+def fleet_terrain(plan_dir: Path, record: PlanRecord) -> FleetTerrain | None:
+    """The ground the flight serves its ArduPilot vehicles (terrain_service): for a plan over a DEM whose
+    missions are for ArduPilot; None otherwise (flat ground, or PX4 missions at sea-level altitudes)."""
+    if record.georeference is None or record.georeference.terrain is None:
+        return None
+    firmwares = set()
+    for drone in record.drones or ():
+        path = plan_dir / sortie_file(drone.id, 1)
+        if path.is_file():
+            firmwares.add(read_mission_file(path).firmware)
+    if firmwares and Flavour.ARDUPILOT not in firmwares and None not in firmwares:
+        return None
+    ground = plan_ground(plan_dir, record)
+    return FleetTerrain(ground, record.georeference.terrain.spacing_m) if ground is not None else None
 
 
 def promised_3d(record: PlanRecord) -> float | None:

@@ -122,7 +122,7 @@ class FlightPlans:
             fence = None
             if self.fences:
                 fence = FencePlan(len(self.fences[k].latlon), self.fences[k].max_altitude_m,
-                                  self.safety.fence_margin_m if self.safety else None)
+                                  self.safety.fence_margin_m if self.safety else None, self.fences[k].ground_rise_m)
             rows.append(DronePlan(
                 id=sysid, cells=int(track.before["waypoints"]), waypoints=int(sum(m.waypoints for m in missions)),
                 length_m=round(sum(m.length_m for m in missions), 2),
@@ -250,7 +250,7 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
         if safety is not None:
             points = np.vstack([launches[k][None, :]] + [flown(k, s) for s in all_sorties[k]])
             fences.append(drone_fence(frame, np.argwhere(result.zones.zone == k), points, settings.altitude_of(k),
-                                      safety.fence_margin_m, safety.max_altitude_m))
+                                      safety.fence_margin_m, safety.max_altitude_m, ground=ground))
     sortie_routes = [[np.vstack([launches[k][None, :], flown(k, s), launches[k][None, :]])
                       if s.end == "rtl" else np.vstack([launches[k][None, :], flown(k, s)])
                       for s in all_sorties[k]] for k in range(uavs)]

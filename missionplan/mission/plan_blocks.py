@@ -129,18 +129,23 @@ class SortiePlan:
 
 @dataclass(frozen=True)
 class FencePlan:
-    """A drone's inclusion geofence: its vertices, ceiling and how far outside its flight it lies."""
+    """A drone's inclusion geofence: its vertices, ceiling (above home) and how far outside its flight it lies;
+    over a DEM, how far the ceiling was raised for the ground's rise above home inside it (mission.geofence)."""
 
     vertices: int
     max_altitude_m: float
     margin_m: float | None
+    ground_rise_m: float | None = None  # None: a plan over flat ground (not written)
 
     def to_json(self) -> JSON:
-        return {"vertices": self.vertices, "max_altitude_m": self.max_altitude_m, "margin_m": self.margin_m}
+        doc: JSON = {"vertices": self.vertices, "max_altitude_m": self.max_altitude_m, "margin_m": self.margin_m}
+        if self.ground_rise_m is not None:
+            doc["ground_rise_m"] = self.ground_rise_m
+        return doc
 
     @classmethod
     def from_json(cls, doc: Mapping[str, Any]) -> FencePlan:
-        return cls(doc["vertices"], doc["max_altitude_m"], doc.get("margin_m"))
+        return cls(doc["vertices"], doc["max_altitude_m"], doc.get("margin_m"), doc.get("ground_rise_m"))
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,10 @@
 the point, a DEM that leaves any cell a drone may fly over, or a launch point, without ground. The window
 read reaches DEM_MARGIN_M beyond the grid where the DEM does: ArduPilot asks its ground station for the
 terrain grids around where it flies (28 x 32 points at TERRAIN_SPACING, 100 m by default, aligned to whole
-degrees, so up to about 3 km beyond), and `fly` serves them from the plan folder's copy
+degrees): the grids holding the 9 points 0.7 grid (1.96 km north, 2.24 km east) around its position, each
+reaching up to a whole grid (2.7 km north, 3.1 km east) beyond such a point, so up to 5.4 km beyond its track
+(measured on ArduCopter SITL: with 3.5 km read it asked for blocks 3.7 km beyond, and arms only once it has
+every block it asked for), and `fly` serves them from the plan folder's copy
 (geo.dem_copy), which is the ground every later step (fly, the mock, the judge, a re-plan: `folder_terrain`)
 measures against. `terrain_record` is what report.json says of it.
 """
@@ -24,7 +27,7 @@ from missionplan.geo.georeference import TerrainRecord
 from ..maps.gridmap import GridMap
 from ..mission.plan_record import PlanRecord
 
-DEM_MARGIN_M = 3_500.0  # around the grid: the terrain grids ArduPilot asks for (see the module docstring)
+DEM_MARGIN_M = 5_500.0  # around the grid: the terrain grids ArduPilot asks for (see the module docstring)
 
 
 def plan_terrain(dem: Sequence[Path], frame: GridFrame, gmap: GridMap, starts: Sequence[tuple[int, int]]) -> Ground:
