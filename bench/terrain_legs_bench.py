@@ -4,17 +4,18 @@ PX4 takes no terrain frame, so a mission that keeps a height above the ground is
 altitude and each leg is split wherever the ground leaves the straight line by more than a tolerance
 (missionplan.mission.terrain_legs.amsl_track). This measures, per tolerance, how many waypoints that adds
 to a survey track, the worst departure from the height asked for along the legs as flown (flown_heights,
-every step metres), and the time the split takes (the best of --repeat runs: the machine is shared). The
+every step metres), and the time the split takes (the best of --repeat runs: the machine is shared); the
+straight-line split alone, without the cut of each leg's first stretch for PX4's turns (lead_in_turns). The
 ground is analytic: a 150 m plain with an 80 m and a 55 m peak (Gaussian, sigma 150 m and 110 m), so no
 terrain file is read.
 
-A second table: what `missionplan plan --autopilot px4 --dem` adds to a real plan, the shipped old-town map for
-3 drones over tests/test_plan_terrain.py's hill (40 m high, radius 120 m, on a 230 m plain, centred on the map;
-a GeoTIFF of 5 m pixels written in a temporary folder), with the product's 2 m tolerance: per drone, the
-waypoints the planner made (report.json), the waypoints of its .plan, the ones added, and the worst departure
-from the height asked for along its legs flown straight between its sea-level altitudes (flown_heights, every
-metre, on the plan folder's copy of the ground), from the launch point over the take-off to the last waypoint.
-Run by hand:
+A second table: what `missionplan plan --autopilot px4 --dem` adds to a real plan, the shipped old-town map
+for 3 drones over tests/test_plan_terrain.py's hill (40 m high, radius 120 m, on a 230 m plain, centred on the
+map; a GeoTIFF of 5 m pixels written in a temporary folder), with the product's 2 m tolerance and the cut for
+PX4's turns: per drone, the waypoints the planner made (report.json), the waypoints of its .plan, the ones
+added, and the worst departure from the height asked for along its legs flown straight between its sea-level
+altitudes (flown_heights, every metre, on the plan folder's copy of the ground), from the launch point over
+the take-off to the last waypoint. Run by hand:
 
     .venv/bin/python bench/terrain_legs_bench.py [--tolerances 1,2,5] [--spacing 30] [--height 40]
                                                  [--step 5] [--repeat 5] [--map old-town] [--uavs 3]

@@ -11,8 +11,13 @@ Checked: every sample fly recorded between the first and the last survey waypoin
 planned height above sea level (the vehicle's home altitude, read back from it, plus the height above home it
 reports), each photo's sea-level altitude (CAMERA_IMAGE_CAPTURED) too, and the mission the vehicle holds
 afterwards (downloaded) has its waypoints in sea-level altitude, at the .plan's altitudes. The worst
-departures, where they were and how far behind the plan the vehicle's altitude was on the steepest legs are
-printed (`pytest -s`). Skipped with a reason when ../shared/px4/bin/px4 is absent.
+departures, where they were and how far the vehicle's altitude was from the line it was asked to fly, on the
+steepest legs too, are printed (`pytest -s`). Skipped with a reason when ../shared/px4/bin/px4 is absent.
+
+What it showed: PX4 does not lag on the slopes (28 % at 5 m/s is within its 1.5 m/s descent limit); it leads at
+corners, heading for the next waypoint's altitude while it turns. Before each leg's first stretch was cut for
+that (terrain_legs.amsl_track's lead_in_turns), the vehicle was 4.5 m under DEM + height a few metres after a
+corner whose next waypoint was 5.4 m lower, over a leg whose straight line was within 0.2 m of it.
 """
 
 from __future__ import annotations
