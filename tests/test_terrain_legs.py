@@ -201,6 +201,51 @@ def test_every_sample_of_every_split_leg_is_within_the_tolerance(case) -> None:
         assert np.abs(flown_heights(out_lat, out_lon, amsl, hills, step) - height).max() <= tolerance + slack + 1e-6
 
 
+def test_lead_in_turns_cuts_each_legs_first_stretch_where_the_ground_spans_the_tolerance() -> None:
+    """A multicopter that reaches a leg's next altitude early (PX4, turning onto the leg) must be within the
+    tolerance at any altitude between the ends of the leg's first stretch: over a planar slope, whose straight
+    legs need no split, each leg gets one point where the ground has risen or fallen by the tolerance."""
+    lat, lon = _lawnmower(width_m=400.0, lanes=3, spacing_m=60.0)
+    assert list(amsl_track(lat, lon, 30.0, _slope, tolerance_m=2.0)[3]) == list(range(lat.size))
+    out_lat, out_lon, amsl, source = amsl_track(lat, lon, 30.0, _slope, tolerance_m=2.0, lead_in_turns=True)
+    assert list(source[source >= 0]) == list(range(lat.size))
+    added = np.flatnonzero(source == -1)
+    assert list(added) == [int(np.flatnonzero(source == k)[0]) + 1 for k in range(lat.size - 1)]  # one per leg
+    # 15 m per 100 m east: 2 m of ground within 13.3 m, so the stretch ends at the last 5 m sample before it
+    start = added - 1
+    run = np.hypot((out_lat[added] - out_lat[start]) * M_PER_DEG_LAT, (out_lon[added] - out_lon[start]) * M_PER_DEG_LON)
+    east_west = np.abs(out_lat[added] - out_lat[start]) < 1e-9
+    assert run[east_west] == pytest.approx(np.full(east_west.sum(), 400.0 / 80 * 2), abs=0.01)
+    assert np.abs(amsl[added] - amsl[start]).max() <= 2.0
+
+
+@SETTINGS
+@given(_hills_and_tracks())
+def test_with_lead_in_turns_any_altitude_between_a_legs_first_two_points_is_within_the_tolerance(case) -> None:
+    hills, lat, lon, height, tolerance, step = case
+    out_lat, out_lon, amsl, source = amsl_track(lat, lon, height, hills, tolerance_m=tolerance, step_m=step,
+                                                lead_in_turns=True)
+    assert list(source[source >= 0]) == list(range(lat.size))
+    heights = np.broadcast_to(height, lat.shape)
+    positions = np.flatnonzero(source >= 0)
+    s_lat, s_lon, s_leg = sample_legs(lat, lon, step)
+    for leg in range(lat.size - 1):
+        start, end = positions[leg], positions[leg] + 1  # the leg's first stretch: its point and the next
+        on = s_leg == leg
+        p_lat, p_lon = s_lat[on], s_lon[on]
+        share = _share_along(lat, lon, (p_lat, p_lon), np.full(p_lat.size, leg))
+        end_share = _share_along(lat, lon, (out_lat[end:end + 1], out_lon[end:end + 1]), np.array([leg]))[0]
+        if end_share == 0.0:
+            continue  # a leg of no length
+        asked = hills(p_lat, p_lon) + heights[leg] + share * (heights[leg + 1] - heights[leg])
+        first = share <= end_share + 1e-9
+        if first.sum() <= 2:
+            continue  # the stretch is one sample step: as short as the samples can cut it
+        # both ends' altitudes, and so any between them, within the tolerance of every sample of the stretch
+        for altitude in (amsl[start], amsl[end]):
+            assert np.abs(asked[first] - altitude).max() <= tolerance + 1e-6
+
+
 def _share_along(lat: np.ndarray, lon: np.ndarray, points: tuple[np.ndarray, np.ndarray],
                  leg: np.ndarray) -> np.ndarray:
     """How far along its input leg (0 to 1) each point is (0 on a leg of no length)."""

@@ -7,7 +7,8 @@ degrees in, metres above sea level out (geo's DEM reader has that signature; tes
   belongs to: where "the ground under every metre of the track" is looked at;
 - `amsl_track`: what a PX4 mission flies (PX4 takes no terrain frame): every point at ground + the height
   asked for, above sea level, and each leg split wherever the straight line between its ends, in sea-level
-  altitude, leaves ground + height by more than `tolerance_m` at one of its samples;
+  altitude, leaves ground + height by more than `tolerance_m` at one of its samples (and, with
+  `lead_in_turns`, where a multicopter that reaches a leg's next altitude early would leave it);
 - `flown_heights`: the height above the ground along the legs of a sea-level track flown straight.
 
 How the split compares with QGroundControl's terrain-following survey (TransectStyleComplexItem): QGroundControl
@@ -18,6 +19,17 @@ _adjustForTolerance). That compares neighbouring altitudes, not the line flown b
 ridge between two kept points at equal altitude can pass under the line unchecked. Here the check is on
 the line itself: a leg is split at the sample of largest departure (Douglas-Peucker on the vertical), and
 the halves checked again, until every sample of every leg is within the tolerance.
+
+Why a straight line is not enough for PX4 (`lead_in_turns`): a PX4 multicopter does not hold the 3-D line
+between two waypoints while it turns onto a leg. Its trajectory generator (src/lib/motion_planning/
+PositionSmoothing.cpp, v1.15: `_getCrossingPoint` returns, while `_isTurning`, the L1 point 5 m ahead in the
+horizontal but at the *target's* altitude, and `_generateVelocitySetpoint` heads for it at up to the vertical
+speed limit) climbs or descends to the next waypoint's altitude while its horizontal speed is still low, then
+flies the rest of the way straight from there. On PX4 SIH over a hill that put the vehicle 4.5 m under
+ground + height a few metres after a corner where the next waypoint was 5.4 m lower, on a leg whose straight
+line was within 0.2 m of it. So with `lead_in_turns` the first stretch of every leg is also cut short where
+the ground + height under it spans more than the tolerance: the vehicle is then within the tolerance at any
+altitude between that stretch's two ends, early or not.
 """
 
 from __future__ import annotations
@@ -115,7 +127,7 @@ def _ground_at(ground: Ground, lat: NDArray[np.float64], lon: NDArray[np.float64
 
 
 def amsl_track(lat: ArrayLike, lon: ArrayLike, height_m: ArrayLike, ground: Ground, tolerance_m: float = 2.0,
-               step_m: float = 5.0
+               step_m: float = 5.0, lead_in_turns: bool = False
                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.intp]]:
     """The track as a mission without a terrain frame flies it: (lat, lon, amsl, source_index).
 
@@ -124,6 +136,10 @@ def amsl_track(lat: ArrayLike, lon: ArrayLike, height_m: ArrayLike, ground: Grou
     (sample_legs) and split at the sample where the straight line between its kept ends departs most from
     ground + height (the height taken linearly between the leg's ends), again and again, until every sample
     is within `tolerance_m` of it. An added point sits on the original leg at ground + height there.
+    `lead_in_turns` (for a multicopter that reaches the next altitude early as it turns onto a leg: PX4, see the
+    module docstring): each leg is first cut at the last sample from its start up to which ground + height spans
+    no more than `tolerance_m` (at least one sample on), so that any altitude between that stretch's ends is
+    within the tolerance of it; the rest of the leg is then split as above.
     `source_index` gives, for each output point, the input point it is (-1 for an added one), so that the
     commands attached to a waypoint (camera triggers, speed) stay with it.
     """
@@ -145,6 +161,8 @@ def amsl_track(lat: ArrayLike, lon: ArrayLike, height_m: ArrayLike, ground: Grou
     first = np.flatnonzero(np.diff(leg, prepend=-1))  # the first sample of every leg
     last = np.append(first[1:], leg.size) - 1
     kept = np.union1d(first, last)
+    if lead_in_turns:
+        kept = np.union1d(kept, _level_stretch_ends(wanted, leg, first, last, tolerance_m))
     kept = _split_until_within(wanted, along, kept, tolerance_m)
 
     is_leg_start = np.zeros(leg.size, dtype=bool)
@@ -155,6 +173,21 @@ def amsl_track(lat: ArrayLike, lon: ArrayLike, height_m: ArrayLike, ground: Grou
     at_point = (fraction[out] == 0.0) | (fraction[out] == 1.0)
     source[at_point] = leg[out[at_point]] + (fraction[out[at_point]] == 1.0)
     return sample_lat[out], sample_lon[out], wanted[out], source
+
+
+def _level_stretch_ends(wanted: NDArray[np.float64], leg: NDArray[np.intp], first: NDArray[np.intp],
+                        last: NDArray[np.intp], tolerance_m: float) -> NDArray[np.intp]:
+    """For each leg, the last sample from its first on up to which `wanted` spans at most `tolerance_m` (the
+    sample after its first where even that one departs by more): where its first stretch ends."""
+    # The running maximum and minimum within each leg, for all legs at once: offsetting leg k by k times more
+    # than the whole span makes an accumulation over the track restart at every leg.
+    offset = leg * (np.ptp(wanted) + 1.0)
+    high = np.maximum.accumulate(wanted + offset) - offset
+    low = -(np.maximum.accumulate(-wanted + offset) - offset)
+    within = (high - low) <= tolerance_m
+    # Within a leg the span only grows, so the samples within it are the leg's first ones.
+    counted = np.bincount(leg, weights=within, minlength=first.size).astype(np.intp)
+    return np.minimum(np.maximum(first + counted - 1, first + 1), last)
 
 
 def _split_until_within(wanted: NDArray[np.float64], along: NDArray[np.float64], kept: NDArray[np.intp],

@@ -4,7 +4,9 @@ drone_missions.build_mission writes a plan over a DEM with its waypoints in the 
 above the ground under the drone), which ArduPilot flies as it is. PX4 refuses that frame, so for PX4
 each waypoint becomes an altitude above sea level (MAV_FRAME_GLOBAL: the ground there plus the height), and
 each leg is split where the ground under it departs from the straight line between its ends by more
-than TERRAIN_TOLERANCE_M (terrain_legs.amsl_track), as QGroundControl does for PX4. The added points are
+than TERRAIN_TOLERANCE_M (terrain_legs.amsl_track), as QGroundControl does for PX4, and the first stretch of
+each leg cut short enough that PX4 stays within it while it turns onto the leg (it heads for the next
+waypoint's altitude then, not along the line: terrain_legs' docstring says where in PX4). The added points are
 plain waypoints: the camera commands stay after the waypoints they followed, so the photos are spaced
 as before (the trigger distance runs on through an added point).
 """
@@ -42,7 +44,7 @@ def px4_over_ground(mission: Mission, ground: GroundHeights) -> Mission:
     lon = np.array([home_lon] + [mission.items[i].y for i in legs])
     height = np.array([takeoff.z] + [mission.items[i].z for i in legs])
     out_lat, out_lon, amsl, source = amsl_track(lat, lon, height, ground, tolerance_m=TERRAIN_TOLERANCE_M,
-                                                step_m=TERRAIN_STEP_M)
+                                                step_m=TERRAIN_STEP_M, lead_in_turns=True)
     added: dict[int, list[MissionItem]] = {}  # before item index: the points added on the leg that ends there
     at: dict[int, float] = {}  # item index: its altitude above sea level
     pending: list[MissionItem] = []
