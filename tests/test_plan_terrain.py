@@ -94,7 +94,8 @@ def test_px4_gets_altitudes_above_sea_level_within_2_m_of_the_height_above_the_g
         amsl = np.array([home[2] + drone.altitude_m] + [w.z for w in waypoints])
         at_lat, at_lon, leg = sample_legs(lat, lon, 1.0)
         # The altitude flown along each leg: a straight line between its ends' altitudes.
-        along = np.hypot((at_lat - lat[leg]) * 111_132.0, (at_lon - lon[leg]) * 111_132.0 * np.cos(np.radians(lat[leg])))
+        east_m = 111_132.0 * np.cos(np.radians(lat[leg]))
+        along = np.hypot((at_lat - lat[leg]) * 111_132.0, (at_lon - lon[leg]) * east_m)
         length = np.hypot((lat[leg + 1] - lat[leg]) * 111_132.0,
                           (lon[leg + 1] - lon[leg]) * 111_132.0 * np.cos(np.radians(lat[leg])))
         flown = amsl[leg] + (amsl[leg + 1] - amsl[leg]) * np.divide(along, length, out=np.zeros_like(along),
@@ -157,7 +158,8 @@ def test_the_map_layers_give_heights_above_the_ground(planned: dict[str, Path], 
     folder = planned[autopilot]
     record = read_plan_record(folder)
     heights = {d.id: d.altitude_m for d in record.drones or ()}
-    paths = [f for f in json.loads((folder / "tracks.geojson").read_text())["features"] if f["properties"]["layer"] == "paths"]
+    features = json.loads((folder / "tracks.geojson").read_text())["features"]
+    paths = [f for f in features if f["properties"]["layer"] == "paths"]
     assert len(paths) == UAVS
     for path in paths:
         ups = np.array([point[2] for point in path["geometry"]["coordinates"]])
@@ -199,7 +201,8 @@ def test_ardupilot_terrain_grid_is_chosen_fine_enough_to_hold_the_height(planned
         assert drone.altitude_m - FOLLOW_TOLERANCE_M <= low <= high <= drone.altitude_m + FOLLOW_TOLERANCE_M
         on_default = flown_above_ground(mission, ground.height_amsl, 100)
         assert np.abs(on_default - drone.altitude_m).max() > 2.0  # why the default grid is not kept
-    assert read_plan_record(planned["px4"]).georeference.terrain.spacing_m is None  # PX4 flies altitudes above sea level
+    px4 = read_plan_record(planned["px4"]).georeference
+    assert px4 is not None and px4.terrain is not None and px4.terrain.spacing_m is None  # PX4: above sea level
 
 
 def test_the_served_ground_is_the_dem_rounded_at_ardupilots_grid_points() -> None:
@@ -214,3 +217,37 @@ def test_the_served_ground_is_the_dem_rounded_at_ardupilots_grid_points() -> Non
     lat, lon = grid_points(info.grid_lat_e7, info.grid_lon_e7, 30, list(range(56)))
     served = served_heights(lat, lon, 30, plane)
     assert np.abs(served - np.rint(plane(lat, lon))).max() < 0.02
+
+
+@pytest.mark.parametrize("kind", ["srtm-folder", "utm-geotiff"])
+def test_a_real_srtm_tile_and_a_dem_in_another_crs_give_the_same_heights_above_the_ground(
+        tmp_path: Path, kind: str) -> None:
+    """The hill as a 1 arc-second SRTM tile (a folder of tiles, whole metres) and as a GeoTIFF in UTM 32N: PX4's legs
+    hold within 2 m of the height above that ground, ArduPilot's within 1 m on the grid the plan chose."""
+    from missionplan.testing.dem_files import write_srtm_tile
+
+    box = _box()
+    if kind == "srtm-folder":
+        folder = tmp_path / "tiles"
+        folder.mkdir()
+        write_srtm_tile(folder, int(np.floor(box[0])), int(np.floor(box[1])), _ground)
+        dem = folder
+    else:
+        pad = 0.05
+        dem = write_geotiff(tmp_path / "hill-utm.tif", _ground,
+                            (box[0] - pad, box[1] - pad, box[2] + pad, box[3] + pad), 5.0, crs="EPSG:32632")
+    for autopilot in ("ardupilot", "px4"):
+        out = tmp_path / autopilot
+        assert _plan(out, "--dem", str(dem), "--autopilot", autopilot) == 0
+        record = read_plan_record(out)
+        terrain = record.georeference.terrain if record.georeference is not None else None
+        assert terrain is not None and terrain.crs == (("EPSG:4326",) if kind == "srtm-folder" else ("EPSG:32632",))
+        for drone in record.drones or ():
+            assert drone.above_ground_m is not None
+            low, high = drone.above_ground_m
+            allowed = 1.0 if autopilot == "ardupilot" else 2.0
+            wanted = drone.altitude_m
+            assert wanted - allowed - 1e-6 <= low <= high <= wanted + allowed + 1e-6, (autopilot, drone.id)
+        home, _ = _positions(out / "uav1.plan")
+        # The home is on the ground: the tile's whole metres or the UTM raster, within their rounding of the hill.
+        assert home[2] == pytest.approx(float(_ground(np.array([home[0]]), np.array([home[1]]))[0]), abs=0.6)
