@@ -182,9 +182,11 @@ def plan_retask(plan_dir: Path, record: PlanRecord, survivors: Sequence[Survivor
         photos[s.sysid] = mission.photos
         resume[s.sysid] = 1  # after the NAV_TAKEOFF: the speed, the camera, then the survey
         zone = np.argwhere(field.result.zones.zone == k)
-        points = np.vstack([here[k][None, :], routes[k]])
+        # Home first: over a DEM the fence's ceiling (above home) rises by the ground's rise above the home's.
+        home_m = to_grid_m(frame, [s.home[0]], [s.home[1]])[0]
+        points = np.vstack([home_m[None, :], here[k][None, :], routes[k]])
         fences[s.sysid] = drone_fence(frame, zone, points, layered.altitude_of(k), safety.fence_margin_m,
-                                      safety.max_altitude_m).mission()
+                                      safety.max_altitude_m, ground=ground).mission()
     separation = layering.approach["3d"]
     return RetaskPlan(missions, fences, resume, flight_s, photos, int(len(left)), separation,
                       time.monotonic() - started)
