@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 
 from missionplan.bridge.link.connection import Link
-from missionplan.bridge.link.params import ParamClient
+from missionplan.bridge.link.params import ParamClient, terrain_settings
 from missionplan.bridge.session.terrain import (TERRAIN_REPORTED, TerrainServer, TerrainStatus, check_terrain,
-                                                read_terrain_params, terrain_settings, wait_terrain_loaded)
+                                                read_terrain_params, wait_terrain_loaded)
 from missionplan.bridge.session.vehicle_session import VehicleSession
 from missionplan.bridge.transfer.protocol import Timeouts
 from missionplan.testing.arducopter import ArduCopter, sitl_or_skip

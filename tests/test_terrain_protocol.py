@@ -19,8 +19,8 @@ import pytest
 from missionplan.bridge.formats.mission_items import Flavour
 from missionplan.bridge.link.connection import VehicleInfo, command_long, mavlink
 from missionplan.bridge.link.readiness import Vehicle
-from missionplan.bridge.session.terrain import (TERRAIN_REPORTED, TerrainServer, check_terrain, terrain_settings,
-                                                wait_terrain_loaded)
+from missionplan.bridge.link.params import terrain_settings
+from missionplan.bridge.session.terrain import TERRAIN_REPORTED, TerrainServer, check_terrain, wait_terrain_loaded
 from missionplan.bridge.session.vehicle_session import VehicleSession
 
 LSF = 0.011131884502145034  # AP_Math LOCATION_SCALING_FACTOR: metres per 1e-7 degree

@@ -10,9 +10,9 @@ height at a point and TERRAIN_REPORT tells (its pending and loaded blocks too). 
   but counted, so the caller can say where the DEM ends; counts requests, blocks and bytes;
 - check_terrain / wait_terrain_loaded: TERRAIN_CHECK for a mission's points and the vehicle's
   TERRAIN_REPORTs read back, bounded, with a TerrainStatus that says in one line what is missing;
-- terrain_settings (defined in link.params, where the upload that sets them as it sets WPNAV_RADIUS can
-  reach it): the parameters terrain flight needs on ArduCopter; TERRAIN_REPORTED, the ones read and
-  reported but left as the vehicle has them.
+- TERRAIN_REPORTED / read_terrain_params: the terrain parameters read and reported but left as the vehicle
+  has them (the ones terrain flight needs are link.params.terrain_settings: the upload sets them as it sets
+  WPNAV_RADIUS).
 
 The layout (which ground each height of a TERRAIN_DATA is, from ArduPilot's libraries/AP_Terrain) is
 formats/terrain_grid.py's, shared with the mock autopilot that asks for it. From TerrainGCS.cpp:
@@ -36,7 +36,6 @@ import numpy as np
 from ..formats.terrain_grid import INT16, grid_points, mask_bits
 from ..link.connection import mavlink
 from ..link.params import ParamClient, read_params
-from ..link.params import terrain_settings as terrain_settings  # the upload sets them (link.params)
 from ..link.readiness import request_streams
 
 HeightFunction = Callable[[np.ndarray, np.ndarray], np.ndarray]
