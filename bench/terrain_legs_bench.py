@@ -42,7 +42,6 @@ from missionplan.maps.catalog import load_shipped
 from missionplan.mission.georef import shipped_frame
 from missionplan.mission.plan_record import read_plan_record
 from missionplan.mission.terrain_legs import amsl_track, flown_heights, sample_legs
-from missionplan.planning.terrain import grid_box
 from missionplan.testing.dem_files import hill, write_geotiff
 
 import doctable  # bench/doctable.py: --write-doc
@@ -131,7 +130,7 @@ def table(args: argparse.Namespace) -> int:
 
 def plan_table(map_name: str, uavs: int) -> int:
     """`missionplan plan --autopilot px4 --dem` of a shipped map over the test hill: the waypoints it adds."""
-    box = grid_box(shipped_frame(load_shipped(map_name)))
+    box = shipped_frame(load_shipped(map_name)).latlon_box()
     centre = ((box[0] + box[2]) / 2, (box[1] + box[3]) / 2)
 
     def ground(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
@@ -141,14 +140,18 @@ def plan_table(map_name: str, uavs: int) -> int:
     with tempfile.TemporaryDirectory(prefix="terrain-legs-bench-") as tmp:
         dem = write_geotiff(Path(tmp) / "hill.tif", ground, (box[0] - pad, box[1] - pad, box[2] + pad, box[3] + pad),
                             TEST_HILL_PIXEL_M)
-        out = Path(tmp) / "plan"
+        out, reference = Path(tmp) / "plan", Path(tmp) / "ardupilot"
         started = time.perf_counter()
         with contextlib.redirect_stdout(io.StringIO()):
             code = missionplan(["plan", "--map", map_name, "--uavs", str(uavs), "--autopilot", "px4", "--dem",
                                 str(dem), "--quiet", "--out", str(out)])
         took = time.perf_counter() - started
+        with contextlib.redirect_stdout(io.StringIO()):  # the same tracks, unsplit: ArduPilot follows the terrain
+            code = code or missionplan(["plan", "--map", map_name, "--uavs", str(uavs), "--dem", str(dem), "--quiet",
+                                        "--out", str(reference)])
         if code != 0:
             return code
+        unsplit = {d.id: d.waypoints for d in read_plan_record(reference).drones or ()}
         record = read_plan_record(out)
         terrain = record.georeference.terrain if record.georeference is not None else None
         assert terrain is not None, "a plan over a DEM records its ground"
@@ -168,7 +171,7 @@ def plan_table(map_name: str, uavs: int) -> int:
             amsl = np.array([mission.home[2] + takeoff.z] + [w.z for w in waypoints])
             above = flown_heights(lat, lon, amsl, plan_ground.height_amsl, 1.0)
             under = plan_ground.height_amsl(*sample_legs(lat, lon, 1.0)[:2])
-            planned, written = drone.waypoints, len(waypoints)
+            planned, written = unsplit[drone.id], len(waypoints)
             total_planned, total_written = total_planned + planned, total_written + written
             print(f"{'uav' + str(drone.id):>5} {takeoff.z:>8g} {planned:>7} {written:>8} {written - planned:>5}"
                   f" {100 * (written - planned) / planned:>7.0f} {np.abs(above - takeoff.z).max():>11.2f}"
