@@ -21,7 +21,7 @@ from missionplan.maps.catalog import load_shipped  # noqa: E402
 from missionplan.mission.georef import shipped_frame  # noqa: E402
 from missionplan.mission.plan_record import read_plan_record  # noqa: E402
 from missionplan.mission.terrain_legs import sample_legs  # noqa: E402
-from missionplan.testing.dem_files import hill, write_geotiff  # noqa: E402
+from missionplan.testing.dem_files import map_hill, write_geotiff  # noqa: E402
 
 MAP, UAVS = "old-town", 3
 PEAK_M, RADIUS_M = 40.0, 120.0  # slopes up to about 29 %: a leg's straight line departs from the ground
@@ -31,9 +31,7 @@ def _box() -> tuple[float, float, float, float]:
     return shipped_frame(load_shipped(MAP)).latlon_box()
 
 
-def _ground(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
-    box = _box()
-    return hill(lat, lon, ((box[0] + box[2]) / 2, (box[1] + box[3]) / 2), peak_m=PEAK_M, radius_m=RADIUS_M)
+_ground = map_hill(MAP, PEAK_M, RADIUS_M)
 
 
 @pytest.fixture(scope="module")

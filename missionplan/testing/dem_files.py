@@ -120,10 +120,8 @@ def write_flat_geotiff(path: Path, height_m: int, centre: tuple[float, float], s
     return path
 
 
-def hill_under_map(name: str, path: Path, peak_m: float = 40.0, radius_m: float = 120.0,
-                   resolution_m: float = 5.0, reach_m: float = 4_000.0) -> Path:
-    """A hill DEM centred under a shipped map (or a .map file with an origin), reaching `reach_m` beyond it
-    (ArduPilot asks for terrain grids kilometres around it): the ground of the docs' and benches' examples."""
+def map_hill(name: str, peak_m: float = 40.0, radius_m: float = 120.0) -> GroundFn:
+    """The ground of a hill centred under a shipped map (or a .map file with an origin): `hill` there."""
     from missionplan.maps.catalog import load_shipped
     from missionplan.mission.georef import shipped_frame
 
@@ -132,8 +130,21 @@ def hill_under_map(name: str, path: Path, peak_m: float = 40.0, radius_m: float 
         raise ValueError(f"{name}: the map has no origin, so no place on the Earth for a hill")
     box = frame.latlon_box()
     centre = ((box[0] + box[2]) / 2, (box[1] + box[3]) / 2)
-    pad_lat = reach_m / M_PER_DEG
-    pad_lon = pad_lat / math.cos(math.radians(centre[0]))
-    return write_geotiff(path, lambda lat, lon: hill(lat, lon, centre, peak_m=peak_m, radius_m=radius_m),
-                         (box[0] - pad_lat, box[1] - pad_lon, box[2] + pad_lat, box[3] + pad_lon), resolution_m)
+    return lambda lat, lon: hill(lat, lon, centre, peak_m=peak_m, radius_m=radius_m)
 
+
+def hill_under_map(name: str, path: Path, peak_m: float = 40.0, radius_m: float = 120.0,
+                   resolution_m: float = 5.0, reach_m: float = 4_000.0) -> Path:
+    """A GeoTIFF of `map_hill` reaching `reach_m` beyond the map (ArduPilot asks for terrain grids kilometres
+    around it): the ground of the docs' and benches' examples."""
+    from missionplan.maps.catalog import load_shipped
+    from missionplan.mission.georef import shipped_frame
+
+    frame = shipped_frame(load_shipped(name))
+    assert frame is not None  # map_hill refuses a map without one first
+    ground = map_hill(name, peak_m, radius_m)
+    box = frame.latlon_box()
+    pad_lat = reach_m / M_PER_DEG
+    pad_lon = pad_lat / math.cos(math.radians((box[0] + box[2]) / 2))
+    return write_geotiff(path, ground, (box[0] - pad_lat, box[1] - pad_lon, box[2] + pad_lat, box[3] + pad_lon),
+                         resolution_m)
