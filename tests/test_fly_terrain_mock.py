@@ -43,3 +43,27 @@ def test_a_mock_fleet_over_a_hill_covers_the_streets_at_its_height_above_the_gro
         tolerance = drone["above_ground"]["tolerance_m"]
         assert planned.altitude_m - tolerance <= heights["min"] <= heights["max"] <= planned.altitude_m + tolerance
         assert any(note.startswith("terrain loaded after ") for note in drone["notes"])
+
+
+def test_upload_serves_the_plans_ground_until_the_vehicle_has_it(tmp_path: Path,
+                                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """`missionplan upload` of a terrain plan's mission: the terrain parameters and the plan's TERRAIN_SPACING set
+    and said, the ground served on the upload's own link until the vehicle reports it loaded, said in a line."""
+    dem = hill_under_map("old-town", tmp_path / "hill.tif", peak_m=40.0, radius_m=120.0)
+    plan_dir = tmp_path / "plan"
+    assert main(["plan", "--map", "old-town", "--uavs", "1", "--dem", str(dem), "--out", str(plan_dir), "--quiet"]) == 0
+    spacing = read_plan_record(plan_dir).georeference.terrain.spacing_m  # type: ignore[union-attr]
+    capsys.readouterr()
+    mock = start_mock_fleet(plan_dir, SPEEDUP)
+    try:
+        code = main(["upload", str(plan_dir / "uav1.plan"), "--sysid", "1", "--connect", mock.client_url, "--quiet"])
+        pending, loaded = mock.vehicle(1).terrain.statistics()
+        params = dict(mock.vehicle(1).params)
+    finally:
+        mock.stop()
+    out = capsys.readouterr().out
+    assert code == 0 and pending == 0 and loaded > 0
+    assert params["TERRAIN_SPACING"] == spacing and params["WPNAV_RFND_USE"] == 0 and params["RTL_ALT_TYPE"] == 1
+    assert f"set TERRAIN_SPACING = {spacing} m" in out
+    line = next(line for line in out.splitlines() if line.startswith("uav1: terrain loaded after "))
+    assert "0 blocks pending" in line

@@ -67,9 +67,10 @@ MISSION_POINTS_PER_UPDATE = 20
 CMD_NAV_SPLINE_WAYPOINT = 82  # MAV_CMD_NAV_SPLINE_WAYPOINT: prefetched like NAV_WAYPOINT
 TERRAIN_FRAMES = frozenset({FRAME_GLOBAL_TERRAIN_ALT, FRAME_GLOBAL_TERRAIN_ALT_INT})
 WAITING_TEXT = "PreArm: waiting for terrain data"  # AP_Terrain::pre_arm_checks through AP_Arming's "PreArm: "
-# ArduCopter's defaults for the terrain parameters the ground station reads or sets (session/terrain.py).
+# ArduCopter's defaults for the terrain parameters the ground station reads or sets (session/terrain.py,
+# link.params.terrain_plan_settings). RTL_ALT_TYPE is held, not flown: the mock's RTL stays at RTL_ALT above home.
 TERRAIN_PARAMS = {"TERRAIN_ENABLE": 1.0, "TERRAIN_SPACING": 100.0, "TERRAIN_OPTIONS": 0.0, "TERRAIN_OFS_MAX": 30.0,
-                  "WPNAV_RFND_USE": 1.0}
+                  "WPNAV_RFND_USE": 1.0, "RTL_ALT_TYPE": 0.0}
 DISABLE_DOWNLOAD = 1  # TERRAIN_OPTIONS bit 0
 TERRAIN_STREAMS = (mavlink.MAVLINK_MSG_ID_TERRAIN_REQUEST, mavlink.MAVLINK_MSG_ID_TERRAIN_REPORT)
 DEFAULT_STREAM_S = 1.0  # SET_MESSAGE_INTERVAL 0: the default rate
