@@ -119,7 +119,7 @@ def test_wpnav_radius_from_the_plan_clamped_to_its_range_and_proven_by_param_val
             report = upload_plan(b, [survey(3)], set_params=False)
             assert report.params == [] and mock.vehicle(1).params["WPNAV_RADIUS"] == 200.0
             assert upload_plan(b, [survey(3)]).params == [
-                "WPNAV_RADIUS = 50 cm (was 200): the plan's acceptance radius (ArduCopter ignores the waypoints' param2)"]
+                "set WPNAV_RADIUS = 50 cm (was 200): the plan's acceptance radius (ArduCopter ignores the waypoints' param2)"]
             assert mock.vehicle(1).flight.default_acceptance == 0.5  # and the mock flies it
             # A vehicle that keeps another value fails the upload instead of flying a radius nobody chose.
             monkeypatch.setattr(vehicle_params.ParamServer, "_on_set",

@@ -129,5 +129,5 @@ def test_mavsdk_backend_to_an_ardupilot_vehicle_verifies_by_its_rule_and_sets_wp
     with MockAutopilot(flavour="ardupilot", request_interval=0.05) as mock:
         with open_backend("mavsdk", mock.client_url, 1, timeouts=Timeouts(item_timeout=0.3), connect_timeout=5) as b:
             report = upload_plan(b, [survey(20)])
-        assert report.verified and report.params and report.params[0].startswith("WPNAV_RADIUS = ")
+        assert report.verified and report.params and report.params[0].startswith("set WPNAV_RADIUS = ")
         assert mock.vehicle(1).params["WPNAV_RADIUS"] != 200.0 and len(mock.mission(1)) == 21

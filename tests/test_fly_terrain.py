@@ -24,7 +24,7 @@ from missionplan.mission.geofence import drone_fence
 from missionplan.testing.dem_files import hill
 
 COPTER = VehicleInfo(1, 1, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, mavlink.MAV_TYPE_QUADROTOR, Flavour.ARDUPILOT, False)
-PX4 = VehicleInfo(1, 1, mavlink.MAV_AUTOPILOT_PX4, mavlink.MAV_TYPE_QUADROTOR, Flavour.PX4, False)
+PX4_VEHICLE = VehicleInfo(1, 1, mavlink.MAV_AUTOPILOT_PX4, mavlink.MAV_TYPE_QUADROTOR, Flavour.PX4, False)
 
 
 class ParamTable:
@@ -80,7 +80,7 @@ def test_a_mission_above_home_sets_only_wpnav_radius_and_px4_nothing():
     said = set_plan_params(table, _mission(FRAME_GLOBAL_RELATIVE_ALT))  # type: ignore[arg-type]
     assert table.sent == [("WPNAV_RADIUS", 150.0)] and len(said) == 1
     assert UploadReport(1, "ardupilot", "pymavlink", params=said).summary().count("; set WPNAV_RADIUS = 150 cm") == 1
-    px4 = ParamTable(PX4, {})
+    px4 = ParamTable(PX4_VEHICLE, {})
     assert set_plan_params(px4, _mission(FRAME_GLOBAL_TERRAIN_ALT)) == [] and px4.sent == []  # type: ignore[arg-type]
 
 
@@ -157,6 +157,7 @@ def test_the_served_line_says_what_was_sent_and_where_the_ground_ended():
 pytest.importorskip("rasterio", reason="plan --dem reads DEMs with rasterio: pip install -e '.[terrain]'")
 
 
+@pytest.mark.flight
 def test_fly_arms_no_drone_when_one_never_reports_its_terrain_loaded(tmp_path: Path) -> None:
     from missionplan.cli.app import main
     from missionplan.flight.fly import fly

@@ -24,7 +24,9 @@ from pymavlink import mavwp  # noqa: E402
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
 from missionplan.bridge import BridgeUsageError  # noqa: E402
-from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem  # noqa: E402
+from missionplan.bridge.formats.mission_items import (FRAME_GLOBAL, FRAME_GLOBAL_RELATIVE_ALT,  # noqa: E402
+                                                      FRAME_GLOBAL_TERRAIN_ALT, FRAME_MISSION, Flavour, Mission,
+                                                      MissionItem)
 from missionplan.bridge.formats.missionfile import PlanFile, read_mission_file, write_mission_file  # noqa: E402
 from missionplan.bridge.formats.qgc_plan import plan_document  # noqa: E402
 
@@ -114,12 +116,12 @@ def test_calculated_above_terrain_without_an_altitude_is_refused_saying_why_and_
 
 def _mission() -> Mission:
     return Mission(items=[
-        MissionItem(command=TAKEOFF, frame=3, param4=math.nan, x=44.4101, y=8.9301, z=30.0),
-        MissionItem(command=SPEED, frame=2, param1=1.0, param2=6.0, param3=-1.0),
-        MissionItem(command=WP, frame=10, param4=math.nan, x=44.4110, y=8.9310, z=40.0),
-        MissionItem(command=WP, frame=0, param4=math.nan, x=44.4120, y=8.9320, z=297.25),
-        MissionItem(command=mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, frame=2, param1=12.5, param3=1.0),
-        MissionItem(command=RTL, frame=2),
+        MissionItem(command=TAKEOFF, frame=FRAME_GLOBAL_RELATIVE_ALT, param4=math.nan, x=44.4101, y=8.9301, z=30.0),
+        MissionItem(command=SPEED, frame=FRAME_MISSION, param1=1.0, param2=6.0, param3=-1.0),
+        MissionItem(command=WP, frame=FRAME_GLOBAL_TERRAIN_ALT, param4=math.nan, x=44.4110, y=8.9310, z=40.0),
+        MissionItem(command=WP, frame=FRAME_GLOBAL, param4=math.nan, x=44.4120, y=8.9320, z=297.25),
+        MissionItem(command=mavlink.MAV_CMD_DO_SET_CAM_TRIGG_DIST, frame=FRAME_MISSION, param1=12.5, param3=1.0),
+        MissionItem(command=RTL, frame=FRAME_MISSION),
     ], home=(44.4101, 8.9301, 212.0))
 
 

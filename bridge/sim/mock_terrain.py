@@ -64,7 +64,6 @@ REQUEST_PACING_S = 2.0  # TerrainGCS.cpp send_request: one TERRAIN_REQUEST per 2
 SURROUNDING_GRID_FRACTION = 0.7  # the 9 points around the vehicle: 0.7 grid away (north x 28, east x 32 spacings)
 MISSION_POINT_SPACINGS = 10  # TerrainMission.cpp: 4 points this many grid spacings from each waypoint
 MISSION_POINTS_PER_UPDATE = 20
-CMD_NAV_SPLINE_WAYPOINT = 82  # MAV_CMD_NAV_SPLINE_WAYPOINT: prefetched like NAV_WAYPOINT
 TERRAIN_FRAMES = frozenset({FRAME_GLOBAL_TERRAIN_ALT, FRAME_GLOBAL_TERRAIN_ALT_INT})
 WAITING_TEXT = "PreArm: waiting for terrain data"  # AP_Terrain::pre_arm_checks through AP_Arming's "PreArm: "
 # ArduCopter's defaults for the terrain parameters the ground station reads or sets (session/terrain.py,
@@ -265,7 +264,8 @@ class MockTerrain(VehiclePart):
                     self._next_mission_index = self._next_mission_pos = 0
                     return
                 item = items[self._next_mission_index]
-                if item.command in (CMD_NAV_WAYPOINT, CMD_NAV_SPLINE_WAYPOINT) and (item.x or item.y):
+                # A spline waypoint is prefetched as a waypoint is (TerrainMission.cpp).
+                if item.command in (CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_SPLINE_WAYPOINT) and (item.x or item.y):
                     break
                 self._next_mission_index += 1
             lat_e7, lon_e7 = int(item.x), int(item.y)
