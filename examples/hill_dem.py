@@ -3,7 +3,7 @@
     python examples/hill_dem.py MAP FILE [--peak 40] [--radius 120]
 
 MAP is a shipped map's name (or a .map file with an origin); the hill (missionplan.testing.dem_files.hill) sits
-under its middle and the file reaches 4 km beyond it, as far as ArduPilot asks for terrain (docs/terrain.md).
+under its middle and the file reaches 6 km beyond it, farther than ArduPilot asks for terrain (docs/terrain.md).
 """
 
 from __future__ import annotations

@@ -249,3 +249,17 @@ def test_a_real_srtm_tile_and_a_dem_in_another_crs_give_the_same_heights_above_t
         home, _ = _positions(out / "uav1.plan")
         # The home is on the ground: the tile's whole metres or the UTM raster, within their rounding of the hill.
         assert home[2] == pytest.approx(float(_ground(np.array([home[0]]), np.array([home[1]]))[0]), abs=0.6)
+
+
+def test_a_dem_that_ends_before_ardupilot_stops_asking_is_said_in_one_warning(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """ArduPilot arms only with every terrain block it asked for, kilometres around its track: a DEM that covers the
+    area but ends 1 km beyond it is planned, with one warning line; PX4, which is served nothing, gets none."""
+    box, pad = _box(), 0.01  # about 1 km
+    small = write_geotiff(tmp_path / "small.tif", _ground, (box[0] - pad, box[1] - pad, box[2] + pad, box[3] + pad),
+                          5.0)
+    assert _plan(tmp_path / "ardupilot", "--dem", str(small)) == 0
+    warnings = [line for line in capsys.readouterr().err.splitlines() if "ArduPilot asks" in line]
+    assert len(warnings) == 1 and warnings[0].startswith("missionplan: warning: the DEM reaches only 0.75 km beyond")
+    assert _plan(tmp_path / "px4", "--dem", str(small), "--autopilot", "px4") == 0
+    assert "ArduPilot asks" not in capsys.readouterr().err

@@ -197,9 +197,15 @@ def _plan_ground(request: PlanRequest) -> PlanGround:
         if frame is None:
             raise MapError(f"--dem needs a plan on the Earth: {printable(gmap.name)} has no origin (use --area, "
                            "or a map with origin_lat / origin_lon)")
-        from ..planning.terrain import plan_terrain
+        from ..planning.terrain import DEM_MARGIN_M, plan_terrain, reach_m
 
         ground.terrain = plan_terrain(request.dem, frame, gmap, ground.starts)
+        reached = reach_m(ground.terrain, frame)
+        if request.autopilot == "ardupilot" and reached < DEM_MARGIN_M:
+            print(f"missionplan: warning: the DEM reaches only {reached / 1000:.2f} km beyond the area all round; "
+                  f"ArduPilot asks its ground station for terrain up to {DEM_MARGIN_M / 1000:g} km beyond its track "
+                  "and arms only once it has it all: `fly` will say where the ground ends (a larger DEM avoids it)",
+                  file=sys.stderr)
     return ground
 
 

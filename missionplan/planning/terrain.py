@@ -36,6 +36,26 @@ def plan_terrain(dem: Sequence[Path], frame: GridFrame, gmap: GridMap, starts: S
     return checked_ground(read_ground(dem, frame.latlon_box(), margin_m=DEM_MARGIN_M), frame, gmap, starts)
 
 
+def reach_m(ground: Ground, frame: GridFrame, step_m: float = 250.0) -> float:
+    """How far beyond the grid, up to DEM_MARGIN_M, the ground has a height all round: the widest box around the
+    grid (steps of step_m) whose corners and edge midpoints all have one. ArduPilot arms only once it has every
+    terrain block it asked for, up to about 5.4 km beyond its track: a DEM that ends sooner keeps it on the ground."""
+    min_lat, min_lon, max_lat, max_lon = frame.latlon_box()
+    mid_lat, mid_lon = (min_lat + max_lat) / 2, (min_lon + max_lon) / 2
+    reached = 0.0
+    for margin in np.arange(step_m, DEM_MARGIN_M + step_m / 2, step_m):
+        dlat = margin / 111_320.0
+        dlon = dlat / max(np.cos(np.radians(mid_lat)), 0.01)
+        lat = np.array([min_lat - dlat, min_lat - dlat, max_lat + dlat, max_lat + dlat, mid_lat, mid_lat,
+                        min_lat - dlat, max_lat + dlat])
+        lon = np.array([min_lon - dlon, max_lon + dlon, min_lon - dlon, max_lon + dlon, min_lon - dlon,
+                        max_lon + dlon, mid_lon, mid_lon])
+        if np.isnan(ground.height_amsl(lat, lon)).any():
+            break
+        reached = float(margin)
+    return reached
+
+
 def folder_terrain(folder: Path, record: PlanRecord) -> Ground | None:
     """The ground a plan folder was planned over (its copy, geo.dem_copy), as far as it reaches: what a re-plan
     after landing and a re-task in flight plan over; None for a plan taken as flat."""

@@ -134,7 +134,7 @@ def map_hill(name: str, peak_m: float = 40.0, radius_m: float = 120.0) -> Ground
 
 
 def hill_under_map(name: str, path: Path, peak_m: float = 40.0, radius_m: float = 120.0,
-                   resolution_m: float = 5.0, reach_m: float = 4_000.0) -> Path:
+                   resolution_m: float = 5.0, reach_m: float = 6_000.0) -> Path:
     """A GeoTIFF of `map_hill` reaching `reach_m` beyond the map (ArduPilot asks for terrain grids kilometres
     around it): the ground of the docs' and benches' examples."""
     from missionplan.maps.catalog import load_shipped
