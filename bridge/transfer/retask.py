@@ -250,6 +250,10 @@ def replace_mission_in_flight(backend: MissionBackend, link: Any, sysid: int, fl
     # made: from the final ACK on for PX4 in its mission mode, from the mode change on otherwise; it may
     # fly on quickly), its mode and arming (a HEARTBEAT from now on).
     currents = heard if not ardupilot and not held else len(watch.currents)
+    if there and not held:
+        # PX4 may say its old mission's item once more right after the final ACK (a report from before the switch:
+        # 6 then 2 on SIH); the first report in the new mission's range is where it continued.
+        currents = next(i for i in range(heard, len(watch.currents)) if resume_seq <= watch.currents[i] <= nav_seq)
     if resume and (ardupilot or held) and (refusal := back_to_auto()):  # a held PX4 resumes at its flagged item
         problems.append(refusal)
     beats = watch.heartbeats
