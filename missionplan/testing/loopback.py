@@ -32,24 +32,23 @@ def free_udp_port() -> int:
         return int(sock.getsockname()[1])
 
 
-def udp_port_free(port: int, host: str = "127.0.0.1") -> bool:
-    """Whether nobody has bound UDP `port` on `host` (a peer started elsewhere has, once it listens)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+def _port_free(kind: int, port: int, host: str) -> bool:
+    with socket.socket(socket.AF_INET, kind) as sock:
         try:
             sock.bind((host, port))
         except OSError:
             return False
     return True
+
+
+def udp_port_free(port: int, host: str = "127.0.0.1") -> bool:
+    """Whether nobody has bound UDP `port` on `host` (a peer started elsewhere has, once it listens)."""
+    return _port_free(socket.SOCK_DGRAM, port, host)
 
 
 def tcp_port_free(port: int, host: str = "127.0.0.1") -> bool:
     """Whether nobody listens on TCP `port` on `host` (bound, so a peer could not take it now)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-        try:
-            sock.bind((host, port))
-        except OSError:
-            return False
-    return True
+    return _port_free(socket.SOCK_STREAM, port, host)
 
 
 def wait_until(condition: Callable[[], T], timeout: float, interval: float = 0.05) -> T | None:
