@@ -267,10 +267,14 @@ def _heights_over_ground(plans: FlightPlans, ground: GroundHeights) -> None:
     from .terrain_missions import flown_above_ground, terrain_spacing
 
     every = [m.mission for missions in plans.sorties for m in missions]
-    if plans.settings.autopilot != "px4":
-        plans.terrain_spacing = terrain_spacing(every, ground)
+    if plans.settings.autopilot != "px4":  # the spacing is chosen from the heights as flown: those are reported
+        plans.terrain_spacing, flown_each = terrain_spacing(every, ground)
+    else:
+        flown_each = [flown_above_ground(mission, ground, None) for mission in every]
+    start = 0
     for missions in plans.sorties:
-        flown = np.concatenate([flown_above_ground(m.mission, ground, plans.terrain_spacing) for m in missions])
+        flown = np.concatenate(flown_each[start:start + len(missions)])
+        start += len(missions)
         flown = flown[np.isfinite(flown)]
         plans.above_ground.append((round(float(flown.min()), 2), round(float(flown.max()), 2)) if len(flown)
                                   else (float("nan"), float("nan")))

@@ -110,17 +110,19 @@ def flown_above_ground(mission: Mission, ground: GroundHeights, spacing: int | N
     return served + height - ground(at_lat, at_lon)
 
 
-def terrain_spacing(missions: list[Mission], ground: GroundHeights) -> int:
+def terrain_spacing(missions: list[Mission], ground: GroundHeights) -> tuple[int, list[np.ndarray]]:
     """The coarsest of TERRAIN_SPACINGS at which every terrain-frame mission stays within FOLLOW_TOLERANCE_M of
-    its heights above the DEM; the finest when none does (the plan then says how far off it is)."""
+    its heights above the DEM (the finest when none does: the plan then says how far off it is), and each
+    mission's heights as flown at it (flown_above_ground), which the plan reports."""
     for spacing in TERRAIN_SPACINGS:
-        worst = 0.0
+        worst, flown_all = 0.0, []
         for mission in missions:
             _, _, z, _ = _waypoint_legs(mission)
             flown = flown_above_ground(mission, ground, spacing)
+            flown_all.append(flown)
             if len(flown):
                 wanted = float(np.max(z))  # a survey holds one height above the ground
                 worst = max(worst, float(np.nanmax(np.abs(flown - wanted))))
-        if worst <= FOLLOW_TOLERANCE_M:
-            return spacing
-    return TERRAIN_SPACINGS[-1]
+        if worst <= FOLLOW_TOLERANCE_M or spacing == TERRAIN_SPACINGS[-1]:
+            return spacing, flown_all
+    raise AssertionError("unreachable: the finest spacing returns")
