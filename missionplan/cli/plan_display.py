@@ -64,6 +64,8 @@ def print_plan(folder: PlanFolder) -> None:
         print(f"  uav{drone.id}: {drone.cells} cells -> {drone.waypoints} waypoints, "
               f"{drone.length_m:.0f} m, {drone.flight_s:.0f} s{sorties}, {drone.photos} photos "
               f"at {drone.altitude_m:g} m{above} (turning {before.turning_deg:.0f} -> {after.turning_deg:.0f} deg)")
+    if folder.overlap is not None:  # measured from where the missions take their photos, not from the rule
+        print(f"  overlaps as planned: {folder.overlap.summary()}")
     sep = record.separation
     if sep is not None and sep.d3 is not None:
         closest = sep.closest

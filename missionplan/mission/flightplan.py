@@ -27,6 +27,8 @@ from .corrector import MARGIN_CELLS, CorrectedPath, correct_path
 from .geofence import Fence, drone_fence
 from .plan_blocks import ClearancePromise, Closest, DronePlan, FencePlan, PathShape, SeparationPromise, SortiePlan
 from .drone_missions import DroneMission, GroundHeights, MissionSettings
+from .layers import planned_photos
+from .photo_overlap import OverlapMeasure, measure_overlap
 from .safety import SafetySettings
 from .separation import Layering, SeparationError, choose_layers, closest_over_sorties, position_at
 from .sorties import Sortie, sortie_file, split_sorties
@@ -113,6 +115,22 @@ class FlightPlans:
             promise = replace(promise, closest_uav=worst[1],
                               closest_at=(round(float(lat[0]), 7), round(float(lon[0]), 7)))
         return promise
+
+    def overlap(self, frame: GridFrame, targets: np.ndarray, side_overlap: float | None = None) -> OverlapMeasure:
+        """The overlaps the planned photos give (photo_overlap.measure_overlap): every sortie's photos where
+        its mission takes them (layers.planned_photos), each sortie a run, against the front overlap the
+        settings ask and `side_overlap` (a fraction, None: not asked); `targets` (n, 2) the grid cells to
+        photograph. The footprint is the lowest drone's (settings.footprint_m): a higher layer sees more."""
+        def to_m(lat: float, lon: float) -> np.ndarray:
+            row, col = frame.latlon_to_grid(np.array([lat]), np.array([lon]))
+            return np.array([float(np.atleast_1d(row)[0]), float(np.atleast_1d(col)[0])]) * frame.cell_m
+
+        trigger = self.settings.trigger_distance_m
+        photos = [planned_photos(mission.mission.items, trigger, to_m) for missions in self.sorties for mission in missions]
+        runs = np.concatenate([np.full(len(points), k) for k, points in enumerate(photos)]) if photos else np.zeros(0)
+        centres = np.vstack(photos) if photos else np.zeros((0, 2))
+        return measure_overlap(centres, runs, self.settings.footprint_m, np.asarray(targets, dtype=float) * frame.cell_m,
+                               asked_front=self.settings.overlap, asked_side=side_overlap)
 
     def drone_plans(self) -> tuple[DronePlan, ...]:
         """report.json's `drones`: one per drone (totals over its sorties, then each sortie)."""

@@ -22,6 +22,7 @@ from missionplan.geo.sources import Omission
 
 from ..maps.gridmap import Cell
 from .drone_missions import MissionSettings
+from .photo_overlap import OverlapMeasure
 from .safety import SafetySettings
 
 JSON = dict[str, Any]  # an object as report.json holds it
@@ -377,6 +378,9 @@ class CoverageSummary:
     unreachable_by_clearance: int | None
     small_shares: tuple[SmallShare, ...]
     warnings: tuple[str, ...]
+    # The overlaps the planned photos achieve (photo_overlap): recorded for a plan that asks its overlaps
+    # (a camera's side overlap); left out, as before, for one that does not.
+    overlap: OverlapMeasure | None = None
 
     def warned_first(self, warnings: Sequence[str]) -> CoverageSummary:
         """These warnings before the block's own (an area's input warnings come first)."""
@@ -390,7 +394,8 @@ class CoverageSummary:
                 "unknown_building_height_m": self.unknown_building_height_m,
                 "unreachable_by_unknown_height": self.unreachable_by_unknown_height,
                 "unreachable_by_clearance": self.unreachable_by_clearance,
-                "small_shares": [s.to_json() for s in self.small_shares], "warnings": list(self.warnings)}
+                "small_shares": [s.to_json() for s in self.small_shares], "warnings": list(self.warnings),
+                **({} if self.overlap is None else {"overlap": self.overlap.to_json()})}
 
     @classmethod
     def from_json(cls, doc: Mapping[str, Any]) -> CoverageSummary:
@@ -398,7 +403,8 @@ class CoverageSummary:
                    doc["unreachable"], doc["unreachable_pct"], doc.get("unknown_height_buildings"),
                    doc.get("unknown_building_height_m"), doc.get("unreachable_by_unknown_height"),
                    doc.get("unreachable_by_clearance"),
-                   tuple(SmallShare.from_json(s) for s in doc.get("small_shares") or []), tuple(doc.get("warnings") or []))
+                   tuple(SmallShare.from_json(s) for s in doc.get("small_shares") or []), tuple(doc.get("warnings") or []),
+                   OverlapMeasure.from_json(doc["overlap"]) if doc.get("overlap") is not None else None)
 
 
 # ------------------------------------------------------------------------------------------- the files read

@@ -46,6 +46,7 @@ from ..maps.catalog import load_shipped
 from ..maps.gridmap import GridMap
 from ..mission.georef import AreaSources, UnknownHeights, mission_settings, shipped_frame
 from ..mission.drone_missions import MissionSettings
+from ..mission.photo_overlap import OverlapMeasure
 from ..mission.plan_blocks import PlanSettings, SurveyPointer
 from ..mission.plan_record import REPORT_NAME, PlanRecord, report_path, write_plan_record
 from ..mission.safety import SafetySettings, safety_settings
@@ -69,6 +70,9 @@ class PlanGround:
     from_osm: bool = False  # drawn from OpenStreetMap buildings (--area with --osm)
     launch_labels: list[str] | None = None  # the launch points as given (--launch LAT,LON), for the pictures
     terrain: Ground | None = None  # the ground under the plan (plan --dem: planning/terrain.py); None: flat
+    # The side overlap asked of the camera (a fraction; None: not asked). The planned photos' measured
+    # overlaps are set against it, and recorded in report.json's coverage when it is asked.
+    side_overlap: float | None = None
 
     @property
     def uavs(self) -> int:
@@ -109,6 +113,7 @@ class PlanFolder:
     record: PlanRecord
     written: list[Path] = field(default_factory=list)  # missions and map files, report.json and plan.png aside
     kept: list[Path] = field(default_factory=list)  # an earlier plan's files, changed since: not removed
+    overlap: OverlapMeasure | None = None  # what the planned photos achieve (None: no missions)
 
     @property
     def success(self) -> bool:
@@ -309,6 +314,11 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
         if ground.sources is not None:  # each file an --area plan read; its warning (what they left out) first
             record = replace(record, inputs=tuple(ground.sources.inputs))
             coverage = coverage.warned_first(ground.sources.warnings)
+        overlap = None
+        if plans is not None and frame is not None:  # measured from where the missions take their photos
+            overlap = plans.overlap(frame, np.argwhere(gmap.target & ~unreachable_mask), ground.side_overlap)
+            if ground.side_overlap is not None:
+                coverage = replace(coverage, overlap=overlap)
         record = replace(record, coverage=coverage)
         paths_latlon = None
         if plans is not None and frame is not None:
@@ -330,7 +340,7 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
         raise _write_failed(out, err) from None
     finally:
         shutil.rmtree(staging, ignore_errors=True)
-    return PlanFolder(out, ground, options, record, [out / p.name for p in written], kept)
+    return PlanFolder(out, ground, options, record, [out / p.name for p in written], kept, overlap)
 
 
 def _staging_folder(out: Path) -> Path:
