@@ -86,6 +86,8 @@ def print_flight(result: FlightResult) -> None:
     if unconfirmed:
         print(f"  {unconfirmed} photos not confirmed by the vehicles (placed on the track between their "
               f"neighbours): with them, {result.coverage_with_unconfirmed:.2f} %")
+    if result.overlap is not None and result.overlap.photos:  # from the confirmed photos' positions
+        print(f"  overlaps as flown: {result.overlap.summary()}")
     if sep["kept"] is None:
         print(f"separation not measured: {sep.get('tracks', 0)} drone(s) flew, it takes two"
               + (f" (the plan promised {sep['planned_3d']} m 3-D)" if sep["planned_3d"] is not None else ""))

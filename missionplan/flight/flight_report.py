@@ -11,6 +11,9 @@ No MAVLink here: fly.py records (DroneRecord), this module judges what was recor
   rule (whole cell in the footprint) with the slack a real vehicle needs, since it may turn a
   waypoint's acceptance radius (a quarter cell) early and reports positions to about a centimetre.
   flight.json also gives the whole-cell and cell-centre figures. Only reachable targets count.
+- Overlaps (mission/photo_overlap.py): front and side overlap and photos per target point of the
+  confirmed photos, next to what the plan asked; printed by fly, and in flight.json (`overlap`) when the
+  plan recorded its own (a plan that asks its overlaps), so the two can be compared.
 - Separation: the closest approach of any two recorded tracks (timeline.closest_approach), against
   what the plan promised (report.json `separation`), with a tolerance for what telemetry cannot pin down:
   two acceptance radii, the spread of the mission start times, and one telemetry interval of flight.
@@ -53,10 +56,11 @@ from .flight_layers import flight_layers, flight_summary, plan_layers_on_disk
 from .flight_plot import HeightProfiles, draw_flight
 from .phases import event_rows, on_vehicle_clock, phase_rows
 from .photo_positions import ledger_photos, photo_positions
+from ..mission.photo_overlap import OverlapMeasure, measure_overlap
 from ..mission.plan_blocks import SeparationPromise, cells_of
 from ..mission.plan_record import PlanRecord
-from .plan_report import (SLACK_CELLS, frame_of, georeference_of, planned_grid, target_cells, to_grid_m,
-                          trigger_distance_m)
+from .plan_report import (SLACK_CELLS, asked_overlaps, frame_of, georeference_of, planned_grid, target_cells,
+                          to_grid_m, trigger_distance_m)
 from .record import DroneRecord
 
 COVERAGE_OK = 99.0
@@ -89,6 +93,7 @@ class FlightResult:
     unwritten: dict[str, str] = field(default_factory=dict)  # files the judge could not write -> why (one line)
     record_faults: list[str] = field(default_factory=list)  # why the flight's record in its folder is not whole
     notices: list[str] = field(default_factory=list)  # what the judge repaired on the way (a rebuilt ledger)
+    overlap: OverlapMeasure | None = None  # front / side overlap and photos per target point of the confirmed photos
 
     @property
     def ok(self) -> bool:
@@ -289,11 +294,13 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
     planned = {d.id: d for d in record.drones or ()}
     targets = target_cells(record)
     photos, unconfirmed, tracks_m, timed, rows, sources, kept = [], [], {}, {}, [], set(), []
+    runs: list[np.ndarray] = []  # each confirmed photo's drone: its photos, in the order taken, make its strips
     liftoff: dict[int, float] = {}  # when each vehicle left the ground, on our clock
     liftoff_above = liftoff_height(records)
     for rec in records:
         points, placed, source = photo_positions(frame, rec, trigger, from_track=photos_from_track)
         photos.append(points)
+        runs.append(np.full(len(points), rec.id))
         kept += ledger_photos(frame, rec, points, source)
         unconfirmed.append(placed)
         if source != "none":
@@ -355,6 +362,9 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
     with_placed = np.vstack([all_photos, *unconfirmed]) if unconfirmed else all_photos
     covered_with_placed = covered_by_gap(frame, nearest_photo_gap(frame, targets, with_placed), footprint, slack)
     percent_with_placed = 100.0 * float(covered_with_placed.mean()) if len(targets) else 100.0
+    asked_front, asked_side = asked_overlaps(record)
+    overlap = measure_overlap(all_photos, np.concatenate(runs) if runs else np.zeros(0), footprint,
+                              targets.astype(float) * frame.cell_m, asked_front=asked_front, asked_side=asked_side)
     other_rules = {name: round(100.0 * float(covered_by_gap(frame, gap, footprint, frame.cell_m * cells).mean()), 2)
                    if len(targets) else 100.0 for name, cells in (("whole_cell", 0.0), ("cell_centre", 0.5))}
     separation = _separation(record.separation, records, timed, liftoff, scale, telemetry_hz)
@@ -387,6 +397,8 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
             f"ground under it; every sample from its take-off's end to its last waypoint counts, and must stay "
             f"within {HEIGHT_TOLERANCE_M:g} m (what the missions promise over the ground) plus the mission's "
             f"waypoint acceptance radius (the vehicle's altitude-hold error) of the planned height")
+    if record.coverage is not None and record.coverage.overlap is not None:  # the plan recorded its own: compare
+        doc["overlap"] = overlap.to_json()
     if survey is not None:
         doc["survey"] = survey
     if retasks:
@@ -411,7 +423,7 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
                         json_path=json_path, png_path=png_path, missed_path=missed_path,
                         coverage_with_unconfirmed=round(percent_with_placed, 2), survey=survey,
                         map_paths=map_paths, doc=doc, unwritten=unwritten, record_faults=list(record_faults or []),
-                        notices=notices)
+                        notices=notices, overlap=overlap)
 
 
 def _above_ground(plan_dir: Path, record: PlanRecord, records: list[DroneRecord],

@@ -40,6 +40,18 @@ def trigger_distance_m(record: PlanRecord) -> float:
     return float(georeference_of(record).trigger_distance_m or 0.0)
 
 
+def asked_overlaps(record: PlanRecord) -> tuple[float | None, float | None]:
+    """(front, side) overlap the plan asked, as fractions (None: not asked): the front overlap of its mission
+    settings (else what its trigger distance and footprint give), the side overlap its report recorded."""
+    front: float | None = None
+    if record.settings is not None:
+        front = float(record.settings.mission.overlap)
+    elif trigger_distance_m(record) > 0:
+        front = 1.0 - trigger_distance_m(record) / georeference_of(record).footprint_m
+    recorded = record.coverage.overlap if record.coverage is not None else None
+    return front, (recorded.asked_side if recorded is not None else None)
+
+
 def planned_grid(record: PlanRecord) -> GridMap:
     """The grid the plan was made on (report.json `grid`)."""
     return GridMap.from_rows(record.map, list(record.grid))
