@@ -61,10 +61,11 @@ class OverlapSpread:
 
     @classmethod
     def of(cls, values: np.ndarray) -> OverlapSpread | None:
+        """The spread of `values`, or None for no value."""
         return cls(float(np.median(values)), low(values), int(len(values))) if len(values) else None
 
     def to_json(self) -> dict[str, Any]:
-        return {"median": round(self.median, 4), "p5": round(self.p5, 4), "pairs": self.pairs}
+        return {"median": self.median, "p5": self.p5, "pairs": self.pairs}
 
     @classmethod
     def from_json(cls, doc: Mapping[str, Any]) -> OverlapSpread:
@@ -100,19 +101,16 @@ class OverlapMeasure:
     met: bool | None
 
     def to_json(self) -> dict[str, Any]:
-        def asked(fraction: float | None) -> float | None:
-            return None if fraction is None else round(fraction, 4)
-
-        return {"footprint_m": round(self.footprint_m, 3), "photos": self.photos, "strips": self.strips,
-                "front": None if self.front is None else {**self.front.to_json(), "asked": asked(self.asked_front)},
-                "side": None if self.side is None else {**self.side.to_json(), "asked": asked(self.asked_side)},
-                "asked_front": asked(self.asked_front), "asked_side": asked(self.asked_side),
+        return {"footprint_m": self.footprint_m, "photos": self.photos, "strips": self.strips,
+                "front": None if self.front is None else self.front.to_json(),
+                "side": None if self.side is None else self.side.to_json(),
+                "asked_front": self.asked_front, "asked_side": self.asked_side,
                 "photos_per_point": {"points": self.points, "median": self.per_point_median, "p5": self.per_point_p5,
                                      "min": self.per_point_min,
                                      "implied_one_strip": self.implied_one_strip,
                                      "implied_neighbouring": self.implied_neighbouring,
                                      "short": self.short, "met": self.met},
-                "single_strip_share": None if self.single_strip_share is None else round(self.single_strip_share, 4)}
+                "single_strip_share": self.single_strip_share}
 
     @classmethod
     def from_json(cls, doc: Mapping[str, Any]) -> OverlapMeasure:
