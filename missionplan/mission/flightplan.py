@@ -129,7 +129,7 @@ class FlightPlans:
         photos = [planned_photos(mission.mission.items, trigger, to_m) for missions in self.sorties for mission in missions]
         runs = np.concatenate([np.full(len(points), k) for k, points in enumerate(photos)]) if photos else np.zeros(0)
         centres = np.vstack(photos) if photos else np.zeros((0, 2))
-        return measure_overlap(centres, runs, self.settings.footprint_m, np.asarray(targets, dtype=float) * frame.cell_m,
+        return measure_overlap(centres, runs, self.settings.footprint_m, targets, frame.cell_m,
                                asked_front=self.settings.overlap, asked_side=side_overlap)
 
     def drone_plans(self) -> tuple[DronePlan, ...]:

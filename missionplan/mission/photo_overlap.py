@@ -17,15 +17,17 @@ metres (row axis, column axis), as flight.plan_report.to_grid_m gives them.
   PARALLEL_DEG of this strip's direction), lies mostly across this strip's direction (more across than
   along) and no farther than S: 1 - its distance across / S (lanes a footprint apart touch: 0). A crossing street's photos are not side
   neighbours; a photo with no such neighbour has no side overlap (a single strip has none at all).
-- Photos per target point: how many footprints hold the point (its Chebyshev distance to the photo at
-  most S / 2, to a micrometre); and the share of the points seen at all that only one strip's photos see.
+- Photos per target point: the target points are grid cells' centres; how many footprints hold each
+  (its Chebyshev distance to the photo at most S / 2, to a micrometre), and the share of the points seen
+  at all that only one strip's photos see.
 - What the asked overlaps imply: floor(1 / (1 - front)) photos of a point on one strip, times
   floor(1 / (1 - side)) where strips neighbour (a point seen by photos of more than one strip); a
   point seen by fewer photos is short. The points at a strip's ends or a zone's edge are seen by fewer
   photos than the middle of a lane: that is why the 5th percentile, not the least, decides `met`.
 
-Pure numpy and scipy's cKDTree: a 20-drone city plan (50 000 photos, 500 000 target cells) is measured
-in well under a second (bench/overlap_bench.py).
+Pure numpy and scipy's cKDTree (side neighbours), a difference array over the cells (photos per point):
+a 20-drone city plan (50 000 photos, 500 000 target cells) is measured in well under a second
+(bench/overlap_bench.py).
 """
 
 from __future__ import annotations
@@ -43,7 +45,8 @@ PARALLEL_DEG = 30.0  # a side neighbour's strip runs within this of the photo's 
 PERCENTILE = 5.0  # the low figure reported beside the median: 95 % of the values are at least this
 CONTAIN_TOLERANCE_M = 1e-6  # a point on a footprint's edge is inside it (a micrometre of float round trip)
 SHORT_STEP = 0.25  # a step shorter than this share of the median step has no heading of its own
-IMPLIED_EPS = 1e-9  # floor(1 / (1 - 8/9)) is 9, though the division gives 8.999999999999998
+IMPLIED_EPS = 1e-9
+NEIGHBOURS_BEYOND_OWN = 16  # nearest photos asked for past those of a photo's own strip within a footprint  # floor(1 / (1 - 8/9)) is 9, though the division gives 8.999999999999998
 
 
 def low(values: np.ndarray) -> float:
@@ -205,48 +208,95 @@ def front_overlaps(centres: np.ndarray, strips: np.ndarray, footprint_m: float) 
 
 
 def side_overlaps(centres: np.ndarray, strips: np.ndarray, directions: np.ndarray, footprint_m: float) -> np.ndarray:
-    """Per photo that has one, 1 - distance across / S to its nearest side neighbour (module docstring)."""
-    if len(centres) < 2:
+    """Per photo that has one, 1 - distance across / S to its nearest side neighbour (module docstring).
+
+    Each photo's nearest photos come from a KD-tree, nearest first, enough of them to get past its own
+    strip's (about 2 S / spacing lie within S); the few photos whose every candidate was ruled out while
+    more photos lie within S are asked again with all of them."""
+    n = len(centres)
+    if n < 2:
         return np.zeros(0)
     reach = footprint_m + CONTAIN_TOLERANCE_M  # lanes exactly a footprint apart touch: side overlap 0, measured
-    pairs = cKDTree(centres).query_pairs(reach, output_type="ndarray")
-    if not len(pairs):
-        return np.zeros(0)
-    mine = np.concatenate([pairs[:, 0], pairs[:, 1]])  # each pair seen from both photos
-    other = np.concatenate([pairs[:, 1], pairs[:, 0]])
-    along_dir = directions[strips[mine]]
-    offset = centres[other] - centres[mine]
-    along = np.abs((offset * along_dir).sum(axis=1))
-    across = np.abs(offset[:, 0] * along_dir[:, 1] - offset[:, 1] * along_dir[:, 0])
-    parallel = np.abs((along_dir * directions[strips[other]]).sum(axis=1))
+    tree = cKDTree(centres)
+    same = strips[1:] == strips[:-1]
+    spacing = np.hypot(*np.diff(centres, axis=0)[same].T)
+    spacing = spacing[spacing > 0]
+    own = math.ceil(2.0 * footprint_m / float(np.median(spacing))) + 1 if len(spacing) else 1  # itself included
+    k = min(n, own + NEIGHBOURS_BEYOND_OWN)
+    _, other = tree.query(centres, k=k, distance_upper_bound=reach)
+    other = other.reshape(n, -1)
+    across, valid = _side_candidates(centres, strips, directions, np.arange(n)[:, None], other, reach)
+    has = valid.any(axis=1)
+    first = np.argmax(valid, axis=1)  # nearest first: the first valid candidate is the nearest
+    side = np.full(n, np.nan)
+    side[has] = 1.0 - across[has, first[has]] / footprint_m
+    # Every candidate ruled out and the k-th still within reach: more photos may lie there.
+    for i in np.flatnonzero(~has & (other[:, -1] < n)):  # rare: a photo crowded by its own strip's photos
+        near = np.asarray(tree.query_ball_point(centres[i], reach), dtype=np.int64)
+        near = near[np.argsort(np.hypot(*(centres[near] - centres[i]).T), kind="stable")][None, :]
+        far, ok = _side_candidates(centres, strips, directions, np.array([[i]]), near, reach)
+        if ok.any():
+            side[i] = 1.0 - far[0, np.argmax(ok[0])] / footprint_m
+    return np.maximum(side[~np.isnan(side)], 0.0)
+
+
+def _side_candidates(centres: np.ndarray, strips: np.ndarray, directions: np.ndarray, mine: np.ndarray,
+                     other: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """(how far across photo `mine`'s strip each photo `other` lies, whether it is a side neighbour: another
+    strip running within PARALLEL_DEG of it, more across than along it, within `reach` across). `mine`
+    (n, 1) and `other` (n, k) photo indexes; an index past the last photo (the KD-tree's "none") is none."""
+    n = len(centres)
+    found = other < n
+    other = np.where(found, other, 0)
+    dir_row, dir_col = (directions[strips[mine], j] for j in (0, 1))  # (n, 1): this photo's strip direction
+    off_row = centres[other, 0] - centres[mine, 0]
+    off_col = centres[other, 1] - centres[mine, 1]
+    along = np.abs(off_row * dir_row + off_col * dir_col)
+    across = np.abs(off_row * dir_col - off_col * dir_row)
+    theirs = strips[other]
+    parallel = np.abs(dir_row * directions[theirs, 0] + dir_col * directions[theirs, 1])
     with np.errstate(invalid="ignore"):  # NaN directions compare False: no side neighbour
-        keep = ((strips[mine] != strips[other]) & (parallel >= math.cos(math.radians(PARALLEL_DEG)))
-                & (across > along) & (across <= reach))
-    mine, across, distance = mine[keep], across[keep], np.hypot(*offset[keep].T)
-    if not len(mine):
-        return np.zeros(0)
-    order = np.lexsort((distance, mine))  # per photo, its nearest neighbour first
-    _, first = np.unique(mine[order], return_index=True)
-    return np.maximum(1.0 - across[order][first] / footprint_m, 0.0)
+        valid = (found & (theirs != strips[mine]) & (parallel >= math.cos(math.radians(PARALLEL_DEG)))
+                 & (across > along) & (across <= reach))
+    return across, valid
 
 
 # ------------------------------------------------------------------------------------------- per point
-def photos_per_point(centres: np.ndarray, strips: np.ndarray, points: np.ndarray,
+def photos_per_point(centres: np.ndarray, strips: np.ndarray, cells: np.ndarray, cell_m: float,
                      footprint_m: float) -> tuple[np.ndarray, np.ndarray]:
-    """(photos holding each point, whether every photo holding it is of one strip) for (m, 2) points."""
+    """(photos holding each point, whether every photo holding it is of one strip) for the centres of
+    `cells` ((m, 2) integer cells; a cell's centre is cell * cell_m metres, as the grid frame puts it).
+
+    Each footprint holds a rectangle of cells: one pass over the photos adds it to a difference array
+    over the cells' bounding box, and two cumulative sums give every cell's count. The same with each
+    photo weighted by its strip id s and by s squared gives their sum and sum of squares at each cell:
+    the photos holding a cell are all of one strip when count * sum(s^2) == sum(s)^2 (no spread)."""
+    cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+    m = len(cells)
+    if not len(centres) or not m:
+        return np.zeros(m, dtype=np.int64), np.zeros(m, dtype=bool)
+    low_cell, high_cell = cells.min(axis=0), cells.max(axis=0)
+    shape = high_cell - low_cell + 1
     half = footprint_m / 2.0 + CONTAIN_TOLERANCE_M
-    if not len(centres) or not len(points):
-        return np.zeros(len(points), dtype=np.int64), np.zeros(len(points), dtype=bool)
-    tree = cKDTree(centres)
-    counts = np.asarray(tree.query_ball_point(points, half, p=np.inf, return_length=True), dtype=np.int64)
-    # The photos of the nearest photo's strip alone: a third coordinate puts each strip 2 S from every
-    # other, so a footprint-sized box round (point, that strip) holds only that strip's photos.
-    _, nearest = tree.query(points, p=np.inf)
-    apart = 2.0 * footprint_m
-    by_strip = cKDTree(np.column_stack([centres, strips * apart]))
-    own = np.column_stack([points, strips[nearest] * apart])
-    same = np.asarray(by_strip.query_ball_point(own, half, p=np.inf, return_length=True), dtype=np.int64)
-    return counts, (counts > 0) & (same == counts)
+    # The cells whose centre lies within half a footprint of each photo, clipped to the box.
+    first = np.maximum(np.ceil((centres - half) / cell_m).astype(np.int64), low_cell) - low_cell
+    last = np.minimum(np.floor((centres + half) / cell_m).astype(np.int64), high_cell) - low_cell
+    hit = (first <= last).all(axis=1)
+    first, last = first[hit], last[hit]
+    strip = strips[hit].astype(np.int64)
+    padded = (int(shape[0]) + 1, int(shape[1]) + 1)
+    corners = [(first[:, 0], first[:, 1], 1), (first[:, 0], last[:, 1] + 1, -1),
+               (last[:, 0] + 1, first[:, 1], -1), (last[:, 0] + 1, last[:, 1] + 1, 1)]
+    flat = np.concatenate([r * padded[1] + c for r, c, _ in corners])
+    sign = np.concatenate([np.full(len(first), v, dtype=np.int64) for _, _, v in corners])
+    at = (cells - low_cell)
+    sums = []
+    for weight in (np.ones_like(strip), strip, strip * strip):
+        grid = np.bincount(flat, weights=sign * np.tile(weight, 4), minlength=padded[0] * padded[1])
+        grid = np.rint(grid).astype(np.int64).reshape(padded).cumsum(axis=0).cumsum(axis=1)
+        sums.append(grid[at[:, 0], at[:, 1]])
+    counts, total, squares = sums
+    return counts, (counts > 0) & (counts * squares == total * total)
 
 
 def implied_photos(front: float | None, side: float | None) -> tuple[int | None, int | None]:
@@ -260,43 +310,44 @@ def implied_photos(front: float | None, side: float | None) -> tuple[int | None,
     return one, one * across
 
 
-def measure_overlap(centres: np.ndarray, runs: np.ndarray, footprint_m: float, points: np.ndarray,
+def measure_overlap(centres: np.ndarray, runs: np.ndarray, footprint_m: float, cells: np.ndarray, cell_m: float,
                     strips: np.ndarray | None = None, asked_front: float | None = None,
                     asked_side: float | None = None) -> OverlapMeasure:
     """The overlaps and photos per target point of photos at `centres` ((n, 2) grid metres, in the order
     taken), `runs` ((n,) a drone's flight or sortie: consecutive photos of one run may share a strip),
-    footprint side `footprint_m`, target `points` ((m, 2) grid metres). `strips`: each photo's leg id
-    where the caller has them (else derived: strips_of). `asked_front` / `asked_side`: the fractions asked."""
+    footprint side `footprint_m`; the target points are the centres of `cells` ((m, 2) integer grid cells
+    of side `cell_m`). `strips`: each photo's leg id where the caller has them (else derived: strips_of).
+    `asked_front` / `asked_side`: the fractions asked (None: not asked)."""
     centres = np.asarray(centres, dtype=float).reshape(-1, 2)
-    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
     runs = np.asarray(runs).reshape(-1)
     if len(runs) != len(centres):
         raise ValueError(f"{len(runs)} run ids for {len(centres)} photos")
-    if not footprint_m > 0:
-        raise ValueError(f"footprint {footprint_m!r} m: must be positive")
+    if not footprint_m > 0 or not cell_m > 0:
+        raise ValueError(f"footprint {footprint_m!r} m, cell {cell_m!r} m: both must be positive")
     if strips is None:
         strips = strips_of(centres, runs)
     else:
         # The caller's leg ids, renumbered 0.. in order of appearance, a new id wherever the run changes.
         strips = np.asarray(strips).reshape(-1)
-        change = np.concatenate([[True], (strips[1:] != strips[:-1]) | (runs[1:] != runs[:-1])])
+        change = np.concatenate([[True], (strips[1:] != strips[:-1]) | (runs[1:] != runs[:-1])])[:len(strips)]
         strips = np.cumsum(change) - 1
     directions = strip_directions(centres, runs, strips)
     front = front_overlaps(centres, strips, footprint_m)
     side = side_overlaps(centres, strips, directions, footprint_m)
-    counts, single = photos_per_point(centres, strips, points, footprint_m)
+    counts, single = photos_per_point(centres, strips, cells, cell_m, footprint_m)
     seen = counts > 0
     one, neighbouring = implied_photos(asked_front, asked_side)
     short = 0
     met = None
-    if one is not None and neighbouring is not None and len(points):
+    if one is not None and neighbouring is not None and len(cells):
         wanted = np.where(single | ~seen, one, neighbouring)
         short = int((counts < wanted).sum())
         met = bool(low(counts - wanted) >= 0)
     return OverlapMeasure(
         footprint_m=float(footprint_m), photos=int(len(centres)), strips=int(strips.max()) + 1 if len(strips) else 0,
         front=OverlapSpread.of(front), side=OverlapSpread.of(side), asked_front=asked_front, asked_side=asked_side,
-        points=int(len(points)), per_point_median=float(np.median(counts)) if len(points) else 0.0,
-        per_point_p5=int(low(counts)) if len(points) else 0, per_point_min=int(counts.min()) if len(points) else 0,
+        points=int(len(cells)), per_point_median=float(np.median(counts)) if len(cells) else 0.0,
+        per_point_p5=int(low(counts)) if len(cells) else 0, per_point_min=int(counts.min()) if len(cells) else 0,
         single_strip_share=float(single[seen].mean()) if seen.any() else None,
         implied_one_strip=one, implied_neighbouring=neighbouring, short=short, met=met)
