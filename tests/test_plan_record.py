@@ -24,6 +24,7 @@ from missionplan.mission.plan_blocks import (BandCounts, BuildingsRead, Clearanc
                                              Decisions, DronePlan, FencePlan, InputFile, PathShape, PlanMetrics,
                                              PlanSettings, SafetyPromise, SeparationPromise, SmallShare, SortiePlan,
                                              SurveyPointer, Timing)
+from missionplan.mission.photo_overlap import OverlapMeasure, OverlapSpread
 from missionplan.mission.plan_record import (SCHEMA_VERSION, PlanRecord, PlanRecordError, read_plan_record,
                                              write_plan_record)
 from missionplan.mission.safety import SafetySettings
@@ -66,8 +67,13 @@ clearances = st.one_of(
               st.tuples(numbers, numbers), st.none() | counts, st.none() | bands))
 promises = st.builds(SafetyPromise, separations, clearances)
 small_shares = st.builds(SmallShare, counts, counts, numbers, counts)
+spreads = st.builds(OverlapSpread, numbers, numbers, counts)
+overlaps = st.builds(OverlapMeasure, numbers, counts, counts, st.none() | spreads, st.none() | spreads, maybe_numbers,
+                     maybe_numbers, counts, numbers, counts, counts, maybe_numbers, st.none() | counts,
+                     st.none() | counts, counts, st.none() | st.booleans())
 coverages = st.builds(CoverageSummary, numbers, numbers, counts, counts, counts, counts, numbers, st.none() | counts,
-                      maybe_numbers, st.none() | counts, st.none() | counts, tuples(small_shares), tuples(texts))
+                      maybe_numbers, st.none() | counts, st.none() | counts, tuples(small_shares), tuples(texts),
+                      st.none() | overlaps)
 omissions = st.builds(Omission, texts, texts)
 inputs = st.builds(InputFile, texts, texts, texts, texts, st.none() | texts, texts, st.booleans(), counts,
                    tuples(omissions), tuples(omissions), tuples(texts),
@@ -110,7 +116,7 @@ def through_json(doc: dict[str, Any]) -> Any:
 BLOCKS = [(PlanMetrics, metrics), (Decisions, decisions), (Timing, timings), (PathShape, shapes),
           (SortiePlan, sorties), (FencePlan, fences), (DronePlan, drones), (Closest, closest),
           (SeparationPromise, separations), (BandCounts, bands), (ClearancePromise, clearances),
-          (SmallShare, small_shares), (CoverageSummary, coverages), (InputFile, inputs), (PlanSettings, plan_settings),
+          (SmallShare, small_shares), (OverlapMeasure, overlaps), (CoverageSummary, coverages), (InputFile, inputs), (PlanSettings, plan_settings),
           (SurveyPointer, pointers), (Omission, omissions), (TerrainRecord, terrains), (PlanRecord, records())]
 
 

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.spatial import cKDTree
+from scipy.spatial import cKDTree  # type: ignore[import-untyped]
 
 MAX_TURN_DEG = 20.0  # a heading change above this between consecutive photos starts a new strip
 PARALLEL_DEG = 30.0  # a side neighbour's strip runs within this of the photo's own strip
@@ -204,7 +204,8 @@ def front_overlaps(centres: np.ndarray, strips: np.ndarray, footprint_m: float) 
     """1 - spacing / S of each pair of consecutive photos of one strip (at least 0)."""
     same = strips[1:] == strips[:-1]
     spacing = np.hypot(*np.diff(centres, axis=0)[same].T)
-    return np.maximum(1.0 - spacing / footprint_m, 0.0)
+    overlaps: np.ndarray = np.maximum(1.0 - spacing / footprint_m, 0.0)
+    return overlaps
 
 
 def side_overlaps(centres: np.ndarray, strips: np.ndarray, directions: np.ndarray, footprint_m: float) -> np.ndarray:
@@ -237,7 +238,8 @@ def side_overlaps(centres: np.ndarray, strips: np.ndarray, directions: np.ndarra
         far, ok = _side_candidates(centres, strips, directions, np.array([[i]]), near, reach)
         if ok.any():
             side[i] = 1.0 - far[0, np.argmax(ok[0])] / footprint_m
-    return np.maximum(side[~np.isnan(side)], 0.0)
+    overlaps: np.ndarray = np.maximum(side[~np.isnan(side)], 0.0)
+    return overlaps
 
 
 def _side_candidates(centres: np.ndarray, strips: np.ndarray, directions: np.ndarray, mine: np.ndarray,
