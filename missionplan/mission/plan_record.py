@@ -108,10 +108,10 @@ class PlanRecord:
     credit: str | None = None  # the map data's credit line
     georeference: Georeference | None = None
     coverage: CoverageSummary | None = None
-    roofs: RoofTargets | None = None  # the target classes, cell rule and clearance over roofs (--targets roofs|all)
     inputs: tuple[InputFile, ...] | None = None  # the files an area plan read
     files: tuple[str, ...] | None = None  # every file the plan wrote, report.json included
     files_sha256: Mapping[str, str] | None = None  # each file's but report.json's
+    roofs: RoofTargets | None = None  # the target classes, cell rule and clearance over roofs (--targets roofs|all)
 
     # ---- what readers ask ------------------------------------------------------------
     @property
