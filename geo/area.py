@@ -11,6 +11,10 @@ Rules (cell = camera footprint / 9, grid laid by `GridFrame.from_area`):
   is on its roof are free but not targets ('o'); the roofs need no photo, the streets do.
 * Every other inside cell is a target ('.').
 
+With roof targets (`targets` roofs or all: geo/roofs.py) the overflown roofs' cells are targets too, in the
+raster's `roof` layer, the street cells stay targets only with all, and the cell is the footprint at the
+highest of those roofs / 9 (geo.roofs.roof_cell_m), so a photo's 9 cells hold on every roof.
+
 Rasterising works in grid units (x = col, y = row, integers = cell centres) with shapely 2
 vectorised predicates, each polygon only over the window of cells under its bounding box.
 """
@@ -31,6 +35,7 @@ from .camera import Camera, cell_size_m
 from .errors import GeoError
 from .frame import GridFrame
 from .georeference import Georeference
+from .roofs import DEFAULT_TARGETS, photographs_roofs, photographs_streets, roof_cell_m
 from .sources import Building
 
 Polygonal = Polygon | MultiPolygon
@@ -48,6 +53,8 @@ class AreaRaster:
     target: np.ndarray
     launch: list[tuple[int, int]]
     georef: Georeference
+    roof: np.ndarray | None = None  # the target cells that are roofs (None: roofs are no targets)
+    highest_roof_m: float | None = None  # the highest roof target, which sized the cell (None: no roof targets)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -111,27 +118,45 @@ def build_grid_map(name: str, area: Polygonal | Sequence[Polygonal], obstacles: 
                    buildings: Sequence[Building], no_fly: Sequence[Polygonal],
                    launch_latlon: Sequence[tuple[float, float]], altitude_m: float, fov_deg: float,
                    rotation_deg: float = 0.0, safety_margin_m: float = 5.0,
-                   max_cells: int = 4_200_000, area_file: str = "area") -> tuple[AreaRaster, GridFrame]:
+                   max_cells: int = 4_200_000, area_file: str = "area",
+                   targets: str = DEFAULT_TARGETS) -> tuple[AreaRaster, GridFrame]:
     """Rasterise `area` (lon/lat) into an AreaRaster whose cell is the camera footprint / 9.
 
     `area` may be a list of polygons (their union). `buildings` may also hold bare polygons
     (height unknown -> obstacle). `area_file` names
-    the area in error messages. Returns the raster (with its georeference) and frame.
+    the area in error messages. `targets`: which cells are photographed (geo/roofs.py); with roofs, the
+    cell is the footprint at the highest roof / 9. Returns the raster (with its georeference) and frame.
     """
-    cell = cell_size_m(altitude_m, fov_deg)
     if isinstance(area, (list, tuple)):  # e.g. straight from read_polygons: one area of several parts
         area = shapely.union_all(list(area)) if area else Polygon()
     if area is None or area.is_empty or area.area == 0:
         raise GeoError(f"{area_file}: the area is empty")
     if not isinstance(area, (Polygon, MultiPolygon)):
         raise GeoError(f"{area_file}: the area is not a polygon ({area.geom_type})")
+    blds = [_as_building(b) for b in buildings]
+    ceiling = float(altitude_m) - float(safety_margin_m)
+    # Unknown height counts as tall: better to route round a low shed than into a tower.
+    tall = [b.geometry for b in blds if b.height_m is None or b.height_m >= ceiling]
+    low = [b for b in blds if b.height_m is not None and b.height_m < ceiling]
+    highest_roof = None
+    if photographs_roofs(targets):
+        in_area = [b.height_m for b in low if b.height_m is not None and b.geometry.intersects(area)]
+        highest_roof = max(in_area, default=0.0)
+
+    def cell_at(altitude: float) -> float:
+        """The cell flown at `altitude`: at the highest roof target when roofs are photographed."""
+        if highest_roof is None:
+            return cell_size_m(altitude, fov_deg)
+        return roof_cell_m(altitude, fov_deg, highest_roof)
+
+    cell = cell_at(altitude_m)
     frame = GridFrame.from_area(area, cell, rotation_deg=rotation_deg)
     n_cells = frame.rows * frame.cols
     if n_cells > max_cells:
         # Cells grow with the altitude, so the count falls with its square; step up until it fits.
         fits = altitude_m * (n_cells / max_cells) ** 0.5
         for _ in range(50):
-            bigger = GridFrame.from_area(area, cell_size_m(fits, fov_deg), rotation_deg=rotation_deg)
+            bigger = GridFrame.from_area(area, cell_at(fits), rotation_deg=rotation_deg)
             if bigger.rows * bigger.cols <= max_cells:
                 break
             fits *= 1.01
@@ -145,21 +170,20 @@ def build_grid_map(name: str, area: Polygonal | Sequence[Polygonal], obstacles: 
     if not inside.any():
         raise GeoError(f"{area_file}: the area is smaller than one {cell:.2f} m grid cell; fly lower")
 
-    blds = [_as_building(b) for b in buildings]
-    ceiling = float(altitude_m) - float(safety_margin_m)
-    # Unknown height counts as tall: better to route round a low shed than into a tower.
-    tall = [b.geometry for b in blds if b.height_m is None or b.height_m >= ceiling]
-    low = [b.geometry for b in blds if b.height_m is not None and b.height_m < ceiling]
-
     blocked = cells_touching((to_grid(g) for g in [*obstacles, *no_fly, *tall]), rows, cols)
-    roofs = cells_centred_in((to_grid(g) for g in low), rows, cols)
+    roofs = cells_centred_in((to_grid(b.geometry) for b in low), rows, cols)
     obstacle = ~inside | blocked
-    target = inside & ~obstacle & ~roofs
+    streets = inside & ~obstacle & ~roofs
+    roof_targets = inside & ~obstacle & roofs if highest_roof is not None else None
+    target = streets if photographs_streets(targets) else np.zeros_like(streets)
+    if roof_targets is not None:
+        target = target | roof_targets
 
     launch = _launch_cells(frame, area, obstacles, no_fly, blds, obstacle, launch_latlon, area_file)
 
     georef = Georeference(frame, float(altitude_m), Camera(fov_deg), float(safety_margin_m))
-    return AreaRaster(name=name, obstacle=obstacle, target=target, launch=launch, georef=georef), frame
+    return AreaRaster(name=name, obstacle=obstacle, target=target, launch=launch, georef=georef, roof=roof_targets,
+                      highest_roof_m=highest_roof), frame
 
 
 def _launch_cells(frame: GridFrame, area: Polygonal, obstacles: Sequence[Polygonal],

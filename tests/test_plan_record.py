@@ -27,6 +27,7 @@ from missionplan.mission.plan_blocks import (BandCounts, BuildingsRead, Clearanc
 from missionplan.mission.photo_overlap import OverlapMeasure, OverlapSpread
 from missionplan.mission.plan_record import (SCHEMA_VERSION, PlanRecord, PlanRecordError, read_plan_record,
                                              write_plan_record)
+from missionplan.mission.roof_targets import ClassCoverage, RoofTargets, VerticalClearance
 from missionplan.mission.safety import SafetySettings
 
 RECORDS = Path(__file__).resolve().parent / "data" / "plan_records"
@@ -84,12 +85,18 @@ plan_settings = st.builds(PlanSettings, mission_settings, safety_settings, texts
 pointers = st.builds(SurveyPointer, texts, st.none() | counts, st.none() | texts)
 terrains = st.builds(TerrainRecord, tuples(texts), tuples(texts), tuples(texts), numbers, numbers, numbers,
                      st.none() | counts)
+verticals = st.builds(VerticalClearance, numbers, maybe_numbers, tuples(maybe_numbers), counts)
+roof_targets = st.builds(RoofTargets, st.sampled_from(["streets", "roofs", "all"]), numbers, maybe_numbers, texts,
+                         maybe_numbers, maybe_numbers, maybe_numbers, maybe_numbers,
+                         st.sampled_from([(), (ClassCoverage("roofs", 3, 2),),
+                                          (ClassCoverage("streets", 10, 10), ClassCoverage("roofs", 0, 0))]),
+                         st.none() | verticals)
 
 
 @st.composite
 def records(draw: st.DrawFn) -> PlanRecord:
     rows, cols = draw(st.integers(1, 6)), draw(st.integers(1, 6))
-    grid = tuple(draw(st.text(alphabet="#.o", min_size=cols, max_size=cols)) for _ in range(rows))
+    grid = tuple(draw(st.text(alphabet="#.or", min_size=cols, max_size=cols)) for _ in range(rows))
     georef = None
     if draw(st.booleans()):
         frame = draw(frames)
@@ -104,7 +111,7 @@ def records(draw: st.DrawFn) -> PlanRecord:
         draw(st.none() | promises), draw(st.none() | plan_settings), draw(st.none() | tuples(counts)),
         draw(st.none() | pointers), draw(st.none() | texts), draw(st.none() | texts), georef,
         draw(st.none() | coverages), draw(st.none() | tuples(inputs, 2)), draw(st.none() | tuples(texts)),
-        draw(st.none() | st.dictionaries(texts, texts, max_size=3)))
+        draw(st.none() | st.dictionaries(texts, texts, max_size=3)), draw(st.none() | roof_targets))
 
 
 def through_json(doc: dict[str, Any]) -> Any:
@@ -116,8 +123,9 @@ def through_json(doc: dict[str, Any]) -> Any:
 BLOCKS = [(PlanMetrics, metrics), (Decisions, decisions), (Timing, timings), (PathShape, shapes),
           (SortiePlan, sorties), (FencePlan, fences), (DronePlan, drones), (Closest, closest),
           (SeparationPromise, separations), (BandCounts, bands), (ClearancePromise, clearances),
-          (SmallShare, small_shares), (OverlapMeasure, overlaps), (CoverageSummary, coverages), (InputFile, inputs), (PlanSettings, plan_settings),
-          (SurveyPointer, pointers), (Omission, omissions), (TerrainRecord, terrains), (PlanRecord, records())]
+          (SmallShare, small_shares), (OverlapMeasure, overlaps), (CoverageSummary, coverages), (InputFile, inputs),
+          (PlanSettings, plan_settings), (SurveyPointer, pointers), (Omission, omissions), (TerrainRecord, terrains),
+          (VerticalClearance, verticals), (RoofTargets, roof_targets), (PlanRecord, records())]
 
 
 @pytest.mark.parametrize("cls, strategy", BLOCKS, ids=[cls.__name__ for cls, _ in BLOCKS])

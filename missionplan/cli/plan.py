@@ -13,6 +13,7 @@ from typing import Any
 
 from missionplan.bridge.limits import SEED_MAX, check_integer, check_range
 from missionplan.bridge.terminal_text import printable
+from missionplan.geo.roofs import DEFAULT_TARGETS, TARGET_CLASSES
 
 from ..grid.lanes import MAX_OBSTACLE_SHARE
 from ..grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
@@ -75,6 +76,7 @@ class PlanRequest:
     open_ground: str
     seed: int
     quiet: bool
+    targets: str = DEFAULT_TARGETS
 
     def area_request(self) -> AreaRequest:
         """What the area grid is drawn from (with --area)."""
@@ -83,7 +85,7 @@ class PlanRequest:
                           sensor_width=self.sensor_width, sensor_height=self.sensor_height,
                           focal_length=self.focal_length, rotation=self.rotation, obstacles=self.obstacles,
                           osm=self.osm, height_field=self.height_field,
-                          unknown_building_height=self.unknown_building_height)
+                          unknown_building_height=self.unknown_building_height, targets=self.targets)
 
 
 def register(sub: Any) -> None:
@@ -107,6 +109,10 @@ def register(sub: Any) -> None:
     plan.add_argument("--unknown-building-height", type=float, metavar="M",
                       help="height in metres of --osm buildings without height or building:levels "
                            "(default: unknown, so they are obstacles)")
+    plan.add_argument("--targets", choices=TARGET_CLASSES, default=DEFAULT_TARGETS,
+                      help="what to photograph: the streets (default), the roofs of the buildings low enough to "
+                           "overfly, or all; with roofs the cell is the footprint at the highest roof / 9 "
+                           "(docs/capture.md)")
     plan.add_argument("--launch", action="append", default=[], metavar="LAT,LON",
                       help="a launch point, one per drone (with --area; -33.86,151.21 works after a space)")
     plan.add_argument("--altitude", type=float, help="flight height above the launch points, metres (with --area); "
@@ -183,7 +189,9 @@ def _plan_ground(request: PlanRequest) -> PlanGround:
         if request.unknown_building_height is not None:
             raise MapError("--unknown-building-height is for --area with --osm; a map's grid is already drawn")
         assert request.map is not None  # argparse: --map or --area
-        gmap = load_shipped(request.map)
+        from ..mission.roof_targets import select_targets
+
+        gmap = select_targets(load_shipped(request.map), request.targets)
         uavs = request.uavs
         frame, unknown, sources = shipped_frame(gmap), NO_UNKNOWN_HEIGHTS, None
     mission = {"speed": request.speed, "overlap": request.overlap, "end": request.end,
@@ -192,7 +200,8 @@ def _plan_ground(request: PlanRequest) -> PlanGround:
               "clearance": request.clearance, "endurance": request.endurance, "reserve": request.reserve}
     ground = grid_ground(gmap, uavs, frame, mission, safety, unknown=unknown, sources=sources,
                          from_osm=request.area is not None and request.osm is not None,
-                         launch_labels=list(request.launch[:uavs]) if request.area is not None else None)
+                         launch_labels=list(request.launch[:uavs]) if request.area is not None else None,
+                         targets=request.targets)
     if request.dem:
         if frame is None:
             raise MapError(f"--dem needs a plan on the Earth: {printable(gmap.name)} has no origin (use --area, "

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from missionplan.bridge.terminal_text import printable
 
+from ..mission.roof_targets import RoofTargets
 from ..planning.plan_folder import PlanFolder
 
 EXIT_FAILED = 1  # the exit status of a plan written whole that failed (targets left unreached)
@@ -22,6 +23,18 @@ def _fmt(value: float | int | None, digits: int = 1) -> str:
     if value is None:
         return "-"
     return f"{value:.{digits}f}" if isinstance(value, float) else str(value)
+
+
+def _print_roofs(roofs: RoofTargets) -> None:
+    """The target classes asked, the cell rule, the GSD at the ground and the highest roof, coverage per class."""
+    asked = {"roofs": "the roofs low enough to overfly", "all": "the streets and the roofs low enough to overfly",
+             "streets": "the streets"}[roofs.targets]
+    print(f"  targets: {asked} (--targets {roofs.targets}); {roofs.rule}")
+    if roofs.gsd_cm_at_ground is not None and roofs.gsd_cm_at_highest_roof is not None:
+        print(f"  GSD {roofs.gsd_cm_at_ground:g} cm/px at the ground, {roofs.gsd_cm_at_highest_roof:g} cm/px at the "
+              f"highest roof ({roofs.highest_roof_m:g} m)")
+    for c in roofs.by_class:
+        print(f"  coverage {c.name:<8} {c.pct:>5.1f} %  of the {c.targets} reachable {c.name[:-1]} cells")
 
 
 def print_plan(folder: PlanFolder) -> None:
@@ -53,6 +66,8 @@ def print_plan(folder: PlanFolder) -> None:
             ("plan s", f"{record.timing.plan_s:.2f}", "wall time, zones + planning")]
     for name, value, note in rows:
         print(f"  {name:<12} {value:>9}  {note}")
+    if record.roofs is not None:
+        _print_roofs(record.roofs)
     terrain = record.georeference.terrain if record.georeference is not None else None
     for drone in record.drones or ():
         before, after = drone.before, drone.after
@@ -80,6 +95,16 @@ def print_plan(folder: PlanFolder) -> None:
             print(f"missionplan: warning: {cl.band.band_targets_missed} of the {cl.band.band_targets} target cells "
                   f"closer than --clearance {cl.required_m:g} m to an obstacle are out of every photo (narrow streets, "
                   f"courtyards); counted unreachable", file=sys.stderr)
+    vertical = record.roofs.vertical if record.roofs is not None else None
+    if vertical is not None:
+        if vertical.kept_m is None:
+            print("  clearance over roofs: no leg crosses a building")
+        else:
+            print(f"  clearance over roofs: {vertical.kept_m:g} m vertical at the least, over {vertical.roofs_crossed} "
+                  f"buildings the legs cross (asked {vertical.required_m:g} m)")
+        if not vertical.kept:
+            print(f"missionplan: warning: a leg passes {vertical.kept_m:g} m over a roof, closer than the "
+                  f"{vertical.required_m:g} m margin the roofs were overflown with", file=sys.stderr)
     if terrain is not None:
         sources = ", ".join(printable(Path(source).name) for source in terrain.sources)
         print(f"  ground: DEM {sources} ({', '.join(terrain.crs)}, {terrain.resolution_m:g} m pixels), "

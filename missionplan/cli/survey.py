@@ -170,7 +170,9 @@ def cmd_replan(request: ReplanRequest) -> int:
     options = PlanOptions(policy=request.policy or stored.policy, weights=request.weights, zones=stored.zones,
                           balance_zones=stored.balance_zones, open_ground=stored.open_ground, seed=request.seed,
                           progress=not request.quiet and sys.stderr.isatty(), drone_ids=ids, survey=pointer)
-    ground = PlanGround(gmap, cells, survey.frame, stored.mission, stored.safety)
+    roofs = survey.record.roofs  # a survey of roofs re-plans its roofs as such
+    ground = PlanGround(gmap, cells, survey.frame, stored.mission, stored.safety,
+                        **({"targets": roofs.targets} if roofs is not None else {}))
     terrain = folder_terrain(survey.root, survey.record)  # over the survey's ground, when it was planned over a DEM
     if terrain is not None:
         ground.terrain = checked_ground(terrain, survey.frame, gmap, cells)

@@ -83,6 +83,8 @@ def print_flight(result: FlightResult) -> None:
     unconfirmed = sum(d.get("photos_placed_on_track", 0) for d in result.drones)
     print(f"flown coverage {result.coverage:.2f} % of {result.targets} target cells "
           f"(photos from {result.photo_source}); {len(result.drones)} drones, {result.wall_s:.1f} s wall")
+    for name, block in (result.doc.get("coverage_by_class") or {}).items():
+        print(f"  {name}: {block['coverage_pct']:.2f} % of {block['targets']} target cells")
     if unconfirmed:
         print(f"  {unconfirmed} photos not confirmed by the vehicles (placed on the track between their "
               f"neighbours): with them, {result.coverage_with_unconfirmed:.2f} %")

@@ -390,6 +390,8 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
                             f"short of at most {SLACK_CELLS:g} cell ({slack:.3f} m) on a side; photos placed on "
                             f"the track (their reports lost) are counted apart, in coverage_with_unconfirmed",
            "coverage_other_rules": other_rules}
+    if record.roofs is not None:  # a plan of roofs (--targets roofs|all): each class's coverage apart
+        doc["coverage_by_class"] = _coverage_by_class(record, targets, covered)
     if ground is not None:
         doc["above_ground_rule"] = (
             f"over the plan's ground ({', '.join(georeference_of(record).terrain.files)}), a drone's height above "
@@ -424,6 +426,19 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
                         coverage_with_unconfirmed=round(percent_with_placed, 2), survey=survey,
                         map_paths=map_paths, doc=doc, unwritten=unwritten, record_faults=list(record_faults or []),
                         notices=notices, overlap=overlap)
+
+
+def _coverage_by_class(record: PlanRecord, targets: np.ndarray, covered: np.ndarray) -> dict[str, Any]:
+    """flight.json `coverage_by_class`: per target class the plan asked (streets, roofs), its target cells and
+    those the confirmed photos covered (mission/roof_targets.py)."""
+    from ..mission.roof_targets import class_coverage
+
+    assert record.roofs is not None
+    grid = planned_grid(record)
+    reachable, held = np.zeros(grid.shape, dtype=bool), np.zeros(grid.shape, dtype=bool)
+    reachable[targets[:, 0], targets[:, 1]] = True
+    held[targets[covered, 0], targets[covered, 1]] = True
+    return {c.name: c.to_json() for c in class_coverage(grid, reachable, held, record.roofs.targets)}
 
 
 def _above_ground(plan_dir: Path, record: PlanRecord, records: list[DroneRecord],

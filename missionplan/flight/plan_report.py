@@ -81,4 +81,5 @@ def missing_map(record: PlanRecord, missing: np.ndarray, launch: list[tuple[int,
     base = planned_grid(record)
     target = np.zeros(base.shape, dtype=bool)
     target[missing[:, 0], missing[:, 1]] = True
-    return GridMap(f"{base.name}-{suffix}", base.obstacle, target, launch, georef=georeference_of(record))
+    return GridMap(f"{base.name}-{suffix}", base.obstacle, target, launch, georef=georeference_of(record),
+                   roof=base.roof)

@@ -27,6 +27,8 @@ of the grid, all rows the same length, one character per cell:
     `#`  obstacle (building, water, no-fly) - never entered
     `.`  target cell: free, to be photographed
     `o`  free cell that is not a target (flown over, never needs a photo)
+    `r`  target cell on a roof low enough to overfly (`plan --targets roofs|all`: geo/roofs.py); a map
+         with none has no roof layer
 """
 
 from __future__ import annotations
@@ -43,7 +45,8 @@ from missionplan.geo.georeference import Georeference
 OBSTACLE_CHAR = "#"
 TARGET_CHAR = "."
 FREE_CHAR = "o"
-_KNOWN_CHARS = {OBSTACLE_CHAR, TARGET_CHAR, FREE_CHAR}
+ROOF_CHAR = "r"
+_KNOWN_CHARS = {OBSTACLE_CHAR, TARGET_CHAR, FREE_CHAR, ROOF_CHAR}
 
 
 class MapError(ValueError):
@@ -55,7 +58,8 @@ Cell = tuple[int, int]
 
 @dataclass
 class GridMap:
-    """An occupancy grid: `obstacle` and `target` are boolean (rows, cols) arrays.
+    """An occupancy grid: `obstacle` and `target` are boolean (rows, cols) arrays; `roof` marks the targets
+    that are roofs (None or all False: the map has no roof layer, every target is a street cell).
 
     `meta` holds the map file's header lines as text (the file's spelling, the georeference's lines
     included); `georef` is the georeference they give, read once: given without its lines in `meta`, its
@@ -67,10 +71,17 @@ class GridMap:
     launch: list[Cell] = field(default_factory=list)
     meta: dict[str, str] = field(default_factory=dict)
     georef: Georeference | None = None
+    roof: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.obstacle = np.asarray(self.obstacle, dtype=bool)
         self.target = np.asarray(self.target, dtype=bool) & ~self.obstacle
+        if self.roof is not None:
+            roof = np.asarray(self.roof, dtype=bool)
+            if roof.shape != self.target.shape:
+                raise MapError(f"map {self.name}: the roof layer must be the grid's shape")
+            roof = roof & self.target  # only a target is a roof target; a map without one keeps no layer
+            self.roof = roof if roof.any() else None
         if self.obstacle.ndim != 2 or self.obstacle.shape != self.target.shape:
             raise MapError(f"map {self.name}: obstacle and target grids must be 2-D and the same shape")
         self.launch = [(int(r), int(c)) for r, c in self.launch]
@@ -93,21 +104,27 @@ class GridMap:
         """A cell's side on the ground in metres, from the georeference (None: the map lies nowhere)."""
         return self.georef.cell_m if self.georef is not None else None
 
+    @property
+    def roofs(self) -> np.ndarray:
+        """The target cells that are roofs (all False without a roof layer)."""
+        return self.roof if self.roof is not None else np.zeros(self.shape, dtype=bool)
+
     def inside(self, cell: Cell) -> bool:
         r, c = cell
         return 0 <= r < self.shape[0] and 0 <= c < self.shape[1]
 
     def rows_text(self) -> list[str]:
-        """The grid as one string per row (`#`, `.`, `o`), as report.json stores it."""
+        """The grid as one string per row (`#`, `.`, `o`, `r`), as report.json stores it."""
         chars = np.full(self.shape, FREE_CHAR, dtype="<U1")
         chars[self.target] = TARGET_CHAR
+        chars[self.roofs] = ROOF_CHAR
         chars[self.obstacle] = OBSTACLE_CHAR
         return ["".join(row) for row in chars]
 
     @classmethod
     def from_rows(cls, name: str, rows: list[str], launch: list[Cell] | None = None,
                   meta: dict[str, str] | None = None, georef: Georeference | None = None) -> "GridMap":
-        """Build a map from `#`/`.`/`o` strings (the inverse of `rows_text`)."""
+        """Build a map from `#`/`.`/`o`/`r` strings (the inverse of `rows_text`)."""
         if not rows:
             raise MapError(f"map {name}: the grid is empty")
         width = len(rows[0])
@@ -117,10 +134,11 @@ class GridMap:
             bad = set(row) - _KNOWN_CHARS
             if bad:
                 raise MapError(f"map {name}: grid row {i} has unknown cell character {sorted(bad)[0]!r} "
-                               f"(use '#', '.' or 'o')")
+                               f"(use '#', '.', 'o' or 'r')")
         chars = np.array([list(row) for row in rows])
-        return cls(name=name, obstacle=chars == OBSTACLE_CHAR, target=chars == TARGET_CHAR,
-                   launch=list(launch or []), meta=dict(meta or {}), georef=georef)
+        roof = chars == ROOF_CHAR
+        return cls(name=name, obstacle=chars == OBSTACLE_CHAR, target=(chars == TARGET_CHAR) | roof,
+                   launch=list(launch or []), meta=dict(meta or {}), georef=georef, roof=roof)
 
 
 def _parse_launch(text: str, where: str) -> list[Cell]:

@@ -27,6 +27,7 @@ from missionplan.geo.camera import Camera
 from missionplan.geo.errors import GeoError
 from missionplan.geo.frame import GridFrame
 from missionplan.geo.heights import HEIGHT_FIELDS
+from missionplan.geo.roofs import DEFAULT_TARGETS, check_targets
 from missionplan.geo.readers import read_area_file, read_building_file, read_obstacle_file, split_layer
 from missionplan.geo.sources import Building, Omission, SourceFile
 
@@ -57,6 +58,7 @@ class AreaRequest:
     osm: Path | None = None
     height_field: str | None = None
     unknown_building_height: float | None = None
+    targets: str = DEFAULT_TARGETS  # which cells are photographed: streets, roofs or all (geo/roofs.py)
 
 
 def parse_latlon(text: str) -> tuple[float, float]:
@@ -105,6 +107,7 @@ class AreaSources:
     no_fly: list[Any] = field(default_factory=list)
     inputs: list[InputFile] = field(default_factory=list)  # input_entry of each file: area, obstacles, buildings
     warnings: list[str] = field(default_factory=list)  # inputs_warning's line, when it has one
+    highest_roof_m: float | None = None  # the highest roof target, which sized the cell (None: roofs are no targets)
 
 
 def load_area(request: AreaRequest) -> tuple[GridMap, GridFrame]:
@@ -127,6 +130,7 @@ def load_area_checked(request: AreaRequest) -> tuple[GridMap, GridFrame, Unknown
         if not (math.isfinite(assumed) and assumed >= 0):
             raise GeoError(Named("{unknown_building_height} {0}: must be a height in metres, 0 or more", assumed))
     check_range(request.rotation, Setting("rotation"), *ANGLE_DEG, unit=" degrees", what="a grid angle", error=GeoError)
+    check_targets(request.targets)
     camera = _camera(request)
     area, area_source = read_area_file(request.area)
     # Obstacle and no-fly files are obstacles whatever their height; OSM buildings may be overflown.
@@ -150,12 +154,14 @@ def load_area_checked(request: AreaRequest) -> tuple[GridMap, GridFrame, Unknown
     launch = [parse_latlon(text) for text in request.launch]
     area_path = split_layer(request.area)[0]
 
-    def build(blds: list[Building]) -> tuple[GridMap, GridFrame]:
+    def build(blds: list[Building]) -> tuple[GridMap, GridFrame, float | None]:
         raster, frame = build_grid_map(area_path.stem, area, [], blds, no_fly, launch, request.altitude,
-                                       camera.fov_deg, rotation_deg=request.rotation, area_file=str(request.area))
-        return GridMap(raster.name, raster.obstacle, raster.target, raster.launch, georef=raster.georef), frame
+                                       camera.fov_deg, rotation_deg=request.rotation, area_file=str(request.area),
+                                       targets=request.targets)
+        return GridMap(raster.name, raster.obstacle, raster.target, raster.launch, georef=raster.georef,
+                       roof=raster.roof), frame, raster.highest_roof_m
 
-    gmap, frame = build(buildings)
+    gmap, frame, highest_roof = build(buildings)
     if building_source is not None and building_source.reader == "pyosmium":
         gmap.meta["credit"] = "Buildings: OpenStreetMap data © OpenStreetMap contributors (ODbL)"  # wherever shown
 
@@ -167,7 +173,7 @@ def load_area_checked(request: AreaRequest) -> tuple[GridMap, GridFrame, Unknown
     return gmap, frame, UnknownHeights(unknown, in_area, assumed,
                                        overflown if unknown and assumed is None else None), \
         AreaSources(area, [b for b, within in zip(buildings, inside) if within], no_fly, inputs,
-                    [warning] if warning else [])
+                    [warning] if warning else [], highest_roof)
 
 
 def input_entry(role: str, source: SourceFile, in_area: list[Building] | None = None,

@@ -5,6 +5,7 @@ exterior rings counter-clockwise, holes clockwise), in drawing order:
 
 - `area` the surveyed area; `buildings` the footprints with their heights (the obstacle cells of a
   grid map); `clearance` the band drones keep out of; `zones` each drone's share;
+- `roofs` the roof target cells (`plan --targets roofs|all` only: mission/roof_targets.py);
 - `unreachable` the target cells no drone reaches, one feature per cause (`cause`, `reason`);
 - `fences` each drone's geofence; `paths` each sortie's flown-as-uploaded path, 3-D
   (lon, lat, metres above home; in a plan over a DEM, metres above the ground under it, as the KMZ's
@@ -44,7 +45,7 @@ UAV_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
 
 # Each layer's geometry type, declared in the GeoPackage even when the layer is empty.
 LAYER_GEOMETRY = {"area": "MultiPolygon", "buildings": "MultiPolygon", "clearance": "MultiPolygon",
-                  "zones": "MultiPolygon", "unreachable": "MultiPolygon", "covered": "MultiPolygon",
+                  "zones": "MultiPolygon", "roofs": "MultiPolygon", "unreachable": "MultiPolygon", "covered": "MultiPolygon",
                   "missed": "MultiPolygon", "fences": "Polygon", "paths": "LineString Z", "photos": "Point Z",
                   "launch": "Point Z", "flown": "LineString Z", "photos_taken": "Point Z"}
 
@@ -167,6 +168,8 @@ def plan_layers(result: PlanResult, frame: GridFrame, plans: Any, base: GridMap,
     layers["zones"] = collection([
         feature("zones", cells_geometry(frame, mask), uav=plans.sorties[k][0].sysid, cells=int(mask.sum()))
         for k, mask in zone_masks if mask.any()])
+    if base.roof is not None:  # a plan with roof targets: which target cells are roofs
+        layers["roofs"] = collection([feature("roofs", cells_geometry(frame, base.roofs), cells=int(base.roofs.sum()))])
     layers["unreachable"] = collection([
         feature("unreachable", cells_geometry(frame, mask), cause=cause, cells=int(mask.sum()),
                 reason=CAUSE_REASONS.get(cause, cause))

@@ -23,7 +23,8 @@ zones_balanced, zone_sizes, seed, success, failure, metrics, targets (reachable 
 launch, paths (per drone, one [row, col] per step, start and hovers included), grid (one string per row:
 '#' obstacle, '.' target, 'o' free non-target); then for a georeferenced plan zone_shares (when re-balanced
 for sorties), drones, separation and clearance (the safety promise), settings, drone_ids, survey (a
-re-plan's pointer), basemap, credit, georeference; then coverage, inputs (an area plan's files), files and
+re-plan's pointer), basemap, credit, georeference; then coverage, roofs (with `plan --targets roofs|all`:
+mission/roof_targets.py; the grid's roof target cells are 'r'), inputs (an area plan's files), files and
 files_sha256.
 """
 
@@ -43,6 +44,7 @@ from missionplan.geo.georeference import Georeference
 from ..maps.gridmap import Cell, MapError
 from .plan_blocks import (ClearancePromise, CoverageSummary, Decisions, DronePlan, InputFile, PlanMetrics,
                           PlanSettings, SafetyPromise, SeparationPromise, SurveyPointer, Timing, cells_json, cells_of)
+from .roof_targets import RoofTargets
 
 REPORT_NAME = "report.json"
 SCHEMA_VERSION = 2  # the newest format this missionplan writes and reads
@@ -109,6 +111,7 @@ class PlanRecord:
     inputs: tuple[InputFile, ...] | None = None  # the files an area plan read
     files: tuple[str, ...] | None = None  # every file the plan wrote, report.json included
     files_sha256: Mapping[str, str] | None = None  # each file's but report.json's
+    roofs: RoofTargets | None = None  # the target classes, cell rule and clearance over roofs (--targets roofs|all)
 
     # ---- what readers ask ------------------------------------------------------------
     @property
@@ -168,6 +171,8 @@ class PlanRecord:
             doc["georeference"] = self.georeference.to_json()
         if self.coverage is not None:
             doc["coverage"] = self.coverage.to_json()
+        if self.roofs is not None:
+            doc["roofs"] = self.roofs.to_json()
         if self.inputs is not None:
             doc["inputs"] = [i.to_json() for i in self.inputs]
         if self.files is not None:
@@ -204,6 +209,7 @@ class PlanRecord:
             basemap=doc.get("basemap"), credit=doc.get("credit"),
             georeference=Georeference.from_json(georef, len(grid), len(grid[0])) if georef is not None else None,
             coverage=CoverageSummary.from_json(doc["coverage"]) if doc.get("coverage") is not None else None,
+            roofs=RoofTargets.from_json(doc["roofs"]) if doc.get("roofs") is not None else None,
             inputs=tuple(InputFile.from_json(i) for i in doc["inputs"]) if doc.get("inputs") is not None else None,
             files=_optional_tuple(doc.get("files")),
             files_sha256=dict(doc["files_sha256"]) if doc.get("files_sha256") is not None else None)

@@ -40,6 +40,7 @@ from missionplan.bridge.folder_lock import hold_folder
 from missionplan.geo.dem import Ground
 from missionplan.geo.frame import GridFrame
 from missionplan.geo.georeference import Georeference
+from missionplan.geo.roofs import DEFAULT_TARGETS
 
 from ..grid.zones import DEFAULT_ZONE_METHOD
 from ..maps.catalog import load_shipped
@@ -73,6 +74,8 @@ class PlanGround:
     # The side overlap asked of the camera (a fraction; None: not asked). The planned photos' measured
     # overlaps are set against it, and recorded in report.json's coverage when it is asked.
     side_overlap: float | None = None
+    targets: str = DEFAULT_TARGETS  # the classes of target cells: streets, roofs or all (geo/roofs.py)
+    gsd_cm_at_ground: float | None = None  # the ground sample distance asked, said at the roofs too (None: not asked)
 
     @property
     def uavs(self) -> int:
@@ -320,6 +323,8 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
             if ground.side_overlap is not None:
                 coverage = replace(coverage, overlap=overlap)
         record = replace(record, coverage=coverage)
+        if ground.targets != DEFAULT_TARGETS:
+            record = replace(record, roofs=_roof_targets(ground, field_plan, unreachable_mask))
         paths_latlon = None
         if plans is not None and frame is not None:
             from ..mission.layers import drone_paths_latlon, plan_layers, plan_summary
@@ -341,6 +346,26 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     return PlanFolder(out, ground, options, record, [out / p.name for p in written], kept, overlap)
+
+
+def _roof_targets(ground: PlanGround, field_plan: Any, unreachable: np.ndarray) -> Any:
+    """report.json `roofs` (mission/roof_targets.py): coverage per class from the plan's grid paths, the cell
+    rule, and the vertical clearance over the buildings along every leg (an --area plan's, which have heights)."""
+    from ..mission.clearance import footprint_union
+    from ..mission.roof_targets import class_coverage, roof_targets_block, vertical_clearance
+
+    gmap, plans, frame = ground.gmap, field_plan.plans, ground.frame
+    covered = footprint_union(field_plan.result.run.paths, gmap.shape)
+    by_class = class_coverage(gmap, gmap.target & ~unreachable, covered, ground.targets)
+    sources, settings = ground.sources, ground.settings
+    vertical = None
+    if sources is not None and plans is not None and frame is not None and gmap.georef is not None:
+        altitudes = [plans.settings.altitude_of(k) for k in range(len(plans.sortie_routes))]
+        vertical = vertical_clearance(plans.sortie_routes, altitudes, frame, sources.buildings,
+                                      float(gmap.georef.safety_margin_m or 0.0))
+    altitude = settings.altitude_m if settings is not None else None
+    return roof_targets_block(gmap, ground.targets, altitude, sources.highest_roof_m if sources is not None else None,
+                              by_class, vertical, ground.gsd_cm_at_ground)
 
 
 def _staging_folder(out: Path) -> Path:
