@@ -8,8 +8,10 @@ every message it hears. It
 - answers MAV_CMD_REQUEST_MESSAGE for CAMERA_INFORMATION (flags CAMERA_CAP_FLAGS_CAPTURE_IMAGE) and
   CAMERA_CAPTURE_STATUS, with a COMMAND_ACK;
 - takes MAV_CMD_IMAGE_START_CAPTURE (param2 interval s, param3 count, 0 = until stopped; a count of 1 is
-  one photo now, as ArduPilot and PX4 forward each trigger) and MAV_CMD_IMAGE_STOP_CAPTURE, and
-  MAV_CMD_DO_DIGICAM_CONTROL with param5 = 1 (ArduPilot's CAM1_TYPE 5 sends that to every component);
+  one photo now, as ArduPilot and PX4 forward each trigger) and MAV_CMD_IMAGE_STOP_CAPTURE. Not the
+  legacy MAV_CMD_DO_DIGICAM_CONTROL: PX4 (TRIG_INTERFACE 3) sends it beside each IMAGE_START_CAPTURE, and a
+  camera of the camera protocol that took both would take every photo twice. Other commands addressed
+  to it are answered UNSUPPORTED; broadcast ones (PX4 forwards every command of its own) go unanswered;
 - for each photo sends CAMERA_IMAGE_CAPTURED: its own time_boot_ms, time_utc, where the vehicle was
   (the autopilot's latest GLOBAL_POSITION_INT: lat, lon, alt AMSL and relative altitude in mm), q from its
   latest ATTITUDE, image_index counting from 0 after its own boot, capture_result 1, and a file_url
@@ -95,10 +97,8 @@ class MockCamera:
             self.start_capture(float(params[1]), int(params[2]))
         elif command == mavlink.MAV_CMD_IMAGE_STOP_CAPTURE:
             self.stop_capture()
-        elif command == mavlink.MAV_CMD_DO_DIGICAM_CONTROL and int(params[4]) == 1:
-            self.capture_now()
-            if msg.target_component == 0:
-                return  # a broadcast from ArduPilot's CAM1_TYPE 5: nobody waits for an answer
+        elif msg.target_component != CAMERA_COMPONENT_ID:
+            return  # someone else's command, broadcast: not ours to answer
         else:
             result = mavlink.MAV_RESULT_UNSUPPORTED
         self.mav.command_ack_send(command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent())
