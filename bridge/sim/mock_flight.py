@@ -33,12 +33,12 @@ from ..flight_models import copter_model as cm
 from ..flight_models import px4_model
 from ..flight_models.copter_model import CopterParams
 from ..flight_models.px4_model import Px4Params
+from .capture_clock import CaptureClock
 from ..formats.mission_items import (
     CMD_DO_CHANGE_SPEED,
     CMD_DO_JUMP,
     CMD_DO_SET_CAM_TRIGG_DIST,
-    CMD_IMAGE_START_CAPTURE,
-    CMD_IMAGE_STOP_CAPTURE,
+    CMD_IMAGE_START_CAPTURE, CMD_IMAGE_STOP_CAPTURE,
     CMD_NAV_LAND,
     CMD_NAV_LOITER_TIME,
     CMD_NAV_LOITER_TO_ALT,
@@ -133,8 +133,7 @@ class FlightSim:
         self._entered = False
         self._trigger_dist = 0.0
         self._trigger_acc = 0.0
-        self._capture_interval = 0.0  # IMAGE_START_CAPTURE's seconds between photos; 0: not capturing by time
-        self._capture_acc = 0.0
+        self._capture = CaptureClock()  # IMAGE_START_CAPTURE's photos by time
         self._jumps_left: dict[int, int] = {}
         self._last_track = -math.inf
 
@@ -225,7 +224,8 @@ class FlightSim:
             if not s.armed:
                 break
             used = self._step(remaining, events)
-            self._count_interval_photos(used)
+            for _ in range(self._capture.due(used if s.armed else 0.0)):  # IMAGE_START_CAPTURE's, where it is now
+                self._photo()
             remaining -= used
             if used <= 0 and not self._pending_instant():
                 break
@@ -235,15 +235,6 @@ class FlightSim:
             self._last_track = s.sim_time
             s.track.append((s.sim_time, s.lat, s.lon, s.alt))
         return events
-
-    def _count_interval_photos(self, dt: float) -> None:
-        """IMAGE_START_CAPTURE's photos due in the `dt` simulated seconds just flown, where the vehicle is now."""
-        if self._capture_interval <= 0 or dt <= 0 or not self.state.armed:
-            return
-        self._capture_acc += dt
-        while self._capture_acc >= self._capture_interval - TRIGGER_TOLERANCE_M:
-            self._capture_acc -= self._capture_interval
-            self._photo()
 
     def _pending_instant(self) -> bool:
         return self.state.mode == "AUTO" and not self.state.mission_done and self.state.current < len(self.items)
@@ -306,12 +297,8 @@ class FlightSim:
                     s.speed = float(item.param2)
                 self._advance_item(events, reached=False)
                 return 0.0
-            if cmd in (CMD_IMAGE_START_CAPTURE, CMD_IMAGE_STOP_CAPTURE):
-                # A photo now and one every param2 seconds (count param3 ignored: 0, until the stop), as ArduPilot
-                # times it and a MAVLink camera PX4 forwards it to does; the stop ends it.
-                start = cmd == CMD_IMAGE_START_CAPTURE and item.param2 > 0
-                self._capture_interval, self._capture_acc = (float(item.param2) if start else 0.0), 0.0
-                if cmd == CMD_IMAGE_START_CAPTURE:
+            if cmd in (CMD_IMAGE_START_CAPTURE, CMD_IMAGE_STOP_CAPTURE):  # a photo now, then one every param2 s
+                if self._capture.set(float(item.param2) if cmd == CMD_IMAGE_START_CAPTURE else 0.0):
                     self._photo()
                 self._advance_item(events, reached=False)
                 return 0.0
@@ -484,7 +471,8 @@ class FlightSim:
         if s.armed:
             s.armed = False  # autopilots disarm after landing
             events.append(FlightEvent("landed", s.current))
-        self._trigger_dist = self._capture_interval = 0.0
+        self._trigger_dist = 0.0
+        self._capture.set(0.0)
 
     def _fly_home_and_land(self, dt: float, events: list[FlightEvent]) -> float:
         s = self.state
