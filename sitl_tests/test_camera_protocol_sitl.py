@@ -147,6 +147,7 @@ def test_px4_forwards_each_photo_to_a_mavlink_camera_and_relays_its_records() ->
     assert not flown["camera feedback"] and not flown["camera-interval feedback"]
 
 
+@pytest.mark.flight
 def test_the_mock_camera_reports_as_on_the_sitls() -> None:
     """The mock autopilot with its MAVLink camera: the same fields, indices from 0, capture_result 1."""
     from missionplan.bridge.sim.mock import MockAutopilot
