@@ -116,7 +116,8 @@ class MockAutopilot:
                  cruise_speed: float = 5.0, max_items: int = 10_000,
                  clock: Callable[[], float] | None = None, gps_fix_after: float = 0.0,
                  streams_until_asked: bool = False, sitl_like: bool = False,
-                 mission_check_s: float | None = None, ground: GroundModel | None = None) -> None:
+                 mission_check_s: float | None = None, ground: GroundModel | None = None,
+                 mavlink_camera: bool = False, camera_failures: tuple[int, ...] = ()) -> None:
         """clock: the vehicles' wall clock (seconds since 1970) for signing timestamps; default time.time.
         gps_fix_after: simulated seconds until each vehicle has a GPS fix, EKF, home and lets itself be
         armed (ArduCopter SITL: 35-40); streams_until_asked: no telemetry but HEARTBEAT until
@@ -128,7 +129,9 @@ class MockAutopilot:
         ground: the true ground of every vehicle's world (a DEM, geo.dem.Ground): its home altitude is the
         ground's at its home, it lands on the ground, and an ArduPilot vehicle asks for its terrain as ArduCopter
         SITL does with no terrain files and flies terrain-frame items from what it was sent (mock_terrain).
-        BridgeUsageError when the ground has no height at a vehicle's home."""
+        BridgeUsageError when the ground has no height at a vehicle's home. mavlink_camera: each vehicle has a
+        MAVLink camera (mock_camera; configure_camera sets CAM1_TYPE 6, PX4's TRIG_INTERFACE 3), whose capture
+        indices camera_failures fail (capture_result 0)."""
         if str(listen).strip().lower() == "pty":
             self.spec = ConnectionSpec("pty", baud=57600)
         else:
@@ -168,7 +171,8 @@ class MockAutopilot:
                                      upload_timeout=upload_timeout, speedup=speedup, cruise_speed=cruise_speed,
                                      max_items=max_items, gps_fix_after=gps_fix_after,
                                      streams_until_asked=streams_until_asked, sitl_like=sitl_like,
-                                     mission_check_s=mission_check_s, ground=ground)
+                                     mission_check_s=mission_check_s, ground=ground,
+                                     mavlink_camera=mavlink_camera, camera_failures=tuple(camera_failures))
             encoder = mavlink.MAVLink(_Writer(self), srcSystem=sysid, srcComponent=mavlink.MAV_COMP_ID_AUTOPILOT1)
             apply_key(encoder, key, link_id=index, clock=clock)
             self.vehicles[sysid] = MockVehicle(sysid, options, encoder, now)
@@ -561,13 +565,16 @@ class MockAutopilot:
 
     def configure_camera(self, sysid: int, offline: float = 0.05) -> None:
         """What a team does once on a real vehicle: CAM1_TYPE = 1 (PX4: TRIG_MODE = 4, distance-triggered
-        by the mission) and a reboot (it takes effect at boot)."""
+        by the mission), 6 with a MAVLink camera (PX4: TRIG_INTERFACE 3), and a reboot (it takes effect at boot)."""
         with self._lock:
             vehicle = self.vehicles[sysid]
+            mavlink_camera = vehicle.mavlink_camera is not None  # TRIG_INTERFACE 3 / CAM1_TYPE 6: a MAVLink camera
             if vehicle.flavour is Flavour.PX4:
                 vehicle.params["TRIG_MODE"] = 4.0
+                if mavlink_camera:
+                    vehicle.params["TRIG_INTERFACE"] = 3.0
             else:
-                vehicle.params["CAM1_TYPE"] = 1.0
+                vehicle.params["CAM1_TYPE"] = 6.0 if mavlink_camera else 1.0
             vehicle.reboot(time.monotonic(), offline)
 
     def configure_cameras(self) -> MockAutopilot:

@@ -33,10 +33,12 @@ from ..flight_models import copter_model as cm
 from ..flight_models import px4_model
 from ..flight_models.copter_model import CopterParams
 from ..flight_models.px4_model import Px4Params
+from .capture_clock import CaptureClock
 from ..formats.mission_items import (
     CMD_DO_CHANGE_SPEED,
     CMD_DO_JUMP,
     CMD_DO_SET_CAM_TRIGG_DIST,
+    CMD_IMAGE_START_CAPTURE, CMD_IMAGE_STOP_CAPTURE,
     CMD_NAV_LAND,
     CMD_NAV_LOITER_TIME,
     CMD_NAV_LOITER_TO_ALT,
@@ -131,6 +133,7 @@ class FlightSim:
         self._entered = False
         self._trigger_dist = 0.0
         self._trigger_acc = 0.0
+        self._capture = CaptureClock()  # IMAGE_START_CAPTURE's photos by time
         self._jumps_left: dict[int, int] = {}
         self._last_track = -math.inf
 
@@ -221,6 +224,8 @@ class FlightSim:
             if not s.armed:
                 break
             used = self._step(remaining, events)
+            for _ in range(self._capture.due(used if s.armed else 0.0)):  # IMAGE_START_CAPTURE's, where it is now
+                self._photo()
             remaining -= used
             if used <= 0 and not self._pending_instant():
                 break
@@ -290,6 +295,11 @@ class FlightSim:
             if cmd == CMD_DO_CHANGE_SPEED:
                 if item.param2 > 0:
                     s.speed = float(item.param2)
+                self._advance_item(events, reached=False)
+                return 0.0
+            if cmd in (CMD_IMAGE_START_CAPTURE, CMD_IMAGE_STOP_CAPTURE):  # a photo now, then one every param2 s
+                if self._capture.set(float(item.param2) if cmd == CMD_IMAGE_START_CAPTURE else 0.0):
+                    self._photo()
                 self._advance_item(events, reached=False)
                 return 0.0
             if cmd == CMD_DO_SET_CAM_TRIGG_DIST:
@@ -462,6 +472,7 @@ class FlightSim:
             s.armed = False  # autopilots disarm after landing
             events.append(FlightEvent("landed", s.current))
         self._trigger_dist = 0.0
+        self._capture.set(0.0)
 
     def _fly_home_and_land(self, dt: float, events: list[FlightEvent]) -> float:
         s = self.state

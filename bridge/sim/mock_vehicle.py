@@ -48,6 +48,7 @@ from ..flight_models.px4_model import Px4Params
 from ..formats.mission_items import Flavour, MissionType, WireItem
 from ..link.connection import mavlink
 from .mission_server import MissionServer, Upload
+from .mock_camera import CAMERA_COMPONENT_ID, MockCamera
 from .mock_flight import FlightSim
 from .mock_log import OnboardLogs
 from .mock_terrain import GroundModel, MockTerrain
@@ -86,6 +87,11 @@ class VehicleOptions:
     # The true ground (a DEM; mock_terrain.GroundModel): the home's altitude is the ground's there, the vehicle
     # lands on it, and an ArduPilot vehicle asks the ground station for its terrain. None: a flat world.
     ground: GroundModel | None = None
+    # A MAVLink camera beside the autopilot (mock_camera.MockCamera, component MAV_COMP_ID_CAMERA): one
+    # CAMERA_IMAGE_CAPTURED from it per photo, besides the autopilot's own report, as ArduCopter SITL (CAM1_TYPE 6)
+    # and PX4 SIH (TRIG_INTERFACE 3) do with one; its capture indices that fail (capture_result 0).
+    mavlink_camera: bool = False
+    camera_failures: tuple[int, ...] = ()
 
     def resolved(self) -> VehicleOptions:
         ardupilot = self.flavour is Flavour.ARDUPILOT
@@ -129,6 +135,10 @@ class MockVehicle:
         self.terrain = (MockTerrain(self) if self.options.ground is not None and self.flavour is Flavour.ARDUPILOT
                         else None)
         self.logs = OnboardLogs(self.flavour, encoder, self.telemetry.send_text)  # on its SD card: survives reboots
+        # Its camera speaks as its own component on the same link (unsigned: its own MAVLink stack).
+        self.mavlink_camera = (MockCamera(mavlink.MAVLink(encoder.file, srcSystem=sysid, srcComponent=CAMERA_COMPONENT_ID),
+                                  sysid, fail_indices=self.options.camera_failures)
+                       if self.options.mavlink_camera else None)
         self._boot(now)
 
     # ------------------------------------------------------------------------------ lifecycle
@@ -225,6 +235,8 @@ class MockVehicle:
             self._check_battery(now)
         self.logs.tick()
         self.telemetry.tick(now)
+        if self.mavlink_camera is not None:
+            self.mavlink_camera.tick()
         if self.terrain is not None:
             self.terrain.tick(now)
         self.mission_server.tick(now)  # the upload's re-requests and time-out
@@ -301,6 +313,8 @@ class MockVehicle:
         if target is not None and target not in (0, self.sysid):
             return  # for another vehicle on the same link
         target_comp = getattr(msg, "target_component", None)
+        if self.mavlink_camera is not None and target_comp in (mavlink.MAV_COMP_ID_ALL, CAMERA_COMPONENT_ID):
+            self.mavlink_camera.handle(msg)
         if target_comp is not None and target_comp not in (mavlink.MAV_COMP_ID_ALL, mavlink.MAV_COMP_ID_AUTOPILOT1):
             return
         peer = (msg.get_srcSystem(), msg.get_srcComponent())

@@ -283,6 +283,10 @@ class Telemetry(VehiclePart):
         if not self.camera:  # no camera configured: ArduCopter sends nothing
             self._photos_sent = len(points)
             return
+        camera = self.vehicle.mavlink_camera  # a MAVLink camera beside it: it reports each photo itself too
+        if camera is not None:
+            for lat, lon, alt in points[self._photos_sent:]:
+                camera.capture_at(lat, lon, home_alt + alt, alt)
         if self.flavour is Flavour.PX4:
             self._send_image_captured(now, points, home_alt)
             return

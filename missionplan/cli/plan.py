@@ -19,7 +19,7 @@ from ..grid.lanes import MAX_OBSTACLE_SHARE
 from ..grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 from ..maps.catalog import load_shipped, shipped_map_names
 from ..maps.gridmap import MapError
-from ..mission.drone_missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
+from ..mission.drone_missions import CAPTURE_MODES, DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
 from ..mission.georef import AreaRequest
 from ..mission.safety import DEFAULT_CLEARANCE_M
 from ..mission.separation import DEFAULT_MAX_ALTITUDE_M
@@ -67,6 +67,7 @@ class PlanRequest:
     endurance: float
     reserve: float
     autopilot: str
+    capture: str
     out: Path
     basemap: str | None
     policy: str
@@ -147,6 +148,11 @@ def register(sub: Any) -> None:
     plan.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
                       help="the vehicles' autopilot: the .plan firmwareType that upload / fly check (default "
                            "ardupilot; px4 writes no .waypoints, see docs/px4-missions.md)")
+    plan.add_argument("--capture", choices=CAPTURE_MODES, default="relay",
+                      help="how photos are taken: relay, the autopilot's own trigger by distance (default); camera, "
+                           "the same for a MAVLink camera whose CAMERA_IMAGE_CAPTURED are the capture records; "
+                           "camera-interval, IMAGE_START_CAPTURE every trigger distance / speed seconds "
+                           "(docs/capture.md)")
     plan.add_argument("--out", required=True, type=Path, help="output folder (created if missing)")
     plan.add_argument("--basemap", metavar="URL",
                       help="plan.html draws map tiles from this tile server (e.g. "
@@ -195,7 +201,8 @@ def _plan_ground(request: PlanRequest) -> PlanGround:
         uavs = request.uavs
         frame, unknown, sources = shipped_frame(gmap), NO_UNKNOWN_HEIGHTS, None
     mission = {"speed": request.speed, "overlap": request.overlap, "end": request.end,
-               "altitude_step": request.altitude_step, "altitude": request.altitude, "autopilot": request.autopilot}
+               "altitude_step": request.altitude_step, "altitude": request.altitude, "autopilot": request.autopilot,
+               "capture": request.capture}
     safety = {"min_separation": request.min_separation, "max_altitude": request.max_altitude,
               "clearance": request.clearance, "endurance": request.endurance, "reserve": request.reserve}
     ground = grid_ground(gmap, uavs, frame, mission, safety, unknown=unknown, sources=sources,

@@ -168,7 +168,7 @@ class DroneFlight:
             self.problem(f"not found: {err}")
             return False
         self.recorder = TelemetryRecorder(rec, self.session.state, self.session.action.commanded, self.publish,
-                                          self.bar)
+                                          self.bar, camera_records=self.fleet.camera_records)
         self.retasking = RetaskActions(self.session, rec, self.recorder, self.deadline, self.problem, self.bar)
         if self.fleet.terrain is not None:  # ArduPilot asks for its ground from its first seconds
             self.terrain = self.fleet.terrain.for_vehicle(self.session.flavour)

@@ -275,7 +275,8 @@ def _fly_journaled(plan_dir: Path, record: PlanRecord, pool: LinkPool, journal: 
         fleet = FleetStart(pool, FleetGate(len(runnable)), FleetGate(len(runnable)), threading.Event(), key=key,
                            ready_s=ready_s, max_offset_m=max_launch_offset_m, say=say, alert=alert, resume=resume,
                            time_scale=time_scale, planned_s=planned_s, commit=journal.flush,
-                           silence=SilenceRule(replan_after_s), terrain=terrain)
+                           silence=SilenceRule(replan_after_s), terrain=terrain,
+                           camera_records=record.settings is not None and record.settings.mission.camera_records)
         # What the followers decide goes into their records and alerts in their own threads, and to the
         # re-tasker on a queue it reads in this one.
         fleet.events.subscribe(EventJournal({rec.id: rec for rec in runnable}, alert))

@@ -20,7 +20,7 @@ from typing import Any
 Sample = tuple[float, float, float, float, float, float, float]
 Sink = Callable[[str, tuple[Any, ...]], None]
 FACTS = ("planned_photos", "uploaded", "arming", "started", "finished", "held_after_flight", "mission_state", "current",
-         "captures", "wire", "params", "flavour", "t_start", "t_end", "ended_early", "last_position")
+         "captures", "failed_captures", "wire", "params", "flavour", "t_start", "t_end", "ended_early", "last_position")
 PHOTO_SOURCES = ("camera", "log")  # a report over the link; the vehicle's own log, read after the flight
 
 
@@ -40,6 +40,7 @@ class DroneRecord:
     mission_state: int = 0
     current: int = 0
     captures: int = 0  # photos the camera says it took (completed_captures / highest img_idx + 1)
+    failed_captures: int = 0  # a MAVLink camera's CAMERA_IMAGE_CAPTURED with capture_result 0: no photo
     wire: list[Any] = field(default_factory=list)  # the mission as uploaded (mission_items.WireItem)
     reached: list[tuple[float, int]] = field(default_factory=list)  # arrival time, seq
     landed: list[tuple[float, int]] = field(default_factory=list)  # EXTENDED_SYS_STATE landed state, at each change
@@ -49,6 +50,9 @@ class DroneRecord:
     amsl: dict[int, float] = field(default_factory=dict)  # img_idx -> altitude above mean sea level, m, where reported
     photo_source: dict[int, str] = field(default_factory=dict)  # img_idx -> "camera" or "log"
     attitude: dict[int, tuple[float, float, float]] = field(default_factory=dict)  # img_idx -> roll, pitch, yaw deg
+    # A MAVLink camera's (plan --capture camera*): its image_index -> file_url, and the indices it failed. Live only.
+    files: dict[int, str] = field(default_factory=dict)
+    failed_indices: set[int] = field(default_factory=set)
     params: dict[str, float] = field(default_factory=dict)  # navigation parameters the vehicle reported
     flavour: str = ""  # the autopilot's conventions (a mission_items.Flavour value): which flight model times it
     t_start: float | None = None

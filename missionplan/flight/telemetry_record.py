@@ -26,6 +26,8 @@ from .events import (ArmingChanged, FlightEvent, LandedStateChanged, LeftMission
 from .record import DroneRecord
 
 CAPTURE_OK = 1  # CAMERA_IMAGE_CAPTURED capture_result (a flag, not an enum): 1 success
+# The component ids a MAVLink camera speaks from (MAV_COMP_ID_CAMERA .. CAMERA6).
+CAMERA_COMPONENTS = range(mavlink.MAV_COMP_ID_CAMERA, mavlink.MAV_COMP_ID_CAMERA6 + 1)
 ON_GROUND_M = 0.3      # relative altitude under which a disarmed vehicle counts as landed
 # Modes a mission flies in (ArduPilot AUTO; PX4 AUTO.MISSION, and AUTO.TAKEOFF), and the modes of its
 # final return (PX4 switches to AUTO.RTL / AUTO.LAND for a mission's final RTL / LAND item; ArduPilot
@@ -43,9 +45,12 @@ class TelemetryRecorder:
     """One vehicle's messages into its record and its events (see the module docstring)."""
 
     def __init__(self, record: DroneRecord, state: VehicleState, commanded: set[str],
-                 publish: Callable[[FlightEvent], None], bar: Any = None) -> None:
+                 publish: Callable[[FlightEvent], None], bar: Any = None, camera_records: bool = False) -> None:
         """commanded: the modes this run commanded that are no departure from the mission (the vehicle
-        session's action.commanded)."""
+        session's action.commanded). camera_records (plan --capture camera, camera-interval): the photos are
+        the MAVLink camera's own CAMERA_IMAGE_CAPTURED (a camera component's, capture_result 1; a failed
+        capture counted apart), not the autopilot's CAMERA_FEEDBACK nor PX4's own CAMERA_IMAGE_CAPTURED."""
+        self.camera_records = camera_records
         self.record, self.state, self.commanded, self.publish, self.bar = record, state, commanded, publish, bar
         self.sysid = record.id
         self.armed, self.rel_alt, self.last_reached = True, 0.0, -1  # as last reported
@@ -92,11 +97,13 @@ class TelemetryRecorder:
         elif kind == "MISSION_ITEM_REACHED":
             rec.add_reached(t, int(msg.seq))
             self.last_reached = max(self.last_reached, int(msg.seq))
-        elif kind == "CAMERA_FEEDBACK":
+        elif kind == "CAMERA_FEEDBACK" and not self.camera_records:
             self.publish(PhotoTaken(self.sysid, t, int(msg.img_idx), msg.lat / 1e7, msg.lng / 1e7, float(msg.alt_rel),
                                     attitude=(float(msg.roll), float(msg.pitch), float(msg.yaw)),
                                     amsl_m=float(msg.alt_msl)))
             rec.set(captures=max(rec.captures, int(msg.completed_captures), int(msg.img_idx) + 1))
+        elif kind == "CAMERA_IMAGE_CAPTURED" and self.camera_records:
+            self._camera_record(msg, t)
         elif kind == "CAMERA_IMAGE_CAPTURED":
             # PX4's photo report (its camera_feedback module, one per trigger, image_index from 0 after
             # boot), or a MAVLink camera's: from one component only, their indices are separate counts.
@@ -108,6 +115,30 @@ class TelemetryRecorder:
                     self.publish(PhotoTaken(self.sysid, t, index, msg.lat / 1e7, msg.lon / 1e7, self.rel_alt,
                                             attitude=euler_degrees(list(msg.q)), amsl_m=msg.alt / 1000.0))
                 rec.set(captures=max(rec.captures, index + 1))
+
+    def _camera_record(self, msg: Any, t: float) -> None:
+        """A MAVLink camera's CAMERA_IMAGE_CAPTURED: from the first camera component heard (never the autopilot's
+        own, PX4 sends those too), the camera's image_index and file_url kept; capture_result 1 only is a photo."""
+        component = msg.get_srcComponent()
+        if component not in CAMERA_COMPONENTS:
+            return
+        if self.camera_component is None:
+            self.camera_component = component
+        index = int(msg.image_index)
+        if component != self.camera_component or index < 0:
+            return
+        rec = self.record
+        if int(msg.capture_result) != CAPTURE_OK:
+            if index not in rec.failed_indices:
+                rec.failed_indices.add(index)
+                rec.set(failed_captures=len(rec.failed_indices))
+        else:
+            self.publish(PhotoTaken(self.sysid, t, index, msg.lat / 1e7, msg.lon / 1e7, msg.relative_alt / 1000.0,
+                                    attitude=euler_degrees(list(msg.q)), amsl_m=msg.alt / 1000.0))
+            url = str(getattr(msg, "file_url", "") or "").rstrip("\x00")
+            if url:
+                rec.files.setdefault(index, url)
+        rec.set(captures=max(rec.captures, index + 1))
 
     def mission_current(self, msg: Any) -> None:
         """MISSION_CURRENT: where in its mission the vehicle is, and in which state."""

@@ -10,6 +10,10 @@ Each drone's mission, in order:
    photos of the next leg are spaced from it; after the last waypoint the distance is 0 (camera off);
 5. NAV_RETURN_TO_LAUNCH, or NAV_LAND where the track ends.
 
+With `capture` camera-interval, items 3 and 4's DO_SET_CAM_TRIGG_DIST give way to one IMAGE_START_CAPTURE
+(a photo every trigger distance / speed seconds) where the survey starts and one IMAGE_STOP_CAPTURE after
+its last waypoint; relay and camera missions are the same items (docs/capture.md, "Camera protocol").
+
 Positions use the relative-altitude frame (MAV_FRAME_GLOBAL_RELATIVE_ALT). Drone k (from 0)
 flies at altitude H + k * altitude_step: layers go up from H, never below it, so the
 footprint (and the coverage) never shrinks. Over a DEM (`ground`: heights above sea level) H is a height
@@ -31,8 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND,
-                            CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT,
+from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST,
+                            CMD_IMAGE_START_CAPTURE, CMD_IMAGE_STOP_CAPTURE, CMD_NAV_LAND, CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT,
                             FRAME_GLOBAL_TERRAIN_ALT, FRAME_MISSION, SPEED_TYPE_GROUNDSPEED, Mission, MissionItem)
 from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 
@@ -42,6 +46,12 @@ DEFAULT_SPEED_M_S = 5.0
 # coverage to the footprint's margin.
 DEFAULT_OVERLAP = (CELLS_PER_FOOTPRINT - 1) / CELLS_PER_FOOTPRINT
 END_ACTIONS = ("rtl", "land")
+# How photos are taken (`plan --capture`, docs/capture.md "Camera protocol"): relay, the autopilot's own trigger
+# by distance (DO_SET_CAM_TRIGG_DIST); camera, the same items for a MAVLink camera the autopilot forwards each
+# trigger to (IMAGE_START_CAPTURE, one photo) and whose CAMERA_IMAGE_CAPTURED are the capture records;
+# camera-interval, IMAGE_START_CAPTURE every trigger distance / speed seconds from the survey's start,
+# IMAGE_STOP_CAPTURE at its end.
+CAPTURE_MODES = ("relay", "camera", "camera-interval")
 # The ground under a plan: heights above sea level (m) at arrays of latitudes and longitudes (geo.dem.Ground).
 GroundHeights = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
@@ -55,6 +65,17 @@ class MissionSettings:
     end: str = "rtl"
     altitude_step_m: float = 0.0
     autopilot: str = "ardupilot"  # `plan --autopilot`: whose flight the timeline times (px4: flight_models.px4_model)
+    capture: str = "relay"  # `plan --capture`: one of CAPTURE_MODES
+
+    @property
+    def camera_records(self) -> bool:
+        """The capture records are a MAVLink camera's CAMERA_IMAGE_CAPTURED, not the autopilot's reports."""
+        return self.capture != "relay"
+
+    @property
+    def capture_interval_s(self) -> float:
+        """camera-interval: seconds between photos, the trigger distance at the cruise speed."""
+        return self.trigger_distance_m / self.speed_m_s
 
     @property
     def acceptance_m(self) -> float:
@@ -113,11 +134,16 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
         MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=lat0, y=lon0, z=altitude),
         MissionItem(CMD_DO_CHANGE_SPEED, FRAME_MISSION, param1=SPEED_TYPE_GROUNDSPEED, param2=settings.speed_m_s,
                     param3=-1.0),
+    ]
+    interval = settings.capture == "camera-interval"
+    if not interval:
         # param3 = 1: take the first photo at once, not only after the first trigger distance; a resumed
         # sortie keeps the camera off on its way out (the first waypoint's item below turns it on).
-        MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0 if camera_off else settings.trigger_distance_m,
-                    param3=0.0 if camera_off else 1.0),
-    ]
+        items.append(MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION,
+                                 param1=0.0 if camera_off else settings.trigger_distance_m,
+                                 param3=0.0 if camera_off else 1.0))
+    elif not camera_off:  # a photo at once, then one every interval until the stop after the last waypoint
+        items.append(_start_capture(settings))
     for lat, lon in transit_latlon:  # camera off on the way out
         items.append(MissionItem(CMD_NAV_WAYPOINT, frame, param2=settings.acceptance_m,
                                  x=float(lat), y=float(lon), z=altitude))
@@ -129,10 +155,17 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
         last = index == len(waypoints_latlon) - 1
         items.append(MissionItem(CMD_NAV_WAYPOINT, frame, param2=settings.acceptance_m,
                                  x=float(lat), y=float(lon), z=altitude))
-        items.append(MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION,
-                                 param1=0.0 if last else settings.trigger_distance_m, param3=1.0))
+        if not interval:
+            items.append(MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION,
+                                     param1=0.0 if last else settings.trigger_distance_m, param3=1.0))
+            continue
+        if camera_off and index == 0:
+            items.append(_start_capture(settings))
+        if last:
+            items.append(MissionItem(CMD_IMAGE_STOP_CAPTURE, FRAME_MISSION))
     if not len(waypoints_latlon):
-        items.append(MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0))
+        items.append(MissionItem(CMD_IMAGE_STOP_CAPTURE, FRAME_MISSION) if interval else
+                     MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0))
     for lat, lon in back_latlon:  # camera off on the way home, round the obstacles RTL would fly through
         items.append(MissionItem(CMD_NAV_WAYPOINT, frame, param2=settings.acceptance_m,
                                  x=float(lat), y=float(lon), z=altitude))
@@ -152,9 +185,15 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
     # leg (not on a way out or home: the camera is off there, and a resumed survey starts at its first waypoint).
     survey = np.vstack([np.reshape(launch_m, (1, 2)), waypoints_m]) if not camera_off else np.reshape(waypoints_m, (-1, 2))
     photo_legs = np.hypot(*np.diff(survey, axis=0).T) if len(survey) > 1 else np.zeros(0)
-    photos = (0 if camera_off else 1) + len(waypoints_m)
-    if settings.trigger_distance_m > 0 and len(photo_legs):
-        photos += int(np.maximum(np.ceil(photo_legs / settings.trigger_distance_m - 1e-9) - 1, 0).sum())
+    if interval:  # one at the start, then one a trigger distance's flight time: at least this many (corners slow it)
+        started = not camera_off or len(waypoints_m) > 0
+        flown_s = float(photo_legs.sum()) / settings.speed_m_s
+        photos = int(started) + (int(np.floor(flown_s / settings.capture_interval_s + 1e-9))
+                                 if started and settings.trigger_distance_m > 0 else 0)
+    else:
+        photos = (0 if camera_off else 1) + len(waypoints_m)
+        if settings.trigger_distance_m > 0 and len(photo_legs):
+            photos += int(np.maximum(np.ceil(photo_legs / settings.trigger_distance_m - 1e-9) - 1, 0).sum())
     count = len(transit_latlon) + len(waypoints_latlon) + len(back_latlon)
     home_amsl = 0.0 if ground is None else float(ground(np.array([lat0]), np.array([lon0]))[0])
     mission = Mission(items=items, home=(lat0, lon0, home_amsl))
@@ -166,3 +205,8 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
         mission = over_ground
     return DroneMission(sysid=drone + 1, mission=mission, waypoints=count, length_m=length,
                         flight_s=length / settings.speed_m_s if flight_s is None else flight_s, photos=photos)
+
+
+def _start_capture(settings: MissionSettings) -> MissionItem:
+    """IMAGE_START_CAPTURE: a photo now, then every capture_interval_s until IMAGE_STOP_CAPTURE (count 0)."""
+    return MissionItem(CMD_IMAGE_START_CAPTURE, FRAME_MISSION, param2=settings.capture_interval_s, param3=0.0)

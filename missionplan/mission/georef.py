@@ -228,9 +228,9 @@ def shipped_frame(gmap: GridMap) -> GridFrame | None:
 
 def mission_settings(gmap: GridMap, *, speed: float = DEFAULT_SPEED_M_S, overlap: float = DEFAULT_OVERLAP,
                      end: str = "rtl", altitude_step: float = 0.0, altitude: float | None = None,
-                     autopilot: str = "ardupilot") -> MissionSettings:
+                     autopilot: str = "ardupilot", capture: str = "relay") -> MissionSettings:
     """Altitude and footprint from the map's georeference (9 cells a side; `altitude` where the map has none),
-    speed, overlap, end action, altitude step and autopilot as `plan` takes them; the defaults are `plan`'s."""
+    speed, overlap, end action, altitude step, autopilot and capture mode as `plan` takes them; the defaults are `plan`'s."""
     check_range(speed, Setting("speed"), 0.0, 100.0, unit=" m/s", low_open=True, error=GeoError)
     check_range(overlap, Setting("overlap"), 0.0, 1.0, high_open=True, what="a fraction", error=GeoError)
     # Layers go up from the altitude, never below it.
@@ -242,4 +242,5 @@ def mission_settings(gmap: GridMap, *, speed: float = DEFAULT_SPEED_M_S, overlap
     if not flight_altitude > 0:
         raise GeoError(f"map {gmap.name}: no flight altitude (altitude_m) in its metadata")
     return MissionSettings(altitude_m=flight_altitude, footprint_m=georef.footprint_m, speed_m_s=speed,
-                           overlap=overlap, end=end, altitude_step_m=altitude_step, autopilot=autopilot)
+                           overlap=overlap, end=end, altitude_step_m=altitude_step, autopilot=autopilot,
+                           capture=capture)

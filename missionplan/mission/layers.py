@@ -24,7 +24,8 @@ import numpy as np
 import shapely
 from shapely.geometry import mapping
 
-from missionplan.bridge.formats.mission_items import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND, CMD_NAV_RETURN_TO_LAUNCH,
+from missionplan.bridge.formats.mission_items import (CMD_DO_SET_CAM_TRIGG_DIST, CMD_IMAGE_START_CAPTURE,
+                                                      CMD_IMAGE_STOP_CAPTURE, CMD_NAV_LAND, CMD_NAV_RETURN_TO_LAUNCH,
                                                       CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL, MissionItem)
 from missionplan.geo.cells import cells_polygons
 from missionplan.geo.geojson_layers import rfc7946
@@ -106,13 +107,30 @@ def planned_photos(items: list[MissionItem], trigger_m: float, to_m: Callable[[f
     """Where a mission's photos are planned, in the metric frame `to_m(lat, lon)` maps into: one wherever
     DO_SET_CAM_TRIGG_DIST says "trigger once now" (over the take-off point, after a waypoint), and one
     every trigger distance along each leg flown with the distance trigger on (not on a way out or home,
-    where it is 0). Counts as missions.build_mission counts `photos`; without `from_takeoff`, the photo
-    over the take-off point and those on the leg from it are left out (the judge's sortie duties)."""
+    where it is 0). A camera-interval mission (IMAGE_START_CAPTURE ... IMAGE_STOP_CAPTURE): one at the start,
+    then one every trigger distance flown, across corners, as at the cruise speed. Counts as
+    missions.build_mission counts `photos`; without `from_takeoff`, the photo over the take-off point and
+    those on the leg from it are left out (the judge's sortie duties)."""
     points: list[np.ndarray] = []
     distance, previous = 0.0, None
+    interval, since_photo = False, 0.0  # capturing by time, and the metres flown since its last photo
     for item in items:
         if item.command == CMD_NAV_TAKEOFF and from_takeoff and (item.x or item.y):
             previous = to_m(item.x, item.y)
+        elif item.command == CMD_IMAGE_START_CAPTURE:
+            if previous is not None:
+                points.append(previous)
+            interval, since_photo = True, 0.0
+        elif item.command == CMD_IMAGE_STOP_CAPTURE:
+            interval = False
+        elif item.command == CMD_NAV_WAYPOINT and interval:
+            here = to_m(item.x, item.y)
+            if previous is not None and trigger_m > 0:
+                length = float(np.hypot(*(here - previous)))
+                for along in np.arange(trigger_m - since_photo, length + 1e-6, trigger_m):
+                    points.append(previous + (here - previous) * (along / max(length, 1e-12)))
+                since_photo = (since_photo + length) % trigger_m
+            previous = here
         elif item.command == CMD_DO_SET_CAM_TRIGG_DIST:
             if item.param3 > 0 and previous is not None:
                 points.append(previous)

@@ -475,8 +475,12 @@ class PlanSettings:
     open_ground: str
 
     def to_json(self) -> JSON:
-        # Every field of the two settings, in their order: a field added there is recorded here.
-        return {"mission": asdict(self.mission), "safety": asdict(self.safety), "policy": self.policy,
+        # Every field of the two settings, in their order: a field added there is recorded here. The capture
+        # mode only when it is not the relay, so a plan without --capture is written as before.
+        mission = asdict(self.mission)
+        if mission.get("capture") == "relay":
+            del mission["capture"]
+        return {"mission": mission, "safety": asdict(self.safety), "policy": self.policy,
                 "zones": self.zones, "balance_zones": self.balance_zones, "open_ground": self.open_ground}
 
     @classmethod
