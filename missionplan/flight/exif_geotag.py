@@ -50,6 +50,7 @@ NADIR_PITCH_DEG = -90.0  # DJI's convention: 0 level, -90 straight down
 DJI_NS = "http://www.dji.com/drone-dji/1.0/"
 INSTALL_HINT = "missionplan geotag needs pyexiv2 to write EXIF and XMP: pip install 'missionplan[geotag]'"
 AMBIGUOUS_CARD = 0.95  # a runner-up vehicle lining up this share of the best one's images makes the card unplaced
+DRIFT_WORTH_SAYING_S = 0.1
 ARCSEC_DEN = 100_000  # GPS seconds as a rational over this: 1e-5 arc second, 0.3 mm
 
 
@@ -225,8 +226,9 @@ def _flights(photos: list[LedgerPhoto]) -> str:
 def card_line(placed: Placement) -> str:
     """`card DCIM-A: drone 2, flight 1: 412 matched, 3 unmatched images, 0 ambiguous, camera clock ... UTC`."""
     m = placed.match
-    drift = m.drift * 3600.0
-    drifting = f", drifting {abs(drift):.2f} s an hour" if abs(drift) >= 0.005 else ""
+    # The drift is said where it adds up to a tenth of a second over the card; below that it is the fit's noise.
+    drifting = (f", {'gaining' if m.drift < 0 else 'losing'} {abs(m.drift) * 3600:.2f} s an hour"
+                if abs(m.drift * m.span_s) >= DRIFT_WORTH_SAYING_S else "")
     lost = placed.records_without_image
     return (f"card {placed.card.name}: drone {placed.vehicle}, {_flights([p for _, p in placed.photo_of()])}: "
             f"{m.matched} matched, {m.unmatched} unmatched image{'' if m.unmatched == 1 else 's'}, "
@@ -383,5 +385,5 @@ def geotag_cards(survey_dir: Path, image_dirs: Sequence[Path], out: Path | None 
             lines.append(f"card {card.name}: {len(card.untimed)} images have no capture time (EXIF "
                          f"DateTimeOriginal), e.g. {card.untimed[0].relative}: left unmatched")
         write_card(outcome, out, lambda photos: geo_altitudes(photos, ground), gimbal_pitch_deg)
-        lines.append(card_line(outcome) + f" -> {folder}")
+        lines.append(card_line(outcome))
     return GeotagRun(lines, placed, out)

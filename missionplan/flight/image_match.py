@@ -37,6 +37,7 @@ class Match:
     offset_s: float  # UTC minus camera clock at the card's first matched image (positive: the camera is behind)
     drift: float  # seconds gained by UTC per second of the camera clock (0 for a camera on time)
     tolerance_s: float
+    span_s: float = 0.0  # camera seconds from the first matched image to the last
 
     @property
     def matched(self) -> int:
@@ -155,5 +156,6 @@ def match_images(image_times: np.ndarray, record_times: np.ndarray, resolution_s
         j = rec_of[k]
         record_of[i] = None if j is None else int(order_r[j])
         ambiguous[i] = amb[k]
-    first = next((k for k, j in enumerate(rec_of) if j is not None), 0)
-    return Match(record_of, ambiguous, offset + drift * (images[first] - origin), drift, tol)
+    paired = [k for k, j in enumerate(rec_of) if j is not None]
+    first, span = (paired[0], float(images[paired[-1]] - images[paired[0]])) if paired else (0, 0.0)
+    return Match(record_of, ambiguous, offset + drift * (images[first] - origin), drift, tol, span)
