@@ -246,3 +246,29 @@ def test_without_pyexiv2_geotag_says_how_to_install_it(survey: dict, monkeypatch
     monkeypatch.setitem(sys.modules, "pyexiv2", None)  # import pyexiv2 raises ImportError
     assert main(["geotag", str(survey["plan"]), str(survey["cards"][1])]) == 2
     assert capsys.readouterr().err == f"missionplan: {INSTALL_HINT}\n"
+
+
+def test_two_drones_flying_at_once_are_told_apart_by_their_turns_or_the_card_is_refused() -> None:
+    """Legs of photos at one interval line a card up with any drone; the turns between legs place it. Two
+    drones with the very same turns cannot be told apart by time: the card is refused, not guessed."""
+    from missionplan.flight.exif_geotag import Card, CardImage, Placement, place_card
+    from missionplan.flight.ledger import LedgerPhoto
+
+    rng = np.random.default_rng(5)
+
+    def records(vehicle: int, turns: list[float]) -> list[LedgerPhoto]:
+        times = START + np.arange(120) * 0.667 + np.repeat(np.cumsum([0.0, *turns]), 20)
+        return [LedgerPhoto(".", 1, vehicle, k, float(t + rng.normal(0, 0.005)), 45.0, 9.0, None, None, None,
+                            None, None, "camera") for k, t in enumerate(times)]
+
+    def card_of(photos: list[LedgerPhoto]) -> Card:
+        camera = np.array([p.time for p in photos]) - CLOCK_BEHIND_S
+        return Card("DCIM", Path("DCIM"), [CardImage(Path(f"{k}.JPG"), f"{k}.JPG", float(t))
+                                          for k, t in enumerate(camera)], 0.001)
+
+    fleet = {1: records(1, [5.2, 7.9, 4.4, 6.1, 8.3]), 2: records(2, [6.6, 4.9, 8.1, 5.5, 7.0])}
+    placed = place_card(card_of(fleet[2]), fleet)
+    assert isinstance(placed, Placement) and placed.vehicle == 2 and placed.match.matched == 120
+    twins = {1: records(1, [6.0] * 5), 2: records(2, [6.0] * 5)}
+    assert place_card(card_of(twins[2]), twins) == \
+        "card DCIM: lines up with drone 2 (120 images) and drone 1 (120) alike: not placed"

@@ -49,7 +49,11 @@ DEFAULT_OUT = "geotagged"
 NADIR_PITCH_DEG = -90.0  # DJI's convention: 0 level, -90 straight down
 DJI_NS = "http://www.dji.com/drone-dji/1.0/"
 INSTALL_HINT = "missionplan geotag needs pyexiv2 to write EXIF and XMP: pip install 'missionplan[geotag]'"
-AMBIGUOUS_CARD = 0.95  # a runner-up vehicle lining up this share of the best one's images makes the card unplaced
+# Two drones flying the same pattern at once line a card up almost as well: the wrong one's images lie anywhere
+# within the tolerance of their records, the right one's within the clocks' jitter. A card is not placed when a
+# runner-up lines up this share of the best one's images with residuals as small (within twice, plus a tenth of
+# the tolerance).
+AMBIGUOUS_CARD = 0.95
 DRIFT_WORTH_SAYING_S = 0.1
 ARCSEC_DEN = 100_000  # GPS seconds as a rational over this: 1e-5 arc second, 0.3 mm
 
@@ -174,7 +178,7 @@ def place_card(card: Card, by_vehicle: dict[int, list[LedgerPhoto]]) -> Placemen
     for vehicle, records in sorted(by_vehicle.items()):
         match = match_images(times, np.array([p.time for p in records], dtype=float), card.resolution_s)
         tried.append((match.matched, vehicle, match, records))
-    tried.sort(key=lambda t: (-t[0], t[1]))
+    tried.sort(key=lambda t: (-t[0], t[2].residual_s, t[1]))
     if not tried:
         return f"card {card.name}: the survey has no capture record with a time to match images to"
     best, vehicle, match, records = tried[0]
@@ -182,9 +186,11 @@ def place_card(card: Card, by_vehicle: dict[int, list[LedgerPhoto]]) -> Placemen
         counts = ", ".join(f"drone {v}: {len(r)}" for _, v, _, r in sorted(tried, key=lambda t: t[1]))
         return (f"card {card.name}: fits no drone of the survey: {n_timed} timed images, capture records {counts}; "
                 f"at best {best} images line up with drone {vehicle}'s at one clock offset (more than half must)")
-    if len(tried) > 1 and tried[1][0] >= AMBIGUOUS_CARD * best:
-        return (f"card {card.name}: lines up with drone {vehicle} ({best} images) and drone {tried[1][1]} "
-                f"({tried[1][0]}) alike: not placed")
+    runner = tried[1] if len(tried) > 1 else None
+    if runner is not None and runner[0] >= AMBIGUOUS_CARD * best and \
+            runner[2].residual_s <= 2 * match.residual_s + 0.1 * match.tolerance_s:
+        return (f"card {card.name}: lines up with drone {vehicle} ({best} images) and drone {runner[1]} "
+                f"({runner[0]}) alike: not placed")
     return Placement(card, vehicle, match, records)
 
 
@@ -366,7 +372,7 @@ def geotag_cards(survey_dir: Path, image_dirs: Sequence[Path], out: Path | None 
         root = ledger.survey.root
     if not by_vehicle:
         raise GeotagError(f"{survey_dir}: the survey's ledger has no capture record with a time (fly it first; "
-                          "photos placed on the track by --photos-from-track have none)")
+                          "photos placed along the track have none)")
     ground = plan_ground(root, read_plan(root))
     lines = [f"missionplan geotag: {n}" for n in notices]
     placed: list[Placement] = []

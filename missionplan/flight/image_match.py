@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 ANCHORS = 12  # images tried as the pair of each record for the offset candidates
-MIN_TOLERANCE_S = 0.02  # receive-time jitter below this is noise we do not try to split
+MIN_TOLERANCE_S = 0.001  # EXIF SubSecTimeOriginal rarely says more than milliseconds
 
 
 @dataclass(frozen=True)
@@ -38,6 +38,7 @@ class Match:
     drift: float  # seconds gained by UTC per second of the camera clock (0 for a camera on time)
     tolerance_s: float
     span_s: float = 0.0  # camera seconds from the first matched image to the last
+    residual_s: float = 0.0  # the median distance of a matched image from its record, once shifted
 
     @property
     def matched(self) -> int:
@@ -158,4 +159,5 @@ def match_images(image_times: np.ndarray, record_times: np.ndarray, resolution_s
         ambiguous[i] = amb[k]
     paired = [k for k, j in enumerate(rec_of) if j is not None]
     first, span = (paired[0], float(images[paired[-1]] - images[paired[0]])) if paired else (0, 0.0)
-    return Match(record_of, ambiguous, offset + drift * (images[first] - origin), drift, tol, span)
+    residual = float(np.median([abs(shifted[k] - records[rec_of[k]]) for k in paired])) if paired else tol
+    return Match(record_of, ambiguous, offset + drift * (images[first] - origin), drift, tol, span, residual)
