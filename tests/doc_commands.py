@@ -71,6 +71,11 @@ MEASURED: tuple[tuple[str, re.Pattern[str], tuple[float, float] | None], ...] = 
     ("survey cells left", re.compile(r"recorded, (\d+) of \d+ target cells covered, (\d+) left$"), (0.03, 5.0)),
     ("survey coverage", re.compile(r"^survey \S+: (\d+\.\d+) % of \d+ target cells over"), (0.0, 0.5)),
     ("survey left", re.compile(r" flights, (\d+) left \("), (0.0, 10.0)),
+    # geotag's cards are made from a mock flight's capture records: as many as the flown photos
+    # (and the few records within microseconds of each other at a flight's start make its images ambiguous)
+    ("geotag counts", re.compile(r"^card \S+: drone \d+, flights? [^:]+: (\d+) matched, \d+ unmatched images?, "
+                                 r"(\d+) ambiguous, .*; (\d+) capture records? without an image$"), (0.15, 20.0)),
+    ("geotag copies", re.compile(r"^wrote (\d+) geotagged cop"), (0.15, 40.0)),
 )
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?")
 IPV4 = re.compile(r"\b(\d{1,3}\.\d{1,3}\.\d{1,3}\.\d{1,3})\b")

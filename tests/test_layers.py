@@ -350,13 +350,14 @@ FLIGHT_TIERS = (
     ("record", "plan_report", "flight_layers", "flight_plot", "mock_fleet", "salvage",  # what was planned and recorded
      "journal_db",  # the journal's tables
      "events", "link_silence", "retask_planner",  # a follower's events, what a silence means, a re-task's contract
-     "terrain_service"),  # the plan's ground served to its ArduPilot vehicles
+     "terrain_service",  # the plan's ground served to its ArduPilot vehicles
+     "image_match"),  # a camera card's images paired with capture records
     ("journal_read", "journal_repair"),  # a journal read back; a damaged one repaired
     ("ledger", "phases", "journal", "photo_positions",  # the photos, the flight's phases, the journal on disk
      "above_ground"),  # heights above the ground of a flight over a DEM
     ("ledger_repair",),  # a ledger rebuilt from the journals
     ("geotag", "survey_status"),  # what the photos and the survey come to
-    ("flight_report",),  # judging a flown fleet
+    ("flight_report", "exif_geotag"),  # judging a flown fleet; a crew's camera cards geotagged
     ("event_journal", "telemetry_record", "fleet_start", "follower_mail"),  # events, messages and posts into records
     ("after_landing", "fleet_view", "retask_actions"),  # after landing; the fleet as events tell it; a re-task's part
     ("drone_flight", "display"),  # one drone's flight; what a crew sees

@@ -15,6 +15,7 @@ from ..maps.gridmap import MapError
 from .demo import register as register_demo
 from .errors import said
 from .fly import register as register_fly
+from .geotag import register as register_geotag
 from .mock import register as register_mock
 from .parsing import EXIT_USAGE, CommandParser, package_version
 from .plan import register as register_plan
@@ -33,6 +34,7 @@ def build_parser() -> argparse.ArgumentParser:
     register_mock(sub)  # mock
     register_fly(sub)  # fly
     register_survey(sub)  # status, replan
+    register_geotag(sub)  # geotag
     register_demo(sub)  # demo = plan + mock fleet + fly
     return parser
 

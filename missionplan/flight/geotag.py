@@ -26,6 +26,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+from collections.abc import Mapping
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -43,7 +44,10 @@ TERRAIN_COLUMNS = ("alt_agl_m", "ground_amsl_m")  # after alt_rel_m, for a plan 
 GEOTAG_FILES = ("photos.csv", "photos.geojson", "geo.txt")
 
 
-def image_name(photo: LedgerPhoto) -> str:
+def image_name(photo: LedgerPhoto, names: Mapping[LedgerPhoto, str] | None = None) -> str:
+    """The photo's file name: the real one where `names` has it (`missionplan geotag`), else IMAGE_NAME."""
+    if names is not None and photo in names:
+        return names[photo]
     return IMAGE_NAME.format(flight=photo.flight, vehicle=photo.vehicle, img_idx=photo.img_idx)
 
 
@@ -68,14 +72,15 @@ def _rounded(value: float | None) -> float | None:
     return None if value is None else round(value, 2)
 
 
-def photos_csv(photos: list[LedgerPhoto], ground: PlanGround | None = None) -> str:
+def photos_csv(photos: list[LedgerPhoto], ground: PlanGround | None = None,
+               names: Mapping[LedgerPhoto, str] | None = None) -> str:
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
     over = _over_ground(photos, ground)
     at = CSV_COLUMNS.index("alt_rel_m") + 1
     writer.writerow(CSV_COLUMNS if ground is None else CSV_COLUMNS[:at] + TERRAIN_COLUMNS + CSV_COLUMNS[at:])
     for k, p in enumerate(photos):
-        row = [image_name(p), p.flight, p.vehicle, p.img_idx, _utc(p.time), f"{p.lat:.7f}", f"{p.lon:.7f}",
+        row = [image_name(p, names), p.flight, p.vehicle, p.img_idx, _utc(p.time), f"{p.lat:.7f}", f"{p.lon:.7f}",
                _num(p.alt_amsl, 2), _num(p.alt_rel, 2), _num(p.yaw, 2), _num(p.pitch, 2), _num(p.roll, 2), p.source]
         if over:
             row[at:at] = [_num(over[k][0], 2), _num(over[k][1], 2)]
@@ -83,7 +88,8 @@ def photos_csv(photos: list[LedgerPhoto], ground: PlanGround | None = None) -> s
     return out.getvalue()
 
 
-def photos_geojson(photos: list[LedgerPhoto], ground: PlanGround | None = None) -> dict:
+def photos_geojson(photos: list[LedgerPhoto], ground: PlanGround | None = None,
+                   names: Mapping[LedgerPhoto, str] | None = None) -> dict:
     """One Point per photo, [lon, lat, height above the launch point] (RFC 7946 order), its facts as properties."""
     features = []
     over = _over_ground(photos, ground)
@@ -93,32 +99,43 @@ def photos_geojson(photos: list[LedgerPhoto], ground: PlanGround | None = None) 
         if over:
             heights.update({"alt_agl_m": _rounded(over[k][0]), "ground_amsl_m": _rounded(over[k][1])})
         features.append({"type": "Feature", "geometry": {"type": "Point", "coordinates": coords},
-                         "properties": {"image": image_name(p), "flight": p.flight, "vehicle": p.vehicle,
+                         "properties": {"image": image_name(p, names), "flight": p.flight, "vehicle": p.vehicle,
                                         "img_idx": p.img_idx, "time_utc": _utc(p.time), **heights,
                                         "yaw_deg": p.yaw, "pitch_deg": p.pitch,
                                         "roll_deg": p.roll, "source": p.source}})
     return {"type": "FeatureCollection", "features": features}
 
 
-def geo_txt(photos: list[LedgerPhoto], ground: PlanGround | None = None) -> str:
-    lines = ["EPSG:4326"]
+def geo_altitudes(photos: list[LedgerPhoto], ground: PlanGround | None = None) -> list[float]:
+    """Each photo's altitude above sea level as geo.txt and the EXIF geotags give it (the module docstring says
+    which: over a DEM the ground at the launch point plus the reported height, else the vehicle's own)."""
     over = _over_ground(photos, ground)
+    heights = []
     for k, p in enumerate(photos):
         agl, under = over[k] if over else (None, None)
         if agl is not None and under is not None:
-            alt = agl + under  # over a DEM: the ground at the launch point plus the reported height above it
+            heights.append(agl + under)
         else:
-            alt = p.alt_amsl if p.alt_amsl is not None else (p.alt_rel or 0.0)
+            heights.append(p.alt_amsl if p.alt_amsl is not None else (p.alt_rel or 0.0))
+    return heights
+
+
+def geo_txt(photos: list[LedgerPhoto], ground: PlanGround | None = None,
+            names: Mapping[LedgerPhoto, str] | None = None) -> str:
+    lines = ["EPSG:4326"]
+    for p, alt in zip(photos, geo_altitudes(photos, ground)):
         yaw, pitch, roll = (v if v is not None else 0.0 for v in (p.yaw, p.pitch, p.roll))
-        lines.append(f"{image_name(p)} {p.lon:.7f} {p.lat:.7f} {alt:.2f} {yaw:.2f} {pitch:.2f} {roll:.2f}")
+        lines.append(f"{image_name(p, names)} {p.lon:.7f} {p.lat:.7f} {alt:.2f} {yaw:.2f} {pitch:.2f} {roll:.2f}")
     return "\n".join(lines) + "\n"
 
 
-def write_geotags(plan_dir: Path, photos: list[LedgerPhoto], ground: PlanGround | None = None) -> list[Path]:
+def write_geotags(plan_dir: Path, photos: list[LedgerPhoto], ground: PlanGround | None = None,
+                  names: Mapping[LedgerPhoto, str] | None = None) -> list[Path]:
     """photos.csv, photos.geojson and geo.txt in plan_dir (each written whole, then renamed into place);
-    `ground`: the plan was made over a DEM (the module docstring says what it adds)."""
+    `ground`: the plan was made over a DEM (the module docstring says what it adds); `names`: the real file
+    of each photo that has one (`missionplan geotag`'s copies)."""
     paths = [Path(plan_dir) / name for name in GEOTAG_FILES]
-    write_text_atomic(paths[0], photos_csv(photos, ground))
-    write_text_atomic(paths[1], json.dumps(photos_geojson(photos, ground)) + "\n")
-    write_text_atomic(paths[2], geo_txt(photos, ground))
+    write_text_atomic(paths[0], photos_csv(photos, ground, names))
+    write_text_atomic(paths[1], json.dumps(photos_geojson(photos, ground, names)) + "\n")
+    write_text_atomic(paths[2], geo_txt(photos, ground, names))
     return paths
