@@ -93,6 +93,11 @@ def print_plan(folder: PlanFolder) -> None:
                   "--altitude)", file=sys.stderr)
     elif record.georeference is not None:
         print("  ground: taken as flat (no --dem): heights are above the launch points")
+    capture = record.georeference.capture if record.georeference is not None else None
+    if capture is not None:
+        print(f"  capture with {printable(capture.camera.label)}:")
+        for line in capture.rule_lines():
+            print(f"    {line}")
     for warning in coverage.warnings:
         print(f"missionplan: warning: {printable(warning)}", file=sys.stderr)
     for path in folder.kept:

@@ -38,6 +38,8 @@ from missionplan.base.atomic import probe_writable
 from missionplan.base.naming import Named
 from missionplan.bridge.folder_lock import hold_folder
 from missionplan.geo.dem import Ground
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT
+from missionplan.geo.capture import CapturePlan
 from missionplan.geo.frame import GridFrame
 from missionplan.geo.georeference import Georeference
 
@@ -69,6 +71,7 @@ class PlanGround:
     from_osm: bool = False  # drawn from OpenStreetMap buildings (--area with --osm)
     launch_labels: list[str] | None = None  # the launch points as given (--launch LAT,LON), for the pictures
     terrain: Ground | None = None  # the ground under the plan (plan --dem: planning/terrain.py); None: flat
+    capture: CapturePlan | None = None  # the camera, GSD and overlaps asked (report.json georeference.camera)
 
     @property
     def uavs(self) -> int:
@@ -84,6 +87,8 @@ class PlanOptions:
     zones: str = DEFAULT_ZONE_METHOD
     balance_zones: bool = True
     open_ground: str = "lanes"  # or "explore"
+    # cells between the lanes open ground is swept in: one footprint (9), or closer for a side overlap
+    lane_spacing_cells: int = CELLS_PER_FOOTPRINT
     seed: int = 0
     basemap: str | None = None  # tile server URL drawn under plan.html and flight.html
     progress: bool = False  # a progress bar on stderr while planning
@@ -257,14 +262,15 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
     field_plan = plan_field(gmap, ground.uavs, frame, settings, safety, balance_zones=options.balance_zones,
                             ground=terrain.height_amsl if terrain is not None else None,
                             policy=policy, zone_method=options.zones, seed=options.seed, progress=options.progress,
-                            lanes=options.open_ground == "lanes")
+                            lanes=options.open_ground == "lanes", lane_spacing=options.lane_spacing_cells)
     result, plans = field_plan.result, field_plan.plans
     if plans is not None and options.drone_ids is not None:
         plans.relabel(options.drone_ids)
     record = field_plan.fill_record(build_report(result, options.seed), gmap, frame)
     if settings is not None and safety is not None:  # what `replan` plans the rest of the survey with
         record = replace(record, settings=PlanSettings(settings, safety, options.policy, options.zones,
-                                                       options.balance_zones, options.open_ground))
+                                                       options.balance_zones, options.open_ground,
+                                                       options.lane_spacing_cells))
     record = replace(record, drone_ids=None if options.drone_ids is None else tuple(options.drone_ids),
                      survey=options.survey,
                      basemap=options.basemap or None,  # flight.html draws the same tiles
@@ -290,7 +296,7 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
                 terrain_block = terrain_record(terrain, [p.name for p in copies], frame, gmap, plans.terrain_spacing)
             record = replace(record, georeference=Georeference(frame, settings.altitude_m,
                                                                trigger_distance_m=settings.trigger_distance_m,
-                                                               terrain=terrain_block))
+                                                               terrain=terrain_block, capture=ground.capture))
             written += write_flight_files(staging, plans, Flavour(settings.autopilot))
             sortie_starts = plans.sortie_starts
         unreachable_mask = _cell_mask(gmap.shape, record.unreachable_cells)
