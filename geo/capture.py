@@ -45,11 +45,12 @@ SPEED_SOURCES = ("asked", "limit", "cruise")  # the speed given, chosen from the
 
 
 def shown(value: float) -> str:
-    """A number as a report prints it: three significant digits, no exponent (46.3, 1.67, 0.367, 120, 1234)."""
-    if value == 0 or not math.isfinite(value):
+    """A number as a report prints it: three significant digits, no exponent, no trailing zeros (46.3, 1.67,
+    0.367, 1, 120, 1230)."""
+    if not math.isfinite(value):
         return f"{value:g}"
-    digits = max(0, 2 - math.floor(math.log10(abs(value))))
-    return f"{value:.{digits}f}"
+    text = f"{float(f'{value:.3g}'):f}"
+    return text.rstrip("0").rstrip(".") if "." in text else text
 
 
 def gsd_missing(camera: Camera) -> list[tuple[str, str]]:
@@ -73,7 +74,8 @@ def _check_gsd_camera(camera: Camera) -> tuple[float, float, float, float, float
 def _worse_side(camera: Camera) -> tuple[str, float, int]:
     """The sensor side whose pixels are larger on the ground (width on a tie): its name, mm and px."""
     w, h, width_px, height_px, _ = _check_gsd_camera(camera)
-    return ("width", w, width_px) if w / width_px >= h / height_px else ("height", h, height_px)
+    # Square pixels (13.2 mm / 5472 px = 8.8 mm / 3648 px) tie within rounding: the width then.
+    return ("width", w, width_px) if w * height_px >= h * width_px * (1 - 1e-12) else ("height", h, height_px)
 
 
 def gsd_cm(camera: Camera, height_m: float) -> float:

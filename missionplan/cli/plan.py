@@ -336,9 +336,9 @@ def _check_capture(request: PlanRequest) -> None:
             raise MapError(f"{given[0]} is for --area: a map's grid was drawn for its own camera and height "
                            "(--front-overlap, --side-overlap and --capture-interval work with --map)")
     lane_spacing_cells(request.side)  # refused here when the lanes would be closer than a cell
+    camera = _asked_camera(request)  # --camera with a description of another is refused here
     if request.gsd is None:
         return
-    camera = _asked_camera(request)
     known = camera.to_json() if camera is not None else {}
     missing = [(setting, unit) for key, setting, unit in GSD_NEEDS if known.get(key) is None]
     if missing:

@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 from missionplan.bridge.terminal_text import printable
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 
 from ..planning.plan_folder import PlanFolder
 
@@ -37,7 +38,9 @@ def print_plan(folder: PlanFolder) -> None:
     print(f"targets U = {record.targets} reachable, {record.unreachable} unreachable (set explored); "
           f"floor U/(9A) = {record.floor:.1f}")
     if record.lane_drones:
-        print(f"open ground: {record.lane_drones} of {ground.uavs} drones sweep their zone in footprint-wide lanes "
+        spacing = options.lane_spacing_cells
+        lanes = "footprint-wide lanes" if spacing == CELLS_PER_FOOTPRINT else f"lanes {spacing} cells apart"
+        print(f"open ground: {record.lane_drones} of {ground.uavs} drones sweep their zone in {lanes} "
               "(--open-ground explore: cell by cell)")
     rows = [("MMN", _fmt(m.mmn), "mean moves per drone"),
             ("TE %", _fmt(m.te), "trajectory efficiency"),
