@@ -4,6 +4,8 @@ A nadir camera at altitude H with field of view FOV sees a square of side
 S = 2*H*tan(FOV/2) on flat ground; the grid cell is S / CELLS_PER_FOOTPRINT (9), so one photo covers
 a 9x9 block of cells (the 3x3 "photo" of the planner with overlap). `cell_of_footprint` and
 `footprint_of_cell` are that rule and its inverse; every other module asks them (or the constant).
+`Camera` is that field of view, and what a capture plan needs beside it when known (a name, the sensor,
+the image size, the focal length, the capture interval: geo/capture.py's rules read them).
 """
 
 from __future__ import annotations
