@@ -17,6 +17,10 @@ plan folder keeps it (a GeoTIFF of heights above sea level beside report.json, w
 judge read) and where it came from. Its altitude is then a height above the ground under the drone, not
 above the launch point. It is written in report.json only (a .map file has no ground), and only when
 there is one, so a plan over flat ground is written as before.
+
+A plan made from a camera, a GSD or overlaps (`plan --camera`, `--gsd`, `--front-overlap`, ...) carries
+`capture` (geo.capture.CapturePlan): report.json's `camera` block holds the camera's fields, the GSD, the
+overlaps, the lane spacing, the speeds and the rules that gave them; written only when there is one.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from .camera import Camera, footprint_of_cell
+from .capture import CapturePlan
 from .frame import GridFrame, header_float
 
 # The .map header keys a georeference is written to and read from (GridFrame.to_meta's, then the flight's).
@@ -73,6 +78,7 @@ class Georeference:
     safety_margin_m: float | None = None  # an area's buildings this far under the altitude are obstacles
     trigger_distance_m: float | None = None  # a plan's distance between photos along a track (None: no plan yet)
     terrain: TerrainRecord | None = None  # the ground a plan was made over (None: taken as flat)
+    capture: CapturePlan | None = None  # the camera, GSD and overlaps a plan was asked for (None: not asked)
 
     @property
     def cell_m(self) -> float:
@@ -110,17 +116,23 @@ class Georeference:
     # ---- report.json's `georeference` block ---------------------------------------------
     def to_json(self) -> dict[str, Any]:
         """report.json's `georeference`: the frame's strings, the altitude, footprint and trigger distance, and
-        the terrain when there is one."""
+        the terrain and the camera block when there are."""
         doc: dict[str, Any] = {**self.frame.to_meta(), "altitude_m": self.altitude_m, "footprint_m": self.footprint_m,
                                "trigger_distance_m": self.trigger_distance_m}
         if self.terrain is not None:
             doc["terrain"] = self.terrain.to_json()
+        if self.capture is not None:
+            doc["camera"] = self.capture.to_json()
         return doc
 
     @classmethod
     def from_json(cls, doc: Mapping[str, Any], rows: int, cols: int) -> "Georeference":
         """The block to_json writes, on a rows x cols grid (the plan's grid gives the size)."""
-        frame = GridFrame.from_meta({key: str(value) for key, value in doc.items() if key != "terrain"}, rows, cols)
+        frame = GridFrame.from_meta({key: str(value) for key, value in doc.items() if key not in ("terrain", "camera")},
+                                    rows, cols)
         terrain = TerrainRecord.from_json(doc["terrain"]) if doc.get("terrain") is not None else None
+        capture = None
+        if doc.get("camera") is not None:
+            capture = CapturePlan.from_json(doc["camera"], doc["altitude_m"], footprint_of_cell(frame.cell_m))
         return cls(frame, altitude_m=doc.get("altitude_m"), trigger_distance_m=doc.get("trigger_distance_m"),
-                   terrain=terrain)
+                   terrain=terrain, capture=capture)

@@ -325,7 +325,7 @@ def test_old_grids_stay_exit_0_with_warnings(tmp_path):
 @pytest.mark.parametrize("flag, value, message", [
     ("--rotation", "nan", "--rotation nan: must be a grid angle, from -360 to 360 degrees"),
     ("--rotation", "inf", "--rotation inf: must be a grid angle, from -360 to 360 degrees"),
-    ("--speed", "inf", "--speed inf: must be above 0 and at most 100 m/s"),
+    ("--speed", "inf", "--speed inf: must be a waypoint speed ArduCopter and PX4 fly, above 0 and at most 20 m/s"),
     ("--altitude-step", "nan", "--altitude-step nan: must be from 0 to 5,000 m"),
     ("--altitude-step", "inf", "--altitude-step inf: must be from 0 to 5,000 m"),
     ("--launch", "nan,7.651", "latitude must be in [-90, 90]"),

@@ -164,7 +164,7 @@ def test_angles_speeds_and_times_of_items_are_checked(tmp_path, capsys, command,
 
 @pytest.mark.parametrize("argv, message", [
     (["--rotation", "1e308"], "--rotation 1e+308: must be a grid angle, from -360 to 360 degrees"),
-    (["--speed", "1e308"], "--speed 1e+308: must be above 0 and at most 100 m/s"),
+    (["--speed", "1e308"], "--speed 1e+308: must be a waypoint speed ArduCopter and PX4 fly, above 0 and at most 20 m/s"),
     (["--seed", "-1"], "--seed -1: must be an integer from 0 to 4,294,967,295"),
     (["--overlap", "nan"], "--overlap nan: must be a fraction, at least 0 and below 1"),
     (["--max-altitude", "1e9"], "--max-altitude 1e+09: must be above 0 and at most 5,000 m"),

@@ -12,6 +12,7 @@ from missionplan.bridge.terminal_text import printable
 from missionplan.geo.errors import GeoError
 
 from ..maps.gridmap import MapError
+from .cameras import register as register_cameras
 from .demo import register as register_demo
 from .errors import said
 from .fly import register as register_fly
@@ -29,6 +30,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"missionplan {package_version()}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=CommandParser)
     register_plan(sub)  # maps, plan
+    register_cameras(sub)  # cameras
     register_train(sub)  # train
     register_vehicle(sub)  # upload, download, clear
     register_mock(sub)  # mock

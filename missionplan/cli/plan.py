@@ -2,25 +2,33 @@
 file or an area drawn to a grid, and write the plan folder: report.json, plan.png, the missions).
 
 plan's numeric options are checked before any file is read (docs/cli.md has the table and the reasons); the
-planning is plan_folder.write_plan_folder's, printed as plan_display prints it."""
+planning is plan_folder.write_plan_folder's, printed as plan_display prints it. The capture options (a
+catalogue camera, a GSD, front / side overlaps, the image size and capture interval: docs/capture.md) become
+the plan's CapturePlan (geo/capture.py): the height a GSD gives, the speed the camera keeps up with, the
+lane spacing on open ground; a plan asked with none of them is planned and written as before."""
 
 from __future__ import annotations
 
+import math
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from missionplan.bridge.limits import SEED_MAX, check_integer, check_range
 from missionplan.bridge.terminal_text import printable
 from missionplan.geo.roofs import DEFAULT_TARGETS, TARGET_CLASSES
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT, Camera
+from missionplan.geo.camera_catalogue import find as catalogue_camera
+from missionplan.geo.capture import (GSD_NEEDS, MAX_SPEED_M_S, CapturePlan, check_height, choose_speed,
+                                     height_for_gsd, lane_spacing_cells)
 
 from ..grid.lanes import MAX_OBSTACLE_SHARE
 from ..grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 from ..maps.catalog import load_shipped, shipped_map_names
 from ..maps.gridmap import MapError
 from ..mission.drone_missions import CAPTURE_MODES, DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
-from ..mission.georef import AreaRequest
+from ..mission.georef import SPEED_WHAT, AreaRequest
 from ..mission.safety import DEFAULT_CLEARANCE_M
 from ..mission.separation import DEFAULT_MAX_ALTITUDE_M
 from ..mission.sorties import DEFAULT_ENDURANCE_MIN, DEFAULT_RESERVE
@@ -52,13 +60,20 @@ class PlanRequest:
     unknown_building_height: float | None
     launch: tuple[str, ...]
     altitude: float | None
+    gsd: float | None
+    camera: str | None
     fov: float | None
     sensor_width: float | None
     sensor_height: float | None
     focal_length: float | None
+    image_width: int | None
+    image_height: int | None
+    capture_interval: float | None
     rotation: float
-    speed: float
-    overlap: float
+    speed: float | None
+    overlap: float | None
+    front_overlap: float | None
+    side_overlap: float | None
     end: str
     altitude_step: float
     min_separation: float | None
@@ -80,13 +95,35 @@ class PlanRequest:
     targets: str = DEFAULT_TARGETS
 
     def area_request(self) -> AreaRequest:
-        """What the area grid is drawn from (with --area)."""
+        """What the area grid is drawn from (with --area); a --camera gives the sensor and focal length."""
         assert self.area is not None
+        sensor = (self.sensor_width, self.sensor_height, self.focal_length)
+        if self.camera is not None:
+            row = catalogue_camera(self.camera)
+            sensor = (row.sensor_width_mm, row.sensor_height_mm, row.focal_length_mm)
         return AreaRequest(area=self.area, launch=self.launch, altitude=self.altitude, fov=self.fov,
-                          sensor_width=self.sensor_width, sensor_height=self.sensor_height,
-                          focal_length=self.focal_length, rotation=self.rotation, obstacles=self.obstacles,
-                          osm=self.osm, height_field=self.height_field,
-                          unknown_building_height=self.unknown_building_height, targets=self.targets)
+                          sensor_width=sensor[0], sensor_height=sensor[1], focal_length=sensor[2],
+                          rotation=self.rotation, obstacles=self.obstacles, osm=self.osm,
+                          height_field=self.height_field, unknown_building_height=self.unknown_building_height,
+                          targets=self.targets)
+
+    @property
+    def capture_asked(self) -> bool:
+        """Whether a capture option was given: then the plan records its camera block (schema version 3)."""
+        return any(value is not None for value in (self.camera, self.gsd, self.front_overlap, self.side_overlap,
+                                                   self.image_width, self.image_height, self.capture_interval))
+
+    @property
+    def front(self) -> float:
+        """The front overlap, a fraction: --front-overlap PCT, --overlap F, or plan's default (8/9)."""
+        if self.front_overlap is not None:
+            return self.front_overlap / 100.0
+        return self.overlap if self.overlap is not None else DEFAULT_OVERLAP
+
+    @property
+    def side(self) -> float | None:
+        """The side overlap, a fraction (None: not asked, lanes one footprint apart)."""
+        return None if self.side_overlap is None else self.side_overlap / 100.0
 
 
 def register(sub: Any) -> None:
@@ -116,19 +153,37 @@ def register(sub: Any) -> None:
                            "(docs/capture.md)")
     plan.add_argument("--launch", action="append", default=[], metavar="LAT,LON",
                       help="a launch point, one per drone (with --area; -33.86,151.21 works after a space)")
-    plan.add_argument("--altitude", type=float, help="flight height above the launch points, metres (with --area); "
-                      "with --dem, above the ground under the drone")
+    height = plan.add_mutually_exclusive_group()
+    height.add_argument("--altitude", type=float, help="flight height above the launch points, metres (with --area); "
+                        "with --dem, above the ground under the drone")
+    height.add_argument("--gsd", type=float, metavar="CM",
+                        help="ground sample distance, cm per pixel: the flight height that gives it (with --area and "
+                             "a camera whose sensor, image size and focal length are known)")
     plan.add_argument("--dem", type=Path, action="append", default=[], metavar="FILE",
                       help="the ground's heights above sea level: a GeoTIFF, SRTM .hgt tiles or any raster GDAL reads, "
                            "or a folder of tiles (repeatable); heights then hold above the ground (docs/terrain.md)")
+    plan.add_argument("--camera", metavar="NAME", help="a survey camera of the catalogue (`missionplan cameras`): "
+                      "its sensor, image size, focal length and capture interval")
     plan.add_argument("--fov", type=float, help="camera field of view, degrees")
     plan.add_argument("--sensor-width", type=float, help="sensor width, mm (with --sensor-height and --focal-length)")
     plan.add_argument("--sensor-height", type=float, help="sensor height, mm")
     plan.add_argument("--focal-length", type=float, help="focal length, mm")
+    plan.add_argument("--image-width", type=int, metavar="PX", help="image width, pixels (for the GSD)")
+    plan.add_argument("--image-height", type=int, metavar="PX", help="image height, pixels (for the GSD)")
+    plan.add_argument("--capture-interval", type=float, metavar="S",
+                      help="the shortest time between two photos the camera takes, seconds (limits the speed)")
     plan.add_argument("--rotation", type=float, default=0.0, help="grid rotation, degrees clockwise from north")
-    plan.add_argument("--speed", type=float, default=DEFAULT_SPEED_M_S, help="cruise speed, m/s")
-    plan.add_argument("--overlap", type=float, default=DEFAULT_OVERLAP,
-                      help="frontal overlap of consecutive photos, 0..1 (sets the camera trigger distance)")
+    plan.add_argument("--speed", type=float,
+                      help=f"cruise speed, m/s, at most {MAX_SPEED_M_S:g} (default {DEFAULT_SPEED_M_S:g}, or slower "
+                           "when the camera's capture interval asks it)")
+    front = plan.add_mutually_exclusive_group()
+    front.add_argument("--overlap", type=float,
+                       help="frontal overlap of consecutive photos, 0..1 (sets the camera trigger distance; default 8/9)")
+    front.add_argument("--front-overlap", type=float, metavar="PCT",
+                       help="frontal overlap of consecutive photos, percent (as --overlap)")
+    plan.add_argument("--side-overlap", type=float, metavar="PCT",
+                      help="overlap of neighbouring lanes on open ground, percent (default: lanes one footprint "
+                           "apart)")
     plan.add_argument("--end", choices=END_ACTIONS, default="rtl", help="after the survey: return to launch or land")
     plan.add_argument("--altitude-step", type=float, default=0.0,
                       help="drone k flies this many metres above drone k-1 (layers go up from --altitude)")
@@ -200,7 +255,8 @@ def _plan_ground(request: PlanRequest) -> PlanGround:
         gmap = select_targets(load_shipped(request.map), request.targets)
         uavs = request.uavs
         frame, unknown, sources = shipped_frame(gmap), NO_UNKNOWN_HEIGHTS, None
-    mission = {"speed": request.speed, "overlap": request.overlap, "end": request.end,
+    mission = {"speed": DEFAULT_SPEED_M_S if request.speed is None else request.speed, "overlap": request.front,
+               "end": request.end,
                "altitude_step": request.altitude_step, "altitude": request.altitude, "autopilot": request.autopilot,
                "capture": request.capture}
     safety = {"min_separation": request.min_separation, "max_altitude": request.max_altitude,
@@ -240,8 +296,15 @@ def _check_plan_numbers(request: PlanRequest) -> None:
     check("--sensor-height", request.sensor_height, 0.0, 100.0, " mm", low_open=True)
     check("--focal-length", request.focal_length, 0.0, 2_000.0, " mm", low_open=True)
     check("--rotation", request.rotation, -360.0, 360.0, " degrees", what="a grid angle")
-    check("--speed", request.speed, 0.0, 100.0, " m/s", low_open=True)
+    check("--speed", request.speed, 0.0, MAX_SPEED_M_S, " m/s", low_open=True, what=SPEED_WHAT)
     check("--overlap", request.overlap, 0.0, 1.0, high_open=True, what="a fraction")
+    check("--gsd", request.gsd, 0.0, 1_000.0, " cm/px", low_open=True)
+    check("--front-overlap", request.front_overlap, 0.0, 100.0, " %", high_open=True, what="a percentage")
+    check("--side-overlap", request.side_overlap, 0.0, 100.0, " %", high_open=True, what="a percentage")
+    check("--capture-interval", request.capture_interval, 0.0, 3_600.0, " s", low_open=True)
+    for name, pixels in (("--image-width", request.image_width), ("--image-height", request.image_height)):
+        if pixels is not None:
+            check_integer(pixels, name, 1, 1_000_000, what="pixels", error=MapError)
     check("--altitude-step", request.altitude_step, 0.0, MAX_PLAN_ALTITUDE_M, " m")
     check("--min-separation", request.min_separation, 0.0, 1_000.0, " m", low_open=True)
     check("--max-altitude", request.max_altitude, 0.0, MAX_PLAN_ALTITUDE_M, " m", low_open=True)
@@ -252,11 +315,103 @@ def _check_plan_numbers(request: PlanRequest) -> None:
     check_integer(request.seed, "--seed", 0, SEED_MAX, error=MapError)
 
 
+def _asked_camera(request: PlanRequest) -> Camera | None:
+    """The camera the options describe: a catalogue one (--camera, its interval replaced by --capture-interval),
+    a sensor's (--sensor-width/--sensor-height/--focal-length) or a field of view's (--fov), each with the image
+    size and capture interval given; None when none is described. MapError for --camera with a description."""
+    known = {"image_width_px": request.image_width, "image_height_px": request.image_height,
+             "capture_interval_s": request.capture_interval}
+    if request.camera is not None:
+        described = [name for name, value in (("--fov", request.fov), ("--sensor-width", request.sensor_width),
+                                              ("--sensor-height", request.sensor_height),
+                                              ("--focal-length", request.focal_length),
+                                              ("--image-width", request.image_width),
+                                              ("--image-height", request.image_height)) if value is not None]
+        if described:
+            raise MapError(f"--camera {printable(request.camera)} describes the camera already: give --camera or "
+                           f"{described[0]}, not both (--capture-interval may replace its interval)")
+        camera = catalogue_camera(request.camera).camera()
+        return camera if request.capture_interval is None else replace(camera,
+                                                                        capture_interval_s=request.capture_interval)
+    sensor = (request.sensor_width, request.sensor_height, request.focal_length)
+    if request.fov is None and all(value is not None for value in sensor):
+        return Camera.from_sensor(*sensor, **known)  # type: ignore[misc]
+    if request.fov is not None:
+        return Camera(request.fov, **known)
+    return None
+
+
+def _check_capture(request: PlanRequest) -> None:
+    """The capture options' combinations, before any file is read: camera options only with --area (a map's grid
+    fixes its footprint and height), a --gsd only from a camera whose GSD is known and under --max-altitude, a
+    side overlap that leaves lanes at least a cell apart."""
+    if request.area is None:
+        given = [name for name, value in (("--camera", request.camera), ("--gsd", request.gsd),
+                                          ("--image-width", request.image_width),
+                                          ("--image-height", request.image_height)) if value is not None]
+        if given:
+            raise MapError(f"{given[0]} is for --area: a map's grid was drawn for its own camera and height "
+                           "(--front-overlap, --side-overlap and --capture-interval work with --map)")
+    lane_spacing_cells(request.side)  # refused here when the lanes would be closer than a cell
+    camera = _asked_camera(request)  # --camera with a description of another is refused here
+    if request.gsd is None:
+        return
+    known = camera.to_json() if camera is not None else {}
+    missing = [(setting, unit) for key, setting, unit in GSD_NEEDS if known.get(key) is None]
+    if missing:
+        needs = " ".join(f"--{setting.replace('_', '-')} {unit}" for setting, unit in missing)
+        raise MapError(f"--gsd needs the camera's sensor, image size and focal length: give {needs} (or --camera "
+                       "NAME: `missionplan cameras` lists them)")
+    assert camera is not None
+    check_height(camera, request.gsd, height_for_gsd(camera, request.gsd), request.max_altitude)
+
+
+def _map_camera(ground: PlanGround) -> Camera:
+    """A --map plan's camera: the field of view its grid was drawn for (its header's fov_deg, else the one its
+    footprint and altitude give)."""
+    georef, settings = ground.gmap.georef, ground.settings
+    assert settings is not None
+    if georef is not None and georef.camera is not None:
+        return georef.camera
+    return Camera(math.degrees(2.0 * math.atan(settings.footprint_m / (2.0 * settings.altitude_m))))
+
+
+def _capture_plan(request: PlanRequest, ground: PlanGround) -> CapturePlan:
+    """The capture of a plan asked with capture options: the camera, the height and footprint the ground was
+    drawn for, the overlaps and the speed (refused in one line when the camera cannot keep up with it)."""
+    settings = ground.settings
+    if settings is None:
+        raise MapError(f"the capture options need a plan on the Earth: {printable(ground.gmap.name)} has no origin "
+                       "(use --area, or a map with origin_lat / origin_lon)")
+    camera = _asked_camera(request) if request.area is not None else None
+    if camera is None:
+        camera = _map_camera(ground)
+        if request.capture_interval is not None:
+            camera = replace(camera, capture_interval_s=request.capture_interval)
+    speed, source = choose_speed(camera, settings.trigger_distance_m, request.speed)
+    return CapturePlan(camera, settings.altitude_m, settings.footprint_m, request.front, request.side, speed, source,
+                       request.gsd)
+
+
 def cmd_plan(request: PlanRequest) -> int:
     _check_plan_numbers(request)
+    if request.capture_asked:
+        _check_capture(request)
+    if request.gsd is not None:  # the height that gives the GSD, checked under the ceiling above
+        camera = _asked_camera(request)
+        assert camera is not None
+        request = replace(request, altitude=height_for_gsd(camera, request.gsd))
+    ground = _plan_ground(request)
+    lane_spacing = CELLS_PER_FOOTPRINT
+    if request.capture_asked:
+        ground.capture = _capture_plan(request, ground)
+        assert ground.settings is not None
+        ground.settings = replace(ground.settings, speed_m_s=ground.capture.speed_m_s)
+        lane_spacing = ground.capture.lane_spacing_cells
     options = PlanOptions(policy=request.policy, weights=request.weights, zones=request.zones,
-                          balance_zones=not request.no_balance, open_ground=request.open_ground, seed=request.seed,
+                          balance_zones=not request.no_balance, open_ground=request.open_ground,
+                          lane_spacing_cells=lane_spacing, seed=request.seed,
                           basemap=request.basemap, progress=not request.quiet and sys.stderr.isatty())
-    folder = write_plan_folder(request.out, _plan_ground(request), options)
+    folder = write_plan_folder(request.out, ground, options)
     print_plan(folder)
     return 0 if folder.success else EXIT_FAILED

@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 from missionplan.bridge.terminal_text import printable
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 
 from ..mission.roof_targets import RoofTargets
 from ..planning.plan_folder import PlanFolder
@@ -50,7 +51,9 @@ def print_plan(folder: PlanFolder) -> None:
     print(f"targets U = {record.targets} reachable, {record.unreachable} unreachable (set explored); "
           f"floor U/(9A) = {record.floor:.1f}")
     if record.lane_drones:
-        print(f"open ground: {record.lane_drones} of {ground.uavs} drones sweep their zone in footprint-wide lanes "
+        spacing = options.lane_spacing_cells
+        lanes = "footprint-wide lanes" if spacing == CELLS_PER_FOOTPRINT else f"lanes {spacing} cells apart"
+        print(f"open ground: {record.lane_drones} of {ground.uavs} drones sweep their zone in {lanes} "
               "(--open-ground explore: cell by cell)")
     rows = [("MMN", _fmt(m.mmn), "mean moves per drone"),
             ("TE %", _fmt(m.te), "trajectory efficiency"),
@@ -120,6 +123,11 @@ def print_plan(folder: PlanFolder) -> None:
                   "--altitude)", file=sys.stderr)
     elif record.georeference is not None:
         print("  ground: taken as flat (no --dem): heights are above the launch points")
+    capture = record.georeference.capture if record.georeference is not None else None
+    if capture is not None:
+        print(f"  capture with {printable(capture.camera.label)}:")
+        for line in capture.rule_lines():
+            print(f"    {line}")
     for warning in coverage.warnings:
         print(f"missionplan: warning: {printable(warning)}", file=sys.stderr)
     for path in folder.kept:

@@ -168,10 +168,13 @@ def cmd_replan(request: ReplanRequest) -> int:
     pointer = SurveyPointer(os.path.relpath(survey.root.resolve(), out.resolve()), int(len(missing)),
                             os.path.relpath(plan_dir.resolve(), out.resolve()))
     options = PlanOptions(policy=request.policy or stored.policy, weights=request.weights, zones=stored.zones,
-                          balance_zones=stored.balance_zones, open_ground=stored.open_ground, seed=request.seed,
+                          balance_zones=stored.balance_zones, open_ground=stored.open_ground,
+                          lane_spacing_cells=stored.lane_spacing_cells, seed=request.seed,
                           progress=not request.quiet and sys.stderr.isatty(), drone_ids=ids, survey=pointer)
     roofs = survey.record.roofs  # a survey of roofs re-plans its roofs as such
+    georef = survey.record.georeference  # a capture plan's camera block goes on into the re-plan
     ground = PlanGround(gmap, cells, survey.frame, stored.mission, stored.safety,
+                        capture=georef.capture if georef is not None else None,
                         **({"targets": roofs.targets} if roofs is not None else {}))
     terrain = folder_terrain(survey.root, survey.record)  # over the survey's ground, when it was planned over a DEM
     if terrain is not None:

@@ -14,6 +14,12 @@ path a spanning-tree planner (DARP, STC) flies over the same blocks.
 - `block_centres` / `snake_order`: the blocks of a zone (aligned on its corner, or on the map's
   when the whole fleet sweeps) and the shortest of the eight snakes through their centres (by block
   rows or columns, from any corner);
+- the lane spacing: lanes lie one footprint (BLOCK cells) apart unless a side overlap asks for closer
+  ones (`spacing` cells, 1 .. BLOCK). Then a block is `spacing` cells across the lanes and still a
+  footprint along them (the photos along a lane are the trigger distance's, not the lanes'), the lanes
+  run the way whose snake is shorter, and the sweep flies every lane even where earlier lanes have
+  photographed all of it already: that repeat is the side overlap (the planner keeps such a drone
+  flying until its sweep is over);
 - `fleet_zones`: when every zone is open, the zones redrawn block by block on the map's block grid
   (no block shared, so none photographed twice) and balanced by local search on the longest snake,
   as LS-MCPP does on its decomposition;
@@ -93,22 +99,37 @@ def sweepable_zones(obstacle: np.ndarray, zone: np.ndarray, starts: list[Cell]) 
     return [sweepable(share) for share in obstacle_shares(obstacle, zone, starts)]
 
 
-def block_centres(zone_cells: np.ndarray, shape: tuple[int, int],
-                  origin: Cell | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(n, 2) photo centres, one per footprint-sized block (aligned on `origin`, by default the zone's
-    corner) holding a zone cell, clipped into the map, and (n, 2) those blocks' (row, col) numbers.
+def _block_grid(spacing: int, across: int) -> tuple[np.ndarray, np.ndarray]:
+    """A block's size (rows, cols) and the offset of the block grid from its corner, for lanes `spacing`
+    cells apart along axis `across` (0: lanes are block rows): the lane centres lie FOOTPRINT_RADIUS + k *
+    spacing from the corner, each block the cells nearest its lane. At BLOCK cells apart: footprint-sized
+    blocks from the corner."""
+    size = np.array([BLOCK, BLOCK])
+    size[across] = spacing
+    shift = np.zeros(2, dtype=np.int64)
+    shift[across] = FOOTPRINT_RADIUS - spacing // 2
+    return size, shift
+
+
+def block_centres(zone_cells: np.ndarray, shape: tuple[int, int], origin: Cell | None = None,
+                  spacing: int = BLOCK, across: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 2) photo centres, one per block (aligned on `origin`, by default the zone's corner) holding a
+    zone cell, clipped into the map, and (n, 2) those blocks' (row, col) numbers. A block is footprint-sized,
+    or `spacing` cells across the lanes (axis `across`) when lanes are closer than a footprint.
     A centre clipped at the map's edge still sees all of its block that lies inside the map."""
     corner = zone_cells.min(axis=0) if origin is None else np.asarray(origin)
-    blocks = np.unique((zone_cells - corner) // BLOCK, axis=0)
-    centres = corner + blocks * BLOCK + FOOTPRINT_RADIUS
-    return np.minimum(centres, np.array(shape) - 1), blocks
+    size, shift = _block_grid(spacing, across)
+    blocks = np.unique((zone_cells - corner - shift) // size, axis=0)
+    centres = corner + shift + blocks * size + size // 2
+    return np.clip(centres, 0, np.array(shape) - 1), blocks
 
 
-def snake_order(start: Cell, centres: np.ndarray, blocks: np.ndarray) -> tuple[int, np.ndarray]:
-    """The shortest snake through the centres from `start` (by block rows or columns, from any of the
-    four corners, taxicab legs): (its moves, the centres' order)."""
+def snake_order(start: Cell, centres: np.ndarray, blocks: np.ndarray,
+                majors: tuple[int, ...] = (0, 1)) -> tuple[int, np.ndarray]:
+    """The shortest snake through the centres from `start` (by block rows or columns, or only the
+    `majors` given, from any of the four corners, taxicab legs): (its moves, the centres' order)."""
     best: tuple[int, np.ndarray] | None = None
-    for major, flip_major, flip_minor in product((0, 1), (False, True), (False, True)):
+    for major, flip_major, flip_minor in product(majors, (False, True), (False, True)):
         minor = 1 - major
         lane = blocks[:, major] * (-1 if flip_major else 1)
         parts = []
@@ -211,29 +232,52 @@ class LaneSweep:
     leg: list[Cell] = field(default_factory=list)  # cells still to fly to centres[0], next first
     heading: int = HOVER  # the direction of the last leg's last move (HOVER: none yet)
     around_obstacles: bool = False  # obstacles stand in the zone's box: legs and centres are checked
+    every_lane: bool = False  # lanes closer than a footprint: no block is skipped for being photographed
 
     @classmethod
     def plan(cls, zone_cells: np.ndarray, start: Cell, shape: tuple[int, int], origin: Cell | None = None,
-             free: np.ndarray | None = None) -> LaneSweep:
-        """The sweep of a zone from `start`. With `free` (the map's free cells, where the zone's box
-        holds obstacles) a block whose centre is an obstacle is left out: exploration photographs it
-        once the sweep is over."""
-        centres, blocks = block_centres(zone_cells, shape, origin)
-        if free is not None:
-            flyable = free[centres[:, 0], centres[:, 1]]
-            centres, blocks = centres[flyable], blocks[flyable]
+             free: np.ndarray | None = None, spacing: int = BLOCK) -> LaneSweep:
+        """The sweep of a zone from `start`, its lanes `spacing` cells apart (1 .. BLOCK). With `free` (the
+        map's free cells, where the zone's box holds obstacles) a block whose centre is an obstacle is left
+        out: exploration photographs it once the sweep is over."""
+        if not 1 <= spacing <= BLOCK:
+            raise ValueError(f"lane spacing {spacing!r} cells: must be 1 to {BLOCK}")
         around = free is not None
-        if not len(centres):
-            return cls([], [], around_obstacles=around)
-        _, order = snake_order(start, centres, blocks)
+        best: tuple[int, np.ndarray, np.ndarray, np.ndarray, int] | None = None
+        # Footprint-wide lanes: one block grid, either way. Closer lanes: blocks narrow across the lanes, so
+        # each way has its own grid; the shorter snake wins (rows first on a tie).
+        for across in ((0,) if spacing == BLOCK else (0, 1)):
+            centres, blocks = block_centres(zone_cells, shape, origin, spacing, across)
+            if free is not None:
+                flyable = free[centres[:, 0], centres[:, 1]]
+                centres, blocks = centres[flyable], blocks[flyable]
+            if not len(centres):
+                continue
+            moves, order = snake_order(start, centres, blocks, (0, 1) if spacing == BLOCK else (across,))
+            if best is None or moves < best[0]:
+                best = (moves, order, centres, blocks, across)
+        if best is None:
+            return cls([], [], around_obstacles=around, every_lane=spacing < BLOCK)
+        _, order, centres, blocks, across = best
         corner = zone_cells.min(axis=0) if origin is None else np.asarray(origin)
-        low = corner + blocks * BLOCK
-        spans = [(slice(int(r), int(r) + BLOCK), slice(int(c), int(c) + BLOCK)) for r, c in low[order]]
-        return cls([(int(r), int(c)) for r, c in centres[order]], spans, around_obstacles=around)
+        size, shift = _block_grid(spacing, across)
+        low = corner + shift + blocks * size
+        spans = [(slice(max(int(r), 0), int(r) + int(size[0])), slice(max(int(c), 0), int(c) + int(size[1])))
+                 for r, c in low[order]]
+        return cls([(int(r), int(c)) for r, c in centres[order]], spans, around_obstacles=around,
+                   every_lane=spacing < BLOCK)
 
     @property
     def finished(self) -> bool:
         return not self.centres
+
+    def over_at(self, position: Cell) -> bool:
+        """Nothing left to fly from `position`: no centre left, or only the one the drone is on."""
+        return not self.centres or (len(self.centres) == 1 and self.centres[0] == position)
+
+    def _photographed(self, unexplored: np.ndarray) -> bool:
+        """The first block is photographed already and may be skipped (never with every_lane)."""
+        return not self.every_lane and not unexplored[self.blocks[0]].any()
 
     def next_cell(self, position: Cell, unexplored: np.ndarray, search: FlightSearch | None = None) -> Cell | None:
         """The cell to fly to next from `position`; None once every block is photographed.
@@ -248,10 +292,10 @@ class LaneSweep:
             self.leg.pop(0)
         if self.leg and abs(self.leg[0][0] - position[0]) + abs(self.leg[0][1] - position[1]) != 1:
             self.leg = []  # pushed off the leg (it made way for another drone): fly a new one
-        if self.centres and not unexplored[self.blocks[0]].any():
+        if self.centres and self._photographed(unexplored):
             self.leg = []  # this block is done already: on to the next one from here
         while not self.leg:
-            while self.centres and (self.centres[0] == position or not unexplored[self.blocks[0]].any()):
+            while self.centres and (self.centres[0] == position or self._photographed(unexplored)):
                 self._drop_first()
             if not self.centres:
                 return None

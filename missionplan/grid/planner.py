@@ -31,7 +31,8 @@ Beyond the thesis:
 - with `lanes`, a drone whose zone lies on open ground (grid.lanes: nothing blocked in the box
   of its zone and launch cell) sweeps it in footprint-wide lanes instead of exploring cell by
   cell, then helps or parks like any drone done with its zone; it waits, yields and steps aside
-  like any drone.
+  like any drone. With lanes closer than a footprint (`lane_spacing` cells: a side overlap) it flies
+  every lane of its sweep, and the run goes on after full coverage until every such sweep is over.
 
 The run ends when nothing reachable is left unexplored, or fails at the step cap or when
 coverage stops growing for too long (both reported, never called success).
@@ -51,7 +52,7 @@ from tqdm import tqdm
 
 from ..maps.gridmap import Cell
 from .metrics import SteadyStateSampler, compute_metrics, mdu_stride
-from .lanes import LaneSweep, obstacle_shares, sweepable
+from .lanes import BLOCK, LaneSweep, obstacle_shares, sweepable
 from .pathfinding import FlightSearch, find_goal
 from .world import ACTION_DELTAS, ACTION_OF_DELTA, ACTION_STEPS, HOVER, PAD, CoverageWorld
 
@@ -119,10 +120,14 @@ class Planner:
     """Drives a CoverageWorld with a policy and the path-finders until full coverage."""
 
     def __init__(self, world: CoverageWorld, policy: Policy, seed: int = 0, progress: bool = False,
-                 stall_limit: int | None = None, lanes: bool = False, patience: int = POLICY_PATIENCE) -> None:
+                 stall_limit: int | None = None, lanes: bool = False, patience: int = POLICY_PATIENCE,
+                 lane_spacing: int = BLOCK) -> None:
         self.world = world
         self.patience = patience
         self.lanes = lanes
+        self.lane_spacing = lane_spacing  # cells between open-ground lanes (BLOCK: one footprint)
+        # Lanes closer than a footprint are flown whole, past full coverage: that repeat is the side overlap.
+        self.every_lane = lanes and lane_spacing < BLOCK
         self.policy = policy
         self.rng = np.random.default_rng(seed)
         self.progress = progress
@@ -139,6 +144,7 @@ class Planner:
         self.deadlocks_broken = 0
         self._by_policy = np.zeros(world.num_drones, dtype=bool)
         self.sweeps: list[LaneSweep | None] = [None] * world.num_drones  # set per run
+        self._sweeping = np.zeros(world.num_drones, dtype=bool)  # the drones that flew their sweep this step
 
     def _plan_sweeps(self) -> None:
         """A lane sweep for each drone whose zone lies on open ground, or nearly (with `lanes`), else None."""
@@ -156,7 +162,8 @@ class Planner:
             cells = np.argwhere(world.zone_of == k)
             # Around obstacles, legs and centres are checked against the free cells.
             free = None if share == 0.0 else self.free
-            self.sweeps[k] = LaneSweep.plan(cells, world.starts[k], world.gmap.shape, origin, free)
+            self.sweeps[k] = LaneSweep.plan(cells, world.starts[k], world.gmap.shape, origin, free,
+                                            self.lane_spacing)
 
     # ----------------------------------------------------------- path-finding
     def _unexplored_now(self) -> np.ndarray:
@@ -281,6 +288,8 @@ class Planner:
         num = world.num_drones
         # Nothing left in its region: parked for good, hovering; no policy, no search.
         parked = world.region_done()
+        if self.every_lane:  # a drone still on its lanes flies them, whatever is photographed already
+            parked &= np.array([sweep is None for sweep in self.sweeps])
         sweeping = np.zeros(num, dtype=bool)
         for k, sweep in enumerate(self.sweeps):
             if sweep is not None and not parked[k] and not self.nav[k].retreating:
@@ -346,7 +355,15 @@ class Planner:
                    and not self.nav[k].retreating)
         self._make_way(actions, claimed)
         self._by_policy = sees
+        self._sweeping = sweeping
         return actions, len(policy_drones), num - len(policy_drones) - idle, idle
+
+    def _lanes_left(self) -> bool:
+        """With lanes closer than a footprint: some drone has lanes left to fly (within the step cap)."""
+        if not self.every_lane or self.world.t >= self.world.step_cap:
+            return False
+        positions = self.world.positions.tolist()
+        return any(sweep is not None and not sweep.over_at(tuple(positions[k])) for k, sweep in enumerate(self.sweeps))
 
     def _make_way(self, actions: np.ndarray, claimed: set[Cell]) -> None:
         """A parked drone whose cell another drone wants to enter steps to a free neighbour."""
@@ -391,7 +408,7 @@ class Planner:
                    desc="planning", disable=not self.progress, leave=False, mininterval=0.5,
                    bar_format="{desc}: {percentage:5.1f} % covered |{bar}| {n:,}/{total:,} cells "
                               "[{elapsed} elapsed, ETA {remaining}]")
-        while not world.done:
+        while not world.done or self._lanes_left():
             actions, by_policy, by_finder, idle = self._choose_actions()
             for k in range(num):
                 if self.nav[k].blocked_steps >= DEADLOCK_STEPS:
@@ -413,7 +430,9 @@ class Planner:
             decision_log.append((by_policy, by_finder, idle))
             sampler.observe(world.coverage, world.positions, world.unexplored)
             bar.update(int(outcome.new_cells.sum()))
-            stalled_for = 0 if outcome.new_cells.any() else stalled_for + 1
+            # A drone flying its overlapping lanes makes progress though it photographs nothing new.
+            progressed = outcome.new_cells.any() or (self.every_lane and bool((outcome.moved & self._sweeping).any()))
+            stalled_for = 0 if progressed else stalled_for + 1
             if outcome.truncated:
                 failure = f"step cap of {world.step_cap} steps reached at {100 * world.coverage:.1f} % coverage"
                 break

@@ -39,8 +39,9 @@ from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_D
                             CMD_IMAGE_START_CAPTURE, CMD_IMAGE_STOP_CAPTURE, CMD_NAV_LAND, CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT,
                             FRAME_GLOBAL_TERRAIN_ALT, FRAME_MISSION, SPEED_TYPE_GROUNDSPEED, Mission, MissionItem)
 from missionplan.geo.camera import CELLS_PER_FOOTPRINT
+from missionplan.geo.capture import CRUISE_SPEED_M_S
 
-DEFAULT_SPEED_M_S = 5.0
+DEFAULT_SPEED_M_S = CRUISE_SPEED_M_S
 # 8/9: a photo every cell (S/9), exactly what the grid world assumes when it photographs the
 # 9 x 9 block under the drone at every step. A smaller overlap saves photos but leaves the
 # coverage to the footprint's margin.

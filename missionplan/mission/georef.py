@@ -24,6 +24,7 @@ from missionplan.base.naming import Named, Setting
 from missionplan.bridge.limits import ANGLE_DEG, check_range
 from missionplan.geo.area import build_grid_map
 from missionplan.geo.camera import Camera
+from missionplan.geo.capture import MAX_SPEED_M_S
 from missionplan.geo.errors import GeoError
 from missionplan.geo.frame import GridFrame
 from missionplan.geo.heights import HEIGHT_FIELDS
@@ -36,6 +37,7 @@ from .drone_missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, MissionSettings
 from .plan_blocks import BuildingsRead, InputFile
 
 WARNING_NAMES = 3  # files' omissions named in the warning line before "and N more"
+SPEED_WHAT = "a waypoint speed ArduCopter and PX4 fly"  # both top out at MAX_SPEED_M_S
 
 
 @dataclass(frozen=True)
@@ -231,7 +233,7 @@ def mission_settings(gmap: GridMap, *, speed: float = DEFAULT_SPEED_M_S, overlap
                      autopilot: str = "ardupilot", capture: str = "relay") -> MissionSettings:
     """Altitude and footprint from the map's georeference (9 cells a side; `altitude` where the map has none),
     speed, overlap, end action, altitude step, autopilot and capture mode as `plan` takes them; the defaults are `plan`'s."""
-    check_range(speed, Setting("speed"), 0.0, 100.0, unit=" m/s", low_open=True, error=GeoError)
+    check_range(speed, Setting("speed"), 0.0, MAX_SPEED_M_S, unit=" m/s", low_open=True, what=SPEED_WHAT, error=GeoError)
     check_range(overlap, Setting("overlap"), 0.0, 1.0, high_open=True, what="a fraction", error=GeoError)
     # Layers go up from the altitude, never below it.
     check_range(altitude_step, Setting("altitude_step"), 0.0, 5_000.0, unit=" m", error=GeoError)

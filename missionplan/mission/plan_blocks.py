@@ -18,6 +18,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 from missionplan.geo.sources import Omission
 
 from ..maps.gridmap import Cell
@@ -473,6 +474,8 @@ class PlanSettings:
     zones: str
     balance_zones: bool
     open_ground: str
+    # cells between open-ground lanes; written only when a side overlap made them closer than a footprint
+    lane_spacing_cells: int = CELLS_PER_FOOTPRINT
 
     def to_json(self) -> JSON:
         # Every field of the two settings, in their order: a field added there is recorded here. The capture
@@ -480,13 +483,17 @@ class PlanSettings:
         mission = asdict(self.mission)
         if mission.get("capture") == "relay":
             del mission["capture"]
-        return {"mission": mission, "safety": asdict(self.safety), "policy": self.policy,
-                "zones": self.zones, "balance_zones": self.balance_zones, "open_ground": self.open_ground}
+        doc: JSON = {"mission": mission, "safety": asdict(self.safety), "policy": self.policy,
+                     "zones": self.zones, "balance_zones": self.balance_zones, "open_ground": self.open_ground}
+        if self.lane_spacing_cells != CELLS_PER_FOOTPRINT:
+            doc["lane_spacing_cells"] = self.lane_spacing_cells
+        return doc
 
     @classmethod
     def from_json(cls, doc: Mapping[str, Any]) -> PlanSettings:
         return cls(MissionSettings(**doc["mission"]), SafetySettings(**doc["safety"]), doc.get("policy", "expert"),
-                   doc.get("zones", "geodesic"), doc.get("balance_zones", True), doc.get("open_ground", "lanes"))
+                   doc.get("zones", "geodesic"), doc.get("balance_zones", True), doc.get("open_ground", "lanes"),
+                   int(doc.get("lane_spacing_cells", CELLS_PER_FOOTPRINT)))
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,10 @@ refuses it in one line instead of flying it wrongly, and one that can reads it:
   byte what missionplan wrote before the record existed: the same keys in the same order, numbers as
   computed, `json.dumps(indent=1)`;
 * version 2, `"schema_version": 2` first: a plan over a DEM (georeference.terrain: its heights are above the
-  ground, its missions follow the terrain).
+  ground, its missions follow the terrain);
+* version 3: a plan asked for by camera, GSD or overlaps (georeference.camera: the capture's numbers and rules,
+  open-ground lanes possibly closer than a footprint), with roof targets (`roofs`, 'r' grid cells) or a
+  MAVLink camera's capture (settings.mission.capture), over flat ground or a DEM.
 SCHEMA_VERSION is the newest this missionplan writes and reads; a report.json of a version it does not know
 fails in one line naming the file and the version.
 
@@ -47,8 +50,9 @@ from .plan_blocks import (ClearancePromise, CoverageSummary, Decisions, DronePla
 from .roof_targets import RoofTargets
 
 REPORT_NAME = "report.json"
-SCHEMA_VERSION = 2  # the newest format this missionplan writes and reads
+SCHEMA_VERSION = 3  # the newest format this missionplan writes and reads
 TERRAIN_VERSION = 2  # the first that holds a plan over a DEM
+CAPTURE_VERSION = 3  # the first that holds a camera block (georeference.camera)
 
 
 class PlanRecordError(MapError):
@@ -129,8 +133,12 @@ class PlanRecord:
     @property
     def version(self) -> int:
         """The schema version this record is written in: the oldest that holds it (module docstring)."""
-        terrain = self.georeference is not None and self.georeference.terrain is not None
-        return TERRAIN_VERSION if terrain else 1
+        georef = self.georeference
+        camera = georef is not None and georef.capture is not None
+        capture_mode = self.settings is not None and self.settings.mission.capture != "relay"
+        if camera or self.roofs is not None or capture_mode:
+            return CAPTURE_VERSION
+        return TERRAIN_VERSION if georef is not None and georef.terrain is not None else 1
 
     @property
     def sorties(self) -> int:

@@ -15,7 +15,7 @@ import numpy as np
 from missionplan.base.naming import Named
 
 from ..grid.expert import ExpertPolicy
-from ..grid.lanes import fleet_zones, open_zones
+from ..grid.lanes import BLOCK, fleet_zones, open_zones
 from ..grid.planner import POLICY_PATIENCE, Planner, Policy
 from ..grid.planresult import PlanResult
 from ..grid.world import CoverageWorld, check_starts, reachable_targets
@@ -56,12 +56,13 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
              zone_method: str = DEFAULT_ZONE_METHOD, seed: int = 0, starts: list[Cell] | None = None,
              progress: bool = False, balance_zones: bool = True, weights: str | Path | None = None,
              zone_shares: np.ndarray | None = None, lanes: bool = True,
-             patience: int = POLICY_PATIENCE) -> PlanResult:
+             patience: int = POLICY_PATIENCE, lane_spacing: int = BLOCK) -> PlanResult:
     """Plan full coverage of `gmap` for `uavs` drones; `policy` is a name or a ready Policy; `zone_shares`:
     the fraction of the targets each balanced zone gets (default equal); `lanes`: a drone whose zone
     lies on open ground sweeps it in footprint-wide lanes (grid.lanes) instead of exploring it, and
     when every zone does (and no shares are asked), the zones are redrawn block by block for it;
-    `patience`: fruitless policy steps before the path-finder takes a drone over (grid.planner)."""
+    `patience`: fruitless policy steps before the path-finder takes a drone over (grid.planner);
+    `lane_spacing`: cells between those lanes (BLOCK, one footprint, unless a side overlap asks closer)."""
     if zone_method not in ZONE_METHODS:
         raise PlanRequestError(f"unknown zone method {zone_method!r} (choose {', '.join(ZONE_METHODS)})")
     chosen = make_policy(policy, weights) if isinstance(policy, str) else policy
@@ -78,5 +79,6 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
             zones = replace(zones, zone=redrawn)
     zone_seconds = time.perf_counter() - began
     world = CoverageWorld(gmap, starts, zones.zone)
-    run = Planner(world, chosen, seed=seed, progress=progress, lanes=lanes, patience=patience).run()
+    run = Planner(world, chosen, seed=seed, progress=progress, lanes=lanes, patience=patience,
+                  lane_spacing=lane_spacing).run()
     return PlanResult(gmap, starts, policy, zones, world, run, zone_seconds)

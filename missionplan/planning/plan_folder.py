@@ -38,6 +38,8 @@ from missionplan.base.atomic import probe_writable
 from missionplan.base.naming import Named
 from missionplan.bridge.folder_lock import hold_folder
 from missionplan.geo.dem import Ground
+from missionplan.geo.camera import CELLS_PER_FOOTPRINT
+from missionplan.geo.capture import CapturePlan
 from missionplan.geo.frame import GridFrame
 from missionplan.geo.georeference import Georeference
 from missionplan.geo.roofs import DEFAULT_TARGETS
@@ -76,6 +78,21 @@ class PlanGround:
     side_overlap: float | None = None
     targets: str = DEFAULT_TARGETS  # the classes of target cells: streets, roofs or all (geo/roofs.py)
     gsd_cm_at_ground: float | None = None  # the ground sample distance asked, said at the roofs too (None: not asked)
+    capture: CapturePlan | None = None  # the camera, GSD and overlaps asked (report.json georeference.camera)
+
+    @property
+    def asked_side_overlap(self) -> float | None:
+        """The side overlap asked: side_overlap where set, else the capture's (None: not asked)."""
+        if self.side_overlap is not None:
+            return self.side_overlap
+        return self.capture.side_overlap if self.capture is not None else None
+
+    @property
+    def asked_gsd_cm(self) -> float | None:
+        """The ground sample distance at the ground: gsd_cm_at_ground where set, else the capture's camera's."""
+        if self.gsd_cm_at_ground is not None:
+            return self.gsd_cm_at_ground
+        return self.capture.gsd_cm if self.capture is not None else None
 
     @property
     def uavs(self) -> int:
@@ -91,6 +108,8 @@ class PlanOptions:
     zones: str = DEFAULT_ZONE_METHOD
     balance_zones: bool = True
     open_ground: str = "lanes"  # or "explore"
+    # cells between the lanes open ground is swept in: one footprint (9), or closer for a side overlap
+    lane_spacing_cells: int = CELLS_PER_FOOTPRINT
     seed: int = 0
     basemap: str | None = None  # tile server URL drawn under plan.html and flight.html
     progress: bool = False  # a progress bar on stderr while planning
@@ -265,14 +284,15 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
     field_plan = plan_field(gmap, ground.uavs, frame, settings, safety, balance_zones=options.balance_zones,
                             ground=terrain.height_amsl if terrain is not None else None,
                             policy=policy, zone_method=options.zones, seed=options.seed, progress=options.progress,
-                            lanes=options.open_ground == "lanes")
+                            lanes=options.open_ground == "lanes", lane_spacing=options.lane_spacing_cells)
     result, plans = field_plan.result, field_plan.plans
     if plans is not None and options.drone_ids is not None:
         plans.relabel(options.drone_ids)
     record = field_plan.fill_record(build_report(result, options.seed), gmap, frame)
     if settings is not None and safety is not None:  # what `replan` plans the rest of the survey with
         record = replace(record, settings=PlanSettings(settings, safety, options.policy, options.zones,
-                                                       options.balance_zones, options.open_ground))
+                                                       options.balance_zones, options.open_ground,
+                                                       options.lane_spacing_cells))
     record = replace(record, drone_ids=None if options.drone_ids is None else tuple(options.drone_ids),
                      survey=options.survey,
                      basemap=options.basemap or None,  # flight.html draws the same tiles
@@ -298,7 +318,7 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
                 terrain_block = terrain_record(terrain, [p.name for p in copies], frame, gmap, plans.terrain_spacing)
             record = replace(record, georeference=Georeference(frame, settings.altitude_m,
                                                                trigger_distance_m=settings.trigger_distance_m,
-                                                               terrain=terrain_block))
+                                                               terrain=terrain_block, capture=ground.capture))
             written += write_flight_files(staging, plans, Flavour(settings.autopilot))
             sortie_starts = plans.sortie_starts
         unreachable_mask = _cell_mask(gmap.shape, record.unreachable_cells)
@@ -319,8 +339,9 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
             coverage = coverage.warned_first(ground.sources.warnings)
         overlap = None
         if plans is not None and frame is not None:  # measured from where the missions take their photos
-            overlap = plans.overlap(frame, np.argwhere(gmap.target & ~unreachable_mask), ground.side_overlap)
-            if ground.side_overlap is not None:
+            side = ground.asked_side_overlap
+            overlap = plans.overlap(frame, np.argwhere(gmap.target & ~unreachable_mask), side)
+            if side is not None:
                 coverage = replace(coverage, overlap=overlap)
         record = replace(record, coverage=coverage)
         if ground.targets != DEFAULT_TARGETS:
@@ -365,7 +386,7 @@ def _roof_targets(ground: PlanGround, field_plan: Any, unreachable: np.ndarray) 
                                       float(gmap.georef.safety_margin_m or 0.0))
     altitude = settings.altitude_m if settings is not None else None
     return roof_targets_block(gmap, ground.targets, altitude, sources.highest_roof_m if sources is not None else None,
-                              by_class, vertical, ground.gsd_cm_at_ground)
+                              by_class, vertical, ground.asked_gsd_cm)
 
 
 def _staging_folder(out: Path) -> Path:

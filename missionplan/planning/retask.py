@@ -122,7 +122,7 @@ def plan_retask(plan_dir: Path, record: PlanRecord, survivors: Sequence[Survivor
                        replace(safety, endurance_s=None, min_separation_m=0.0), ground=ground,
                        policy=policy or stored.policy, zone_method=stored.zones,
                        seed=0, progress=False, balance_zones=bool(stored.balance_zones),
-                       lanes=stored.open_ground == "lanes")
+                       lanes=stored.open_ground == "lanes", lane_spacing=stored.lane_spacing_cells)
     if field.plans is None:
         raise RetaskPlanningError(f"the re-task could not be planned: {field.result.run.failure}")
     plans = field.plans
