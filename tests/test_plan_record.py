@@ -150,15 +150,22 @@ def test_a_georeference_goes_through_report_json_and_back(frame: GridFrame, alti
 
 @settings(max_examples=30, deadline=None)
 @given(records())
-def test_a_plan_over_a_dem_is_written_in_version_2_and_a_flat_one_in_version_1(record: PlanRecord) -> None:
-    """The oldest version that holds the plan: a missionplan that cannot fly terrain refuses a terrain plan."""
+def test_a_plan_is_written_in_the_oldest_version_that_holds_it(record: PlanRecord) -> None:
+    """A missionplan that cannot fly terrain refuses a terrain plan (2), one that knows no capture a capture plan
+    (3: a camera block, roof targets or a MAVLink camera's capture); a flat street plan stays version 1."""
     doc = through_json(record.to_json())
-    terrain = record.georeference is not None and record.georeference.terrain is not None
-    if terrain:
+    georef = record.georeference
+    terrain = georef is not None and georef.terrain is not None
+    capture = (georef is not None and georef.capture is not None) or record.roofs is not None or (
+        record.settings is not None and record.settings.mission.capture != "relay")
+    if capture:
+        assert next(iter(doc)) == "schema_version" and doc["schema_version"] == 3
+    elif terrain:
         assert next(iter(doc)) == "schema_version" and doc["schema_version"] == 2
-        assert doc["georeference"]["terrain"]["files"] == list(record.georeference.terrain.files)
     else:
         assert "schema_version" not in doc and "terrain" not in (doc.get("georeference") or {})
+    if terrain:
+        assert doc["georeference"]["terrain"]["files"] == list(georef.terrain.files)
     assert PlanRecord.from_json(doc) == record
 
 
