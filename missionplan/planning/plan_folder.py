@@ -319,7 +319,8 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
             coverage = coverage.warned_first(ground.sources.warnings)
         overlap = None
         if plans is not None and frame is not None:  # measured from where the missions take their photos
-            overlap = plans.overlap(frame, np.argwhere(gmap.target & ~unreachable_mask), ground.side_overlap)
+            overlap = plans.overlap(frame, np.argwhere(gmap.target & ~unreachable_mask), ground.side_overlap,
+                                    flyable=~gmap.obstacle)
             if ground.side_overlap is not None:
                 coverage = replace(coverage, overlap=overlap)
         record = replace(record, coverage=coverage)
