@@ -408,7 +408,7 @@ def classify_points(flyable: np.ndarray, cells: np.ndarray, half: int) -> tuple[
     cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
     shape = np.asarray(np.shape(flyable))
     reachable = reachable_windows(flyable, half)[cells[:, 0], cells[:, 1]]
-    edge = ((cells - half < 0) | (cells + half >= shape)).any(axis=1)
+    edge: np.ndarray = np.asarray(((cells - half < 0) | (cells + half >= shape)).any(axis=1))
     return reachable, edge
 
 
