@@ -14,8 +14,9 @@ import pytest
 from missionplan.cli import main
 from missionplan.flight.fly import fly
 from missionplan.mission.drone_missions import DEFAULT_OVERLAP
-from missionplan.mission.photo_overlap import (OverlapMeasure, implied_photos, measure_overlap, photos_per_point,
-                                               strips_of)
+from missionplan.mission.photo_overlap import (BOUNDED_BY, OverlapMeasure, classify_points, implied_photos,
+                                               measure_overlap, photos_per_point, reachable_windows, strips_of,
+                                               window_half_cells)
 from missionplan.mission.plan_record import read_plan_record
 from missionplan.planning.plan_folder import shipped_ground, write_plan_folder
 
@@ -106,6 +107,94 @@ def test_a_measure_goes_through_json_and_back() -> None:
     assert m.to_json()["asked_side"] is None
 
 
+# ------------------------------------------------------------------------------------------- reachable or bounded
+def dead_end_street() -> np.ndarray:
+    """A 20 x 30 map of buildings with one street 3 cells wide (rows 8..10) from the map's west edge to a
+    dead end at column 20."""
+    flyable = np.zeros((20, 30), dtype=bool)
+    flyable[8:11, :21] = True
+    return flyable
+
+
+def test_the_photo_window_is_half_a_footprint_each_way() -> None:
+    assert window_half_cells(9 * 2.0, 2.0) == 4  # the planner's 9-cell footprint: 4 cells each way
+    assert window_half_cells(30.0, 5.0) == 3
+
+
+def test_a_street_is_reachable_between_its_dead_end_and_the_map_edge() -> None:
+    flyable = dead_end_street()
+    cells = np.array([[9, c] for c in range(21)])
+    reachable, edge = classify_points(flyable, cells, 4)
+    # a row run of 9 flyable cells crosses the window of columns 4..16; nearer the dead end the buildings
+    # close it, nearer column 0 the map's edge does
+    assert np.flatnonzero(reachable).tolist() == list(range(4, 17))
+    assert np.flatnonzero(edge).tolist() == [0, 1, 2, 3]
+    # the street's side rows alike: a run in row 9 crosses the window of a point in row 8 or 10
+    assert classify_points(flyable, np.array([[8, 10], [10, 10], [10, 17]]), 4)[0].tolist() == [True, True, False]
+
+
+def test_an_open_field_is_reachable_but_at_its_corners() -> None:
+    flyable = np.ones((12, 12), dtype=bool)
+    windows = reachable_windows(flyable, 4)
+    # a point near one edge is crossed by a run along that edge; at a corner both ways leave the map
+    expected = np.ones((12, 12), dtype=bool)
+    for rows in (slice(0, 4), slice(8, 12)):
+        for cols in (slice(0, 4), slice(8, 12)):
+            expected[rows, cols] = False
+    assert (windows == expected).all()
+    # a building in the middle: the points beside it are crossed by a run beside it
+    flyable[5:7, 5:7] = False
+    assert reachable_windows(flyable, 4)[4:8, 4:8].all()
+
+
+def test_a_1024_city_is_classified_in_one_pass() -> None:
+    """The classification is over the whole grid at once: a city's mask of streets every 20 cells has its
+    street crossings reachable and its dead ends (cut by a wall) bounded."""
+    flyable = np.zeros((1024, 1024), dtype=bool)
+    flyable[::20, :] = flyable[:, ::20] = True
+    flyable[:, 500] = False  # a wall: every row street ends at it from both sides
+    windows = reachable_windows(flyable, 4)
+    assert windows[100, 100] and windows[100, 300]
+    assert not windows[100, 497] and not windows[100, 503]  # between the wall and the crossing street 3 cells away
+    assert windows[100, 495]  # the row run 491..499 still fits short of the wall
+
+
+def test_met_is_judged_on_the_reachable_points_every_one() -> None:
+    """One street flown down its middle, a photo every 2 m cell, the footprint 9 cells: the points near the dead
+    end and the map edge see fewer than 9 photos but are bounded, so the plan meets the implied count; a
+    photo missing in the middle leaves reachable points short, and `met` fails though the 5th percentile
+    of all points would not notice it."""
+    flyable = dead_end_street()
+    cells = np.argwhere(flyable)
+    cell_m = 2.0
+    centres = np.column_stack([np.full(21, 9.0), np.arange(21.0)]) * cell_m
+    m = measure_overlap(centres, np.zeros(21), 9 * cell_m, cells, cell_m, asked_front=8 / 9, flyable=flyable)
+    assert m.reach is not None
+    assert m.reach.reachable.points == 3 * 13 and m.reach.reachable.least == 9 and m.reach.reachable.short == 0
+    assert m.reach.bounded.points == 3 * 8 and m.reach.bounded.least == 5  # the last photo is the dead end's
+    assert dict(zip(BOUNDED_BY, m.reach.bounded_by)) == {"obstacles": 12, "map edge": 12}
+    assert m.short == m.reach.bounded.short == 3 * 8  # each sees 5 .. 8 photos where 9 are implied
+    assert m.met is True
+    assert "reachable points 9 median, 9 p5, 9 least (0 of 39 fewer); bounded points" in m.summary()
+    assert "(24: 12 obstacles, 12 map edge)" in m.summary()
+
+    gap = np.delete(centres, 10, axis=0)  # one photo left out in the middle: 9 reachable points see 8
+    m = measure_overlap(gap, np.zeros(20), 9 * cell_m, cells, cell_m, asked_front=8 / 9, flyable=flyable)
+    assert m.reach is not None and m.reach.reachable.short == 3 * 9 and m.reach.reachable.least == 8
+    assert m.met is False
+    unsplit = measure_overlap(gap, np.zeros(20), 9 * cell_m, cells, cell_m, asked_front=8 / 9)
+    assert unsplit.reach is None and unsplit.met is False  # the old rule: the 5th percentile, here 5
+
+
+def test_a_measure_with_its_reach_goes_through_json_and_back() -> None:
+    flyable = dead_end_street()
+    centres = np.column_stack([np.full(21, 9.0), np.arange(21.0)]) * 2.0
+    m = measure_overlap(centres, np.zeros(21), 18.0, np.argwhere(flyable), 2.0, asked_front=8 / 9, flyable=flyable)
+    doc = json.loads(json.dumps(m.to_json()))
+    assert doc["reach"]["bounded"]["by"] == {"obstacles": 12, "map edge": 12}
+    assert OverlapMeasure.from_json(doc) == m
+
+
 # ------------------------------------------------------------------------------------------- the plan report
 def test_the_plan_report_of_a_shipped_map_meets_the_front_overlap_it_asked(tmp_path: Path,
                                                                            capsys: pytest.CaptureFixture[str]) -> None:
@@ -114,6 +203,7 @@ def test_the_plan_report_of_a_shipped_map_meets_the_front_overlap_it_asked(tmp_p
     line = next(line for line in out.splitlines() if "overlaps as planned:" in line)
     assert "front overlap 89 % median, 89 % p5 (asked 89 %)" in line
     assert "(not asked)" in line and "photos per target point" in line and "9 implied" in line
+    assert "; reachable points " in line and "; bounded points " in line and "map edge)" in line
     # report.json as before: a plan that asks no side overlap records no overlap block
     assert "overlap" not in json.loads((tmp_path / "plan" / "report.json").read_text())["coverage"]
 

@@ -116,11 +116,9 @@ class FlightPlans:
                               closest_at=(round(float(lat[0]), 7), round(float(lon[0]), 7)))
         return promise
 
-    def overlap(self, frame: GridFrame, targets: np.ndarray, side_overlap: float | None = None) -> OverlapMeasure:
-        """The overlaps the planned photos give (photo_overlap.measure_overlap): every sortie's photos where
-        its mission takes them (layers.planned_photos), each sortie a run, against the front overlap the
-        settings ask and `side_overlap` (a fraction, None: not asked); `targets` (n, 2) the grid cells to
-        photograph. The footprint is the lowest drone's (settings.footprint_m): a higher layer sees more."""
+    def photo_centres(self, frame: GridFrame) -> tuple[np.ndarray, np.ndarray]:
+        """((n, 2) grid metres where every sortie's mission takes its photos (layers.planned_photos), in
+        the order taken; (n,) each photo's sortie, numbered 0.. over the drones' sorties)."""
         def to_m(lat: float, lon: float) -> np.ndarray:
             row, col = frame.latlon_to_grid(np.array([lat]), np.array([lon]))
             return np.array([float(np.atleast_1d(row)[0]), float(np.atleast_1d(col)[0])]) * frame.cell_m
@@ -128,9 +126,18 @@ class FlightPlans:
         trigger = self.settings.trigger_distance_m
         photos = [planned_photos(mission.mission.items, trigger, to_m) for missions in self.sorties for mission in missions]
         runs = np.concatenate([np.full(len(points), k) for k, points in enumerate(photos)]) if photos else np.zeros(0)
-        centres = np.vstack(photos) if photos else np.zeros((0, 2))
+        return (np.vstack(photos) if photos else np.zeros((0, 2))), runs
+
+    def overlap(self, frame: GridFrame, targets: np.ndarray, side_overlap: float | None = None,
+                flyable: np.ndarray | None = None) -> OverlapMeasure:
+        """The overlaps the planned photos give (photo_overlap.measure_overlap): every sortie's photos where
+        its mission takes them (layers.planned_photos), each sortie a run, against the front overlap the
+        settings ask and `side_overlap` (a fraction, None: not asked); `targets` (n, 2) the grid cells to
+        photograph; `flyable` the grid's cells a photo may be centred on (splits reachable and bounded
+        points). The footprint is the lowest drone's (settings.footprint_m): a higher layer sees more."""
+        centres, runs = self.photo_centres(frame)
         return measure_overlap(centres, runs, self.settings.footprint_m, targets, frame.cell_m,
-                               asked_front=self.settings.overlap, asked_side=side_overlap)
+                               asked_front=self.settings.overlap, asked_side=side_overlap, flyable=flyable)
 
     def drone_plans(self) -> tuple[DronePlan, ...]:
         """report.json's `drones`: one per drone (totals over its sorties, then each sortie)."""

@@ -22,12 +22,21 @@ metres (row axis, column axis), as flight.plan_report.to_grid_m gives them.
   at all that only one strip's photos see.
 - What the asked overlaps imply: floor(1 / (1 - front)) photos of a point on one strip, times
   floor(1 / (1 - side)) where strips neighbour (a point seen by photos of more than one strip); a
-  point seen by fewer photos is short. The points at a strip's ends or a zone's edge are seen by fewer
-  photos than the middle of a lane: that is why the 5th percentile, not the least, decides `met`.
+  point seen by fewer photos is short.
+- Reachable or bounded (given the flyable cells: not an obstacle, inside the map): the photos that can
+  see a point are centred in the footprint-sized window around it (within half a footprint, 4 cells
+  of a 9-cell footprint, each way). A point is reachable when some straight row or column run of
+  flyable cells crosses that window end to end (9 cells along it): one strip flown there gives it the
+  count the front overlap implies. Otherwise it is bounded: a photo cannot be centred where the window
+  leaves the map ("map edge") or inside the obstacles that close it ("obstacles": a dead end, a corner
+  between buildings), so fewer photos are what the geometry allows. `met` is then judged on the
+  reachable points, every one of them (the least, not a percentile); the bounded ones are reported
+  beside them. Without the flyable cells every point counts, and the 5th percentile decides `met`
+  (the points at a strip's ends or a zone's edge see fewer photos than the middle of a lane).
 
-Pure numpy and scipy's cKDTree (side neighbours), a difference array over the cells (photos per point):
-a 20-drone city plan (50 000 photos, 500 000 target cells) is measured in well under a second
-(bench/overlap_bench.py).
+Pure numpy and scipy's cKDTree (side neighbours), a difference array over the cells (photos per point),
+cumulative sums over the flyable mask (reachable runs): a 20-drone city plan (50 000 photos, 500 000
+target cells) is measured in well under a second (bench/overlap_bench.py).
 """
 
 from __future__ import annotations
@@ -75,6 +84,64 @@ class OverlapSpread:
         return cls(float(doc["median"]), float(doc["p5"]), int(doc["pairs"]))
 
 
+BOUNDED_BY = ("obstacles", "map edge")  # why a bounded point's window holds no straight run: its reason's names
+
+
+@dataclass(frozen=True)
+class PointClass:
+    """Photos per point of one class of target points: how many points, the median, 5th percentile and
+    least of their photos, and how many are seen by fewer photos than implied for them."""
+
+    points: int
+    median: float
+    p5: int
+    least: int
+    short: int
+
+    @classmethod
+    def of(cls, counts: np.ndarray, wanted: np.ndarray | None) -> PointClass:
+        if not len(counts):
+            return cls(0, 0.0, 0, 0, 0)
+        short = int((counts < wanted).sum()) if wanted is not None else 0
+        return cls(int(len(counts)), float(np.median(counts)), int(low(counts)), int(counts.min()), short)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"points": self.points, "median": self.median, "p5": self.p5, "min": self.least, "short": self.short}
+
+    @classmethod
+    def from_json(cls, doc: Mapping[str, Any]) -> PointClass:
+        return cls(int(doc["points"]), float(doc["median"]), int(doc["p5"]), int(doc["min"]), int(doc["short"]))
+
+
+@dataclass(frozen=True)
+class ReachSplit:
+    """Photos per point of the reachable target points and of the bounded ones (module docstring), and
+    how many bounded points each reason bounds (BOUNDED_BY: obstacles close the window, or the map's edge)."""
+
+    reachable: PointClass
+    bounded: PointClass
+    bounded_by: tuple[int, ...]  # per BOUNDED_BY reason
+
+    def to_json(self) -> dict[str, Any]:
+        return {"reachable": self.reachable.to_json(),
+                "bounded": {**self.bounded.to_json(), "by": dict(zip(BOUNDED_BY, self.bounded_by))}}
+
+    @classmethod
+    def from_json(cls, doc: Mapping[str, Any]) -> ReachSplit:
+        by = doc["bounded"]["by"]
+        return cls(PointClass.from_json(doc["reachable"]), PointClass.from_json(doc["bounded"]),
+                   tuple(int(by[name]) for name in BOUNDED_BY))
+
+    def summary(self) -> str:
+        """`reachable points 11 median, 9 p5, 9 least (0 fewer); bounded points 5 median, 2 p5 (120: 90 obstacles, 30 map edge)`."""
+        r, b = self.reachable, self.bounded
+        text = f"reachable points {r.median:g} median, {r.p5} p5, {r.least} least ({r.short} of {r.points} fewer)"
+        if b.points:
+            reasons = ", ".join(f"{n} {name}" for name, n in zip(BOUNDED_BY, self.bounded_by) if n)
+            text += f"; bounded points {b.median:g} median, {b.p5} p5 ({b.points}: {reasons})"
+        return text
+
+
 @dataclass(frozen=True)
 class OverlapMeasure:
     """Front and side overlap and photos per target point, measured from photo positions, next to what was asked.
@@ -83,8 +150,10 @@ class OverlapMeasure:
     alongside another). `asked_front` / `asked_side` are the fractions the plan asked (None: not asked).
     `implied_one_strip` / `implied_neighbouring` are the photos per point the asked overlaps imply on
     one strip and where strips neighbour (None without an asked front overlap); `short` counts the
-    target points seen by fewer photos than implied for them; `met` says whether the 5th percentile
-    of photos per point reaches the implied count (None when nothing is implied or no point)."""
+    target points seen by fewer photos than implied for them. `reach`: the reachable and bounded points
+    apart (None when the flyable cells were not given). `met` says whether every reachable point reaches
+    the implied count, or without `reach` whether the 5th percentile of photos per point does (None
+    when nothing is implied or no point is there to judge)."""
 
     footprint_m: float
     photos: int
@@ -102,9 +171,11 @@ class OverlapMeasure:
     implied_neighbouring: int | None
     short: int
     met: bool | None
+    reach: ReachSplit | None = None
 
     def to_json(self) -> dict[str, Any]:
-        return {"footprint_m": self.footprint_m, "photos": self.photos, "strips": self.strips,
+        reach = {} if self.reach is None else {"reach": self.reach.to_json()}
+        return {**reach, "footprint_m": self.footprint_m, "photos": self.photos, "strips": self.strips,
                 "front": None if self.front is None else self.front.to_json(),
                 "side": None if self.side is None else self.side.to_json(),
                 "asked_front": self.asked_front, "asked_side": self.asked_side,
@@ -124,7 +195,8 @@ class OverlapMeasure:
                    None if side is None else OverlapSpread.from_json(side),
                    doc.get("asked_front"), doc.get("asked_side"), int(per["points"]), float(per["median"]),
                    int(per["p5"]), int(per["min"]), doc.get("single_strip_share"), per.get("implied_one_strip"),
-                   per.get("implied_neighbouring"), int(per["short"]), per.get("met"))
+                   per.get("implied_neighbouring"), int(per["short"]), per.get("met"),
+                   None if doc.get("reach") is None else ReachSplit.from_json(doc["reach"]))
 
     def summary(self) -> str:
         """One line for a person: `front overlap 89 % median, 88 % p5 (asked 89 %); side overlap ...;
@@ -147,8 +219,8 @@ class OverlapMeasure:
                 f"; {self.short} of {self.points} points fewer" if self.short else "") + ")"
         per_point = (f"photos per target point {self.per_point_median:g} median, {self.per_point_p5} p5, "
                      f"{self.per_point_min} least{implied}")
-        return "; ".join([overlap("front", self.front, self.asked_front),
-                          overlap("side", self.side, self.asked_side), per_point])
+        parts = [overlap("front", self.front, self.asked_front), overlap("side", self.side, self.asked_side), per_point]
+        return "; ".join(parts + ([] if self.reach is None else [self.reach.summary()]))
 
 
 # ------------------------------------------------------------------------------------------- strips
@@ -301,6 +373,45 @@ def photos_per_point(centres: np.ndarray, strips: np.ndarray, cells: np.ndarray,
     return counts, (counts > 0) & (counts * squares == total * total)
 
 
+def window_half_cells(footprint_m: float, cell_m: float) -> int:
+    """How many cells each way from a point a photo that sees it may be centred: half a footprint, to
+    the containment tolerance photos_per_point uses (4 for the planner's 9-cell footprint)."""
+    return int(math.floor((footprint_m / 2.0 + CONTAIN_TOLERANCE_M) / cell_m))
+
+
+def reachable_windows(flyable: np.ndarray, half: int) -> np.ndarray:
+    """(rows, cols) bool: whether a straight row or column run of flyable cells crosses the window of
+    `half` cells each way around each cell end to end (2 * half + 1 cells along it); outside the
+    map is not flyable. Two cumulative sums per direction: one finds the runs centred on each cell,
+    the other whether any lies across the window."""
+    n = 2 * half + 1
+    padded = np.pad(np.asarray(flyable, dtype=np.int32), half)  # outside the map: not flyable
+    rows, cols = np.asarray(flyable).shape
+    found = np.zeros((rows, cols), dtype=bool)
+    for along in (1, 0):  # runs along a row (crossing the window's columns), then along a column
+        ends = np.cumsum(padded, axis=along, dtype=np.int32)
+        ends = np.concatenate([np.zeros_like(ends.take([0], axis=along)), ends], axis=along)
+        width = ends.shape[along]
+        runs = (ends.take(np.arange(n, width), axis=along) - ends.take(np.arange(0, width - n), axis=along)) == n
+        across = 1 - along  # any such run among the window's rows (for a row run) or columns
+        seen = np.cumsum(runs, axis=across, dtype=np.int32)
+        seen = np.concatenate([np.zeros_like(seen.take([0], axis=across)), seen], axis=across)
+        width = seen.shape[across]
+        found |= (seen.take(np.arange(n, width), axis=across) - seen.take(np.arange(0, width - n), axis=across)) > 0
+    return found
+
+
+def classify_points(flyable: np.ndarray, cells: np.ndarray, half: int) -> tuple[np.ndarray, np.ndarray]:
+    """(reachable, at the map's edge) for each of `cells` ((m, 2) inside `flyable`'s shape): reachable
+    as reachable_windows says; at the map's edge when its window leaves the map (a bounded point's
+    reason is then "map edge", else "obstacles")."""
+    cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+    shape = np.asarray(np.shape(flyable))
+    reachable = reachable_windows(flyable, half)[cells[:, 0], cells[:, 1]]
+    edge: np.ndarray = np.asarray(((cells - half < 0) | (cells + half >= shape)).any(axis=1))
+    return reachable, edge
+
+
 def implied_photos(front: float | None, side: float | None) -> tuple[int | None, int | None]:
     """Photos per point the asked overlaps imply: (on one strip, where strips neighbour)."""
     if front is None:
@@ -314,12 +425,14 @@ def implied_photos(front: float | None, side: float | None) -> tuple[int | None,
 
 def measure_overlap(centres: np.ndarray, runs: np.ndarray, footprint_m: float, cells: np.ndarray, cell_m: float,
                     strips: np.ndarray | None = None, asked_front: float | None = None,
-                    asked_side: float | None = None) -> OverlapMeasure:
+                    asked_side: float | None = None, flyable: np.ndarray | None = None) -> OverlapMeasure:
     """The overlaps and photos per target point of photos at `centres` ((n, 2) grid metres, in the order
     taken), `runs` ((n,) a drone's flight or sortie: consecutive photos of one run may share a strip),
     footprint side `footprint_m`; the target points are the centres of `cells` ((m, 2) integer grid cells
     of side `cell_m`). `strips`: each photo's leg id where the caller has them (else derived: strips_of).
-    `asked_front` / `asked_side`: the fractions asked (None: not asked)."""
+    `asked_front` / `asked_side`: the fractions asked (None: not asked). `flyable`: the grid's (rows,
+    cols) cells a photo may be centred on (not an obstacle), which splits the points into reachable
+    and bounded ones (module docstring); None: every point counts alike."""
     centres = np.asarray(centres, dtype=float).reshape(-1, 2)
     cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
     runs = np.asarray(runs).reshape(-1)
@@ -342,14 +455,24 @@ def measure_overlap(centres: np.ndarray, runs: np.ndarray, footprint_m: float, c
     one, neighbouring = implied_photos(asked_front, asked_side)
     short = 0
     met = None
+    wanted = None
     if one is not None and neighbouring is not None and len(cells):
         wanted = np.where(single | ~seen, one, neighbouring)
         short = int((counts < wanted).sum())
         met = bool(low(counts - wanted) >= 0)
+    reach = None
+    if flyable is not None:
+        reachable, edge = classify_points(flyable, cells, window_half_cells(footprint_m, cell_m))
+        bounded = ~reachable
+        reach = ReachSplit(PointClass.of(counts[reachable], None if wanted is None else wanted[reachable]),
+                           PointClass.of(counts[bounded], None if wanted is None else wanted[bounded]),
+                           (int((bounded & ~edge).sum()), int((bounded & edge).sum())))
+        if wanted is not None:  # every reachable point, none left to a percentile
+            met = None if not reachable.any() else reach.reachable.short == 0
     return OverlapMeasure(
         footprint_m=float(footprint_m), photos=int(len(centres)), strips=int(strips.max()) + 1 if len(strips) else 0,
         front=OverlapSpread.of(front), side=OverlapSpread.of(side), asked_front=asked_front, asked_side=asked_side,
         points=int(len(cells)), per_point_median=float(np.median(counts)) if len(cells) else 0.0,
         per_point_p5=int(low(counts)) if len(cells) else 0, per_point_min=int(counts.min()) if len(cells) else 0,
         single_strip_share=float(single[seen].mean()) if seen.any() else None,
-        implied_one_strip=one, implied_neighbouring=neighbouring, short=short, met=met)
+        implied_one_strip=one, implied_neighbouring=neighbouring, short=short, met=met, reach=reach)

@@ -340,7 +340,8 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
         overlap = None
         if plans is not None and frame is not None:  # measured from where the missions take their photos
             side = ground.asked_side_overlap
-            overlap = plans.overlap(frame, np.argwhere(gmap.target & ~unreachable_mask), side)
+            overlap = plans.overlap(frame, np.argwhere(gmap.target & ~unreachable_mask), side,
+                                    flyable=~gmap.obstacle)
             if side is not None:
                 coverage = replace(coverage, overlap=overlap)
         record = replace(record, coverage=coverage)
