@@ -236,6 +236,10 @@ def test_the_judge_measures_the_overlaps_of_the_photos_flown(tmp_path: Path, moc
     # the mock triggers by distance along its track: its spacing is the plan's, to a few centimetres
     assert flown.front.median == pytest.approx(planned.front.median, abs=0.02)
     assert flown.per_point_median >= planned.per_point_median - 2
+    # judged as the plan is: on the points a strip can reach, the bounded ones apart
+    assert flown.reach is not None and planned.reach is not None
+    assert (flown.reach.reachable.points, flown.reach.bounded.points) == (planned.reach.reachable.points,
+                                                                        planned.reach.bounded.points)
     doc = json.loads((plan_dir / "flight.json").read_text())
     assert OverlapMeasure.from_json(doc["overlap"]) == flown
     print_flight(result)

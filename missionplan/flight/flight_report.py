@@ -364,7 +364,8 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
     percent_with_placed = 100.0 * float(covered_with_placed.mean()) if len(targets) else 100.0
     asked_front, asked_side = asked_overlaps(record)
     overlap = measure_overlap(all_photos, np.concatenate(runs) if runs else np.zeros(0), footprint,
-                              targets, frame.cell_m, asked_front=asked_front, asked_side=asked_side)
+                              targets, frame.cell_m, asked_front=asked_front, asked_side=asked_side,
+                              flyable=~planned_grid(record).obstacle)  # judged on the points a strip can reach
     other_rules = {name: round(100.0 * float(covered_by_gap(frame, gap, footprint, frame.cell_m * cells).mean()), 2)
                    if len(targets) else 100.0 for name, cells in (("whole_cell", 0.0), ("cell_centre", 0.5))}
     separation = _separation(record.separation, records, timed, liftoff, scale, telemetry_hz)
