@@ -9,10 +9,16 @@ re-plan keeps the root's grid and georeference, so a cell means the same ground 
 it anew: a flight's rows are replaced, never added twice. Every coverage figure of the survey is a
 query of this file; flight.json's figure for one flight uses the same rule (covered_cells).
 
+A ledger made before a column was added (ADDED_COLUMNS) gets it when opened for writing, every row kept (NULL in
+the new column); a read-only one is read as it is, NULL standing in for what it lacks.
+
 Tables:
   flights(id, plan, flight, sortie, recorded)   plan: the folder, relative to the root; flight: its
                                                 journal's flight number (journal.sqlite)
-  photos(id, flight_id, vehicle, img_idx, time, lat, lon, alt_amsl, alt_rel, roll, pitch, yaw, source)
+  photos(id, flight_id, vehicle, img_idx, time, lat, lon, alt_amsl, alt_rel, roll, pitch, yaw, source,
+         image_index, file_url)                 image_index, file_url: a MAVLink camera's record (plan --capture
+                                                camera*): its image_index (img_idx then is that) and the file it
+                                                named; NULL for the autopilot's reports, the log's, the track's
   covered(photo, row, col)                      the root's target cells the photo holds (its footprint
                                                 with plan_report.SLACK_CELLS of slack on a side)
 """
@@ -43,11 +49,19 @@ CREATE TABLE IF NOT EXISTS flights (id INTEGER PRIMARY KEY, plan TEXT NOT NULL, 
 CREATE TABLE IF NOT EXISTS photos (id INTEGER PRIMARY KEY, flight_id INTEGER NOT NULL, vehicle INTEGER NOT NULL,
                                    img_idx INTEGER NOT NULL, time REAL, lat REAL NOT NULL, lon REAL NOT NULL,
                                    alt_amsl REAL, alt_rel REAL, roll REAL, pitch REAL, yaw REAL,
-                                   source TEXT NOT NULL);
+                                   source TEXT NOT NULL, image_index INTEGER, file_url TEXT);
 CREATE TABLE IF NOT EXISTS covered (photo INTEGER NOT NULL, row INTEGER NOT NULL, col INTEGER NOT NULL);
 CREATE INDEX IF NOT EXISTS photos_by_flight ON photos (flight_id);
 CREATE INDEX IF NOT EXISTS covered_by_photo ON covered (photo);
 """
+
+# Columns added since the first ledgers: (table, column, its declaration), added by Ledger.migrate.
+ADDED_COLUMNS = (("photos", "image_index", "INTEGER"), ("photos", "file_url", "TEXT"))
+# The photos table's columns as record_flight writes them and photos() reads them (after flight_id).
+PHOTO_COLUMNS = ("vehicle", "img_idx", "time", "lat", "lon", "alt_amsl", "alt_rel", "roll", "pitch", "yaw", "source",
+                 "image_index", "file_url")
+
+INSERT_PHOTO = f"INSERT INTO photos (flight_id, {', '.join(PHOTO_COLUMNS)}) VALUES (?{', ?' * len(PHOTO_COLUMNS)})"
 
 
 class LedgerError(MapError):
@@ -71,6 +85,8 @@ class LedgerPhoto:
     pitch: float | None
     yaw: float | None
     source: str  # camera (its report over the link), log (the vehicle's log), track (fly --photos-from-track)
+    image_index: int | None = None  # a MAVLink camera's record: its image_index
+    file_url: str | None = None  # ... and the file it named on its card
 
 
 @dataclass(frozen=True)
@@ -172,10 +188,26 @@ class Ledger:
             self._db = db
             if {"flights", "photos", "covered"} - {r[0] for r in db.execute("SELECT name FROM sqlite_master")}:
                 db.executescript(SCHEMA)
+            self.missing = self.migrate()
         except sqlite3.DatabaseError as err:
             if fault_kind(err) in ("full", "read-only"):
                 raise LedgerError(f"{self.path}: cannot be written ({err})") from None
             raise LedgerError(f"{self.path}: not a missionplan survey ledger ({err})") from None
+
+    def migrate(self) -> set[str]:
+        """Add the columns a ledger made before them lacks (ADDED_COLUMNS; ALTER TABLE keeps every row); a ledger
+        that cannot be written keeps its own, and the names of those it lacks are returned (read as NULL)."""
+        have = {row[1] for row in self._db.execute("PRAGMA table_info(photos)")}
+        missing = {column for _, column, _ in ADDED_COLUMNS if column not in have}
+        for table, column, declaration in ADDED_COLUMNS:
+            if column in missing:
+                try:
+                    self._db.execute(f"ALTER TABLE {table} ADD COLUMN {column} {declaration}")
+                    missing.discard(column)
+                except sqlite3.OperationalError as err:  # a read-only file: read as it is
+                    if fault_kind(err) != "read-only":
+                        raise
+        return missing
 
     @classmethod
     def of(cls, plan_dir: Path) -> Ledger:
@@ -236,12 +268,13 @@ class Ledger:
                                                  (plan, flight, sortie, recorded)).lastrowid)
             ids = []
             for p in photos:
+                image_index = p.get("image_index")
                 ids.append(self._db.execute(
-                    "INSERT INTO photos (flight_id, vehicle, img_idx, time, lat, lon, alt_amsl, alt_rel, roll, pitch, "
-                    "yaw, source) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    INSERT_PHOTO,
                     (flight_id, int(p["vehicle"]), int(p["img_idx"]), p.get("time"), float(p["lat"]), float(p["lon"]),
                      p.get("alt_amsl"), p.get("alt_rel"), p.get("roll"), p.get("pitch"), p.get("yaw"),
-                     str(p["source"]))).lastrowid)
+                     str(p["source"]), None if image_index is None else int(image_index),
+                     p.get("file_url") or None)).lastrowid)
             photo_ids = np.array(ids, dtype=np.int64)
             self._db.executemany("INSERT INTO covered (photo, row, col) VALUES (?, ?, ?)",
                                  zip(photo_ids[which].tolist(), cells[:, 0].tolist(), cells[:, 1].tolist()))
@@ -267,8 +300,8 @@ class Ledger:
     def photos(self, plan_dir: Path | None = None, flight: int | None = None) -> list[LedgerPhoto]:
         """The photos of the survey, or of one folder, or of one of its flights, in the order taken."""
         where, args = self._which(plan_dir, flight)
-        sql = ("SELECT f.plan, f.flight, p.vehicle, p.img_idx, p.time, p.lat, p.lon, p.alt_amsl, p.alt_rel, p.roll, "
-               "p.pitch, p.yaw, p.source FROM photos p JOIN flights f ON f.id = p.flight_id"
+        columns = ", ".join("NULL" if c in self.missing else f"p.{c}" for c in PHOTO_COLUMNS)
+        sql = (f"SELECT f.plan, f.flight, {columns} FROM photos p JOIN flights f ON f.id = p.flight_id"
                + where + " ORDER BY f.id, p.vehicle, p.img_idx")
         return [LedgerPhoto(*row) for row in self._db.execute(sql, args)]
 

@@ -1,0 +1,107 @@
+"""A MAVLink camera's image_index and file_url, from its CAMERA_IMAGE_CAPTURED to photos.csv.
+
+A flight of a `plan --capture camera` plan keeps each photo's file_url in the flight journal, the survey ledger
+keeps the camera's image_index and file_url (nullable columns: a ledger made before them is migrated when opened,
+every row kept; a read-only one is read as it is), photos.csv lists both last when any photo has them, and a
+ledger rebuilt from the journals holds the same rows. Mocks listen on 127.0.0.1 only."""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+import sqlite3
+from pathlib import Path
+
+import pytest
+
+from missionplan.cli import main
+from missionplan.flight.fly import fly
+from missionplan.flight.ledger import LEDGER_NAME, Ledger, open_survey
+from missionplan.flight.ledger_repair import open_ledger
+from missionplan.flight.mock_fleet import start_mock_fleet
+from missionplan.flight.salvage import connect_read_only
+
+SPEEDUP = 10.0
+AREA = [[9.1890, 45.4640], [9.1905, 45.4640], [9.1905, 45.4648], [9.1890, 45.4648], [9.1890, 45.4640]]
+# The ledger's schema before the camera's columns (as ledgers written until then have it).
+OLD_SCHEMA = """
+CREATE TABLE flights (id INTEGER PRIMARY KEY, plan TEXT NOT NULL, flight INTEGER NOT NULL, sortie INTEGER NOT NULL,
+                      recorded REAL NOT NULL, UNIQUE (plan, flight));
+CREATE TABLE photos (id INTEGER PRIMARY KEY, flight_id INTEGER NOT NULL, vehicle INTEGER NOT NULL,
+                     img_idx INTEGER NOT NULL, time REAL, lat REAL NOT NULL, lon REAL NOT NULL, alt_amsl REAL,
+                     alt_rel REAL, roll REAL, pitch REAL, yaw REAL, source TEXT NOT NULL);
+CREATE TABLE covered (photo INTEGER NOT NULL, row INTEGER NOT NULL, col INTEGER NOT NULL);
+CREATE INDEX photos_by_flight ON photos (flight_id);
+CREATE INDEX covered_by_photo ON covered (photo);
+"""
+
+
+def _plan(tmp_path: Path, capture: str) -> Path:
+    area = tmp_path / "block.geojson"
+    area.write_text(json.dumps({"type": "Polygon", "coordinates": [AREA]}))
+    plan_dir = tmp_path / "plan"
+    assert main(["plan", "--area", str(area), "--altitude", "20", "--fov", "84", "--out", str(plan_dir), "--quiet",
+                 "--capture", capture, "--launch", "45.4641,9.1891"]) == 0
+    return plan_dir
+
+
+def test_an_old_ledger_is_migrated_with_every_row_kept(tmp_path: Path) -> None:
+    plan_dir = _plan(tmp_path, "relay")
+    path = plan_dir / LEDGER_NAME
+    db = sqlite3.connect(path)
+    db.executescript(OLD_SCHEMA)
+    db.execute("INSERT INTO flights VALUES (1, '.', 1, 1, 1000.0)")
+    db.executemany("INSERT INTO photos VALUES (?, 1, 1, ?, 1000.0, 45.4642, 9.1895, 140.0, 20.0, 0, 0, 0, 'camera')",
+                   [(k + 1, k) for k in range(3)])
+    db.execute("INSERT INTO covered VALUES (1, 2, 3)")
+    db.commit()
+    db.close()
+    survey = open_survey(plan_dir)
+    # Read-only (a folder that cannot be written): read as it is, the new columns as NULL, nothing written.
+    before = path.read_bytes()
+    with Ledger(survey, connect_read_only(path)) as ledger:
+        old_rows = ledger.photos()
+    assert path.read_bytes() == before and len(old_rows) == 3
+    assert all(p.image_index is None and p.file_url is None for p in old_rows)
+    with Ledger(survey) as ledger:  # opened for writing: migrated
+        assert ledger.photos() == old_rows and ledger.flights()[0]["photos"] == 3
+    db = sqlite3.connect(path)
+    columns = [row[1] for row in db.execute("PRAGMA table_info(photos)")]
+    assert columns[-2:] == ["image_index", "file_url"]
+    assert db.execute("SELECT COUNT(*) FROM covered").fetchone()[0] == 1
+    db.close()
+    with Ledger(survey) as ledger:  # a new flight with the camera's columns beside the old rows
+        ledger.record_flight(plan_dir, 2, 1, [{"vehicle": 1, "img_idx": 0, "lat": 45.4642, "lon": 9.1895,
+                                               "source": "camera", "image_index": 0, "file_url": "DCIM/IMG_0000.JPG"}])
+        rows = ledger.photos()
+    assert rows[:3] == old_rows and (rows[3].image_index, rows[3].file_url) == (0, "DCIM/IMG_0000.JPG")
+
+
+@pytest.mark.flight
+def test_a_camera_flights_photos_csv_names_the_cameras_files_and_a_rebuilt_ledger_agrees(tmp_path: Path) -> None:
+    plan_dir = _plan(tmp_path, "camera")
+    mock = start_mock_fleet(plan_dir, SPEEDUP, mavlink_camera=True, camera_failures=(2,))
+    try:
+        result = fly(plan_dir, mock.client_url, timeout_s=120.0, progress=False, time_scale=SPEEDUP)
+        images = {image.image_index: image.file_url for image in mock.vehicle(1).mavlink_camera.images
+                  if image.capture_result == 1}
+    finally:
+        mock.stop()
+    assert result.ok, result.doc["problems"]
+    with (plan_dir / "photos.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert list(rows[0])[-3:] == ["source", "image_index", "file_url"]
+    assert {int(r["image_index"]): r["file_url"] for r in rows} == images  # 2 failed: not a photo
+    assert all(int(r["img_idx"]) == int(r["image_index"]) for r in rows)
+    geojson = json.loads((plan_dir / "photos.geojson").read_text())
+    assert {f["properties"]["file_url"] for f in geojson["features"]} == set(images.values())
+    with Ledger.of(plan_dir) as ledger:
+        kept = ledger.photos()
+    # The ledger rebuilt from the journal (file_url journaled with each photo) holds the same rows.
+    (plan_dir / LEDGER_NAME).unlink()
+    said: list[str] = []
+    with open_ledger(plan_dir, said.append) as ledger:
+        assert ledger.photos() == kept
+    assert len(said) == 1 and "rebuilt from the journal.sqlite" in said[0]
+    shutil.rmtree(plan_dir)
