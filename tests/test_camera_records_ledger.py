@@ -104,4 +104,23 @@ def test_a_camera_flights_photos_csv_names_the_cameras_files_and_a_rebuilt_ledge
     with open_ledger(plan_dir, said.append) as ledger:
         assert ledger.photos() == kept
     assert len(said) == 1 and "rebuilt from the journal.sqlite" in said[0]
+    # geotag: a card whose files are named as the records' file_url is matched by name, with no clock at all
+    # (no DateTimeOriginal), but for one image the camera did not take.
+    Image = pytest.importorskip("PIL.Image")
+    pytest.importorskip("pyexiv2")
+    from missionplan.flight.exif_geotag import geotag_cards
+
+    card = tmp_path / "DCIM-1"
+    card.mkdir()
+    for name in [url.rsplit("/", 1)[-1] for url in images.values()] + ["IMG_9999.JPG"]:
+        Image.new("RGB", (16, 12)).save(card / name)
+    run = geotag_cards(plan_dir, [card], tmp_path / "out")
+    assert run.lines == [f"card DCIM-1: drone 1, flight 1: {len(images)} matched, 1 unmatched image, 0 ambiguous, "
+                         "by file name (the camera's file_url)"]
+    with (tmp_path / "out" / "DCIM-1" / "photos.csv").open() as f:
+        tagged = {r["image"]: r for r in csv.DictReader(f)}
+    by_index = {int(r["image_index"]): r for r in rows}
+    for index, url in images.items():
+        name = url.rsplit("/", 1)[-1]
+        assert (tagged[name]["lat"], tagged[name]["lon"]) == (by_index[index]["lat"], by_index[index]["lon"])
     shutil.rmtree(plan_dir)
