@@ -43,9 +43,9 @@ def test_the_refusal_says_what_is_missing_and_what_to_set() -> None:
     cam1 = camera_params(Flavour.ARDUPILOT, "camera")
     assert camera_problem("camera", cam1, {"CAM1_TYPE": 6.0}, True, 3.0) == ""
     assert camera_problem("relay", [], {}, False, 3.0) == ""
-    assert camera_problem("camera", cam1, {"CAM1_TYPE": 0.0}, False, 3.2) == (
+    assert camera_problem("camera", cam1, {"CAM1_TYPE": 0.0}, False) == (
         "the plan captures with a MAVLink camera (--capture camera) and CAM1_TYPE is 0 and no MAVLink camera was "
-        "heard (no HEARTBEAT of MAV_TYPE_CAMERA from components 100-105 within 3 s): set CAM1_TYPE 6 (MAVLinkCamV2) "
+        "heard (no HEARTBEAT of MAV_TYPE_CAMERA from components 100-105): set CAM1_TYPE 6 (MAVLinkCamV2) "
         "and reboot, and connect the camera")
     assert camera_problem("camera-interval", cam1, {"CAM1_TYPE": 5.0}, True, 3.0) == (
         "the plan captures with a MAVLink camera (--capture camera-interval) and CAM1_TYPE is 5 (the older MAVLink "
@@ -102,8 +102,8 @@ def test_fly_refuses_a_vehicle_without_a_mavlink_camera_before_the_upload(tmp_pa
     fix = ("set CAM1_TYPE 6 (MAVLinkCamV2) and reboot" if flavour == "ardupilot"
            else "set TRIG_INTERFACE 3 (MAVLink) and reboot")
     assert lines == [f"uav1: the plan captures with a MAVLink camera (--capture camera) and {wrong} and no MAVLink "
-                     f"camera was heard (no HEARTBEAT of MAV_TYPE_CAMERA from components 100-105 within "
-                     f"{lines[0].split('within ')[1].split(' s)')[0]} s): {fix}, and connect the camera"]
+                     f"camera was heard (no HEARTBEAT of MAV_TYPE_CAMERA from components 100-105): {fix}, and "
+                     "connect the camera"]
     assert uploads == 0 and len(held) <= 1  # nothing uploaded (ArduPilot's home item only)
     assert not result.doc["drones"][0]["events"] or "armed" not in [e[1] for e in result.doc["drones"][0]["events"]]
 

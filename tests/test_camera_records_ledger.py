@@ -1,8 +1,8 @@
 """A MAVLink camera's image_index and file_url, from its CAMERA_IMAGE_CAPTURED to photos.csv.
 
 A flight of a `plan --capture camera` plan keeps each photo's file_url in the flight journal, the survey ledger
-keeps the camera's image_index and file_url (nullable columns: a ledger made before them is migrated when opened,
-every row kept; a read-only one is read as it is), photos.csv lists both last when any photo has them, and a
+keeps the camera's image_index and file_url (nullable columns, added when a camera's flight is first recorded, every
+row kept: a relay survey's ledger stays as it was; one without them reads NULL), photos.csv lists both last when any photo has them, and a
 ledger rebuilt from the journals holds the same rows. Mocks listen on 127.0.0.1 only."""
 
 from __future__ import annotations
@@ -64,18 +64,25 @@ def test_an_old_ledger_is_migrated_with_every_row_kept(tmp_path: Path) -> None:
         old_rows = ledger.photos()
     assert path.read_bytes() == before and len(old_rows) == 3
     assert all(p.image_index is None and p.file_url is None for p in old_rows)
-    with Ledger(survey) as ledger:  # opened for writing: migrated
-        assert ledger.photos() == old_rows and ledger.flights()[0]["photos"] == 3
-    db = sqlite3.connect(path)
-    columns = [row[1] for row in db.execute("PRAGMA table_info(photos)")]
-    assert columns[-2:] == ["image_index", "file_url"]
-    assert db.execute("SELECT COUNT(*) FROM covered").fetchone()[0] == 1
-    db.close()
-    with Ledger(survey) as ledger:  # a new flight with the camera's columns beside the old rows
-        ledger.record_flight(plan_dir, 2, 1, [{"vehicle": 1, "img_idx": 0, "lat": 45.4642, "lon": 9.1895,
+
+    def columns() -> list[str]:
+        with sqlite3.connect(path) as db:
+            return [row[1] for row in db.execute("PRAGMA table_info(photos)")]
+
+    with Ledger(survey) as ledger:  # a relay flight recorded: the table stays as it was (relay surveys unchanged)
+        ledger.record_flight(plan_dir, 2, 1, [{"vehicle": 1, "img_idx": 5, "lat": 45.4642, "lon": 9.1895,
+                                               "source": "camera"}])
+    assert columns()[-1] == "source"
+    with Ledger(survey) as ledger:  # a MAVLink camera's flight: migrated, the camera's columns beside the old rows
+        ledger.record_flight(plan_dir, 3, 1, [{"vehicle": 1, "img_idx": 0, "lat": 45.4642, "lon": 9.1895,
                                                "source": "camera", "image_index": 0, "file_url": "DCIM/IMG_0000.JPG"}])
         rows = ledger.photos()
-    assert rows[:3] == old_rows and (rows[3].image_index, rows[3].file_url) == (0, "DCIM/IMG_0000.JPG")
+        assert [f["photos"] for f in ledger.flights()] == [3, 1, 1]
+    assert columns()[-2:] == ["image_index", "file_url"]
+    assert rows[:3] == old_rows and rows[3].image_index is None
+    assert (rows[4].image_index, rows[4].file_url) == (0, "DCIM/IMG_0000.JPG")
+    with sqlite3.connect(path) as db:
+        assert db.execute("SELECT COUNT(*) FROM covered").fetchone()[0] >= 1
 
 
 @pytest.mark.flight

@@ -78,10 +78,10 @@ def _wrong(param: CameraParam, values: dict[str, float]) -> str:
 
 
 def camera_problem(capture: str, needed: list[CameraParam], values: dict[str, float], heard: bool,
-                   waited_s: float) -> str:
+                   waited_s: float | None = None) -> str:
     """One line: what a vehicle lacks to fly a `capture` plan with a MAVLink camera, and how to fix it ('' when it
-    lacks nothing). values: what it reported for `needed`; heard: a camera's HEARTBEAT was heard within
-    waited_s."""
+    lacks nothing). values: what it reported for `needed`; heard: a camera's HEARTBEAT was heard (within waited_s,
+    said when the camera was waited for)."""
     if capture not in CAMERA_MODES:
         return ""
     wrong = [(p, text) for p in needed if (text := _wrong(p, values))]
@@ -91,8 +91,9 @@ def camera_problem(capture: str, needed: list[CameraParam], values: dict[str, fl
         settings = " and ".join(f"{p.name} {p.value:g} ({p.meaning})" for p, _ in wrong)
         fixes.append(f"set {settings} and reboot")
     if not heard:
+        within = f" within {waited_s:.0f} s" if waited_s is not None else ""
         missing.append(f"no MAVLink camera was heard (no HEARTBEAT of MAV_TYPE_CAMERA from components "
-                       f"{CAMERA_COMPONENTS.start}-{CAMERA_COMPONENTS.stop - 1} within {waited_s:.0f} s)")
+                       f"{CAMERA_COMPONENTS.start}-{CAMERA_COMPONENTS.stop - 1}{within})")
         fixes.append("connect the camera")
     if not missing:
         return ""
@@ -125,6 +126,6 @@ def check_camera(vehicle: Any, capture: str, deadline: float, heard_since: float
         return ""
     needed = camera_params(vehicle.info.flavour, capture)
     values = read_camera_params(ParamClient(vehicle.link, vehicle.info), needed)
-    params_ok = all(not _wrong(p, values) for p in needed)
-    heard = wait_camera(vehicle, deadline) if params_ok else bool(vehicle.state.cameras)
-    return camera_problem(capture, needed, values, heard, time.monotonic() - heard_since)
+    if any(_wrong(p, values) for p in needed):  # refused whatever the camera: said as heard so far
+        return camera_problem(capture, needed, values, bool(vehicle.state.cameras))
+    return camera_problem(capture, needed, values, wait_camera(vehicle, deadline), time.monotonic() - heard_since)

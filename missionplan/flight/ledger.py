@@ -9,8 +9,9 @@ re-plan keeps the root's grid and georeference, so a cell means the same ground 
 it anew: a flight's rows are replaced, never added twice. Every coverage figure of the survey is a
 query of this file; flight.json's figure for one flight uses the same rule (covered_cells).
 
-A ledger made before a column was added (ADDED_COLUMNS) gets it when opened for writing, every row kept (NULL in
-the new column); a read-only one is read as it is, NULL standing in for what it lacks.
+The photos table gets a column added since the first ledgers (ADDED_COLUMNS: a MAVLink camera's) when a flight
+that has it is first recorded, every row kept (NULL in it), so a survey that never needs it keeps the table as it
+was; a ledger without it reads NULL for it.
 
 Tables:
   flights(id, plan, flight, sortie, recorded)   plan: the folder, relative to the root; flight: its
@@ -49,19 +50,17 @@ CREATE TABLE IF NOT EXISTS flights (id INTEGER PRIMARY KEY, plan TEXT NOT NULL, 
 CREATE TABLE IF NOT EXISTS photos (id INTEGER PRIMARY KEY, flight_id INTEGER NOT NULL, vehicle INTEGER NOT NULL,
                                    img_idx INTEGER NOT NULL, time REAL, lat REAL NOT NULL, lon REAL NOT NULL,
                                    alt_amsl REAL, alt_rel REAL, roll REAL, pitch REAL, yaw REAL,
-                                   source TEXT NOT NULL, image_index INTEGER, file_url TEXT);
+                                   source TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS covered (photo INTEGER NOT NULL, row INTEGER NOT NULL, col INTEGER NOT NULL);
 CREATE INDEX IF NOT EXISTS photos_by_flight ON photos (flight_id);
 CREATE INDEX IF NOT EXISTS covered_by_photo ON covered (photo);
 """
 
-# Columns added since the first ledgers: (table, column, its declaration), added by Ledger.migrate.
-ADDED_COLUMNS = (("photos", "image_index", "INTEGER"), ("photos", "file_url", "TEXT"))
+# Columns of the photos table added since the first ledgers: (column, its declaration), added by Ledger.add_columns.
+ADDED_COLUMNS = (("image_index", "INTEGER"), ("file_url", "TEXT"))
 # The photos table's columns as record_flight writes them and photos() reads them (after flight_id).
 PHOTO_COLUMNS = ("vehicle", "img_idx", "time", "lat", "lon", "alt_amsl", "alt_rel", "roll", "pitch", "yaw", "source",
-                 "image_index", "file_url")
-
-INSERT_PHOTO = f"INSERT INTO photos (flight_id, {', '.join(PHOTO_COLUMNS)}) VALUES (?{', ?' * len(PHOTO_COLUMNS)})"
+                 *(column for column, _ in ADDED_COLUMNS))
 
 
 class LedgerError(MapError):
@@ -188,26 +187,19 @@ class Ledger:
             self._db = db
             if {"flights", "photos", "covered"} - {r[0] for r in db.execute("SELECT name FROM sqlite_master")}:
                 db.executescript(SCHEMA)
-            self.missing = self.migrate()
+            have = {row[1] for row in db.execute("PRAGMA table_info(photos)")}
+            self.missing = {column for column, _ in ADDED_COLUMNS if column not in have}  # read as NULL
         except sqlite3.DatabaseError as err:
             if fault_kind(err) in ("full", "read-only"):
                 raise LedgerError(f"{self.path}: cannot be written ({err})") from None
             raise LedgerError(f"{self.path}: not a missionplan survey ledger ({err})") from None
 
-    def migrate(self) -> set[str]:
-        """Add the columns a ledger made before them lacks (ADDED_COLUMNS; ALTER TABLE keeps every row); a ledger
-        that cannot be written keeps its own, and the names of those it lacks are returned (read as NULL)."""
-        have = {row[1] for row in self._db.execute("PRAGMA table_info(photos)")}
-        missing = {column for _, column, _ in ADDED_COLUMNS if column not in have}
-        for table, column, declaration in ADDED_COLUMNS:
-            if column in missing:
-                try:
-                    self._db.execute(f"ALTER TABLE {table} ADD COLUMN {column} {declaration}")
-                    missing.discard(column)
-                except sqlite3.OperationalError as err:  # a read-only file: read as it is
-                    if fault_kind(err) != "read-only":
-                        raise
-        return missing
+    def add_columns(self) -> None:
+        """Add the columns this ledger lacks (ADDED_COLUMNS); ALTER TABLE keeps every row, NULL in them."""
+        for column, declaration in ADDED_COLUMNS:
+            if column in self.missing:
+                self._db.execute(f"ALTER TABLE photos ADD COLUMN {column} {declaration}")
+                self.missing.discard(column)
 
     @classmethod
     def of(cls, plan_dir: Path) -> Ledger:
@@ -254,6 +246,10 @@ class Ledger:
         lat = np.array([p["lat"] for p in photos], dtype=float)
         lon = np.array([p["lon"] for p in photos], dtype=float)
         which, cells = covered_cells(self.survey, lat, lon)
+        if any(p.get(column) is not None for p in photos for column, _ in ADDED_COLUMNS):
+            self.add_columns()  # a MAVLink camera's photos: the ledger keeps its image_index and file_url from now on
+        columns = [c for c in PHOTO_COLUMNS if c not in self.missing]
+        insert = f"INSERT INTO photos (flight_id, {', '.join(columns)}) VALUES (?{', ?' * len(columns)})"
         with self._db:
             self._db.execute("BEGIN")
             old = self._db.execute("SELECT id FROM flights WHERE plan = ? AND flight = ?", (plan, flight)).fetchone()
@@ -269,12 +265,11 @@ class Ledger:
             ids = []
             for p in photos:
                 image_index = p.get("image_index")
-                ids.append(self._db.execute(
-                    INSERT_PHOTO,
-                    (flight_id, int(p["vehicle"]), int(p["img_idx"]), p.get("time"), float(p["lat"]), float(p["lon"]),
-                     p.get("alt_amsl"), p.get("alt_rel"), p.get("roll"), p.get("pitch"), p.get("yaw"),
-                     str(p["source"]), None if image_index is None else int(image_index),
-                     p.get("file_url") or None)).lastrowid)
+                values = dict(zip(PHOTO_COLUMNS, (
+                    int(p["vehicle"]), int(p["img_idx"]), p.get("time"), float(p["lat"]), float(p["lon"]),
+                    p.get("alt_amsl"), p.get("alt_rel"), p.get("roll"), p.get("pitch"), p.get("yaw"), str(p["source"]),
+                    None if image_index is None else int(image_index), p.get("file_url") or None)))
+                ids.append(self._db.execute(insert, (flight_id, *(values[c] for c in columns))).lastrowid)
             photo_ids = np.array(ids, dtype=np.int64)
             self._db.executemany("INSERT INTO covered (photo, row, col) VALUES (?, ?, ?)",
                                  zip(photo_ids[which].tolist(), cells[:, 0].tolist(), cells[:, 1].tolist()))
