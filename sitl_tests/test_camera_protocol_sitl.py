@@ -2,6 +2,10 @@
 its own over loopback) beside ArduCopter SITL (CAM1_TYPE 6, MAVLinkCamV2, then a reboot; the camera on SITL's
 serial1 TCP port) and PX4 SIH (TRIG_MODE 4, TRIG_INTERFACE 3 at boot; the camera on its offboard link).
 
+Before anything is flown, the ground station's camera check (bridge/link/camera_check.py) reads the real
+parameter: ArduCopter SITL at its default CAM1_TYPE 0 is refused by `upload` in one line, nothing uploaded; at
+CAM1_TYPE 6 with the camera on serial1 it passes (the camera's HEARTBEAT is routed to the ground station's link).
+
 Each flies a short camera-interval mission as `plan --capture camera-interval` builds it (drone_missions: take-off
 to 10 m, IMAGE_START_CAPTURE every 2 s at the survey's start, a 30 m leg out and back, IMAGE_STOP_CAPTURE, RTL)
 after a distance-triggered one (DO_SET_CAM_TRIGG_DIST 5 m, as relay and camera missions are). Required: every
@@ -12,8 +16,10 @@ reports the same fields the same way."""
 
 from __future__ import annotations
 
+import json
 import math
 import time
+from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
@@ -22,12 +28,14 @@ import pytest
 
 from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionType, to_wire
 from missionplan.bridge.link.connection import mavlink
+from missionplan.bridge.link.camera_check import check_camera
 from missionplan.bridge.link.params import ParamClient
-from missionplan.bridge.link.readiness import ARDUPILOT_GUIDED, mode_params
+from missionplan.bridge.link.readiness import ARDUPILOT_GUIDED, Vehicle, mode_params
 from missionplan.bridge.sim.mock_camera import CAMERA_COMPONENT_ID, CameraPeer
 from missionplan.bridge.sim.mock_flight import EARTH_RADIUS
 from missionplan.bridge.transfer.protocol import Timeouts
 from missionplan.bridge.transfer.uploader import PymavlinkBackend
+from missionplan.cli import main
 from missionplan.flight.record import DroneRecord
 from missionplan.flight.telemetry_record import TelemetryRecorder
 from missionplan.mission.drone_missions import MissionSettings, build_mission
@@ -116,6 +124,32 @@ def _both_missions(backend: PymavlinkBackend, sysid: int, flavour: Flavour, peer
     return out
 
 
+def test_arducopter_at_cam1_type_0_is_refused_before_a_camera_plan_is_uploaded(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    sitl_or_skip()
+    side = 40.0 / M_PER_DEG_LAT  # a 40 m square with home near its south-west corner
+    lat, lon = HOME[0] - 2.0 / M_PER_DEG_LAT, HOME[1] - 2.0 / M_PER_DEG_LAT
+    area = tmp_path / "area.geojson"
+    area.write_text(json.dumps({"type": "Polygon", "coordinates": [[
+        [lon, lat], [lon + side, lat], [lon + side, lat + side], [lon, lat + side], [lon, lat]]]}))
+    plan_dir = tmp_path / "plan"
+    assert main(["plan", "--area", str(area), "--altitude", "20", "--fov", "84", "--out", str(plan_dir), "--quiet",
+                 "--capture", "camera", "--launch", f"{HOME[0]},{HOME[1]}"]) == 0
+    capsys.readouterr()
+    sysid = 3
+    with ArduCopter(sysid=sysid, home=(*HOME, 0.0)) as vehicle:
+        code = main(["upload", str(plan_dir / "uav1.plan"), "--sysid", str(sysid), "--connect", vehicle.url,
+                     "--quiet", "--timeout", "30"])
+        with PymavlinkBackend(vehicle.url, sysid, timeouts=Timeouts(), connect_timeout=30) as backend:
+            held = backend.download(MissionType.MISSION)
+    err = capsys.readouterr().err
+    assert code == 1 and err.count("\n") == 1, err
+    assert err.startswith(f"missionplan upload: vehicle {sysid}: the plan captures with a MAVLink camera (--capture "
+                          "camera) and CAM1_TYPE is 0 and no MAVLink camera was heard"), err
+    assert err.endswith("set CAM1_TYPE 6 (MAVLinkCamV2) and reboot, and connect the camera\n"), err
+    assert len(held) <= 1  # its home item only: nothing was uploaded
+
+
 def test_arducopter_forwards_each_photo_to_a_mavlink_camera_and_relays_its_records() -> None:
     sitl_or_skip()
     sysid = 4
@@ -124,6 +158,9 @@ def test_arducopter_forwards_each_photo_to_a_mavlink_camera_and_relays_its_recor
         assert ParamClient(backend.link, backend.vehicle).set("CAM1_TYPE", 6.0) == 6.0  # MAVLinkCamV2
         reboot_and_wait(backend.link, sysid)
         with CameraPeer(f"tcp:127.0.0.1:{vehicle.tcp_port + 2}", sysid) as peer:  # serial1
+            # The camera check passes: CAM1_TYPE 6, and the camera's HEARTBEAT reaches our link from serial1.
+            start = time.monotonic()
+            assert check_camera(Vehicle(backend.link, backend.vehicle), "camera", start + 10.0, start) == ""
             for msgid in (mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, mavlink.MAVLINK_MSG_ID_MISSION_CURRENT):
                 backend.link.command_long(sysid, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, [msgid, 200_000],
                                           time.monotonic() + 5.0)

@@ -132,7 +132,7 @@ def test_with_a_mavlink_camera_the_cameras_records_are_the_photos() -> None:
     rec, published = _record(True, messages)
     assert [p.index for p in published] == [0, 2]  # the camera's, capture_result 1; not the autopilot's own
     assert rec.failed_captures == 1 and rec.captures == 3
-    assert rec.files == {0: "DCIM/IMG_0000.JPG", 2: "DCIM/IMG_0002.JPG"}
+    assert [p.file_url for p in published] == ["DCIM/IMG_0000.JPG", "DCIM/IMG_0002.JPG"]  # journaled with the photo
     # Without the camera mode both counts would be taken as one: the autopilot's img_idx 1, 2 and the camera's 0.
     _, relay = _record(False, messages[:3])
     assert [p.index for p in relay] == [1, 0, 2]

@@ -91,7 +91,8 @@ def test_a_journal_still_paused_when_it_closes_leaves_its_records_to_the_fallbac
         rows = doc["journal_rows"]
         assert [r["row"][0] for r in rows if r["kind"] == "sample"] == [_sample(k)[0] for k in range(1, 400)]
         assert [r for r in rows if r["kind"] == "photo"] == [
-            {"kind": "photo", "drone": 2, "row": [7, 1010.0, 45.47, 9.22, 20.0, "camera", 1.0, 2.0, 3.0, 140.0]}]
+            {"kind": "photo", "drone": 2, "row": [7, 1010.0, 45.47, 9.22, 20.0, "camera", 1.0, 2.0, 3.0, 140.0,
+                                                 None]}]
         disk.free()
 
 

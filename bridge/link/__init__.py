@@ -6,4 +6,5 @@ May import: missionplan.bridge.errors, .formats.
   signing        MAVLink 2 signing keys: loading and applying them, never printing them
   params         parameter get / set, and WPNAV_RADIUS from a plan's acceptance radius (ArduCopter)
   readiness      telemetry streams, readiness, launch site, arming, modes, a safe stop
+  camera_check   the camera parameters and the MAVLink camera a `--capture camera*` plan needs of a vehicle
 """

@@ -6,8 +6,9 @@ Owns, for one vehicle on a link (a Link or a link.shared_link.VehicleLink):
   SYS_STATUS, GPS_RAW_INT, EKF_STATUS_REPORT, HOME_POSITION (readiness), GLOBAL_POSITION_INT and
   MISSION_CURRENT (following the flight). MISSION_ITEM_REACHED, STATUSTEXT and CAMERA_FEEDBACK are
   events, sent without asking;
-- VehicleState: what those messages say (GPS fix, EKF flags, home, pre-arm checks, armed, mode) and
-  the vehicle's own STATUSTEXT reasons;
+- VehicleState: what those messages say (GPS fix, EKF flags, home, pre-arm checks, armed, mode: from its
+  autopilot's HEARTBEAT only, is_autopilot_heartbeat) and the vehicle's own STATUSTEXT reasons, and which
+  MAVLink cameras beside the autopilot were heard (camera_check);
 - wait_ready: until the vehicle has a 3-D GPS fix, a home position, (ArduPilot) an EKF with attitude,
   velocity and absolute position, (when it reports them) passing pre-arm checks, and a position
   estimate that stands still (STEADY_M over STEADY_WINDOW_S: PX4 takes off towards the position it
@@ -40,6 +41,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .connection import VehicleInfo, mavlink
+from .camera_check import is_camera_heartbeat
 from ..formats.mission_items import Flavour
 
 # EKF_STATUS_REPORT flags an ArduPilot EKF needs before it can fly a mission: attitude, horizontal
@@ -93,6 +95,12 @@ QUIET_CLIMB_M_S = 0.1
 QUIET_WAIT_S = 15.0
 
 Say = Callable[[str], None]
+
+
+def is_autopilot_heartbeat(msg: Any) -> bool:
+    """A HEARTBEAT that speaks for the vehicle's flight (armed, mode): an autopilot's, not a ground station's nor one
+    of a component beside it (a MAVLink camera or gimbal says MAV_AUTOPILOT_INVALID, base_mode 0: not disarmed)."""
+    return msg.type != mavlink.MAV_TYPE_GCS and msg.autopilot != mavlink.MAV_AUTOPILOT_INVALID
 
 
 def stream_rates(telemetry_hz: float, flavour: Flavour = Flavour.ARDUPILOT) -> dict[int, float]:
@@ -157,6 +165,7 @@ class VehicleState:
     # GLOBAL_POSITION_INT of the last STEADY_WINDOW_S and one before: vehicle seconds, lat, lon
     positions: deque[tuple[float, float, float]] = field(default_factory=deque)
     climb_m_s: float | None = None  # the latest vertical velocity estimate (up), GLOBAL_POSITION_INT
+    cameras: set[int] = field(default_factory=set)  # component ids of the MAVLink cameras heard (their HEARTBEAT)
     _chunks: tuple[int, str, float] | None = None  # a STATUSTEXT waiting for its next chunk: id, text, since
 
     def take(self, msg: Any) -> None:
@@ -173,7 +182,9 @@ class VehicleState:
         elif kind == "SYS_STATUS":
             if msg.onboard_control_sensors_present & mavlink.MAV_SYS_STATUS_PREARM_CHECK:
                 self.prearm_ok = bool(msg.onboard_control_sensors_health & mavlink.MAV_SYS_STATUS_PREARM_CHECK)
-        elif kind == "HEARTBEAT" and msg.type != mavlink.MAV_TYPE_GCS:
+        elif kind == "HEARTBEAT" and is_camera_heartbeat(msg):
+            self.cameras.add(int(msg.get_srcComponent()))
+        elif kind == "HEARTBEAT" and is_autopilot_heartbeat(msg):
             self.base_mode = int(msg.base_mode)
             self.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
             self.custom_mode = int(msg.custom_mode)

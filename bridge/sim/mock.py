@@ -48,6 +48,7 @@ from ..errors import BridgeUsageError
 from ..link.connection import ConnectionSpec, mavlink, parse_url
 from ..formats.mission_items import Flavour
 from .mock_terrain import GroundModel
+from .vehicle_params import configured_camera
 from .mock_vehicle import MockVehicle, VehicleOptions, ground_amsl
 from .vehicle_part import log_error
 from ..link.signing import SigningKey, apply_key
@@ -569,12 +570,7 @@ class MockAutopilot:
         with self._lock:
             vehicle = self.vehicles[sysid]
             mavlink_camera = vehicle.mavlink_camera is not None  # TRIG_INTERFACE 3 / CAM1_TYPE 6: a MAVLink camera
-            if vehicle.flavour is Flavour.PX4:
-                vehicle.params["TRIG_MODE"] = 4.0
-                if mavlink_camera:
-                    vehicle.params["TRIG_INTERFACE"] = 3.0
-            else:
-                vehicle.params["CAM1_TYPE"] = 6.0 if mavlink_camera else 1.0
+            vehicle.params.update(configured_camera(vehicle.flavour, mavlink_camera))
             vehicle.reboot(time.monotonic(), offline)
 
     def configure_cameras(self) -> MockAutopilot:

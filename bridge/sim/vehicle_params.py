@@ -6,7 +6,8 @@ ArduPilot flavour's WPNAV_RADIUS (200 cm; every waypoint is flown to it, not to 
 and failsafe (ARDUPILOT_BATTERY_PARAMS, SITL's SIM_BATT_VOLTAGE among them), the PX4 flavour's MIS_DIST_1WP
 (formats.px4_rules), the ArduPilot flavour's terrain parameters over a ground (mock_terrain.TERRAIN_PARAMS); in
 the SITL-like mode also the autopilot's navigation parameters (flight_models:
-copter_model.CopterParams, px4_model.Px4Params) and its camera parameter (CAM1_TYPE, PX4's TRIG_MODE), 0.
+copter_model.CopterParams, px4_model.Px4Params) and its camera parameter (CAM1_TYPE, PX4's TRIG_MODE), 0
+(PX4's TRIG_INTERFACE 3, as SIH has it); otherwise its camera parameters as set up (configured_camera).
 PARAM_REQUEST_READ of a name is answered with its PARAM_VALUE, an unknown name not at all (as on ArduPilot);
 PARAM_SET stores the value as given, out of range or not (as ArduCopter SITL does), answers with PARAM_VALUE,
 and the navigation parameters take effect in the flight at once; the camera parameter only at the next boot.
@@ -25,10 +26,20 @@ from .mock_terrain import TERRAIN_PARAMS
 from .vehicle_part import VehiclePart
 
 PX4_CAMERA_PARAM, ARDUPILOT_CAMERA_PARAM = "TRIG_MODE", "CAM1_TYPE"  # read at boot: the camera reports only then
+PX4_TRIGGER_INTERFACE = "TRIG_INTERFACE"  # 3: MAVLink (IMAGE_START_CAPTURE to a MAVLink camera), 4: generic PWM
 # ArduPilot's battery monitor and its failsafe (AP_BattMonitor_Params.cpp: BATT_LOW_VOLT 10.5 V on copters,
 # BATT_LOW_TIMER 10 s, actions 0 = none; copter.parm sets BATT_MONITOR 4; SITL's SIM_BATT_VOLTAGE 12.6 V).
 ARDUPILOT_BATTERY_PARAMS = {"BATT_MONITOR": 4.0, "BATT_LOW_VOLT": 10.5, "BATT_LOW_TIMER": 10.0, "BATT_FS_LOW_ACT": 0.0,
                             "BATT_CRT_VOLT": 0.0, "BATT_FS_CRT_ACT": 0.0, "SIM_BATT_VOLTAGE": 12.6}
+
+
+def configured_camera(flavour: Flavour, mavlink_camera: bool) -> dict[str, float]:
+    """The camera parameters of a vehicle whose camera is set up: ArduPilot CAM1_TYPE 6 (MAVLinkCamV2) with a
+    MAVLink camera, else 1 (servo / relay); PX4 TRIG_MODE 4 (distance, by the mission) and TRIG_INTERFACE 3
+    (MAVLink) with a MAVLink camera, else 4 (generic PWM)."""
+    if flavour is Flavour.PX4:
+        return {PX4_CAMERA_PARAM: 4.0, PX4_TRIGGER_INTERFACE: 3.0 if mavlink_camera else 4.0}
+    return {ARDUPILOT_CAMERA_PARAM: 6.0 if mavlink_camera else 1.0}
 
 
 class ParamServer(VehiclePart):
@@ -46,10 +57,12 @@ class ParamServer(VehiclePart):
             self.values["MIS_DIST_1WP"] = MIS_DIST_1WP_DEFAULT  # its mission feasibility check (formats.px4_rules)
         if flavour is Flavour.ARDUPILOT and vehicle.options.ground is not None:
             self.values.update(TERRAIN_PARAMS)  # its terrain database (mock_terrain), as ArduCopter has it
-        if sitl_like and flavour is Flavour.PX4:
-            self.values.update({**Px4Params().as_params(), PX4_CAMERA_PARAM: 0.0})
+        if sitl_like and flavour is Flavour.PX4:  # SIH's start-up script sets TRIG_INTERFACE 3 by default
+            self.values.update({**Px4Params().as_params(), PX4_CAMERA_PARAM: 0.0, PX4_TRIGGER_INTERFACE: 3.0})
         elif sitl_like:
             self.values.update({**CopterParams().as_params(), ARDUPILOT_CAMERA_PARAM: 0.0})
+        else:  # its camera set up as a team sets it up once: a MAVLink camera, or one on the relay / PWM
+            self.values.update(configured_camera(flavour, vehicle.options.mavlink_camera))
 
     def _send_value(self, name: str, peer: tuple[int, int]) -> None:
         names = sorted(self.values)

@@ -9,6 +9,9 @@ A mission of a plan folder made over a DEM (heights above the ground) uploaded t
 ground is served to the vehicle from before the upload until it reports it loaded, bounded
 (flight.terrain_service.UploadTerrain); the line that says so follows the upload's (stderr when it did
 not load: the mission is on board all the same, exit 0, and fly serves the ground again before arming).
+A mission of a plan folder whose photos a MAVLink camera takes (report.json's `--capture camera` or
+`camera-interval`): the vehicle's camera parameters and its camera are checked first (bridge.link.camera_check,
+within --timeout), and a vehicle without them gets nothing, exit 1, in one line that says what to set.
 
 The link options (add_gcs_arguments, CONNECT_HELP, DEFAULT_CONNECT) are shared with `fly`, so every
 command has the same default connection, signing key and ground-station identity. No parser here
@@ -223,6 +226,7 @@ def cmd_upload(request: UploadRequest) -> int:
         raise BridgeUsageError(f"{request.file}: the file holds no mission items; uploading it would wipe the "
                                "vehicle's mission (pass --allow-empty to mean that, or use `missionplan clear`)")
     ground, spacing = _ground_beside(request.file, plan)  # a plan over a DEM: its ground, served to ArduPilot
+    capture = _capture_beside(request.file)  # a camera mode: the vehicle's MAVLink camera is checked first
     bars = _Bars(request.quiet)
     backend = None
     terrain: list[tuple[Any, str]] = []  # what the ground's serving came to: (stream, line)
@@ -231,6 +235,7 @@ def cmd_upload(request: UploadRequest) -> int:
                                opts["timeouts"], opts["connect_timeout"], source_system=opts["source_system"],
                                source_component=opts["source_component"])
         check_firmware(plan, request.file, backend.vehicle.flavour, opts["sysid"])  # learned from its HEARTBEAT
+        _check_camera(backend, capture, opts["connect_timeout"], terrain)  # before anything is sent
         served = _serve_ground(backend, ground, terrain)
         report = upload_plan(backend, plan.parts(), verify=not request.no_verify, progress=bars,
                              set_params=not request.keep_params, terrain_spacing=spacing)
@@ -270,6 +275,37 @@ def _ground_beside(path: Path, plan: Any) -> tuple[Any, int | None]:
     record = read_plan_record(folder)
     terrain = record.georeference.terrain if record.georeference is not None else None
     return plan_ground(folder, record), terrain.spacing_m if terrain is not None else None
+
+
+def _capture_beside(path: Path) -> str:
+    """How the plan folder `path` is in takes its photos (report.json's `--capture`; "relay" without a report)."""
+    from ..mission.plan_record import read_plan_record
+
+    if not (path.parent / "report.json").is_file():
+        return "relay"
+    settings = read_plan_record(path.parent).settings
+    return settings.mission.capture if settings is not None else "relay"
+
+
+def _check_camera(backend: Any, capture: str, wait_s: float, said: list[tuple[Any, str]]) -> None:
+    """A plan whose photos a MAVLink camera takes: the vehicle's camera parameters and its camera heard within
+    wait_s (bridge.link.camera_check); BridgeError naming the vehicle, what it lacks and what to set. Not checked
+    (said in `said`) when the backend owns its link."""
+    from missionplan.bridge.link.camera_check import CAMERA_MODES, check_camera
+    from missionplan.bridge.link.readiness import Vehicle
+    from missionplan.bridge.transfer.uploader import PymavlinkBackend
+
+    if capture not in CAMERA_MODES:
+        return
+    sysid = backend.vehicle.sysid
+    if not isinstance(backend, PymavlinkBackend):
+        said.append((sys.stderr, f"missionplan upload: uav{sysid}: its MAVLink camera not checked: the "
+                                 f"{backend.name} backend reads the link itself (fly checks it before the upload)"))
+        return
+    start = time.monotonic()
+    problem = check_camera(Vehicle(backend.link, backend.vehicle), capture, start + wait_s, start)
+    if problem:
+        raise BridgeError(f"vehicle {sysid}: {problem}")
 
 
 def _serve_ground(backend: Any, ground: Any, said: list[tuple[Any, str]]) -> Any:

@@ -34,13 +34,21 @@ def recover_photos(session: VehicleSession, rec: DroneRecord, fleet: FleetStart,
     if not (rec.camera or gaps):
         return
     first = min(rec.camera) if rec.camera else 1
-    missing = set(range(first, max(rec.captures, max(rec.camera, default=0) + 1))) - set(rec.camera)
+    # A MAVLink camera's failed capture (capture_result 0) is no lost report: it was heard, and took no photo.
+    reported = set(rec.camera) | rec.failed_indices
+    missing = set(range(first, max(rec.captures, max(rec.camera, default=0) + 1))) - reported
     if not missing and not gaps:
         return
     # After a silence nobody knows how many photos it took in it (the vehicle may have landed before it
     # was heard again): every photo of its flight's log is read, and those not yet recorded are added.
     wanted = None if gaps else missing
     lost = "photo reports lost on the link" if not gaps else "photo reports not heard in a link gap"
+    if fleet.camera_records:  # the autopilot's log numbers its own triggers, not the MAVLink camera's images
+        rec.add_note(f"{len(missing) if missing else 'some'} {lost}; not read from the autopilot's log (it does not "
+                     "hold the MAVLink camera's records)")
+        if missing:
+            publish(PhotosNotConfirmed(rec.id, time.time(), len(missing), ""))
+        return
     fleet.say(f"uav{rec.id}: {len(missing) if missing else 'some'} {lost}; reading its log")
     lock = fleet.log_lock(url)
     if not _acquire(lock, fleet.stop, deadline):  # another vehicle's log is being read on this link

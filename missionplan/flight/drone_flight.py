@@ -8,8 +8,9 @@ A fresh flight (`fly DIR`):
 2. ask for every stream fly reads (missionplan.bridge.link.readiness: ArduPilot sends nothing until asked) and wait,
    bounded by --ready-timeout, until it has a GPS fix, an EKF solution, a home position and passing
    pre-arm checks, saying what it waits for and what the vehicle says (STATUSTEXT);
-3. site check: its home within --max-launch-offset (plus its GPS error) of the plan's launch point,
-   else nothing is uploaded to it and no drone arms at all (the arm gate's veto);
+3. site check: its home within --max-launch-offset (plus its GPS error) of the plan's launch point, and for a plan
+   a MAVLink camera takes the photos of, its camera (bridge.link.camera_check); else nothing is uploaded to it and
+   no drone arms at all (the arm gate's veto);
 4. upload uavK.plan (or let MAVSDK's QGroundControl importer upload it) and prove it by read-back; over a
    DEM, an ArduPilot vehicle (served the plan's ground from when it was found: terrain_service) must then
    report that ground loaded for its waypoints within --ready-timeout, else it vetoes arming as in 3;
@@ -48,6 +49,7 @@ import numpy as np
 from missionplan.bridge.errors import BridgeError
 from missionplan.bridge.formats.mission_items import Flavour, to_wire
 from missionplan.bridge.formats.missionfile import check_firmware, read_mission_file
+from missionplan.bridge.link.camera_check import CAMERA_MODES, check_camera
 from missionplan.bridge.link.connection import COMMAND_TRIES, COMMAND_WAIT_S, mavlink
 from missionplan.bridge.link.readiness import site_problem
 from missionplan.bridge.session.vehicle_session import VehicleSession
@@ -112,6 +114,7 @@ class DroneFlight:
         self.requests: queue.SimpleQueue[tuple[Callable[[], Any], Future[Any]]] = queue.SimpleQueue()
         self.given_away = False  # fly --replan gave this drone's share to others: heard again, it goes home
         self.terrain: DroneTerrain | None = None  # a plan over a DEM, an ArduPilot vehicle: its ground, served
+        self.found_at, self.ready_by = time.monotonic(), deadline  # a camera listened for since; the readiness bound
 
     @property
     def sysid(self) -> int:
@@ -134,7 +137,7 @@ class DroneFlight:
                 if self._connect() and self._attach():
                     self._follow_to_the_end()
             elif (self._connect() and self._not_airborne() and self._streams() and self._ready() and self._site()
-                  and self._upload() and self._terrain_loaded() and self._arm() and self._start()):
+                  and self._camera() and self._upload() and self._terrain_loaded() and self._arm() and self._start()):
                 self._follow_to_the_end()
         except Exception as err:  # noqa: BLE001 - one drone's failure must not hide the others'
             self.problem(f"{type(err).__name__}: {err}")
@@ -190,12 +193,9 @@ class DroneFlight:
         if state.armed is not True:
             return True
         self.found_armed = True
-        self.problem(f"is ARMED ({state.mode_name()}): this run of fly did not start it, so nothing was sent to it "
-                     f"(no upload, mode or arming) and no drone arms; to follow a flight this folder started, "
-                     f"`missionplan fly --resume {self.plan_path.parent}`")
-        self.arm_checked_in = True
-        self.fleet.arm_gate.check_in(0.0, veto=f"uav{self.sysid} is already armed")
-        return False
+        return self._veto(f"is ARMED ({state.mode_name()}): this run of fly did not start it, so nothing was sent to "
+                          f"it (no upload, mode or arming) and no drone arms; to follow a flight this folder started, "
+                          f"`missionplan fly --resume {self.plan_path.parent}`", "is already armed")
 
     def _streams(self) -> bool:
         """Ask for every stream fly reads (telemetry only: nothing that moves the vehicle)."""
@@ -211,7 +211,8 @@ class DroneFlight:
     def _ready(self) -> bool:
         """Bounded wait for GPS, EKF, home and pre-arm checks (missionplan.bridge.link.readiness)."""
         assert self.session is not None
-        missing = self.session.wait_ready(min(self.deadline, time.monotonic() + self.fleet.ready_s))
+        self.ready_by = min(self.deadline, time.monotonic() + self.fleet.ready_s)
+        missing = self.session.wait_ready(self.ready_by)
         if missing:
             reasons = self.session.state.reasons()
             # A vehicle that ignores us (signing) never sends what it sends only when asked (its home).
@@ -284,9 +285,23 @@ class DroneFlight:
                                   self.fleet.max_offset_m)
         if not wrong_site:
             return True
-        self.problem(f"site check failed: {wrong_site}")
+        return self._veto(f"site check failed: {wrong_site}", "failed the site check")
+
+    def _camera(self) -> bool:
+        """A plan whose photos a MAVLink camera takes: the vehicle's camera parameters and its camera, heard within
+        the readiness bound (camera_check), before anything is uploaded; a vehicle without them vetoes arming."""
+        assert self.session is not None
+        if self.fleet.capture not in CAMERA_MODES:
+            return True
+        problem = check_camera(self.session.vehicle, self.fleet.capture, max(self.ready_by, time.monotonic()),
+                               self.found_at)
+        return not problem or self._veto(unanswered(problem, self.session), "cannot take the plan's photos")
+
+    def _veto(self, problem: str, veto: str) -> bool:
+        """A problem that keeps the whole fleet on the ground: said, and a veto at the arm gate at once. False."""
+        self.problem(problem)
         self.arm_checked_in = True
-        self.fleet.arm_gate.check_in(0.0, veto=f"uav{self.sysid} failed the site check")
+        self.fleet.arm_gate.check_in(0.0, veto=f"uav{self.sysid} {veto}")
         return False
 
     def _terrain_spacing(self) -> int | None:
@@ -303,10 +318,7 @@ class DroneFlight:
         if status.loaded_ok:
             self.record.add_note(status.line())
             return True
-        self.problem(unanswered(f"not armed: {status.line()}", self.session))
-        self.arm_checked_in = True
-        self.fleet.arm_gate.check_in(0.0, veto=f"uav{self.sysid} has not loaded its terrain")
-        return False
+        return self._veto(unanswered(f"not armed: {status.line()}", self.session), "has not loaded its terrain")
 
     def _arm(self) -> bool:
         """The arm gate (nobody arms while a drone is still getting ready, none if any was vetoed),
@@ -316,7 +328,7 @@ class DroneFlight:
         vetoes = self.fleet.arm_gate.check_in(self.deadline - time.monotonic())
         if vetoes:
             self.problem(f"not armed: {'; '.join(vetoes)} (no drone arms when one is at the wrong site, "
-                         "already armed or without its terrain)")
+                         "already armed, or without its terrain or its camera)")
             return False
         if self.stop.is_set():
             return False

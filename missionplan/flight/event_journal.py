@@ -41,7 +41,7 @@ def journal(rec: DroneRecord, event: FlightEvent) -> None:
         rec.add_event(event.t, f"says: {event.text}")
     elif isinstance(event, PhotoTaken):
         rec.add_photo(event.index, event.t, event.lat, event.lon, event.up_m, source=event.source,
-                      attitude=event.attitude, amsl=event.amsl_m)
+                      attitude=event.attitude, amsl=event.amsl_m, file_url=event.file_url)
     elif isinstance(event, MissionStarted):
         rec.set(started=True, t_start=event.t)
     elif isinstance(event, Finished):

@@ -60,6 +60,9 @@ class PhotoTaken(FlightEvent):
     source: str = "camera"
     attitude: tuple[float, float, float] | None = None  # roll, pitch, yaw degrees
     amsl_m: float | None = None
+    # A MAVLink camera's record (plan --capture camera*): the file it names ("" when it names none), so that its
+    # index is known to be the camera's image_index; None for the autopilot's reports and the log's.
+    file_url: str | None = None
 
 
 # ------------------------------------------------------------------ what the follower decides

@@ -3,7 +3,10 @@ never written.
 
 For each card (a folder of one camera's JPEGs, searched in its subfolders too):
 1. read each image's capture time (EXIF DateTimeOriginal + SubSecTimeOriginal, the camera's own clock);
-2. place the card: match it against every vehicle's capture records of the survey (image_match.py finds the
+2. place the card: by file name first, where a MAVLink camera's capture records name their files (ledger
+   file_url, `plan --capture camera`): the one vehicle whose records name more than half of the card's images
+   has each image matched to the record that names it, no clock needed (image_match.match_names); else
+   match it against every vehicle's capture records of the survey (image_match.py finds the
    camera clock's offset and pairs image and record one to one); the card belongs to the vehicle that lines up
    the most images, and more than half of its timed images, at one offset. A vehicle's records across the
    survey's flights form one UTC time line, so a card that went on several flights is placed whole;
@@ -30,7 +33,7 @@ from __future__ import annotations
 import os
 from collections import defaultdict
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -41,7 +44,7 @@ from missionplan.base.atomic import atomic_path, write_text_atomic
 
 from ..maps.gridmap import MapError
 from .geotag import geo_altitudes, geo_txt, photos_csv
-from .image_match import Match, match_images
+from .image_match import Match, match_images, match_names
 from .ledger import Ledger, LedgerPhoto
 
 JPEG_SUFFIXES = (".jpg", ".jpeg")
@@ -157,6 +160,8 @@ class Placement:
     match: Match
     records: list[LedgerPhoto]  # the vehicle's timed records, the match's indices
     written: list[Path] = field(default_factory=list)
+    by_name: bool = False  # matched by the file names its records name (file_url), not by the clock
+    clock_known: bool = True  # by name: whether any image had a time to say the camera clock by
 
     def photo_of(self) -> list[tuple[CardImage, LedgerPhoto]]:
         return [(im, self.records[j]) for im, j in zip(self.card.images, self.match.record_of) if j is not None]
@@ -166,8 +171,32 @@ class Placement:
         return len(self.records) - self.match.matched
 
 
+def place_by_name(card: Card, by_vehicle: dict[int, list[LedgerPhoto]]) -> Placement | None:
+    """The card placed by its file names (a MAVLink camera's records name their files, ledger file_url): on the one
+    vehicle whose records name more than half of its images, each image matched to the record naming it; None when
+    no vehicle's do (records without file_url), or two vehicles' do alike (two cameras that number their files the
+    same way): then the clock decides."""
+    names = [im.path.name for im in card.images]
+    tried = sorted(((match_names(names, [p.file_url for p in records]), vehicle, records)
+                    for vehicle, records in by_vehicle.items()), key=lambda t: (-t[0].matched, t[1]))
+    if not tried or tried[0][0].matched * 2 <= len(names):
+        return None
+    match, vehicle, records = tried[0]
+    if len(tried) > 1 and tried[1][0].matched * 2 > len(names):
+        return None
+    # The camera clock, for the report: the median of record time minus image time over the images with both.
+    pairs = [(im.time, records[j].time) for im, j in zip(card.images, match.record_of)
+             if j is not None and im.time is not None and records[j].time is not None]
+    offset = float(np.median([r - t for t, r in pairs])) if pairs else 0.0
+    return Placement(card, vehicle, replace(match, offset_s=offset), records, by_name=True, clock_known=bool(pairs))
+
+
 def place_card(card: Card, by_vehicle: dict[int, list[LedgerPhoto]]) -> Placement | str:
-    """The vehicle the card's images line up with, or why none: a line to print."""
+    """The vehicle the card's images belong to, or why none: a line to print. By file name first (place_by_name),
+    else by the camera clock: the vehicle whose capture records its images' times line up with."""
+    by_name = place_by_name(card, by_vehicle)
+    if by_name is not None:
+        return by_name
     timed = [im.time for im in card.images]
     times = np.array([np.nan if t is None else t for t in timed], dtype=float)
     n_timed = int(np.isfinite(times).sum())
@@ -236,9 +265,12 @@ def card_line(placed: Placement) -> str:
     drifting = (f", {'gaining' if m.drift < 0 else 'losing'} {abs(m.drift) * 3600:.2f} s an hour"
                 if abs(m.drift * m.span_s) >= DRIFT_WORTH_SAYING_S else "")
     lost = placed.records_without_image
+    how = ("by file name (the camera's file_url)" + (f", camera clock {clock_words(m.offset_s)}" if placed.clock_known
+                                                     else "") if placed.by_name
+           else f"camera clock {clock_words(m.offset_s)}{drifting}")
     return (f"card {placed.card.name}: drone {placed.vehicle}, {_flights([p for _, p in placed.photo_of()])}: "
             f"{m.matched} matched, {m.unmatched} unmatched image{'' if m.unmatched == 1 else 's'}, "
-            f"{m.ambiguous_count} ambiguous, camera clock {clock_words(m.offset_s)}{drifting}"
+            f"{m.ambiguous_count} ambiguous, {how}"
             + (f"; {lost} capture record{'' if lost == 1 else 's'} without an image" if lost else ""))
 
 
@@ -387,7 +419,7 @@ def geotag_cards(survey_dir: Path, image_dirs: Sequence[Path], out: Path | None 
         if isinstance(outcome, str):
             lines.append(outcome)
             continue
-        if card.untimed:
+        if card.untimed and not outcome.by_name:
             lines.append(f"card {card.name}: {len(card.untimed)} images have no capture time (EXIF "
                          f"DateTimeOriginal), e.g. {card.untimed[0].relative}: left unmatched")
         write_card(outcome, out, lambda photos: geo_altitudes(photos, ground), gimbal_pitch_deg)

@@ -76,6 +76,7 @@ class FleetStart:
     silence: SilenceRule = field(default_factory=SilenceRule)  # what a silence means (fly --replan-after)
     terrain: FleetTerrain | None = None  # a plan over a DEM: the ground its ArduPilot vehicles are served
     camera_records: bool = False  # plan --capture camera*: a MAVLink camera's CAMERA_IMAGE_CAPTURED are the photos
+    capture: str = "relay"  # plan --capture: camera modes check each vehicle's camera before the upload (camera_check)
 
     def log_lock(self, url: str) -> threading.Lock:
         return self.log_locks.setdefault(url, threading.Lock())  # atomic: one lock per url, whoever asks first

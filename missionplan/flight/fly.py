@@ -18,6 +18,10 @@ opens signs with --signing-key when given and speaks as ground station --gcs-sys
 (missionplan.cli.vehicle.add_gcs_arguments). The command line (its options, the exit codes) is
 missionplan/cli/fly.py.
 
+The camera: a plan whose photos a MAVLink camera takes (`plan --capture camera`, `camera-interval`) has each
+vehicle's camera parameters and its camera checked before anything is uploaded to it (bridge.link.camera_check,
+drone_flight); a vehicle without them is told what to set and vetoes arming, as at the wrong site.
+
 The ground: a plan over a DEM has each ArduPilot vehicle served the plan folder's copy of it from when it is
 found to the end of its flight, and none armed before each has it loaded (terrain_service, drone_flight).
 
@@ -276,7 +280,8 @@ def _fly_journaled(plan_dir: Path, record: PlanRecord, pool: LinkPool, journal: 
                            ready_s=ready_s, max_offset_m=max_launch_offset_m, say=say, alert=alert, resume=resume,
                            time_scale=time_scale, planned_s=planned_s, commit=journal.flush,
                            silence=SilenceRule(replan_after_s), terrain=terrain,
-                           camera_records=record.settings is not None and record.settings.mission.camera_records)
+                           camera_records=record.settings is not None and record.settings.mission.camera_records,
+                           capture=record.settings.mission.capture if record.settings is not None else "relay")
         # What the followers decide goes into their records and alerts in their own threads, and to the
         # re-tasker on a queue it reads in this one.
         fleet.events.subscribe(EventJournal({rec.id: rec for rec in runnable}, alert))

@@ -13,6 +13,11 @@ geo.txt into OpenDroneMap. geo.txt follows ODM's image geolocation format: a pro
 ODM asks; the altitude is above mean sea level, as the vehicle reported it, or the launch-relative
 height where it did not).
 
+A flight whose photos a MAVLink camera took (`plan --capture camera`, `camera-interval`: its CAMERA_IMAGE_CAPTURED
+are the capture records) adds, last in photos.csv and in photos.geojson's properties, the camera's own
+`image_index` (img_idx is then that) and the `file_url` it named for each photo, where any photo of the folder has
+them (empty for the others); `missionplan geotag` matches a card's files by that name first (image_match).
+
 A plan made over a DEM (above_ground.PlanGround) adds, after alt_rel_m, each photo's height above the ground
 (`alt_agl_m`, above ground level, the height DJI, UgCS and Pix4D crews plan and check by) and the DEM's
 height under it (`ground_amsl_m`), in photos.csv and photos.geojson. Their sum, the ground at the launch
@@ -41,6 +46,7 @@ IMAGE_NAME = "f{flight}-uav{vehicle}-{img_idx:05d}.jpg"
 CSV_COLUMNS = ("image", "flight", "vehicle", "img_idx", "time_utc", "lat", "lon", "alt_amsl_m", "alt_rel_m",
                "yaw_deg", "pitch_deg", "roll_deg", "source")
 TERRAIN_COLUMNS = ("alt_agl_m", "ground_amsl_m")  # after alt_rel_m, for a plan over a DEM
+CAMERA_COLUMNS = ("image_index", "file_url")  # last, when any photo is a MAVLink camera's record
 GEOTAG_FILES = ("photos.csv", "photos.geojson", "geo.txt")
 
 
@@ -78,12 +84,16 @@ def photos_csv(photos: list[LedgerPhoto], ground: PlanGround | None = None,
     writer = csv.writer(out, lineterminator="\n")
     over = _over_ground(photos, ground)
     at = CSV_COLUMNS.index("alt_rel_m") + 1
-    writer.writerow(CSV_COLUMNS if ground is None else CSV_COLUMNS[:at] + TERRAIN_COLUMNS + CSV_COLUMNS[at:])
+    camera = any(p.image_index is not None for p in photos)
+    header = CSV_COLUMNS if ground is None else CSV_COLUMNS[:at] + TERRAIN_COLUMNS + CSV_COLUMNS[at:]
+    writer.writerow(header + (CAMERA_COLUMNS if camera else ()))
     for k, p in enumerate(photos):
         row = [image_name(p, names), p.flight, p.vehicle, p.img_idx, _utc(p.time), f"{p.lat:.7f}", f"{p.lon:.7f}",
                _num(p.alt_amsl, 2), _num(p.alt_rel, 2), _num(p.yaw, 2), _num(p.pitch, 2), _num(p.roll, 2), p.source]
         if over:
             row[at:at] = [_num(over[k][0], 2), _num(over[k][1], 2)]
+        if camera:
+            row += ["" if p.image_index is None else p.image_index, p.file_url or ""]
         writer.writerow(row)
     return out.getvalue()
 
@@ -93,6 +103,7 @@ def photos_geojson(photos: list[LedgerPhoto], ground: PlanGround | None = None,
     """One Point per photo, [lon, lat, height above the launch point] (RFC 7946 order), its facts as properties."""
     features = []
     over = _over_ground(photos, ground)
+    camera = any(p.image_index is not None for p in photos)
     for k, p in enumerate(photos):
         coords = [round(p.lon, 7), round(p.lat, 7)] + ([round(p.alt_rel, 2)] if p.alt_rel is not None else [])
         heights = {"alt_amsl_m": p.alt_amsl, "alt_rel_m": p.alt_rel}
@@ -102,7 +113,8 @@ def photos_geojson(photos: list[LedgerPhoto], ground: PlanGround | None = None,
                          "properties": {"image": image_name(p, names), "flight": p.flight, "vehicle": p.vehicle,
                                         "img_idx": p.img_idx, "time_utc": _utc(p.time), **heights,
                                         "yaw_deg": p.yaw, "pitch_deg": p.pitch,
-                                        "roll_deg": p.roll, "source": p.source}})
+                                        "roll_deg": p.roll, "source": p.source,
+                                        **({"image_index": p.image_index, "file_url": p.file_url} if camera else {})}})
     return {"type": "FeatureCollection", "features": features}
 
 

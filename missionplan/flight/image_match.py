@@ -13,6 +13,9 @@ the one that lines the most images up with records:
    and the gaps between legs line up only at the true offset;
 3. refine: a straight line (offset and drift) through the pairs found, then match again.
 
+By name first (match_names): a MAVLink camera's capture records name each image's file (file_url); an image whose
+file name is that of exactly one record is that record, no clock needed.
+
 Tolerance: half the short intervals between records (their 10th percentile, so one pair of reports bunched by the
 link does not shrink it for all), never below half the images' time resolution (1 s without SubSecTimeOriginal).
 An image within it of exactly one record free for it is matched; of two or more, ambiguous; of none, unmatched.
@@ -161,3 +164,22 @@ def match_images(image_times: np.ndarray, record_times: np.ndarray, resolution_s
     first, span = (paired[0], float(images[paired[-1]] - images[paired[0]])) if paired else (0, 0.0)
     residual = float(np.median([abs(shifted[k] - records[rec_of[k]]) for k in paired])) if paired else tol
     return Match(record_of, ambiguous, offset + drift * (images[first] - origin), drift, tol, span, residual)
+
+
+def file_name(url: str) -> str:
+    """The file name a camera's file_url ends in (a path on its card or a URL), in capitals: card file systems
+    (FAT) do not keep case."""
+    return url.split("?", 1)[0].rstrip("/").rsplit("/", 1)[-1].upper()
+
+
+def match_names(image_names: list[str], record_urls: list[str | None]) -> Match:
+    """Match a card's images to one vehicle's capture records by file name: an image named as exactly one record's
+    file_url is that record; named as two or more (a camera whose numbering restarted between flights), ambiguous.
+    The clock fields are 0: the caller says the offset where it wants one."""
+    by_name: dict[str, list[int]] = {}
+    for j, url in enumerate(record_urls):
+        if url:
+            by_name.setdefault(file_name(url), []).append(j)
+    named = [by_name.get(name.upper(), []) for name in image_names]
+    record_of: list[int | None] = [c[0] if len(c) == 1 else None for c in named]
+    return Match(record_of, [len(c) > 1 for c in named], 0.0, 0.0, 0.0)

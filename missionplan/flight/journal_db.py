@@ -9,7 +9,8 @@ transaction survives the process being killed and the machine losing power. Tabl
                                              killed; commits: the transactions it committed
   entries(flight, drone, kind, row)          every change of a DroneRecord, in order; row as JSON
   samples(flight, drone, t, lat, lon, up, speed, boot_s, climb)   the positions, the bulk, in columns
-  photos(flight, drone, idx, t, lat, lon, up, source, roll, pitch, yaw, amsl)
+  photos(flight, drone, idx, t, lat, lon, up, source, roll, pitch, yaw, amsl, file_url)   file_url: a MAVLink
+                                             camera's record names its file ('' none); NULL for other reports
 Columns added since the first journals are added when an older journal is opened for writing (`migrate`).
 journal.py writes it, journal_read.py reads it back, journal_repair.py salvages a damaged one.
 """
@@ -38,7 +39,7 @@ CREATE TABLE IF NOT EXISTS samples (flight INTEGER NOT NULL, drone INTEGER NOT N
                                     up REAL, speed REAL, boot_s REAL, climb REAL);
 CREATE TABLE IF NOT EXISTS photos (flight INTEGER NOT NULL, drone INTEGER NOT NULL, idx INTEGER NOT NULL, t REAL,
                                    lat REAL, lon REAL, up REAL, source TEXT NOT NULL, roll REAL, pitch REAL,
-                                   yaw REAL, amsl REAL);
+                                   yaw REAL, amsl REAL, file_url TEXT);
 CREATE INDEX IF NOT EXISTS entries_by_drone ON entries (flight, drone);
 CREATE INDEX IF NOT EXISTS samples_by_drone ON samples (flight, drone);
 CREATE INDEX IF NOT EXISTS photos_by_drone ON photos (flight, drone);
@@ -46,7 +47,7 @@ CREATE INDEX IF NOT EXISTS photos_by_drone ON photos (flight, drone);
 # Columns added since the first journals: (table, column, its declaration). Added when an older journal is
 # opened for writing; readers select NULL for them.
 ADDED_COLUMNS = (("photos", "amsl", "REAL"), ("runs", "commits", "INTEGER NOT NULL DEFAULT 0"),
-                 ("flights", "photos_from_track", "INTEGER"))
+                 ("flights", "photos_from_track", "INTEGER"), ("photos", "file_url", "TEXT"))
 TABLES = ("flights", "runs", "entries", "samples", "photos")
 ENTRY_KINDS = ("fact", "event", "reached", "landed", "problem", "note")
 

@@ -42,9 +42,9 @@ def read_records(db: sqlite3.Connection, flight: int, ids: list[int] | None = No
                                          "WHERE flight = ? ORDER BY rowid", (flight,)):
             record(drone).samples.append(tuple(sample))  # type: ignore[arg-type]
     if have["photos"]:
-        amsl = "amsl" if "amsl" in have["photos"] else "NULL"
-        for drone, *photo in db.execute(f"SELECT drone, idx, t, lat, lon, up, source, roll, pitch, yaw, {amsl} FROM "
-                                        "photos WHERE flight = ? ORDER BY rowid", (flight,)):
+        amsl, url = (name if name in have["photos"] else "NULL" for name in ("amsl", "file_url"))
+        for drone, *photo in db.execute(f"SELECT drone, idx, t, lat, lon, up, source, roll, pitch, yaw, {amsl}, {url} "
+                                        "FROM photos WHERE flight = ? ORDER BY rowid", (flight,)):
             record(drone).replay("photo", tuple(photo))
     if ids is None:
         return [records[k] for k in sorted(records)]

@@ -9,10 +9,17 @@ re-plan keeps the root's grid and georeference, so a cell means the same ground 
 it anew: a flight's rows are replaced, never added twice. Every coverage figure of the survey is a
 query of this file; flight.json's figure for one flight uses the same rule (covered_cells).
 
+The photos table gets a column added since the first ledgers (ADDED_COLUMNS: a MAVLink camera's) when a flight
+that has it is first recorded, every row kept (NULL in it), so a survey that never needs it keeps the table as it
+was; a ledger without it reads NULL for it.
+
 Tables:
   flights(id, plan, flight, sortie, recorded)   plan: the folder, relative to the root; flight: its
                                                 journal's flight number (journal.sqlite)
-  photos(id, flight_id, vehicle, img_idx, time, lat, lon, alt_amsl, alt_rel, roll, pitch, yaw, source)
+  photos(id, flight_id, vehicle, img_idx, time, lat, lon, alt_amsl, alt_rel, roll, pitch, yaw, source,
+         image_index, file_url)                 image_index, file_url: a MAVLink camera's record (plan --capture
+                                                camera*): its image_index (img_idx then is that) and the file it
+                                                named; NULL for the autopilot's reports, the log's, the track's
   covered(photo, row, col)                      the root's target cells the photo holds (its footprint
                                                 with plan_report.SLACK_CELLS of slack on a side)
 """
@@ -49,6 +56,12 @@ CREATE INDEX IF NOT EXISTS photos_by_flight ON photos (flight_id);
 CREATE INDEX IF NOT EXISTS covered_by_photo ON covered (photo);
 """
 
+# Columns of the photos table added since the first ledgers: (column, its declaration), added by Ledger.add_columns.
+ADDED_COLUMNS = (("image_index", "INTEGER"), ("file_url", "TEXT"))
+# The photos table's columns as record_flight writes them and photos() reads them (after flight_id).
+PHOTO_COLUMNS = ("vehicle", "img_idx", "time", "lat", "lon", "alt_amsl", "alt_rel", "roll", "pitch", "yaw", "source",
+                 *(column for column, _ in ADDED_COLUMNS))
+
 
 class LedgerError(MapError):
     """A survey that cannot be read (no plan, a broken re-plan pointer): one line for the user."""
@@ -71,6 +84,8 @@ class LedgerPhoto:
     pitch: float | None
     yaw: float | None
     source: str  # camera (its report over the link), log (the vehicle's log), track (fly --photos-from-track)
+    image_index: int | None = None  # a MAVLink camera's record: its image_index
+    file_url: str | None = None  # ... and the file it named on its card
 
 
 @dataclass(frozen=True)
@@ -172,10 +187,19 @@ class Ledger:
             self._db = db
             if {"flights", "photos", "covered"} - {r[0] for r in db.execute("SELECT name FROM sqlite_master")}:
                 db.executescript(SCHEMA)
+            have = {row[1] for row in db.execute("PRAGMA table_info(photos)")}
+            self.missing = {column for column, _ in ADDED_COLUMNS if column not in have}  # read as NULL
         except sqlite3.DatabaseError as err:
             if fault_kind(err) in ("full", "read-only"):
                 raise LedgerError(f"{self.path}: cannot be written ({err})") from None
             raise LedgerError(f"{self.path}: not a missionplan survey ledger ({err})") from None
+
+    def add_columns(self) -> None:
+        """Add the columns this ledger lacks (ADDED_COLUMNS); ALTER TABLE keeps every row, NULL in them."""
+        for column, declaration in ADDED_COLUMNS:
+            if column in self.missing:
+                self._db.execute(f"ALTER TABLE photos ADD COLUMN {column} {declaration}")
+                self.missing.discard(column)
 
     @classmethod
     def of(cls, plan_dir: Path) -> Ledger:
@@ -222,6 +246,10 @@ class Ledger:
         lat = np.array([p["lat"] for p in photos], dtype=float)
         lon = np.array([p["lon"] for p in photos], dtype=float)
         which, cells = covered_cells(self.survey, lat, lon)
+        if any(p.get(column) is not None for p in photos for column, _ in ADDED_COLUMNS):
+            self.add_columns()  # a MAVLink camera's photos: the ledger keeps its image_index and file_url from now on
+        columns = [c for c in PHOTO_COLUMNS if c not in self.missing]
+        insert = f"INSERT INTO photos (flight_id, {', '.join(columns)}) VALUES (?{', ?' * len(columns)})"
         with self._db:
             self._db.execute("BEGIN")
             old = self._db.execute("SELECT id FROM flights WHERE plan = ? AND flight = ?", (plan, flight)).fetchone()
@@ -236,12 +264,12 @@ class Ledger:
                                                  (plan, flight, sortie, recorded)).lastrowid)
             ids = []
             for p in photos:
-                ids.append(self._db.execute(
-                    "INSERT INTO photos (flight_id, vehicle, img_idx, time, lat, lon, alt_amsl, alt_rel, roll, pitch, "
-                    "yaw, source) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                    (flight_id, int(p["vehicle"]), int(p["img_idx"]), p.get("time"), float(p["lat"]), float(p["lon"]),
-                     p.get("alt_amsl"), p.get("alt_rel"), p.get("roll"), p.get("pitch"), p.get("yaw"),
-                     str(p["source"]))).lastrowid)
+                image_index = p.get("image_index")
+                values = dict(zip(PHOTO_COLUMNS, (
+                    int(p["vehicle"]), int(p["img_idx"]), p.get("time"), float(p["lat"]), float(p["lon"]),
+                    p.get("alt_amsl"), p.get("alt_rel"), p.get("roll"), p.get("pitch"), p.get("yaw"), str(p["source"]),
+                    None if image_index is None else int(image_index), p.get("file_url") or None)))
+                ids.append(self._db.execute(insert, (flight_id, *(values[c] for c in columns))).lastrowid)
             photo_ids = np.array(ids, dtype=np.int64)
             self._db.executemany("INSERT INTO covered (photo, row, col) VALUES (?, ?, ?)",
                                  zip(photo_ids[which].tolist(), cells[:, 0].tolist(), cells[:, 1].tolist()))
@@ -267,8 +295,8 @@ class Ledger:
     def photos(self, plan_dir: Path | None = None, flight: int | None = None) -> list[LedgerPhoto]:
         """The photos of the survey, or of one folder, or of one of its flights, in the order taken."""
         where, args = self._which(plan_dir, flight)
-        sql = ("SELECT f.plan, f.flight, p.vehicle, p.img_idx, p.time, p.lat, p.lon, p.alt_amsl, p.alt_rel, p.roll, "
-               "p.pitch, p.yaw, p.source FROM photos p JOIN flights f ON f.id = p.flight_id"
+        columns = ", ".join("NULL" if c in self.missing else f"p.{c}" for c in PHOTO_COLUMNS)
+        sql = (f"SELECT f.plan, f.flight, {columns} FROM photos p JOIN flights f ON f.id = p.flight_id"
                + where + " ORDER BY f.id, p.vehicle, p.img_idx")
         return [LedgerPhoto(*row) for row in self._db.execute(sql, args)]
 

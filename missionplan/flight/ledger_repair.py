@@ -27,11 +27,11 @@ from missionplan.base.atomic import probe_writable
 from .photo_positions import flight_photos
 from .journal_db import JOURNAL_NAME, JournalError
 from .journal_read import judged_flights
-from .ledger import LEDGER_NAME, Ledger, LedgerError, Survey, open_survey, read_plan, survey_root
-from .salvage import connect_read_only, fault_kind, has_sqlite_header, integrity_problem, move_aside, salvage_table
+from .ledger import LEDGER_NAME, PHOTO_COLUMNS, Ledger, LedgerError, Survey, open_survey, read_plan, survey_root
+from .salvage import (connect_read_only, fault_kind, has_sqlite_header, integrity_problem, move_aside,
+                      salvage_table, table_columns)
 
 Say = Callable[[str], None]
-PHOTO_COLUMNS = ("vehicle", "img_idx", "time", "lat", "lon", "alt_amsl", "alt_rel", "roll", "pitch", "yaw", "source")
 
 
 def _writable(folder: Path) -> bool:
@@ -165,7 +165,11 @@ def _rebuild_damaged(survey: Survey, plan_dir: Path, writable: bool, damage: str
     try:
         src.execute("PRAGMA writable_schema=ON")  # read the tables even when an index's pages are gone
         flights = salvage_table(src, "flights", "plan, flight, sortie, recorded")
-        photos = salvage_table(src, "photos", "flight_id, " + ", ".join(PHOTO_COLUMNS))
+        have = table_columns(src, "photos")  # a ledger from before a column: NULL for it
+        if have is None:
+            raise sqlite3.DatabaseError("the photos table's schema cannot be read")
+        photos = salvage_table(src, "photos", "flight_id, " + ", ".join(c if c in have else "NULL"
+                                                                        for c in PHOTO_COLUMNS))
     except sqlite3.DatabaseError:  # not even its schema: the journals alone
         flights = photos = None
     finally:

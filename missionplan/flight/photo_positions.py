@@ -122,7 +122,9 @@ def ledger_photos(frame: GridFrame, rec: DroneRecord, points_m: np.ndarray, sour
     if source == "camera":
         return [{"vehicle": rec.id, "img_idx": idx, "time": t, "lat": lat, "lon": lon, "alt_rel": up,
                  "alt_amsl": rec.amsl.get(idx), "source": rec.photo_source.get(idx, "camera"),
-                 **dict(zip(("roll", "pitch", "yaw"), rec.attitude.get(idx, (None, None, None))))}
+                 **dict(zip(("roll", "pitch", "yaw"), rec.attitude.get(idx, (None, None, None)))),
+                 # a MAVLink camera's record: its image_index (the photo's index) and the file it named
+                 "image_index": idx if idx in rec.files else None, "file_url": rec.files.get(idx) or None}
                 for idx, (t, lat, lon, up) in sorted(rec.camera.items())]
     if source == "track" and len(points_m):
         lat, lon = frame.grid_to_latlon(points_m[:, 0] / frame.cell_m, points_m[:, 1] / frame.cell_m)

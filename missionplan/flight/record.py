@@ -50,7 +50,8 @@ class DroneRecord:
     amsl: dict[int, float] = field(default_factory=dict)  # img_idx -> altitude above mean sea level, m, where reported
     photo_source: dict[int, str] = field(default_factory=dict)  # img_idx -> "camera" or "log"
     attitude: dict[int, tuple[float, float, float]] = field(default_factory=dict)  # img_idx -> roll, pitch, yaw deg
-    # A MAVLink camera's (plan --capture camera*): its image_index -> file_url, and the indices it failed. Live only.
+    # A MAVLink camera's photos (plan --capture camera*): img_idx (its image_index) -> the file_url it named ("" for
+    # none); the autopilot's and the log's photos have none. And the indices it failed (live only).
     files: dict[int, str] = field(default_factory=dict)
     failed_indices: set[int] = field(default_factory=set)
     params: dict[str, float] = field(default_factory=dict)  # navigation parameters the vehicle reported
@@ -82,9 +83,11 @@ class DroneRecord:
         self._emit("sample", *sample)
 
     def add_photo(self, idx: int, t: float, lat: float, lon: float, up: float, source: str = "camera",
-                  attitude: tuple[float, float, float] | None = None, amsl: float | None = None) -> bool:
+                  attitude: tuple[float, float, float] | None = None, amsl: float | None = None,
+                  file_url: str | None = None) -> bool:
         """A photo and where it was taken; the first word about an index stands (a report repeated over
-        the link, or the log's copy of a photo already reported). Whether it was new."""
+        the link, or the log's copy of a photo already reported). Whether it was new. file_url: a MAVLink
+        camera's record names its file ("" when it names none); None for any other report."""
         if idx in self.camera:
             return False
         self.camera[idx] = (t, lat, lon, up)
@@ -93,8 +96,10 @@ class DroneRecord:
             self.attitude[idx] = attitude
         if amsl is not None:
             self.amsl[idx] = amsl
+        if file_url is not None:
+            self.files[idx] = file_url
         roll, pitch, yaw = attitude if attitude is not None else (None, None, None)
-        self._emit("photo", idx, t, lat, lon, up, source, roll, pitch, yaw, amsl)
+        self._emit("photo", idx, t, lat, lon, up, source, roll, pitch, yaw, amsl, file_url)
         return True
 
     def add_reached(self, t: float, seq: int) -> None:
@@ -127,9 +132,11 @@ class DroneRecord:
             elif kind == "sample":
                 self.add_sample(tuple(row))  # type: ignore[arg-type]
             elif kind == "photo":
-                idx, t, lat, lon, up, source, roll, pitch, yaw, *rest = row  # amsl: journals before it lack it
+                # amsl, then file_url: journals from before them lack them
+                idx, t, lat, lon, up, source, roll, pitch, yaw, *rest = row
                 attitude = None if roll is None else (roll, pitch, yaw)
-                self.add_photo(int(idx), t, lat, lon, up, source, attitude, rest[0] if rest else None)
+                self.add_photo(int(idx), t, lat, lon, up, source, attitude, rest[0] if rest else None,
+                               rest[1] if len(rest) > 1 else None)
             elif kind == "reached":
                 self.add_reached(row[0], int(row[1]))
             elif kind == "landed":

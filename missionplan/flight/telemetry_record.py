@@ -18,7 +18,8 @@ import numpy as np
 
 from missionplan.bridge.formats.mission_items import Flavour
 from missionplan.bridge.link.connection import mavlink
-from missionplan.bridge.link.readiness import VehicleState
+from missionplan.bridge.link.camera_check import CAMERA_COMPONENTS
+from missionplan.bridge.link.readiness import VehicleState, is_autopilot_heartbeat
 from missionplan.bridge.transfer.onboard_log import euler_degrees
 
 from .events import (ArmingChanged, FlightEvent, LandedStateChanged, LeftMission, ModeChanged, PhotoTaken,
@@ -26,8 +27,6 @@ from .events import (ArmingChanged, FlightEvent, LandedStateChanged, LeftMission
 from .record import DroneRecord
 
 CAPTURE_OK = 1  # CAMERA_IMAGE_CAPTURED capture_result (a flag, not an enum): 1 success
-# The component ids a MAVLink camera speaks from (MAV_COMP_ID_CAMERA .. CAMERA6).
-CAMERA_COMPONENTS = range(mavlink.MAV_COMP_ID_CAMERA, mavlink.MAV_COMP_ID_CAMERA6 + 1)
 ON_GROUND_M = 0.3      # relative altitude under which a disarmed vehicle counts as landed
 # Modes a mission flies in (ArduPilot AUTO; PX4 AUTO.MISSION, and AUTO.TAKEOFF), and the modes of its
 # final return (PX4 switches to AUTO.RTL / AUTO.LAND for a mission's final RTL / LAND item; ArduPilot
@@ -87,7 +86,7 @@ class TelemetryRecorder:
                             msg.time_boot_ms / 1000.0, -msg.vz / 100.0))
             if not rec.last_position or t - rec.last_position[3] >= 1.0:  # journaled once a second
                 rec.set(last_position=[lat, lon, self.rel_alt, t])
-        elif kind == "HEARTBEAT" and msg.type != mavlink.MAV_TYPE_GCS:
+        elif kind == "HEARTBEAT" and is_autopilot_heartbeat(msg):  # not a camera's beside it (base_mode 0)
             self.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
         elif kind == "MISSION_CURRENT":
             self.mission_current(msg)
@@ -133,11 +132,9 @@ class TelemetryRecorder:
                 rec.failed_indices.add(index)
                 rec.set(failed_captures=len(rec.failed_indices))
         else:
-            self.publish(PhotoTaken(self.sysid, t, index, msg.lat / 1e7, msg.lon / 1e7, msg.relative_alt / 1000.0,
-                                    attitude=euler_degrees(list(msg.q)), amsl_m=msg.alt / 1000.0))
             url = str(getattr(msg, "file_url", "") or "").rstrip("\x00")
-            if url:
-                rec.files.setdefault(index, url)
+            self.publish(PhotoTaken(self.sysid, t, index, msg.lat / 1e7, msg.lon / 1e7, msg.relative_alt / 1000.0,
+                                    attitude=euler_degrees(list(msg.q)), amsl_m=msg.alt / 1000.0, file_url=url))
         rec.set(captures=max(rec.captures, index + 1))
 
     def mission_current(self, msg: Any) -> None:
