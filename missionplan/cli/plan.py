@@ -179,8 +179,8 @@ def register(sub: Any) -> None:
                            "when the camera's capture interval asks it)")
     plan.add_argument("--transit-speed", type=float, metavar="M/S",
                       help=f"speed of the ways out to the survey and home from it, camera off, m/s, at most "
-                           f"{MAX_SPEED_M_S:g} (default: the survey's speed, or the cruise speed "
-                           f"{DEFAULT_SPEED_M_S:g} when the camera's capture interval slows the survey)")
+                           f"{MAX_SPEED_M_S:g} (default: the survey's speed; with a capture option, the cruise speed "
+                           f"{DEFAULT_SPEED_M_S:g} when the survey's is below it)")
     front = plan.add_mutually_exclusive_group()
     front.add_argument("--overlap", type=float,
                        help="frontal overlap of consecutive photos, 0..1 (sets the camera trigger distance; default 8/9)")
