@@ -12,7 +12,9 @@ With H the height above the ground, f the focal length, w x h the sensor (mm) an
   least 1; so the side overlap kept, 1 - cells / 9, is never less than the one asked;
 - fastest speed = trigger distance / capture interval: faster, the camera would be asked for a photo
   sooner than it can take one;
-- the speed: the one asked (never above the fastest), else min(cruise speed, fastest speed).
+- the speed: the one asked (never above the fastest), else min(cruise speed, fastest speed);
+- the transit speed, the ways out to the survey and home from it with the camera off: the one asked, else the
+  cruise speed when the survey is slower (choose_transit_speed); no limit from the camera there.
 
 `CapturePlan` holds one survey's numbers and `rules()` the lines a report prints. The checks that refuse a
 combination (a speed above the fastest, a GSD whose height is above the ceiling, a GSD from a camera that
@@ -124,6 +126,14 @@ def check_height(camera: Camera, gsd: float, height_m: float, ceiling_m: float) 
                              shown(ceiling_m), shown(gsd_cm(camera, ceiling_m))))
 
 
+def choose_transit_speed(speed_m_s: float, asked_m_s: float | None) -> float | None:
+    """The speed of the ways out and home when it differs from the survey's `speed_m_s`: the one asked
+    (`--transit-speed`), else the cruise speed when the survey is slower (a camera's capture interval slowed
+    it: the camera is off on the way out and home); None: the survey's speed throughout."""
+    transit = asked_m_s if asked_m_s is not None else max(CRUISE_SPEED_M_S, speed_m_s)
+    return None if transit == speed_m_s else transit
+
+
 def choose_speed(camera: Camera, trigger_m: float, asked_m_s: float | None) -> tuple[float, str]:
     """The speed flown and where it came from (SPEED_SOURCES): the one asked, refused in one line when it asks
     the camera for photos sooner than its capture interval; else min(cruise speed, fastest) with an interval,
@@ -145,7 +155,8 @@ def choose_speed(camera: Camera, trigger_m: float, asked_m_s: float | None) -> t
 class CapturePlan:
     """One survey's capture: the camera, the height above the ground, the footprint side the plan's grid was
     drawn for (9 cells), the overlaps (fractions; side None: not asked, lanes one footprint apart), the
-    speed flown and where it came from, and the GSD the height was asked by (None: the height was given)."""
+    speed flown and where it came from, the GSD the height was asked by (None: the height was given) and the
+    speed of the ways out and home (None: the survey's speed throughout; choose_transit_speed)."""
 
     camera: Camera
     height_m: float
@@ -155,6 +166,7 @@ class CapturePlan:
     speed_m_s: float
     speed_from: str = "asked"  # SPEED_SOURCES
     gsd_asked_cm: float | None = None
+    transit_speed_m_s: float | None = None
 
     @property
     def gsd_cm(self) -> float | None:
@@ -221,6 +233,10 @@ class CapturePlan:
         speed_rule = {"asked": "as asked", "cruise": "the cruise speed",
                       "limit": f"min({shown(CRUISE_SPEED_M_S)} m/s, fastest speed): none asked"}[self.speed_from]
         lines.append(("speed", self.speed_m_s, "m/s", speed_rule))
+        if self.transit_speed_m_s is not None:
+            source = "cruise" if self.transit_speed_m_s == CRUISE_SPEED_M_S else "as asked"
+            lines.append(("transit speed", self.transit_speed_m_s, "m/s",
+                          f"{source}: the camera is off on the way out and home"))
         return lines
 
     def rule_lines(self) -> list[str]:
@@ -230,12 +246,13 @@ class CapturePlan:
     # ---- report.json's georeference `camera` block ------------------------------------------
     def to_json(self) -> dict[str, Any]:
         """The camera's fields, then the capture's numbers and its rules (height and footprint are the
-        georeference's own altitude_m and footprint_m)."""
+        georeference's own altitude_m and footprint_m); the transit speed only where it differs."""
+        transit = {} if self.transit_speed_m_s is None else {"transit_speed_m_s": self.transit_speed_m_s}
         return {**self.camera.to_json(), "gsd_cm": self.gsd_cm, "gsd_asked_cm": self.gsd_asked_cm,
                 "front_overlap": self.front_overlap, "side_overlap": self.side_overlap,
                 "lane_spacing_m": self.lane_spacing_m, "lane_spacing_cells": self.lane_spacing_cells,
                 "speed_m_s": self.speed_m_s, "speed_from": self.speed_from,
-                "fastest_speed_m_s": self.fastest_speed_m_s,
+                "fastest_speed_m_s": self.fastest_speed_m_s, **transit,
                 "rules": [{"quantity": q, "value": v, "unit": u, "rule": r} for q, v, u, r in self.rules()]}
 
     @classmethod
@@ -247,4 +264,5 @@ class CapturePlan:
             raise GeoError(f"camera block: speed_from {speed_from!r} is not one of {', '.join(SPEED_SOURCES)}")
         return cls(Camera.from_json(doc), float(height_m), float(footprint_m), float(doc["front_overlap"]),
                    None if doc.get("side_overlap") is None else float(doc["side_overlap"]), float(doc["speed_m_s"]),
-                   speed_from, None if doc.get("gsd_asked_cm") is None else float(doc["gsd_asked_cm"]))
+                   speed_from, None if doc.get("gsd_asked_cm") is None else float(doc["gsd_asked_cm"]),
+                   None if doc.get("transit_speed_m_s") is None else float(doc["transit_speed_m_s"]))

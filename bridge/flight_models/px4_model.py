@@ -25,6 +25,7 @@ PX4's names and units in PARAMETERS) default to PX4 v1.15's values for a multico
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, fields, replace
 
 from . import copter_model as cm
@@ -116,13 +117,15 @@ def leg(here: tuple[float, float, float], target: tuple[float, float, float], sp
     return Motion(here, target, max(speed, 0.1), p.acc_hor, kind="leg")
 
 
-def legs(start: tuple[float, float, float], targets: list[tuple[float, float, float]], speed: float,
+def legs(start: tuple[float, float, float], targets: list[tuple[float, float, float]], speed: float | Sequence[float],
          p: Px4Params, heading: float | None = None) -> tuple[list[Motion], float | None]:
-    """Each leg from rest to rest after turning to it; (motions, the heading at the end). `heading`
+    """Each leg from rest to rest after turning to it; (motions, the heading at the end). `speed`: one for
+    every leg, or the speed of the leg to each target (a mission that changes speed on the way). `heading`
     None: not known yet (before the first leg), the turn counts FIRST_TURN_DEG."""
     out: list[Motion] = []
     here = start
-    for target in targets:
+    speeds = [float(speed)] * len(targets) if isinstance(speed, (int, float)) else [float(v) for v in speed]
+    for target, leg_speed in zip(targets, speeds, strict=True):
         if math.dist(here[:2], target[:2]) <= NEAR_M:
             continue  # within the acceptance radius already: reached
         new = heading_deg(here, target)
@@ -130,7 +133,7 @@ def legs(start: tuple[float, float, float], targets: list[tuple[float, float, fl
         turn = turn_s(angle, p)
         if turn > 1e-9:
             out.append(cm.wait(here, turn, "turn"))
-        out.append(leg(here, target, speed, p))
+        out.append(leg(here, target, leg_speed, p))
         here, heading = target, new
     return out, heading
 
@@ -179,8 +182,9 @@ def rtl(here: tuple[float, float, float], home: tuple[float, float, float], p: P
 
 
 def flight(ground: tuple[float, float, float], altitude: float, targets: list[tuple[float, float, float]],
-           end: str, speed: float, p: Px4Params) -> list[Motion]:
-    """A whole survey mission: take-off at `ground`, the waypoints `targets`, then RTL or LAND."""
+           end: str, speed: float | Sequence[float], p: Px4Params) -> list[Motion]:
+    """A whole survey mission: take-off at `ground`, the waypoints `targets` (`speed` as legs() takes it),
+    then RTL or LAND."""
     motions = takeoff(ground, altitude, p)
     flown, _ = legs(motions[-1].end, targets, speed, p)
     motions += flown

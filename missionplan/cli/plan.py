@@ -21,7 +21,7 @@ from missionplan.geo.roofs import DEFAULT_TARGETS, TARGET_CLASSES
 from missionplan.geo.camera import CELLS_PER_FOOTPRINT, Camera
 from missionplan.geo.camera_catalogue import find as catalogue_camera
 from missionplan.geo.capture import (GSD_NEEDS, MAX_SPEED_M_S, CapturePlan, check_height, choose_speed,
-                                     height_for_gsd, lane_spacing_cells)
+                                     choose_transit_speed, height_for_gsd, lane_spacing_cells)
 
 from ..grid.lanes import MAX_OBSTACLE_SHARE
 from ..grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
@@ -93,6 +93,7 @@ class PlanRequest:
     seed: int
     quiet: bool
     targets: str = DEFAULT_TARGETS
+    transit_speed: float | None = None
 
     def area_request(self) -> AreaRequest:
         """What the area grid is drawn from (with --area); a --camera gives the sensor and focal length."""
@@ -176,6 +177,10 @@ def register(sub: Any) -> None:
     plan.add_argument("--speed", type=float,
                       help=f"cruise speed, m/s, at most {MAX_SPEED_M_S:g} (default {DEFAULT_SPEED_M_S:g}, or slower "
                            "when the camera's capture interval asks it)")
+    plan.add_argument("--transit-speed", type=float, metavar="M/S",
+                      help=f"speed of the ways out to the survey and home from it, camera off, m/s, at most "
+                           f"{MAX_SPEED_M_S:g} (default: the survey's speed; with a capture option, the cruise speed "
+                           f"{DEFAULT_SPEED_M_S:g} when the survey's is below it)")
     front = plan.add_mutually_exclusive_group()
     front.add_argument("--overlap", type=float,
                        help="frontal overlap of consecutive photos, 0..1 (sets the camera trigger distance; default 8/9)")
@@ -258,7 +263,7 @@ def _plan_ground(request: PlanRequest) -> PlanGround:
     mission = {"speed": DEFAULT_SPEED_M_S if request.speed is None else request.speed, "overlap": request.front,
                "end": request.end,
                "altitude_step": request.altitude_step, "altitude": request.altitude, "autopilot": request.autopilot,
-               "capture": request.capture}
+               "capture": request.capture, "transit_speed": request.transit_speed}
     safety = {"min_separation": request.min_separation, "max_altitude": request.max_altitude,
               "clearance": request.clearance, "endurance": request.endurance, "reserve": request.reserve}
     ground = grid_ground(gmap, uavs, frame, mission, safety, unknown=unknown, sources=sources,
@@ -297,6 +302,7 @@ def _check_plan_numbers(request: PlanRequest) -> None:
     check("--focal-length", request.focal_length, 0.0, 2_000.0, " mm", low_open=True)
     check("--rotation", request.rotation, -360.0, 360.0, " degrees", what="a grid angle")
     check("--speed", request.speed, 0.0, MAX_SPEED_M_S, " m/s", low_open=True, what=SPEED_WHAT)
+    check("--transit-speed", request.transit_speed, 0.0, MAX_SPEED_M_S, " m/s", low_open=True, what=SPEED_WHAT)
     check("--overlap", request.overlap, 0.0, 1.0, high_open=True, what="a fraction")
     check("--gsd", request.gsd, 0.0, 1_000.0, " cm/px", low_open=True)
     check("--front-overlap", request.front_overlap, 0.0, 100.0, " %", high_open=True, what="a percentage")
@@ -390,7 +396,7 @@ def _capture_plan(request: PlanRequest, ground: PlanGround) -> CapturePlan:
             camera = replace(camera, capture_interval_s=request.capture_interval)
     speed, source = choose_speed(camera, settings.trigger_distance_m, request.speed)
     return CapturePlan(camera, settings.altitude_m, settings.footprint_m, request.front, request.side, speed, source,
-                       request.gsd)
+                       request.gsd, choose_transit_speed(speed, request.transit_speed))
 
 
 def cmd_plan(request: PlanRequest) -> int:
@@ -406,7 +412,8 @@ def cmd_plan(request: PlanRequest) -> int:
     if request.capture_asked:
         ground.capture = _capture_plan(request, ground)
         assert ground.settings is not None
-        ground.settings = replace(ground.settings, speed_m_s=ground.capture.speed_m_s)
+        ground.settings = replace(ground.settings, speed_m_s=ground.capture.speed_m_s,
+                                  transit_speed_m_s=ground.capture.transit_speed_m_s)
         lane_spacing = ground.capture.lane_spacing_cells
     options = PlanOptions(policy=request.policy, weights=request.weights, zones=request.zones,
                           balance_zones=not request.no_balance, open_ground=request.open_ground,

@@ -191,15 +191,23 @@ def mission_motions(frame: GridFrame, rec: DroneRecord) -> list[Motion] | None:
     if start is None:
         return None
     takeoff = items[start]
-    waypoints = [it for it in items[start + 1:] if it.command == CMD_NAV_WAYPOINT]
     copter = CopterParams.from_params(rec.params)
     px4 = Px4Params.from_params(rec.params) if rec.flavour == "px4" else None
-    speed = next((float(it.param2) for it in items if it.command == CMD_DO_CHANGE_SPEED and it.param2 > 0),
-                 copter.wp_speed if px4 is None else px4.xy_cruise)
+    # Each leg at the speed the last DO_CHANGE_SPEED before its waypoint set (a transit speed on the ways out
+    # and home, the survey speed between), the vehicle's default before any.
+    speed = copter.wp_speed if px4 is None else px4.xy_cruise
+    waypoints, speeds = [], []
+    for item in items[start + 1:]:
+        if item.command == CMD_DO_CHANGE_SPEED and item.param2 > 0:
+            speed = float(item.param2)
+        elif item.command == CMD_NAV_WAYPOINT:
+            waypoints.append(item)
+            speeds.append(speed)
     launch = to_grid_m(frame, [takeoff.x / 1e7], [takeoff.y / 1e7])[0]
     route = to_grid_m(frame, [w.x / 1e7 for w in waypoints], [w.y / 1e7 for w in waypoints])
     end = "land" if items[-1].command == CMD_NAV_LAND else "rtl"
-    return planned_motions(launch, route, float(takeoff.z), end, FlightModel(speed, 0.0, copter, px4))
+    return planned_motions(launch, route, float(takeoff.z), end, FlightModel(speeds[0] if speeds else speed, 0.0,
+                                                                               copter, px4), np.array(speeds))
 
 
 def estimate_time_scale(records: list[DroneRecord]) -> float:

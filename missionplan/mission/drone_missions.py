@@ -3,7 +3,9 @@
 Each drone's mission, in order:
 
 1. NAV_TAKEOFF to its altitude above the launch point;
-2. DO_CHANGE_SPEED to the cruise speed;
+2. DO_CHANGE_SPEED to the cruise speed (with a transit speed, `plan --transit-speed` or a camera that slows the
+   survey: the way out flies at the transit speed, a DO_CHANGE_SPEED after the survey's first waypoint sets the
+   survey speed and one after its last sets the transit speed again for the way home);
 3. DO_SET_CAM_TRIGG_DIST: a photo every `trigger distance` metres, the first at once;
 4. per corrected waypoint: NAV_WAYPOINT (acceptance radius a quarter cell), then
    DO_SET_CAM_TRIGG_DIST again with "trigger once now", so each corner gets a photo and the
@@ -67,6 +69,14 @@ class MissionSettings:
     altitude_step_m: float = 0.0
     autopilot: str = "ardupilot"  # `plan --autopilot`: whose flight the timeline times (px4: flight_models.px4_model)
     capture: str = "relay"  # `plan --capture`: one of CAPTURE_MODES
+    # The way out to the survey and home from it, camera off (`plan --transit-speed`, or the cruise speed when the
+    # camera's capture interval slows the survey); None: flown at speed_m_s like the survey, one speed throughout.
+    transit_speed_m_s: float | None = None
+
+    @property
+    def transit_m_s(self) -> float:
+        """The speed of the ways out and home: transit_speed_m_s, else the survey's speed_m_s."""
+        return self.speed_m_s if self.transit_speed_m_s is None else self.transit_speed_m_s
 
     @property
     def camera_records(self) -> bool:
@@ -133,8 +143,7 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
     frame = FRAME_GLOBAL_RELATIVE_ALT if ground is None else FRAME_GLOBAL_TERRAIN_ALT
     items = [
         MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=lat0, y=lon0, z=altitude),
-        MissionItem(CMD_DO_CHANGE_SPEED, FRAME_MISSION, param1=SPEED_TYPE_GROUNDSPEED, param2=settings.speed_m_s,
-                    param3=-1.0),
+        _change_speed(settings.transit_m_s if camera_off else settings.speed_m_s),
     ]
     interval = settings.capture == "camera-interval"
     if not interval:
@@ -152,10 +161,16 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
     # track turns, and the distance count restarts there, so photos stay aligned with each leg's start
     # (a corner's photo would otherwise fall up to one trigger distance short of it). The last one
     # sets the distance to 0: one photo at the end of the track, then the camera stops.
+    # Two speeds (settings.transit_speed_m_s): the way out at the transit speed up to the survey's first
+    # waypoint, the survey from there at speed_m_s, the way home at the transit speed again
+    # (timeline.leg_speeds times the same legs).
+    two_speeds = settings.transit_m_s != settings.speed_m_s
     for index, (lat, lon) in enumerate(waypoints_latlon):
         last = index == len(waypoints_latlon) - 1
         items.append(MissionItem(CMD_NAV_WAYPOINT, frame, param2=settings.acceptance_m,
                                  x=float(lat), y=float(lon), z=altitude))
+        if two_speeds and camera_off and index == 0 and not last:
+            items.append(_change_speed(settings.speed_m_s))
         if not interval:
             items.append(MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION,
                                      param1=0.0 if last else settings.trigger_distance_m, param3=1.0))
@@ -167,6 +182,8 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
     if not len(waypoints_latlon):
         items.append(MissionItem(CMD_IMAGE_STOP_CAPTURE, FRAME_MISSION) if interval else
                      MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0))
+    if two_speeds and len(back_latlon):
+        items.append(_change_speed(settings.transit_m_s))
     for lat, lon in back_latlon:  # camera off on the way home, round the obstacles RTL would fly through
         items.append(MissionItem(CMD_NAV_WAYPOINT, frame, param2=settings.acceptance_m,
                                  x=float(lat), y=float(lon), z=altitude))
@@ -206,6 +223,11 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
         mission = over_ground
     return DroneMission(sysid=drone + 1, mission=mission, waypoints=count, length_m=length,
                         flight_s=length / settings.speed_m_s if flight_s is None else flight_s, photos=photos)
+
+
+def _change_speed(speed_m_s: float) -> MissionItem:
+    """DO_CHANGE_SPEED: the ground speed of the legs from here on (throttle unchanged)."""
+    return MissionItem(CMD_DO_CHANGE_SPEED, FRAME_MISSION, param1=SPEED_TYPE_GROUNDSPEED, param2=speed_m_s, param3=-1.0)
 
 
 def _start_capture(settings: MissionSettings) -> MissionItem:

@@ -33,7 +33,7 @@ from .safety import SafetySettings
 from .separation import Layering, SeparationError, choose_layers, closest_over_sorties, position_at
 from .sorties import Sortie, sortie_file, split_sorties
 from .track_missions import LaunchWays, track_mission
-from .timeline import ASSUMES, PX4_ASSUMES, FlightModel, closest_approach, planned_track
+from .timeline import ASSUMES, PX4_ASSUMES, FlightModel, closest_approach, leg_speeds, planned_track
 
 SORTIE_FIT_TRIES = 6  # re-cuts of a drone's sorties when one came out over the budget on the timeline
 
@@ -181,7 +181,8 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
     targets = result.world.reachable if base is result.gmap else base.target
     cell = frame.cell_m
     corrected, latlons, launches, routes = [], [], [], []
-    model = FlightModel.for_autopilot(settings.autopilot, settings.speed_m_s, settings.acceptance_m)
+    model = FlightModel.for_autopilot(settings.autopilot, settings.speed_m_s, settings.acceptance_m,
+                                      settings.transit_speed_m_s)
     # Not touching an obstacle square within a box buffer of `margin` cells keeps the segment at least
     # that far from it (Chebyshev distance <= Euclidean).
     margin_cells = MARGIN_CELLS if safety is None else max(MARGIN_CELLS, safety.clearance_m / cell)
@@ -212,7 +213,7 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
                                     step_m=cell if homing[k] else None)
             if budget is None:
                 return sorties
-            worst = max(float(planned_track(launches[k], flown(k, s), altitude, s.end, model)[-1, 0])
+            worst = max(float(planned_track(launches[k], flown(k, s), altitude, s.end, model, speeds(k, s))[-1, 0])
                         for s in sorties)
             if worst <= budget:
                 return sorties
@@ -236,11 +237,16 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
         out, back = legs(k, sortie)
         return np.vstack([out, sortie.waypoints_m, back])
 
+    def speeds(k: int, sortie: Sortie) -> np.ndarray:
+        """The speed of each leg of flown(k, sortie): the ways out and home at the transit speed."""
+        out, back = legs(k, sortie)
+        return leg_speeds(model, len(out), len(sortie.waypoints_m), len(back), sortie.resumes)
+
     def tracks_for(step: float) -> list[dict[int, np.ndarray]]:
         sorties = split(step)
         count = max(len(s) for s in sorties)
         return [{k + 1: planned_track(launches[k], flown(k, sorties[k][j]), settings.altitude_m + k * step,
-                                      sorties[k][j].end, model)
+                                      sorties[k][j].end, model, speeds(k, sorties[k][j]))
                  for k in range(uavs) if j < len(sorties[k])} for j in range(count)]
 
     layering = None

@@ -230,10 +230,15 @@ def shipped_frame(gmap: GridMap) -> GridFrame | None:
 
 def mission_settings(gmap: GridMap, *, speed: float = DEFAULT_SPEED_M_S, overlap: float = DEFAULT_OVERLAP,
                      end: str = "rtl", altitude_step: float = 0.0, altitude: float | None = None,
-                     autopilot: str = "ardupilot", capture: str = "relay") -> MissionSettings:
+                     autopilot: str = "ardupilot", capture: str = "relay",
+                     transit_speed: float | None = None) -> MissionSettings:
     """Altitude and footprint from the map's georeference (9 cells a side; `altitude` where the map has none),
-    speed, overlap, end action, altitude step, autopilot and capture mode as `plan` takes them; the defaults are `plan`'s."""
+    speed, overlap, end action, altitude step, autopilot, capture mode and the ways out and home's speed
+    (`transit_speed`, None: the speed) as `plan` takes them; the defaults are `plan`'s."""
     check_range(speed, Setting("speed"), 0.0, MAX_SPEED_M_S, unit=" m/s", low_open=True, what=SPEED_WHAT, error=GeoError)
+    if transit_speed is not None:
+        check_range(transit_speed, Setting("transit_speed"), 0.0, MAX_SPEED_M_S, unit=" m/s", low_open=True,
+                    what=SPEED_WHAT, error=GeoError)
     check_range(overlap, Setting("overlap"), 0.0, 1.0, high_open=True, what="a fraction", error=GeoError)
     # Layers go up from the altitude, never below it.
     check_range(altitude_step, Setting("altitude_step"), 0.0, 5_000.0, unit=" m", error=GeoError)
@@ -245,4 +250,4 @@ def mission_settings(gmap: GridMap, *, speed: float = DEFAULT_SPEED_M_S, overlap
         raise GeoError(f"map {gmap.name}: no flight altitude (altitude_m) in its metadata")
     return MissionSettings(altitude_m=flight_altitude, footprint_m=georef.footprint_m, speed_m_s=speed,
                            overlap=overlap, end=end, altitude_step_m=altitude_step, autopilot=autopilot,
-                           capture=capture)
+                           capture=capture, transit_speed_m_s=None if transit_speed == speed else transit_speed)

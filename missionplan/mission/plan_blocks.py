@@ -479,10 +479,13 @@ class PlanSettings:
 
     def to_json(self) -> JSON:
         # Every field of the two settings, in their order: a field added there is recorded here. The capture
-        # mode only when it is not the relay, so a plan without --capture is written as before.
+        # mode only when it is not the relay and the transit speed only when it differs from the survey's, so a
+        # plan without --capture or two speeds is written as before.
         mission = asdict(self.mission)
         if mission.get("capture") == "relay":
             del mission["capture"]
+        if mission.get("transit_speed_m_s") is None:  # one speed throughout: written as before
+            mission.pop("transit_speed_m_s", None)
         doc: JSON = {"mission": mission, "safety": asdict(self.safety), "policy": self.policy,
                      "zones": self.zones, "balance_zones": self.balance_zones, "open_ground": self.open_ground}
         if self.lane_spacing_cells != CELLS_PER_FOOTPRINT:

@@ -15,7 +15,8 @@ where a drone could not be routed from). Times are the timeline's model of the p
 loiter and slow final descent; missionplan.bridge.flight_models.px4_model for PX4: the same plus a turn of the nose
 before every leg, PX4's RTL and landing), with a stop at every cut point too, and on PX4 a half turn where a sortie's
 survey starts: the sortie flies fewer stops and smaller turns, so the estimate is an upper bound of
-its planned time.
+its planned time. The transit out flies at the model's transit speed, the survey at its survey speed (a camera
+whose capture interval slows the survey does not slow the way out).
 
 Metres in the grid frame throughout (row axis, column axis), as the timeline uses.
 """
@@ -72,13 +73,13 @@ class Sortie:
 
 def _flight_s(start_home_m: float, survey_s: float, end_home_m: float, altitude: float, end: str,
               model: FlightModel) -> float:
-    """Upper bound of one sortie's duration: take-off, transit out (one leg), `survey_s` seconds of
-    survey, the way home and the landing (RTL) or the landing (LAND)."""
+    """Upper bound of one sortie's duration: take-off, transit out (one leg, at the transit speed: the camera
+    is off), `survey_s` seconds of survey, the way home and the landing (RTL) or the landing (LAND)."""
     if model.px4 is not None:
         return _px4_flight_s(start_home_m, survey_s, end_home_m, altitude, end, model)
     p = model.copter
     t = cm.total_time(cm.takeoff((0.0, 0.0, 0.0), altitude, p))
-    t += cm.leg((0.0, 0.0, altitude), (start_home_m, 0.0, altitude), model.speed_m_s, p).duration
+    t += cm.leg((0.0, 0.0, altitude), (start_home_m, 0.0, altitude), model.transit_m_s, p).duration
     if end == "rtl":
         return t + survey_s + cm.total_time(cm.rtl((end_home_m, 0.0, altitude), (0.0, 0.0, 0.0), p))
     return t + survey_s + cm.total_time(cm.landing((0.0, 0.0, altitude), 0.0, p))
@@ -92,7 +93,7 @@ def _px4_flight_s(start_home_m: float, survey_s: float, end_home_m: float, altit
     assert p is not None
     top = (0.0, 0.0, altitude)
     t = cm.total_time(px4_model.takeoff((0.0, 0.0, 0.0), altitude, p))
-    t += cm.total_time(px4_model.legs(top, [(start_home_m, 0.0, altitude)], model.speed_m_s, p)[0])
+    t += cm.total_time(px4_model.legs(top, [(start_home_m, 0.0, altitude)], model.transit_m_s, p)[0])
     t += px4_model.turn_s(180.0, p)
     if end == "rtl":
         return t + survey_s + cm.total_time(px4_model.rtl((end_home_m, 0.0, altitude), (0.0, 0.0, 0.0), p))

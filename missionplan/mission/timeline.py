@@ -3,7 +3,8 @@
 The plan's separation promise and planned times come from here. All drones start their missions
 together and fly them the way ArduCopter does (missionplan.bridge.flight_models.copter_model, measured on ArduCopter
 SITL; the mock autopilot's SITL-like mode flies the same model): spool up and climb at the launch point, fly
-every leg from rest to rest at the cruise speed with the copter's acceleration, and at the end
+every leg from rest to rest at the cruise speed with the copter's acceleration (with a transit speed, the ways
+out and home at it and the survey at the survey speed: leg_speeds), and at the end
 return (RTL: climb to RTL_ALT, home at RTL_SPEED, loiter, land) or land where the track ends (LAND),
 the last LAND_ALT_LOW metres at LAND_SPEED. `plan` uses ArduCopter's documented defaults; `fly`
 re-times each plan with the parameters its vehicle reports. A FlightModel with `px4` set times the
@@ -40,15 +41,22 @@ PX4_ASSUMES = ("all missions start together; PX4's flight (missionplan.bridge.fl
 
 @dataclass(frozen=True)
 class FlightModel:
-    speed_m_s: float
+    speed_m_s: float  # the survey's legs (the mission's DO_CHANGE_SPEED)
     acceptance_m: float
     copter: CopterParams = field(default_factory=CopterParams)
     px4: Px4Params | None = None  # set: the flight is timed as PX4 flies it (flight_models.px4_model)
+    transit_speed_m_s: float | None = None  # the ways out and home (leg_speeds); None: speed_m_s
 
     @classmethod
-    def for_autopilot(cls, autopilot: str, speed_m_s: float, acceptance_m: float) -> FlightModel:
+    def for_autopilot(cls, autopilot: str, speed_m_s: float, acceptance_m: float,
+                      transit_speed_m_s: float | None = None) -> FlightModel:
         """The default model of `plan --autopilot` (ArduCopter's or PX4's documented defaults)."""
-        return cls(speed_m_s, acceptance_m, px4=Px4Params() if autopilot == "px4" else None)
+        return cls(speed_m_s, acceptance_m, px4=Px4Params() if autopilot == "px4" else None,
+                   transit_speed_m_s=transit_speed_m_s)
+
+    @property
+    def transit_m_s(self) -> float:
+        return self.speed_m_s if self.transit_speed_m_s is None else self.transit_speed_m_s
 
     @property
     def assumes(self) -> str:
@@ -66,19 +74,38 @@ class FlightModel:
         return min(self.copter.land_speed, self.copter.descent_speed)
 
 
+def leg_speeds(model: FlightModel, out: int, survey: int, back: int, resumes: bool = False) -> np.ndarray:
+    """The speed of the leg into each waypoint of a flight through `out` waypoints of its way out, `survey`
+    of its survey and `back` of its way home, as drone_missions.build_mission's DO_CHANGE_SPEED items set
+    them: the way out and the leg onto the survey's first waypoint (a way out, or a resumed sortie: the camera
+    is off until there) at the transit speed, the survey at the survey speed, the way home at the transit speed.
+    RTL's own way home is the autopilot's RTL speed (the models' rtl), not the mission's."""
+    speeds = np.full(out + survey + back, float(model.speed_m_s))
+    speeds[:out] = model.transit_m_s
+    if (resumes or out > 0) and survey:
+        speeds[out] = model.transit_m_s
+    speeds[out + survey:] = model.transit_m_s
+    return speeds
+
+
 def planned_motions(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: float, end: str,
-                    model: FlightModel) -> list[cm.Motion]:
-    """The phases of one drone's planned flight (missionplan.bridge.flight_models.copter_model.Motion), in order."""
+                    model: FlightModel, speeds: np.ndarray | None = None) -> list[cm.Motion]:
+    """The phases of one drone's planned flight (missionplan.bridge.flight_models.copter_model.Motion), in order.
+    `speeds`: the speed of the leg into each waypoint (leg_speeds); None: model.speed_m_s for all."""
     ground = (float(launch_m[0]), float(launch_m[1]), 0.0)
+    points = np.asarray(waypoints_m, dtype=float).reshape(-1, 2)
+    each = np.full(len(points), float(model.speed_m_s)) if speeds is None else np.asarray(speeds, dtype=float)
+    if len(each) != len(points):
+        raise ValueError(f"{len(each)} leg speeds for {len(points)} waypoints")
     if model.px4 is not None:
-        targets = [(float(w[0]), float(w[1]), float(altitude_m)) for w in np.asarray(waypoints_m, dtype=float).reshape(-1, 2)]
-        return px4_model.flight(ground, altitude_m, targets, end, model.speed_m_s, model.px4)
+        targets = [(float(w[0]), float(w[1]), float(altitude_m)) for w in points]
+        return px4_model.flight(ground, altitude_m, targets, end, [float(v) for v in each], model.px4)
     motions = cm.takeoff(ground, altitude_m, model.copter)
     here = motions[-1].end
-    for waypoint in np.asarray(waypoints_m, dtype=float).reshape(-1, 2):
+    for waypoint, speed in zip(points, each):
         target = (float(waypoint[0]), float(waypoint[1]), float(altitude_m))
         if np.hypot(target[0] - here[0], target[1] - here[1]) > 1e-9:
-            motions.append(cm.leg(here, target, model.speed_m_s, model.copter))
+            motions.append(cm.leg(here, target, float(speed), model.copter))
         here = target
     if end == "rtl":
         motions += cm.rtl(here, ground, model.copter)
@@ -88,16 +115,16 @@ def planned_motions(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: f
 
 
 def planned_track(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: float, end: str,
-                  model: FlightModel) -> np.ndarray:
+                  model: FlightModel, speeds: np.ndarray | None = None) -> np.ndarray:
     """(n, 4) array of (t, row_m, col_m, up_m) of one drone's planned flight, linear in between (rows
     every corner and every half second inside a move, so the interpolation follows the speed profile)."""
-    return cm.sample(planned_motions(launch_m, waypoints_m, altitude_m, end, model))
+    return cm.sample(planned_motions(launch_m, waypoints_m, altitude_m, end, model, speeds))
 
 
 def planned_seconds(launch_m: np.ndarray, waypoints_m: np.ndarray, altitude_m: float, end: str,
-                    model: FlightModel) -> float:
+                    model: FlightModel, speeds: np.ndarray | None = None) -> float:
     """How long that flight takes (the last row of planned_track)."""
-    return cm.total_time(planned_motions(launch_m, waypoints_m, altitude_m, end, model))
+    return cm.total_time(planned_motions(launch_m, waypoints_m, altitude_m, end, model, speeds))
 
 
 Closest = dict[str, tuple[float, list[int], float]]  # "horizontal" / "3d" -> (distance, pair, at_s)

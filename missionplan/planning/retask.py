@@ -42,7 +42,7 @@ from ..mission.clearance import clearance_band
 from ..mission.geofence import drone_fence
 from ..mission.plan_record import PlanRecord
 from ..mission.separation import SeparationError, choose_layers
-from ..mission.timeline import FlightModel, closest_approach_out_of_step, planned_track
+from ..mission.timeline import FlightModel, closest_approach_out_of_step, leg_speeds, planned_track
 from ..mission.track_missions import LaunchWays, track_mission
 
 # How far out of step two survivors may fly, t seconds after their release: floor_s + rate * t, by the
@@ -126,9 +126,10 @@ def plan_retask(plan_dir: Path, record: PlanRecord, survivors: Sequence[Survivor
     if field.plans is None:
         raise RetaskPlanningError(f"the re-task could not be planned: {field.result.run.failure}")
     plans = field.plans
-    model = FlightModel.for_autopilot(settings.autopilot, settings.speed_m_s, settings.acceptance_m)
+    model = FlightModel.for_autopilot(settings.autopilot, settings.speed_m_s, settings.acceptance_m,
+                                      settings.transit_speed_m_s)
     margin = max(0.5, safety.clearance_m / cell)
-    here, homes, surveys, backs, routes = [], [], [], [], []
+    here, homes, surveys, backs, routes, speeds = [], [], [], [], [], []
     for k, s in enumerate(survivors):
         here.append(to_grid_m(frame, [s.lat], [s.lon])[0])
         homes.append(to_grid_m(frame, [s.home[0]], [s.home[1]])[0])
@@ -137,6 +138,9 @@ def plan_retask(plan_dir: Path, record: PlanRecord, survivors: Sequence[Survivor
         homing = LaunchWays(flyable, home_cell, base.obstacle, margin, cell)
         backs.append(homing.way(surveys[k][-1], outbound=False) if len(surveys[k]) else np.zeros((0, 2)))
         routes.append(np.vstack([surveys[k], backs[k], homes[k][None, :]]))
+        # The way home at the transit speed where the mission has one (track_mission sets it before `backs`).
+        speeds.append(np.append(leg_speeds(model, 0, len(surveys[k]), len(backs[k])),
+                                model.transit_m_s if len(backs[k]) else model.speed_m_s))
 
     timed: dict[float, list[dict[int, np.ndarray]]] = {}  # per layer step: the chosen one is needed again
 
@@ -146,7 +150,7 @@ def plan_retask(plan_dir: Path, record: PlanRecord, survivors: Sequence[Survivor
         between layers and would shift the tracks against each other); each lands at home (RTL)."""
         if step not in timed:
             altitude = replace(settings, altitude_step_m=step).altitude_of
-            timed[step] = [{s.sysid: airborne(planned_track(here[k], routes[k], altitude(k), "land", model),
+            timed[step] = [{s.sysid: airborne(planned_track(here[k], routes[k], altitude(k), "land", model, speeds[k]),
                                               altitude(k)) for k, s in enumerate(survivors)}]
         return timed[step]
 
