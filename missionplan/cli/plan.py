@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from missionplan.bridge.formats.gimbal import GIMBAL_PITCH_RANGE
 from missionplan.bridge.limits import SEED_MAX, check_integer, check_range
 from missionplan.bridge.terminal_text import printable
 
@@ -18,7 +19,7 @@ from ..grid.lanes import MAX_OBSTACLE_SHARE
 from ..grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 from ..maps.catalog import load_shipped, shipped_map_names
 from ..maps.gridmap import MapError
-from ..mission.drone_missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
+from ..mission.drone_missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS, NADIR_PITCH_DEG
 from ..mission.georef import AreaRequest
 from ..mission.safety import DEFAULT_CLEARANCE_M
 from ..mission.separation import DEFAULT_MAX_ALTITUDE_M
@@ -66,6 +67,7 @@ class PlanRequest:
     endurance: float
     reserve: float
     autopilot: str
+    gimbal_pitch: float
     out: Path
     basemap: str | None
     policy: str
@@ -141,6 +143,10 @@ def register(sub: Any) -> None:
     plan.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
                       help="the vehicles' autopilot: the .plan firmwareType that upload / fly check (default "
                            "ardupilot; px4 writes no .waypoints, see docs/px4-missions.md)")
+    plan.add_argument("--gimbal-pitch", type=float, default=NADIR_PITCH_DEG, metavar="DEG",
+                      help=f"where every mission points the camera before its first photo, {GIMBAL_PITCH_RANGE[0]:g} "
+                           f"(straight down, the default) to {GIMBAL_PITCH_RANGE[1]:g} (level) degrees "
+                           "(docs/capture.md, Gimbal)")
     plan.add_argument("--out", required=True, type=Path, help="output folder (created if missing)")
     plan.add_argument("--basemap", metavar="URL",
                       help="plan.html draws map tiles from this tile server (e.g. "
@@ -187,7 +193,8 @@ def _plan_ground(request: PlanRequest) -> PlanGround:
         uavs = request.uavs
         frame, unknown, sources = shipped_frame(gmap), NO_UNKNOWN_HEIGHTS, None
     mission = {"speed": request.speed, "overlap": request.overlap, "end": request.end,
-               "altitude_step": request.altitude_step, "altitude": request.altitude, "autopilot": request.autopilot}
+               "altitude_step": request.altitude_step, "altitude": request.altitude, "autopilot": request.autopilot,
+               "gimbal_pitch": request.gimbal_pitch}
     safety = {"min_separation": request.min_separation, "max_altitude": request.max_altitude,
               "clearance": request.clearance, "endurance": request.endurance, "reserve": request.reserve}
     ground = grid_ground(gmap, uavs, frame, mission, safety, unknown=unknown, sources=sources,
@@ -226,6 +233,7 @@ def _check_plan_numbers(request: PlanRequest) -> None:
     check("--rotation", request.rotation, -360.0, 360.0, " degrees", what="a grid angle")
     check("--speed", request.speed, 0.0, 100.0, " m/s", low_open=True)
     check("--overlap", request.overlap, 0.0, 1.0, high_open=True, what="a fraction")
+    check("--gimbal-pitch", request.gimbal_pitch, *GIMBAL_PITCH_RANGE, " degrees", what="a gimbal pitch (-90 straight down)")
     check("--altitude-step", request.altitude_step, 0.0, MAX_PLAN_ALTITUDE_M, " m")
     check("--min-separation", request.min_separation, 0.0, 1_000.0, " m", low_open=True)
     check("--max-altitude", request.max_altitude, 0.0, MAX_PLAN_ALTITUDE_M, " m", low_open=True)

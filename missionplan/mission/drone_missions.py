@@ -4,11 +4,13 @@ Each drone's mission, in order:
 
 1. NAV_TAKEOFF to its altitude above the launch point;
 2. DO_CHANGE_SPEED to the cruise speed;
-3. DO_SET_CAM_TRIGG_DIST: a photo every `trigger distance` metres, the first at once;
-4. per corrected waypoint: NAV_WAYPOINT (acceptance radius a quarter cell), then
+3. the gimbal item that points the camera at the gimbal pitch (straight down by default) before the first photo:
+   DO_MOUNT_CONTROL for ArduPilot, DO_GIMBAL_MANAGER_PITCHYAW for PX4 (bridge/formats/gimbal.py says why);
+4. DO_SET_CAM_TRIGG_DIST: a photo every `trigger distance` metres, the first at once;
+5. per corrected waypoint: NAV_WAYPOINT (acceptance radius a quarter cell), then
    DO_SET_CAM_TRIGG_DIST again with "trigger once now", so each corner gets a photo and the
    photos of the next leg are spaced from it; after the last waypoint the distance is 0 (camera off);
-5. NAV_RETURN_TO_LAUNCH, or NAV_LAND where the track ends.
+6. NAV_RETURN_TO_LAUNCH, or NAV_LAND where the track ends.
 
 Positions use the relative-altitude frame (MAV_FRAME_GLOBAL_RELATIVE_ALT). Drone k (from 0)
 flies at altitude H + k * altitude_step: layers go up from H, never below it, so the
@@ -34,6 +36,7 @@ import numpy as np
 from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND,
                             CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT,
                             FRAME_GLOBAL_TERRAIN_ALT, FRAME_MISSION, SPEED_TYPE_GROUNDSPEED, Mission, MissionItem)
+from missionplan.bridge.formats.gimbal import NADIR_PITCH_DEG, gimbal_item
 from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 
 DEFAULT_SPEED_M_S = 5.0
@@ -55,6 +58,7 @@ class MissionSettings:
     end: str = "rtl"
     altitude_step_m: float = 0.0
     autopilot: str = "ardupilot"  # `plan --autopilot`: whose flight the timeline times (px4: flight_models.px4_model)
+    gimbal_pitch_deg: float = NADIR_PITCH_DEG  # `plan --gimbal-pitch`: where the camera points, -90 straight down
 
     @property
     def acceptance_m(self) -> float:
@@ -113,6 +117,8 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
         MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=lat0, y=lon0, z=altitude),
         MissionItem(CMD_DO_CHANGE_SPEED, FRAME_MISSION, param1=SPEED_TYPE_GROUNDSPEED, param2=settings.speed_m_s,
                     param3=-1.0),
+        # The camera pointed before the first photo: it is wherever it was left otherwise (every sortie too).
+        gimbal_item(settings.autopilot, settings.gimbal_pitch_deg),
         # param3 = 1: take the first photo at once, not only after the first trigger distance; a resumed
         # sortie keeps the camera off on its way out (the first waypoint's item below turns it on).
         MissionItem(CMD_DO_SET_CAM_TRIGG_DIST, FRAME_MISSION, param1=0.0 if camera_off else settings.trigger_distance_m,

@@ -21,6 +21,7 @@ from typing import Any
 import shapely
 
 from missionplan.base.naming import Named, Setting
+from missionplan.bridge.formats.gimbal import GIMBAL_PITCH_RANGE
 from missionplan.bridge.limits import ANGLE_DEG, check_range
 from missionplan.geo.area import build_grid_map
 from missionplan.geo.camera import Camera
@@ -31,7 +32,7 @@ from missionplan.geo.readers import read_area_file, read_building_file, read_obs
 from missionplan.geo.sources import Building, Omission, SourceFile
 
 from ..maps.gridmap import GridMap
-from .drone_missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, MissionSettings
+from .drone_missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, NADIR_PITCH_DEG, MissionSettings
 from .plan_blocks import BuildingsRead, InputFile
 
 WARNING_NAMES = 3  # files' omissions named in the warning line before "and N more"
@@ -222,13 +223,15 @@ def shipped_frame(gmap: GridMap) -> GridFrame | None:
 
 def mission_settings(gmap: GridMap, *, speed: float = DEFAULT_SPEED_M_S, overlap: float = DEFAULT_OVERLAP,
                      end: str = "rtl", altitude_step: float = 0.0, altitude: float | None = None,
-                     autopilot: str = "ardupilot") -> MissionSettings:
+                     autopilot: str = "ardupilot", gimbal_pitch: float = NADIR_PITCH_DEG) -> MissionSettings:
     """Altitude and footprint from the map's georeference (9 cells a side; `altitude` where the map has none),
     speed, overlap, end action, altitude step and autopilot as `plan` takes them; the defaults are `plan`'s."""
     check_range(speed, Setting("speed"), 0.0, 100.0, unit=" m/s", low_open=True, error=GeoError)
     check_range(overlap, Setting("overlap"), 0.0, 1.0, high_open=True, what="a fraction", error=GeoError)
     # Layers go up from the altitude, never below it.
     check_range(altitude_step, Setting("altitude_step"), 0.0, 5_000.0, unit=" m", error=GeoError)
+    check_range(gimbal_pitch, Setting("gimbal_pitch"), *GIMBAL_PITCH_RANGE, unit=" degrees",
+                what="a gimbal pitch (-90 straight down)", error=GeoError)
     georef = gmap.georef
     if georef is None:
         raise GeoError(f"map {gmap.name}: no georeference (origin_lat, origin_lon) in its metadata")
@@ -236,4 +239,5 @@ def mission_settings(gmap: GridMap, *, speed: float = DEFAULT_SPEED_M_S, overlap
     if not flight_altitude > 0:
         raise GeoError(f"map {gmap.name}: no flight altitude (altitude_m) in its metadata")
     return MissionSettings(altitude_m=flight_altitude, footprint_m=georef.footprint_m, speed_m_s=speed,
-                           overlap=overlap, end=end, altitude_step_m=altitude_step, autopilot=autopilot)
+                           overlap=overlap, end=end, altitude_step_m=altitude_step, autopilot=autopilot,
+                           gimbal_pitch_deg=gimbal_pitch)

@@ -21,7 +21,7 @@ from typing import Any
 from missionplan.geo.sources import Omission
 
 from ..maps.gridmap import Cell
-from .drone_missions import MissionSettings
+from .drone_missions import NADIR_PITCH_DEG, MissionSettings
 from .safety import SafetySettings
 
 JSON = dict[str, Any]  # an object as report.json holds it
@@ -469,8 +469,12 @@ class PlanSettings:
     open_ground: str
 
     def to_json(self) -> JSON:
-        # Every field of the two settings, in their order: a field added there is recorded here.
-        return {"mission": asdict(self.mission), "safety": asdict(self.safety), "policy": self.policy,
+        # Every field of the two settings, in their order: a field added there is recorded here. The gimbal
+        # pitch only when not straight down: a nadir plan's record is what it was before the gimbal item.
+        mission = asdict(self.mission)
+        if mission["gimbal_pitch_deg"] == NADIR_PITCH_DEG:
+            del mission["gimbal_pitch_deg"]
+        return {"mission": mission, "safety": asdict(self.safety), "policy": self.policy,
                 "zones": self.zones, "balance_zones": self.balance_zones, "open_ground": self.open_ground}
 
     @classmethod
