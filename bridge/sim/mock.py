@@ -49,6 +49,7 @@ from ..link.connection import ConnectionSpec, mavlink, parse_url
 from ..formats.mission_items import Flavour
 from .mock_terrain import GroundModel
 from .mock_vehicle import MockVehicle, VehicleOptions, ground_amsl
+from .vehicle_params import ARDUPILOT_MOUNT_PARAM, PX4_MOUNT_PARAM
 from .vehicle_part import log_error
 from ..link.signing import SigningKey, apply_key
 
@@ -561,13 +562,16 @@ class MockAutopilot:
 
     def configure_camera(self, sysid: int, offline: float = 0.05) -> None:
         """What a team does once on a real vehicle: CAM1_TYPE = 1 (PX4: TRIG_MODE = 4, distance-triggered
-        by the mission) and a reboot (it takes effect at boot)."""
+        by the mission), the camera on a mount that reports where it points (MNT1_TYPE = 1, a servo mount;
+        PX4: MNT_MODE_IN = 0, its gimbal module) and a reboot (they take effect at boot)."""
         with self._lock:
             vehicle = self.vehicles[sysid]
             if vehicle.flavour is Flavour.PX4:
                 vehicle.params["TRIG_MODE"] = 4.0
+                vehicle.params[PX4_MOUNT_PARAM] = 0.0
             else:
                 vehicle.params["CAM1_TYPE"] = 1.0
+                vehicle.params[ARDUPILOT_MOUNT_PARAM] = 1.0
             vehicle.reboot(time.monotonic(), offline)
 
     def configure_cameras(self) -> MockAutopilot:
