@@ -1,7 +1,8 @@
 """The gimbal item on the real autopilots, and the mock's mount beside them: ArduCopter SITL with a simulated servo
 mount (MNT1_TYPE 1, SERVO9_FUNCTION 7: mount tilt; then a reboot) and PX4 SIH with its gimbal module (MNT_MODE_IN 0,
-MNT_MODE_OUT 0 at boot) each store the item our plans carry for them, fly it, and report the camera at -90 degrees
-in GIMBAL_DEVICE_ATTITUDE_STATUS; the mock of each flavour, configured the same way, reports the same.
+MNT_MODE_OUT 0 at boot) each store the item our plans carry for them (DO_MOUNT_CONTROL), fly it, and report the
+camera at -90 degrees in GIMBAL_DEVICE_ATTITUDE_STATUS; the mock of each flavour, configured the same way, reports
+the same. (PX4 did not turn for a first DO_GIMBAL_MANAGER_PITCHYAW: docs/autopilots.md.)
 
 What was measured with them (docs/autopilots.md, Gimbal): neither SITL sends MOUNT_STATUS; PX4 also sends
 MOUNT_ORIENTATION; ArduCopter's servo mount reports its body-frame servo demand (-90 in a hover).
@@ -18,7 +19,7 @@ from typing import Any
 import pytest
 
 from missionplan.bridge.formats.gimbal import gimbal_item, quaternion_pitch_roll
-from missionplan.bridge.formats.mission_items import (CMD_DO_GIMBAL_MANAGER_PITCHYAW, Flavour,
+from missionplan.bridge.formats.mission_items import (CMD_DO_MOUNT_CONTROL, Flavour,
                                                       Mission, MissionItem, MissionType, to_wire)
 from missionplan.bridge.formats.readback import compare_wire
 from missionplan.bridge.link.connection import Link, mavlink, wait_vehicle
@@ -152,7 +153,7 @@ def _px4_session(url: str, sysid: int) -> dict[str, Any]:
     return {"before": before, "after": after}
 
 
-def test_px4_stores_and_flies_the_gimbal_manager_item_and_reports_the_camera_down(px4) -> None:
+def test_px4_stores_and_flies_the_mount_item_and_reports_the_camera_down(px4) -> None:
     vehicle: PX4SIH = px4(params=PX4_GIMBAL)
     real = _px4_session(vehicle.gcs_url, vehicle.sysid)
     assert real["before"]["pitches"] and real["before"]["pitches"][-1] == pytest.approx(0.0, abs=QUATERNION_DEG)
@@ -177,7 +178,7 @@ def test_px4_without_its_gimbal_module_stores_the_item_and_flies_on(px4) -> None
         assert home_msg is not None
         mission = _mission(Flavour.PX4, (home_msg.latitude / 1e7, home_msg.longitude / 1e7, 0.0))
         _upload_and_read_back(backend, mission, Flavour.PX4)
-        assert [w.command for w in backend.download(MissionType.MISSION)][1] == CMD_DO_GIMBAL_MANAGER_PITCHYAW
+        assert [w.command for w in backend.download(MissionType.MISSION)][1] == CMD_DO_MOUNT_CONTROL
         assert wait_ready(link, sysid, READY_S)
         _arm_and_start(link, sysid, Flavour.PX4, time.monotonic() + READY_S)
         passed = False

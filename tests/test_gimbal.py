@@ -41,12 +41,13 @@ def test_each_autopilot_gets_its_own_gimbal_command() -> None:
     ardupilot = gimbal_item(Flavour.ARDUPILOT)
     assert (ardupilot.command, ardupilot.param1, ardupilot.param3) == (CMD_DO_MOUNT_CONTROL, -90.0, 0.0)
     assert ardupilot.z == mavlink.MAV_MOUNT_MODE_MAVLINK_TARGETING  # param7: the angles of this command
-    px4 = gimbal_item("px4", -60.0)
-    assert (px4.command, px4.param1, px4.param2) == (CMD_DO_GIMBAL_MANAGER_PITCHYAW, -60.0, 0.0)
-    # ArduCopter refuses NaN rates (MAV_MISSION_INVALID_PARAM3, measured): 0, and no flags, the primary gimbal
-    assert (px4.param3, px4.param4, px4.x, px4.z) == (0.0, 0.0, 0.0, 0.0)
-    assert px4.frame == ardupilot.frame == mavlink.MAV_FRAME_MISSION
-    for wire in to_wire(Mission([ardupilot, px4]), Flavour.PX4):
+    assert gimbal_item(Flavour.PX4) == ardupilot  # PX4 turns its gimbal for this one from a mission (measured)
+    v2 = gimbal_item(Flavour.GENERIC, -60.0)  # the gimbal protocol v2 for any other autopilot
+    assert (v2.command, v2.param1, v2.param2) == (CMD_DO_GIMBAL_MANAGER_PITCHYAW, -60.0, 0.0)
+    # rates not used (NaN, as MAVLink says), no flags, the primary gimbal
+    assert math.isnan(v2.param3) and math.isnan(v2.param4) and (v2.x, v2.z) == (0.0, 0.0)
+    assert v2.frame == ardupilot.frame == mavlink.MAV_FRAME_MISSION
+    for wire in to_wire(Mission([ardupilot, v2]), Flavour.PX4):
         assert item_result(wire) == mavlink.MAV_MISSION_ACCEPTED  # PX4 takes both in frame 2
     for pitch in (-91.0, 0.5, math.nan):
         with pytest.raises(ValueError):
@@ -59,8 +60,7 @@ def _plan(tmp_path: Path, *args: str) -> Path:
     return out
 
 
-@pytest.mark.parametrize("autopilot, command", [("ardupilot", CMD_DO_MOUNT_CONTROL),
-                                                 ("px4", CMD_DO_GIMBAL_MANAGER_PITCHYAW)])
+@pytest.mark.parametrize("autopilot, command", [("ardupilot", CMD_DO_MOUNT_CONTROL), ("px4", CMD_DO_MOUNT_CONTROL)])
 def test_every_mission_points_the_camera_before_its_first_photo(tmp_path, autopilot, command) -> None:
     out = _plan(tmp_path, "--autopilot", autopilot, "--gimbal-pitch", "-70")
     for k in (1, 2):

@@ -3,8 +3,8 @@ mission or a vehicle's report says the camera has.
 
 Owns:
 - gimbal_item: the one mission item that points the camera before the first photo: MAV_CMD_DO_MOUNT_CONTROL
-  on ArduPilot (its mount library, AP_Mount), MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW (the gimbal protocol v2)
-  on PX4 and any other autopilot;
+  on ArduPilot (its mount library, AP_Mount) and on PX4 (the one its gimbal module turns for from a mission,
+  measured), MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW (the gimbal protocol v2) on any other autopilot;
 - check_gimbal_pitch: the pitches a plan may ask for (GIMBAL_PITCH_RANGE: -90 straight down .. 0 level);
 - planned_pitch: the pitch the first gimbal item of a mission asks for (what the camera points at when the
   vehicle reports nothing about its gimbal);
@@ -13,9 +13,12 @@ Owns:
 Angles are MAVLink's: degrees, pitch negative down (-90 = nadir), yaw 0 = the vehicle's heading.
 
 Measured on ArduCopter 4.7.0-dev SITL (MNT1_TYPE 1, a servo mount, SERVO9_FUNCTION 7 its tilt) and PX4 SIH
-v1.15.4 (MNT_MODE_IN 0, MNT_MODE_OUT 0 at boot): both store and run both commands in a mission;
-docs/autopilots.md has the table. ArduCopter refuses a DO_GIMBAL_MANAGER_PITCHYAW whose rates (param3 / 4)
-are NaN (MAV_MISSION_INVALID_PARAM3), so the rates here are 0. ArduCopter hands DO_MOUNT_CONTROL's param7
+v1.15.4 (MNT_MODE_IN 0, MNT_MODE_OUT 0 at boot): both store both commands. ArduCopter turns its mount for
+either. PX4 turns its gimbal for a mission's DO_MOUNT_CONTROL, but not for a DO_GIMBAL_MANAGER_PITCHYAW that comes
+first (NaN or zero rates, MNT_MODE_IN 0 or 4: it reports pitch 0 all flight; after a DO_MOUNT_CONTROL it follows
+one), so PX4 gets DO_MOUNT_CONTROL too. docs/autopilots.md has the table. DO_GIMBAL_MANAGER_PITCHYAW's rates
+(param3 / 4) are NaN, "not used" in MAVLink's words (ArduCopter refuses NaN there, MAV_MISSION_INVALID_PARAM3, but
+it is not sent this item). ArduCopter hands DO_MOUNT_CONTROL's param7
 (the mount mode) back on download, unlike the z of its other non-positional items (formats.readback).
 
 Pure Python with no MAVLink library, like formats.mission_items.
@@ -38,7 +41,7 @@ PRIMARY_GIMBAL = 0.0  # its param7: the gimbal manager's primary gimbal (0 = all
 
 def command_for(flavour: Flavour | str) -> int:
     """The MAV_CMD that points the camera in a mission of this autopilot."""
-    return CMD_DO_MOUNT_CONTROL if Flavour(flavour) is Flavour.ARDUPILOT else CMD_DO_GIMBAL_MANAGER_PITCHYAW
+    return CMD_DO_MOUNT_CONTROL if Flavour(flavour) in (Flavour.ARDUPILOT, Flavour.PX4) else CMD_DO_GIMBAL_MANAGER_PITCHYAW
 
 
 def check_gimbal_pitch(pitch_deg: float) -> str | None:
@@ -59,9 +62,10 @@ def gimbal_item(flavour: Flavour | str, pitch_deg: float = NADIR_PITCH_DEG) -> M
         # param1 pitch, param2 roll, param3 yaw, param7 the mount mode that takes the angles given here.
         return MissionItem(CMD_DO_MOUNT_CONTROL, FRAME_MISSION, param1=float(pitch_deg), param2=0.0, param3=0.0,
                            z=float(MAV_MOUNT_MODE_MAVLINK_TARGETING))
-    # param1 pitch, param2 yaw, param3 / param4 pitch and yaw rates (0: none), param5 flags, param7 gimbal id.
+    # param1 pitch, param2 yaw, param3 / param4 pitch and yaw rates (NaN: not used, angles only), param5 flags,
+    # param7 gimbal id.
     return MissionItem(CMD_DO_GIMBAL_MANAGER_PITCHYAW, FRAME_MISSION, param1=float(pitch_deg), param2=0.0,
-                       param3=0.0, param4=0.0, x=NO_GIMBAL_MANAGER_FLAGS, z=PRIMARY_GIMBAL)
+                       param3=math.nan, param4=math.nan, x=NO_GIMBAL_MANAGER_FLAGS, z=PRIMARY_GIMBAL)
 
 
 def item_pitch(command: int, param1: float) -> float | None:

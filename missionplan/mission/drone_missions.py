@@ -5,7 +5,7 @@ Each drone's mission, in order:
 1. NAV_TAKEOFF to its altitude above the launch point;
 2. DO_CHANGE_SPEED to the cruise speed;
 3. the gimbal item that points the camera at the gimbal pitch (straight down by default) before the first photo:
-   DO_MOUNT_CONTROL for ArduPilot, DO_GIMBAL_MANAGER_PITCHYAW for PX4 (bridge/formats/gimbal.py says why);
+   DO_MOUNT_CONTROL, which ArduPilot and PX4 both turn their mounts for (bridge/formats/gimbal.py says why);
 4. DO_SET_CAM_TRIGG_DIST: a photo every `trigger distance` metres, the first at once;
 5. per corrected waypoint: NAV_WAYPOINT (acceptance radius a quarter cell), then
    DO_SET_CAM_TRIGG_DIST again with "trigger once now", so each corner gets a photo and the
