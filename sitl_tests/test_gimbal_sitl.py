@@ -97,7 +97,13 @@ def _arm_and_start(link: Link, sysid: int, flavour: Flavour, deadline: float) ->
         retry = min(deadline, time.monotonic() + 1.0)  # not ready yet: listen, then ask again
         while link.recv(retry) is not None:
             pass
-    assert link.command_long(sysid, mavlink.MAV_CMD_MISSION_START, [0.0, 0.0], deadline) == mavlink.MAV_RESULT_ACCEPTED
+    # PX4 refuses a start for a moment after an upload or a boot ("Mission start denied! No valid mission"): again.
+    while (result := link.command_long(sysid, mavlink.MAV_CMD_MISSION_START, [0.0, 0.0], deadline)) \
+            != mavlink.MAV_RESULT_ACCEPTED and time.monotonic() < deadline:
+        retry = min(deadline, time.monotonic() + 1.0)
+        while link.recv(retry) is not None:
+            pass
+    assert result == mavlink.MAV_RESULT_ACCEPTED
 
 
 def _ardupilot_session(url: str, sysid: int, configure: Any) -> dict[str, Any]:

@@ -107,8 +107,9 @@ def test_quaternion_pitch() -> None:
     half = math.radians(-90.0) / 2
     assert quaternion_pitch_roll([math.cos(half), 0.0, math.sin(half), 0.0]) == pytest.approx((-90.0, 0.0))
     # ArduCopter SITL's servo mount before any command: q = (0.9536, 0, -0.3012, 0)
-    assert quaternion_pitch_roll([0.9535717964172363, 0.0, -0.30116569995880127, 0.0])[0] == pytest.approx(-35.05,
-                                                                                                            abs=0.01)
+    assert quaternion_pitch_roll([0.9535717964172363, 0.0, -0.30116569995880127, 0.0]) == (-35.1, 0.0)
+    # and at -90 through float32 (SITL's -89.985), to a tenth of a degree
+    assert quaternion_pitch_roll([0.70710677, 0.0, -0.70710677, 0.0]) == (-90.0, 0.0)
     assert quaternion_pitch_roll([math.nan] * 4) is None
 
 

@@ -37,6 +37,10 @@ GIMBAL_PITCH_RANGE = (-90.0, 0.0)  # straight down .. level: a survey camera nev
 GIMBAL_COMMANDS = frozenset({CMD_DO_MOUNT_CONTROL, CMD_DO_GIMBAL_MANAGER_PITCHYAW})
 NO_GIMBAL_MANAGER_FLAGS = 0.0  # DO_GIMBAL_MANAGER_PITCHYAW's param5: no flag, the yaw follows the vehicle
 PRIMARY_GIMBAL = 0.0  # its param7: the gimbal manager's primary gimbal (0 = all / the primary one)
+# A float32 quaternion holds a pitch near -90 only to about 0.015 degrees (SITL's -90 reads -89.985): reported
+# angles are kept to a tenth of a degree (REPORT_DEG), finer than any gimbal points.
+REPORT_DIGITS = 1
+REPORT_DEG = 10.0 ** -REPORT_DIGITS
 
 
 def command_for(flavour: Flavour | str) -> int:
@@ -90,10 +94,10 @@ def planned_pitch(items: Iterable[object]) -> float | None:
 
 def quaternion_pitch_roll(q: Sequence[float]) -> tuple[float, float] | None:
     """(pitch, roll) in degrees of a unit quaternion w, x, y, z (GIMBAL_DEVICE_ATTITUDE_STATUS.q: Hamilton,
-    the earth frame for pitch and roll); None for a quaternion of NaNs (a gimbal that does not know)."""
+    the earth frame for pitch and roll), to REPORT_DEG; None for a quaternion of NaNs (a gimbal that does not know)."""
     if len(q) != 4 or not all(math.isfinite(v) for v in q):
         return None
     w, x, y, z = (float(v) for v in q)
     pitch = math.degrees(math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x)))))
     roll = math.degrees(math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y)))
-    return pitch, roll
+    return round(pitch, REPORT_DIGITS) + 0.0, round(roll, REPORT_DIGITS) + 0.0  # + 0.0: no -0.0
