@@ -32,7 +32,7 @@ from missionplan.testing.arducopter import ArduCopter, reboot_and_wait
 from missionplan.testing.px4_mission_session import wait_home, wait_ready
 from missionplan.testing.px4_sih import PX4 as PX4SIH
 
-pytestmark = pytest.mark.sitl
+pytestmark = [pytest.mark.sitl, pytest.mark.flight]  # flies real autopilots and the mock beside them
 
 NADIR = -90.0
 QUATERNION_DEG = 0.05  # a float32 quaternion holds -90 degrees of pitch to about 0.015
