@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from missionplan.bridge.formats.gimbal import GIMBAL_PITCH_RANGE
+from missionplan.bridge.formats.gimbal import GIMBAL_PITCH_RANGE, NADIR_PITCH_DEG
 from missionplan.bridge.limits import SEED_MAX, check_integer, check_range
 from missionplan.bridge.terminal_text import printable
 
@@ -19,7 +19,7 @@ from ..grid.lanes import MAX_OBSTACLE_SHARE
 from ..grid.zones import DEFAULT_ZONE_METHOD, ZONE_METHODS
 from ..maps.catalog import load_shipped, shipped_map_names
 from ..maps.gridmap import MapError
-from ..mission.drone_missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS, NADIR_PITCH_DEG
+from ..mission.drone_missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, END_ACTIONS
 from ..mission.georef import AreaRequest
 from ..mission.safety import DEFAULT_CLEARANCE_M
 from ..mission.separation import DEFAULT_MAX_ALTITUDE_M

@@ -21,7 +21,7 @@ from typing import Any
 import shapely
 
 from missionplan.base.naming import Named, Setting
-from missionplan.bridge.formats.gimbal import GIMBAL_PITCH_RANGE
+from missionplan.bridge.formats.gimbal import GIMBAL_PITCH_RANGE, NADIR_PITCH_DEG
 from missionplan.bridge.limits import ANGLE_DEG, check_range
 from missionplan.geo.area import build_grid_map
 from missionplan.geo.camera import Camera
@@ -32,7 +32,7 @@ from missionplan.geo.readers import read_area_file, read_building_file, read_obs
 from missionplan.geo.sources import Building, Omission, SourceFile
 
 from ..maps.gridmap import GridMap
-from .drone_missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, NADIR_PITCH_DEG, MissionSettings
+from .drone_missions import DEFAULT_OVERLAP, DEFAULT_SPEED_M_S, MissionSettings
 from .plan_blocks import BuildingsRead, InputFile
 
 WARNING_NAMES = 3  # files' omissions named in the warning line before "and N more"

@@ -18,10 +18,11 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
+from missionplan.bridge.formats.gimbal import NADIR_PITCH_DEG
 from missionplan.geo.sources import Omission
 
 from ..maps.gridmap import Cell
-from .drone_missions import NADIR_PITCH_DEG, MissionSettings
+from .drone_missions import MissionSettings
 from .safety import SafetySettings
 
 JSON = dict[str, Any]  # an object as report.json holds it
