@@ -7,7 +7,7 @@ import math
 import pytest
 from pymavlink import mavwp
 
-from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND,
+from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_DO_MOUNT_CONTROL, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_LAND,
                                                       CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT,
                                                       FRAME_GLOBAL_RELATIVE_ALT)
 from missionplan.bridge.formats.missionfile import read_mission_file
@@ -83,7 +83,9 @@ def test_plan_files_read_back_to_the_mission_shape(leonardo_run):
         items = plan.mission.items
         # layered 1 m apart (the map's min_separation_m) when one altitude would bring two drones too close
         assert items[0].command == CMD_NAV_TAKEOFF and items[0].z == pytest.approx(report["drones"][k - 1]["altitude_m"])
-        assert items[2].command == CMD_DO_SET_CAM_TRIGG_DIST and items[2].param1 > 0
+        # the camera pointed straight down (ArduPilot's mount command) before the first photo
+        assert items[2].command == CMD_DO_MOUNT_CONTROL and items[2].param1 == -90
+        assert items[3].command == CMD_DO_SET_CAM_TRIGG_DIST and items[3].param1 > 0
         assert items[-1].command == CMD_NAV_RETURN_TO_LAUNCH
         # The camera stops after the last survey waypoint; then only the way home round the walls, over the launch
         # point.
@@ -163,8 +165,9 @@ def test_trigger_distance_follows_the_overlap(tmp_path):
     assert main(["plan", "--map", "leonardo", "--uavs", "3", "--out", str(out), "--quiet", "--overlap", "0.5"]) == 0
     items = read_mission_file(out / "uav1.plan").mission.items
     footprint = 9 * 0.238
-    assert items[2].param1 == pytest.approx(footprint * 0.5, rel=1e-6)
-    assert not math.isnan(items[2].param1)
+    first = next(item for item in items if item.command == CMD_DO_SET_CAM_TRIGG_DIST)
+    assert first.param1 == pytest.approx(footprint * 0.5, rel=1e-6)
+    assert not math.isnan(first.param1)
 
 
 SHARED_MAPS = Path(__file__).resolve().parents[1].parent / "shared" / "maps"

@@ -99,6 +99,7 @@ PYMAVLINK_NAMES = {
     "CMD_FENCE_CIRCLE_EXCLUSION": "MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION",
     "CMD_RALLY_POINT": "MAV_CMD_NAV_RALLY_POINT",
     "SPEED_TYPE_GROUNDSPEED": "SPEED_TYPE_GROUNDSPEED",
+    "MAV_MOUNT_MODE_MAVLINK_TARGETING": "MAV_MOUNT_MODE_MAVLINK_TARGETING",
 }
 
 # A local name with one of these prefixes holding a value of the pymavlink family is a re-declaration.

@@ -156,8 +156,9 @@ def test_a_plan_is_written_in_the_oldest_version_that_holds_it(record: PlanRecor
     doc = through_json(record.to_json())
     georef = record.georeference
     terrain = georef is not None and georef.terrain is not None
+    mission = record.settings.mission if record.settings is not None else None
     capture = (georef is not None and georef.capture is not None) or record.roofs is not None or (
-        record.settings is not None and record.settings.mission.capture != "relay")
+        mission is not None and (mission.capture != "relay" or mission.gimbal_pitch_deg != -90.0))
     if capture:
         assert next(iter(doc)) == "schema_version" and doc["schema_version"] == 3
     elif terrain:

@@ -144,6 +144,7 @@ CMD_FENCE_CIRCLE_EXCLUSION = 5004
 CMD_RALLY_POINT = 5100  # MAV_CMD_NAV_RALLY_POINT
 
 SPEED_TYPE_GROUNDSPEED = 1  # DO_CHANGE_SPEED's param1 for a ground speed (SPEED_TYPE)
+MAV_MOUNT_MODE_MAVLINK_TARGETING = 2  # DO_MOUNT_CONTROL's param7: point where the angles of the command say
 
 
 def normalize_frame(frame: int) -> int:

@@ -17,6 +17,7 @@ from dataclasses import replace
 from .mission_items import (
     CMD_DO_CHANGE_SPEED,
     CMD_DO_LAND_START,
+    CMD_DO_MOUNT_CONTROL,
     CMD_DO_REPOSITION,
     CMD_DO_SET_CAM_TRIGG_DIST,
     CMD_DO_SET_HOME,
@@ -91,7 +92,7 @@ def ardupilot_stored(item: WireItem) -> WireItem:
     - altitudes: whole centimetres (truncated, and returned as cm * 0.01 in float32) in a mission, whole metres for
     rally points, none for
       fence vertices; latitude and longitude: the 1e-7 degree integers as sent;
-    - non-positional mission items: frame 0 (MAV_FRAME_GLOBAL), x = y = z = 0;
+    - non-positional mission items: frame 0 (MAV_FRAME_GLOBAL), x = y = z = 0 (DO_MOUNT_CONTROL keeps its z);
     - deprecated *_INT frames: their plain number (6 -> 3, 5 -> 0, 11 -> 10);
     - params it has no room for: ARDUPILOT_UNSTORED_PARAMS; NAV_WAYPOINT's hold time truncated to
       whole seconds;
@@ -109,7 +110,8 @@ def ardupilot_stored(item: WireItem) -> WireItem:
         autocontinue = 0
         z = float(math.trunc(as_float32(z))) if math.isfinite(z) else z
     elif not is_positional(item.command):
-        frame, x, y, z = FRAME_GLOBAL, 0, 0, 0.0
+        # DO_MOUNT_CONTROL's z is its mount mode (param7), which ArduCopter hands back (2 sent, 2 read back).
+        frame, x, y, z = FRAME_GLOBAL, 0, 0, z if item.command == CMD_DO_MOUNT_CONTROL else 0.0
     else:
         if math.isfinite(z):  # int32 centimetres, truncated; returned as cm * 0.01f (float32 maths, as on board)
             z = as_float32(as_float32(math.trunc(as_float32(as_float32(z) * 100.0))) * as_float32(0.01))

@@ -68,13 +68,16 @@ ARM_RETRY_S = 1.0
 HOME_ASK_S = 2.0   # re-ask for HOME_POSITION this often while it is unknown
 READY_RATES_HZ = {mavlink.MAVLINK_MSG_ID_SYS_STATUS: 1.0, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
                   mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT: 1.0, mavlink.MAVLINK_MSG_ID_HOME_POSITION: 0.5,
-                  mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 2.0}
+                  mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 2.0,
+                  # where the camera points, for the photos' geotags (ArduPilot sends it only when asked)
+                  mavlink.MAVLINK_MSG_ID_GIMBAL_DEVICE_ATTITUDE_STATUS: 2.0}
 STREAM_NAMES = {mavlink.MAVLINK_MSG_ID_SYS_STATUS: "SYS_STATUS", mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: "GPS_RAW_INT",
                 mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: "GLOBAL_POSITION_INT",
                 mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: "MISSION_CURRENT",
                 mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT: "EKF_STATUS_REPORT",
                 mavlink.MAVLINK_MSG_ID_HOME_POSITION: "HOME_POSITION",
-                mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: "EXTENDED_SYS_STATE"}
+                mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: "EXTENDED_SYS_STATE",
+                mavlink.MAVLINK_MSG_ID_GIMBAL_DEVICE_ATTITUDE_STATUS: "GIMBAL_DEVICE_ATTITUDE_STATUS"}
 TEXTS_KEPT = 20
 # A vehicle is ready only once its position estimate stands still on the ground: moved at most STEADY_M
 # over the last STEADY_WINDOW_S of its own clock. Why: PX4 takes off towards where it believed it was at

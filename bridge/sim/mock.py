@@ -50,6 +50,7 @@ from ..formats.mission_items import Flavour
 from .mock_terrain import GroundModel
 from .vehicle_params import configured_camera
 from .mock_vehicle import MockVehicle, VehicleOptions, ground_amsl
+from .vehicle_params import ARDUPILOT_MOUNT_PARAM, PX4_MOUNT_PARAM
 from .vehicle_part import log_error
 from ..link.signing import SigningKey, apply_key
 
@@ -566,11 +567,15 @@ class MockAutopilot:
 
     def configure_camera(self, sysid: int, offline: float = 0.05) -> None:
         """What a team does once on a real vehicle: CAM1_TYPE = 1 (PX4: TRIG_MODE = 4, distance-triggered
-        by the mission), 6 with a MAVLink camera (PX4: TRIG_INTERFACE 3), and a reboot (it takes effect at boot)."""
+        by the mission), 6 with a MAVLink camera (PX4: TRIG_INTERFACE 3), the camera on a mount that reports where
+        it points (MNT1_TYPE = 1, a servo mount; PX4: MNT_MODE_IN = 0, its gimbal module) and a reboot (they take
+        effect at boot)."""
         with self._lock:
             vehicle = self.vehicles[sysid]
             mavlink_camera = vehicle.mavlink_camera is not None  # TRIG_INTERFACE 3 / CAM1_TYPE 6: a MAVLink camera
             vehicle.params.update(configured_camera(vehicle.flavour, mavlink_camera))
+            vehicle.params[PX4_MOUNT_PARAM if vehicle.flavour is Flavour.PX4 else ARDUPILOT_MOUNT_PARAM] = (
+                0.0 if vehicle.flavour is Flavour.PX4 else 1.0)
             vehicle.reboot(time.monotonic(), offline)
 
     def configure_cameras(self) -> MockAutopilot:

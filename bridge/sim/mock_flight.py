@@ -2,7 +2,8 @@
 
 Owns the flight of one vehicle in simulated time: takeoff climb, straight legs at the cruise speed
 (DO_CHANGE_SPEED changes it) to every waypoint itself (one already within its acceptance radius is
-reached at once), hold times, DO_JUMP, camera triggering by distance (DO_SET_CAM_TRIGG_DIST: photos
+reached at once), hold times, DO_JUMP, the camera mount's pitch (DO_MOUNT_CONTROL, DO_GIMBAL_MANAGER_PITCHYAW),
+camera triggering by distance (DO_SET_CAM_TRIGG_DIST: photos
 counted, their positions and altitudes kept), land and return-to-launch, and the flown track: the same
 whatever the lengths of the ticks that advance it. With `copter` (flight_models.copter_model.CopterParams: the
 SITL-like mode) it flies as ArduCopter does instead, on the very model the planner's timeline uses:
@@ -34,6 +35,7 @@ from ..flight_models import px4_model
 from ..flight_models.copter_model import CopterParams
 from ..flight_models.px4_model import Px4Params
 from .capture_clock import CaptureClock
+from ..formats.gimbal import GIMBAL_COMMANDS
 from ..formats.mission_items import (
     CMD_DO_CHANGE_SPEED,
     CMD_DO_JUMP,
@@ -95,6 +97,7 @@ class FlightState:
     distance: float = 0.0
     sim_time: float = 0.0
     ground: float = 0.0  # the true ground under it, metres above the home's ground (0 over a flat world)
+    gimbal_pitch: float = 0.0  # where its camera mount points, degrees (-90 down): set by the gimbal items
 
     @property
     def on_ground(self) -> bool:
@@ -320,6 +323,10 @@ class FlightSim:
                     events.append(FlightEvent("current", target))
                 else:
                     self._advance_item(events, reached=False)
+                return 0.0
+            if cmd in GIMBAL_COMMANDS:  # the mount turns at once (both SITLs report the new pitch within a second)
+                s.gimbal_pitch = float(item.param1)
+                self._advance_item(events, reached=False)
                 return 0.0
             if cmd not in NAV_COMMANDS_WITH_POSITION and cmd not in (CMD_NAV_RETURN_TO_LAUNCH,):
                 self._advance_item(events, reached=False)  # other DO_ / condition commands: nothing to fly

@@ -3,8 +3,10 @@
 Owns, for one mock vehicle (mock_vehicle), every message it sends about its own state and when: HEARTBEAT
 (quadrotor, ArduPilot or PX4; MAV_STATE_BOOT the first time after a (re)boot) once a second; SYS_STATUS (with the
 pre-arm check bit, and the battery: SITL's SIM_BATT_VOLTAGE on ArduPilot), GPS_RAW_INT, EKF_STATUS_REPORT
-(ArduPilot), HOME_POSITION (once the home is known), GLOBAL_POSITION_INT, MISSION_CURRENT and
-EXTENDED_SYS_STATE (PX4's landed state, also sent at once when it changes), each at the rate
+(ArduPilot), HOME_POSITION (once the home is known), GLOBAL_POSITION_INT, MISSION_CURRENT,
+EXTENDED_SYS_STATE (PX4's landed state, also sent at once when it changes) and GIMBAL_DEVICE_ATTITUDE_STATUS
+(its camera mount's pitch, as each SITL reports its own; PX4 adds MOUNT_ORIENTATION; in the SITL-like mode only
+with a mount configured at boot, MNT1_TYPE > 0 / MNT_MODE_IN >= 0), each at the rate
 SET_MESSAGE_INTERVAL asks for (with streams_until_asked, like ArduPilot, none of them before it is asked);
 STATUSTEXT (PX4 sends a long one in 50-character chunks under one id), ArduCopter SITL's "AHRS: waiting for
 home" and its failing pre-arm check every 30 simulated seconds until the GPS has a fix; the flight's events
@@ -23,7 +25,7 @@ from ..formats.mission_items import Flavour, MissionType
 from ..formats.px4_rules import px4_millimetres, reported_reached
 from ..link.connection import mavlink
 from .mock_flight import FlightEvent
-from .vehicle_params import ARDUPILOT_CAMERA_PARAM, PX4_CAMERA_PARAM
+from .vehicle_params import ARDUPILOT_CAMERA_PARAM, ARDUPILOT_MOUNT_PARAM, NO_MOUNT, PX4_CAMERA_PARAM, PX4_MOUNT_PARAM
 from .vehicle_part import VehiclePart
 
 CAPABILITIES = (mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
@@ -33,7 +35,14 @@ CAPABILITIES = (mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT | mavlink.MAV_PROTOC
 STREAMS = (mavlink.MAVLINK_MSG_ID_SYS_STATUS, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT,
            mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, mavlink.MAVLINK_MSG_ID_MISSION_CURRENT,
            mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT, mavlink.MAVLINK_MSG_ID_HOME_POSITION,
-           mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE)
+           mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, mavlink.MAVLINK_MSG_ID_GIMBAL_DEVICE_ATTITUDE_STATUS)
+# GIMBAL_DEVICE_ATTITUDE_STATUS as each SITL sends it for its own mount, the autopilot standing in for the gimbal
+# device (component 1): ArduCopter 4.7 (MNT1_TYPE 1) with these flags, gimbal device 1 and NaN rates; PX4 v1.15
+# (MNT_MODE_OUT 0) with these, gimbal device 0 and zero rates, and MOUNT_ORIENTATION beside it.
+ARDUPILOT_GIMBAL_FLAGS = (mavlink.GIMBAL_DEVICE_FLAGS_ROLL_LOCK | mavlink.GIMBAL_DEVICE_FLAGS_PITCH_LOCK
+                          | mavlink.GIMBAL_DEVICE_FLAGS_YAW_IN_VEHICLE_FRAME)
+PX4_GIMBAL_FLAGS = (mavlink.GIMBAL_DEVICE_FLAGS_NEUTRAL | mavlink.GIMBAL_DEVICE_FLAGS_ROLL_LOCK
+                    | mavlink.GIMBAL_DEVICE_FLAGS_PITCH_LOCK | mavlink.GIMBAL_DEVICE_FLAGS_YAW_LOCK)
 # Flight-model motions (copter_model.Motion.kind) during which PX4 reports taking off, and landing
 # (SIH: taking off from "Takeoff detected" to the take-off altitude; landing from "RTL: land at
 # destination" until "Landing detected").
@@ -66,6 +75,7 @@ class Telemetry(VehiclePart):
         # Sends CAMERA_FEEDBACK (PX4: CAMERA_IMAGE_CAPTURED); SITL-like: only when the camera parameter
         # (CAM1_TYPE, PX4's TRIG_MODE) was set at boot.
         self.camera = True
+        self.mount = True  # reports where its camera mount points (SITL-like: only with one configured at boot)
         self._text_id = 0  # PX4's STATUSTEXT id for chunked texts
 
     def on_boot(self, now: float) -> None:
@@ -73,11 +83,16 @@ class Telemetry(VehiclePart):
         self._booting = True
         camera_param = PX4_CAMERA_PARAM if self.flavour is Flavour.PX4 else ARDUPILOT_CAMERA_PARAM
         self.camera = not self.options.sitl_like or self.vehicle.params.get(camera_param, 0.0) > 0.0
+        mount_param = PX4_MOUNT_PARAM if self.flavour is Flavour.PX4 else ARDUPILOT_MOUNT_PARAM
+        # A mount reports where it points; SITL-like: only one configured at boot (MNT1_TYPE > 0, MNT_MODE_IN >= 0).
+        self.mount = not self.options.sitl_like or (
+            self.vehicle.params.get(mount_param, NO_MOUNT[mount_param]) > NO_MOUNT[mount_param])
         self.reached: list[int] = []  # the mission items reached since boot
         self._next_heartbeat = now
         self.intervals: dict[int, float | None] = self._default_intervals()  # wall seconds; None: off
         self._next_due = {msgid: now for msgid in STREAMS}
         self._photos_sent = 0
+        self._gimbal_sent: float | None = None  # the mount pitch last reported
         self._landed_sent = mavlink.MAV_LANDED_STATE_ON_GROUND
         self._said_waiting = False
         self._next_prearm_text = PREARM_REPEAT_S  # simulated seconds since boot
@@ -93,7 +108,8 @@ class Telemetry(VehiclePart):
                 mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 1.0,
                 mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT: 1.0 if ardupilot else None,
                 mavlink.MAVLINK_MSG_ID_HOME_POSITION: None,
-                mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: None if ardupilot else 1.0}
+                mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: None if ardupilot else 1.0,
+                mavlink.MAVLINK_MSG_ID_GIMBAL_DEVICE_ATTITUDE_STATUS: None}
 
     @property
     def position_interval(self) -> float | None:
@@ -139,6 +155,9 @@ class Telemetry(VehiclePart):
         if self.intervals.get(mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE) is not None \
                 and self._landed_state() != self._landed_sent:
             self._send_landed_state()  # at once, not a stream interval late (a sped-up mock's second is long)
+        if self.intervals.get(mavlink.MAVLINK_MSG_ID_GIMBAL_DEVICE_ATTITUDE_STATUS) is not None \
+                and self.vehicle.flight.state.gimbal_pitch != self._gimbal_sent:
+            self._send_gimbal(now)  # at once too, and before the photo the gimbal item precedes
         self._send_camera_feedback(now)
 
     def _send_stream(self, msgid: int, now: float) -> None:
@@ -156,6 +175,8 @@ class Telemetry(VehiclePart):
             self.send_home()
         elif msgid == mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE:
             self._send_landed_state()
+        elif msgid == mavlink.MAVLINK_MSG_ID_GIMBAL_DEVICE_ATTITUDE_STATUS:
+            self._send_gimbal(now)
 
     # ------------------------------------------------------------------------------ the messages
     def _custom_mode(self) -> int:
@@ -274,6 +295,24 @@ class Telemetry(VehiclePart):
             elif event.kind in ("landed", "done"):
                 self.send_mission_current()
                 self.send_heartbeat()
+
+    def _send_gimbal(self, now: float) -> None:
+        """Where the mount points (FlightState.gimbal_pitch; roll and yaw 0), as each SITL reports it; nothing
+        without a mount."""
+        if not self.mount:
+            return
+        s = self.vehicle.flight.state
+        self._gimbal_sent = s.gimbal_pitch
+        half = math.radians(s.gimbal_pitch) / 2.0
+        q = [math.cos(half), 0.0, math.sin(half), 0.0]
+        boot_ms = self.vehicle.time_boot_ms(now)
+        if self.flavour is Flavour.PX4:
+            self.mav.gimbal_device_attitude_status_send(0, 0, boot_ms, PX4_GIMBAL_FLAGS, q, 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0)
+            self.mav.mount_orientation_send(boot_ms, 0.0, s.gimbal_pitch, 0.0, s.heading % 360.0)
+            return
+        nan = math.nan
+        self.mav.gimbal_device_attitude_status_send(0, 0, boot_ms, ARDUPILOT_GIMBAL_FLAGS, q, nan, nan, nan, 0, nan, nan,
+                                                    1)
 
     def _send_camera_feedback(self, now: float) -> None:
         """One CAMERA_FEEDBACK per photo taken since the last call, with where it was taken."""

@@ -6,11 +6,13 @@ ArduPilot flavour's WPNAV_RADIUS (200 cm; every waypoint is flown to it, not to 
 and failsafe (ARDUPILOT_BATTERY_PARAMS, SITL's SIM_BATT_VOLTAGE among them), the PX4 flavour's MIS_DIST_1WP
 (formats.px4_rules), the ArduPilot flavour's terrain parameters over a ground (mock_terrain.TERRAIN_PARAMS); in
 the SITL-like mode also the autopilot's navigation parameters (flight_models:
-copter_model.CopterParams, px4_model.Px4Params) and its camera parameter (CAM1_TYPE, PX4's TRIG_MODE), 0
-(PX4's TRIG_INTERFACE 3, as SIH has it); otherwise its camera parameters as set up (configured_camera).
+copter_model.CopterParams, px4_model.Px4Params), its camera parameter (CAM1_TYPE, PX4's TRIG_MODE), 0
+(PX4's TRIG_INTERFACE 3, as SIH has it), and its mount parameter (MNT1_TYPE 0, PX4's MNT_MODE_IN -1: no mount);
+otherwise its camera parameters as set up (configured_camera).
 PARAM_REQUEST_READ of a name is answered with its PARAM_VALUE, an unknown name not at all (as on ArduPilot);
 PARAM_SET stores the value as given, out of range or not (as ArduCopter SITL does), answers with PARAM_VALUE,
-and the navigation parameters take effect in the flight at once; the camera parameter only at the next boot.
+and the navigation parameters take effect in the flight at once; the camera and mount parameters only at the next
+boot.
 """
 
 from __future__ import annotations
@@ -27,6 +29,10 @@ from .vehicle_part import VehiclePart
 
 PX4_CAMERA_PARAM, ARDUPILOT_CAMERA_PARAM = "TRIG_MODE", "CAM1_TYPE"  # read at boot: the camera reports only then
 PX4_TRIGGER_INTERFACE = "TRIG_INTERFACE"  # 3: MAVLink (IMAGE_START_CAPTURE to a MAVLink camera), 4: generic PWM
+# The camera mount, read at boot too: ArduPilot's MNT1_TYPE (0 none, 1 servo, ...), PX4's MNT_MODE_IN (-1: no gimbal
+# module; 0 and up: it runs and reports). The SITLs' defaults: no mount.
+PX4_MOUNT_PARAM, ARDUPILOT_MOUNT_PARAM = "MNT_MODE_IN", "MNT1_TYPE"
+NO_MOUNT = {PX4_MOUNT_PARAM: -1.0, ARDUPILOT_MOUNT_PARAM: 0.0}
 # ArduPilot's battery monitor and its failsafe (AP_BattMonitor_Params.cpp: BATT_LOW_VOLT 10.5 V on copters,
 # BATT_LOW_TIMER 10 s, actions 0 = none; copter.parm sets BATT_MONITOR 4; SITL's SIM_BATT_VOLTAGE 12.6 V).
 ARDUPILOT_BATTERY_PARAMS = {"BATT_MONITOR": 4.0, "BATT_LOW_VOLT": 10.5, "BATT_LOW_TIMER": 10.0, "BATT_FS_LOW_ACT": 0.0,
@@ -58,9 +64,11 @@ class ParamServer(VehiclePart):
         if flavour is Flavour.ARDUPILOT and vehicle.options.ground is not None:
             self.values.update(TERRAIN_PARAMS)  # its terrain database (mock_terrain), as ArduCopter has it
         if sitl_like and flavour is Flavour.PX4:  # SIH's start-up script sets TRIG_INTERFACE 3 by default
-            self.values.update({**Px4Params().as_params(), PX4_CAMERA_PARAM: 0.0, PX4_TRIGGER_INTERFACE: 3.0})
+            self.values.update({**Px4Params().as_params(), PX4_CAMERA_PARAM: 0.0, PX4_TRIGGER_INTERFACE: 3.0,
+                                PX4_MOUNT_PARAM: NO_MOUNT[PX4_MOUNT_PARAM]})
         elif sitl_like:
-            self.values.update({**CopterParams().as_params(), ARDUPILOT_CAMERA_PARAM: 0.0})
+            self.values.update({**CopterParams().as_params(), ARDUPILOT_CAMERA_PARAM: 0.0,
+                                ARDUPILOT_MOUNT_PARAM: NO_MOUNT[ARDUPILOT_MOUNT_PARAM]})
         else:  # its camera set up as a team sets it up once: a MAVLink camera, or one on the relay / PWM
             self.values.update(configured_camera(flavour, vehicle.options.mavlink_camera))
 

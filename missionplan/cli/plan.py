@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from missionplan.bridge.formats.gimbal import GIMBAL_PITCH_RANGE, NADIR_PITCH_DEG
 from missionplan.bridge.limits import SEED_MAX, check_integer, check_range
 from missionplan.bridge.terminal_text import printable
 from missionplan.geo.roofs import DEFAULT_TARGETS, TARGET_CLASSES
@@ -83,6 +84,7 @@ class PlanRequest:
     reserve: float
     autopilot: str
     capture: str
+    gimbal_pitch: float
     out: Path
     basemap: str | None
     policy: str
@@ -213,6 +215,10 @@ def register(sub: Any) -> None:
                            "the same for a MAVLink camera whose CAMERA_IMAGE_CAPTURED are the capture records; "
                            "camera-interval, IMAGE_START_CAPTURE every trigger distance / speed seconds "
                            "(docs/capture.md)")
+    plan.add_argument("--gimbal-pitch", type=float, default=NADIR_PITCH_DEG, metavar="DEG",
+                      help=f"where every mission points the camera before its first photo, {GIMBAL_PITCH_RANGE[0]:g} "
+                           f"(straight down, the default) to {GIMBAL_PITCH_RANGE[1]:g} (level) degrees "
+                           "(docs/capture.md, Gimbal)")
     plan.add_argument("--out", required=True, type=Path, help="output folder (created if missing)")
     plan.add_argument("--basemap", metavar="URL",
                       help="plan.html draws map tiles from this tile server (e.g. "
@@ -263,7 +269,8 @@ def _plan_ground(request: PlanRequest) -> PlanGround:
     mission = {"speed": DEFAULT_SPEED_M_S if request.speed is None else request.speed, "overlap": request.front,
                "end": request.end,
                "altitude_step": request.altitude_step, "altitude": request.altitude, "autopilot": request.autopilot,
-               "capture": request.capture, "transit_speed": request.transit_speed}
+               "capture": request.capture, "transit_speed": request.transit_speed,
+               "gimbal_pitch": request.gimbal_pitch}
     safety = {"min_separation": request.min_separation, "max_altitude": request.max_altitude,
               "clearance": request.clearance, "endurance": request.endurance, "reserve": request.reserve}
     ground = grid_ground(gmap, uavs, frame, mission, safety, unknown=unknown, sources=sources,
@@ -311,6 +318,7 @@ def _check_plan_numbers(request: PlanRequest) -> None:
     for name, pixels in (("--image-width", request.image_width), ("--image-height", request.image_height)):
         if pixels is not None:
             check_integer(pixels, name, 1, 1_000_000, what="pixels", error=MapError)
+    check("--gimbal-pitch", request.gimbal_pitch, *GIMBAL_PITCH_RANGE, " degrees", what="a gimbal pitch (-90 straight down)")
     check("--altitude-step", request.altitude_step, 0.0, MAX_PLAN_ALTITUDE_M, " m")
     check("--min-separation", request.min_separation, 0.0, 1_000.0, " m", low_open=True)
     check("--max-altitude", request.max_altitude, 0.0, MAX_PLAN_ALTITUDE_M, " m", low_open=True)

@@ -9,7 +9,7 @@ IMAGE_NAME: f{flight}-uav{vehicle}-{img_idx:05d}.jpg (flight: the folder's fligh
 journal; img_idx: the vehicle's own photo index). A crew renames its camera's files to these, or
 these to its camera's (photos.csv lists both time and index to match them by), before loading
 geo.txt into OpenDroneMap. geo.txt follows ODM's image geolocation format: a projection line
-(EPSG:4326), then `image lon lat alt_amsl yaw pitch roll` per photo (angles 0 where not reported, as
+(EPSG:4326), then `image lon lat alt_amsl yaw pitch roll` per photo (angles 0 where not known, as
 ODM asks; the altitude is above mean sea level, as the vehicle reported it, or the launch-relative
 height where it did not).
 
@@ -17,6 +17,14 @@ A flight whose photos a MAVLink camera took (`plan --capture camera`, `camera-in
 are the capture records) adds, last in photos.csv and in photos.geojson's properties, the camera's own
 `image_index` (img_idx is then that) and the `file_url` it named for each photo, where any photo of the folder has
 them (empty for the others); `missionplan geotag` matches a card's files by that name first (image_match).
+
+The angles are the camera's, not the airframe's (photo_positions.camera_attitude: the gimbal's pitch and
+roll as the vehicle reported them, else the pitch the mission's gimbal item asked for; yaw the vehicle's
+heading). photos.csv and photos.geojson give them in MAVLink's convention, the one DJI's and the XMP
+GimbalPitchDegree use: pitch -90 straight down, 0 level. geo.txt gives them in OpenDroneMap's own: ODM reads
+a geo.txt's yaw, pitch and roll into its photo as they are (opendm/photo.py, update_with_geo_entry), where
+pitch 0 is a nadir camera and 90 one looking forward (it adds 90 to a DJI GimbalPitchDegree to get there), so
+geo.txt's pitch is the camera's pitch plus 90: 0 for a nadir photo.
 
 A plan made over a DEM (above_ground.PlanGround) adds, after alt_rel_m, each photo's height above the ground
 (`alt_agl_m`, above ground level, the height DJI, UgCS and Pix4D crews plan and check by) and the DEM's
@@ -48,6 +56,7 @@ CSV_COLUMNS = ("image", "flight", "vehicle", "img_idx", "time_utc", "lat", "lon"
 TERRAIN_COLUMNS = ("alt_agl_m", "ground_amsl_m")  # after alt_rel_m, for a plan over a DEM
 CAMERA_COLUMNS = ("image_index", "file_url")  # last, when any photo is a MAVLink camera's record
 GEOTAG_FILES = ("photos.csv", "photos.geojson", "geo.txt")
+ODM_NADIR_OFFSET_DEG = 90.0  # OpenDroneMap's pitch is MAVLink's plus this: its 0 is straight down
 
 
 def image_name(photo: LedgerPhoto, names: Mapping[LedgerPhoto, str] | None = None) -> str:
@@ -118,6 +127,12 @@ def photos_geojson(photos: list[LedgerPhoto], ground: PlanGround | None = None,
     return {"type": "FeatureCollection", "features": features}
 
 
+def odm_pitch(pitch_deg: float | None) -> float:
+    """A camera pitch (MAVLink's: -90 straight down) as OpenDroneMap's geo.txt takes it (0 straight down, 90
+    forward); 0, ODM's "not known", for an unknown one (the module docstring says where ODM says so)."""
+    return 0.0 if pitch_deg is None else pitch_deg + ODM_NADIR_OFFSET_DEG
+
+
 def geo_altitudes(photos: list[LedgerPhoto], ground: PlanGround | None = None) -> list[float]:
     """Each photo's altitude above sea level as geo.txt and the EXIF geotags give it (the module docstring says
     which: over a DEM the ground at the launch point plus the reported height, else the vehicle's own)."""
@@ -136,7 +151,8 @@ def geo_txt(photos: list[LedgerPhoto], ground: PlanGround | None = None,
             names: Mapping[LedgerPhoto, str] | None = None) -> str:
     lines = ["EPSG:4326"]
     for p, alt in zip(photos, geo_altitudes(photos, ground)):
-        yaw, pitch, roll = (v if v is not None else 0.0 for v in (p.yaw, p.pitch, p.roll))
+        yaw, roll = (v if v is not None else 0.0 for v in (p.yaw, p.roll))
+        pitch = odm_pitch(p.pitch)
         lines.append(f"{image_name(p, names)} {p.lon:.7f} {p.lat:.7f} {alt:.2f} {yaw:.2f} {pitch:.2f} {roll:.2f}")
     return "\n".join(lines) + "\n"
 

@@ -49,7 +49,7 @@ CREATE INDEX IF NOT EXISTS photos_by_drone ON photos (flight, drone);
 ADDED_COLUMNS = (("photos", "amsl", "REAL"), ("runs", "commits", "INTEGER NOT NULL DEFAULT 0"),
                  ("flights", "photos_from_track", "INTEGER"), ("photos", "file_url", "TEXT"))
 TABLES = ("flights", "runs", "entries", "samples", "photos")
-ENTRY_KINDS = ("fact", "event", "reached", "landed", "problem", "note")
+ENTRY_KINDS = ("fact", "event", "reached", "landed", "problem", "note", "gimbal")
 
 
 class JournalError(Exception):

@@ -9,7 +9,8 @@ the ledger.
   reported (ArduPilot's index keeps counting across flights until a reboot). A vehicle that sent no
   photo report gets one every trigger distance along its flown survey only when the user asked for it
   (`fly --photos-from-track`).
-- The ledger's rows: the confirmed photos, as ledger.Ledger.record_flight takes them.
+- The ledger's rows: the confirmed photos, as ledger.Ledger.record_flight takes them, each with the camera's
+  attitude (camera_attitude: the gimbal's pitch as reported, else as planned; not the airframe's).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from missionplan.bridge.formats.gimbal import planned_pitch
 from missionplan.bridge.formats.mission_items import CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_WAYPOINT
 from missionplan.geo.frame import GridFrame
 
@@ -117,12 +119,27 @@ def _survey_window(wire: list[Any]) -> tuple[int | None, int | None]:
     return first, last
 
 
+def camera_attitude(rec: DroneRecord, idx: int, t: float) -> tuple[float | None, float | None, float | None]:
+    """Roll, pitch and yaw (degrees) of the camera, not the airframe, when photo `idx` was taken at `t`: pitch
+    and roll as the gimbal last reported them before it; where it reported nothing, the pitch the mission's
+    gimbal item asked for (gimbal.planned_pitch) and roll 0 (a gimbal holds the camera level across); neither
+    without a gimbal item. Yaw: the vehicle's heading, since the gimbal item keeps the camera's yaw along it."""
+    yaw = rec.attitude.get(idx, (None, None, None))[2]
+    reported = rec.gimbal_at(t)
+    if reported is not None:
+        pitch, roll = reported
+        return roll, pitch, yaw
+    planned = planned_pitch(rec.wire)
+    return (None if planned is None else 0.0), planned, yaw
+
+
 def ledger_photos(frame: GridFrame, rec: DroneRecord, points_m: np.ndarray, source: str) -> list[dict[str, Any]]:
-    """A vehicle's confirmed photos as the survey ledger keeps them (ledger.Ledger.record_flight)."""
+    """A vehicle's confirmed photos as the survey ledger keeps them (ledger.Ledger.record_flight), each with
+    its camera's attitude (camera_attitude)."""
     if source == "camera":
         return [{"vehicle": rec.id, "img_idx": idx, "time": t, "lat": lat, "lon": lon, "alt_rel": up,
                  "alt_amsl": rec.amsl.get(idx), "source": rec.photo_source.get(idx, "camera"),
-                 **dict(zip(("roll", "pitch", "yaw"), rec.attitude.get(idx, (None, None, None)))),
+                 **dict(zip(("roll", "pitch", "yaw"), camera_attitude(rec, idx, t))),
                  # a MAVLink camera's record: its image_index (the photo's index) and the file it named
                  "image_index": idx if idx in rec.files else None, "file_url": rec.files.get(idx) or None}
                 for idx, (t, lat, lon, up) in sorted(rec.camera.items())]

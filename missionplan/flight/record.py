@@ -21,6 +21,7 @@ Sample = tuple[float, float, float, float, float, float, float]
 Sink = Callable[[str, tuple[Any, ...]], None]
 FACTS = ("planned_photos", "uploaded", "arming", "started", "finished", "held_after_flight", "mission_state", "current",
          "captures", "failed_captures", "wire", "params", "flavour", "t_start", "t_end", "ended_early", "last_position")
+GIMBAL_CHANGE_DEG = 0.5  # a gimbal report this close to the last one kept is not journaled again
 PHOTO_SOURCES = ("camera", "log")  # a report over the link; the vehicle's own log, read after the flight
 
 
@@ -54,6 +55,8 @@ class DroneRecord:
     # none); the autopilot's and the log's photos have none. And the indices it failed (live only).
     files: dict[int, str] = field(default_factory=dict)
     failed_indices: set[int] = field(default_factory=set)
+    # What the vehicle reported of its camera gimbal, at each change: (wall time, pitch deg, roll deg).
+    gimbal: list[tuple[float, float, float]] = field(default_factory=list)
     params: dict[str, float] = field(default_factory=dict)  # navigation parameters the vehicle reported
     flavour: str = ""  # the autopilot's conventions (a mission_items.Flavour value): which flight model times it
     t_start: float | None = None
@@ -107,6 +110,19 @@ class DroneRecord:
             self.reached.append((t, seq))
             self._emit("reached", t, seq)
 
+    def add_gimbal(self, t: float, pitch: float, roll: float) -> None:
+        """The gimbal's reported pitch and roll (degrees), kept when they changed by GIMBAL_CHANGE_DEG or more."""
+        if self.gimbal and abs(self.gimbal[-1][1] - pitch) < GIMBAL_CHANGE_DEG \
+                and abs(self.gimbal[-1][2] - roll) < GIMBAL_CHANGE_DEG:
+            return
+        self.gimbal.append((t, pitch, roll))
+        self._emit("gimbal", t, pitch, roll)
+
+    def gimbal_at(self, t: float) -> tuple[float, float] | None:
+        """(pitch, roll) the gimbal last reported at or before `t`, or None when it had reported none."""
+        before = [(pitch, roll) for when, pitch, roll in self.gimbal if when <= t]
+        return before[-1] if before else None
+
     def add_landed(self, t: float, state: int) -> None:
         self.landed.append((t, state))
         self._emit("landed", t, state)
@@ -141,6 +157,8 @@ class DroneRecord:
                 self.add_reached(row[0], int(row[1]))
             elif kind == "landed":
                 self.add_landed(row[0], int(row[1]))
+            elif kind == "gimbal":
+                self.add_gimbal(row[0], row[1], row[2])
             elif kind == "event":
                 self.add_event(row[0], row[1])
             elif kind == "problem":

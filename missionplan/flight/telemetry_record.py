@@ -1,6 +1,7 @@
 """One followed vehicle's messages: into its record as they come, and as events where someone acts on them.
 
-Every GLOBAL_POSITION_INT, MISSION_CURRENT and MISSION_ITEM_REACHED goes into the drone's record (and
+Every GLOBAL_POSITION_INT, MISSION_CURRENT, MISSION_ITEM_REACHED and gimbal report (GIMBAL_DEVICE_ATTITUDE_STATUS,
+MOUNT_ORIENTATION, MOUNT_STATUS: where the camera points) goes into the drone's record (and
 through it into the journal); its photo reports (ArduPilot's CAMERA_FEEDBACK, PX4's
 CAMERA_IMAGE_CAPTURED), mode / arming / landed-state changes and STATUSTEXT lines are published as
 events (events.PhotoTaken, ModeChanged, ArmingChanged, LandedStateChanged, VehicleSaid), and a mode
@@ -16,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from missionplan.bridge.formats.gimbal import quaternion_pitch_roll
 from missionplan.bridge.formats.mission_items import Flavour
 from missionplan.bridge.link.connection import mavlink
 from missionplan.bridge.link.camera_check import CAMERA_COMPONENTS
@@ -103,6 +105,14 @@ class TelemetryRecorder:
             rec.set(captures=max(rec.captures, int(msg.completed_captures), int(msg.img_idx) + 1))
         elif kind == "CAMERA_IMAGE_CAPTURED" and self.camera_records:
             self._camera_record(msg, t)
+        elif kind == "GIMBAL_DEVICE_ATTITUDE_STATUS":  # the camera gimbal (ArduPilot's mount, PX4's gimbal)
+            angles = quaternion_pitch_roll(list(msg.q))
+            if angles is not None:
+                rec.add_gimbal(t, *angles)
+        elif kind == "MOUNT_ORIENTATION":  # PX4's older report of the same (degrees)
+            rec.add_gimbal(t, float(msg.pitch), float(msg.roll))
+        elif kind == "MOUNT_STATUS":  # ArduPilot's before the gimbal protocol v2: centidegrees, pitch then roll
+            rec.add_gimbal(t, msg.pointing_a / 100.0, msg.pointing_b / 100.0)
         elif kind == "CAMERA_IMAGE_CAPTURED":
             # PX4's photo report (its camera_feedback module, one per trigger, image_index from 0 after
             # boot), or a MAVLink camera's: from one component only, their indices are separate counts.

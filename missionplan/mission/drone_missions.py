@@ -6,13 +6,15 @@ Each drone's mission, in order:
 2. DO_CHANGE_SPEED to the cruise speed (with a transit speed, `plan --transit-speed` or a camera that slows the
    survey: the way out flies at the transit speed, a DO_CHANGE_SPEED after the survey's first waypoint sets the
    survey speed and one after its last sets the transit speed again for the way home);
-3. DO_SET_CAM_TRIGG_DIST: a photo every `trigger distance` metres, the first at once;
-4. per corrected waypoint: NAV_WAYPOINT (acceptance radius a quarter cell), then
+3. the gimbal item that points the camera at the gimbal pitch (straight down by default) before the first photo:
+   DO_MOUNT_CONTROL, which ArduPilot and PX4 both turn their mounts for (bridge/formats/gimbal.py says why);
+4. DO_SET_CAM_TRIGG_DIST: a photo every `trigger distance` metres, the first at once;
+5. per corrected waypoint: NAV_WAYPOINT (acceptance radius a quarter cell), then
    DO_SET_CAM_TRIGG_DIST again with "trigger once now", so each corner gets a photo and the
    photos of the next leg are spaced from it; after the last waypoint the distance is 0 (camera off);
-5. NAV_RETURN_TO_LAUNCH, or NAV_LAND where the track ends.
+6. NAV_RETURN_TO_LAUNCH, or NAV_LAND where the track ends.
 
-With `capture` camera-interval, items 3 and 4's DO_SET_CAM_TRIGG_DIST give way to one IMAGE_START_CAPTURE
+With `capture` camera-interval, items 4 and 5's DO_SET_CAM_TRIGG_DIST give way to one IMAGE_START_CAPTURE
 (a photo every trigger distance / speed seconds) where the survey starts and one IMAGE_STOP_CAPTURE after
 its last waypoint; relay and camera missions are the same items (docs/capture.md, "Camera protocol").
 
@@ -40,6 +42,7 @@ import numpy as np
 from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST,
                             CMD_IMAGE_START_CAPTURE, CMD_IMAGE_STOP_CAPTURE, CMD_NAV_LAND, CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT,
                             FRAME_GLOBAL_TERRAIN_ALT, FRAME_MISSION, SPEED_TYPE_GROUNDSPEED, Mission, MissionItem)
+from missionplan.bridge.formats.gimbal import NADIR_PITCH_DEG, gimbal_item
 from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 from missionplan.geo.capture import CRUISE_SPEED_M_S
 
@@ -72,6 +75,7 @@ class MissionSettings:
     # The way out to the survey and home from it, camera off (`plan --transit-speed`, or the cruise speed when the
     # camera's capture interval slows the survey); None: flown at speed_m_s like the survey, one speed throughout.
     transit_speed_m_s: float | None = None
+    gimbal_pitch_deg: float = NADIR_PITCH_DEG  # `plan --gimbal-pitch`: where the camera points, -90 straight down
 
     @property
     def transit_m_s(self) -> float:
@@ -144,6 +148,8 @@ def build_mission(drone: int, launch_latlon: tuple[float, float], waypoints_latl
     items = [
         MissionItem(CMD_NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, x=lat0, y=lon0, z=altitude),
         _change_speed(settings.transit_m_s if camera_off else settings.speed_m_s),
+        # The camera pointed before the first photo: it is wherever it was left otherwise (every sortie too).
+        gimbal_item(settings.autopilot, settings.gimbal_pitch_deg),
     ]
     interval = settings.capture == "camera-interval"
     if not interval:

@@ -21,6 +21,7 @@ from typing import Any
 import shapely
 
 from missionplan.base.naming import Named, Setting
+from missionplan.bridge.formats.gimbal import GIMBAL_PITCH_RANGE, NADIR_PITCH_DEG
 from missionplan.bridge.limits import ANGLE_DEG, check_range
 from missionplan.geo.area import build_grid_map
 from missionplan.geo.camera import Camera
@@ -231,7 +232,7 @@ def shipped_frame(gmap: GridMap) -> GridFrame | None:
 def mission_settings(gmap: GridMap, *, speed: float = DEFAULT_SPEED_M_S, overlap: float = DEFAULT_OVERLAP,
                      end: str = "rtl", altitude_step: float = 0.0, altitude: float | None = None,
                      autopilot: str = "ardupilot", capture: str = "relay",
-                     transit_speed: float | None = None) -> MissionSettings:
+                     transit_speed: float | None = None, gimbal_pitch: float = NADIR_PITCH_DEG) -> MissionSettings:
     """Altitude and footprint from the map's georeference (9 cells a side; `altitude` where the map has none),
     speed, overlap, end action, altitude step, autopilot, capture mode and the ways out and home's speed
     (`transit_speed`, None: the speed) as `plan` takes them; the defaults are `plan`'s."""
@@ -242,6 +243,8 @@ def mission_settings(gmap: GridMap, *, speed: float = DEFAULT_SPEED_M_S, overlap
     check_range(overlap, Setting("overlap"), 0.0, 1.0, high_open=True, what="a fraction", error=GeoError)
     # Layers go up from the altitude, never below it.
     check_range(altitude_step, Setting("altitude_step"), 0.0, 5_000.0, unit=" m", error=GeoError)
+    check_range(gimbal_pitch, Setting("gimbal_pitch"), *GIMBAL_PITCH_RANGE, unit=" degrees",
+                what="a gimbal pitch (-90 straight down)", error=GeoError)
     georef = gmap.georef
     if georef is None:
         raise GeoError(f"map {gmap.name}: no georeference (origin_lat, origin_lon) in its metadata")
@@ -250,4 +253,5 @@ def mission_settings(gmap: GridMap, *, speed: float = DEFAULT_SPEED_M_S, overlap
         raise GeoError(f"map {gmap.name}: no flight altitude (altitude_m) in its metadata")
     return MissionSettings(altitude_m=flight_altitude, footprint_m=georef.footprint_m, speed_m_s=speed,
                            overlap=overlap, end=end, altitude_step_m=altitude_step, autopilot=autopilot,
-                           capture=capture, transit_speed_m_s=None if transit_speed == speed else transit_speed)
+                           capture=capture, transit_speed_m_s=None if transit_speed == speed else transit_speed,
+                           gimbal_pitch_deg=gimbal_pitch)

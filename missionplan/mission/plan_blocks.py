@@ -19,6 +19,7 @@ from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 from missionplan.geo.camera import CELLS_PER_FOOTPRINT
+from missionplan.bridge.formats.gimbal import NADIR_PITCH_DEG
 from missionplan.geo.sources import Omission
 
 from ..maps.gridmap import Cell
@@ -479,13 +480,15 @@ class PlanSettings:
 
     def to_json(self) -> JSON:
         # Every field of the two settings, in their order: a field added there is recorded here. The capture
-        # mode only when it is not the relay and the transit speed only when it differs from the survey's, so a
-        # plan without --capture or two speeds is written as before.
+        # mode only when it is not the relay, the transit speed only when it differs from the survey's and the
+        # gimbal pitch only when not straight down, so a plan without them is written as before.
         mission = asdict(self.mission)
         if mission.get("capture") == "relay":
             del mission["capture"]
         if mission.get("transit_speed_m_s") is None:  # one speed throughout: written as before
             mission.pop("transit_speed_m_s", None)
+        if mission.get("gimbal_pitch_deg") == NADIR_PITCH_DEG:
+            del mission["gimbal_pitch_deg"]
         doc: JSON = {"mission": mission, "safety": asdict(self.safety), "policy": self.policy,
                      "zones": self.zones, "balance_zones": self.balance_zones, "open_ground": self.open_ground}
         if self.lane_spacing_cells != CELLS_PER_FOOTPRINT:

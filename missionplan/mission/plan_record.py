@@ -16,7 +16,8 @@ refuses it in one line instead of flying it wrongly, and one that can reads it:
   ground, its missions follow the terrain);
 * version 3: a plan asked for by camera, GSD or overlaps (georeference.camera: the capture's numbers and rules,
   open-ground lanes possibly closer than a footprint), with roof targets (`roofs`, 'r' grid cells) or a
-  MAVLink camera's capture (settings.mission.capture), over flat ground or a DEM.
+  MAVLink camera's capture (settings.mission.capture) or an oblique gimbal (settings.mission.gimbal_pitch_deg),
+  over flat ground or a DEM.
 SCHEMA_VERSION is the newest this missionplan writes and reads; a report.json of a version it does not know
 fails in one line naming the file and the version.
 
@@ -41,6 +42,7 @@ from pathlib import Path
 from typing import Any
 
 from missionplan.base.atomic import write_text_atomic
+from missionplan.bridge.formats.gimbal import NADIR_PITCH_DEG
 from missionplan.geo.errors import GeoError
 from missionplan.geo.georeference import Georeference
 
@@ -135,7 +137,8 @@ class PlanRecord:
         """The schema version this record is written in: the oldest that holds it (module docstring)."""
         georef = self.georeference
         camera = georef is not None and georef.capture is not None
-        capture_mode = self.settings is not None and self.settings.mission.capture != "relay"
+        mission = self.settings.mission if self.settings is not None else None
+        capture_mode = mission is not None and (mission.capture != "relay" or mission.gimbal_pitch_deg != NADIR_PITCH_DEG)
         if camera or self.roofs is not None or capture_mode:
             return CAPTURE_VERSION
         return TERRAIN_VERSION if georef is not None and georef.terrain is not None else 1
