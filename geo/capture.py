@@ -43,6 +43,8 @@ MAX_SIDE_OVERLAP = 1.0 - 1.0 / CELLS_PER_FOOTPRINT
 GSD_NEEDS = (("sensor_width_mm", "sensor_width", "MM"), ("sensor_height_mm", "sensor_height", "MM"),
              ("image_width_px", "image_width", "PX"), ("image_height_px", "image_height", "PX"),
              ("focal_length_mm", "focal_length", "MM"))
+# The camera straight down, in MAVLink's convention (bridge.formats.gimbal's NADIR_PITCH_DEG; geo imports no bridge).
+NADIR_PITCH_DEG = -90.0
 SPEED_SOURCES = ("asked", "limit", "cruise")  # the speed given, chosen from the camera's limit, or the cruise speed
 
 
@@ -167,6 +169,12 @@ class CapturePlan:
     speed_from: str = "asked"  # SPEED_SOURCES
     gsd_asked_cm: float | None = None
     transit_speed_m_s: float | None = None
+    gimbal_pitch_deg: float = NADIR_PITCH_DEG  # where the mission points the camera (plan --gimbal-pitch)
+
+    @property
+    def tilt_deg(self) -> float:
+        """How far the camera looks from straight down, degrees (0: nadir)."""
+        return self.gimbal_pitch_deg - NADIR_PITCH_DEG
 
     @property
     def gsd_cm(self) -> float | None:
@@ -214,7 +222,9 @@ class CapturePlan:
             footprint_rule = "S = H x min(sensor width, height) / f: the narrower side's square"
         else:
             footprint_rule = f"S = 2 H tan(FOV / 2), FOV {shown(camera.fov_deg)} deg"
-        lines += [("footprint", self.footprint_m, "m", footprint_rule),
+        lines += [("footprint", self.footprint_m, "m", footprint_rule)]
+        lines += self._oblique_rules(gsd)
+        lines += [
                   ("grid cell", self.cell_m, "m", "S / 9"),
                   ("trigger distance", self.trigger_m, "m",
                    f"S x (1 - front overlap {shown(100 * self.front_overlap)} %)")]
@@ -239,6 +249,21 @@ class CapturePlan:
                           f"{source}: the camera is off on the way out and home"))
         return lines
 
+    def _oblique_rules(self, gsd: float | None) -> list[tuple[str, float, str, str]]:
+        """An oblique camera: the photo's centre lies ahead of the drone, and its pixels cover more ground there.
+        The grid and the overlaps keep the nadir footprint: what the planner covers is what a nadir camera sees."""
+        tilt = self.tilt_deg
+        if tilt == 0.0:
+            return []
+        t = math.radians(tilt)
+        lines = [("camera pitch", self.gimbal_pitch_deg, "deg", f"--gimbal-pitch: {shown(tilt)} deg from straight down"),
+                 ("photo centre ahead", self.height_m * math.tan(t), "m",
+                  f"H x tan({shown(tilt)} deg): the grid, overlaps and coverage stay the nadir footprint's")]
+        if gsd is not None:
+            lines.append(("GSD at the photo centre", gsd / math.cos(t) ** 2, "cm/px",
+                          f"GSD / cos^2({shown(tilt)} deg) along the tilt (GSD / cos across)"))
+        return lines
+
     def rule_lines(self) -> list[str]:
         """The rules as a report prints them, e.g. `height 46.3 m  from GSD 1.2 cm/px: H = ...`."""
         return [f"{quantity} {shown(value)} {unit}  {rule}" for quantity, value, unit, rule in self.rules()]
@@ -246,13 +271,18 @@ class CapturePlan:
     # ---- report.json's georeference `camera` block ------------------------------------------
     def to_json(self) -> dict[str, Any]:
         """The camera's fields, then the capture's numbers and its rules (height and footprint are the
-        georeference's own altitude_m and footprint_m); the transit speed only where it differs."""
-        transit = {} if self.transit_speed_m_s is None else {"transit_speed_m_s": self.transit_speed_m_s}
+        georeference's own altitude_m and footprint_m); the transit speed and the gimbal pitch only where they
+        differ from the survey's speed and straight down."""
+        optional: dict[str, float] = {}
+        if self.transit_speed_m_s is not None:
+            optional["transit_speed_m_s"] = self.transit_speed_m_s
+        if self.gimbal_pitch_deg != NADIR_PITCH_DEG:
+            optional["gimbal_pitch_deg"] = self.gimbal_pitch_deg
         return {**self.camera.to_json(), "gsd_cm": self.gsd_cm, "gsd_asked_cm": self.gsd_asked_cm,
                 "front_overlap": self.front_overlap, "side_overlap": self.side_overlap,
                 "lane_spacing_m": self.lane_spacing_m, "lane_spacing_cells": self.lane_spacing_cells,
                 "speed_m_s": self.speed_m_s, "speed_from": self.speed_from,
-                "fastest_speed_m_s": self.fastest_speed_m_s, **transit,
+                "fastest_speed_m_s": self.fastest_speed_m_s, **optional,
                 "rules": [{"quantity": q, "value": v, "unit": u, "rule": r} for q, v, u, r in self.rules()]}
 
     @classmethod
@@ -265,4 +295,5 @@ class CapturePlan:
         return cls(Camera.from_json(doc), float(height_m), float(footprint_m), float(doc["front_overlap"]),
                    None if doc.get("side_overlap") is None else float(doc["side_overlap"]), float(doc["speed_m_s"]),
                    speed_from, None if doc.get("gsd_asked_cm") is None else float(doc["gsd_asked_cm"]),
-                   None if doc.get("transit_speed_m_s") is None else float(doc["transit_speed_m_s"]))
+                   None if doc.get("transit_speed_m_s") is None else float(doc["transit_speed_m_s"]),
+                   float(doc.get("gimbal_pitch_deg", NADIR_PITCH_DEG)))

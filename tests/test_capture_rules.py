@@ -6,6 +6,7 @@ and open-ground lanes as close as the side overlap asks."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -258,3 +259,23 @@ def test_side_overlap_puts_plan_lanes_that_many_cells_apart(tmp_path: Path,
         lines, axis = _lane_lines(np.array(doc["paths"][0]))
         inner = [v for v in lines if 0 < v < 39]  # a lane clipped at the map's edge aside
         assert len(inner) >= 40 // cells - 2 and set(np.diff(inner)) == {cells}, lines
+
+
+def test_an_oblique_pitch_moves_the_photo_centre_ahead_and_coarsens_its_gsd() -> None:
+    """--gimbal-pitch -60 on the 1-inch camera at 1 cm/px: tilted 30 deg, the photo's centre lies
+    36.48 x tan 30 = 21.06 m ahead, and its GSD there is 1 / cos^2 30 = 1.333 cm/px along the tilt."""
+    cam = camera("dji-phantom4pro")
+    height = height_for_gsd(cam, 1.0)
+    nadir = CapturePlan(cam, height, cam.footprint_side_m(height), 0.8, None, 3.0, gsd_asked_cm=1.0)
+    oblique = replace(nadir, gimbal_pitch_deg=-60.0)
+    assert oblique.tilt_deg == pytest.approx(30.0) and nadir.tilt_deg == 0.0
+    rules = {quantity: value for quantity, value, _, _ in oblique.rules()}
+    assert rules["camera pitch"] == -60.0
+    assert rules["photo centre ahead"] == pytest.approx(36.48 / 3 ** 0.5, rel=1e-9)  # 21.06 m
+    assert rules["GSD at the photo centre"] == pytest.approx(4.0 / 3.0, rel=1e-9)
+    assert "camera pitch" not in {quantity for quantity, *_ in nadir.rules()}
+    # the trigger, lanes and cell keep the nadir footprint's: the planner covers what a nadir camera sees
+    assert (oblique.trigger_m, oblique.cell_m) == (nadir.trigger_m, nadir.cell_m)
+    doc = oblique.to_json()
+    assert doc["gimbal_pitch_deg"] == -60.0 and "gimbal_pitch_deg" not in nadir.to_json()
+    assert CapturePlan.from_json(doc, height, oblique.footprint_m) == oblique

@@ -404,7 +404,7 @@ def _capture_plan(request: PlanRequest, ground: PlanGround) -> CapturePlan:
             camera = replace(camera, capture_interval_s=request.capture_interval)
     speed, source = choose_speed(camera, settings.trigger_distance_m, request.speed)
     return CapturePlan(camera, settings.altitude_m, settings.footprint_m, request.front, request.side, speed, source,
-                       request.gsd, choose_transit_speed(speed, request.transit_speed))
+                       request.gsd, choose_transit_speed(speed, request.transit_speed), request.gimbal_pitch)
 
 
 def cmd_plan(request: PlanRequest) -> int:
