@@ -153,6 +153,7 @@ def _fly_mock(mission: Mission, autopilot: str, dt: float = 0.05) -> Flown:
 
 def _check(autopilot: str, name: str, flown: Flown) -> None:
     speeds, planned_s = _planned(autopilot)
+    assert speeds.tolist() == [TRANSIT, TRANSIT, SURVEY, TRANSIT]  # out, onto the survey, the survey, home
     mocked = _fly_mock(_mission(autopilot).mission, autopilot)
     real, mock = flown.cruise_speeds(), mocked.cruise_speeds()
     print(f"\n{name}: leg speeds set {speeds.tolist()}, flown {np.round(real, 2).tolist()}, "
