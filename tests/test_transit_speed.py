@@ -130,11 +130,11 @@ def _latlon(points_m: np.ndarray) -> np.ndarray:
                             HOME[1] + points[:, 1] / (M_PER_DEG_LAT * math.cos(math.radians(HOME[0])))])
 
 
-def _fly(items: list[MissionItem], px4: Px4Params | None, dt: float = 0.05) -> np.ndarray:
+def _fly(items: list[MissionItem], px4_params: Px4Params | None, dt: float = 0.05) -> np.ndarray:
     """(n, 4) t, north, east, up of the mock's SITL-like flight of the items, MISSION_START to disarm."""
     from missionplan.bridge.formats.mission_items import Mission
 
-    sim = FlightSim(HOME, cruise_speed=5.0, copter=CopterParams(), px4=px4, track_interval=0.0)
+    sim = FlightSim(HOME, cruise_speed=5.0, copter=CopterParams(), px4=px4_params, track_interval=0.0)
     sim.load(to_wire(Mission(items, home=HOME), Flavour.PX4), 0)  # no home item: seq 0 is the take-off
     sim.state.armed = True
     sim.start_mission()
