@@ -244,3 +244,19 @@ def test_the_judge_measures_the_overlaps_of_the_photos_flown(tmp_path: Path, moc
     assert OverlapMeasure.from_json(doc["overlap"]) == flown
     print_flight(result)
     assert "overlaps as flown: front overlap" in capsys.readouterr().out
+
+
+def test_a_street_crossing_is_not_where_strips_neighbour_side_by_side() -> None:
+    """One east-west and one north-south strip crossing at (100, 100): the crossing is seen by both, yet no side
+    overlap was asked of them, so it wants the one-strip count; two parallel strips 10 m apart want the product."""
+    along = np.arange(0.0, 201.0, 10.0)
+    east_west = np.column_stack([np.full_like(along, 100.0), along])  # (row metres, column metres)
+    north_south = np.column_stack([along, np.full_like(along, 100.0)])
+    crossing = np.vstack([east_west, north_south])
+    runs = np.repeat([0, 1], len(along))
+    cells = np.array([[100, 100]])
+    m = measure_overlap(crossing, runs, S, cells, 1.0, asked_front=1 - 10 / S, asked_side=0.6)
+    assert m.implied_one_strip == 9 and m.short == 0 and m.single_strip_share == 1.0
+    side_by_side = np.vstack([east_west, east_west + [10.0, 0.0]])
+    m2 = measure_overlap(side_by_side, runs, S, cells + [5, 0], 1.0, asked_front=1 - 10 / S, asked_side=0.6)
+    assert m2.single_strip_share == 0.0 and m2.implied_neighbouring == 18

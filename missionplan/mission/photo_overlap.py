@@ -21,7 +21,8 @@ metres (row axis, column axis), as flight.plan_report.to_grid_m gives them.
   (its Chebyshev distance to the photo at most S / 2, to a micrometre), and the share of the points seen
   at all that only one strip's photos see.
 - What the asked overlaps imply: floor(1 / (1 - front)) photos of a point on one strip, times
-  floor(1 / (1 - side)) where strips neighbour (a point seen by photos of more than one strip); a
+  floor(1 / (1 - side)) where strips neighbour side by side (a point seen by photos of more than one strip
+  running the same way: east-west, or north-south, in the grid's axes; a street crossing is not that); a
   point seen by fewer photos is short.
 - Reachable or bounded (given the flyable cells: not an obstacle, inside the map): the photos that can
   see a point are centred in the footprint-sized window around it (within half a footprint, 4 cells
@@ -337,14 +338,18 @@ def _side_candidates(centres: np.ndarray, strips: np.ndarray, directions: np.nda
 
 # ------------------------------------------------------------------------------------------- per point
 def photos_per_point(centres: np.ndarray, strips: np.ndarray, cells: np.ndarray, cell_m: float,
-                     footprint_m: float) -> tuple[np.ndarray, np.ndarray]:
+                     footprint_m: float, across: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(photos holding each point, whether every photo holding it is of one strip) for the centres of
     `cells` ((m, 2) integer cells; a cell's centre is cell * cell_m metres, as the grid frame puts it).
 
     Each footprint holds a rectangle of cells: one pass over the photos adds it to a difference array
     over the cells' bounding box, and two cumulative sums give every cell's count. The same with each
     photo weighted by its strip id s and by s squared gives their sum and sum of squares at each cell:
-    the photos holding a cell are all of one strip when count * sum(s^2) == sum(s)^2 (no spread)."""
+    the photos holding a cell are all of one strip when count * sum(s^2) == sum(s)^2 (no spread).
+
+    `across` ((n,) bool, optional): each photo's strip runs across the grid's rows (east-west) rather than
+    down them. Then "one strip" is asked of each of the two kinds apart: a point at a crossing, seen by one
+    east-west and one north-south strip, is on one strip of each, not where strips neighbour side by side."""
     cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
     m = len(cells)
     if not len(centres) or not m:
@@ -364,13 +369,23 @@ def photos_per_point(centres: np.ndarray, strips: np.ndarray, cells: np.ndarray,
     flat = np.concatenate([r * padded[1] + c for r, c, _ in corners])
     sign = np.concatenate([np.full(len(first), v, dtype=np.int64) for _, _, v in corners])
     at = (cells - low_cell)
-    sums = []
-    for weight in (np.ones_like(strip), strip, strip * strip):
-        grid = np.bincount(flat, weights=sign * np.tile(weight, 4), minlength=padded[0] * padded[1])
-        grid = np.rint(grid).astype(np.int64).reshape(padded).cumsum(axis=0).cumsum(axis=1)
-        sums.append(grid[at[:, 0], at[:, 1]])
-    counts, total, squares = sums
-    return counts, (counts > 0) & (counts * squares == total * total)
+    kinds = np.zeros(len(strip), dtype=bool) if across is None else np.asarray(across, dtype=bool)[hit]
+    counts = np.zeros(m, dtype=np.int64)
+    one_strip = np.ones(m, dtype=bool)  # in every kind, the photos holding the point are of one strip
+    for kind in (False, True):
+        chosen = kinds == kind
+        if not chosen.any():
+            continue
+        sums = []
+        for weight in (np.ones_like(strip), strip, strip * strip):
+            weights = np.where(chosen, weight, 0)
+            grid = np.bincount(flat, weights=sign * np.tile(weights, 4), minlength=padded[0] * padded[1])
+            grid = np.rint(grid).astype(np.int64).reshape(padded).cumsum(axis=0).cumsum(axis=1)
+            sums.append(grid[at[:, 0], at[:, 1]])
+        count, total, squares = sums
+        counts += count
+        one_strip &= count * squares == total * total
+    return counts, (counts > 0) & one_strip
 
 
 def window_half_cells(footprint_m: float, cell_m: float) -> int:
@@ -450,7 +465,11 @@ def measure_overlap(centres: np.ndarray, runs: np.ndarray, footprint_m: float, c
     directions = strip_directions(centres, runs, strips)
     front = front_overlaps(centres, strips, footprint_m)
     side = side_overlaps(centres, strips, directions, footprint_m)
-    counts, single = photos_per_point(centres, strips, cells, cell_m, footprint_m)
+    # Side by side only: a crossing street's strip sees a point from another direction, which no side overlap
+    # was asked of (a strip's kind: its direction nearer the grid's columns, east-west, or its rows).
+    strip_across = np.abs(directions[:, 1]) > np.abs(directions[:, 0]) if len(directions) else np.zeros(0, bool)
+    counts, single = photos_per_point(centres, strips, cells, cell_m, footprint_m,
+                                      across=strip_across[strips] if len(strips) else None)
     seen = counts > 0
     one, neighbouring = implied_photos(asked_front, asked_side)
     short = 0
