@@ -62,9 +62,9 @@ def test_camera_interval_starts_at_the_survey_and_stops_after_its_last_waypoint(
     start = built.mission.items[commands.index(CMD_IMAGE_START_CAPTURE)]
     assert start.param2 == pytest.approx(settings.trigger_distance_m / settings.speed_m_s) == 1.0
     assert start.param3 == 0.0  # until the stop
-    # At once after the speed item (the survey starts at the launch point), or after the first waypoint of a
-    # resumed sortie; the stop right after the last waypoint.
-    assert commands.index(CMD_IMAGE_START_CAPTURE) == (3 if resumes else 2)
+    # At once after the speed and gimbal items (the survey starts at the launch point), or after the first
+    # waypoint of a resumed sortie; the stop right after the last waypoint.
+    assert commands.index(CMD_IMAGE_START_CAPTURE) == (4 if resumes else 3)
     assert commands.index(CMD_IMAGE_STOP_CAPTURE) == len(commands) - 2
     # Survey 30 + 20 + 30 m (resumed: 20 + 30 m) at a photo every 5 m, plus the one at the start.
     assert built.photos == len(placed) == (11 if resumes else 17)

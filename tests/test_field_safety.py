@@ -162,9 +162,9 @@ def test_long_routes_fly_in_sorties_with_files_and_report_entries(leonardo_sorti
         for j, entry in enumerate(sorties):
             items = read_mission_file(out / entry["file"]).mission.items
             assert sum(i.command == CMD_NAV_WAYPOINT for i in items) == entry["waypoints"]
-            if j:  # a resumed sortie: camera off on the way out, on from its first waypoint
-                assert items[2].command == CMD_DO_SET_CAM_TRIGG_DIST and items[2].param1 == 0
-                assert items[2].param3 == 0
+            if j:  # a resumed sortie: camera off on the way out (after the gimbal item), on from its first waypoint
+                assert items[3].command == CMD_DO_SET_CAM_TRIGG_DIST and items[3].param1 == 0
+                assert items[3].param3 == 0
         assert set(report["files"]) >= {s["file"] for s in sorties}
 
 

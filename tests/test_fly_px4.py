@@ -148,8 +148,9 @@ def test_fly_judges_a_px4_fleet_by_its_camera_image_captured_reports(milan_plan,
         # Where the time went: PX4's landed states bound the four phases, each as the PX4 model plans it.
         # PX4 SIH goes through the same ones, now and then skipping "taking off" (sitl_tests/test_fleet_px4.py).
         assert landed_states(row) == PX4_LANDED_STATES, row["events"]
-        # As PX4 reports them: the DO_ items' seq after a waypoint, nothing for the take-off and the RTL.
-        assert reached_items(row)[:2] == [4, 6], row["events"]
+        # As PX4 reports them: the DO_ items' seq after a waypoint (take-off, speed, gimbal, trigger come first),
+        # nothing for the take-off and the RTL.
+        assert reached_items(row)[:2] == [5, 7], row["events"]
         commands = [int(item.command) for item in read_mission_file(plan_dir / f"uav{row['id']}.plan").mission.items]
         assert reached_navigation_items(row, commands) == reported_items(commands), row["events"]
         assert [p["phase"] for p in row["phases"]] == ["take-off", "survey", "return", "landing"]

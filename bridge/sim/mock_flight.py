@@ -3,8 +3,7 @@
 Owns the flight of one vehicle in simulated time: takeoff climb, straight legs at the cruise speed
 (DO_CHANGE_SPEED changes it) to every waypoint itself (one already within its acceptance radius is
 reached at once), hold times, DO_JUMP, the camera mount's pitch (DO_MOUNT_CONTROL, DO_GIMBAL_MANAGER_PITCHYAW),
-camera triggering by distance (DO_SET_CAM_TRIGG_DIST: photos
-counted, their positions and altitudes kept), land and return-to-launch, and the flown track: the same
+photos by distance (DO_SET_CAM_TRIGG_DIST) or time (IMAGE_START_CAPTURE), their positions kept, land and return-to-launch, and the flown track: the same
 whatever the lengths of the ticks that advance it. With `copter` (flight_models.copter_model.CopterParams: the
 SITL-like mode) it flies as ArduCopter does instead, on the very model the planner's timeline uses:
 spool-up and a climb with acceleration, every leg from rest to rest with WPNAV_ACCEL, RTL's climb to
@@ -37,10 +36,7 @@ from ..flight_models.px4_model import Px4Params
 from .capture_clock import CaptureClock
 from ..formats.gimbal import GIMBAL_COMMANDS
 from ..formats.mission_items import (
-    CMD_DO_CHANGE_SPEED,
-    CMD_DO_JUMP,
-    CMD_DO_SET_CAM_TRIGG_DIST,
-    CMD_IMAGE_START_CAPTURE, CMD_IMAGE_STOP_CAPTURE,
+    CMD_DO_CHANGE_SPEED, CMD_DO_JUMP, CMD_DO_SET_CAM_TRIGG_DIST, CMD_IMAGE_START_CAPTURE, CMD_IMAGE_STOP_CAPTURE,
     CMD_NAV_LAND,
     CMD_NAV_LOITER_TIME,
     CMD_NAV_LOITER_TO_ALT,
@@ -282,6 +278,21 @@ class FlightSim:
             return
         events.append(FlightEvent("current", s.current))
 
+    def _do_at_once(self, item: WireItem) -> None:
+        """A DO_ item's effect, at once: the speed, the camera's trigger or capture, the mount's pitch."""
+        cmd = item.command
+        if cmd == CMD_DO_CHANGE_SPEED and item.param2 > 0:
+            self.state.speed = float(item.param2)
+        elif cmd in (CMD_IMAGE_START_CAPTURE, CMD_IMAGE_STOP_CAPTURE):  # a photo now, then one every param2 s
+            if self._capture.set(float(item.param2) if cmd == CMD_IMAGE_START_CAPTURE else 0.0):
+                self._photo()
+        elif cmd == CMD_DO_SET_CAM_TRIGG_DIST:
+            self._trigger_dist, self._trigger_acc = max(float(item.param1), 0.0), 0.0
+            if item.param3 == 1:
+                self._photo()
+        elif cmd in GIMBAL_COMMANDS:  # the mount turns at once (both SITLs report the new pitch within a second)
+            self.state.gimbal_pitch = float(item.param1)
+
     def _step_mission(self, dt: float, events: list[FlightEvent]) -> float:
         s = self.state
         if s.mission_done or s.current >= len(self.items):
@@ -295,23 +306,6 @@ class FlightSim:
             self._entries += 1
             self._hold_left = float(item.param1) if cmd == CMD_NAV_WAYPOINT and item.param1 > 0 else 0.0
             self._accepted_at_entry = None
-            if cmd == CMD_DO_CHANGE_SPEED:
-                if item.param2 > 0:
-                    s.speed = float(item.param2)
-                self._advance_item(events, reached=False)
-                return 0.0
-            if cmd in (CMD_IMAGE_START_CAPTURE, CMD_IMAGE_STOP_CAPTURE):  # a photo now, then one every param2 s
-                if self._capture.set(float(item.param2) if cmd == CMD_IMAGE_START_CAPTURE else 0.0):
-                    self._photo()
-                self._advance_item(events, reached=False)
-                return 0.0
-            if cmd == CMD_DO_SET_CAM_TRIGG_DIST:
-                self._trigger_dist = max(float(item.param1), 0.0)
-                self._trigger_acc = 0.0
-                if item.param3 == 1:
-                    self._photo()
-                self._advance_item(events, reached=False)
-                return 0.0
             if cmd == CMD_DO_JUMP:
                 target = int(round(item.param1))
                 repeats = int(round(item.param2))
@@ -324,12 +318,9 @@ class FlightSim:
                 else:
                     self._advance_item(events, reached=False)
                 return 0.0
-            if cmd in GIMBAL_COMMANDS:  # the mount turns at once (both SITLs report the new pitch within a second)
-                s.gimbal_pitch = float(item.param1)
-                self._advance_item(events, reached=False)
-                return 0.0
             if cmd not in NAV_COMMANDS_WITH_POSITION and cmd not in (CMD_NAV_RETURN_TO_LAUNCH,):
-                self._advance_item(events, reached=False)  # other DO_ / condition commands: nothing to fly
+                self._do_at_once(item)  # DO_ / condition commands: their effect now, nothing to fly
+                self._advance_item(events, reached=False)
                 return 0.0
         if self.copter is not None:
             return self._step_copter_item(item, dt, events)
