@@ -154,3 +154,21 @@ def test_a_vehicle_that_will_not_fly_is_left_safe_by_the_session() -> None:
         assert v.until(lambda: session.state.armed is True)
         assert session.action.make_safe(_deadline()) == "left disarmed in GUIDED, not flown"
         assert session.reboots() == 0 and session.ack_rtt_s() is not None and session.signing_hint() == ""
+
+
+def test_an_ardupilot_whose_ekf_stream_never_came_is_asked_again_while_the_session_waits() -> None:
+    """ArduCopter SITL on a loaded machine now and then accepted the EKF_STATUS_REPORT stream and sent none: the
+    session asks for it again (once now, and the stream) every EKF_ASK_S while none has come, and is then ready."""
+    from missionplan.bridge.link.readiness import EKF_ASK_S, request_streams, stream_rates
+
+    ekf = mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT
+    with session_on(Flavour.ARDUPILOT) as v:
+        session = v.session
+        session.wait_heartbeat(_deadline())
+        rates = {msgid: hz for msgid, hz in stream_rates(10.0).items() if msgid != ekf}  # the EKF request lost
+        assert request_streams(session.link, 1, rates, _deadline()) == []
+        first = len(v.received)
+        assert session.wait_ready(time.monotonic() + EKF_ASK_S + WAIT_S) == []
+        asked = [(command, params[0]) for command, params in v.commands_since(first)]
+        assert (mavlink.MAV_CMD_REQUEST_MESSAGE, float(ekf)) in asked
+        assert (mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, float(ekf)) in asked

@@ -66,6 +66,9 @@ EARTH_RADIUS_M = 6_378_137.0
 DEFAULT_LAUNCH_OFFSET_M = 5.0  # plus the GPS's own horizontal error
 ARM_RETRY_S = 1.0
 HOME_ASK_S = 2.0   # re-ask for HOME_POSITION this often while it is unknown
+# ArduPilot: ask for the EKF_STATUS_REPORT stream again this often while none has come. On a loaded machine
+# ArduCopter SITL now and then sent none for minutes after accepting the stream (its other streams came).
+EKF_ASK_S = 3.0
 READY_RATES_HZ = {mavlink.MAVLINK_MSG_ID_SYS_STATUS: 1.0, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
                   mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT: 1.0, mavlink.MAVLINK_MSG_ID_HOME_POSITION: 0.5,
                   mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 2.0,
@@ -339,12 +342,22 @@ class Vehicle:
         self.link.mav.command_long_send(self.sysid, self.info.compid, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
                                         float(mavlink.MAVLINK_MSG_ID_HOME_POSITION), 0, 0, 0, 0, 0, 0)
 
+    def _ask_ekf(self) -> None:
+        """EKF_STATUS_REPORT once now, and its stream again (no answer awaited: listen takes the ACK)."""
+        ekf = float(mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT)
+        self.link.mav.command_long_send(self.sysid, self.info.compid, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
+                                        ekf, 0, 0, 0, 0, 0, 0)
+        self.link.mav.command_long_send(self.sysid, self.info.compid, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
+                                        ekf, 1e6 / READY_RATES_HZ[mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT],
+                                        0, 0, 0, 0, 0)
+
     def wait_ready(self, deadline: float) -> list[str]:
         """Until ready or deadline: [] when ready, else what is still missing. Says what it waits for
         each time that changes."""
         said: list[str] | None = None
         next_ask = 0.0
         start = time.monotonic()
+        next_ekf_ask = start + EKF_ASK_S
         while True:
             missing = self.state.missing()
             if missing != said:
@@ -360,6 +373,9 @@ class Vehicle:
             if self.state.home is None and now >= next_ask:
                 self._ask_home()  # a vehicle that streams no HOME_POSITION sends it when asked
                 next_ask = now + HOME_ASK_S
+            if self.state.flavour is Flavour.ARDUPILOT and self.state.ekf_flags is None and now >= next_ekf_ask:
+                self._ask_ekf()
+                next_ekf_ask = now + EKF_ASK_S
             self.listen(min(deadline, now + 0.25))
 
     def wait_still(self, deadline: float) -> bool:

@@ -170,7 +170,7 @@ class Telemetry(VehiclePart):
         elif msgid == mavlink.MAVLINK_MSG_ID_MISSION_CURRENT:
             self.send_mission_current()
         elif msgid == mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT:
-            self._send_ekf(now)
+            self.send_ekf(now)
         elif msgid == mavlink.MAVLINK_MSG_ID_HOME_POSITION:
             self.send_home()
         elif msgid == mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE:
@@ -216,7 +216,7 @@ class Telemetry(VehiclePart):
                                   80 if ready else 9999, 120 if ready else 9999,
                                   int(round(math.hypot(s.vn, s.ve) * 100)), 0, sats)
 
-    def _send_ekf(self, now: float) -> None:
+    def send_ekf(self, now: float) -> None:
         flags = EKF_FLAGS_READY if self.vehicle.ready else EKF_FLAGS_WAITING
         self.mav.ekf_status_report_send(flags, 0.01, 0.01, 0.01, 0.01, 0.0)
 

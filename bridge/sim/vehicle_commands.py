@@ -164,6 +164,9 @@ class CommandHandler(VehiclePart):
             if int(p[0]) == mavlink.MAVLINK_MSG_ID_MISSION_CURRENT and self.flavour is Flavour.ARDUPILOT:
                 telemetry.send_mission_current()
                 return mavlink.MAV_RESULT_ACCEPTED
+            if int(p[0]) == mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT and self.flavour is Flavour.ARDUPILOT:
+                telemetry.send_ekf(now)
+                return mavlink.MAV_RESULT_ACCEPTED
             return mavlink.MAV_RESULT_UNSUPPORTED
         if command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
             terrain = vehicle.terrain
