@@ -19,15 +19,16 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from missionplan.bridge.flight_models.copter_model import CopterParams, total_time
+from missionplan.bridge.flight_models.copter_model import total_time
 from missionplan.bridge.flight_models.px4_model import Px4Params
-from missionplan.bridge.formats.mission_items import Flavour, Mission, to_wire
+from missionplan.bridge.formats.mission_items import Flavour, Mission
 from missionplan.bridge.link.connection import Link, mavlink
 from missionplan.bridge.session.vehicle_session import VehicleSession
-from missionplan.bridge.sim.mock_flight import EARTH_RADIUS, FlightSim
+from missionplan.bridge.sim.mock_flight import EARTH_RADIUS
 from missionplan.bridge.transfer.protocol import Timeouts
 from missionplan.mission.drone_missions import DroneMission, MissionSettings, build_mission
 from missionplan.mission.timeline import FlightModel, leg_speeds, planned_motions
+from missionplan.testing.sim_flight import fly_sim
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
@@ -135,21 +136,11 @@ def _fly_vehicle(url: str, sysid: int, mission: Mission, timeout_s: float) -> Fl
     return Flown(track, float(track[-1, 0]))
 
 
-def _fly_mock(mission: Mission, autopilot: str, dt: float = 0.05) -> Flown:
-    """The mock's SITL-like flight of the same items (the autopilot's flavour), MISSION_START to disarm."""
-    sim = FlightSim((*HOME[:2], 0.0), cruise_speed=5.0, copter=CopterParams(),
-                    px4=Px4Params() if autopilot == "px4" else None, track_interval=0.0)
-    sim.load(to_wire(mission, Flavour.PX4), 0)  # no home item: seq 0 is the take-off
-    sim.state.armed = True
-    sim.start_mission()
-    rows = [(0.0, 0.0, 0.0, 0.0)]
-    while sim.state.armed and sim.state.sim_time < 900.0:
-        sim.advance(dt)
-        s = sim.state
-        north, east = _local_m(np.array([s.lat]), np.array([s.lon]))[0]
-        rows.append((s.sim_time, north, east, math.hypot(s.vn, s.ve)))
-    assert not sim.state.armed, "the mock's flight did not end disarmed"
-    return Flown(np.array(rows), sim.state.sim_time)
+def _fly_mock(mission: Mission, autopilot: str) -> Flown:
+    """The mock's SITL-like flight of the same items (the autopilot's flavour), MISSION_START to disarm:
+    t, north, east, ground speed."""
+    flown = fly_sim(mission, (*HOME[:2], 0.0), px4=Px4Params() if autopilot == "px4" else None)
+    return Flown(flown[:, [0, 1, 2, 4]], float(flown[-1, 0]))
 
 
 def _check(autopilot: str, name: str, flown: Flown) -> None:

@@ -13,15 +13,15 @@ import numpy as np
 import pytest
 
 from missionplan.bridge.flight_models import copter_model as cm
-from missionplan.bridge.flight_models.copter_model import CopterParams
 from missionplan.bridge.link.connection import Link, mavlink
-from missionplan.bridge.formats.mission_items import Flavour, Mission, MissionItem, to_wire
+from missionplan.bridge.formats.mission_items import Mission, MissionItem
 from missionplan.bridge.sim.mock import MockAutopilot
-from missionplan.bridge.sim.mock_flight import EARTH_RADIUS, FlightSim
+from missionplan.bridge.sim.mock_flight import EARTH_RADIUS
 from missionplan.bridge.link.params import ParamClient
 from missionplan.bridge.transfer.protocol import Timeouts
 from missionplan.bridge.transfer.uploader import open_backend, upload_plan
 from missionplan.mission.timeline import FlightModel, planned_track
+from missionplan.testing.sim_flight import fly_sim
 
 HOME = (45.0, 7.0, 200.0)
 M_PER_DEG_LAT = math.radians(1.0) * EARTH_RADIUS
@@ -52,21 +52,9 @@ def _mission(alt: float, points: list[tuple[float, float]], trigger_m: float = 0
     return Mission(items, home=HOME)
 
 
-def _fly_sim(mission: Mission, dt: float = 0.05, limit_s: float = 600.0) -> np.ndarray:
+def _fly_sim(mission: Mission, limit_s: float = 600.0) -> np.ndarray:
     """(n, 4) t, north, east, up of the SITL-like FlightSim flying `mission` from MISSION_START to disarm."""
-    sim = FlightSim(HOME, cruise_speed=5.0, copter=CopterParams(), track_interval=0.0)
-    sim.load(to_wire(mission, Flavour.PX4), 0)  # PX4 wire: no home item, seq 0 is the takeoff
-    sim.state.armed = True
-    sim.start_mission()
-    rows = [(0.0, 0.0, 0.0, 0.0)]
-    while sim.state.armed and sim.state.sim_time < limit_s:
-        sim.advance(dt)
-        s = sim.state
-        north = math.radians(s.lat - HOME[0]) * EARTH_RADIUS
-        east = math.radians(s.lon - HOME[1]) * EARTH_RADIUS * math.cos(math.radians(HOME[0]))
-        rows.append((s.sim_time, north, east, s.alt))
-    assert not sim.state.armed, "the SITL-like flight did not end disarmed"
-    return np.array(rows)
+    return fly_sim(mission, HOME, limit_s=limit_s)[:, :4]
 
 
 @pytest.mark.parametrize("alt, end", [(20.0, 20), (8.0, 20), (12.0, 21)])

@@ -12,12 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from missionplan.bridge.flight_models.copter_model import CopterParams
 from missionplan.bridge.flight_models.px4_model import Px4Params
 from missionplan.bridge.formats.mission_items import (CMD_DO_CHANGE_SPEED, CMD_DO_SET_CAM_TRIGG_DIST, CMD_NAV_WAYPOINT,
-                                                      Flavour, MissionItem, to_wire)
+                                                      MissionItem)
 from missionplan.bridge.formats.missionfile import read_mission_file
-from missionplan.bridge.sim.mock_flight import EARTH_RADIUS, FlightSim
+from missionplan.bridge.sim.mock_flight import EARTH_RADIUS
 from missionplan.cli import main
 from missionplan.geo.capture import CRUISE_SPEED_M_S, choose_transit_speed
 from missionplan.mission.drone_missions import MissionSettings, build_mission
@@ -25,6 +24,7 @@ from missionplan.mission.plan_blocks import PlanSettings
 from missionplan.mission.plan_record import report_path
 from missionplan.mission.safety import SafetySettings
 from missionplan.mission.timeline import FlightModel, leg_speeds, planned_track
+from missionplan.testing.sim_flight import fly_sim
 
 ROOT = Path(__file__).resolve().parents[1]
 AREA = ROOT / "examples" / "turin-cenisia-area.geojson"
@@ -130,22 +130,11 @@ def _latlon(points_m: np.ndarray) -> np.ndarray:
                             HOME[1] + points[:, 1] / (M_PER_DEG_LAT * math.cos(math.radians(HOME[0])))])
 
 
-def _fly(items: list[MissionItem], px4_params: Px4Params | None, dt: float = 0.05) -> np.ndarray:
+def _fly(items: list[MissionItem], px4_params: Px4Params | None) -> np.ndarray:
     """(n, 4) t, north, east, up of the mock's SITL-like flight of the items, MISSION_START to disarm."""
     from missionplan.bridge.formats.mission_items import Mission
 
-    sim = FlightSim(HOME, cruise_speed=5.0, copter=CopterParams(), px4=px4_params, track_interval=0.0)
-    sim.load(to_wire(Mission(items, home=HOME), Flavour.PX4), 0)  # no home item: seq 0 is the take-off
-    sim.state.armed = True
-    sim.start_mission()
-    rows = [(0.0, 0.0, 0.0, 0.0)]
-    while sim.state.armed and sim.state.sim_time < 900.0:
-        sim.advance(dt)
-        s = sim.state
-        rows.append((s.sim_time, math.radians(s.lat - HOME[0]) * EARTH_RADIUS,
-                     math.radians(s.lon - HOME[1]) * EARTH_RADIUS * math.cos(math.radians(HOME[0])), s.alt))
-    assert not sim.state.armed, "the flight did not end disarmed"
-    return np.array(rows)
+    return fly_sim(Mission(items, home=HOME), HOME, px4=px4_params)[:, :4]
 
 
 @pytest.mark.flight
