@@ -58,6 +58,7 @@ from .phases import event_rows, on_vehicle_clock, phase_rows
 from .photo_positions import ledger_photos, photo_positions
 from ..mission.photo_overlap import OverlapMeasure, measure_overlap
 from ..mission.plan_blocks import SeparationPromise, cells_of
+from ..maps.gridmap import GridMap
 from ..mission.plan_record import PlanRecord
 from .plan_report import (SLACK_CELLS, asked_overlaps, frame_of, georeference_of, planned_grid, target_cells,
                           to_grid_m, trigger_distance_m)
@@ -301,6 +302,7 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
     scale = time_scale if time_scale else estimate_time_scale(records)
     planned = {d.id: d for d in record.drones or ()}
     targets = target_cells(record)
+    grid = planned_grid(record)  # what was flyable (the overlaps' reach), the classes, the picture
     photos, unconfirmed, tracks_m, timed, rows, sources, kept = [], [], {}, {}, [], set(), []
     runs: list[np.ndarray] = []  # each confirmed photo's drone: its photos, in the order taken, make its strips
     liftoff: dict[int, float] = {}  # when each vehicle left the ground, on our clock
@@ -373,7 +375,7 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
     asked_front, asked_side = asked_overlaps(record)
     overlap = measure_overlap(all_photos, np.concatenate(runs) if runs else np.zeros(0), footprint,
                               targets, frame.cell_m, asked_front=asked_front, asked_side=asked_side,
-                              flyable=~planned_grid(record).obstacle)  # judged on the points a strip can reach
+                              flyable=~grid.obstacle)  # judged on the points a strip can reach
     other_rules = {name: round(100.0 * float(covered_by_gap(frame, gap, footprint, frame.cell_m * cells).mean()), 2)
                    if len(targets) else 100.0 for name, cells in (("whole_cell", 0.0), ("cell_centre", 0.5))}
     separation = _separation(record.separation, records, timed, liftoff, scale, telemetry_hz)
@@ -400,7 +402,7 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
                             f"the track (their reports lost) are counted apart, in coverage_with_unconfirmed",
            "coverage_other_rules": other_rules}
     if record.roofs is not None:  # a plan of roofs (--targets roofs|all): each class's coverage apart
-        doc["coverage_by_class"] = _coverage_by_class(record, targets, covered)
+        doc["coverage_by_class"] = _coverage_by_class(record, grid, targets, covered)
     if ground is not None:
         doc["above_ground_rule"] = (
             f"over the plan's ground ({', '.join(georeference_of(record).terrain.files)}), a drone's height above "
@@ -425,7 +427,7 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
     _written(unwritten, missed_path.name, lambda: write_text_atomic(missed_path, json.dumps(missed_doc) + "\n"))
     plan = plan_layers_on_disk(plan_dir)
     _written(unwritten, png_path.name, lambda: draw_flight(
-        png_path, planned_grid(record), frame, targets, covered, tracks_m, {r["id"]: r["flight_s"] for r in rows}, percent,
+        png_path, grid, frame, targets, covered, tracks_m, {r["id"]: r["flight_s"] for r in rows}, percent,
         paths_latlon=drone_paths_latlon(plan) if plan.get("paths") else None, heights=profiles))
     map_paths = _written(unwritten, "flight.html, flight.gpkg, flight.kmz", lambda: write_flight_maps(
         plan_dir, plan, record, doc, frame, records, kept, targets, covered)) or []
@@ -437,13 +439,13 @@ def judge(plan_dir: Path, record: PlanRecord, records: list[DroneRecord], time_s
                         notices=notices, overlap=overlap)
 
 
-def _coverage_by_class(record: PlanRecord, targets: np.ndarray, covered: np.ndarray) -> dict[str, Any]:
+def _coverage_by_class(record: PlanRecord, grid: GridMap, targets: np.ndarray,
+                       covered: np.ndarray) -> dict[str, Any]:
     """flight.json `coverage_by_class`: per target class the plan asked (streets, roofs), its target cells and
     those the confirmed photos covered (mission/roof_targets.py)."""
     from ..mission.roof_targets import class_coverage
 
     assert record.roofs is not None
-    grid = planned_grid(record)
     reachable, held = np.zeros(grid.shape, dtype=bool), np.zeros(grid.shape, dtype=bool)
     reachable[targets[:, 0], targets[:, 1]] = True
     held[targets[covered, 0], targets[covered, 1]] = True
