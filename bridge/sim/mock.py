@@ -48,9 +48,8 @@ from ..errors import BridgeUsageError
 from ..link.connection import ConnectionSpec, mavlink, parse_url
 from ..formats.mission_items import Flavour
 from .mock_terrain import GroundModel
-from .vehicle_params import configured_camera
 from .mock_vehicle import MockVehicle, VehicleOptions, ground_amsl
-from .vehicle_params import ARDUPILOT_MOUNT_PARAM, PX4_MOUNT_PARAM
+from .vehicle_params import ARDUPILOT_MOUNT_PARAM, PX4_MOUNT_PARAM, configured_camera
 from .vehicle_part import log_error
 from ..link.signing import SigningKey, apply_key
 
