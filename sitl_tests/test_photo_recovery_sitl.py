@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import Counter
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -146,6 +147,12 @@ def _armed(msg: Any) -> bool:
     return bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
 
 
+def _landed(heartbeats: list[Any]) -> bool:
+    """Whether these autopilot heartbeats, oldest first, say armed and then disarmed."""
+    flags = [_armed(m) for m in heartbeats if m.get_srcComponent() == AUTOPILOT_COMPONENT_ID]
+    return True in flags and False in flags[flags.index(True):]
+
+
 def session(url: str, sysid: int, configure_camera: Callable[[Any, Any], None], keep: Path) -> dict[str, Any]:
     """The session of the module doc on one vehicle; a record of what it answered. The downloaded log
     is kept in `keep`."""
@@ -159,18 +166,26 @@ def session(url: str, sysid: int, configure_camera: Callable[[Any, Any], None], 
         _disarm(link, sysid)
         rec["after one arming"] = _raw_list(tee, sysid)
         backend.upload(MissionType.MISSION, to_wire(_mission(), Flavour.ARDUPILOT))
+        armed_from = len(tee.kept)
         _arm_until_accepted(link, sysid, 30.0)
         start = link.command_long(sysid, mavlink.MAV_CMD_MISSION_START, [0.0, 0.0], time.monotonic() + 5.0)
         assert start == mavlink.MAV_RESULT_ACCEPTED
         rec["armed"] = _raw_list(tee, sysid)
         rec["armed again"] = _raw_list(tee, sysid)  # ArduPilot warns once per arming
+        # Landed: a disarmed HEARTBEAT after an armed one of this flight. Under load the link runs seconds behind,
+        # so the last few packets read may still be heartbeats from before the arming.
         deadline = time.monotonic() + FLIGHT_TIMEOUT_S
-        while not any(m.get_type() == "HEARTBEAT" and not _armed(m) for m in tee.kept[-5:]):
+        while not _landed([m for m in tee.kept[armed_from:] if m.get_type() == "HEARTBEAT"]):
             assert time.monotonic() < deadline, "the vehicle did not land and disarm in time"
             tee.collect(0.5)
         landed_at = time.time()
         feedback = {int(m.img_idx): m for m in tee.kept if m.get_type() == "CAMERA_FEEDBACK"}
         rec["feedback"] = feedback
+        # What the flight sent, for a failure's message: packets by type, and the armed flag of each heartbeat.
+        flown = tee.kept[armed_from:]
+        rec["flight packets"] = dict(Counter(m.get_type() for m in flown))
+        rec["flight armed"] = "".join("A" if _armed(m) else "d" for m in flown if m.get_type() == "HEARTBEAT"
+                                      and m.get_srcComponent() == AUTOPILOT_COMPONENT_ID)
         rec["landed"] = _raw_list(tee, sysid)
         newest = max(e[0] for e in rec["landed"]["entries"])
         started = time.monotonic()
@@ -210,7 +225,7 @@ def test_after_landing_the_logged_photos_equal_the_camera_feedback(arducopter_se
     feedback, photos = rec["feedback"], rec["photos"]
     print(f"\nArduCopter SITL ({sitl_or_skip().parent.name}): log of {rec['log_size']} bytes, {len(photos)} photos, "
           f"downloaded and read in {rec['download_s']:.2f} s on loopback; logs {rec['log files']}")
-    assert len(feedback) >= 15  # a photo every 2 m over 60 m
+    assert len(feedback) >= 15, (rec["flight packets"], rec["flight armed"])  # a photo every 2 m over 60 m
     assert [p.img_idx for p in photos] == sorted(feedback) == list(range(1, len(feedback) + 1))
     for p in photos:
         m = feedback[p.img_idx]

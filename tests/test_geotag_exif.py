@@ -272,3 +272,31 @@ def test_two_drones_flying_at_once_are_told_apart_by_their_turns_or_the_card_is_
     twins = {1: records(1, [6.0] * 5), 2: records(2, [6.0] * 5)}
     assert place_card(card_of(twins[2]), twins) == \
         "card DCIM: lines up with drone 2 (120 images) and drone 1 (120) alike: not placed"
+
+
+def test_a_card_that_lines_up_with_two_drones_goes_to_the_one_whose_records_no_other_card_holds() -> None:
+    """Drone 2 flies six legs at one interval; drone 1 flies the same six legs, then three more with its own
+    turns. Drone 2's card lines up with both alike; drone 1's card holds drone 1's records, so it goes to drone 2."""
+    from missionplan.flight.exif_geotag import Card, CardImage, Placement, place_card, place_cards
+    from missionplan.flight.ledger import LedgerPhoto
+
+    rng = np.random.default_rng(6)
+
+    def records(vehicle: int, turns: list[float]) -> list[LedgerPhoto]:
+        times = START + np.arange(20 * (len(turns) + 1)) * 0.667 + np.repeat(np.cumsum([0.0, *turns]), 20)
+        return [LedgerPhoto(".", 1, vehicle, k, float(t + rng.normal(0, 0.005)), 45.0, 9.0, None, None, None,
+                            None, None, "camera") for k, t in enumerate(times)]
+
+    def card_of(name: str, photos: list[LedgerPhoto]) -> Card:
+        camera = np.array([p.time for p in photos]) - CLOCK_BEHIND_S
+        return Card(name, Path(name), [CardImage(Path(f"{k}.JPG"), f"{k}.JPG", float(t))
+                                       for k, t in enumerate(camera)], 0.001)
+
+    fleet = {1: records(1, [6.0] * 5 + [3.1, 9.7, 4.4]), 2: records(2, [6.0] * 5)}
+    cards = [card_of("DCIM-2", fleet[2]), card_of("DCIM-1", fleet[1])]
+    assert place_card(cards[0], fleet) == \
+        "card DCIM-2: lines up with drone 2 (120 images) and drone 1 (120) alike: not placed"
+    second, first = place_cards(cards, fleet)
+    assert isinstance(first, Placement) and first.vehicle == 1 and first.match.matched == 180
+    assert isinstance(second, Placement) and second.vehicle == 2 and second.match.matched == 120
+    assert {id(r) for _, r in second.photo_of()} == {id(r) for r in fleet[2]}

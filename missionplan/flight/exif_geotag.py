@@ -223,6 +223,25 @@ def place_card(card: Card, by_vehicle: dict[int, list[LedgerPhoto]]) -> Placemen
     return Placement(card, vehicle, match, records)
 
 
+def place_cards(cards: Sequence[Card], by_vehicle: dict[int, list[LedgerPhoto]]) -> list[Placement | str]:
+    """Each card placed (place_card); then every card left unplaced is tried again on the capture records that
+    no placed card holds, until no more is placed. A record is one photo on one card: two drones photographing at
+    one interval line a card up with both, but not once the other drone's card holds that drone's records."""
+    outcomes: list[Placement | str] = [place_card(card, by_vehicle) for card in cards]
+    while any(isinstance(o, str) for o in outcomes):
+        held = {id(record) for o in outcomes if isinstance(o, Placement) for _, record in o.photo_of()}
+        if not held:
+            break
+        left = {v: [p for p in records if id(p) not in held] for v, records in by_vehicle.items()}
+        again = {k: place_card(cards[k], left) for k, o in enumerate(outcomes) if isinstance(o, str)}
+        newly = {k: o for k, o in again.items() if isinstance(o, Placement)}
+        if not newly:
+            break
+        for k, placed in newly.items():
+            outcomes[k] = placed
+    return outcomes
+
+
 def clock_words(offset_s: float) -> str:
     """`2 h 00 min 03.4 s behind UTC`: how far the camera clock is from UTC (offset = UTC - camera)."""
     size = abs(offset_s)
@@ -407,13 +426,8 @@ def geotag_cards(survey_dir: Path, image_dirs: Sequence[Path], out: Path | None 
                           "photos placed along the track have none)")
     ground = plan_ground(root, read_plan(root))
     lines = [f"missionplan geotag: {n}" for n in notices]
-    placed: list[Placement] = []
-    outcomes = []
-    for card in cards:
-        outcome = place_card(card, by_vehicle)
-        outcomes.append(outcome)
-        if isinstance(outcome, Placement):
-            placed.append(outcome)
+    outcomes = place_cards(cards, by_vehicle)
+    placed = [o for o in outcomes if isinstance(o, Placement)]
     out.mkdir(parents=True, exist_ok=True)
     for card, outcome in zip(cards, outcomes):
         if isinstance(outcome, str):
