@@ -10,7 +10,10 @@ count and their 5th percentile. Each short reachable point is put down to the fi
 window holds: the end of a drone's track (a sortie's first or last photo: where a zone's border or a
 sortie's end cuts a street), the end of a straight strip inside a track (a turn: a lane's end, a street
 corner, a street end where the drone turns back), a diagonal leg (the corrector's cut across a corner)
-or none of them (strips passing along the window's edge).
+or none of them (strips passing along the window's edge). *grid* is how many reachable points would still be short
+with a photo at every cell of the drones' grid paths, before the corrector smooths them into waypoint legs: where
+the short points come from (the planner's route, which counts a target photographed once one footprint holds it,
+or the smoothing).
 
 The last columns are what extending every strip past both its ends would give: photos added along the
 strip's direction a trigger distance apart, up to half a footprint (4 cells), while they stay over
@@ -28,6 +31,7 @@ import math
 import numpy as np
 
 from missionplan.mission.clearance import flight_map
+from missionplan.mission.corrector import drop_hovers
 from missionplan.mission.photo_overlap import (classify_points, implied_photos, photos_per_point, strip_directions,
                                                strips_of, window_half_cells)
 from missionplan.planning.field_plan import plan_field
@@ -92,6 +96,15 @@ def extended(centres: np.ndarray, strips: np.ndarray, directions: np.ndarray, ce
     return np.vstack([centres, added]), np.concatenate([strips, added_strips]), len(added)
 
 
+def grid_path_counts(paths: np.ndarray, cells: np.ndarray, cell_m: float, footprint_m: float) -> np.ndarray:
+    """Photos per target point with a photo at every cell of each drone's grid path (hovers dropped)."""
+    points = [drop_hovers(path).astype(float) * cell_m for path in paths]
+    centres = np.vstack(points)
+    runs = np.concatenate([np.full(len(p), k) for k, p in enumerate(points)])
+    counts, _ = photos_per_point(centres, strips_of(centres, runs), cells, cell_m, footprint_m)
+    return counts
+
+
 def row(name: str, uavs: int) -> str:
     ground = shipped_ground(name, uavs)
     gmap, frame, settings, safety = ground.gmap, ground.frame, ground.settings, ground.safety
@@ -112,6 +125,7 @@ def row(name: str, uavs: int) -> str:
     counts, _ = photos_per_point(centres, strips, cells, cell_m, footprint_m)
     reachable, edge = classify_points(~gmap.obstacle, cells, half)
     short = reachable & (counts < implied)
+    grid_short = int((reachable & (grid_path_counts(field.result.run.paths, cells, cell_m, footprint_m) < implied)).sum())
     causes = causes_of(short, cells * cell_m, centres, runs, strips, directions, footprint_m)
     open_cells = ~flight_map(gmap, safety.clearance_m, uavs)[0].obstacle
     more, more_strips, added = extended(centres, strips, directions, cell_m, trigger_m, open_cells, half)
@@ -120,6 +134,7 @@ def row(name: str, uavs: int) -> str:
     extra_s = 2 * added * trigger_m / plans.settings.speed_m_s / uavs
     bounded = ~reachable
     return (f"{name:<11} {uavs:>4} {int(reachable.sum()):>6} {int(short.sum()):>5} {low(counts[reachable]):>3} "
+            f"{grid_short:>5} "
             f"{int((bounded & ~edge).sum()):>5} {int((bounded & edge).sum()):>5} {low(counts[bounded]):>3} "
             + " ".join(f"{c:>5}" for c in causes)
             + f" {added:>6} {int((reachable & (after < implied)).sum()):>5} {low(after[reachable]):>3} "
@@ -133,9 +148,9 @@ def main() -> int:
     doctable.add_option(parser)
     args = parser.parse_args()
     with doctable.Recorder(args.write_doc, __file__):
-        print(f"{'map':<11} {'uavs':>4} {'reachable points':>16} {'bounded':>15} "
+        print(f"{'map':<11} {'uavs':>4} {'reachable points':>22} {'bounded':>15} "
               f"{'short reachable, put down to':>23} {'strips carried on 4 cells':>25} {'':>7} {'':>5}")
-        print(f"{'':<11} {'':>4} {'all':>6} {'short':>5} {'p5':>3} {'obst':>5} {'edge':>5} {'p5':>3} "
+        print(f"{'':<11} {'':>4} {'all':>6} {'short':>5} {'p5':>3} {'grid':>5} {'obst':>5} {'edge':>5} {'p5':>3} "
               + " ".join(f"{c.split()[0][:5]:>5}" for c in CAUSES)
               + f" {'photos':>6} {'short':>5} {'p5':>3} {'span s':>7} {'+%':>5}")
         for pair in args.maps.split(","):
