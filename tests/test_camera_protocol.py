@@ -204,3 +204,24 @@ def test_fly_judges_a_camera_plan_by_the_cameras_records(tmp_path: Path) -> None
         # The camera's photos (its image_index from 0), one fewer than the autopilot triggered: index 3 failed.
         assert row["photos"] == len(taken) == len(camera.images) - len(failures), row
     shutil.rmtree(plan_dir)
+
+
+def test_a_camera_peer_leaves_this_process_reading_ardupilots_own_messages() -> None:
+    """pymavlink's dialect belongs to the whole process: a camera peer that opened its link with the common dialect
+    made every link opened after it drop EKF_STATUS_REPORT and CAMERA_FEEDBACK (ArduPilot's own messages) as
+    unknown, so readiness waited for an EKF report and photo recovery found no CAMERA_FEEDBACK."""
+    from pymavlink import mavutil
+
+    from missionplan.bridge.sim.mock_camera import CameraPeer
+    from missionplan.testing.loopback import free_udp_port
+
+    dialect = mavutil.current_dialect
+    with CameraPeer(f"udpin:127.0.0.1:{free_udp_port()}", 1):
+        later = mavutil.mavlink_connection(f"udpin:127.0.0.1:{free_udp_port()}", source_system=255)
+        try:
+            sent = mavlink.MAVLink_ekf_status_report_message(0x1F, 0.1, 0.1, 0.1, 0.1, 0.0).pack(mavlink.MAVLink(None, 1, 1))
+            parsed = later.mav.parse_char(sent)
+        finally:
+            later.close()
+    assert mavutil.current_dialect == dialect
+    assert parsed is not None and parsed.get_type() == "EKF_STATUS_REPORT" and parsed.flags == 0x1F

@@ -159,7 +159,7 @@ def test_a_vehicle_that_will_not_fly_is_left_safe_by_the_session() -> None:
 
 
 def test_an_ardupilot_whose_ekf_stream_never_came_is_asked_again_while_the_session_waits() -> None:
-    """ArduCopter SITL on a loaded machine now and then accepted the EKF_STATUS_REPORT stream and sent none: the
+    """A request for the EKF_STATUS_REPORT stream lost on the way (or the report dropped on it): the
     session asks for it again (once now, and the stream) every EKF_ASK_S while none has come, and is then ready."""
     from missionplan.bridge.link.readiness import EKF_ASK_S, request_streams, stream_rates
 

@@ -67,8 +67,9 @@ EARTH_RADIUS_M = 6_378_137.0
 DEFAULT_LAUNCH_OFFSET_M = 5.0  # plus the GPS's own horizontal error
 ARM_RETRY_S = 1.0
 HOME_ASK_S = 2.0   # re-ask for HOME_POSITION this often while it is unknown
-# ArduPilot: ask for the EKF_STATUS_REPORT stream again this often while none has come. On a loaded machine
-# ArduCopter SITL now and then sent none for minutes after accepting the stream (its other streams came).
+# ArduPilot: ask for the EKF_STATUS_REPORT stream again this often while none has come (a request lost on the way).
+# EKF_STATUS_REPORT is an ardupilotmega message: a link or router that passes only the common dialect drops it,
+# as our own links did once a common-dialect peer in the process had switched pymavlink's dialect.
 EKF_ASK_S = 3.0
 # ... and after this long of asking with none come, the vehicle's own pre-arm checks (SYS_STATUS), which include its
 # EKF's, stand for the report, said in one line: ArduPilot will not arm nor fly AUTO without a good EKF anyway.

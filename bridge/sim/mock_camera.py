@@ -183,8 +183,11 @@ class CameraPeer:
     def __init__(self, url: str, sysid: int, fail_indices: Iterable[int] = ()) -> None:
         from pymavlink import mavutil
 
+        # No dialect= here: pymavlink's mavlink_connection(dialect=...) sets the dialect for the whole process, and
+        # every link opened after it in this process then drops ArduPilot's own messages (EKF_STATUS_REPORT,
+        # CAMERA_FEEDBACK) as unknown. ardupilotmega, the process's dialect, holds all of common.
         self.link = mavutil.mavlink_connection(url, source_system=sysid, source_component=CAMERA_COMPONENT_ID,
-                                               dialect="common", autoreconnect=True)
+                                               autoreconnect=True)
         self.camera = MockCamera(self.link.mav, sysid, fail_indices=fail_indices)
         self.sysid = sysid
         self._stop = threading.Event()
