@@ -65,10 +65,9 @@ def _deadline() -> float:
 
 
 @contextmanager
-def session_on(flavour: Flavour, ignored: Callable[[Any], bool] = lambda msg: False) -> Iterator[Vehicle]:
+def session_on(flavour: Flavour) -> Iterator[Vehicle]:
     """A session on a mock vehicle that sends nothing but HEARTBEAT until asked (as ArduPilot), its
-    COMMAND_LONGs recorded as they arrive (those `ignored` says are recorded and not acted on); ArduPilot's like
-    ArduCopter SITL (its navigation parameters)."""
+    COMMAND_LONGs recorded as they arrive; ArduPilot's like ArduCopter SITL (its navigation parameters)."""
     with MockAutopilot(homes={1: HOME}, flavour=flavour, speedup=20.0, streams_until_asked=True,
                        sitl_like=flavour is Flavour.ARDUPILOT).start() as mock:
         received: list[tuple[int, tuple[float, float, float]]] = []
@@ -78,8 +77,7 @@ def session_on(flavour: Flavour, ignored: Callable[[Any], bool] = lambda msg: Fa
         def recording(msg: Any, now: float) -> None:
             if msg.get_type() == "COMMAND_LONG" and msg.target_system == 1:
                 received.append((int(msg.command), (msg.param1, msg.param2, msg.param3)))
-            if not ignored(msg):
-                handle(msg, now)
+            handle(msg, now)
 
         vehicle.handle = recording  # type: ignore[method-assign]
         with Link(mock.client_url) as link:
@@ -174,26 +172,3 @@ def test_an_ardupilot_whose_ekf_stream_never_came_is_asked_again_while_the_sessi
         asked = [(command, params[0]) for command, params in v.commands_since(first)]
         assert (mavlink.MAV_CMD_REQUEST_MESSAGE, float(ekf)) in asked
         assert (mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, float(ekf)) in asked
-
-
-def test_an_ardupilot_that_never_reports_its_ekf_is_ready_on_its_pre_arm_checks_and_says_so() -> None:
-    """A vehicle that ignores every request for EKF_STATUS_REPORT: after EKF_UNREPORTED_S of asking, with its pre-arm
-    checks passing and all else ready, the session is ready and says on what; before that it waits."""
-    from missionplan.bridge.link.readiness import EKF_UNREPORTED_S, request_streams, stream_rates
-
-    ekf = float(mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT)
-    asks_for_ekf = (lambda msg: msg.get_type() == "COMMAND_LONG" and msg.param1 == ekf  # noqa: E731
-                    and msg.command in (mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL))
-    said: list[str] = []
-    with session_on(Flavour.ARDUPILOT, ignored=asks_for_ekf) as v:
-        session = v.session
-        session.vehicle.say = said.append
-        session.wait_heartbeat(_deadline())
-        rates = {msgid: hz for msgid, hz in stream_rates(10.0).items() if msgid != int(ekf)}
-        assert request_streams(session.link, 1, rates, _deadline()) == []
-        started = time.monotonic()
-        assert session.wait_ready(time.monotonic() + EKF_UNREPORTED_S + WAIT_S) == []
-        assert time.monotonic() - started >= EKF_UNREPORTED_S
-        state = session.vehicle.state
-        assert state.ekf_flags is None and state.ekf_unreported and state.prearm_ok is True
-        assert any("no EKF_STATUS_REPORT in" in line and "pre-arm checks pass" in line for line in said), said

@@ -10,10 +10,9 @@ Owns, for one vehicle on a link (a Link or a link.shared_link.VehicleLink):
   autopilot's HEARTBEAT only, is_autopilot_heartbeat) and the vehicle's own STATUSTEXT reasons, and which
   MAVLink cameras beside the autopilot were heard (camera_check);
 - wait_ready: until the vehicle has a 3-D GPS fix, a home position, (ArduPilot) an EKF with attitude,
-  velocity and absolute position (asked for again while none comes; after EKF_UNREPORTED_S of silence its pre-arm
-  checks stand for it, said), (when it reports them) passing pre-arm checks, and a position
-  estimate that stands still (STEADY_M over STEADY_WINDOW_S: PX4 takes off towards the position it
-  had at the start); bounded, with a line each time what it waits for changes. ArduCopter SITL needs
+  velocity and absolute position (asked for again while none comes), (when it reports them) passing pre-arm
+  checks, and a position estimate that stands still (STEADY_M over STEADY_WINDOW_S: PX4 takes off towards the
+  position it had at the start); bounded, with a line each time what it waits for changes. ArduCopter SITL needs
   35-40 simulated seconds;
 - launch_offset_m / site_problem: how far the vehicle's home is from the plan's launch point
   (plannedHomePosition): a plan for another site, or two vehicles with swapped system ids;
@@ -68,12 +67,7 @@ DEFAULT_LAUNCH_OFFSET_M = 5.0  # plus the GPS's own horizontal error
 ARM_RETRY_S = 1.0
 HOME_ASK_S = 2.0   # re-ask for HOME_POSITION this often while it is unknown
 # ArduPilot: ask for the EKF_STATUS_REPORT stream again this often while none has come (a request lost on the way).
-# EKF_STATUS_REPORT is an ardupilotmega message: a link or router that passes only the common dialect drops it,
-# as our own links did once a common-dialect peer in the process had switched pymavlink's dialect.
 EKF_ASK_S = 3.0
-# ... and after this long of asking with none come, the vehicle's own pre-arm checks (SYS_STATUS), which include its
-# EKF's, stand for the report, said in one line: ArduPilot will not arm nor fly AUTO without a good EKF anyway.
-EKF_UNREPORTED_S = 15.0
 READY_RATES_HZ = {mavlink.MAVLINK_MSG_ID_SYS_STATUS: 1.0, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
                   mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT: 1.0, mavlink.MAVLINK_MSG_ID_HOME_POSITION: 0.5,
                   mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 2.0,
@@ -177,7 +171,6 @@ class VehicleState:
     positions: deque[tuple[float, float, float]] = field(default_factory=deque)
     climb_m_s: float | None = None  # the latest vertical velocity estimate (up), GLOBAL_POSITION_INT
     cameras: set[int] = field(default_factory=set)  # component ids of the MAVLink cameras heard (their HEARTBEAT)
-    ekf_unreported: bool = False  # ArduPilot sent no EKF_STATUS_REPORT in EKF_UNREPORTED_S of asking (wait_ready)
     _chunks: tuple[int, str, float] | None = None  # a STATUSTEXT waiting for its next chunk: id, text, since
 
     def take(self, msg: Any) -> None:
@@ -263,8 +256,7 @@ class VehicleState:
             out.append("GPS (no GPS_RAW_INT yet)")
         elif self.fix_type < mavlink.GPS_FIX_TYPE_3D_FIX:
             out.append(f"a 3-D GPS fix (fix type {self.fix_type}, {self.satellites} satellites)")
-        unreported = self.ekf_unreported and self.ekf_flags is None  # the pre-arm checks stand for it
-        if self.flavour is Flavour.ARDUPILOT and not self.ekf_ok and not unreported:
+        if self.flavour is Flavour.ARDUPILOT and not self.ekf_ok:
             out.append("the EKF (no EKF_STATUS_REPORT yet)" if self.ekf_flags is None
                        else f"the EKF (flags 0x{self.ekf_flags:04x})")
         if self.home is None:
@@ -383,21 +375,7 @@ class Vehicle:
             if self.state.flavour is Flavour.ARDUPILOT and self.state.ekf_flags is None and now >= next_ekf_ask:
                 self._ask_ekf()
                 next_ekf_ask = now + EKF_ASK_S
-            if self._ekf_unreported(now - start):
-                self.state.ekf_unreported = True
-                self.say(f"uav{self.sysid}: no EKF_STATUS_REPORT in {now - start:.0f} s of asking; its pre-arm "
-                         "checks pass (SYS_STATUS), which include its EKF's: taken as ready")
-                continue
             self.listen(min(deadline, now + 0.25))
-
-    def _ekf_unreported(self, waited_s: float) -> bool:
-        """Whether an ArduPilot vehicle has sent no EKF report for EKF_UNREPORTED_S of asking while everything else
-        says it is ready, its pre-arm checks passing among them."""
-        state = self.state
-        if state.flavour is not Flavour.ARDUPILOT or state.ekf_flags is not None or state.ekf_unreported:
-            return False
-        only_ekf = [m for m in state.missing() if not m.startswith("the EKF")] == []
-        return waited_s >= EKF_UNREPORTED_S and state.prearm_ok is True and only_ekf
 
     def wait_still(self, deadline: float) -> bool:
         """Until the vertical velocity estimate is at rest (QUIET_CLIMB_M_S), at most QUIET_WAIT_S or
