@@ -111,7 +111,8 @@ def grid_path_counts(paths: np.ndarray, cells: np.ndarray, cell_m: float, footpr
     return counts
 
 
-def gap_fill(short_cells: np.ndarray, open_cells: np.ndarray, photo_cells: np.ndarray, half: int) -> tuple[int, int, float]:
+def gap_fill(short_cells: np.ndarray, open_cells: np.ndarray, photo_cells: np.ndarray,
+             half: int) -> tuple[int, int, float]:
     """A gap-fill estimate: for each short point in turn (not yet served), the straight run of 2 * half + 1 open
     cells through its window (either axis, any offset) nearest to a planned photo; a strip flown along it gives
     the point the implied count, and every short point whose window a run's line then crosses end to end is
@@ -123,20 +124,17 @@ def gap_fill(short_cells: np.ndarray, open_cells: np.ndarray, photo_cells: np.nd
     tree = cKDTree(photo_cells)
     rows, cols = open_cells.shape
     lines: dict[tuple[int, int], set[int]] = {}  # (axis, line index): the cells along it a run flies
-    served = np.zeros(len(short_cells), dtype=bool)
     runs, unserved, flown = 0, 0, 0.0
 
-    def crossed(k: int) -> bool:
-        r, c = short_cells[k]
+    def crossed(r: int, c: int) -> bool:
         for (axis, line), along in lines.items():
             across, at = (r, c) if axis == 0 else (c, r)
             if abs(across - line) <= half and all(a in along for a in range(at - half, at + half + 1)):
                 return True
         return False
 
-    for k, (r, c) in enumerate(short_cells):
-        if served[k] or crossed(k):
-            served[k] = True
+    for r, c in short_cells:
+        if crossed(r, c):
             continue
         best: tuple[float, int, int, int] | None = None  # access, axis, line, centre along it
         for axis in (0, 1):
@@ -162,7 +160,6 @@ def gap_fill(short_cells: np.ndarray, open_cells: np.ndarray, photo_cells: np.nd
         along |= new
         runs += 1
         flown += 2 * access + len(new)
-        served[k] = True
     return runs, unserved, flown
 
 
@@ -186,7 +183,8 @@ def row(name: str, uavs: int) -> str:
     counts, _ = photos_per_point(centres, strips, cells, cell_m, footprint_m)
     reachable, edge = classify_points(~gmap.obstacle, cells, half)
     short = reachable & (counts < implied)
-    grid_short = int((reachable & (grid_path_counts(field.result.run.paths, cells, cell_m, footprint_m) < implied)).sum())
+    on_grid = grid_path_counts(field.result.run.paths, cells, cell_m, footprint_m)
+    grid_short = int((reachable & (on_grid < implied)).sum())
     causes = causes_of(short, cells * cell_m, centres, runs, strips, directions, footprint_m)
     open_cells = ~flight_map(gmap, safety.clearance_m, uavs)[0].obstacle
     more, more_strips, added = extended(centres, strips, directions, cell_m, trigger_m, open_cells, half)
@@ -201,7 +199,8 @@ def row(name: str, uavs: int) -> str:
             f"{int((bounded & ~edge).sum()):>5} {int((bounded & edge).sum()):>5} {low(counts[bounded]):>3} "
             + " ".join(f"{c:>5}" for c in causes)
             + f" {added:>6} {int((reachable & (after < implied)).sum()):>5} {low(after[reachable]):>3} "
-            f"{makespan:>7.0f} {100 * extra_s / makespan:>5.0f} {gap_runs:>5} {gap_unserved:>5} {100 * gap_s / makespan:>5.0f}")
+            f"{makespan:>7.0f} {100 * extra_s / makespan:>5.0f} "
+            f"{gap_runs:>5} {gap_unserved:>5} {100 * gap_s / makespan:>5.0f}")
 
 
 def main() -> int:

@@ -147,9 +147,14 @@ def _armed(msg: Any) -> bool:
     return bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
 
 
-def _landed(heartbeats: list[Any]) -> bool:
-    """Whether these autopilot heartbeats, oldest first, say armed and then disarmed."""
-    flags = [_armed(m) for m in heartbeats if m.get_srcComponent() == AUTOPILOT_COMPONENT_ID]
+def _armed_flags(packets: list[Any]) -> list[bool]:
+    """The armed flag of each autopilot HEARTBEAT among `packets`, oldest first."""
+    return [_armed(m) for m in packets
+            if m.get_type() == "HEARTBEAT" and m.get_srcComponent() == AUTOPILOT_COMPONENT_ID]
+
+
+def _landed(flags: list[bool]) -> bool:
+    """Whether these armed flags, oldest first, say armed and then disarmed."""
     return True in flags and False in flags[flags.index(True):]
 
 
@@ -175,7 +180,7 @@ def session(url: str, sysid: int, configure_camera: Callable[[Any, Any], None], 
         # Landed: a disarmed HEARTBEAT after an armed one of this flight. Under load the link runs seconds behind,
         # so the last few packets read may still be heartbeats from before the arming.
         deadline = time.monotonic() + FLIGHT_TIMEOUT_S
-        while not _landed([m for m in tee.kept[armed_from:] if m.get_type() == "HEARTBEAT"]):
+        while not _landed(_armed_flags(tee.kept[armed_from:])):
             assert time.monotonic() < deadline, "the vehicle did not land and disarm in time"
             tee.collect(0.5)
         landed_at = time.time()
@@ -184,8 +189,7 @@ def session(url: str, sysid: int, configure_camera: Callable[[Any, Any], None], 
         # What the flight sent, for a failure's message: packets by type, and the armed flag of each heartbeat.
         flown = tee.kept[armed_from:]
         rec["flight packets"] = dict(Counter(m.get_type() for m in flown))
-        rec["flight armed"] = "".join("A" if _armed(m) else "d" for m in flown if m.get_type() == "HEARTBEAT"
-                                      and m.get_srcComponent() == AUTOPILOT_COMPONENT_ID)
+        rec["flight armed"] = "".join("A" if armed else "d" for armed in _armed_flags(flown))
         rec["landed"] = _raw_list(tee, sysid)
         newest = max(e[0] for e in rec["landed"]["entries"])
         started = time.monotonic()
