@@ -15,28 +15,21 @@ with a photo at every cell of the drones' grid paths, before the corrector smoot
 the short points come from (the planner's route, which counts a target photographed once one footprint holds it,
 or the smoothing).
 
-The last columns are what extending every strip past both its ends would give: photos added along the
-strip's direction a trigger distance apart, up to half a footprint (4 cells), while they stay over
-cells outside the plan's clearance band (missionplan/mission/clearance.flight_map). That is a measure
-of photo positions only, not a flown track: the photos added, the reachable points still short, their
-5th percentile, and the extra flight time at the plan's speed if each added metre were flown out and
-back (twice the extension, turns not counted) spread over the fleet, against the plan's makespan.
-
-*gap fill* estimates the other way: only where points are short, a straight run of 9 open cells through each
-short point's window (the one nearest a planned photo; a run whose line crosses a later point's window serves it
-too), flown out from the nearest planned photo and back. Its columns: the runs, the short points no open run can
-serve, and the extra flight time spread over the fleet against the makespan (access counted straight, turns not:
-an estimate, not a flown plan).
+The last columns are the same plan with the overlap fill (`plan --overlap-fill`,
+missionplan/mission/overlap_fill.py): the stubs and runs it flies and in how many rounds, the reachable points
+still short and their 5th percentile, the busiest drone's flight time without and with it and the share
+added, and the wall time of planning (plan_field: the grid plan, the flight plans, the fill's rounds) without
+and with it.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import time
 
 import numpy as np
 
-from missionplan.mission.clearance import flight_map
 from missionplan.mission.corrector import drop_hovers
 from missionplan.mission.photo_overlap import (classify_points, implied_photos, photos_per_point, strip_directions,
                                                strips_of, window_half_cells)
@@ -79,29 +72,6 @@ def causes_of(short: np.ndarray, points_m: np.ndarray, centres: np.ndarray, runs
     return counts
 
 
-def extended(centres: np.ndarray, strips: np.ndarray, directions: np.ndarray, cell_m: float, trigger_m: float,
-             open_cells: np.ndarray, half: int) -> tuple[np.ndarray, np.ndarray, int]:
-    """The photos with each strip of two photos or more carried on past both its ends, a trigger distance
-    apart, up to `half` cells, while over `open_cells`: (centres, strips, photos added)."""
-    added, added_strips = [], []
-    first, last = strip_bounds(strips)
-    steps = int(round(half * cell_m / trigger_m))
-    for s, (a, b) in enumerate(zip(first, last)):
-        if a == b or not np.isfinite(directions[s]).all():
-            continue
-        for end, sign in ((b, 1.0), (a, -1.0)):
-            for k in range(1, steps + 1):
-                point = centres[end] + sign * directions[s] * k * trigger_m
-                cell = np.rint(point / cell_m).astype(int)
-                if not ((0 <= cell).all() and (cell < open_cells.shape).all() and open_cells[cell[0], cell[1]]):
-                    break
-                added.append(point)
-                added_strips.append(s)
-    if not added:
-        return centres, strips, 0
-    return np.vstack([centres, added]), np.concatenate([strips, added_strips]), len(added)
-
-
 def grid_path_counts(paths: np.ndarray, cells: np.ndarray, cell_m: float, footprint_m: float) -> np.ndarray:
     """Photos per target point with a photo at every cell of each drone's grid path (hovers dropped)."""
     points = [drop_hovers(path).astype(float) * cell_m for path in paths]
@@ -111,66 +81,17 @@ def grid_path_counts(paths: np.ndarray, cells: np.ndarray, cell_m: float, footpr
     return counts
 
 
-def gap_fill(short_cells: np.ndarray, open_cells: np.ndarray, photo_cells: np.ndarray,
-             half: int) -> tuple[int, int, float]:
-    """A gap-fill estimate: for each short point in turn (not yet served), the straight run of 2 * half + 1 open
-    cells through its window (either axis, any offset) nearest to a planned photo; a strip flown along it gives
-    the point the implied count, and every short point whose window a run's line then crosses end to end is
-    served. (runs, points no open run serves, cells flown: each run's new cells plus its access from the nearest
-    planned photo and back, straight: a lower bound on the flown way).
-    """
-    from scipy.spatial import cKDTree  # type: ignore[import-untyped]
-
-    tree = cKDTree(photo_cells)
-    rows, cols = open_cells.shape
-    lines: dict[tuple[int, int], set[int]] = {}  # (axis, line index): the cells along it a run flies
-    runs, unserved, flown = 0, 0, 0.0
-
-    def crossed(r: int, c: int) -> bool:
-        for (axis, line), along in lines.items():
-            across, at = (r, c) if axis == 0 else (c, r)
-            if abs(across - line) <= half and all(a in along for a in range(at - half, at + half + 1)):
-                return True
-        return False
-
-    for r, c in short_cells:
-        if crossed(r, c):
-            continue
-        best: tuple[float, int, int, int] | None = None  # access, axis, line, centre along it
-        for axis in (0, 1):
-            for offset in range(-half, half + 1):
-                line, at = (r + offset, c) if axis == 0 else (c + offset, r)
-                lo, hi = at - half, at + half
-                size_line, size_along = (rows, cols) if axis == 0 else (cols, rows)
-                if not (0 <= line < size_line and lo >= 0 and hi < size_along):
-                    continue
-                cells_run = open_cells[line, lo:hi + 1] if axis == 0 else open_cells[lo:hi + 1, line]
-                if not cells_run.all():
-                    continue
-                centre = (line, at) if axis == 0 else (at, line)
-                access = float(tree.query(centre)[0])
-                if best is None or access < best[0]:
-                    best = (access, axis, line, at)
-        if best is None:
-            unserved += 1
-            continue
-        access, axis, line, at = best
-        along = lines.setdefault((axis, line), set())
-        new = set(range(at - half, at + half + 1)) - along
-        along |= new
-        runs += 1
-        flown += 2 * access + len(new)
-    return runs, unserved, flown
-
-
 def row(name: str, uavs: int) -> str:
     ground = shipped_ground(name, uavs)
     gmap, frame, settings, safety = ground.gmap, ground.frame, ground.settings, ground.safety
     assert frame is not None and settings is not None and safety is not None
-    field = plan_field(gmap, uavs, frame, settings, safety, policy=make_policy(DEFAULT_POLICY, None), lanes=True)
+    policy = make_policy(DEFAULT_POLICY, None)
+    started = time.perf_counter()
+    field = plan_field(gmap, uavs, frame, settings, safety, policy=policy, lanes=True)
+    plan_s = time.perf_counter() - started
     plans = field.plans
     assert plans is not None
-    cell_m, footprint_m, trigger_m = frame.cell_m, plans.settings.footprint_m, plans.settings.trigger_distance_m
+    cell_m, footprint_m = frame.cell_m, plans.settings.footprint_m
     targets = gmap.target.copy()
     if len(field.result.unreachable):
         targets[tuple(np.asarray(field.result.unreachable).T)] = False
@@ -179,28 +100,27 @@ def row(name: str, uavs: int) -> str:
     strips = strips_of(centres, runs)
     directions = strip_directions(centres, runs, strips)
     implied, _ = implied_photos(plans.settings.overlap, None)
-    half = window_half_cells(footprint_m, cell_m)
     counts, _ = photos_per_point(centres, strips, cells, cell_m, footprint_m)
-    reachable, edge = classify_points(~gmap.obstacle, cells, half)
+    reachable, edge = classify_points(~gmap.obstacle, cells, window_half_cells(footprint_m, cell_m))
     short = reachable & (counts < implied)
     on_grid = grid_path_counts(field.result.run.paths, cells, cell_m, footprint_m)
     grid_short = int((reachable & (on_grid < implied)).sum())
     causes = causes_of(short, cells * cell_m, centres, runs, strips, directions, footprint_m)
-    open_cells = ~flight_map(gmap, safety.clearance_m, uavs)[0].obstacle
-    more, more_strips, added = extended(centres, strips, directions, cell_m, trigger_m, open_cells, half)
-    after, _ = photos_per_point(more, more_strips, cells, cell_m, footprint_m)
-    makespan = max(d.flight_s for d in plans.drone_plans())
-    extra_s = 2 * added * trigger_m / plans.settings.speed_m_s / uavs
     bounded = ~reachable
-    gap_runs, gap_unserved, gap_cells = gap_fill(cells[short], open_cells, centres / cell_m, half)
-    gap_s = gap_cells * cell_m / plans.settings.speed_m_s / uavs
+    started = time.perf_counter()
+    filled = plan_field(gmap, uavs, frame, settings, safety, policy=policy, lanes=True, overlap_fill=True)
+    fill_s = time.perf_counter() - started
+    fill = filled.overlap_fill
+    assert filled.plans is not None and fill is not None
+    more, more_runs = filled.plans.photo_centres(frame)
+    after, _ = photos_per_point(more, strips_of(more, more_runs), cells, cell_m, footprint_m)
     return (f"{name:<11} {uavs:>4} {int(reachable.sum()):>6} {int(short.sum()):>5} {low(counts[reachable]):>3} "
             f"{grid_short:>5} "
             f"{int((bounded & ~edge).sum()):>5} {int((bounded & edge).sum()):>5} {low(counts[bounded]):>3} "
             + " ".join(f"{c:>5}" for c in causes)
-            + f" {added:>6} {int((reachable & (after < implied)).sum()):>5} {low(after[reachable]):>3} "
-            f"{makespan:>7.0f} {100 * extra_s / makespan:>5.0f} "
-            f"{gap_runs:>5} {gap_unserved:>5} {100 * gap_s / makespan:>5.0f}")
+            + f" {fill.stubs:>5} {fill.runs:>4} {fill.rounds:>6} {int((reachable & (after < implied)).sum()):>5} "
+            f"{low(after[reachable]):>3} {fill.makespan_before_s:>6.0f} {fill.makespan_s:>6.0f} "
+            f"{100 * (fill.makespan_s / fill.makespan_before_s - 1):>4.0f} {plan_s:>6.1f} {fill_s:>6.1f}")
 
 
 def main() -> int:
@@ -211,11 +131,12 @@ def main() -> int:
     args = parser.parse_args()
     with doctable.Recorder(args.write_doc, __file__):
         print(f"{'map':<11} {'uavs':>4} {'reachable points':>22} {'bounded':>15} "
-              f"{'short reachable, put down to':>23} {'strips carried on 4 cells':>25} {'':>7} {'':>5} "
-              f"{'gap fill':>17}")
+              f"{'short reachable, put down to':>23}  {'with --overlap-fill':>36} {'busiest drone s':>20} "
+              f"{'plan s':>13}")
         print(f"{'':<11} {'':>4} {'all':>6} {'short':>5} {'p5':>3} {'grid':>5} {'obst':>5} {'edge':>5} {'p5':>3} "
               + " ".join(f"{c.split()[0][:5]:>5}" for c in CAUSES)
-              + f" {'photos':>6} {'short':>5} {'p5':>3} {'span s':>7} {'+%':>5} {'runs':>5} {'none':>5} {'+%':>5}")
+              + f" {'stubs':>5} {'runs':>4} {'rounds':>6} {'short':>5} {'p5':>3} {'before':>6} {'after':>6} {'+%':>4} "
+              f"{'before':>6} {'after':>6}")
         for pair in args.maps.split(","):
             name, uavs = pair.split(":")
             print(row(name, int(uavs)))

@@ -250,8 +250,9 @@ def test_side_overlap_puts_plan_lanes_that_many_cells_apart(tmp_path: Path,
     save_map(_open_field(40, 40, [(0, 0)], georeferenced=True), path)
     for side, cells in (("70", 2), ("60", 3)):
         out = tmp_path / f"side-{side}"
+        # the lanes as planned, without the overlap fill's detours (tests/test_overlap_fill.py)
         assert main(["plan", "--map", str(path), "--uavs", "1", "--side-overlap", side, "--out", str(out),
-                     "--quiet"]) == 0
+                     "--quiet", "--no-overlap-fill"]) == 0
         assert f"open ground: 1 of 1 drones sweep their zone in lanes {cells} cells apart" in capsys.readouterr().out
         doc = json.loads(report_path(out).read_text())
         assert doc["georeference"]["camera"]["lane_spacing_cells"] == cells and doc["lane_drones"] == 1
@@ -259,6 +260,10 @@ def test_side_overlap_puts_plan_lanes_that_many_cells_apart(tmp_path: Path,
         lines, axis = _lane_lines(np.array(doc["paths"][0]))
         inner = [v for v in lines if 0 < v < 39]  # a lane clipped at the map's edge aside
         assert len(inner) >= 40 // cells - 2 and set(np.diff(inner)) == {cells}, lines
+        # and as the missions fly them: the corrector keeps every lane, so the side overlap measured from the
+        # photos is the one asked, at the 5th percentile too
+        measured = doc["coverage"]["overlap"]["side"]
+        assert measured["p5"] >= int(side) / 100, measured
 
 
 def test_an_oblique_pitch_moves_the_photo_centre_ahead_and_coarsens_its_gsd() -> None:

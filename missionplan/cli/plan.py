@@ -9,6 +9,7 @@ lane spacing on open ground; a plan asked with none of them is planned and writt
 
 from __future__ import annotations
 
+import argparse
 import math
 import sys
 from dataclasses import dataclass, replace
@@ -96,6 +97,7 @@ class PlanRequest:
     quiet: bool
     targets: str = DEFAULT_TARGETS
     transit_speed: float | None = None
+    overlap_fill: bool | None = None  # None: on for a plan asked by camera, GSD or overlaps (capture_asked)
 
     def area_request(self) -> AreaRequest:
         """What the area grid is drawn from (with --area); a --camera gives the sensor and focal length."""
@@ -219,6 +221,10 @@ def register(sub: Any) -> None:
                       help=f"where every mission points the camera before its first photo, {GIMBAL_PITCH_RANGE[0]:g} "
                            f"(straight down, the default) to {GIMBAL_PITCH_RANGE[1]:g} (level) degrees "
                            "(docs/capture.md, Gimbal)")
+    plan.add_argument("--overlap-fill", action=argparse.BooleanOptionalAction, default=None,
+                      help="short detours where the planned photos leave a reachable target point with fewer "
+                           "photos than the overlaps imply (default: on with a camera, GSD or overlap option, off "
+                           "otherwise; docs/capture.md, Overlap fill)")
     plan.add_argument("--out", required=True, type=Path, help="output folder (created if missing)")
     plan.add_argument("--basemap", metavar="URL",
                       help="plan.html draws map tiles from this tile server (e.g. "
@@ -426,7 +432,8 @@ def cmd_plan(request: PlanRequest) -> int:
     options = PlanOptions(policy=request.policy, weights=request.weights, zones=request.zones,
                           balance_zones=not request.no_balance, open_ground=request.open_ground,
                           lane_spacing_cells=lane_spacing, seed=request.seed,
-                          basemap=request.basemap, progress=not request.quiet and sys.stderr.isatty())
+                          basemap=request.basemap, progress=not request.quiet and sys.stderr.isatty(),
+                          overlap_fill=request.capture_asked if request.overlap_fill is None else request.overlap_fill)
     folder = write_plan_folder(request.out, ground, options)
     print_plan(folder)
     return 0 if folder.success else EXIT_FAILED

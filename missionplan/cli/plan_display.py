@@ -84,6 +84,8 @@ def print_plan(folder: PlanFolder) -> None:
               f"at {drone.altitude_m:g} m{above} (turning {before.turning_deg:.0f} -> {after.turning_deg:.0f} deg)")
     if folder.overlap is not None:  # measured from where the missions take their photos, not from the rule
         print(f"  overlaps as planned: {folder.overlap.summary()}")
+    if record.overlap_fill is not None:
+        print(f"  {record.overlap_fill.summary()}")
     sep = record.separation
     if sep is not None and sep.d3 is not None:
         closest = sep.closest

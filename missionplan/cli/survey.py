@@ -170,7 +170,8 @@ def cmd_replan(request: ReplanRequest) -> int:
     options = PlanOptions(policy=request.policy or stored.policy, weights=request.weights, zones=stored.zones,
                           balance_zones=stored.balance_zones, open_ground=stored.open_ground,
                           lane_spacing_cells=stored.lane_spacing_cells, seed=request.seed,
-                          progress=not request.quiet and sys.stderr.isatty(), drone_ids=ids, survey=pointer)
+                          progress=not request.quiet and sys.stderr.isatty(), drone_ids=ids, survey=pointer,
+                          overlap_fill=stored.overlap_fill)
     roofs = survey.record.roofs  # a survey of roofs re-plans its roofs as such
     georef = survey.record.georeference  # a capture plan's camera block goes on into the re-plan
     ground = PlanGround(gmap, cells, survey.frame, stored.mission, stored.safety,

@@ -109,6 +109,7 @@ class PlanRun:
     deadlocks_broken: int
     plan_seconds: float
     lane_drones: int = 0  # drones that swept an open-ground zone in lanes (grid.lanes)
+    sweepers: tuple[bool, ...] = ()  # for each drone, whether it swept its zone in lanes
 
 
 def _action_towards(position: np.ndarray, cell: Cell) -> int:
@@ -450,4 +451,5 @@ class Planner:
                        policy_decisions=decisions[:, 0], pathfinder_decisions=decisions[:, 1],
                        idle_decisions=decisions[:, 2], success=failure is None and world.done,
                        failure=failure, steps=world.t, deadlocks_broken=self.deadlocks_broken,
-                       plan_seconds=seconds, lane_drones=lane_drones)
+                       plan_seconds=seconds, lane_drones=lane_drones,
+                       sweepers=tuple(sweep is not None for sweep in self.sweeps))

@@ -24,6 +24,8 @@ Layers, one way: cli -> flight -> mission -> learn -> grid -> maps (tests/test_l
                   layers.
   outputs         A plan folder's own files: which ones a previous `plan` wrote there, so a re-plan
                   leaves none stale.
+  overlap_fill    Overlap fill: short detours that give reachable target points the photos the overlaps
+                  imply (plan --overlap-fill).
   plan_blocks     The typed blocks of a plan record: what each drone flies, the safety promise, the
                   coverage and its warnings, the files read, the settings, the planner's figures.
   plan_record     The plan as data: `PlanRecord`, what report.json holds, and the one way it is written

@@ -33,6 +33,10 @@ mission files). Three steps:
      drops to 0.
    * Turning. The heading changes at i and j after the replacement may not sum to more
      than the turning of the replaced part (so total turning never grows).
+   * Kept turns. No shortcut skips a waypoint on a cell the caller asks to keep (`keep`): the
+     coverage rule keeps every target's one photo, not the photos an overlap implies, so the
+     caller keeps the turns of lanes closer than a footprint (a side overlap) and of an overlap
+     fill's detours (planning/field_plan.py).
 
 Grid coordinates throughout: waypoint (r, c) float, row down, column right.
 """
@@ -181,14 +185,23 @@ def _rect(a: np.ndarray, b: np.ndarray, radius: int, shape: tuple[int, int]) -> 
 
 def correct_path(path: np.ndarray, obstacle: np.ndarray, targets: np.ndarray,
                  footprint_radius: int = FOOTPRINT_RADIUS, margin_cells: float = MARGIN_CELLS,
-                 sample_step: float = SAMPLE_STEP, patience: int = PATIENCE) -> CorrectedPath:
-    """Correct one drone's cell path (T+1, 2) into waypoints; see the module docstring."""
+                 sample_step: float = SAMPLE_STEP, patience: int = PATIENCE,
+                 keep: np.ndarray | None = None) -> CorrectedPath:
+    """Correct one drone's cell path (T+1, 2) into waypoints; see the module docstring. `keep`: a bool grid
+    of cells where a turn of the path stays a waypoint no shortcut skips."""
     cells = drop_hovers(np.asarray(path, dtype=np.int64))
     before = _stats(len(cells), cells)
     if len(cells) == 0:
         return CorrectedPath(np.zeros((0, 2)), before, _stats(0, cells))
     pts = merge_straight(cells).astype(float)
     shape = obstacle.shape
+    # The first kept waypoint after each one: no shortcut reaches past it.
+    is_anchor = np.zeros(len(pts), dtype=bool)
+    if keep is not None:
+        at = np.rint(pts).astype(np.int64)
+        is_anchor = keep[at[:, 0], at[:, 1]]
+    is_anchor[-1] = True
+    next_anchor = np.minimum.accumulate(np.where(is_anchor, np.arange(len(pts)), len(pts))[::-1])[::-1]
 
     # Coverage count: how many polyline segments cover each cell (a lone point counts as one).
     count = np.zeros(shape, dtype=np.int32)
@@ -237,7 +250,7 @@ def correct_path(path: np.ndarray, obstacle: np.ndarray, targets: np.ndarray,
     while i < len(pts) - 1:
         best_j, best_update = i + 1, None
         misses = 0
-        for j in range(i + 2, len(pts)):
+        for j in range(i + 2, int(next_anchor[i + 1]) + 1):
             ok, update = accept(out, i, j)
             if ok:
                 best_j, best_update, misses = j, update, 0

@@ -167,7 +167,7 @@ def _place(frame: GridFrame, point_m: np.ndarray) -> str:
 
 def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSettings,
                       safety: SafetySettings | None = None, base: GridMap | None = None,
-                      ground: GroundHeights | None = None) -> FlightPlans:
+                      ground: GroundHeights | None = None, keep: np.ndarray | None = None) -> FlightPlans:
     """Correct every drone's path and build its missions.
 
     With `safety`: routes longer than the endurance become sorties, the altitude layers are chosen so
@@ -175,7 +175,9 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
     geofence. Without it: one mission per drone at the altitudes of `settings`, nothing enforced.
     `base`: the map as given when the planner flew it with a clearance band (missionplan.mission.clearance): the
     corrector keeps the clearance from its obstacles and every target the grid path photographed.
-    `ground`: the plan is over a DEM; its altitudes are heights above the ground (drone_missions)."""
+    `ground`: the plan is over a DEM; its altitudes are heights above the ground (drone_missions). `keep`: cells
+    where the corrector keeps a turn as a waypoint (lanes closer than a footprint, an overlap fill's detours:
+    correct_path)."""
     paths = result.run.paths
     base = result.gmap if base is None else base
     targets = result.world.reachable if base is result.gmap else base.target
@@ -189,7 +191,8 @@ def make_flight_plans(result: PlanResult, frame: GridFrame, settings: MissionSet
     for k in range(paths.shape[0]):
         # A diagonal is credited only with the cells every photo spacing still sees.
         track = correct_path(paths[k], base.obstacle, targets, footprint_radius=FOOTPRINT_RADIUS,
-                             sample_step=max(settings.trigger_distance_m / cell, 0.25), margin_cells=margin_cells)
+                             sample_step=max(settings.trigger_distance_m / cell, 0.25), margin_cells=margin_cells,
+                             keep=keep)
         waypoints = np.asarray(track.waypoints, dtype=float)
         latlons.append(np.column_stack(frame.grid_to_latlon(waypoints[:, 0], waypoints[:, 1])))
         launches.append(np.asarray(result.starts[k], dtype=float) * cell)

@@ -465,18 +465,13 @@ def measure_overlap(centres: np.ndarray, runs: np.ndarray, footprint_m: float, c
     directions = strip_directions(centres, runs, strips)
     front = front_overlaps(centres, strips, footprint_m)
     side = side_overlaps(centres, strips, directions, footprint_m)
-    # Side by side only: a crossing street's strip sees a point from another direction, which no side overlap
-    # was asked of (a strip's kind: its direction nearer the grid's columns, east-west, or its rows).
-    strip_across = np.abs(directions[:, 1]) > np.abs(directions[:, 0]) if len(directions) else np.zeros(0, bool)
-    counts, single = photos_per_point(centres, strips, cells, cell_m, footprint_m,
-                                      across=strip_across[strips] if len(strips) else None)
+    counts, single, wanted = _counts_wanted(centres, strips, directions, cells, cell_m, footprint_m, asked_front,
+                                            asked_side)
     seen = counts > 0
     one, neighbouring = implied_photos(asked_front, asked_side)
     short = 0
     met = None
-    wanted = None
-    if one is not None and neighbouring is not None and len(cells):
-        wanted = np.where(single | ~seen, one, neighbouring)
+    if wanted is not None:
         short = int((counts < wanted).sum())
         met = bool(low(counts - wanted) >= 0)
     reach = None
@@ -495,3 +490,35 @@ def measure_overlap(centres: np.ndarray, runs: np.ndarray, footprint_m: float, c
         per_point_p5=int(low(counts)) if len(cells) else 0, per_point_min=int(counts.min()) if len(cells) else 0,
         single_strip_share=float(single[seen].mean()) if seen.any() else None,
         implied_one_strip=one, implied_neighbouring=neighbouring, short=short, met=met, reach=reach)
+
+
+def _counts_wanted(centres: np.ndarray, strips: np.ndarray, directions: np.ndarray, cells: np.ndarray, cell_m: float,
+                   footprint_m: float, asked_front: float | None,
+                   asked_side: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """(photos per point, whether one strip sees it, the photos implied for it: None when nothing is implied)."""
+    # Side by side only: a crossing street's strip sees a point from another direction, which no side overlap
+    # was asked of (a strip's kind: its direction nearer the grid's columns, east-west, or its rows).
+    strip_across = np.abs(directions[:, 1]) > np.abs(directions[:, 0]) if len(directions) else np.zeros(0, bool)
+    counts, single = photos_per_point(centres, strips, cells, cell_m, footprint_m,
+                                      across=strip_across[strips] if len(strips) else None)
+    one, neighbouring = implied_photos(asked_front, asked_side)
+    if one is None or neighbouring is None or not len(cells):
+        return counts, single, None
+    return counts, single, np.where(single | (counts == 0), one, neighbouring)
+
+
+def reachable_deficits(centres: np.ndarray, runs: np.ndarray, footprint_m: float, cells: np.ndarray, cell_m: float,
+                       asked_front: float | None, asked_side: float | None, flyable: np.ndarray) -> np.ndarray:
+    """(m,) for each of `cells`: the photos it lacks of those implied for it when it is a reachable point, else 0;
+    measured as measure_overlap measures (its arguments). All 0 when nothing is implied."""
+    centres = np.asarray(centres, dtype=float).reshape(-1, 2)
+    cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+    runs = np.asarray(runs).reshape(-1)
+    strips = strips_of(centres, runs)
+    directions = strip_directions(centres, runs, strips)
+    counts, _, wanted = _counts_wanted(centres, strips, directions, cells, cell_m, footprint_m, asked_front,
+                                       asked_side)
+    if wanted is None:
+        return np.zeros(len(cells), dtype=np.int64)
+    reachable, _ = classify_points(flyable, cells, window_half_cells(footprint_m, cell_m))
+    return np.where(reachable, np.maximum(wanted - counts, 0), 0)

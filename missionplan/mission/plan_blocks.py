@@ -477,6 +477,7 @@ class PlanSettings:
     open_ground: str
     # cells between open-ground lanes; written only when a side overlap made them closer than a footprint
     lane_spacing_cells: int = CELLS_PER_FOOTPRINT
+    overlap_fill: bool = False  # written only when on
 
     def to_json(self) -> JSON:
         # Every field of the two settings, in their order: a field added there is recorded here. The capture
@@ -493,13 +494,15 @@ class PlanSettings:
                      "zones": self.zones, "balance_zones": self.balance_zones, "open_ground": self.open_ground}
         if self.lane_spacing_cells != CELLS_PER_FOOTPRINT:
             doc["lane_spacing_cells"] = self.lane_spacing_cells
+        if self.overlap_fill:
+            doc["overlap_fill"] = True
         return doc
 
     @classmethod
     def from_json(cls, doc: Mapping[str, Any]) -> PlanSettings:
         return cls(MissionSettings(**doc["mission"]), SafetySettings(**doc["safety"]), doc.get("policy", "expert"),
                    doc.get("zones", "geodesic"), doc.get("balance_zones", True), doc.get("open_ground", "lanes"),
-                   int(doc.get("lane_spacing_cells", CELLS_PER_FOOTPRINT)))
+                   int(doc.get("lane_spacing_cells", CELLS_PER_FOOTPRINT)), bool(doc.get("overlap_fill", False)))
 
 
 @dataclass(frozen=True)
@@ -522,3 +525,44 @@ class SurveyPointer:
     @classmethod
     def from_json(cls, doc: Mapping[str, Any]) -> SurveyPointer:
         return cls(doc["root"], doc.get("missing_cells"), doc.get("from"))
+
+
+@dataclass(frozen=True)
+class OverlapFill:
+    """report.json `overlap_fill`: what the overlap fill (mission/overlap_fill.py) did over all its rounds. `short_before` / `short_after`: the
+    reachable points short of the implied photos before the first round and after the last; `unserved`: of
+    the last round's short points, those no detour could serve (the clearance band closes their window)."""
+
+    rounds: int
+    stubs: int
+    runs: int
+    moves_added: int
+    short_before: int
+    short_after: int
+    unserved: int
+    makespan_before_s: float  # the busiest drone's flight time, all its sorties, without the fill
+    makespan_s: float  # and with it
+
+    def to_json(self) -> JSON:
+        return {"rounds": self.rounds, "stubs": self.stubs, "runs": self.runs, "moves_added": self.moves_added,
+                "short_before": self.short_before, "short_after": self.short_after, "unserved": self.unserved,
+                "makespan_before_s": self.makespan_before_s, "makespan_s": self.makespan_s}
+
+    @classmethod
+    def from_json(cls, doc: Mapping[str, Any]) -> OverlapFill:
+        return cls(int(doc["rounds"]), int(doc["stubs"]), int(doc["runs"]), int(doc["moves_added"]),
+                   int(doc["short_before"]), int(doc["short_after"]), int(doc["unserved"]),
+                   float(doc["makespan_before_s"]), float(doc["makespan_s"]))
+
+    def summary(self) -> str:
+        """`overlap fill: 35 stubs, 0 runs (174 grid moves) in 5 rounds; reachable points short 285 -> 0;
+        busiest drone 55 s -> 65 s (+18 %)`."""
+        text = (f"overlap fill: {self.stubs} stubs, {self.runs} runs ({self.moves_added:,} grid moves) in "
+                f"{self.rounds} round{'s' if self.rounds != 1 else ''}; reachable points short {self.short_before} "
+                f"-> {self.short_after}")
+        if self.unserved:
+            text += f" ({self.unserved} no detour could serve)"
+        if self.makespan_before_s > 0:
+            text += (f"; busiest drone {self.makespan_before_s:.0f} s -> {self.makespan_s:.0f} s "
+                     f"(+{100 * (self.makespan_s / self.makespan_before_s - 1):.0f} %)")
+        return text

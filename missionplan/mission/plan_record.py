@@ -15,7 +15,8 @@ refuses it in one line instead of flying it wrongly, and one that can reads it:
 * version 2, `"schema_version": 2` first: a plan over a DEM (georeference.terrain: its heights are above the
   ground, its missions follow the terrain);
 * version 3: a plan asked for by camera, GSD or overlaps (georeference.camera: the capture's numbers and rules,
-  open-ground lanes possibly closer than a footprint), with roof targets (`roofs`, 'r' grid cells) or a
+  open-ground lanes possibly closer than a footprint), with an overlap fill's detours (`overlap_fill`), with
+  roof targets (`roofs`, 'r' grid cells) or a
   MAVLink camera's capture (settings.mission.capture) or an oblique gimbal (settings.mission.gimbal_pitch_deg),
   over flat ground or a DEM.
 SCHEMA_VERSION is the newest this missionplan writes and reads; a report.json of a version it does not know
@@ -28,7 +29,7 @@ launch, paths (per drone, one [row, col] per step, start and hovers included), g
 '#' obstacle, '.' target, 'o' free non-target); then for a georeferenced plan zone_shares (when re-balanced
 for sorties), drones, separation and clearance (the safety promise), settings, drone_ids, survey (a
 re-plan's pointer), basemap, credit, georeference; then coverage, roofs (with `plan --targets roofs|all`:
-mission/roof_targets.py; the grid's roof target cells are 'r'), inputs (an area plan's files), files and
+mission/roof_targets.py; the grid's roof target cells are 'r'), overlap_fill (mission/overlap_fill.py), inputs (an area plan's files), files and
 files_sha256.
 """
 
@@ -47,8 +48,8 @@ from missionplan.geo.errors import GeoError
 from missionplan.geo.georeference import Georeference
 
 from ..maps.gridmap import Cell, MapError
-from .plan_blocks import (ClearancePromise, CoverageSummary, Decisions, DronePlan, InputFile, PlanMetrics,
-                          PlanSettings, SafetyPromise, SeparationPromise, SurveyPointer, Timing, cells_json, cells_of)
+from .plan_blocks import (ClearancePromise, CoverageSummary, Decisions, DronePlan, InputFile, OverlapFill,
+                          PlanMetrics, PlanSettings, SafetyPromise, SeparationPromise, SurveyPointer, Timing, cells_json, cells_of)
 from .roof_targets import RoofTargets
 
 REPORT_NAME = "report.json"
@@ -118,6 +119,7 @@ class PlanRecord:
     files: tuple[str, ...] | None = None  # every file the plan wrote, report.json included
     files_sha256: Mapping[str, str] | None = None  # each file's but report.json's
     roofs: RoofTargets | None = None  # the target classes, cell rule and clearance over roofs (--targets roofs|all)
+    overlap_fill: OverlapFill | None = None  # what the overlap fill added (plan --overlap-fill)
 
     # ---- what readers ask ------------------------------------------------------------
     @property
@@ -139,7 +141,7 @@ class PlanRecord:
         camera = georef is not None and georef.capture is not None
         mission = self.settings.mission if self.settings is not None else None
         capture_mode = mission is not None and (mission.capture != "relay" or mission.gimbal_pitch_deg != NADIR_PITCH_DEG)
-        if camera or self.roofs is not None or capture_mode:
+        if camera or self.roofs is not None or capture_mode or self.overlap_fill is not None:
             return CAPTURE_VERSION
         return TERRAIN_VERSION if georef is not None and georef.terrain is not None else 1
 
@@ -184,6 +186,8 @@ class PlanRecord:
             doc["coverage"] = self.coverage.to_json()
         if self.roofs is not None:
             doc["roofs"] = self.roofs.to_json()
+        if self.overlap_fill is not None:
+            doc["overlap_fill"] = self.overlap_fill.to_json()
         if self.inputs is not None:
             doc["inputs"] = [i.to_json() for i in self.inputs]
         if self.files is not None:
@@ -221,6 +225,7 @@ class PlanRecord:
             georeference=Georeference.from_json(georef, len(grid), len(grid[0])) if georef is not None else None,
             coverage=CoverageSummary.from_json(doc["coverage"]) if doc.get("coverage") is not None else None,
             roofs=RoofTargets.from_json(doc["roofs"]) if doc.get("roofs") is not None else None,
+            overlap_fill=OverlapFill.from_json(doc["overlap_fill"]) if doc.get("overlap_fill") is not None else None,
             inputs=tuple(InputFile.from_json(i) for i in doc["inputs"]) if doc.get("inputs") is not None else None,
             files=_optional_tuple(doc.get("files")),
             files_sha256=dict(doc["files_sha256"]) if doc.get("files_sha256") is not None else None)

@@ -115,6 +115,7 @@ class PlanOptions:
     progress: bool = False  # a progress bar on stderr while planning
     drone_ids: list[int] | None = None  # system id of each drone, in launch order (default 1, 2, ...)
     survey: SurveyPointer | None = None  # report.json `survey`: a re-plan's pointer to the survey it continues
+    overlap_fill: bool = False  # detours where reachable points lack photos (mission/overlap_fill.py)
 
     def __post_init__(self) -> None:
         # A basemap URL that is no tile server's fails here, before any area is read or folder made.
@@ -284,7 +285,8 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
     field_plan = plan_field(gmap, ground.uavs, frame, settings, safety, balance_zones=options.balance_zones,
                             ground=terrain.height_amsl if terrain is not None else None,
                             policy=policy, zone_method=options.zones, seed=options.seed, progress=options.progress,
-                            lanes=options.open_ground == "lanes", lane_spacing=options.lane_spacing_cells)
+                            lanes=options.open_ground == "lanes", lane_spacing=options.lane_spacing_cells,
+                            overlap_fill=options.overlap_fill, side_overlap=ground.asked_side_overlap)
     result, plans = field_plan.result, field_plan.plans
     if plans is not None and options.drone_ids is not None:
         plans.relabel(options.drone_ids)
@@ -292,7 +294,7 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
     if settings is not None and safety is not None:  # what `replan` plans the rest of the survey with
         record = replace(record, settings=PlanSettings(settings, safety, options.policy, options.zones,
                                                        options.balance_zones, options.open_ground,
-                                                       options.lane_spacing_cells))
+                                                       options.lane_spacing_cells, options.overlap_fill))
     record = replace(record, drone_ids=None if options.drone_ids is None else tuple(options.drone_ids),
                      survey=options.survey,
                      basemap=options.basemap or None,  # flight.html draws the same tiles
