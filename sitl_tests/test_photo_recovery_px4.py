@@ -65,12 +65,14 @@ def _until_accepted(tee: _Tee, sysid: int, command: int, params: list[float], ti
     """A command retried while the vehicle refuses it (PX4: arming before it is ready, a mission start
     right after an upload), each refusal followed by a second of listening."""
     deadline = time.monotonic() + timeout
+    since = len(tee.kept)
     while time.monotonic() < deadline:
         result = tee.link.command_long(sysid, command, params, deadline, other=tee.kept.append)
         if result == mavlink.MAV_RESULT_ACCEPTED:
             return
         tee.collect(1.0)
-    raise AssertionError(f"vehicle {sysid} did not accept command {command} within {timeout:g} s")
+    said = sorted({str(m.text) for m in tee.kept[since:] if m.get_type() == "STATUSTEXT"})
+    raise AssertionError(f"vehicle {sysid} did not accept command {command} within {timeout:g} s; it said {said}")
 
 
 def _armed(msg: Any) -> bool:
@@ -119,7 +121,8 @@ def session(url: str, sysid: int, keep: Path) -> dict[str, Any]:
         rec["no such log"] = _raw_data(tee, sysid, newest + 7, 0, LOG_DATA_LEN)
         tee.mav.log_request_end_send(sysid, AUTOPILOT_COMPONENT_ID)
         rec["landed_at"] = landed_at
-        _until_accepted(tee, sysid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, [1.0], 30.0)
+        # After a landing PX4 refuses to arm until its checks pass again: once over 30 s in a full CI run.
+        _until_accepted(tee, sysid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, [1.0], READY_TIMEOUT_S)
         tee.link.command_long(sysid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, [0.0], time.monotonic() + 5.0)
         tee.collect(1.0)
         rec["armed once more"] = _raw_list(tee, sysid)
