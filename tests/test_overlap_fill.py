@@ -198,9 +198,9 @@ def test_the_fill_is_on_for_a_plan_asked_by_overlaps_and_can_be_turned_off(tmp_p
 
 
 def test_plan_settings_carry_the_fill_to_a_replan() -> None:
-    settings = shipped_ground("leonardo", 2)
-    assert settings.settings is not None and settings.safety is not None
-    stored = PlanSettings(settings.settings, settings.safety, "expert", "geodesic", True, "lanes")
+    ground = shipped_ground("leonardo", 2)
+    assert ground.settings is not None and ground.safety is not None
+    stored = PlanSettings(ground.settings, ground.safety, "expert", "geodesic", True, "lanes")
     assert "overlap_fill" not in stored.to_json()
     on = replace(stored, overlap_fill=True)
     assert PlanSettings.from_json(json.loads(json.dumps(on.to_json()))).overlap_fill is True

@@ -132,6 +132,35 @@ def steps_toward(free: np.ndarray, sources: np.ndarray) -> tuple[np.ndarray, np.
     return dist, nxt
 
 
+def way_to_source(nxt: np.ndarray, cell: tuple[int, int]) -> list[tuple[int, int]]:
+    """The cells from `cell` to the source steps_toward reached it from, both included (`nxt` its next-cell
+    grid; just `cell` for a source or a cell no source reaches)."""
+    cols = nxt.shape[1]
+    way = [cell]
+    while (flat := int(nxt[way[-1]])) >= 0:
+        way.append((flat // cols, flat % cols))
+    return way
+
+
+def insert_detours(tracks: list[list[tuple[int, int]]],
+                   detours: dict[tuple[int, int], list[tuple[int, int]]]) -> list[list[tuple[int, int]]]:
+    """Each drone's track with the detour keyed (drone k, index i) flown right after its i-th cell."""
+    out = []
+    for k, track in enumerate(tracks):
+        new: list[tuple[int, int]] = []
+        for i, cell in enumerate(track):
+            new.append(cell)
+            new.extend(detours.get((k, i), ()))
+        out.append(new)
+    return out
+
+
+def padded_paths(tracks: list[list[tuple[int, int]]], dtype: Any) -> np.ndarray:
+    """The tracks as paths (K, T+1, 2), the shorter ones hovering at their end."""
+    length = max(len(t) for t in tracks)
+    return np.array([t + [t[-1]] * (length - len(t)) for t in tracks], dtype=dtype)
+
+
 def photograph_band(paths: np.ndarray, flight: GridMap, gmap: GridMap, band: np.ndarray,
                     zone: np.ndarray) -> tuple[np.ndarray, int]:
     """Extend the drones' grid paths (K, T+1, 2) so every band target a footprint can reach from outside
@@ -144,7 +173,6 @@ def photograph_band(paths: np.ndarray, flight: GridMap, gmap: GridMap, band: np.
     from up to FOOTPRINT_RADIUS cells away, from outside the band."""
     r = FOOTPRINT_RADIUS
     square = np.ones((2 * r + 1, 2 * r + 1), dtype=bool)
-    rows, cols = gmap.shape
     starts = [tuple(int(v) for v in p[0]) for p in paths]
     labels, _ = ndimage.label(flight.free)
     flyable = np.isin(labels, [labels[s] for s in starts if labels[s] > 0]) & flight.free
@@ -168,11 +196,7 @@ def photograph_band(paths: np.ndarray, flight: GridMap, gmap: GridMap, band: np.
         detours: dict[tuple[int, int], list[tuple[int, int]]] = {}
         progress = False
         for d, k, i in options:
-            here = tracks[k][i]
-            route = [here]
-            while dist[route[-1]] > 0:
-                flat = int(nxt[route[-1]])
-                route.append((flat // cols, flat % cols))
+            route = way_to_source(nxt, tracks[k][i])
             if not sees_pending(route[-1]):
                 continue
             for cr, cc in route:
@@ -181,14 +205,6 @@ def photograph_band(paths: np.ndarray, flight: GridMap, gmap: GridMap, band: np.
             progress = True
         if not progress:
             break
-        for k in range(len(tracks)):
-            new = []
-            for i, cell in enumerate(tracks[k]):
-                new.append(cell)
-                extra = detours.get((k, i), [])
-                new.extend(extra)
-                added += len(extra)
-            tracks[k] = new
-    length = max(len(t) for t in tracks)
-    out = np.array([t + [t[-1]] * (length - len(t)) for t in tracks], dtype=paths.dtype)
-    return out, added
+        tracks = insert_detours(tracks, detours)
+        added += sum(len(extra) for extra in detours.values())
+    return padded_paths(tracks, paths.dtype), added

@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage  # type: ignore[import-untyped]
 
-from .clearance import steps_toward
+from .clearance import insert_detours, padded_paths, steps_toward, way_to_source
 
 UNREACHED = np.iinfo(np.int64).max // 4  # a cell no path reaches: never the nearest
 DIRECTIONS = ((-1, 0), (0, 1), (1, 0), (0, -1))
@@ -196,10 +196,7 @@ def choose_runs(points: np.ndarray, dist: np.ndarray, nxt: np.ndarray, half: int
         cells = [(line, k) for k in range(at - half, at + half + 1)] if axis == 1 else \
             [(k, line) for k in range(at - half, at + half + 1)]
         entry = min(range(len(cells)), key=lambda k: dist[cells[k]])
-        back = [cells[entry]]  # from the run's entry cell back to the path
-        while dist[back[-1]] > 0:
-            flat = int(nxt[back[-1]])
-            back.append((flat // cols, flat % cols))
+        back = way_to_source(nxt, cells[entry])  # from the run's entry cell back to the path
         # entry -> one end -> the other end -> entry: the whole run flown, then back to the path
         along = cells[entry::-1] + cells[1:] + cells[-2:entry - 1 if entry else None:-1]
         runs.append(Detour(back[-1], tuple(back[-2::-1] + along[1:] + back[1:]), (cells[0], cells[-1])))
@@ -223,24 +220,15 @@ def fill_paths(paths: np.ndarray, open_cells: np.ndarray, points: np.ndarray, de
     if (left > 0).any():
         dist, nxt = steps_toward(open_cells, on_path)
         runs, unserved = choose_runs(points[left > 0], dist, nxt, half)
-    where: dict[Cell, list[tuple[int, int]]] = {}  # path cell -> (drone, its first index there)
+    where: dict[Cell, dict[int, int]] = {}  # path cell -> {drone: its first index there}
     for k, track in enumerate(tracks):
-        for i, cell in enumerate(track):
-            if not any(drone == k for drone, _ in where.get(cell, ())):
-                where.setdefault(cell, []).append((k, i))
+        for i, cell in reversed(list(enumerate(track))):  # the first index last, so it stays
+            where.setdefault(cell, {})[k] = i
     lengths = [len(t) for t in tracks]
     detours: dict[tuple[int, int], list[Cell]] = {}
     for detour in stubs + runs:
-        k, i = min(where[detour.start], key=lambda ki: lengths[ki[0]])
+        k, i = min(where[detour.start].items(), key=lambda ki: lengths[ki[0]])
         detours.setdefault((k, i), []).extend(detour.cells)
         lengths[k] += len(detour.cells)
-    for k in range(len(tracks)):
-        new: list[Cell] = []
-        for i, cell in enumerate(tracks[k]):
-            new.append(cell)
-            new.extend(detours.get((k, i), []))
-        tracks[k] = new
-    length = max(len(t) for t in tracks)
-    out = np.array([t + [t[-1]] * (length - len(t)) for t in tracks], dtype=paths.dtype)
-    return FilledPaths(out, sum(len(d.cells) for d in stubs + runs), len(stubs), len(runs), unserved,
+    return FilledPaths(padded_paths(insert_detours(tracks, detours), paths.dtype), sum(len(d.cells) for d in stubs + runs), len(stubs), len(runs), unserved,
                        [end for d in stubs + runs for end in d.ends], [d.start for d in stubs + runs])

@@ -40,8 +40,7 @@ class LaunchWays:
         source = np.zeros(free.shape, dtype=bool)
         source[tuple(launch)] = True
         self.steps, self.toward = steps_toward(free, source)
-        self.launch, self.obstacle, self.margin, self.cell = tuple(launch), obstacle, margin_cells, cell_m
-        self.cols = free.shape[1]
+        self.obstacle, self.margin, self.cell = obstacle, margin_cells, cell_m
         self._ways: dict[tuple[int, int], np.ndarray] = {}
 
     def _cell(self, point_m: np.ndarray) -> tuple[int, int]:
@@ -57,11 +56,10 @@ class LaunchWays:
         the way home ends over the launch point itself."""
         start = self._cell(point_m)
         if start not in self._ways:
-            cells = [start]
-            while cells[-1] != self.launch and self.toward[cells[-1]] >= 0 and len(cells) <= self.steps.size:
-                flat = int(self.toward[cells[-1]])
-                cells.append((flat // self.cols, flat % self.cols))
-            track = correct_path(np.array(cells), self.obstacle, np.zeros(self.obstacle.shape, dtype=bool),
+            from .clearance import way_to_source
+
+            track = correct_path(np.array(way_to_source(self.toward, start)), self.obstacle,
+                                 np.zeros(self.obstacle.shape, dtype=bool),
                                  margin_cells=self.margin)
             self._ways[start] = np.asarray(track.waypoints, dtype=float) * self.cell  # point ... launch
         home = self._ways[start]

@@ -83,13 +83,13 @@ def plan_field(gmap: GridMap, uavs: int, frame: GridFrame | None, settings: Miss
         if frame is not None and settings is not None and result.run.success:
             from ..mission.flightplan import make_flight_plans
 
+            def flight_plans(keep: np.ndarray | None) -> Any:
+                return make_flight_plans(result, frame, settings, safety, base=gmap, ground=ground, keep=keep)
+
             done.keep = _lane_turns(result.run, gmap.shape, int(planning.get("lane_spacing", CELLS_PER_FOOTPRINT)))
-            done.plans = make_flight_plans(result, frame, settings, safety, base=gmap, ground=ground, keep=done.keep)
+            done.plans = flight_plans(done.keep)
             if overlap_fill and safety is not None:
-                done.overlap_fill = _fill(done, gmap, plan_gmap, frame,
-                                          lambda keep: make_flight_plans(result, frame, settings, safety,
-                                                                         base=gmap, ground=ground, keep=keep),
-                                          side_overlap)
+                done.overlap_fill = _fill(done, gmap, plan_gmap, frame, flight_plans, side_overlap)
         return done
 
     best = attempt(None)
