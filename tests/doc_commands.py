@@ -262,7 +262,7 @@ def shows_an_error(shown: list[str]) -> bool:
     return any(re.match(r"^(missionplan( \w+)?: (?!warning)|\s*problem: )", line) for line in shown)
 
 
-FLYING_COMMANDS = ("demo", "fly")  # `missionplan demo` flies a mock fleet; `fly` flies the block's mock
+FLYING_COMMANDS = ("demo", "fly", "verify")  # `missionplan demo` and `verify` fly mock fleets; `fly` the block's mock
 
 
 def flies_mocks(block: Block) -> bool:

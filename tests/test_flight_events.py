@@ -20,8 +20,8 @@ from missionplan.flight.events import (ArmingChanged, EndedEarly, Finished, Flig
                                        ModeChanged, PhotoTaken, SentHome, ShareGivenAway, VehicleSaid, drain)
 from missionplan.flight.fleet_view import DroneView, confirmed_photos
 from missionplan.flight.follower_mail import RecordNote
-from missionplan.flight.link_silence import (GONE_SILENT_S, LINK_LOST_S, UPLOAD_HEARD_S, LinkWatch, SilenceOver,
-                                             SilenceRule, SilenceStep, give_up_at)
+from missionplan.flight.link_silence import (GONE_SILENT_S, LINK_LOST_S, MIN_WALL_S, UPLOAD_HEARD_S, LinkWatch,
+                                             SilenceOver, SilenceRule, SilenceStep, give_up_at)
 from missionplan.flight.live_replan import Retasker
 from missionplan.flight.record import DroneRecord
 
@@ -53,6 +53,16 @@ def test_a_watched_link_is_quiet_then_lost_then_back_each_said_once() -> None:
 def test_a_short_replan_after_makes_a_silence_matter_sooner() -> None:
     watch = LinkWatch(SilenceRule(1.0), heard_at=0.0)
     assert watch.look(1.05) == [SilenceStep.MATTERS]  # the re-tasker must time it from 1 s, not 2
+
+
+def test_silences_in_vehicle_time_scale_every_threshold_down_to_a_floor() -> None:
+    rule = SilenceRule(vehicle_scale=10.0)  # a simulator at 10x: 15 vehicle s gone, 5 lost, 2 to take an upload
+    assert rule.gone(1.51) and not rule.gone(1.49)
+    assert rule.link_lost(0.51) and not rule.link_lost(0.49)
+    assert rule.takes_uploads(0.49) and not rule.takes_uploads(0.51)  # 0.2 s, floored at MIN_WALL_S
+    assert rule.matters_after_s == MIN_WALL_S
+    calm = SilenceRule()  # fly's own: our seconds
+    assert calm.takes_uploads(1.9) and not calm.link_lost(4.9) and calm.gone(15.1)
 
 
 def test_a_silent_vehicle_is_given_up_when_its_mission_would_be_long_over() -> None:

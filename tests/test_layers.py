@@ -1,4 +1,4 @@
-"""Imports run one way: cli -> planning -> flight -> mission -> learn -> grid -> maps -> geo -> bridge -> base, inside
+"""Imports run one way: cli -> verify -> planning -> flight -> mission -> learn -> grid -> maps -> geo -> bridge -> base, inside
 bridge/ from the transfers down to the flight models, inside missionplan/flight/ from fly down to the records; geo,
 maps, grid and learn import nothing from bridge (base has what they share with it); no module imports itself round a
 circle (a -> b -> a), inside a layer or across the top; and argparse stays in the command line: no module below
@@ -8,8 +8,8 @@ plugin), sits above them all: it may import the product, and nothing of the prod
 Every module is parsed with `ast` (imports inside functions included). A module's layer is the
 subpackage it sits in (missionplan/grid/world.py: grid; geo/ and bridge/ install as missionplan.geo and
 missionplan.bridge); missionplan/planning/ (plan_map, plan_field, the plan folder, replan, retask) may import
-every layer below it, and only the command line (missionplan/cli/, and __main__) imports it; nothing imports the
-command line.
+every layer below it; missionplan/verify/ (a plan flown many times on simulated fleets) sits above it, and only the
+command line (missionplan/cli/, and __main__) imports those two; nothing imports the command line.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 # Lowest first: a module may import its own layer and the layers before it.
-LAYERS = ("base", "bridge", "geo", "maps", "grid", "learn", "mission", "flight", "planning")
+LAYERS = ("base", "bridge", "geo", "maps", "grid", "learn", "mission", "flight", "planning", "verify")
 TOP = len(LAYERS)  # the modules directly in missionplan/
 CLI = TOP + 1  # the command line: missionplan/cli/ and `python -m missionplan` (__main__)
 SUPPORT = CLI + 1  # the test support, missionplan/testing/: drives the product as a user does, through the CLI too

@@ -10,9 +10,9 @@
   when it reaches the plugin's `arducopter`, `px4` or `arducopter_fleet` fixture or starts a vehicle
   itself (missionplan.testing's ArduCopter, PX4 or sitl_fleet); it flies mock autopilots
   when it reaches a mock fleet (missionplan.flight.mock_fleet.start_mock_fleet, the plugin's `mock_fleet`,
-  tests/lost_drone.py, `missionplan demo`), or a MockAutopilot together with something that flies it (`fly`,
-  the re-task harness, or arming and MISSION_START). The marker is the module's `pytestmark` or the test's
-  own decorator.
+  tests/lost_drone.py, `missionplan demo`, `missionplan verify`), or a MockAutopilot together with something that flies it (`fly`,
+  the re-task harness, the wind flight of missionplan/testing/wind_flight.py, or arming and MISSION_START). The
+  marker is the module's `pytestmark` or the test's own decorator.
 """
 
 from __future__ import annotations
@@ -29,9 +29,10 @@ ALLOWED_SLEEPS = {("loopback.py", "wait_until")}  # (file, enclosing function)
 # The fixtures of missionplan/testing/plugin.py that start real autopilots, and what starts one directly.
 REAL_AUTOPILOTS = {"arg:arducopter", "arg:px4", "arg:arducopter_fleet", "ArduCopter", "PX4", "sitl_fleet"}
 # Reached, these fly mock autopilots whatever else the test does (names or attributes alike).
-MOCK_FLEET_FLIGHTS = {"start_mock_fleet", "arg:mock_fleet", "fly_with_a_lost_drone", "cli:demo"}
+MOCK_FLEET_FLIGHTS = {"start_mock_fleet", "arg:mock_fleet", "fly_with_a_lost_drone", "cli:demo", "cli:verify",
+                      "verify_plan"}
 # Reached together with a MockAutopilot, these fly it.
-MOCK_FLYERS = {"fly", "cli:fly", "retask_and_follow", "start_flying"}
+MOCK_FLYERS = {"fly", "cli:fly", "retask_and_follow", "start_flying", "fly_wind_mission"}
 MISSION_START, ARMING = "MAV_CMD_MISSION_START", {"MAV_CMD_COMPONENT_ARM_DISARM", "arm"}
 
 

@@ -7,4 +7,5 @@ both use them, so the planner reaches them without importing the ground station'
 May import: nothing else from missionplan.bridge.
   copter_model   ArduCopter's navigation parameters and phase timings (the shared Motion pieces)
   px4_model      PX4's, built from the same pieces
+  wind           wind as ArduCopter SITL flies in it: a leg's ground speed bound, the current, seeded gusts
 """

@@ -11,4 +11,9 @@ May import: missionplan.bridge.errors, .formats, .link (pymavlink's set-up and U
   mock_flight       its kinematics: a point that flies a mission, on the autopilots' flight models
   mock_log          its onboard DataFlash log, served over MAVLink
   mock_terrain      its terrain database over a ground (ArduPilot): TERRAIN_REQUEST / _DATA / _CHECK / _REPORT
+  gps_glitch        a GPS glitch as SITL's SIM_GPS1_GLTCH_X / _Y and its EKF answer it
+  link_faults       the link's faults per packet: loss, duplicates, reordering, latency
+  sitl_process      real ArduCopter SITL as a process: free instances and ports, readiness, reboot, stop
+  udp_relay         a loopback relay between SITL vehicles and a ground station: breaks the link, watches the truth
+  sitl_fleet        a SITL fleet for a plan folder behind the relay, configured as a team does
 """

@@ -15,7 +15,8 @@ reboot_at_item, in flight). kill(sysid) (now, or at a mission item) makes one ve
 a SITL process killed in flight; when every vehicle of the mock is killed its transport closes too (its
 sockets, TCP clients and serial line), as the killed process's would. set_battery(sysid, volts) is
 SITL's SIM_BATT_VOLTAGE (a ground station can PARAM_SET it too), for ArduPilot's battery failsafe
-(mock_vehicle). With a signing key, packets that are
+(mock_vehicle); set_wind is SITL's SIM_WIND_* (flight_models.wind), set_gps_glitch its SIM_GPS1_GLTCH_X / _Y
+(gps_glitch). The faults per packet are link_faults.LinkFaults. With a signing key, packets that are
 unsigned or signed with another key are dropped and everything sent is signed. The server thread outlives
 anything one message or one vehicle's step raises: it is logged in one escaped line (vehicle_part.log_error),
 counted in the vehicle's handler_errors, a mission transfer is answered with MAV_MISSION_ERROR, and the
@@ -47,7 +48,9 @@ from missionplan.base.naming import Named
 from ..errors import BridgeUsageError
 from ..link.connection import ConnectionSpec, mavlink, parse_url
 from ..formats.mission_items import Flavour
+from .gps_glitch import glitch_params
 from .mock_terrain import GroundModel
+from .link_faults import LinkFaults
 from .mock_vehicle import MockVehicle, VehicleOptions, ground_amsl
 from .vehicle_params import ARDUPILOT_MOUNT_PARAM, PX4_MOUNT_PARAM, configured_camera
 from .vehicle_part import log_error
@@ -55,32 +58,6 @@ from ..link.signing import SigningKey, apply_key
 
 TICK = 0.005  # loop period when nothing arrives: timers and flight advance at least this often
 MAX_PEERS = 32
-
-
-@dataclass
-class LinkFaults:
-    """Per-packet faults. Probabilities in [0, 1], latency in seconds (one way)."""
-
-    loss_in: float = 0.0     # ground station -> vehicle
-    loss_out: float = 0.0    # vehicle -> ground station
-    duplicate: float = 0.0   # chance a packet is delivered twice
-    reorder: float = 0.0     # chance a packet is held back so that later ones overtake it
-    reorder_delay: float = 0.01
-    latency: float = 0.0
-    seed: int | None = None
-
-    def __post_init__(self) -> None:
-        for name in ("loss_in", "loss_out", "duplicate", "reorder"):
-            value = getattr(self, name)
-            if not 0.0 <= value <= 1.0:
-                raise BridgeUsageError(f"{name.replace('_', '-')} must be between 0 and 1, got {value}")
-        if self.latency < 0 or self.reorder_delay < 0:
-            raise BridgeUsageError("latency and reorder delay must not be negative")
-
-    @classmethod
-    def lossy(cls, loss: float, duplicate: float = 0.0, reorder: float = 0.0, latency: float = 0.0,
-              seed: int | None = None) -> LinkFaults:
-        return cls(loss_in=loss, loss_out=loss, duplicate=duplicate, reorder=reorder, latency=latency, seed=seed)
 
 
 class _Writer:
@@ -556,6 +533,19 @@ class MockAutopilot:
             if "SIM_BATT_VOLTAGE" not in vehicle.params:
                 raise BridgeUsageError(f"vehicle {sysid} ({vehicle.flavour.value}) has no simulated battery")
             vehicle.params["SIM_BATT_VOLTAGE"] = float(volts)
+
+    def set_wind(self, speed_mps: float, from_deg: float, turbulence_mps: float = 0.0, sysid: int | None = None,
+                 seed: int | None = None) -> None:
+        """SITL's SIM_WIND_SPD, _DIR (where the wind comes FROM, degrees) and _TURB on vehicle sysid (None: every
+        vehicle), as a PARAM_SET of them would; seed: its gusts' random seed (default: its system id)."""
+        with self._lock:
+            for vehicle in self.vehicles.values() if sysid is None else [self.vehicles[sysid]]:
+                vehicle.set_wind(speed_mps, from_deg, turbulence_mps, seed)
+
+    def set_gps_glitch(self, sysid: int, north_m: float, east_m: float) -> None:
+        """SITL's SIM_GPS1_GLTCH_X / _Y (degrees) for a GPS offset in metres on vehicle sysid; 0, 0 clears it."""
+        with self._lock:
+            self.vehicles[sysid].params.update(glitch_params(north_m, east_m, self.vehicles[sysid].options.home[0]))
 
     def reboot_in_flight(self, sysid: int, after_item: int, offline: float = 0.3) -> None:
         """Vehicle sysid reboots once, in flight, when it has reached mission item `after_item`."""

@@ -10,9 +10,10 @@ spool-up and a climb with acceleration, every leg from rest to rest with WPNAV_A
 RTL_ALT, its return at RTL_SPEED / WPNAV_SPEED and loiter, the slow last LAND_ALT_LOW metres of the
 landing, and a touchdown pause before disarming. With `px4` (flight_models.px4_model.Px4Params, the PX4
 flavour's SITL-like mode) it flies as PX4 SIH does: take-off at MPC_TKO_SPEED, a turn of the nose
-before every leg, PX4's RTL and its three landing speeds. No MAVLink here: the vehicle (mock_vehicle) feeds it the
-stored wire items and publishes the events it returns (current item changed, item reached).
-Positions use a local flat-earth approximation around home, good to centimetres over a city.
+before every leg, PX4's RTL and its three landing speeds. In wind (`wind`, flight_models.wind.WindField: SITL's
+SIM_WIND_*) every horizontal motion is no faster than the wind lets it be; calm, nothing changes. No MAVLink
+here: the vehicle (mock_vehicle) feeds it the stored wire items and publishes the events it returns (current item
+changed, item reached). Positions use a local flat-earth approximation around home, good to centimetres over a city.
 Over a ground (mock_vehicle's VehicleOptions.ground) two more things hold. Terrain-frame items (MAV_FRAME
 10 / 11, `terrain`: the vehicle's own terrain database, mock_terrain) are flown as ArduCopter's AC_WPNav flies
 them: the leg runs in height above the terrain, and the altitude above home at each point is that height plus
@@ -37,21 +38,11 @@ from .capture_clock import CaptureClock
 from ..formats.gimbal import GIMBAL_COMMANDS
 from ..formats.mission_items import (
     CMD_DO_CHANGE_SPEED, CMD_DO_JUMP, CMD_DO_SET_CAM_TRIGG_DIST, CMD_IMAGE_START_CAPTURE, CMD_IMAGE_STOP_CAPTURE,
-    CMD_NAV_LAND,
-    CMD_NAV_LOITER_TIME,
-    CMD_NAV_LOITER_TO_ALT,
-    CMD_NAV_LOITER_TURNS,
-    CMD_NAV_LOITER_UNLIM,
-    CMD_NAV_RETURN_TO_LAUNCH,
-    CMD_NAV_TAKEOFF,
-    CMD_NAV_WAYPOINT,
-    FRAME_GLOBAL,
-    FRAME_GLOBAL_INT,
-    FRAME_GLOBAL_TERRAIN_ALT,
-    FRAME_GLOBAL_TERRAIN_ALT_INT,
-    WireItem,
-    is_global,
+    CMD_NAV_LAND, CMD_NAV_LOITER_TIME, CMD_NAV_LOITER_TO_ALT, CMD_NAV_LOITER_TURNS, CMD_NAV_LOITER_UNLIM,
+    CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_TAKEOFF, CMD_NAV_WAYPOINT, FRAME_GLOBAL, FRAME_GLOBAL_INT,
+    FRAME_GLOBAL_TERRAIN_ALT, FRAME_GLOBAL_TERRAIN_ALT_INT, WireItem, is_global,
 )
+from ..flight_models.wind import WindField
 
 EARTH_RADIUS = 6_378_137.0
 TRIGGER_TOLERANCE_M = 1e-6  # a photo this close to its trigger distance is due now
@@ -114,6 +105,7 @@ class FlightSim:
         self._motions_terrain = False  # the motions flown now are in height above the terrain
         self.copter = copter  # None: straight legs at the cruise speed; else ArduCopter's flight (copter_model)
         self.px4 = px4  # with copter: PX4's flight instead (px4_model)
+        self.wind: WindField | None = None  # None or calm: no wind (flight_models.wind)
         self._motions: list[cm.Motion] = []
         self._motion_t = 0.0
         self._motions_key: tuple[object, ...] | None = None
@@ -408,7 +400,7 @@ class FlightSim:
         dist = math.sqrt(dn * dn + de * de + du * du)
         if dist <= 1e-9:
             return 0.0, True
-        speed = max(s.speed, 0.1)
+        speed = max(s.speed, 0.1) if self.wind is None else max(self.wind.leg_speed(s.speed, dn, de), 0.1)
         if speed * dt >= dist:
             frac, used, arrived = 1.0, dist / speed, True
         else:
@@ -484,6 +476,10 @@ class FlightSim:
         north, east = self._to_local(self.state.lat, self.state.lon)
         return north, east, self.state.alt
 
+    def replan(self) -> None:
+        """Make the motions of what it flies now again, from where it is (its position estimate jumped)."""
+        self._motions_key = None
+
     @property
     def motion_kind(self) -> str | None:
         """The kind (copter_model.Motion.kind) of the flight-model motion flown now; None between motions."""
@@ -494,7 +490,8 @@ class FlightSim:
         """Fly the motions `build` makes (made once per key: an item entered, a mode set) for up to dt
         seconds: (seconds used, all flown). `terrain`: their altitudes are heights above the terrain."""
         if self._motions_key != key:
-            self._motions_key, self._motions, self._motion_t = key, build(), 0.0
+            motions = build() if self.wind is None else self.wind.apply(build())
+            self._motions_key, self._motions, self._motion_t = key, motions, 0.0
             self._motions_terrain = terrain
         used = 0.0
         while self._motions and used < dt - 1e-12:

@@ -12,7 +12,8 @@ BATT_LOW_TIMER (10 s) simulated seconds (BATT_CRT_VOLT / BATT_FS_CRT_ACT likewis
 "Battery 1 is low 10.00V used 83 mAh" and "Battery Failsafe" (severity WARNING) and does BATT_FS_LOW_ACT:
 1 LAND, 2 RTL (3, 4 and 6, SmartRTL / DO_LAND_START, flown as RTL here; 5, terminate, as LAND), or
 disarms at once when on the ground; below either voltage it refuses to arm ("PreArm: Battery 1 low
-voltage failsafe"). All by PARAM_SET, as on SITL.
+voltage failsafe"). All by PARAM_SET, as on SITL. Wind (SITL's SIM_WIND_SPD, _DIR, _TURB; flight_models.wind) slows
+its legs and changes its current (consumed_mah follows it); a GPS glitch (SITL's SIM_GPS1_GLTCH_X / _Y) is gps_glitch's.
 MockVehicle takes every message addressed to it (handle) and hands it to the part that answers it, as
 QGroundControl's MockLink hands the mission protocol to its MockLinkMissionItemHandler; each part keeps its own
 state and reaches the others through the vehicle:
@@ -45,8 +46,10 @@ import numpy as np
 
 from ..flight_models.copter_model import CopterParams
 from ..flight_models.px4_model import Px4Params
+from ..flight_models.wind import Wind, WindField
 from ..formats.mission_items import Flavour, MissionType, WireItem
 from ..link.connection import mavlink
+from .gps_glitch import GpsGlitch
 from .mission_server import MissionServer, Upload
 from .mock_camera import CAMERA_COMPONENT_ID, MockCamera
 from .mock_flight import FlightSim
@@ -134,6 +137,9 @@ class MockVehicle:
         # ArduPilot over a ground asks for its terrain; PX4 takes no terrain frame, so it has no terrain database.
         self.terrain = (MockTerrain(self) if self.options.ground is not None and self.flavour is Flavour.ARDUPILOT
                         else None)
+        self.wind_seed = sysid  # its gusts' random.Random seed (set_wind may change it)
+        self.wind_field: WindField | None = None  # made from the SIM_WIND_* parameters (_follow_wind)
+        self.gps_glitch = GpsGlitch(self)
         self.logs = OnboardLogs(self.flavour, encoder, self.telemetry.send_text)  # on its SD card: survives reboots
         # Its camera speaks as its own component on the same link (unsigned: its own MAVLink stack).
         self.mavlink_camera = (MockCamera(mavlink.MAVLink(encoder.file, srcSystem=sysid, srcComponent=CAMERA_COMPONENT_ID),
@@ -157,6 +163,8 @@ class MockVehicle:
                                 ground=self._ground_above_home if self.options.ground is not None else None)
         if "WPNAV_RADIUS" in params:  # ArduCopter turns within WPNAV_RADIUS of every waypoint
             self.flight.default_acceptance = max(params["WPNAV_RADIUS"], 5.0) / 100.0
+        self.flight.wind = self.wind_field
+        self.gps_glitch.on_boot()
         self.mission_server.on_boot()  # every list forgotten; the flight takes what is left
         self.telemetry.on_boot(now)
         self.battery_failsafe = 0  # 0 none, 1 low, 2 critical (the highest reached since boot)
@@ -220,6 +228,8 @@ class MockVehicle:
             self.boot_time = now
         dt = max(now - self._last_tick, 0.0)
         self._last_tick = now
+        self._follow_wind()
+        self.gps_glitch.tick((now - self.boot_time) * self.options.speedup)
         if dt > 0 and self.flight.state.armed:
             self.telemetry.publish(self.flight.advance(dt * self.options.speedup))
             if self.reboot_at_item is not None and any(seq >= self.reboot_at_item for seq in self.reached):
@@ -230,7 +240,7 @@ class MockVehicle:
                 self.kill_at_item = None
                 self.kill()  # its process killed in flight: silent for good
                 return
-            self.consumed_mah += BATTERY_CURRENT_A * dt * self.options.speedup / 3.6
+            self.consumed_mah += BATTERY_CURRENT_A * self.current_factor * dt * self.options.speedup / 3.6
         if self.flavour is Flavour.ARDUPILOT:
             self._check_battery(now)
         self.logs.tick()
@@ -250,7 +260,27 @@ class MockVehicle:
     @property
     def battery_current(self) -> float:
         """The current drawn in amperes (SITL: only while the motors run)."""
-        return BATTERY_CURRENT_A if self.flight.state.armed else 0.0
+        return BATTERY_CURRENT_A * self.current_factor if self.flight.state.armed else 0.0
+
+    @property
+    def current_factor(self) -> float:
+        """The current relative to the calm one: exactly 1 without wind (flight_models.wind)."""
+        s = self.flight.state
+        return 1.0 if self.wind_field is None else self.wind_field.current_factor(s.vn, s.ve)
+
+    def set_wind(self, speed_mps: float, from_deg: float, turbulence_mps: float = 0.0, seed: int | None = None) -> None:
+        """SITL's SIM_WIND_SPD, _DIR, _TURB, as a PARAM_SET of them would; seed: its gusts' (None: unchanged)."""
+        self.params.update(SIM_WIND_SPD=float(speed_mps), SIM_WIND_DIR=float(from_deg),
+                           SIM_WIND_TURB=float(turbulence_mps))
+        self.wind_seed = self.wind_seed if seed is None else int(seed)
+
+    def _follow_wind(self) -> None:
+        """The wind field from the SIM_WIND_* parameters, made again when they (or the seed) change."""
+        wind = Wind.from_params(self.params)
+        field = self.wind_field
+        if field is None and wind.calm or field is not None and (field.wind, field.seed) == (wind, self.wind_seed):
+            return
+        self.wind_field = self.flight.wind = WindField(wind, self.wind_seed)
 
     def battery_arming_problem(self) -> str:
         """ArduPilot refuses to arm below a failsafe voltage (AP_BattMonitor_Backend::arming_checks)."""

@@ -210,8 +210,9 @@ class Telemetry(VehiclePart):
     def _send_gps(self, now: float) -> None:
         s, ready = self.vehicle.flight.state, self.vehicle.ready
         fix, sats = (mavlink.GPS_FIX_TYPE_3D_FIX, 12) if ready else (mavlink.GPS_FIX_TYPE_NO_FIX, 0)
-        self.mav.gps_raw_int_send(int(now * 1e6), fix, int(round(s.lat * 1e7)) if ready else 0,
-                                  int(round(s.lon * 1e7)) if ready else 0,
+        lat, lon = self.vehicle.gps_glitch.raw_position(s.lat, s.lon)  # the truth plus a glitch (gps_glitch)
+        self.mav.gps_raw_int_send(int(now * 1e6), fix, int(round(lat * 1e7)) if ready else 0,
+                                  int(round(lon * 1e7)) if ready else 0,
                                   int(round((s.home[2] + s.alt) * 1000)) if ready else 0,
                                   80 if ready else 9999, 120 if ready else 9999,
                                   int(round(math.hypot(s.vn, s.ve) * 100)), 0, sats)

@@ -3,7 +3,8 @@
 Owns, for one mock vehicle (mock_vehicle), the parameter table and the ground station's access to it. The table
 survives a reboot, like ArduPilot's EEPROM, and holds only what the bridge and the tests set or read: the
 ArduPilot flavour's WPNAV_RADIUS (200 cm; every waypoint is flown to it, not to param2) and its battery monitor
-and failsafe (ARDUPILOT_BATTERY_PARAMS, SITL's SIM_BATT_VOLTAGE among them), the PX4 flavour's MIS_DIST_1WP
+and failsafe (ARDUPILOT_BATTERY_PARAMS, SITL's SIM_BATT_VOLTAGE among them) and SITL's GPS glitch (gps_glitch), both
+flavours' SITL wind (SIM_WIND_SPD, _DIR, _TURB: flight_models.wind), the PX4 flavour's MIS_DIST_1WP
 (formats.px4_rules), the ArduPilot flavour's terrain parameters over a ground (mock_terrain.TERRAIN_PARAMS); in
 the SITL-like mode also the autopilot's navigation parameters (flight_models:
 copter_model.CopterParams, px4_model.Px4Params), its camera parameter (CAM1_TYPE, PX4's TRIG_MODE), 0
@@ -22,7 +23,9 @@ from typing import Any
 from ..flight_models.copter_model import CopterParams
 from ..flight_models.px4_model import Px4Params
 from ..formats.mission_items import Flavour
+from ..flight_models.wind import WIND_PARAMS
 from ..formats.px4_rules import MIS_DIST_1WP_DEFAULT
+from .gps_glitch import GLITCH_PARAMS
 from ..link.connection import mavlink
 from .mock_terrain import TERRAIN_PARAMS
 from .vehicle_part import VehiclePart
@@ -58,7 +61,8 @@ class ParamServer(VehiclePart):
         flavour, sitl_like = vehicle.flavour, vehicle.options.sitl_like
         self.values: dict[str, float] = {"WPNAV_RADIUS": 200.0} if flavour is Flavour.ARDUPILOT else {}
         if flavour is Flavour.ARDUPILOT:
-            self.values.update(ARDUPILOT_BATTERY_PARAMS)
+            self.values.update({**ARDUPILOT_BATTERY_PARAMS, **GLITCH_PARAMS})
+        self.values.update(WIND_PARAMS)  # SITL's wind (flight_models.wind), set by PARAM_SET as on SITL
         if flavour is Flavour.PX4:
             self.values["MIS_DIST_1WP"] = MIS_DIST_1WP_DEFAULT  # its mission feasibility check (formats.px4_rules)
         if flavour is Flavour.ARDUPILOT and vehicle.options.ground is not None:

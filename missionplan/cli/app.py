@@ -23,6 +23,7 @@ from .plan import register as register_plan
 from .survey import register as register_survey
 from .train import register as register_train
 from .vehicle import register as register_vehicle
+from .verify import register as register_verify
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -37,6 +38,7 @@ def build_parser() -> argparse.ArgumentParser:
     register_fly(sub)  # fly
     register_survey(sub)  # status, replan
     register_geotag(sub)  # geotag
+    register_verify(sub)  # verify = many simulated flights of a plan
     register_demo(sub)  # demo = plan + mock fleet + fly
     return parser
 

@@ -152,7 +152,7 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
         key: SigningKey | None = None, source_system: int = GCS_SYSTEM_ID,
         source_component: int = GCS_COMPONENT_ID, resume: bool = False, on_abort: str = "none",
         command: str = "", replan: RetaskPlanner | None = None,
-        replan_after_s: float = GONE_SILENT_S) -> FlightResult:
+        replan_after_s: float = GONE_SILENT_S, silences_in_vehicle_time: bool = False) -> FlightResult:
     """Fly every drone of plan_dir at once (or, resume=True, follow again the flight a stopped run
     left), journal it as it happens, and judge it from the journal: flight.json, flight.png,
     missed.geojson.
@@ -172,7 +172,10 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     within ABORT_WINDOW_S then commands RTL). command: the command line, kept in the journal.
     replan: `fly --replan`, the planner of live re-tasks (missionplan.planning.retask.retask_planner): a drone gone
     (ended early, or silent for replan_after_s mid-mission) has what is left re-planned among the drones
-    still flying, uploaded to them in flight (live_replan.Retasker)."""
+    still flying, uploaded to them in flight (live_replan.Retasker).
+    silences_in_vehicle_time: every silence threshold (replan_after_s, the link-lost notice, a survivor heard lately
+    enough) counts the vehicles' seconds at time_scale, so a sped-up simulator meets them as a crew at 1x would
+    (missionplan verify); fly itself counts ours."""
     if upload_with not in UPLOADERS:
         raise BridgeUsageError(Named("{upload_with} {0}: choose {1}", upload_with, " or ".join(UPLOADERS)))
     if on_abort not in ON_ABORT:
@@ -200,7 +203,8 @@ def fly(plan_dir: Path, connect: str | list[str], timeout_s: float = 600.0, prog
     try:
         result = _fly_journaled(plan_dir, record, pool, journal, timeout_s, progress, time_scale, telemetry_hz,
                                 upload_with, ready_s, max_launch_offset_m, photos_from_track, key, resume, on_abort,
-                                source_system, replan=replan, replan_after_s=replan_after_s, terrain=terrain)
+                                source_system, replan=replan, terrain=terrain,
+                                silence=SilenceRule(replan_after_s, time_scale if silences_in_vehicle_time else None))
         return result
     finally:
         journal.close()
@@ -242,7 +246,7 @@ def _fly_journaled(plan_dir: Path, record: PlanRecord, pool: LinkPool, journal: 
                    progress: bool, time_scale: float | None, telemetry_hz: float, upload_with: str, ready_s: float,
                    max_launch_offset_m: float, photos_from_track: bool, key: SigningKey | None, resume: bool,
                    on_abort: str, source_system: int, replan: RetaskPlanner | None = None,
-                   replan_after_s: float = GONE_SILENT_S, terrain: FleetTerrain | None = None) -> FlightResult:
+                   terrain: FleetTerrain | None = None, silence: SilenceRule = SilenceRule()) -> FlightResult:
     sortie = journal.sortie
     files = {d.id: plan_dir / sortie_file(d.id, sortie) for d in record.drones or ()}
     view = flight_view(plan_dir, record, sortie)
@@ -279,7 +283,7 @@ def _fly_journaled(plan_dir: Path, record: PlanRecord, pool: LinkPool, journal: 
         fleet = FleetStart(pool, FleetGate(len(runnable)), FleetGate(len(runnable)), threading.Event(), key=key,
                            ready_s=ready_s, max_offset_m=max_launch_offset_m, say=say, alert=alert, resume=resume,
                            time_scale=time_scale, planned_s=planned_s, commit=journal.flush,
-                           silence=SilenceRule(replan_after_s), terrain=terrain,
+                           silence=silence, terrain=terrain,
                            camera_records=record.settings is not None and record.settings.mission.camera_records,
                            capture=record.settings.mission.capture if record.settings is not None else "relay")
         # What the followers decide goes into their records and alerts in their own threads, and to the

@@ -8,7 +8,10 @@ own threshold (our monotonic seconds):
   fly --replan-after);
 - give_up_at: silent until its mission would be long over (LINK_WAIT_FACTOR times its planned time plus
   LINK_MARGIN_S, on its clock), its follower stops waiting for it.
-SilenceRule answers the first three for a silence of a given length. LinkWatch is one follower's link,
+SilenceRule answers the first three for a silence of a given length. Its thresholds are our seconds; a flight of a
+sped-up simulator that should meet them as a crew at 1x would (missionplan verify) gives the rule the vehicles'
+time scale, and each threshold is then that many vehicle seconds (never less than MIN_WALL_S of ours: our
+threads' own scheduling gaps on a loaded machine are not a link's silence). LinkWatch is one follower's link,
 without threads: told when the vehicle is heard and when the follower looks, it says when a silence
 begins to matter, when the link is lost and when it is back.
 """
@@ -22,29 +25,37 @@ UPLOAD_HEARD_S = 2.0   # heard within this long: can take a re-task's upload now
 LINK_LOST_S = 5.0      # a vehicle silent this long has lost its link (said at once; followed on)
 GONE_SILENT_S = 15.0   # silent this long mid-mission: gone, its share re-tasked (fly --replan-after's default)
 LINK_WAIT_FACTOR, LINK_MARGIN_S = 1.5, 60.0  # a silent vehicle is waited for until its mission would be long over
+MIN_WALL_S = 0.5  # a threshold in vehicle time, scaled down to ours, is never shorter than this
 
 
 @dataclass(frozen=True)
 class SilenceRule:
-    """What a silence of `silent_s` seconds means; gone_after_s is fly's --replan-after."""
+    """What a silence of `silent_s` of our seconds means; gone_after_s is fly's --replan-after. vehicle_scale: the
+    vehicles' seconds per second of ours when the thresholds are vehicle time (None: they are ours, as for fly)."""
 
     gone_after_s: float = GONE_SILENT_S
+    vehicle_scale: float | None = None
+
+    def _ours(self, threshold_s: float) -> float:
+        if self.vehicle_scale is None:
+            return threshold_s
+        return max(threshold_s / self.vehicle_scale, MIN_WALL_S)
 
     def takes_uploads(self, silent_s: float) -> bool:
         """Heard lately enough to take a re-task's upload now."""
-        return silent_s <= UPLOAD_HEARD_S
+        return silent_s <= self._ours(UPLOAD_HEARD_S)
 
     def link_lost(self, silent_s: float) -> bool:
-        return silent_s > LINK_LOST_S
+        return silent_s > self._ours(LINK_LOST_S)
 
     def gone(self, silent_s: float) -> bool:
         """Gone for re-tasking: its share goes to the others."""
-        return silent_s > self.gone_after_s
+        return silent_s > self._ours(self.gone_after_s)
 
     @property
     def matters_after_s(self) -> float:
-        """The shortest silence any of these thresholds acts on."""
-        return min(UPLOAD_HEARD_S, LINK_LOST_S, self.gone_after_s)
+        """The shortest silence any of these thresholds acts on (our seconds)."""
+        return min(self._ours(UPLOAD_HEARD_S), self._ours(LINK_LOST_S), self._ours(self.gone_after_s))
 
 
 class SilenceStep(Enum):

@@ -13,6 +13,7 @@ plugin that hands them out as fixtures (docs/testing.md).
   limit_cases             out-of-range items and what each autopilot answered
   dem_files               DEM files made in a test: an analytic hill, GeoTIFFs in any CRS, real SRTM tiles
   retask_harness          a survey flown to mid-leg, re-tasked, watched and judged
+  wind_flight             a short mission flown in wind (or through a GPS glitch) and recorded leg by leg
   plugin                  the pytest plugin (the pytest11 entry point): fixtures, markers, --simulators
 
 A layer above the whole product: it imports missionplan, nothing of missionplan imports it

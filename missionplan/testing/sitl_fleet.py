@@ -2,7 +2,8 @@
 process: what the flight-fault and survey tests (sitl_tests/test_fly_faults_sitl.py, test_survey_sitl.py)
 and benches (bench/fly_bench.py --faults, bench/survey_bench.py) fly.
 
-The fleet: one SITL vehicle per drone of a plan folder (system id K for uavK.plan, started at its launch
+The fleet (the product's, missionplan/bridge/sim/sitl_fleet.py, which `verify --sim sitl` flies too, here with
+the simulators folder's vehicles): one SITL vehicle per drone of a plan folder (system id K for uavK.plan, started at its launch
 point, `--speedup`, each in its own temp folder), each sending to a relay (relay.py UdpRelay,
 `--serial0 udpclient:127.0.0.1:P`) that forwards to the port `fly --connect udpin:127.0.0.1:Q` listens
 on. The relay breaks the link on purpose and is the ground truth of what fly sent to the vehicles
@@ -30,13 +31,20 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from missionplan.bridge.sim.sitl_fleet import SitlFleet, plan_home, plan_sysids, start_sitl_fleet
+from missionplan.bridge.sim.sitl_fleet import configure as configure_fleet
+from missionplan.bridge.sim.sitl_fleet import set_param_on_serial1 as product_set_param_on_serial1
+from missionplan.bridge.sim.sitl_process import ArduCopterSitl
+from missionplan.bridge.sim.udp_relay import UdpRelay
 from missionplan.testing.arducopter import ArduCopter
-from missionplan.testing.loopback import free_udp_port, wait_until
-from missionplan.testing.relay import UdpRelay
+from missionplan.testing.loopback import wait_until
+
+__all__ = ["AREA", "BATTERY_LOW_V", "BATTERY_SIM_V", "FLY_TIMEOUT_S", "LAUNCHES", "LINK_DROP_S", "SPEEDUP", "START_S",
+           "SYSIDS", "TELEMETRY_HZ", "Fleet", "FlyRun", "configure", "flight_doc", "in_flight", "landed", "plan_home",
+           "plan_sysids", "set_param_on_serial1", "sitl_fleet", "summary"]
 
 AREA = [[9.1890, 45.4640], [9.19156, 45.4640], [9.19156, 45.46526], [9.1890, 45.46526], [9.1890, 45.4640]]
 LAUNCHES = ("45.4641,9.18926", "45.4641,9.19028", "45.4641,9.19131")
@@ -50,89 +58,40 @@ LINK_DROP_S = 30.0
 BATTERY_LOW_V, BATTERY_SIM_V = 10.5, 10.0  # the failsafe's threshold, and what the low vehicle's battery reads
 
 
-@dataclass
-class Fleet:
-    plan_dir: Path
-    relay: UdpRelay
-    vehicles: list[ArduCopter]
-    url: str  # where fly listens (the relay forwards there)
-
-    def vehicle(self, sysid: int) -> ArduCopter:
-        return next(v for v in self.vehicles if v.sysid == sysid)
-
-    @property
-    def sysids(self) -> list[int]:
-        return [v.sysid for v in self.vehicles]
+Fleet = SitlFleet  # the product's (missionplan/bridge/sim/sitl_fleet.py), as the tests have always named it
 
 
-def plan_home(plan_dir: Path, sysid: int) -> tuple[float, float, float, float]:
-    """Drone sysid's launch point as SITL's --home (lat, lon, alt, heading), from its uavK.plan."""
-    from missionplan.bridge.formats.missionfile import read_mission_file
-
-    lat, lon, alt = read_mission_file(plan_dir / f"uav{sysid}.plan").mission.home
-    return (float(lat), float(lon), float(alt), 0.0)
-
-
-def plan_sysids(plan_dir: Path) -> tuple[int, ...]:
-    """The drones of a plan folder: K of every uavK.plan (a later sortie, uavK-sJ.plan, is the same drone)."""
-    return tuple(sorted(int(p.stem[3:]) for p in plan_dir.glob("uav*.plan") if p.stem[3:].isdigit()))
+def _test_vehicle(sysid: int, home: tuple[float, float, float, float], speedup: float, serial0: str) -> ArduCopter:
+    return ArduCopter(sysid=sysid, home=home, speedup=speedup, serial0=serial0)
 
 
 @contextlib.contextmanager
 def sitl_fleet(plan_dir: Path, sysids: tuple[int, ...] | None = None, speedup: float = SPEEDUP) -> Iterator[Fleet]:
     """One SITL vehicle per drone of plan_dir (or of `sysids`) at its launch point, sending through a relay
     to a free udpin port (Fleet.url); every vehicle stopped and the relay closed when the block ends.
-    Not configured: call configure() before flying."""
-    port = free_udp_port()
-    vehicles: list[ArduCopter] = []
-    with UdpRelay(port) as relay:
-        try:
-            for k in sysids or plan_sysids(plan_dir):
-                # start() returns once SITL has bound its ports (arducopter.py), so the next vehicle's instance differs
-                vehicles.append(ArduCopter(sysid=k, home=plan_home(plan_dir, k), speedup=speedup,
-                                           serial0=f"udpclient:127.0.0.1:{relay.vehicle_port}"))
-                vehicles[-1].start(wait=False)
-            yield Fleet(plan_dir, relay, vehicles, f"udpin:127.0.0.1:{port}")
-        finally:
-            for vehicle in vehicles:
-                vehicle.stop()
+    Not configured: call configure() before flying. The vehicles are the simulators folder's (a test skips
+    without it)."""
+    with start_sitl_fleet(plan_dir, _test_vehicle, sysids, speedup) as fleet:
+        yield fleet
 
 
 def configure(fleet: Fleet, params: dict[str, float] | None = None) -> None:
     """The team's one-time set-up over the relay: the camera (CAM1_TYPE = 1; without it ArduCopter sends
     no CAMERA_FEEDBACK) and `params`, then a reboot for them to take effect. What this sent is then
-    forgotten by the relay: only fly's own messages count."""
-    import pytest
-
-    from missionplan.bridge.link.connection import mavlink, wait_vehicle
-    from missionplan.bridge.link.params import ParamClient
-    from missionplan.bridge.link.shared_link import SharedLink
-
-    wanted = {"CAM1_TYPE": 1.0, **(params or {})}
-    with SharedLink(fleet.url) as shared:
-        for sysid in fleet.sysids:
-            view = shared.vehicle(sysid)
-            client = ParamClient(view, wait_vehicle(view, sysid, timeout=60.0))
-            for name, value in wanted.items():
-                assert client.set(name, value) == pytest.approx(value), (sysid, name)
-        for sysid in fleet.sysids:
-            result = shared.vehicle(sysid).command_long(sysid, mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, [1.0],
-                                                        time.monotonic() + 10.0)
-            assert result == mavlink.MAV_RESULT_ACCEPTED, f"vehicle {sysid} refused the reboot (MAV_RESULT {result})"
-    fleet.relay.forget()
+    forgotten by the relay: only fly's own messages count. (The product's configure, a failure an assertion.)"""
+    try:
+        configure_fleet(fleet, params)
+    except RuntimeError as err:
+        raise AssertionError(str(err)) from err
 
 
-def set_param_on_serial1(vehicle: ArduCopter, name: str, value: float) -> None:
+def set_param_on_serial1(vehicle: ArduCopterSitl, name: str, value: float) -> None:
     """PARAM_SET over the vehicle's own serial1 (TCP 5762 + 10 I), beside fly's link: the simulator's
     knob, not something fly would send."""
-    import pytest
-
-    from missionplan.bridge.link.connection import Link, wait_vehicle
-    from missionplan.bridge.link.params import ParamClient
-
-    with Link(f"tcp:127.0.0.1:{vehicle.tcp_port + 2}") as link:
-        info = wait_vehicle(link, vehicle.sysid, timeout=10.0)  # it speaks MAVLink there: its HEARTBEAT
-        assert ParamClient(link, info).set(name, value) == pytest.approx(value)
+    try:
+        product_set_param_on_serial1(vehicle, name, value)
+    except RuntimeError as err:
+        raise AssertionError(str(err)) from err
 
 
 class FlyRun:
