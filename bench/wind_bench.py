@@ -21,6 +21,7 @@ import argparse
 import bisect
 import time
 
+import doctable  # bench/doctable.py: --write-doc
 from missionplan.bridge.sim.mock import MockAutopilot
 from missionplan.testing.arducopter import ArduCopter, sitl_or_skip
 from missionplan.testing.wind_flight import FlightRecord, fly_wind_mission
@@ -61,7 +62,13 @@ def main() -> None:
     parser.add_argument("--glitch", default="", help="SEQ,NORTH_M,EAST_M,SECONDS")
     parser.add_argument("--no-sitl", action="store_true")
     parser.add_argument("--no-mock", action="store_true")
+    doctable.add_option(parser)
     args = parser.parse_args()
+    with doctable.Recorder(args.write_doc, __file__):
+        _measure(args)
+
+
+def _measure(args: argparse.Namespace) -> None:
     winds = [tuple(float(x) for x in w.split(",")) for w in args.winds]
     glitch = tuple(float(x) for x in args.glitch.split(",")) if args.glitch else None
     flights = [(w, None) for w in winds] if glitch is None else [((0.0, 0.0, 0.0), glitch)]

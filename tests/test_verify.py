@@ -55,7 +55,7 @@ def test_conditions_depend_on_the_seed_and_the_index_only() -> None:
 def test_bad_ranges_and_fault_names_are_one_line() -> None:
     assert parse_wind("2-6") == (2.0, 6.0) and parse_wind("4") == (4.0, 4.0)
     for text in ("6-2", "a-b", "-3", "1-2-3", "40"):
-        with pytest.raises(ConditionsError, match="--wind"):
+        with pytest.raises(ConditionsError, match="^wind "):
             parse_wind(text)
     assert parse_faults("lost-drone,link-gap,lost-drone") == ("lost-drone", "link-gap")
     assert parse_faults("none") == ()
@@ -96,7 +96,7 @@ def test_the_same_seed_gives_the_same_rows_in_one_worker_and_in_two(plan: Path, 
     # failsafe to send it home before it ends.
     seed = next(s for s in range(1000) if (f := draw_conditions(0, s, (2.0, 6.0), ("battery-failsafe",),
                                                                 items).faults[0]).at_item < items[f.drone] // 3)
-    settings = VerifySettings(runs=3, seed=seed, wind=(2.0, 6.0), faults=("battery-failsafe",))
+    settings = VerifySettings(runs=2, seed=seed, wind=(2.0, 6.0), faults=("battery-failsafe",))
     said: list[str] = []
     monkeypatch.setitem(sys.modules, "ray", None)
     pool = verify_plan(plan, settings, out=tmp_path / "pool", engine="auto", workers=2, progress=False, say=said.append)
@@ -105,7 +105,7 @@ def test_the_same_seed_gives_the_same_rows_in_one_worker_and_in_two(plan: Path, 
     assert pool.complete and inline.complete
     engine = verify_doc(tmp_path / "pool")["engine"]
     assert engine["engine"] == "pool" and engine["workers"] == 2
-    assert [r["run"] for r in pool.rows] == [0, 1, 2]
+    assert [r["run"] for r in pool.rows] == [0, 1]
     for a, b in zip(pool.rows, inline.rows):
         outcomes_agree(a, b)
         assert not a.get("error") and a["struck"][0]["kind"] == "battery-failsafe"
@@ -114,14 +114,14 @@ def test_the_same_seed_gives_the_same_rows_in_one_worker_and_in_two(plan: Path, 
     assert pool.rows[0]["ended_early"] and inline.rows[0]["ended_early"]
     for name in ("verify.json", "verify.png", "verify.html"):
         assert (tmp_path / "pool" / name).stat().st_size > 0
-    assert (tmp_path / "pool" / "runs" / "0002" / "flight.json").is_file()
+    assert (tmp_path / "pool" / "runs" / "0001" / "flight.json").is_file()
     assert "battery reserve" in pool.verdict and "coverage >= 99 %" in pool.verdict
     # --resume flies only what is missing, and the earlier rows stay as they were.
-    more = VerifySettings(runs=4, seed=seed, wind=(2.0, 6.0), faults=("battery-failsafe",))
+    more = VerifySettings(runs=3, seed=seed, wind=(2.0, 6.0), faults=("battery-failsafe",))
     resumed = verify_plan(plan, more, out=tmp_path / "inline", engine="inline", resume=True, progress=False,
                           say=said.append)
-    assert "resuming: 3 of 4 runs already flown, 1 to fly" in said
-    assert resumed.rows[:3] == inline.rows and resumed.rows[3]["run"] == 3 and resumed.complete
+    assert "resuming: 2 of 3 runs already flown, 1 to fly" in said
+    assert resumed.rows[:2] == inline.rows and resumed.rows[2]["run"] == 2 and resumed.complete
 
 
 @pytest.mark.flight

@@ -20,6 +20,7 @@ from ..verify.conditions import FAULT_KINDS, ConditionsError, parse_faults, pars
 from ..verify.engines import ENGINES, EngineError
 from ..verify.verify import DEFAULT_TIME_SCALE, VerifySettings, verify_plan
 from ..verify.verify_files import VerifyFolderError
+from .errors import said
 from .parsing import runs
 
 SIMULATORS = ("mock", "sitl")
@@ -62,7 +63,7 @@ def cmd_verify(request: VerifyRequest) -> int:
     try:
         wind, faults = parse_wind(request.wind), parse_faults(request.faults)
     except ConditionsError as err:
-        raise BridgeUsageError(str(err)) from None
+        raise BridgeUsageError(said(err)) from None
     if request.sim == "sitl" and not request.sitl_dir:
         raise BridgeUsageError("--sim sitl needs --sitl-dir DIR (the folder of the arducopter binary and copter.parm)")
     settings = VerifySettings(runs=request.runs, seed=request.seed, wind=wind, faults=faults, replan=request.replan,
@@ -75,7 +76,7 @@ def cmd_verify(request: VerifyRequest) -> int:
                              engine=request.engine, workers=request.workers, address=address, resume=request.resume,
                              keep_flights=request.keep_flights, progress=not request.quiet, sitl_dir=request.sitl_dir)
     except (VerifyFolderError, EngineError) as err:
-        raise BridgeUsageError(str(err)) from None
+        raise BridgeUsageError(said(err)) from None
     print(f"verify: {result.verdict}")
     print(f"  {', '.join(str(p) for p in result.files)}")
     if not result.complete:

@@ -29,6 +29,7 @@ port, as a fleet flies; start them with wait=False and call wait_mission_ready o
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
 
 from missionplan.bridge.link.connection import mavlink

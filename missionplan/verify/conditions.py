@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from missionplan.base.naming import Named
+
 FAULT_KINDS = ("lost-drone", "link-gap", "battery-failsafe", "gps-glitch")
 GUST_SHARE = 0.25  # turbulence amplitude as a share of the drawn mean wind (SITL's SIM_WIND_TURB, m/s)
 LINK_GAP_S = (5.0, 20.0)  # simulated seconds a dropped link stays down
@@ -71,23 +73,23 @@ class Conditions:
 
 
 def parse_wind(text: str) -> tuple[float, float]:
-    """`--wind MIN-MAX` (or one speed) in m/s -> (min, max)."""
+    """The wind range MIN-MAX (or one speed) in m/s -> (min, max)."""
     parts = text.strip().split("-")
     try:
         low, high = (float(parts[0]), float(parts[-1])) if len(parts) <= 2 else (None, None)
     except ValueError:
         low = high = None
     if low is None or high is None or not (0.0 <= low <= high <= 30.0):
-        raise ConditionsError(f"--wind {text!r}: give MIN-MAX in m/s, 0 <= MIN <= MAX <= 30 (e.g. 2-6)")
+        raise ConditionsError(Named("{wind} {0!r}: give MIN-MAX in m/s, 0 <= MIN <= MAX <= 30 (e.g. 2-6)", text))
     return low, high
 
 
 def parse_faults(text: str) -> tuple[str, ...]:
-    """`--faults a,b` -> the fault kinds, each once, in the order given; "" or "none" -> none."""
+    """The fault list "a,b" -> the fault kinds, each once, in the order given; "" or "none" -> none."""
     kinds = [k.strip() for k in text.split(",") if k.strip() and k.strip() != "none"]
     unknown = [k for k in kinds if k not in FAULT_KINDS]
     if unknown:
-        raise ConditionsError(f"--faults {unknown[0]!r}: choose among {', '.join(FAULT_KINDS)}")
+        raise ConditionsError(Named("{faults} {0!r}: choose among {1}", unknown[0], ", ".join(FAULT_KINDS)))
     return tuple(dict.fromkeys(kinds))
 
 

@@ -24,6 +24,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from missionplan.base.naming import Named
 from .flight_run import RunJob, fly_run
 
 ENGINES = ("auto", "ray", "pool", "inline")
@@ -57,11 +58,11 @@ def ray_available() -> bool:
 
 
 def choose_engine(asked: str, address: str | None) -> tuple[str, str]:
-    """(engine, the one line saying why, or "") for `--engine asked`: auto is Ray when installed, else the pool."""
+    """(engine, the one line saying why, or "") for the engine asked: auto is Ray when installed, else the pool."""
     if asked in ("ray", "auto") and ray_available():
         return "ray", ""
     if asked == "ray" or address:
-        raise EngineError("Ray is not installed: pip install 'missionplan[cluster]' (or use --engine pool)")
+        raise EngineError(Named("Ray is not installed: pip install 'missionplan[cluster]' (or use {engine} pool)"))
     if asked == "auto":
         return "pool", "Ray is not installed (pip install 'missionplan[cluster]'): the runs go to a local process pool"
     return asked, ""
@@ -190,7 +191,8 @@ def start_ray(workers: int, address: str | None) -> EngineInfo:
         try:
             ray.init(address=address, log_to_driver=False, logging_level=logging.ERROR)
         except (ConnectionError, RuntimeError) as err:
-            raise EngineError(f"--address {address}: no Ray cluster answers there ({str(err).splitlines()[0]})")
+            raise EngineError(Named("{address} {0}: no Ray cluster answers there ({1})", address,
+                                    str(err).splitlines()[0]))
     else:
         ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False, logging_level=logging.ERROR)
     alive = [n for n in ray.nodes() if n.get("Alive")]

@@ -35,6 +35,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from missionplan.base.naming import Named
 from missionplan.bridge.sim.sitl_fleet import (SitlFleet, configure, set_param_on_serial1, sitl_vehicles,
                                                start_sitl_fleet)
 from missionplan.bridge.sim.sitl_process import ArduCopterSitl, sitl_binary_problem
@@ -73,7 +74,7 @@ def fly_on_sitl(copy: Path, job: Any) -> tuple[dict[str, Any], dict[str, Any]]:
     sitl_dir = Path(job.sitl_dir) if job.sitl_dir else None
     problem = sitl_binary_problem(sitl_dir)
     if problem is not None or sitl_dir is None:
-        raise SitlRunError(f"--sim sitl: {problem}")
+        raise SitlRunError(Named("{sim} sitl: {0}", problem))
     conditions: Conditions = job.conditions
     speedup = min(float(job.time_scale), MAX_SPEEDUP)
     timeout_s = _planned_makespan_s(copy) * SITL_TIMEOUT_FACTOR / speedup + SITL_TIMEOUT_MARGIN_S

@@ -15,6 +15,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from missionplan.base.naming import Named
 from missionplan.bridge.folder_lock import hold_folder
 from missionplan.bridge.formats.missionfile import read_mission_file
 
@@ -82,8 +83,8 @@ def verify_plan(plan_dir: Path, settings: VerifySettings, out: Path | None = Non
     with hold_folder(out):
         fingerprint = plan_fingerprint(plan_dir)
         if (out / JSON_NAME).exists() and not resume:
-            raise VerifyFolderError(f"{out / JSON_NAME}: an earlier verify is there; --resume continues it, or "
-                                    "choose another --out")
+            raise VerifyFolderError(Named("{0}: an earlier verify is there; {resume} continues it, or choose another "
+                                          "{out}", out / JSON_NAME))
         done = read_for_resume(out, fingerprint, settings.to_json()) if resume else []
         rows = {r["run"]: r for r in done if r["run"] < settings.runs}
         jobs = [RunJob(str(plan_dir.resolve()), str((out / "runs" / f"{i:04d}").resolve()),

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from missionplan.base.atomic import atomic_path, write_text_atomic
+from missionplan.base.naming import Named
 from missionplan.flight.flight_report import COVERAGE_OK
 
 SCHEMA = 1
@@ -49,13 +50,15 @@ def read_for_resume(out: Path, plan: str, settings: dict[str, Any]) -> list[dict
     if not isinstance(doc, dict) or doc.get("schema") != SCHEMA or not isinstance(doc.get("rows"), list):
         raise VerifyFolderError(f"{path}: not a verify.json of schema {SCHEMA}")
     if doc.get("plan", {}).get("missions_sha256") != plan:
-        raise VerifyFolderError(f"{path}: verifies another plan (its mission files differ); choose another --out")
+        raise VerifyFolderError(Named("{0}: verifies another plan (its mission files differ); choose another {out}",
+                                      path))
     theirs = {k: v for k, v in doc.get("settings", {}).items() if k != "runs"}
     ours = {k: v for k, v in settings.items() if k != "runs"}
     if theirs != ours:
         differ = sorted(k for k in set(theirs) | set(ours) if theirs.get(k) != ours.get(k))
-        raise VerifyFolderError(f"{path}: was verified with other settings ({', '.join(differ)}); give the same "
-                                "options to resume, or choose another --out")
+        fields = ", ".join(f"{{{key}}}" for key in differ)  # each setting, spelled by the front end
+        raise VerifyFolderError(Named("{0}: was verified with another " + fields + "; give the same to resume, or "
+                                      "choose another {out}", path))
     return [r for r in doc["rows"] if isinstance(r, dict) and isinstance(r.get("run"), int)]
 
 
