@@ -6,6 +6,7 @@ field day; the answer is a distribution per promise.
   sim_faults     the faults put on a mock fleet as the vehicles reach the drawn mission items
   flight_run     one run: a copy of the plan folder flown by `fly`'s own logic on mock autopilots (or ArduCopter
                  SITL), read back into one row
+  fleet_flight   `fly` as every run calls it: the bound on its time, re-tasking, silences in the vehicles' seconds
   engines        where the runs go: in this process, a local process pool, or Ray (local or a cluster); a worker
                  that dies is retried once and counted apart
   worker         the process pool's worker: one run per process, its row on stdout

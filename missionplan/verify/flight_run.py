@@ -24,8 +24,7 @@ KEEP_AFTER = ("flight.json", "run.log")
 # What a flight leaves in a plan folder: never copied into a run (each run is a first flight of the plan).
 FLIGHT_LEFTOVERS = ("journal.*", "ledger.sqlite*", "flight.*", "missed.geojson", "photos.*", ".missionplan.lock",
                     "verify", "runs", "*.damaged")
-TIMEOUT_FACTOR = 3.0  # a run may take this many times the plan's makespan (simulated) before fly gives up
-TIMEOUT_MARGIN_S = 120.0  # plus this, wall seconds: readiness, uploads, a re-task
+MOCK_MARGIN_S = 120.0  # wall seconds on top of fly's makespan bound (fleet_flight): readiness, uploads, a re-task
 
 
 @dataclass(frozen=True)
@@ -51,14 +50,6 @@ def copy_plan(plan_dir: Path, run_dir: Path) -> Path:
     copy = run_dir / "plan"
     shutil.copytree(plan_dir, copy, ignore=shutil.ignore_patterns(*FLIGHT_LEFTOVERS))
     return copy
-
-
-def planned_makespan_s(plan_dir: Path) -> float:
-    """The plan's busiest drone's flight time (report.json)."""
-    from missionplan.mission.plan_record import read_plan_record
-
-    record = read_plan_record(plan_dir)
-    return max((float(d.flight_s) for d in record.drones or () if d.flight_s is not None), default=0.0)
 
 
 def fly_run(job: RunJob) -> dict[str, Any]:
@@ -101,36 +92,24 @@ def worker_identity() -> dict[str, Any]:
 
 def fly_on_mock(copy: Path, job: RunJob) -> tuple[dict[str, Any], dict[str, Any]]:
     """The run on in-process mock autopilots (SITL-like, cameras configured): fly's judgement (flight.json's
-    content) and the simulator's own truth (battery used per drone, the faults as they struck).
-
-    fly counts every silence (a link lost, a drone gone for re-tasking) in the vehicles' seconds, so a run at 20x
-    meets them where a crew at 1x would (link_silence.SilenceRule's vehicle_scale)."""
+    content) and the simulator's own truth (battery used per drone, the faults as they struck)."""
     from missionplan.bridge.sim.mock_vehicle import BATTERY_CURRENT_A
-    from missionplan.flight.fly import fly
     from missionplan.flight.mock_fleet import start_mock_fleet
 
+    from .fleet_flight import fly_fleet
     from .sim_faults import MockFaults
 
     speedup = job.time_scale
-    timeout_s = planned_makespan_s(copy) * TIMEOUT_FACTOR / speedup + TIMEOUT_MARGIN_S
     mock = start_mock_fleet(copy, speedup)
     faults = MockFaults(mock, job.conditions, speedup)
     try:
         faults.start()
-        result = fly(copy, mock.client_url, timeout_s=timeout_s, progress=False, time_scale=speedup,
-                     replan=_retask_planner if job.replan else None, silences_in_vehicle_time=True)
+        result = fly_fleet(copy, mock.client_url, speedup, job.replan, MOCK_MARGIN_S)
     finally:
         faults.stop()
         mock.stop()
     used = {sysid: float(mock.vehicle(sysid).consumed_mah) for sysid in mock.vehicles}
     return result.doc, {"battery_mah": used, "calm_current_a": BATTERY_CURRENT_A, "struck": faults.struck}
-
-
-def _retask_planner(plan_dir: Path, record: Any, survivors: Any, photos_latlon: Any) -> Any:
-    """fly --replan's planner, as the command line gives it (missionplan/planning/retask.py)."""
-    from missionplan.planning.retask import retask_planner
-
-    return retask_planner(plan_dir, record, survivors, photos_latlon)
 
 
 def row_of(conditions: Conditions, doc: dict[str, Any], extra: dict[str, Any], plan_dir: Path) -> dict[str, Any]:

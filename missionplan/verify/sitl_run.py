@@ -41,6 +41,7 @@ from missionplan.bridge.sim.sitl_fleet import (SitlFleet, configure, set_param_o
 from missionplan.bridge.sim.sitl_process import ArduCopterSitl, sitl_binary_problem
 
 from .conditions import Conditions, Fault
+from .fleet_flight import fly_fleet
 
 MAX_SPEEDUP = 10.0  # SITL's --speedup: stable on 2 shared cores (../shared/sitl/README.md)
 # The current this SITL copter (--model +, copter.parm's defaults, its simple battery: no SIM_BATT_CAP_AH) draws in
@@ -51,8 +52,8 @@ MAX_SPEEDUP = 10.0  # SITL's --speedup: stable on 2 shared cores (../shared/sitl
 # 28.33 A on both (mean 27.96 / 28.26 A, range 26.3-30.0 A but one sample of 0.13 A at disarm). The whole flight's
 # BATTERY_STATUS current_consumed, 1488 / 1499 mAh over 193.7 / 195.7 s flown, is 27.7 A on average.
 CALM_CURRENT_A = 28.3
-SITL_TIMEOUT_FACTOR = 3.0  # a run may take this many times the plan's makespan (simulated) before fly gives up
-SITL_TIMEOUT_MARGIN_S = 180.0  # plus this, wall seconds: boot, set-up and reboot, EKF readiness, uploads, a re-task
+SITL_MARGIN_S = 180.0  # wall seconds on top of fly's makespan bound (fleet_flight): boot, set-up and reboot, EKF
+# readiness, uploads, a re-task
 LOOK_S = 0.02  # wall seconds between looks at the relay's view of the vehicles
 WALL_SLACK = 3.0  # a lasting fault on a silent clock ends after this many times its nominal wall time
 LOW_BATTERY_V = 10.0  # SIM_BATT_VOLTAGE at the item: below BATT_LOW_VOLT
@@ -69,44 +70,24 @@ class SitlRunError(RuntimeError):
 def fly_on_sitl(copy: Path, job: Any) -> tuple[dict[str, Any], dict[str, Any]]:
     """The run (flight_run.RunJob) on ArduCopter SITL: fly's judgement and the simulator's truth (battery used per
     drone, the faults as they struck), as fly_on_mock returns them."""
-    from missionplan.flight.fly import fly
-
     sitl_dir = Path(job.sitl_dir) if job.sitl_dir else None
     problem = sitl_binary_problem(sitl_dir)
     if problem is not None or sitl_dir is None:
         raise SitlRunError(Named("{sim} sitl: {0}", problem))
     conditions: Conditions = job.conditions
     speedup = min(float(job.time_scale), MAX_SPEEDUP)
-    timeout_s = _planned_makespan_s(copy) * SITL_TIMEOUT_FACTOR / speedup + SITL_TIMEOUT_MARGIN_S
     with start_sitl_fleet(copy, sitl_vehicles(sitl_dir), speedup=speedup) as fleet:
         configure(fleet, wind_params(conditions), per_vehicle=fault_params(conditions))
         faults = SitlFaults(fleet, conditions, speedup)
         try:
             faults.start()
-            # Every silence counted in the vehicles' seconds, as a crew at 1x meets them (as on the mock).
-            result = fly(copy, fleet.url, timeout_s=timeout_s, progress=False, time_scale=speedup,
-                         replan=_retask_planner if job.replan else None, silences_in_vehicle_time=True)
+            result = fly_fleet(copy, fleet.url, speedup, job.replan, SITL_MARGIN_S)
         finally:
             faults.stop()
         if faults.errors:
             raise SitlRunError("; ".join(faults.errors))
         used = battery_used(fleet)
     return result.doc, {"battery_mah": used, "calm_current_a": CALM_CURRENT_A, "struck": faults.struck}
-
-
-def _planned_makespan_s(plan_dir: Path) -> float:
-    """The plan's busiest drone's flight time (report.json, through the plan record)."""
-    from missionplan.mission.plan_record import read_plan_record
-
-    record = read_plan_record(plan_dir)
-    return max((float(d.flight_s) for d in record.drones or () if d.flight_s is not None), default=0.0)
-
-
-def _retask_planner(plan_dir: Path, record: Any, survivors: Any, photos_latlon: Any) -> Any:
-    """fly --replan's planner, as the command line gives it (missionplan/planning/retask.py)."""
-    from missionplan.planning.retask import retask_planner
-
-    return retask_planner(plan_dir, record, survivors, photos_latlon)
 
 
 def wind_params(conditions: Conditions) -> dict[str, float]:
