@@ -161,13 +161,14 @@ def test_dependencies_are_ranges_and_torch_an_exact_extra():
 
 
 def test_the_lock_pins_every_installed_dependency_at_its_installed_version():
-    """Everything missionplan[train,terrain,geotag,test] needs, as installed here, is in constraints.txt at that version."""
+    """Everything missionplan[train,terrain,geotag,cluster,test] needs, as installed here, is in constraints.txt at that
+    version."""
     from packaging.requirements import Requirement
     from packaging.utils import canonicalize_name
 
     lock = _lock()
     assert {"pip", "numpy", "torch", "pytest"} <= set(lock)
-    todo, seen = [("missionplan", ("train", "terrain", "geotag", "test")), ("pip", ())], set()
+    todo, seen = [("missionplan", ("train", "terrain", "geotag", "cluster", "test")), ("pip", ())], set()
     while todo:
         name, extras = todo.pop()
         if canonicalize_name(name) in seen:
