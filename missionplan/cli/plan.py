@@ -34,6 +34,7 @@ from ..mission.georef import SPEED_WHAT, AreaRequest
 from ..mission.safety import DEFAULT_CLEARANCE_M
 from ..mission.separation import DEFAULT_MAX_ALTITUDE_M
 from ..mission.sorties import DEFAULT_ENDURANCE_MIN, DEFAULT_RESERVE
+from ..planning.improve import MAX_BUDGET_S
 from ..planning.pipeline import DEFAULT_POLICY, POLICIES
 from .plan_display import EXIT_FAILED, print_plan
 from ..planning.plan_folder import NO_UNKNOWN_HEIGHTS, PlanGround, PlanOptions, grid_ground, write_plan_folder
@@ -98,6 +99,8 @@ class PlanRequest:
     targets: str = DEFAULT_TARGETS
     transit_speed: float | None = None
     overlap_fill: bool | None = None  # None: on for a plan asked by camera, GSD or overlaps (capture_asked)
+    improve: float | None = None  # seconds of local search on the finished plan
+    improve_rounds: int | None = None
 
     def area_request(self) -> AreaRequest:
         """What the area grid is drawn from (with --area); a --camera gives the sensor and focal length."""
@@ -240,6 +243,13 @@ def register(sub: Any) -> None:
                            "around it blocked, e.g. buildings low enough to fly over with a few tall ones) sweeps "
                            "it in footprint-wide lanes, or explores it cell by cell (default lanes)")
     plan.add_argument("--seed", type=int, default=0, help="seed for zones and deadlock breaking")
+    plan.add_argument("--improve", type=float, metavar="SECONDS",
+                      help="spend up to SECONDS after planning on local search (zone shares balanced on the drones' "
+                           "times, work shifted to a neighbouring zone, other seeds), keeping a candidate only when "
+                           "its busiest drone is done sooner: never a worse plan (docs/planner.md, Anytime improvement)")
+    plan.add_argument("--improve-rounds", type=int, metavar="N",
+                      help="with --improve, at most N candidate plans: the same seed and N give the same plan on "
+                           "any machine")
     plan.add_argument("--quiet", action="store_true", help="no progress bar")
     plan.set_defaults(handler=runs(PlanRequest, cmd_plan))
 
@@ -324,6 +334,11 @@ def _check_plan_numbers(request: PlanRequest) -> None:
     for name, pixels in (("--image-width", request.image_width), ("--image-height", request.image_height)):
         if pixels is not None:
             check_integer(pixels, name, 1, 1_000_000, what="pixels", error=MapError)
+    check("--improve", request.improve, 0.0, MAX_BUDGET_S, " s", what="seconds of improvement")
+    if request.improve_rounds is not None:
+        if request.improve is None:
+            raise MapError("--improve-rounds needs --improve SECONDS (the time it may spend)")
+        check_integer(request.improve_rounds, "--improve-rounds", 1, 100_000, what="a number of plans", error=MapError)
     check("--gimbal-pitch", request.gimbal_pitch, *GIMBAL_PITCH_RANGE, " degrees", what="a gimbal pitch (-90 straight down)")
     check("--altitude-step", request.altitude_step, 0.0, MAX_PLAN_ALTITUDE_M, " m")
     check("--min-separation", request.min_separation, 0.0, 1_000.0, " m", low_open=True)
@@ -433,7 +448,8 @@ def cmd_plan(request: PlanRequest) -> int:
                           balance_zones=not request.no_balance, open_ground=request.open_ground,
                           lane_spacing_cells=lane_spacing, seed=request.seed,
                           basemap=request.basemap, progress=not request.quiet and sys.stderr.isatty(),
-                          overlap_fill=request.capture_asked if request.overlap_fill is None else request.overlap_fill)
+                          overlap_fill=request.capture_asked if request.overlap_fill is None else request.overlap_fill,
+                          improve_s=request.improve, improve_rounds=request.improve_rounds)
     folder = write_plan_folder(request.out, ground, options)
     print_plan(folder)
     return 0 if folder.success else EXIT_FAILED

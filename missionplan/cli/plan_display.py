@@ -86,6 +86,8 @@ def print_plan(folder: PlanFolder) -> None:
         print(f"  overlaps as planned: {folder.overlap.summary()}")
     if record.overlap_fill is not None:
         print(f"  {record.overlap_fill.summary()}")
+    if record.improve is not None:
+        print(f"  {record.improve.summary()}")
     sep = record.separation
     if sep is not None and sep.d3 is not None:
         closest = sep.closest

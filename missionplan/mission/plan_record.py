@@ -29,8 +29,9 @@ launch, paths (per drone, one [row, col] per step, start and hovers included), g
 '#' obstacle, '.' target, 'o' free non-target); then for a georeferenced plan zone_shares (when re-balanced
 for sorties), drones, separation and clearance (the safety promise), settings, drone_ids, survey (a
 re-plan's pointer), basemap, credit, georeference; then coverage, roofs (with `plan --targets roofs|all`:
-mission/roof_targets.py; the grid's roof target cells are 'r'), overlap_fill (mission/overlap_fill.py), inputs (an area plan's files), files and
-files_sha256.
+mission/roof_targets.py; the grid's roof target cells are 'r'), overlap_fill (mission/overlap_fill.py), improve
+(plan --improve: mission/plan_improvement.py; readers that do not know it fly the plan as any other), inputs (an
+area plan's files), files and files_sha256.
 """
 
 from __future__ import annotations
@@ -50,6 +51,7 @@ from missionplan.geo.georeference import Georeference
 from ..maps.gridmap import Cell, MapError
 from .plan_blocks import (ClearancePromise, CoverageSummary, Decisions, DronePlan, InputFile, OverlapFill,
                           PlanMetrics, PlanSettings, SafetyPromise, SeparationPromise, SurveyPointer, Timing, cells_json, cells_of)
+from .plan_improvement import PlanImprovement
 from .roof_targets import RoofTargets
 
 REPORT_NAME = "report.json"
@@ -105,7 +107,7 @@ class PlanRecord:
     launch: tuple[Cell, ...]  # each drone's launch cell, in drone order
     paths: tuple[tuple[Cell, ...], ...]  # each drone's cell at every step, the start included
     grid: tuple[str, ...]  # one string per row: '#' obstacle, '.' target, 'o' free non-target
-    zone_shares: tuple[float, ...] | None = None  # each zone's share when re-balanced for sorties
+    zone_shares: tuple[float, ...] | None = None  # each zone's share when re-balanced (for sorties, or by --improve)
     drones: tuple[DronePlan, ...] | None = None  # None: no missions (no georeference, or the plan failed)
     promise: SafetyPromise | None = None  # report.json separation and clearance
     settings: PlanSettings | None = None
@@ -120,6 +122,7 @@ class PlanRecord:
     files_sha256: Mapping[str, str] | None = None  # each file's but report.json's
     roofs: RoofTargets | None = None  # the target classes, cell rule and clearance over roofs (--targets roofs|all)
     overlap_fill: OverlapFill | None = None  # what the overlap fill added (plan --overlap-fill)
+    improve: PlanImprovement | None = None  # what the anytime improvement tried and kept (plan --improve)
 
     # ---- what readers ask ------------------------------------------------------------
     @property
@@ -188,6 +191,8 @@ class PlanRecord:
             doc["roofs"] = self.roofs.to_json()
         if self.overlap_fill is not None:
             doc["overlap_fill"] = self.overlap_fill.to_json()
+        if self.improve is not None:
+            doc["improve"] = self.improve.to_json()
         if self.inputs is not None:
             doc["inputs"] = [i.to_json() for i in self.inputs]
         if self.files is not None:
@@ -226,6 +231,7 @@ class PlanRecord:
             coverage=CoverageSummary.from_json(doc["coverage"]) if doc.get("coverage") is not None else None,
             roofs=RoofTargets.from_json(doc["roofs"]) if doc.get("roofs") is not None else None,
             overlap_fill=OverlapFill.from_json(doc["overlap_fill"]) if doc.get("overlap_fill") is not None else None,
+            improve=PlanImprovement.from_json(doc["improve"]) if doc.get("improve") is not None else None,
             inputs=tuple(InputFile.from_json(i) for i in doc["inputs"]) if doc.get("inputs") is not None else None,
             files=_optional_tuple(doc.get("files")),
             files_sha256=dict(doc["files_sha256"]) if doc.get("files_sha256") is not None else None)

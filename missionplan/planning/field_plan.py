@@ -9,7 +9,9 @@
    the planned photos leave short of the implied count get detours (mission/overlap_fill.py), and 3 runs
    again;
 4. when some drone flies several sorties and the drones' total times differ, the zones are
-   re-balanced once to each drone's measured rate (sorties.sortie_shares) and 1-3 run again.
+   re-balanced once to each drone's measured rate (sorties.sortie_shares) and 1-3 run again;
+5. with a time budget (plan --improve SECONDS), local search on the zone split, each candidate 1-3 again,
+   the best kept (planning/improve.py).
 Without safety settings (a map without georeference) only the plain grid plan is made.
 """
 
@@ -27,9 +29,11 @@ from ..maps.gridmap import GridMap
 from ..mission.clearance import band_coverage, flight_map, photograph_band
 from ..mission.drone_missions import GroundHeights, MissionSettings
 from ..mission.plan_blocks import OverlapFill, SafetyPromise
+from ..mission.plan_improvement import PlanImprovement
 from ..mission.plan_record import PlanRecord
 from ..mission.safety import SafetySettings
 from ..mission.sorties import sortie_shares
+from .improve import check_budget, improve
 from .pipeline import PlanResult, plan_map
 
 REBALANCE_ROUNDS = 1  # each is a whole re-plan (Turin, 2 drones, 10 min: a second round gained nothing)
@@ -47,6 +51,7 @@ class FieldPlan:
     zone_shares: list[float] | None = None  # set when the zones were re-balanced for sorties
     overlap_fill: OverlapFill | None = None  # what the overlap fill did (None: not asked)
     keep: np.ndarray | None = None  # cells the corrector keeps as waypoints: close lanes' turns, the fill's detours
+    improvement: PlanImprovement | None = None  # what plan --improve tried (None: not asked)
 
     def fill_record(self, record: PlanRecord, gmap: GridMap, frame: GridFrame | None) -> PlanRecord:
         """The plan record with the band's targets put back (see clearance.band_coverage), and the
@@ -58,6 +63,8 @@ class FieldPlan:
             record = replace(record, zone_shares=tuple(round(s, 4) for s in self.zone_shares))
         if self.overlap_fill is not None:
             record = replace(record, overlap_fill=self.overlap_fill)
+        if self.improvement is not None:
+            record = replace(record, improve=self.improvement)
         if self.plans is not None and frame is not None:
             clearance = replace(self.plans.clearance(gmap, frame), band_moves_added=self.band_moves_added, band=band)
             record = replace(record, drones=self.plans.drone_plans(),
@@ -67,15 +74,20 @@ class FieldPlan:
 
 def plan_field(gmap: GridMap, uavs: int, frame: GridFrame | None, settings: MissionSettings | None,
                safety: SafetySettings | None, balance_zones: bool = True, ground: GroundHeights | None = None,
-               overlap_fill: bool = False, side_overlap: float | None = None, **planning: Any) -> FieldPlan:
+               overlap_fill: bool = False, side_overlap: float | None = None, improve_s: float | None = None,
+               improve_rounds: int | None = None, **planning: Any) -> FieldPlan:
     """Plan `gmap` for `uavs` drones; `ground`: over a DEM (flightplan.make_flight_plans); `overlap_fill`: fly
     fill runs where the planned photos leave reachable points short, judged against the settings' front
-    overlap and `side_overlap` (a fraction; None: not asked); `planning`: plan_map's policy, zone_method, seed,
-    progress, lanes."""
+    overlap and `side_overlap` (a fraction; None: not asked); `improve_s`: seconds of local search on the
+    finished plan, at most `improve_rounds` candidates (planning/improve.py; None: none); `planning`: plan_map's
+    policy, zone_method, seed, progress, lanes."""
     plan_gmap, band = flight_map(gmap, safety.clearance_m, uavs) if safety is not None else (gmap, None)
+    if improve_s is not None:  # a budget out of range fails before the first plan, not after it
+        check_budget(improve_s, improve_rounds)
 
-    def attempt(shares: np.ndarray | None) -> FieldPlan:
-        result = plan_map(plan_gmap, uavs, balance_zones=balance_zones, zone_shares=shares, **planning)
+    def attempt(shares: np.ndarray | None, seed: int | None = None) -> FieldPlan:
+        asked = planning if seed is None else {**planning, "seed": seed}
+        result = plan_map(plan_gmap, uavs, balance_zones=balance_zones, zone_shares=shares, **asked)
         done = FieldPlan(result, band=band, zone_shares=None if shares is None else shares.tolist())
         if band is not None and band.any() and result.run.success:
             result.run.paths, done.band_moves_added = photograph_band(
@@ -92,7 +104,19 @@ def plan_field(gmap: GridMap, uavs: int, frame: GridFrame | None, settings: Miss
                 done.overlap_fill = _fill(done, gmap, plan_gmap, frame, flight_plans, side_overlap)
         return done
 
-    best = attempt(None)
+    best = _rebalanced(attempt(None), attempt, balance_zones, safety)
+    if improve_s is None:
+        return best
+    shares = None if best.zone_shares is None else np.array(best.zone_shares)
+    kept, record = improve(best, shares, attempt, improve_s, int(planning.get("seed", 0)), improve_rounds)
+    assert isinstance(kept, FieldPlan)
+    kept.improvement = record
+    return kept
+
+
+def _rebalanced(best: FieldPlan, attempt: Callable[[np.ndarray | None], FieldPlan], balance_zones: bool,
+                safety: SafetySettings | None) -> FieldPlan:
+    """Step 4 of the module docstring: the zones re-balanced to the drones' measured rates when sorties differ."""
     if best.plans is None or not balance_zones or safety is None:
         return best
     current, shares = best, None

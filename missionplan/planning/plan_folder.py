@@ -116,6 +116,8 @@ class PlanOptions:
     drone_ids: list[int] | None = None  # system id of each drone, in launch order (default 1, 2, ...)
     survey: SurveyPointer | None = None  # report.json `survey`: a re-plan's pointer to the survey it continues
     overlap_fill: bool = False  # detours where reachable points lack photos (mission/overlap_fill.py)
+    improve_s: float | None = None  # seconds of local search on the finished plan (planning/improve.py; None: none)
+    improve_rounds: int | None = None  # and at most this many candidate plans (None: as many as the time allows)
 
     def __post_init__(self) -> None:
         # A basemap URL that is no tile server's fails here, before any area is read or folder made.
@@ -286,7 +288,8 @@ def _plan_into(out: Path, ground: PlanGround, options: PlanOptions, policy: Any)
                             ground=terrain.height_amsl if terrain is not None else None,
                             policy=policy, zone_method=options.zones, seed=options.seed, progress=options.progress,
                             lanes=options.open_ground == "lanes", lane_spacing=options.lane_spacing_cells,
-                            overlap_fill=options.overlap_fill, side_overlap=ground.asked_side_overlap)
+                            overlap_fill=options.overlap_fill, side_overlap=ground.asked_side_overlap,
+                            improve_s=options.improve_s, improve_rounds=options.improve_rounds)
     result, plans = field_plan.result, field_plan.plans
     if plans is not None and options.drone_ids is not None:
         plans.relabel(options.drone_ids)
