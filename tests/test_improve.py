@@ -149,3 +149,15 @@ def test_the_command_line_prints_what_improve_did(tmp_path: Path, capsys: pytest
                  "--improve", "600", "--improve-rounds", "2"]) == 0
     line = [l for l in capsys.readouterr().out.splitlines() if l.strip().startswith("improve:")]
     assert len(line) == 1 and "2 plans" in line[0] and "busiest drone" in line[0]
+
+
+def test_a_fleet_sweeping_open_ground_only_reseeds() -> None:
+    """Zone shares would switch off the block-by-block redraw of a fleet sweeping in lanes: reseeds only."""
+    from missionplan.maps.gridmap import GridMap
+
+    free = np.ones((54, 54), dtype=bool)
+    field_map = GridMap("open 54", ~free, free.copy(), [(0, 0), (53, 53), (0, 53)])
+    field = plan_field(field_map, 3, None, None, None, improve_s=600.0, improve_rounds=3)
+    block = field.improvement
+    assert field.result.run.lane_drones == 3 and block is not None
+    assert [c.move for c in block.candidates] == ["reseed"] * 3 and block.kept <= block.first

@@ -104,8 +104,9 @@ def zone_neighbours(zone: np.ndarray) -> list[set[int]]:
 class ZoneSearch:
     """The cycle of moves and their step sizes (the module docstring)."""
 
-    def __init__(self, seed: int) -> None:
+    def __init__(self, seed: int, reseed_only: bool = False) -> None:
         self.seed = seed
+        self.moves = ("reseed",) if reseed_only else MOVES
         self.round = 0
         self.balance_step = 1.0
         self.shift_fraction = 0.5
@@ -113,7 +114,7 @@ class ZoneSearch:
 
     def propose(self, best: Trial) -> tuple[str, np.ndarray | None, int]:
         """(move, shares, planner seed) of the next candidate, from the best plan so far."""
-        move = MOVES[self.round % len(MOVES)]
+        move = self.moves[self.round % len(self.moves)]
         self.round += 1
         spans = drone_spans(best.plan)
         shares = best.share_vector()
@@ -157,7 +158,9 @@ def improve(first: object, first_shares: np.ndarray | None, attempt: Callable[[n
         return first, None
     best = Trial(first, None if first_shares is None else np.asarray(first_shares, dtype=float), seed)
     best_score = first_score
-    search = ZoneSearch(seed)
+    # A whole fleet sweeping in lanes has its zones redrawn block by block, which shares would switch off.
+    run = first.result.run  # type: ignore[attr-defined]
+    search = ZoneSearch(seed, reseed_only=first_shares is None and run.lane_drones == len(run.paths))
     candidates: list[Candidate] = []
     tried = {(None if best.shares is None else np.round(best.shares, 4).tobytes(), seed)}
     last_round_s = 0.0
