@@ -1,44 +1,39 @@
-"""Ground that may be overflown: our planner's lanes and its cell-by-cell exploration against DARP-like and LS-MCPP-like baselines.
+"""Ground that may be overflown: our planner's lanes and its cell-by-cell exploration against DARP, LS-MCPP-like and sweep baselines.
 
 Where nothing blocks the drones (open ground, or a city whose buildings are low enough to fly
 over: buildings become free cells with nothing to photograph), the classic planners cover an area
-in lanes one footprint apart. DARP (Kapoutsis et al., 2017) splits the area into equal connected
-parts and covers each with a spanning-tree path; on an obstacle-free grid that path visits each
-footprint-sized block once, as a boustrophedon sweep does. The first baseline (`sweep`) measures that, with
-nothing of ours but the zones, so the two differ only in how a zone is flown:
+one footprint-wide pass at a time. Baselines, each checking its own coverage:
 
-- zones: `zones.split_zones` (balanced geodesic Lloyd), the very zones our planner gets;
-- each zone is cut into 9 x 9 blocks (the footprint) aligned on the zone's corner; every block
-  holding a target is photographed from its centre (clipped into the map), so one photo covers it;
-- the drone visits those centres in a snake, by block rows or block columns, from whichever of the
-  eight corners and directions makes its flight shortest, launch cell included; the legs are
-  taxicab distances, flyable because no cell is blocked. Drones never meet or wait (our planner's
-  do), which can only flatter the baseline.
+- `darp`: DARP + STC as published (Kapoutsis et al., 2017; bench/darp.py): the area divided on
+  18 x 18 cells (2 x 2 footprint blocks) into equal connected regions, each flown as a spanning-tree
+  circumnavigation from its robot's block; with --seeds N, the mean of seeds 0 .. N-1 (DARP's random
+  perturbation moves its makespan by a few percent);
+- `sweep`, DARP-like without DARP's division: the balanced zones our planner starts from
+  (`zones.split_zones`), each cut into 9 x 9 blocks aligned on the zone's corner, every block holding
+  a target photographed from its centre, visited in the shortest of eight snakes (taxicab legs);
+- `ls`, LS-MCPP-like: the map's own block grid (aligned on cell (0, 0)), each block to the zone
+  holding most of its targets, then local search on the makespan handing the longest snake's border
+  blocks to neighbouring drones while that shortens it (`lanes.fleet_zones`), every centre visited
+  in snakes.
+Drones of the baselines never meet or wait (our planner's do), which can only flatter them.
 
-A second baseline, LS-MCPP-like (`ls`): the map's own block grid (aligned on cell (0, 0), so no
-block is split between two zones), each block to the zone holding most of its targets, then local
-search on the makespan, handing the longest snake's border blocks to neighbouring drones while that
-shortens it (`lanes.fleet_zones`); again every centre visited, no waiting.
-
-The blocks, the snake and the local search are missionplan.grid.lanes's, which our planner flies on
-open ground (`plan --open-ground lanes`, the default; a whole fleet on open ground gets the `ls`
-zones): the baselines visit every centre, the planner skips each block its own passes or another
-drone have photographed already, and its drones wait for each other. The baselines check
-themselves: coverage is recounted from the photo centres. Per map and fleet it prints, for our
-planner with lanes (`lanes`), for it exploring cell by cell with the expert and with the network
-(`--open-ground explore`), and for both baselines: makespan (the longest drone's moves),
-total moves, coverage of the targets, CPU seconds, the makespan over the floor U / (9 A), and the
-makespan against the sweep's, the ls baseline's and our expert's exploring (`vs exp`). Maps:
-open ground (every cell a target), the MovingAI street maps in ../shared/maps/movingai/ with
-every building overflown, and the same maps with every N-th building left standing (`1/N tall`,
---tall-every: a few tall buildings among low ones; the planner sweeps the zones that are at most
-lanes.MAX_OBSTACLE_SHARE obstacle round them and explores the rest). The baselines' taxicab legs
-assume nothing in the way, so the tall maps have none. One plan's makespan moves by a few percent
-with the seed (where the zones' sampling starts, who makes way), so --seeds N prints the mean of
-N plans for our rows. Run by hand:
+Our planner with lanes (`lanes`: a whole fleet on open ground flies block tours, grid/fleet_blocks.py,
+or the `ls` zones in snakes where those are shorter; it skips a block once photographed), with
+`plan --improve SECONDS` on top (`lanes+Ns`, with --improve N, seed 0), and exploring cell by cell
+(`--open-ground explore`) with the expert and with the network. Per map and fleet it prints the
+targets, the floor (targets / (9 A): every move photographing 9 new cells, nobody waiting), makespan
+(the longest drone's moves), total moves, coverage, CPU seconds, makespan over the floor, and the
+makespan against DARP's, the sweep's, the ls baseline's and our expert's exploring (`vs exp`). Maps:
+open ground (every cell a target), the MovingAI street maps in ../shared/maps/movingai/ with every
+building overflown, and the same maps with every N-th building left standing (`1/N tall`,
+--tall-every: the planner sweeps the zones that are at most lanes.MAX_OBSTACLE_SHARE obstacle round
+them and explores the rest; the baselines' straight legs would cross them, so those rows have none).
+One plan's makespan moves by a few percent with the seed, so --seeds N prints the mean of N plans for
+our rows and DARP's (sweep and ls: seed 0). Run by hand:
 
     .venv/bin/python bench/sweep_bench.py [--open 128,256] [--uavs 6,20] [--seeds N] [--tall-every N]
-                                          [--movingai-dir ../shared/maps/movingai] [--write-doc FILE]
+                                          [--improve SECONDS] [--movingai-dir ../shared/maps/movingai]
+                                          [--write-doc FILE]
 """
 
 from __future__ import annotations
@@ -58,9 +53,12 @@ from missionplan.grid.zones import split_zones
 from missionplan.maps.gridmap import Cell, GridMap, read_map_text
 from missionplan.maps.launches import spread_launches
 from missionplan.maps.movingai import parse_movingai
+from missionplan.planning.field_plan import plan_field
 from missionplan.planning.pipeline import make_policy, plan_map
 
 import doctable  # bench/doctable.py: --write-doc
+from darp import darp_plan
+from machine import machine_line
 
 ROOT = Path(__file__).resolve().parent.parent
 MOVINGAI_DIR = ROOT.parent / "shared" / "maps" / "movingai"
@@ -129,8 +127,8 @@ def load(key: str, uavs: int, tall_every: int) -> GridMap:
 
 
 def table(args: argparse.Namespace) -> int:
-    header = (f"{'map':<22} {'A':>3} {'planner':<8} {'targets':>8} {'makespan':>8} {'total':>8} {'cov %':>6} "
-              f"{'cpu s':>6} {'span/floor':>10} {'vs sweep':>8} {'vs ls':>7} {'vs exp':>7}")
+    header = (f"{'map':<22} {'A':>3} {'planner':<8} {'targets':>8} {'floor':>6} {'makespan':>8} {'total':>8} "
+              f"{'cov %':>6} {'cpu s':>6} {'span/floor':>10} {'vs darp':>8} {'vs sweep':>8} {'vs ls':>7} {'vs exp':>7}")
     print(header)
     print("-" * len(header), flush=True)
     policies = {name: make_policy(name) for name in ("expert", "nn")}
@@ -148,6 +146,7 @@ def table(args: argparse.Namespace) -> int:
             cpu = time.process_time()
             searched = sweep_plan(gmap.shape, reachable, starts, fleet_zones(zones.zone, reachable, starts), (0, 0))
             searched["cpu"] = sweep["cpu"] + time.process_time() - cpu  # the zones are its too
+            darp = darp_row(gmap, starts, reachable, args.seeds)
         rows = []
         for label, policy, lanes in (("lanes", "expert", True), ("expert", "expert", False), ("nn", "nn", False)):
             # With --seeds N, the mean of N plans (seeds 0 .. N-1: zones and tie-breaks), least coverage.
@@ -159,8 +158,10 @@ def table(args: argparse.Namespace) -> int:
             makespan, total, _, seconds = np.mean(runs, axis=0)
             rows.append((label, {"makespan": round(float(makespan)), "total": round(float(total)),
                                  "coverage": min(run[2] for run in runs), "cpu": float(seconds)}))
+            if label == "lanes" and args.improve > 0:
+                rows.append((f"lanes+{args.improve:g}s", improved_row(gmap, uavs, args.improve)))
         if baselines:
-            rows += [("ls", searched), ("sweep", sweep)]
+            rows += [("darp", darp), ("ls", searched), ("sweep", sweep)]
         targets = int(reachable.sum())
         floor = targets / (CELLS_PER_FOOTPRINT * uavs)
         expert = dict(rows)["expert"]
@@ -171,11 +172,37 @@ def table(args: argparse.Namespace) -> int:
             return f"{100 * (r['makespan'] / other['makespan'] - 1):+{width - 1}.1f}%"
 
         for label, r in rows:
-            print(f"{gmap.name:<22} {uavs:>3} {label:<8} {targets:>8} {r['makespan']:>8} {r['total']:>8} "
+            print(f"{gmap.name:<22} {uavs:>3} {label:<8} {targets:>8} {floor:>6.0f} {r['makespan']:>8} {r['total']:>8} "
                   f"{r['coverage']:>6.1f} {r['cpu']:>6.1f} {r['makespan'] / floor:>10.2f} "
+                  f"{against(r, darp if baselines else None, 8)} "
                   f"{against(r, sweep if baselines else None, 8)} {against(r, searched if baselines else None, 7)} "
                   f"{against(r, expert, 7)}", flush=True)
+    improved = f"; lanes+{args.improve:g}s: seed 0" if args.improve > 0 else ""
+    print(f"our rows and darp: the mean of {args.seeds} seed{'s' if args.seeds != 1 else ''}{improved}; "
+          "floor: targets / (9 A)")
+    print(machine_line())
     return 0
+
+
+def darp_row(gmap: GridMap, starts: list[Cell], reachable: np.ndarray, seeds: int) -> dict[str, float]:
+    """DARP + STC (bench/darp.py) with seeds 0 .. seeds-1: the mean makespan and total, the least coverage."""
+    runs = []
+    for seed in range(seeds):
+        cpu = time.process_time()
+        result = darp_plan(reachable, gmap.obstacle, starts, seed=seed)
+        runs.append((result.makespan, sum(result.moves), result.coverage, time.process_time() - cpu))
+    makespan, total, _, seconds = np.mean(runs, axis=0)
+    return {"makespan": round(float(makespan)), "total": round(float(total)),
+            "coverage": min(run[2] for run in runs), "cpu": float(seconds)}
+
+
+def improved_row(gmap: GridMap, uavs: int, budget_s: float) -> dict[str, float]:
+    """Our lanes with `plan --improve budget_s` (seed 0): its makespan in moves, as the grid planner flies it."""
+    cpu = time.process_time()
+    field = plan_field(gmap, uavs, None, None, None, lanes=True, improve_s=budget_s, seed=0)
+    m = field.result.run.metrics
+    return {"makespan": int(m["makespan"]), "total": round(uavs * float(m["MMN"])), "coverage": float(m["coverage"]),
+            "cpu": time.process_time() - cpu}
 
 
 def main() -> int:
@@ -185,6 +212,8 @@ def main() -> int:
     parser.add_argument("--movingai-dir", default=str(MOVINGAI_DIR))
     parser.add_argument("--seeds", type=int, default=1,
                         help="plan each of our rows with seeds 0 .. N-1 and print the means (baselines: seed 0)")
+    parser.add_argument("--improve", type=float, default=0.0, metavar="SECONDS",
+                        help="also plan our lanes with `plan --improve SECONDS` (seed 0; 0: not)")
     parser.add_argument("--tall-every", type=int, default=5,
                         help="also plan each MovingAI map with every N-th building left standing (0: not)")
     doctable.add_option(parser)

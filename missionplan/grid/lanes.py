@@ -201,6 +201,16 @@ def fleet_zones(zone: np.ndarray, targets: np.ndarray, starts: list[Cell]) -> np
     return out
 
 
+def longest_snake(zone: np.ndarray, starts: list[Cell]) -> int:
+    """The longest of the drones' snakes through their zones' blocks of the map's block grid (fleet_zones' zones)."""
+    longest = 0
+    for k, start in enumerate(starts):
+        cells = np.argwhere(zone == k)
+        if len(cells):
+            longest = max(longest, _snake_moves(start, *block_centres(cells, zone.shape, (0, 0))))
+    return longest
+
+
 def l_leg(start: Cell, goal: Cell, heading: int = HOVER, next_heading: int = HOVER,
           other_corner: bool = False) -> list[Cell]:
     """Cells from `start` (left out) to `goal`: straight, or an L whose corner costs the fewest turns
@@ -224,8 +234,8 @@ def l_leg(start: Cell, goal: Cell, heading: int = HOVER, next_heading: int = HOV
 
 @dataclass
 class LaneSweep:
-    """One drone's sweep of its zone: the photo centres still to visit, in snake order, and the leg
-    it is flying to the first of them."""
+    """One drone's sweep of its zone: the photo centres still to visit, in snake order (or a whole fleet's
+    block tours: grid/fleet_blocks.py), and the leg it is flying to the first of them."""
 
     centres: list[Cell]
     blocks: list[tuple[slice, slice]]  # each centre's block, to skip one photographed already
@@ -266,6 +276,13 @@ class LaneSweep:
                  for r, c in low[order]]
         return cls([(int(r), int(c)) for r, c in centres[order]], spans, around_obstacles=around,
                    every_lane=spacing < BLOCK)
+
+    @classmethod
+    def along(cls, centres: list[Cell], shape: tuple[int, int]) -> LaneSweep:
+        """The sweep of a tour through blocks of the map's block grid (aligned on cell (0, 0)), one centre each."""
+        spans = [(slice(r // BLOCK * BLOCK, min(r // BLOCK * BLOCK + BLOCK, shape[0])),
+                  slice(c // BLOCK * BLOCK, min(c // BLOCK * BLOCK + BLOCK, shape[1]))) for r, c in centres]
+        return cls(list(centres), spans)
 
     @property
     def finished(self) -> bool:

@@ -22,8 +22,10 @@ on bigger ones (each sample exact: one Euclidean distance transform).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
+import numpy.typing as npt
 from scipy import ndimage
 
 from missionplan.geo.camera import CELLS_PER_FOOTPRINT
@@ -56,8 +58,13 @@ def mean_pairwise_distance(positions: np.ndarray) -> float:
         return 0.0
     diff = positions[:, None, :] - positions[None, :, :]
     dist = np.sqrt((diff ** 2).sum(axis=2))
-    upper = np.triu_indices(len(positions), k=1)
-    return float(dist[upper].mean())
+    return float(dist[_upper_triangle(len(positions))].mean())
+
+
+@lru_cache(maxsize=16)
+def _upper_triangle(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """np.triu_indices(n, k=1), made once per fleet size: the steady state asks at every step."""
+    return np.triu_indices(n, k=1)
 
 
 # Cost of the two exact ways, per cell (measured on a 256² map): a distance transform ~40 ns
@@ -65,25 +72,27 @@ def mean_pairwise_distance(positions: np.ndarray) -> float:
 DIRECT_PAIRS_PER_BOX_CELL = 16
 
 
-def mean_distance_to_nearest(unexplored: np.ndarray, positions: np.ndarray) -> float:
+def mean_distance_to_nearest(unexplored: np.ndarray, positions: np.ndarray,
+                             scratch: DistanceScratch | None = None) -> float:
     """Mean over the True cells of `unexplored` of the Euclidean distance to the nearest position.
 
     Exact either way, whichever is cheaper: squared distances from every cell to every drone
     (few drones, few cells), or one Euclidean distance transform over the box that holds the
     cells and the drones (positions may lie outside the mask's grid). Both take the square root
     of the same integer and average the cells in row-major order, so they give the same float.
+    `scratch` (one per run) lends the direct way its arrays.
     """
     unexplored = np.asarray(unexplored, dtype=bool)
     positions = np.asarray(positions, dtype=np.int64).reshape(-1, 2)
-    cells = np.count_nonzero(unexplored)
+    cell_rows, cell_cols = (scratch or DistanceScratch()).cells(unexplored)  # row-major
+    cells = len(cell_rows)
     if not cells:
         return 0.0
-    rows = np.flatnonzero(unexplored.any(axis=1))
-    cols = np.flatnonzero(unexplored.any(axis=0))
+    rows, cols = (int(cell_rows[0]), int(cell_rows[-1])), (int(cell_cols.min()), int(cell_cols.max()))  # bounding box
     r0, c0 = min(rows[0], positions[:, 0].min()), min(cols[0], positions[:, 1].min())
     r1, c1 = max(rows[-1], positions[:, 0].max()), max(cols[-1], positions[:, 1].max())
     if cells * len(positions) <= DIRECT_PAIRS_PER_BOX_CELL * (r1 - r0 + 1) * (c1 - c0 + 1):
-        return _mean_distance_direct(unexplored, positions)
+        return _mean_distance_direct(unexplored.shape, cell_rows, cell_cols, positions, scratch)
     canvas = np.ones((r1 - r0 + 1, c1 - c0 + 1), dtype=bool)
     canvas[positions[:, 0] - r0, positions[:, 1] - c0] = False  # the transform measures to the zeros
     dist = ndimage.distance_transform_edt(canvas)
@@ -92,23 +101,61 @@ def mean_distance_to_nearest(unexplored: np.ndarray, positions: np.ndarray) -> f
     return float(inside[unexplored[box]].mean())
 
 
-def _mean_distance_direct(unexplored: np.ndarray, positions: np.ndarray) -> float:
-    """mean_distance_to_nearest by squared integer distances from every cell to every drone."""
-    cell_rows, cell_cols = np.nonzero(unexplored)  # row-major, as the transform's mask reads them
+class DistanceScratch:
+    """Arrays mean_distance_to_nearest reuses from call to call (a run's, on one grid).
+
+    A steady-state sample handles tens of thousands of cells: fresh arrays that big are pages the
+    allocator hands back to the system after each call and faults in again on the next, which
+    cost several times the arithmetic. Here every array is made once and then only rewritten."""
+
+    def __init__(self) -> None:
+        self._shape: tuple[int, ...] = ()
+        self._arrays: dict[str, np.ndarray] = {}
+
+    def array(self, name: str, size: int, dtype: npt.DTypeLike) -> np.ndarray:
+        """The first `size` entries of a kept array of `dtype`, grown when too short."""
+        kept = self._arrays.get(name)
+        if kept is None or len(kept) < size or kept.dtype != dtype:
+            kept = self._arrays[name] = np.empty(max(size, 1024), dtype=dtype)
+        return kept[:size]
+
+    def cells(self, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rows and columns of the True cells of a 2-D mask, row-major (kept arrays: use before the next call)."""
+        if mask.shape != self._shape:
+            self._shape = mask.shape
+            kind = np.int32 if max(mask.shape) < 2 ** 31 else np.int64
+            rows, cols = np.indices(mask.shape, dtype=kind)
+            self._arrays["row_of"], self._arrays["col_of"] = rows.ravel(), cols.ravel()
+        flat = mask.ravel()
+        count = int(np.count_nonzero(flat))
+        row_of, col_of = self._arrays["row_of"], self._arrays["col_of"]
+        cell_rows: np.ndarray = np.compress(flat, row_of, out=self.array("rows", count, row_of.dtype))
+        cell_cols: np.ndarray = np.compress(flat, col_of, out=self.array("cols", count, col_of.dtype))
+        return cell_rows, cell_cols
+
+
+def _mean_distance_direct(shape: tuple[int, ...], cell_rows: np.ndarray, cell_cols: np.ndarray,
+                          positions: np.ndarray, scratch: DistanceScratch | None = None) -> float:
+    """mean_distance_to_nearest by squared integer distances from every cell (row-major, as the
+    transform's mask reads them) to every drone."""
     # In place and in int32 where the squares fit (a third faster than int64 temporaries); the
     # integers, and so the float, are the same.
-    span = max(unexplored.shape) + int(np.abs(positions).max())
+    scratch = scratch or DistanceScratch()
+    span = max(shape) + int(np.abs(positions).max())
     kind = np.int32 if span < 2 ** 15 else np.int64
-    cell_rows, cell_cols = cell_rows.astype(kind), cell_cols.astype(kind)
-    nearest = None
-    for r, c in positions.tolist():
-        d = cell_rows - r
-        d *= d
-        across = cell_cols - c
+    count = len(cell_rows)
+    nearest, across = scratch.array("nearest", count, kind), scratch.array("across", count, kind)
+    distance = scratch.array("distance", count, kind)
+    for k, (r, c) in enumerate(positions.tolist()):
+        squares = nearest if k == 0 else distance
+        np.subtract(cell_rows, r, out=squares, casting="unsafe")  # |difference| < 2^15: exact in int32
+        squares *= squares
+        np.subtract(cell_cols, c, out=across, casting="unsafe")
         across *= across
-        d += across
-        nearest = d if nearest is None else np.minimum(nearest, d, out=nearest)
-    return float(np.sqrt(nearest.astype(np.float64)).mean())
+        squares += across
+        if k:
+            np.minimum(nearest, squares, out=nearest)
+    return float(np.sqrt(nearest, out=scratch.array("root", count, np.float64)).mean())
 
 
 def mdu_stride(num_targets: int) -> int:
@@ -128,12 +175,13 @@ class SteadyStateSampler:
     mdu: list[float] = field(default_factory=list)
     stride: int = 1
     window_steps: int = 0
+    scratch: DistanceScratch = field(default_factory=DistanceScratch, repr=False, compare=False)
 
     def observe(self, coverage: float, positions: np.ndarray, unexplored: np.ndarray) -> None:
         if STEADY_LOW <= coverage <= STEADY_HIGH:
             self.mud.append(mean_pairwise_distance(positions))
             if self.window_steps % self.stride == 0:
-                self.mdu.append(mean_distance_to_nearest(unexplored, positions))
+                self.mdu.append(mean_distance_to_nearest(unexplored, positions, self.scratch))
             self.window_steps += 1
 
 

@@ -53,7 +53,7 @@ from tqdm import tqdm
 from ..maps.gridmap import Cell
 from .metrics import SteadyStateSampler, compute_metrics, mdu_stride
 from .lanes import BLOCK, LaneSweep, obstacle_shares, sweepable
-from .pathfinding import FlightSearch, find_goal
+from .pathfinding import FlightSearch, SortedCells, find_goal
 from .world import ACTION_DELTAS, ACTION_OF_DELTA, ACTION_STEPS, HOVER, PAD, CoverageWorld
 
 DEADLOCK_STEPS = 3
@@ -112,7 +112,7 @@ class PlanRun:
     sweepers: tuple[bool, ...] = ()  # for each drone, whether it swept its zone in lanes
 
 
-def _action_towards(position: np.ndarray, cell: Cell) -> int:
+def _action_towards(position: np.ndarray | Cell, cell: Cell) -> int:
     """The action that moves from `position` to the neighbouring `cell`; HOVER if it is not one."""
     return ACTION_OF_DELTA.get((int(cell[0]) - int(position[0]), int(cell[1]) - int(position[1])), HOVER)
 
@@ -122,10 +122,11 @@ class Planner:
 
     def __init__(self, world: CoverageWorld, policy: Policy, seed: int = 0, progress: bool = False,
                  stall_limit: int | None = None, lanes: bool = False, patience: int = POLICY_PATIENCE,
-                 lane_spacing: int = BLOCK) -> None:
+                 lane_spacing: int = BLOCK, tours: list[list[Cell]] | None = None) -> None:
         self.world = world
         self.patience = patience
         self.lanes = lanes
+        self.tours = tours  # a whole fleet on open ground: each drone's block tour (grid/fleet_blocks.py)
         self.lane_spacing = lane_spacing  # cells between open-ground lanes (BLOCK: one footprint)
         # Lanes closer than a footprint are flown whole, past full coverage: that repeat is the side overlap.
         self.every_lane = lanes and lane_spacing < BLOCK
@@ -140,12 +141,12 @@ class Planner:
         drones = np.arange(world.num_drones)
         # The other drones in each drone's free region, in index order (regions never change).
         self._region_mates = [drones[(world.drone_region == world.drone_region[k]) & (drones != k)] for k in drones]
-        self._unexplored_cells: tuple[int, np.ndarray] | None = None  # (step, cells) cache
+        self._unexplored_cells: tuple[int, SortedCells] | None = None  # (step, cells) cache
         self.nav = [_Navigation() for _ in range(world.num_drones)]
         self.deadlocks_broken = 0
-        self._by_policy = np.zeros(world.num_drones, dtype=bool)
+        self._by_policy = [False] * world.num_drones
         self.sweeps: list[LaneSweep | None] = [None] * world.num_drones  # set per run
-        self._sweeping = np.zeros(world.num_drones, dtype=bool)  # the drones that flew their sweep this step
+        self._sweeping = [False] * world.num_drones  # the drones that flew their sweep this step
 
     def _plan_sweeps(self) -> None:
         """A lane sweep for each drone whose zone lies on open ground, or nearly (with `lanes`), else None."""
@@ -160,6 +161,9 @@ class Planner:
         for k, share in enumerate(shares):
             if not sweepable(share):
                 continue
+            if self.tours is not None and share == 0.0:
+                self.sweeps[k] = LaneSweep.along(self.tours[k], world.gmap.shape)
+                continue
             cells = np.argwhere(world.zone_of == k)
             # Around obstacles, legs and centres are checked against the free cells.
             free = None if share == 0.0 else self.free
@@ -167,11 +171,12 @@ class Planner:
                                             self.lane_spacing)
 
     # ----------------------------------------------------------- path-finding
-    def _unexplored_now(self) -> np.ndarray:
-        """(n, 2) every unexplored cell; scanned once per step however many drones ask."""
+    def _unexplored_now(self) -> SortedCells:
+        """Every unexplored cell, as numbered in the world's padded arrays and in self.search; scanned
+        once per step however many drones ask."""
         world = self.world
         if self._unexplored_cells is None or self._unexplored_cells[0] != world.t:
-            self._unexplored_cells = (world.t, world.unexplored_cells())
+            self._unexplored_cells = (world.t, SortedCells(world.unexplored_flat()))
         return self._unexplored_cells[1]
 
     def _plan_path(self, k: int) -> bool:
@@ -198,14 +203,15 @@ class Planner:
             backlog = world.region_zone_remaining[world.drone_region[k], mates] / CELLS_PER_MOVE
             seen_cells = self._unexplored_now()
         excluded: set[Cell] = set()
+        seen = world.seen_lookup(k)  # nothing changes the world while k plans
         for _ in range(MAX_GOAL_TRIES):
-            goal = find_goal(self.search, start, world.seen_flat(k), taken, excluded,
+            goal = find_goal(self.search, start, seen, taken, excluded,
                              rivals, backlog, seen_count=seen_count, seen_cells=seen_cells)
             if goal is None:
                 break
             # Around the other drones (this once): a search over the copy, numbered as the world is.
             search = self.search if free is self.free else FlightSearch(free, pad=PAD)
-            path = search.path(start, goal, world.seen_predicate(k)) or search.path(start, goal)
+            path = search.path(start, goal, seen) or search.path(start, goal)
             if path is not None:
                 nav.goal, nav.path = goal, path[1:]
                 return True
@@ -287,25 +293,30 @@ class Planner:
         """One action per drone, and how many drones the policy / path-finders / nobody decided."""
         world = self.world
         num = world.num_drones
+        # Per drone flags as Python lists: a handful of drones, read one at a time.
         # Nothing left in its region: parked for good, hovering; no policy, no search.
-        parked = world.region_done()
+        parked = world.region_done().tolist()
         if self.every_lane:  # a drone still on its lanes flies them, whatever is photographed already
-            parked &= np.array([sweep is None for sweep in self.sweeps])
-        sweeping = np.zeros(num, dtype=bool)
+            parked = [done and sweep is None for done, sweep in zip(parked, self.sweeps)]
+        positions: list[Cell] = [(r, c) for r, c in world.positions.tolist()]  # Python ints: a handful of drones
+        sweeping = [False] * num
         for k, sweep in enumerate(self.sweeps):
             if sweep is not None and not parked[k] and not self.nav[k].retreating:
-                cell = sweep.next_cell(tuple(int(v) for v in world.positions[k]), world.unexplored, self.search)
+                cell = sweep.next_cell(positions[k], world.unexplored, self.search)
                 if cell is None:
                     self.sweeps[k] = None  # swept: from now on it helps (or parks) as any drone done with its zone
                 else:
                     sweeping[k] = True
-        sees = world.sees_unexplored() & ~parked & ~sweeping
-        for k in np.flatnonzero(parked):
-            self.nav[k].clear()
-            self.nav[k].blocked_steps = 0
+        sees = world.sees_unexplored().tolist()
         for k in range(num):
             nav = self.nav[k]
-            if sees[k] and (nav.retreating or (nav.forced and nav.goal is not None and world.unexplored[nav.goal])):
+            if parked[k]:
+                nav.clear()
+                nav.blocked_steps = 0
+                sees[k] = False
+            elif sweeping[k]:
+                sees[k] = False
+            elif sees[k] and (nav.retreating or (nav.forced and nav.goal is not None and world.unexplored[nav.goal])):
                 sees[k] = False  # keeps to the path it is on
             elif sees[k] and nav.fruitless_steps >= self.patience:
                 nav.clear()
@@ -314,10 +325,10 @@ class Planner:
                 sees[k] = False
         policy_drones = [k for k in range(num) if sees[k]]
         scores = self.policy.action_scores(world, policy_drones).tolist() if policy_drones else []
-        actions = np.full(num, HOVER, dtype=np.int64)
+        actions = [HOVER] * num
         claimed: set[Cell] = set()
-        positions = [tuple(p) for p in world.positions.tolist()]  # Python ints: a handful of drones
         occupied = set(positions)
+        is_free = world.is_free
         row_of = {k: i for i, k in enumerate(policy_drones)}
         for k in range(num):
             if sees[k]:
@@ -330,13 +341,13 @@ class Planner:
                         break
                     dr, dc = ACTION_STEPS[action]
                     cell = (r + dr, c + dc)
-                    if world.is_free(cell) and cell not in occupied and cell not in claimed:
+                    if is_free(cell) and cell not in occupied and cell not in claimed:
                         actions[k] = action
                         claimed.add(cell)
                         break
             elif sweeping[k]:
                 cell = self.sweeps[k].leg[0]  # type: ignore[union-attr]
-                action = _action_towards(world.positions[k], cell)
+                action = _action_towards(positions[k], cell)
                 if cell in claimed:
                     action = HOVER
                 else:
@@ -354,10 +365,10 @@ class Planner:
                 actions[k] = action
         idle = sum(1 for k in range(num) if not sees[k] and not sweeping[k] and self.nav[k].goal is None
                    and not self.nav[k].retreating)
-        self._make_way(actions, claimed)
+        self._make_way(actions, claimed, positions)
         self._by_policy = sees
         self._sweeping = sweeping
-        return actions, len(policy_drones), num - len(policy_drones) - idle, idle
+        return np.array(actions, dtype=np.int64), len(policy_drones), num - len(policy_drones) - idle, idle
 
     def _lanes_left(self) -> bool:
         """With lanes closer than a footprint: some drone has lanes left to fly (within the step cap)."""
@@ -366,19 +377,20 @@ class Planner:
         positions = self.world.positions.tolist()
         return any(sweep is not None and not sweep.over_at(tuple(positions[k])) for k, sweep in enumerate(self.sweeps))
 
-    def _make_way(self, actions: np.ndarray, claimed: set[Cell]) -> None:
+    def _make_way(self, actions: list[int], claimed: set[Cell], positions: list[Cell]) -> None:
         """A parked drone whose cell another drone wants to enter steps to a free neighbour."""
         world = self.world
-        occupied = {tuple(p): k for k, p in enumerate(world.positions)}
+        occupied = {p: k for k, p in enumerate(positions)}
         for k in range(world.num_drones):
             if actions[k] == HOVER:
                 continue
-            wanted = tuple(world.positions[k] + ACTION_DELTAS[actions[k]])
-            j = occupied.get(wanted)
+            dr, dc = ACTION_STEPS[actions[k]]
+            j = occupied.get((positions[k][0] + dr, positions[k][1] + dc))
             if j is None or actions[j] != HOVER or self.nav[j].goal is not None or self.nav[j].retreating:
                 continue  # free, or a drone that moves or waits on its own path
-            for action in self.rng.permutation(4):
-                cell = tuple(world.positions[j] + ACTION_DELTAS[action])
+            for action in self.rng.permutation(4).tolist():
+                dr, dc = ACTION_STEPS[action]
+                cell = (positions[j][0] + dr, positions[j][1] + dc)
                 if world.is_free(cell) and cell not in occupied and cell not in claimed:
                     actions[j] = action
                     claimed.add(cell)
@@ -415,8 +427,8 @@ class Planner:
                 if self.nav[k].blocked_steps >= DEADLOCK_STEPS:
                     self._break_deadlock(k, actions)
             outcome = world.step(actions)
-            blocked, by_policy_now, new_cells, moved = (outcome.blocked.tolist(), self._by_policy.tolist(),
-                                                         outcome.new_cells.tolist(), outcome.moved.tolist())
+            blocked, new_cells, moved = outcome.blocked.tolist(), outcome.new_cells.tolist(), outcome.moved.tolist()
+            by_policy_now = self._by_policy
             positions = world.positions.tolist()
             for k in range(num):
                 nav = self.nav[k]
@@ -425,14 +437,14 @@ class Planner:
                     nav.fruitless_steps = 0 if new_cells[k] else nav.fruitless_steps + 1
                 if moved[k] and nav.path and nav.path[0] == tuple(positions[k]):
                     nav.path.pop(0)
-            hover_steps += int((~outcome.moved).sum())
+            hover_steps += num - sum(moved)
             path_log.append(world.positions.copy())
             cells_log.append(outcome.new_cells)
             decision_log.append((by_policy, by_finder, idle))
             sampler.observe(world.coverage, world.positions, world.unexplored)
-            bar.update(int(outcome.new_cells.sum()))
+            bar.update(sum(new_cells))
             # A drone flying its overlapping lanes makes progress though it photographs nothing new.
-            progressed = outcome.new_cells.any() or (self.every_lane and bool((outcome.moved & self._sweeping).any()))
+            progressed = any(new_cells) or (self.every_lane and any(m and s for m, s in zip(moved, self._sweeping)))
             stalled_for = 0 if progressed else stalled_for + 1
             if outcome.truncated:
                 failure = f"step cap of {world.step_cap} steps reached at {100 * world.coverage:.1f} % coverage"

@@ -22,6 +22,7 @@ from scipy import ndimage
 from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 
 from ..maps.gridmap import Cell, GridMap, MapError
+from .pathfinding import SeenLookup
 
 # Actions in the order the network's outputs use: Up, Right, Down, Left.
 UP, RIGHT, DOWN, LEFT = 0, 1, 2, 3
@@ -112,6 +113,7 @@ class CoverageWorld:
         if zone is None:
             raise ValueError("a zone map is required for more than one drone")
         self.zone_of = np.where(self.reachable, zone, -1).astype(np.int64)
+        self._top_zone = max(int(self.zone_of.max(initial=0)), self.num_drones)
         free_cells = int(gmap.free.sum())
         self.step_cap = step_cap if step_cap is not None else max(2000, 4 * free_cells)
 
@@ -131,7 +133,11 @@ class CoverageWorld:
         # Windows read as flat takes from the padded arrays: about twice as fast as indexing by
         # row and column arrays, on the few hundred cells of a step.
         self._pad_width = cols + 2 * PAD
+        self._every_drone = np.arange(self.num_drones)
+        self._obstacle_view = self._pad_obstacle.ravel().data  # is_free's reads: a memoryview is the fastest one at a time
         self._window_offsets: dict[int, np.ndarray] = {}  # radius -> flat offsets from the centre (_view_cells)
+        span = np.arange(-FOOTPRINT_RADIUS, FOOTPRINT_RADIUS + 1)
+        self._footprint_offsets = (span[:, None] * self._pad_width + span[None, :]).ravel()
         self._scratch = np.zeros(self._pad_obstacle.size, dtype=np.int32)  # _explore_footprints' overlap check
         self.reset()
 
@@ -141,6 +147,7 @@ class CoverageWorld:
         self.t = 0
         self.positions = np.array(self.starts, dtype=np.int64).reshape(-1, 2)
         self._windows: dict[int, np.ndarray] = {}  # radius -> every drone's window (_view_cells), until a move
+        self._centre_cells: np.ndarray | None = None  # _centres of every drone, until a move
         self._pad_unexplored = np.zeros((rows + 2 * PAD, cols + 2 * PAD), dtype=bool)
         self._pad_unexplored[PAD:-PAD, PAD:-PAD] = self.reachable
         # The zone of each unexplored cell, EXPLORED elsewhere: "does drone k see this cell"
@@ -153,15 +160,24 @@ class CoverageWorld:
             self._pad_slot[PAD:-PAD, PAD:-PAD][self.reachable], minlength=self.num_regions * (self.num_drones + 1)
         ).astype(np.int64).reshape(self.num_regions, self.num_drones + 1)
         self.last_actions = np.full((self.num_drones, 2), HOVER, dtype=np.int64)  # [previous, one before]
+        self._last_view = self.last_actions.reshape(-1).data  # step's writes, one drone at a time
         # Whether each drone has flown over each cell, padded like the other arrays: the expert
         # reads it around every asked drone every step, as one gather with no bounds to check.
         self._pad_flown = np.zeros((self.num_drones, rows + 2 * PAD, cols + 2 * PAD), dtype=bool)
         self.truncated = False
+        # The obstacles with every drone on them: a view's blocked cells are one gather of it.
+        self._pad_occupied = self._pad_obstacle.copy()
+        self._pad_occupied[self.positions[:, 0] + PAD, self.positions[:, 1] + PAD] = True
+        self._occupied_view = self._pad_occupied.ravel().data  # _resolve_moves writes one cell at a time
         initial = np.zeros(self.num_drones, dtype=np.int64)
         for k in range(self.num_drones):
-            self._mark_visits(np.array([k]))
-            initial[k] = self._explore_footprints(np.array([k]))[0]
+            drone = np.array([k])
+            centre = self._centres(drone)
+            self._mark_visits(drone, centre)
+            initial[k] = self._explore_footprints(drone, centre)[0]
         self.initial_new_cells = initial
+        self._seen_views: np.ndarray | None = None  # sees_unexplored's (K, 361) gather, until the next step
+        self._unexplored_flat: tuple[int, np.ndarray] | None = None  # (step, unexplored_flat's answer)
 
     @property
     def unexplored(self) -> np.ndarray:
@@ -194,9 +210,10 @@ class CoverageWorld:
 
     def sees_unexplored(self) -> np.ndarray:
         """(K,) bool: whether each drone's 19 x 19 view holds a cell it sees as unexplored."""
-        drones = np.arange(self.num_drones)
-        gathered = self._pad_open_zone.reshape(-1).take(self._view_cells(drones, VIEW_RADIUS))
-        return self._seen_in(drones, gathered).any(axis=1)
+        # Kept until the next step: the policy's views of this step are rows of it.
+        gathered = self._pad_open_zone.reshape(-1).take(self._view_cells(None, VIEW_RADIUS))
+        self._seen_views = self._seen_in(self._every_drone, gathered)
+        return self._seen_views.any(axis=1)
 
     def seen_unexplored_at(self, drones: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """Whether each of `drones` sees padded cells (rows, cols) as unexplored; rows/cols are (n, ...)."""
@@ -213,9 +230,9 @@ class CoverageWorld:
             seen |= (open_zone != EXPLORED) & zone_done.reshape(-1, *extra)
         return seen
 
-    def _view_cells(self, drones: np.ndarray, radius: int) -> np.ndarray:
+    def _view_cells(self, drones: np.ndarray | None, radius: int) -> np.ndarray:
         """(n, (2r+1)^2) flat numbers, in the padded arrays, of the window of radius r around each
-        drone, row-major: its view, or its footprint."""
+        drone (every drone with None), row-major: its view, or its footprint."""
         # Made for every drone once per radius between moves: a step asks for the views three
         # times (who sees something, the policy's views, where it has flown).
         windows = self._windows.get(radius)
@@ -224,23 +241,21 @@ class CoverageWorld:
             if offsets is None:
                 span = np.arange(-radius, radius + 1)
                 offsets = self._window_offsets[radius] = (span[:, None] * self._pad_width + span[None, :]).ravel()
-            centres = (self.positions[:, 0] + PAD) * self._pad_width + self.positions[:, 1] + PAD
-            windows = self._windows[radius] = centres[:, None] + offsets[None, :]
-        return windows[drones]
+            windows = self._windows[radius] = self._centres(None)[:, None] + offsets[None, :]
+        return windows if drones is None else windows[drones]
 
     def views(self, drones: np.ndarray | list[int], radius: int = VIEW_RADIUS) -> tuple[np.ndarray, np.ndarray]:
         """Batched view_unexplored and view_blocked: two (n, 2r+1, 2r+1) bool arrays, one gather each."""
         drones = np.asarray(drones, dtype=np.int64).reshape(-1)
         side = 2 * radius + 1
         cells = self._view_cells(drones, radius)
-        unexplored = self._seen_in(drones, self._pad_open_zone.reshape(-1).take(cells)).reshape(-1, side, side)
-        blocked = self._pad_obstacle.reshape(-1).take(cells).reshape(-1, side, side)
-        # Other drones are blocked too: every (drone i, other j) pair inside i's view.
-        offsets = self.positions[None, :, :] - self.positions[drones][:, None, :]  # (n, K, 2)
-        in_view = (np.abs(offsets) <= radius).all(axis=2)
-        in_view[np.arange(len(drones)), drones] = False
-        i, j = np.nonzero(in_view)
-        blocked[i, offsets[i, j, 0] + radius, offsets[i, j, 1] + radius] = True
+        if radius == VIEW_RADIUS and self._seen_views is not None:  # sees_unexplored gathered them this step
+            unexplored = self._seen_views[drones].reshape(-1, side, side)
+        else:
+            unexplored = self._seen_in(drones, self._pad_open_zone.reshape(-1).take(cells)).reshape(-1, side, side)
+        # Other drones are blocked too; the drone itself stands on a free cell, its view's centre.
+        blocked = self._pad_occupied.reshape(-1).take(cells).reshape(-1, side, side)
+        blocked[:, radius, radius] = False
         return unexplored, blocked
 
     def flown_views(self, drones: np.ndarray, radius: int = VIEW_RADIUS) -> np.ndarray:
@@ -288,6 +303,31 @@ class CoverageWorld:
             return lambda flat: open_zone[flat] != EXPLORED
         return lambda flat: open_zone[flat] == k
 
+    def seen_lookup(self, k: int) -> SeenLookup:
+        """seen_flat and seen_predicate in one, for the path-finders to read without a call per cell:
+        the zone array (padded, flat) and, per value, whether drone k sees a cell holding it, as of now."""
+        flags = [False] * (self._top_zone + 3)  # zones 0..top, then EXPLORED (-2) and -1 from the end
+        if self.zone_done(k):
+            flags = [True] * len(flags)
+            flags[EXPLORED] = False
+        else:
+            flags[k] = True
+        return SeenLookup(self._pad_open_zone.reshape(-1), flags)
+
+    def unexplored_flat(self) -> np.ndarray:
+        """Every unexplored cell as a flat number in the padded arrays (a FlightSearch with pad=PAD), ascending."""
+        # Cells are only ever photographed, never un-photographed: the last answer, filtered, is this
+        # one, and far cheaper than a scan of the whole grid once most of it is photographed.
+        kept = self._unexplored_flat
+        if kept is not None and kept[0] == self.t:
+            return kept[1]
+        if kept is None:
+            cells = np.flatnonzero(self._pad_unexplored)
+        else:
+            cells = kept[1][self._pad_unexplored.reshape(-1).take(kept[1])]
+        self._unexplored_flat = (self.t, cells)
+        return cells
+
     def unexplored_cells(self) -> np.ndarray:
         """(n, 2) every unexplored cell, row-major (a flat scan of the contiguous padded array)."""
         flat = np.flatnonzero(self._pad_unexplored)
@@ -296,7 +336,7 @@ class CoverageWorld:
 
     def is_free(self, cell: Cell) -> bool:
         r, c = cell
-        return not self._pad_obstacle[r + PAD, c + PAD]
+        return not self._obstacle_view[(r + PAD) * self._pad_width + c + PAD]
 
     # ------------------------------------------------------------------- step
     def step(self, actions: np.ndarray | list[int]) -> StepOutcome:
@@ -310,36 +350,43 @@ class CoverageWorld:
         """
         if self.truncated:
             raise RuntimeError("step() after the step cap; call reset()")
-        actions = np.asarray(actions, dtype=np.int64).reshape(self.num_drones)
-        moved = self._resolve_moves(actions)
+        listed = np.asarray(actions, dtype=np.int64).reshape(self.num_drones).tolist()
+        self._seen_views = None
+        movers = self._resolve_moves(listed)
         self.t += 1
+        moved = [False] * self.num_drones
         new_cells = np.zeros(self.num_drones, dtype=np.int64)
-        movers = np.flatnonzero(moved)
-        if movers.size:
-            self.last_actions[movers, 1] = self.last_actions[movers, 0]
-            self.last_actions[movers, 0] = actions[movers]
-            self._mark_visits(movers)
-            new_cells[movers] = self._explore_footprints(movers)
+        if movers:
+            last = self._last_view  # per drone [previous, one before], written in place
+            for k in movers:
+                moved[k] = True
+                last[2 * k + 1] = last[2 * k]
+                last[2 * k] = listed[k]
+            drones = np.array(movers, dtype=np.int64)
+            centres = self._centres(drones)
+            self._mark_visits(drones, centres)
+            new_cells[drones] = self._explore_footprints(drones, centres)
         if self.t >= self.step_cap and not self.done:
             self.truncated = True
-        return StepOutcome(moved=moved, blocked=(actions != HOVER) & ~moved, new_cells=new_cells,
-                           done=self.done, truncated=self.truncated)
+        return StepOutcome(moved=np.array(moved), new_cells=new_cells, done=self.done, truncated=self.truncated,
+                           blocked=np.array([a != HOVER and not m for a, m in zip(listed, moved)], dtype=bool))
 
-    def _resolve_moves(self, actions: np.ndarray) -> np.ndarray:
-        """Move the drones whose target cell is free (see `step`); (K,) bool, which moved.
+    def _resolve_moves(self, actions: list[int]) -> list[int]:
+        """Move the drones whose target cell is free (see `step`); the drones that moved, in index order.
 
         Plain Python on tuples: a handful of drones, where numpy's per-call cost would dominate."""
-        positions = [tuple(p) for p in self.positions.tolist()]
+        before = [tuple(p) for p in self.positions.tolist()]
+        positions = list(before)
         occupied = {cell: k for k, cell in enumerate(positions)}
-        obstacle = self._pad_obstacle
+        is_free = self.is_free
         targets: dict[int, Cell] = {}
-        for k, action in enumerate(actions.tolist()):
+        for k, action in enumerate(actions):
             if action != HOVER:
                 dr, dc = ACTION_STEPS[action]
                 cell = (positions[k][0] + dr, positions[k][1] + dc)
-                if not obstacle[cell[0] + PAD, cell[1] + PAD]:
+                if is_free(cell):
                     targets[k] = cell
-        moved = np.zeros(self.num_drones, dtype=bool)
+        movers: list[int] = []
         pending = list(targets)  # index order: two drones asking for one cell, the lower index gets it
         progress = True
         while pending and progress:
@@ -351,23 +398,37 @@ class CoverageWorld:
                 del occupied[positions[k]]
                 occupied[cell] = k
                 positions[k] = cell
-                moved[k] = True
+                movers.append(k)
                 pending.remove(k)
                 progress = True
-        if targets:
+        if movers:
+            movers.sort()
+            occupancy, width = self._occupied_view, self._pad_width
+            for k in movers:
+                occupancy[(before[k][0] + PAD) * width + before[k][1] + PAD] = False
+            for k in movers:
+                occupancy[(positions[k][0] + PAD) * width + positions[k][1] + PAD] = True
             self.positions[:] = positions
             self._windows.clear()
-        return moved
+            self._centre_cells = np.array([(r + PAD) * width + c + PAD for r, c in positions], dtype=np.int64)
+        return movers
 
-    def _mark_visits(self, drones: np.ndarray) -> None:
-        self._pad_flown[drones, self.positions[drones, 0] + PAD, self.positions[drones, 1] + PAD] = True
+    def _centres(self, drones: np.ndarray | None) -> np.ndarray:
+        """Flat numbers, in the padded arrays, of the cells `drones` (every drone with None) stand on."""
+        if self._centre_cells is None:  # kept until a drone moves
+            self._centre_cells = (self.positions[:, 0] + PAD) * self._pad_width + self.positions[:, 1] + PAD
+        return self._centre_cells if drones is None else self._centre_cells[drones]
 
-    def _explore_footprints(self, drones: np.ndarray) -> np.ndarray:
-        """Photograph under each of `drones` (in index order: a cell two footprints share counts
-        for the first); the cells each newly explored. One gather for all of them."""
-        under = self._view_cells(drones, FOOTPRINT_RADIUS)  # (n, 81)
+    def _mark_visits(self, drones: np.ndarray, centres: np.ndarray) -> None:
+        self._pad_flown.reshape(-1)[drones * self._pad_obstacle.size + centres] = True
+
+    def _explore_footprints(self, drones: np.ndarray, centres: np.ndarray) -> np.ndarray:
+        """Photograph under each of `drones` (standing on padded flat numbers `centres`, in index
+        order: a cell two footprints share counts for the first); the cells each newly explored.
+        One gather for all of them."""
+        under = centres[:, None] + self._footprint_offsets[None, :]  # (n, 81)
         unexplored = self._pad_unexplored.reshape(-1)  # views: writes below mark the world
-        hit = unexplored[under]
+        hit = unexplored.take(under)
         counts = hit.sum(axis=1)
         cells = under[hit]  # drone by drone, in index order
         if not cells.size:

@@ -65,6 +65,7 @@ class Zones:
     iterations: int
     method: str
     balanced: bool = False
+    tours: list[list[tuple[int, int]]] | None = None  # a whole fleet on open ground: each drone's block tour
 
     def sizes(self) -> np.ndarray:
         return np.bincount(self.zone[self.zone >= 0], minlength=len(self.centroids))

@@ -15,7 +15,8 @@ import numpy as np
 from missionplan.base.naming import Named
 
 from ..grid.expert import ExpertPolicy
-from ..grid.lanes import BLOCK, fleet_zones, open_zones
+from ..grid.fleet_blocks import fleet_blocks
+from ..grid.lanes import BLOCK, fleet_zones, longest_snake, open_zones
 from ..grid.planner import POLICY_PATIENCE, Planner, Policy
 from ..grid.planresult import PlanResult
 from ..grid.world import CoverageWorld, check_starts, reachable_targets
@@ -60,7 +61,8 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
     """Plan full coverage of `gmap` for `uavs` drones; `policy` is a name or a ready Policy; `zone_shares`:
     the fraction of the targets each balanced zone gets (default equal); `lanes`: a drone whose zone
     lies on open ground sweeps it in footprint-wide lanes (grid.lanes) instead of exploring it, and
-    when every zone does (and no shares are asked), the zones are redrawn block by block for it;
+    when every zone does (and no shares are asked), the map's blocks are shared out and toured
+    (grid.fleet_blocks; with lanes closer than a footprint, zones redrawn block by block for snakes);
     `patience`: fruitless policy steps before the path-finder takes a drone over (grid.planner);
     `lane_spacing`: cells between those lanes (BLOCK, one footprint, unless a side overlap asks closer)."""
     if zone_method not in ZONE_METHODS:
@@ -73,12 +75,21 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
     reachable = reachable_targets(gmap, starts)
     zones = split_zones(reachable, gmap.free, starts, zone_method, seed, balance=balance_zones, shares=zone_shares)
     if lanes and zone_shares is None and all(open_zones(gmap.obstacle, zones.zone, starts)):
-        # The whole fleet sweeps: zones redrawn block by block and balanced on the longest snake.
-        redrawn = fleet_zones(zones.zone, reachable, starts)
-        if all(open_zones(gmap.obstacle, redrawn, starts)):
-            zones = replace(zones, zone=redrawn)
+        if lane_spacing == BLOCK:
+            # The map's blocks shared out and toured, or (where that is shorter: a plain field's rectangles)
+            # redrawn and flown in snakes.
+            fleet = fleet_blocks(zones.zone, reachable, starts, zones.centroids, seed)
+            redrawn = fleet_zones(zones.zone, reachable, starts)
+            if longest_snake(redrawn, starts) < max(fleet.moves) and all(open_zones(gmap.obstacle, redrawn, starts)):
+                zones = replace(zones, zone=redrawn)
+            elif all(open_zones(gmap.obstacle, fleet.zone, starts)):
+                zones = replace(zones, zone=fleet.zone, tours=fleet.tours)
+        else:  # lanes closer than a footprint are flown whole, in snakes: zones balanced on the longest snake
+            redrawn = fleet_zones(zones.zone, reachable, starts)
+            if all(open_zones(gmap.obstacle, redrawn, starts)):
+                zones = replace(zones, zone=redrawn)
     zone_seconds = time.perf_counter() - began
     world = CoverageWorld(gmap, starts, zones.zone)
     run = Planner(world, chosen, seed=seed, progress=progress, lanes=lanes, patience=patience,
-                  lane_spacing=lane_spacing).run()
+                  lane_spacing=lane_spacing, tours=zones.tours).run()
     return PlanResult(gmap, starts, policy, zones, world, run, zone_seconds)
