@@ -57,14 +57,16 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
              zone_method: str = DEFAULT_ZONE_METHOD, seed: int = 0, starts: list[Cell] | None = None,
              progress: bool = False, balance_zones: bool = True, weights: str | Path | None = None,
              zone_shares: np.ndarray | None = None, lanes: bool = True,
-             patience: int = POLICY_PATIENCE, lane_spacing: int = BLOCK) -> PlanResult:
+             patience: int = POLICY_PATIENCE, lane_spacing: int = BLOCK, fleet_tours: bool = False) -> PlanResult:
     """Plan full coverage of `gmap` for `uavs` drones; `policy` is a name or a ready Policy; `zone_shares`:
     the fraction of the targets each balanced zone gets (default equal); `lanes`: a drone whose zone
     lies on open ground sweeps it in footprint-wide lanes (grid.lanes) instead of exploring it, and
     when every zone does (and no shares are asked), the map's blocks are shared out and toured
     (grid.fleet_blocks; with lanes closer than a footprint, zones redrawn block by block for snakes);
     `patience`: fruitless policy steps before the path-finder takes a drone over (grid.planner);
-    `lane_spacing`: cells between those lanes (BLOCK, one footprint, unless a side overlap asks closer)."""
+    `lane_spacing`: cells between those lanes (BLOCK, one footprint, unless a side overlap asks closer);
+    `fleet_tours`: a whole fleet on open ground flies block tours (grid.fleet_blocks) instead of snakes; off by
+    default until the separation promise holds for them on PX4 (docs/planner.md)."""
     if zone_method not in ZONE_METHODS:
         raise PlanRequestError(f"unknown zone method {zone_method!r} (choose {', '.join(ZONE_METHODS)})")
     chosen = make_policy(policy, weights) if isinstance(policy, str) else policy
@@ -75,7 +77,7 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
     reachable = reachable_targets(gmap, starts)
     zones = split_zones(reachable, gmap.free, starts, zone_method, seed, balance=balance_zones, shares=zone_shares)
     if lanes and zone_shares is None and all(open_zones(gmap.obstacle, zones.zone, starts)):
-        if lane_spacing == BLOCK:
+        if lane_spacing == BLOCK and fleet_tours:
             # The map's blocks shared out and toured, or (where that is shorter: a plain field's rectangles)
             # redrawn and flown in snakes.
             fleet = fleet_blocks(zones.zone, reachable, starts, zones.centroids, seed)
@@ -84,7 +86,7 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
                 zones = replace(zones, zone=redrawn)
             elif all(open_zones(gmap.obstacle, fleet.zone, starts)):
                 zones = replace(zones, zone=fleet.zone, tours=fleet.tours)
-        else:  # lanes closer than a footprint are flown whole, in snakes: zones balanced on the longest snake
+        else:  # zones balanced on the longest snake, flown in snakes (lanes closer than a footprint always are)
             redrawn = fleet_zones(zones.zone, reachable, starts)
             if all(open_zones(gmap.obstacle, redrawn, starts)):
                 zones = replace(zones, zone=redrawn)
