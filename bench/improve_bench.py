@@ -23,12 +23,10 @@ from collections import Counter
 from pathlib import Path
 
 from missionplan.geo.camera import CELLS_PER_FOOTPRINT
-from missionplan.maps.catalog import load_shipped
 from missionplan.maps.gridmap import read_map_text
 from missionplan.maps.movingai import parse_movingai
-from missionplan.mission.georef import shipped_frame
 from missionplan.planning.field_plan import plan_field
-from missionplan.planning.plan_folder import grid_ground
+from missionplan.planning.plan_folder import shipped_ground
 
 import doctable  # bench/doctable.py: --write-doc
 from machine import machine_line
@@ -48,7 +46,7 @@ def best_by(candidates, first: float, at_s: float) -> float:
 
 def row(name: str, uavs: int, budget: float, checkpoints: list[float], shipped: bool) -> str:
     if shipped:
-        ground = grid_ground(load_shipped(name), uavs, shipped_frame(load_shipped(name)))
+        ground = shipped_ground(name, uavs)
         gmap, frame, settings, safety = ground.gmap, ground.frame, ground.settings, ground.safety
     else:
         gmap = parse_movingai(read_map_text(name), Path(name).name, launches=uavs)

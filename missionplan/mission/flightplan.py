@@ -76,6 +76,10 @@ class FlightPlans:
         self.timed = {rename[key]: track for key, track in self.timed.items()}
         self.sortie_tracks = [{rename[key]: track for key, track in tracks.items()} for tracks in self.sortie_tracks]
 
+    def drone_flight_s(self) -> np.ndarray:
+        """(drones,) each drone's flight time, all its sorties together."""
+        return np.array([sum(m.flight_s for m in missions) for missions in self.sorties], dtype=float)
+
     def separation(self) -> SeparationPromise:
         """report.json's `separation`: the closest approach of two drones if all fly as planned; with
         safety settings, the minimum it guarantees and how."""

@@ -121,7 +121,7 @@ def _rebalanced(best: FieldPlan, attempt: Callable[[np.ndarray | None], FieldPla
         return best
     current, shares = best, None
     for _ in range(REBALANCE_ROUNDS):
-        times = np.array([sum(m.flight_s for m in d) for d in current.plans.sorties])
+        times = current.plans.drone_flight_s()
         sizes = current.result.zones.sizes()
         # Each drone's cells in proportion to its measured rate (cells per second of flight).
         shares = sortie_shares(sizes, times, np.array([len(d) for d in current.plans.sorties]))
@@ -199,4 +199,4 @@ def _fill(done: FieldPlan, gmap: GridMap, plan_gmap: GridMap, frame: GridFrame, 
 
 def _busiest(field: FieldPlan) -> float:
     """The longest total flight time of any drone, all its sorties together."""
-    return max(sum(m.flight_s for m in d) for d in field.plans.sorties)
+    return float(field.plans.drone_flight_s().max())

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Callable
 
 import numpy as np
@@ -51,6 +52,11 @@ class Trial:
     plan: object  # field_plan.FieldPlan
     shares: np.ndarray | None  # each zone's share of the targets the plan was made with (None: the planner's own split)
     seed: int
+
+    @cached_property
+    def spans(self) -> np.ndarray:
+        """drone_spans of the plan, read once: every proposal from this plan reads them."""
+        return drone_spans(self.plan)
 
     def share_vector(self) -> np.ndarray:
         """The shares, the planner's own split read from its zones' sizes."""
@@ -76,7 +82,7 @@ def objective_name(plan: object) -> str:
 def drone_spans(plan: object) -> np.ndarray:
     """Each drone's share of the objective: its flight time over all its sorties, or its grid moves."""
     if getattr(plan, "plans", None) is not None:
-        return np.array([sum(m.flight_s for m in d) for d in plan.plans.sorties], dtype=float)  # type: ignore[attr-defined]
+        return plan.plans.drone_flight_s()  # type: ignore[attr-defined]
     return np.array([move_count(np.asarray(path)) for path in plan.result.run.paths], dtype=float)  # type: ignore[attr-defined]
 
 
@@ -116,7 +122,7 @@ class ZoneSearch:
         """(move, shares, planner seed) of the next candidate, from the best plan so far."""
         move = self.moves[self.round % len(self.moves)]
         self.round += 1
-        spans = drone_spans(best.plan)
+        spans = best.spans
         shares = best.share_vector()
         if move == "balance" and spans.min() > 0:
             scaled = shares * (spans.mean() / spans) ** self.balance_step
@@ -162,14 +168,14 @@ def improve(first: object, first_shares: np.ndarray | None, attempt: Callable[[n
     run = first.result.run  # type: ignore[attr-defined]
     search = ZoneSearch(seed, reseed_only=first_shares is None and run.lane_drones == len(run.paths))
     candidates: list[Candidate] = []
-    tried = {(None if best.shares is None else np.round(best.shares, 4).tobytes(), seed)}
+    tried = {_proposal_key(best.shares, seed)}
     last_round_s = 0.0
     while rounds is None or len(candidates) < rounds:
         started = clock()
         if started - began + last_round_s > budget_s:
             break
         move, new_shares, new_seed = search.propose(best)
-        key = (None if new_shares is None else np.round(new_shares, 4).tobytes(), new_seed)
+        key = _proposal_key(new_shares, new_seed)
         if key in tried:  # the same zones and seed plan the same plan: refused without planning it
             search.judged(move, False)
             continue
@@ -187,4 +193,9 @@ def improve(first: object, first_shares: np.ndarray | None, attempt: Callable[[n
     record = PlanImprovement(budget_s, rounds, objective, round(first_score[0], 1), round(best_score[0], 1),
                              round(clock() - began, 2), tuple(candidates))
     return best.plan, record
+
+
+def _proposal_key(shares: np.ndarray | None, seed: int) -> tuple[bytes | None, int]:
+    """What makes two proposals the same plan: the shares to four decimals, and the seed."""
+    return (None if shares is None else np.round(shares, 4).tobytes(), seed)
 
