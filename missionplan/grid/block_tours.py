@@ -28,7 +28,6 @@ from .lanes import snake_order
 
 WALKS = 24  # Warnsdorff walks per tour: their best is within a block or two of 64 walks' on the MovingAI zones
 OR_OPT_RUN = 3  # the longest run of blocks Or-opt moves
-STRAIGHT_ON = {(-1, 0), (1, 0), (0, -1), (0, 1)}
 
 
 def path_moves(path: np.ndarray) -> int:
@@ -36,12 +35,18 @@ def path_moves(path: np.ndarray) -> int:
     return int(np.abs(np.diff(path, axis=0)).sum()) if len(path) > 1 else 0
 
 
-def _warnsdorff(first: int, blocks: np.ndarray, centres: np.ndarray, rng: np.random.Generator | None) -> np.ndarray:
-    """One walk through every block from block `first` (indices into blocks), as the module docstring says."""
-    count = len(blocks)
+def blocks_beside(blocks: np.ndarray) -> list[list[int]]:
+    """For each of the (n, 2) block numbers, the indices of the blocks among them that share a side with it."""
     index = {(int(r), int(c)): i for i, (r, c) in enumerate(blocks)}
-    beside = [[index[n] for n in ((r - 1, c), (r + 1, c), (r, c - 1), (r, c + 1)) if n in index]
-              for r, c in blocks.tolist()]
+    return [[index[n] for n in ((r - 1, c), (r + 1, c), (r, c - 1), (r, c + 1)) if n in index]
+            for r, c in blocks.tolist()]
+
+
+def _warnsdorff(first: int, blocks: np.ndarray, centres: np.ndarray, beside: list[list[int]],
+                rng: np.random.Generator | None) -> np.ndarray:
+    """One walk through every block from block `first` (indices into blocks, `beside` their neighbours), as the
+    module docstring says."""
+    count = len(blocks)
     left = np.ones(count, dtype=bool)
     free_beside = np.array([len(b) for b in beside])
     order = [first]
@@ -165,8 +170,9 @@ def block_tour(start: Cell, centres: np.ndarray, blocks: np.ndarray, seed: int =
     candidates = [snake_order(start, centres, blocks)[1]]
     first = int(np.argmin(np.abs(centres - launch).sum(axis=1)))
     rng = np.random.default_rng(seed)
+    beside = blocks_beside(blocks)  # the same for every walk
     for walk in range(walks):
-        candidates.append(_warnsdorff(first, blocks, centres, rng if walk else None))
+        candidates.append(_warnsdorff(first, blocks, centres, beside, rng if walk else None))
     lengths = [path_moves(np.vstack([launch, centres[order]])) for order in candidates]
     best = candidates[int(np.argmin(lengths))]
     polished = polish(np.vstack([launch, centres[best]]))

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..maps.gridmap import Cell
-from .block_tours import block_tour, insertion_cost, path_moves, polish, removal_gain
+from .block_tours import block_tour, blocks_beside, insertion_cost, path_moves, polish, removal_gain
 from .lanes import BLOCK
 from .world import FOOTPRINT_RADIUS
 from .zones import balanced_assignment
@@ -53,29 +53,33 @@ class FleetBlocks:
 
 
 class _Tours:
-    """Each drone's tour as a path of cells (its launch first) and of block numbers."""
+    """Each drone's tour as a path of cells (its launch first, kept: the local search reads the tours far more often
+    than it changes them) and of block numbers."""
 
     def __init__(self, starts: list[Cell], centres: np.ndarray, owner: np.ndarray, seed: int) -> None:
         self.starts, self.centres, self.owner, self.seed = starts, centres, owner, seed
+        self.number = {(int(r), int(c)): b for b, (r, c) in enumerate(centres)}  # a centre's block
         self.order: list[np.ndarray] = []
         for k, start in enumerate(starts):
             mine = np.flatnonzero(owner == k)
             self.order.append(mine[self.built(k, mine, seed)[1]])
-        self.cost = [self.path_cost(k) for k in range(len(starts))]
+        self.paths = [self._path_of(k) for k in range(len(starts))]
+        self.cost = [path_moves(path) for path in self.paths]
 
     def built(self, k: int, mine: np.ndarray, seed: int) -> tuple[int, np.ndarray]:
         return block_tour(self.starts[k], self.centres[mine], self.centres[mine] // BLOCK, seed)
 
-    def path(self, k: int) -> np.ndarray:
+    def _path_of(self, k: int) -> np.ndarray:
         return np.vstack([np.asarray(self.starts[k], dtype=np.int64)[None, :], self.centres[self.order[k]]])
 
-    def path_cost(self, k: int) -> int:
-        return path_moves(self.path(k))
+    def path(self, k: int) -> np.ndarray:
+        """Drone k's tour as cells, its launch first (read only)."""
+        return self.paths[k]
 
     def set_path(self, k: int, path: np.ndarray) -> None:
         """Drone k's tour from a path of its launch and block centres."""
-        number = {(int(r), int(c)): b for b, (r, c) in enumerate(self.centres)}
-        self.order[k] = np.array([number[(int(r), int(c))] for r, c in path[1:]], dtype=np.int64)
+        self.order[k] = np.array([self.number[(int(r), int(c))] for r, c in path[1:]], dtype=np.int64)
+        self.paths[k] = path
         self.cost[k] = path_moves(path)
 
     def rebuild(self, k: int, seed: int) -> bool:
@@ -85,6 +89,7 @@ class _Tours:
         if moves >= self.cost[k]:
             return False
         self.order[k], self.cost[k] = mine[order], moves
+        self.paths[k] = self._path_of(k)
         return True
 
 
@@ -158,9 +163,7 @@ def fleet_blocks(zone: np.ndarray, targets: np.ndarray, starts: list[Cell], cent
     blocks, inverse = np.unique(cells // BLOCK, axis=0, return_inverse=True)
     inverse = inverse.reshape(-1)
     centres = np.minimum(blocks * BLOCK + FOOTPRINT_RADIUS, np.array(shape) - 1).astype(np.int64)
-    number = {(int(r), int(c)): i for i, (r, c) in enumerate(blocks)}
-    beside = [[number[n] for n in ((r - 1, c), (r + 1, c), (r, c - 1), (r, c + 1)) if n in number]
-              for r, c in blocks.tolist()]
+    beside = blocks_beside(blocks)
     seeds = np.asarray(starts if centroids is None else centroids, dtype=float)
     owner = _first_split(centres, seeds) if len(starts) > 1 else np.zeros(len(blocks), dtype=np.int64)
     tours = _Tours(starts, centres, owner, seed)
