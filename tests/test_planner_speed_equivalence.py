@@ -10,11 +10,13 @@ import pytest
 
 from missionplan.grid import metrics, pathfinding
 from missionplan.grid.expert import (DISTANCE_WEIGHT, GAMMA, LOOKAHEAD, REVISIT_WEIGHT, TURN_WEIGHT, ExpertPolicy,
-                                     end_distances, flight_distance_field, sequence_tables)
+                                     end_distances, sequence_tables)
 from missionplan.grid.metrics import DistanceScratch, mean_distance_to_nearest
 from missionplan.grid.pathfinding import FlightSearch, SeenLookup, SortedCells, find_goal
 from missionplan.grid.world import CoverageWorld
 from missionplan.maps.gridmap import GridMap
+
+from distance_field import flight_distance_field  # tests/distance_field.py: the reference
 
 VIEW = 19
 

@@ -13,7 +13,6 @@ drive this same class.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -287,25 +286,10 @@ class CoverageWorld:
         blocked[offsets[inside, 0], offsets[inside, 1]] = True
         return blocked
 
-    def seen_flat(self, k: int) -> Callable[[np.ndarray], np.ndarray]:
-        """`flat -> flags`: whether drone k sees cells as unexplored, given their flat numbers in
-        the padded arrays (row-major, PAD cells of padding: a FlightSearch with pad=PAD)."""
-        open_zone = self._pad_open_zone.ravel()
-        if self.zone_done(k):
-            return lambda flat: open_zone[flat] != EXPLORED
-        return lambda flat: open_zone[flat] == k
-
-    def seen_predicate(self, k: int) -> Callable[[int], bool]:
-        """A fast `flat -> bool` for one cell at a time (numbered as in `seen_flat`): whether drone
-        k sees it as unexplored, as of now. What Explorative A* asks of every neighbour."""
-        open_zone = self._pad_open_zone.ravel().data  # a memoryview: Python-level reads 5x faster than numpy's
-        if self.zone_done(k):
-            return lambda flat: open_zone[flat] != EXPLORED
-        return lambda flat: open_zone[flat] == k
-
     def seen_lookup(self, k: int) -> SeenLookup:
-        """seen_flat and seen_predicate in one, for the path-finders to read without a call per cell:
-        the zone array (padded, flat) and, per value, whether drone k sees a cell holding it, as of now."""
+        """What drone k sees as unexplored, as of now, for the path-finders to read without a call per cell: the
+        zone array (padded, flat: numbered as a FlightSearch with pad=PAD numbers cells) and, per value, whether
+        drone k sees a cell holding it."""
         flags = [False] * (self._top_zone + 3)  # zones 0..top, then EXPLORED (-2) and -1 from the end
         if self.zone_done(k):
             flags = [True] * len(flags)
@@ -327,12 +311,6 @@ class CoverageWorld:
             cells = kept[1][self._pad_unexplored.reshape(-1).take(kept[1])]
         self._unexplored_flat = (self.t, cells)
         return cells
-
-    def unexplored_cells(self) -> np.ndarray:
-        """(n, 2) every unexplored cell, row-major (a flat scan of the contiguous padded array)."""
-        flat = np.flatnonzero(self._pad_unexplored)
-        rows, cols = np.divmod(flat, self._pad_unexplored.shape[1])
-        return np.stack([rows - PAD, cols - PAD], axis=1)
 
     def is_free(self, cell: Cell) -> bool:
         r, c = cell
