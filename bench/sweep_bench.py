@@ -17,9 +17,8 @@ one footprint-wide pass at a time. Baselines, each checking its own coverage:
   in snakes.
 Drones of the baselines never meet or wait (our planner's do), which can only flatter them.
 
-Our planner with lanes (`lanes`: with plan_map(fleet_tours=True), a whole fleet on open ground flies block
-tours, grid/fleet_blocks.py, or the `ls` zones in snakes where those are shorter; it skips a block once
-photographed), with
+Our planner with lanes (`lanes`: a whole fleet on open ground flies block tours, grid/fleet_blocks.py,
+or the `ls` zones in snakes where those are shorter; it skips a block once photographed), with
 `plan --improve SECONDS` on top (`lanes+Ns`, with --improve N, seed 0), and exploring cell by cell
 (`--open-ground explore`) with the expert and with the network. Per map and fleet it prints the
 targets, the floor (targets / (9 A): every move photographing 9 new cells, nobody waiting), makespan
@@ -154,8 +153,7 @@ def table(args: argparse.Namespace) -> int:
             runs = []
             for seed in range(args.seeds):
                 cpu = time.process_time()
-                m = plan_map(gmap, uavs, policy=policies[policy], starts=starts, lanes=lanes, seed=seed,
-                             fleet_tours=lanes).run.metrics
+                m = plan_map(gmap, uavs, policy=policies[policy], starts=starts, lanes=lanes, seed=seed).run.metrics
                 runs.append((m["makespan"], uavs * m["MMN"], m["coverage"], time.process_time() - cpu))
             makespan, total, _, seconds = np.mean(runs, axis=0)
             rows.append((label, {"makespan": round(float(makespan)), "total": round(float(total)),
@@ -201,7 +199,7 @@ def darp_row(gmap: GridMap, starts: list[Cell], reachable: np.ndarray, seeds: in
 def improved_row(gmap: GridMap, uavs: int, budget_s: float) -> dict[str, float]:
     """Our lanes with `plan --improve budget_s` (seed 0): its makespan in moves, as the grid planner flies it."""
     cpu = time.process_time()
-    field = plan_field(gmap, uavs, None, None, None, lanes=True, improve_s=budget_s, seed=0, fleet_tours=True)
+    field = plan_field(gmap, uavs, None, None, None, lanes=True, improve_s=budget_s, seed=0)
     m = field.result.run.metrics
     return {"makespan": int(m["makespan"]), "total": round(uavs * float(m["MMN"])), "coverage": float(m["coverage"]),
             "cpu": time.process_time() - cpu}

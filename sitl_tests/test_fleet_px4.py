@@ -1,5 +1,10 @@
 """A fleet of 3 PX4 SIH vehicles flown as a field team wires PX4: every GCS link into one udpin port.
 
+What they fly: an open field at the Milan block's site (a 23 x 30 cell map of 4 m cells, 92 x 120 m, no
+obstacles, three launches along its north edge), so the plan is the one a whole fleet on open ground gets,
+block tours (grid/fleet_blocks.py), whose tracks cross each other's zones: their separation rests on the
+vehicles' timing, and this is where it is checked against a real autopilot's.
+
 Each vehicle (a free instance number, system ids 1-3 set at boot, its own temp PX4_WORKDIR, logging off,
 killed in teardown; sitl_tests/px4_sih.py) starts at its plan's launch point and sends its GCS link to one
 UDP port picked free at run time, where `missionplan fly --connect udpin:127.0.0.1:PORT` listens. The camera is set
@@ -23,19 +28,22 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from missionplan.bridge.formats.missionfile import read_mission_file
 from missionplan.bridge.formats.px4_rules import reported_items
 from missionplan.cli import main
 from missionplan.flight.phases import reached_navigation_items
+from missionplan.maps.gridmap import GridMap, load_map, save_map
+from missionplan.planning.pipeline import plan_map
 from missionplan.testing.loopback import free_udp_port
 from missionplan.testing.relay import armed_ever
 
 pytestmark = pytest.mark.sitl  # starts a real autopilot: `pytest -m "not sitl"` leaves it out
 
 SYSIDS = (1, 2, 3)
-# The same 120 x 90 m Milan block as the ArduCopter fleet test: about 90 s planned per drone.
+# The Milan block the ArduCopter fleet test flies: the site that the second test plans its vehicles at.
 AREA = [[9.1890, 45.4640], [9.1905, 45.4640], [9.1905, 45.4648], [9.1890, 45.4648], [9.1890, 45.4640]]
 LAUNCHES = ("45.4641,9.1891", "45.4641,9.1898", "45.4641,9.1904")
 OTHER_SITE = [[7.6519, 45.0656], [7.6534, 45.0656], [7.6534, 45.0664], [7.6519, 45.0664], [7.6519, 45.0656]]
@@ -44,6 +52,8 @@ CAMERA = {"TRIG_MODE": 4, "TRIG_INTERFACE": 3}  # boot parameters: the camera mo
 FLY_TIMEOUT_S = 480.0
 TELEMETRY_HZ = 10.0
 HOME_ALT_M = 120.0
+FIELD_CELLS = (23, 30)  # rows x columns of 4 m: about 110 s planned per drone
+FIELD_META = {"origin_lat": "45.464000", "origin_lon": "9.189000", "cell_m": "4.0", "altitude_m": "20", "fov_deg": "84"}
 
 
 def _plan(tmp_path: Path, name: str, ring: list[list[float]], launches: tuple[str, ...]) -> Path:
@@ -55,6 +65,18 @@ def _plan(tmp_path: Path, name: str, ring: list[list[float]], launches: tuple[st
     for point in launches:
         args += ["--launch", point]
     assert main(args) == 0
+    return out
+
+
+def _field_plan(tmp_path: Path) -> Path:
+    """The open field planned for PX4 with its three launches; checked to be flown in block tours."""
+    rows, cols = FIELD_CELLS
+    nothing = np.zeros((rows, cols), dtype=bool)
+    field = tmp_path / "field.map"
+    save_map(GridMap("field", nothing, ~nothing, [(0, 0), (0, cols // 2), (0, cols - 1)], FIELD_META), field)
+    assert plan_map(load_map(field), 3).zones.tours is not None  # what this test is about
+    out = tmp_path / "field"
+    assert main(["plan", "--map", str(field), "--uavs", "3", "--out", str(out), "--quiet", "--autopilot", "px4"]) == 0
     return out
 
 
@@ -78,8 +100,8 @@ def _in_order(wanted: list[int], seen: list[int]) -> bool:
     return all(any(item == got for got in rest) for item in wanted)
 
 
-def test_three_px4_vehicles_on_one_udpin_port_fly_the_plan(px4, tmp_path, capsys) -> None:
-    plan_dir = _plan(tmp_path, "milan", AREA, LAUNCHES)
+def test_three_px4_vehicles_on_one_udpin_port_fly_the_field_s_block_tours(px4, tmp_path, capsys) -> None:
+    plan_dir = _field_plan(tmp_path)
     url = _fleet(px4, plan_dir)
     code = main(["fly", str(plan_dir), "--connect", url, "--timeout", str(FLY_TIMEOUT_S),
                  "--telemetry-hz", str(TELEMETRY_HZ), "--quiet"])

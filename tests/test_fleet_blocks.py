@@ -138,7 +138,9 @@ def test_lanes_closer_than_a_footprint_are_flown_in_snakes() -> None:
     assert result.zones.tours is None and result.run.success
 
 
-def test_plan_s_default_flies_the_fleet_in_snakes() -> None:
-    """Block tours are asked for (fleet_tours) until their separation promise holds on PX4 (docs/planner.md)."""
-    result = plan_map(open_field(72, 99, [(0, 0), (71, 98), (36, 50)], holes=3), 3)
-    assert result.zones.tours is None and result.run.lane_drones == 3 and result.run.success
+def test_plan_s_default_flies_the_tours_and_snakes_are_asked_for() -> None:
+    """`plan` flies a whole open-ground fleet in block tours; fleet_tours=False (the benches' `ls` rows) in snakes."""
+    gmap = open_field(72, 99, [(0, 0), (71, 98), (36, 50)], holes=3)
+    toured, snaked = plan_map(gmap, 3), plan_map(gmap, 3, fleet_tours=False)
+    assert toured.zones.tours is not None and toured.run.lane_drones == 3 and toured.run.success
+    assert snaked.zones.tours is None and snaked.run.lane_drones == 3 and snaked.run.success

@@ -57,7 +57,7 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
              zone_method: str = DEFAULT_ZONE_METHOD, seed: int = 0, starts: list[Cell] | None = None,
              progress: bool = False, balance_zones: bool = True, weights: str | Path | None = None,
              zone_shares: np.ndarray | None = None, lanes: bool = True,
-             patience: int = POLICY_PATIENCE, lane_spacing: int = BLOCK, fleet_tours: bool = False) -> PlanResult:
+             patience: int = POLICY_PATIENCE, lane_spacing: int = BLOCK, fleet_tours: bool = True) -> PlanResult:
     """Plan full coverage of `gmap` for `uavs` drones; `policy` is a name or a ready Policy; `zone_shares`:
     the fraction of the targets each balanced zone gets (default equal); `lanes`: a drone whose zone
     lies on open ground sweeps it in footprint-wide lanes (grid.lanes) instead of exploring it, and
@@ -65,8 +65,8 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
     (grid.fleet_blocks; with lanes closer than a footprint, zones redrawn block by block for snakes);
     `patience`: fruitless policy steps before the path-finder takes a drone over (grid.planner);
     `lane_spacing`: cells between those lanes (BLOCK, one footprint, unless a side overlap asks closer);
-    `fleet_tours`: a whole fleet on open ground flies block tours (grid.fleet_blocks) instead of snakes; off by
-    default until the separation promise holds for them on PX4 (docs/planner.md)."""
+    `fleet_tours`: a whole fleet on open ground flies block tours (grid.fleet_blocks); False flies it in snakes
+    on zones balanced on the longest snake (the benches' `ls` rows)."""
     if zone_method not in ZONE_METHODS:
         raise PlanRequestError(f"unknown zone method {zone_method!r} (choose {', '.join(ZONE_METHODS)})")
     chosen = make_policy(policy, weights) if isinstance(policy, str) else policy
