@@ -200,16 +200,27 @@ class ExpertPolicy:
         """
         if len(drones) == 0:
             return np.zeros((0, 4))
-        tables = self.tables
         asked = np.asarray(drones, dtype=np.int64).reshape(-1)
-        n = len(asked)
         unexplored, blocked = world.views(asked)
-        # The penalties first, while the world's arrays and the tables are still in cache (the
+        scores = self.view_scores(unexplored, blocked, world.flown_views(asked), world.last_actions[asked, 0])
+        # Sequences are numbered with the first move as the leading base-4 digit, so each
+        # action's sequences are one contiguous quarter of the table.
+        return scores.reshape(len(asked), 4, -1).max(axis=2).astype(np.float64)
+
+    def view_scores(self, unexplored: np.ndarray, blocked: np.ndarray, flown: np.ndarray,
+                    last_actions: np.ndarray) -> np.ndarray:
+        """(n, 4^depth) float32 score of every sequence, from n drones' (19, 19) bool views: what each
+        sees as unexplored, what blocks it, where it has flown; and each one's last action (HOVER: none).
+        -inf for a sequence that something blocks. What action_scores reads from the world; a search
+        that imagines views of its own (bench/teacher_bench.py's rollouts) scores them here."""
+        tables = self.tables
+        n = len(unexplored)
+        # The penalties first, while the views and the tables are still in cache (the
         # products below stream a 1.5 MB matrix through it, once per drone).
-        turn = self._turn_penalty[world.last_actions[asked, 0] + 1]
+        turn = self._turn_penalty[np.asarray(last_actions) + 1]
         # Visited + 8 x blocked along each sequence, gathered move by move, (n, D, S), and summed
         # over whole rows: several times faster than summing the cells of each sequence.
-        counts = world.flown_views(asked).view(np.uint8) | (blocked.view(np.uint8) << 3)
+        counts = flown.view(np.uint8) | (blocked.view(np.uint8) << 3)
         along = np.add.reduce(counts.reshape(n, -1).take(tables.cells_by_move, axis=1)
                               .reshape(n, tables.cells.shape[1], -1), axis=1, dtype=np.uint8)
         along += self._revisit_key
@@ -218,6 +229,8 @@ class ExpertPolicy:
         far = self._distance_penalty.take(distance).take(self._end_of, axis=1)
         flat_unexplored = unexplored.reshape(n, -1).astype(np.float32)
         score = np.empty((n, len(tables.first_action)), dtype=np.float32)
+        # One matrix-vector product per drone, so each drone's sums are the very float32 sums of a
+        # single-drone call (a matrix-matrix product may add in another order).
         for i in range(n):
             np.matmul(tables.new_weights, flat_unexplored[i], out=score[i])
         # In the order the score was always summed: gain / 9 - turns - revisits - distance (float32).
@@ -225,6 +238,4 @@ class ExpertPolicy:
         score -= turn
         score -= revisit
         score -= far
-        # Sequences are numbered with the first move as the leading base-4 digit, so each
-        # action's sequences are one contiguous quarter of the table.
-        return score.reshape(n, 4, -1).max(axis=2).astype(np.float64)
+        return score
