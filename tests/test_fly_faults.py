@@ -137,7 +137,9 @@ def test_ctrl_c_with_on_abort_rtl_sends_the_fleet_home(leonardo: Path, tmp_path:
         run.send_signal(signal.SIGINT)
         out, _ = run.communicate(timeout=30)
         assert "commanded RTL: accepted" in out, out
-        assert mock.wait_until(lambda m: all(v.flight.state.mode == "RTL" for v in m.vehicles.values()), 5.0)
+        # Failed twice in slow hours with nothing else to read: say what each vehicle was doing and what fly said.
+        assert mock.wait_until(lambda m: all(v.flight.state.mode == "RTL" for v in m.vehicles.values()), 5.0), (
+            {k: (v.flight.state.mode, v.flight.state.armed) for k, v in mock.vehicles.items()}, out)
     finally:
         mock.stop()
 
