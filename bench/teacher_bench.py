@@ -40,10 +40,10 @@ from missionplan.grid.expert import GAMMA, ExpertPolicy
 from missionplan.grid.planner import Policy
 from missionplan.grid.world import ACTION_DELTAS, FOOTPRINT_RADIUS, HOVER, VIEW_RADIUS, CoverageWorld, turn_weight
 from missionplan.learn.features import ACTION_PERMS, NUM_SYMMETRIES, STATE_PERMS, encode_states
-from missionplan.learn.network import NeuralPolicy
+from missionplan.learn.network import load_weights
 from missionplan.learn.trainmaps import heldout_cities
 from missionplan.maps.gridmap import GridMap
-from missionplan.planning.pipeline import plan_map
+from missionplan.planning.pipeline import POLICIES, make_policy, plan_map
 
 import doctable  # bench/doctable.py: --write-doc
 from gap_bench import interval, resampled_gaps
@@ -130,7 +130,7 @@ class SymmetricNetwork:
     name = "nn"
 
     def __init__(self) -> None:
-        self.weights = NeuralPolicy().weights
+        self.weights = load_weights()
 
     def action_scores(self, world: CoverageWorld, drones: Sequence[int]) -> np.ndarray:
         if not drones:
@@ -144,11 +144,10 @@ class SymmetricNetwork:
         return np.log(np.maximum(mean, 1e-12))
 
 
-def make_policy(name: str) -> Policy:
-    if name == "expert":
-        return ExpertPolicy()
-    if name == "nn":
-        return NeuralPolicy()
+def candidate_policy(name: str) -> Policy:
+    """A policy by its column name: the planner's own (expert, nn) or a candidate above."""
+    if name in POLICIES:
+        return make_policy(name)
     if name == "nn-sym":
         return SymmetricNetwork()
     return RolloutTeacher(int(name.removeprefix("rollout-")))
@@ -166,7 +165,7 @@ def city(kind: str, index: int, size: int, uavs: int) -> GridMap:
 def plan_one(kind: str, index: int, size: int, uavs: int, seed: int, policy: str) -> tuple[int, float, float]:
     """Makespan, coverage % and CPU seconds of one plan."""
     gmap = city(kind, index, size, uavs)
-    chosen = make_policy(policy)
+    chosen = candidate_policy(policy)
     cpu = time.process_time()
     run = plan_map(gmap, uavs, policy=chosen, seed=seed).run
     return int(run.metrics["makespan"]), float(run.metrics["coverage"]), time.process_time() - cpu

@@ -106,7 +106,7 @@ def test_the_longest_tour_is_no_longer_than_the_longest_snake_of_the_snake_zones
 
 def test_the_planner_flies_the_tours_to_full_coverage() -> None:
     gmap = open_field(72, 99, [(0, 0), (71, 98), (36, 50)], holes=3)
-    result = plan_map(gmap, 3, fleet_tours=True)
+    result = plan_map(gmap, 3)
     assert result.zones.tours is not None and result.run.lane_drones == 3
     assert result.run.success and result.run.metrics["coverage"] == 100.0
     fleet_longest = max(path_moves(np.array([s, *t])) for s, t in zip(result.starts, result.zones.tours))
@@ -125,7 +125,7 @@ def test_the_planner_keeps_the_snakes_where_they_are_shorter() -> None:
         zones = split_zones(targets, gmap.free, starts, balance=True)
         tours = max(fleet_blocks(zones.zone, targets, starts, zones.centroids).moves)
         snakes = longest_snake(fleet_zones(zones.zone, targets, starts), starts)
-        result = plan_map(gmap, len(starts), fleet_tours=True)
+        result = plan_map(gmap, len(starts))
         flown = (max(path_moves(np.array([s, *t])) for s, t in zip(starts, result.zones.tours))
                  if result.zones.tours is not None else longest_snake(result.zones.zone, starts))
         assert flown == min(tours, snakes)
@@ -134,7 +134,7 @@ def test_the_planner_keeps_the_snakes_where_they_are_shorter() -> None:
 
 def test_lanes_closer_than_a_footprint_are_flown_in_snakes() -> None:
     gmap = open_field(72, 99, [(0, 0), (71, 98), (36, 50)])
-    result = plan_map(gmap, 3, lane_spacing=5, fleet_tours=True)
+    result = plan_map(gmap, 3, lane_spacing=5)
     assert result.zones.tours is None and result.run.success
 
 
