@@ -21,7 +21,7 @@ leaf or short container, so that line names the key. report.json and flight.json
 (normalised), so a failure shows the golden and the new value of the first differing keys.
 
 Normalised, and why (everything else is compared as written):
-- report.json: `timing.zones_s` and `timing.plan_s` (wall seconds of the planning), and
+- report.json: `timing.zones_s` and `timing.plan_s` (wall seconds of the planning), `tours.cpu_s` (CPU seconds), and
   `files_sha256["plan.gpkg"]` (the hash of a file whose bytes hold clock times, below).
 - plan.gpkg: compared as its SQLite content (application id, version, every schema entry, every
   table's rows in rowid order) with `gpkg_contents.last_change` blanked: GDAL writes the wall-clock
@@ -126,7 +126,7 @@ CASES = (
 BY_NAME = {case.name: case for case in CASES}
 
 # report.json: the planning's wall seconds, and the hash of plan.gpkg (its bytes hold clock times).
-REPORT_TIMING = re.compile(r'("(?:zones_s|plan_s)": )-?[0-9.eE+-]+')
+REPORT_TIMING = re.compile(r'("(?:zones_s|plan_s|cpu_s)": )-?[0-9.eE+-]+')
 REPORT_GPKG_HASH = re.compile(r'("plan\.gpkg": )"[0-9a-f]{64}"')
 PRINTED_PLAN_S = re.compile(r"^(\s*plan s\s+)\d+\.\d+", re.MULTILINE)  # what plan prints: its wall seconds
 FLIGHT_HEADING = "== 2/2 fly:"  # demo's line before the flight's, whose figures are timed

@@ -55,6 +55,8 @@ def print_plan(folder: PlanFolder) -> None:
         lanes = "footprint-wide lanes" if spacing == CELLS_PER_FOOTPRINT else f"lanes {spacing} cells apart"
         print(f"open ground: {record.lane_drones} of {ground.uavs} drones sweep their zone in {lanes} "
               "(--open-ground explore: cell by cell)")
+    if record.tours is not None:
+        print(f"  {record.tours.summary()}")
     rows = [("MMN", _fmt(m.mmn), "mean moves per drone"),
             ("TE %", _fmt(m.te), "trajectory efficiency"),
             ("MNT %", _fmt(m.mnt, 2), "weighted turns per move"),

@@ -16,10 +16,13 @@ way round) until neither shortens it. Deterministic for a seed. On the four Movi
 of about 138 blocks, its tours are 3-4 % longer than LKH's (bench/sweep_bench.py measures the plans; LKH, through
 elkai, is licensed for non-commercial use only, so it is not used).
 `insertion_cost` and `removal_gain` price handing one block from one tour to another, for the fleet's local search
-(grid/fleet_blocks.py).
+(grid/fleet_blocks.py), and `FleetBlocks` holds what that search hands on: the zones and the planner fly it, the
+plan record reports it.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -28,6 +31,19 @@ from .lanes import snake_order
 
 WALKS = 24  # Warnsdorff walks per tour: their best is within a block or two of 64 walks' on the MovingAI zones
 OR_OPT_RUN = 3  # the longest run of blocks Or-opt moves
+
+
+@dataclass
+class FleetBlocks:
+    """zone[r, c]: the drone whose block holds target cell (r, c) (other cells as given); tours[k]: the centres
+    drone k photographs its blocks from, in order; moves[k]: that tour's length from its launch cell; origin: a
+    corner of the block grid (a cell, each coordinate 0 .. BLOCK - 1); cpu_s: the CPU seconds it took."""
+
+    zone: np.ndarray
+    tours: list[list[Cell]]
+    moves: list[int]
+    origin: Cell = (0, 0)
+    cpu_s: float = 0.0
 
 
 def path_moves(path: np.ndarray) -> int:

@@ -278,10 +278,13 @@ class LaneSweep:
                    every_lane=spacing < BLOCK)
 
     @classmethod
-    def along(cls, centres: list[Cell], shape: tuple[int, int]) -> LaneSweep:
-        """The sweep of a tour through blocks of the map's block grid (aligned on cell (0, 0)), one centre each."""
-        spans = [(slice(r // BLOCK * BLOCK, min(r // BLOCK * BLOCK + BLOCK, shape[0])),
-                  slice(c // BLOCK * BLOCK, min(c // BLOCK * BLOCK + BLOCK, shape[1]))) for r, c in centres]
+    def along(cls, centres: list[Cell], shape: tuple[int, int], origin: Cell = (0, 0)) -> LaneSweep:
+        """The sweep of a tour through blocks of a block grid over the map (`origin` one of its corners), one centre
+        each: a block's centre, or for a block the map's edge cuts, the nearest cell on the map to it."""
+        def span(at: int, corner: int, size: int) -> slice:
+            low = corner + (at - corner) // BLOCK * BLOCK
+            return slice(max(low, 0), min(low + BLOCK, size))
+        spans = [(span(r, origin[0], shape[0]), span(c, origin[1], shape[1])) for r, c in centres]
         return cls(list(centres), spans)
 
     @property

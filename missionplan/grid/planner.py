@@ -122,11 +122,13 @@ class Planner:
 
     def __init__(self, world: CoverageWorld, policy: Policy, seed: int = 0, progress: bool = False,
                  stall_limit: int | None = None, lanes: bool = False, patience: int = POLICY_PATIENCE,
-                 lane_spacing: int = BLOCK, tours: list[list[Cell]] | None = None) -> None:
+                 lane_spacing: int = BLOCK, tours: list[list[Cell]] | None = None,
+                 tour_origin: Cell = (0, 0)) -> None:
         self.world = world
         self.patience = patience
         self.lanes = lanes
         self.tours = tours  # a whole fleet on open ground: each drone's block tour (grid/fleet_blocks.py)
+        self.tour_origin = tour_origin  # a corner of their block grid
         self.lane_spacing = lane_spacing  # cells between open-ground lanes (BLOCK: one footprint)
         # Lanes closer than a footprint are flown whole, past full coverage: that repeat is the side overlap.
         self.every_lane = lanes and lane_spacing < BLOCK
@@ -162,7 +164,7 @@ class Planner:
             if not sweepable(share):
                 continue
             if self.tours is not None and share == 0.0:
-                self.sweeps[k] = LaneSweep.along(self.tours[k], world.gmap.shape)
+                self.sweeps[k] = LaneSweep.along(self.tours[k], world.gmap.shape, self.tour_origin)
                 continue
             cells = np.argwhere(world.zone_of == k)
             # Around obstacles, legs and centres are checked against the free cells.

@@ -42,6 +42,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import shortest_path
 
 from ..maps.gridmap import Cell
+from .block_tours import FleetBlocks
 
 ZONE_METHODS = ("geodesic", "euclidean")
 DEFAULT_ZONE_METHOD = "geodesic"
@@ -65,7 +66,17 @@ class Zones:
     iterations: int
     method: str
     balanced: bool = False
-    tours: list[list[tuple[int, int]]] | None = None  # a whole fleet on open ground: each drone's block tour
+    fleet: FleetBlocks | None = None  # a whole fleet on open ground flying block tours (grid/fleet_blocks.py)
+
+    @property
+    def tours(self) -> list[list[Cell]] | None:
+        """Each drone's block tour, when the fleet flies tours."""
+        return self.fleet.tours if self.fleet is not None else None
+
+    @property
+    def tour_origin(self) -> Cell:
+        """A corner of the tours' block grid."""
+        return self.fleet.origin if self.fleet is not None else (0, 0)
 
     def sizes(self) -> np.ndarray:
         return np.bincount(self.zone[self.zone >= 0], minlength=len(self.centroids))

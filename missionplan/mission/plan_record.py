@@ -30,8 +30,9 @@ launch, paths (per drone, one [row, col] per step, start and hovers included), g
 for sorties), drones, separation and clearance (the safety promise), settings, drone_ids, survey (a
 re-plan's pointer), basemap, credit, georeference; then coverage, roofs (with `plan --targets roofs|all`:
 mission/roof_targets.py; the grid's roof target cells are 'r'), overlap_fill (mission/overlap_fill.py), improve
-(plan --improve: mission/plan_improvement.py; readers that do not know it fly the plan as any other), inputs (an
-area plan's files), files and files_sha256.
+(plan --improve: mission/plan_improvement.py; readers that do not know it fly the plan as any other), tours (a
+whole fleet's block tours: mission/plan_tours.py; the same for readers that do not know it), inputs (an area
+plan's files), files and files_sha256.
 """
 
 from __future__ import annotations
@@ -52,6 +53,7 @@ from ..maps.gridmap import Cell, MapError
 from .plan_blocks import (ClearancePromise, CoverageSummary, Decisions, DronePlan, InputFile, OverlapFill,
                           PlanMetrics, PlanSettings, SafetyPromise, SeparationPromise, SurveyPointer, Timing, cells_json, cells_of)
 from .plan_improvement import PlanImprovement
+from .plan_tours import TourPlan
 from .roof_targets import RoofTargets
 
 REPORT_NAME = "report.json"
@@ -123,6 +125,7 @@ class PlanRecord:
     roofs: RoofTargets | None = None  # the target classes, cell rule and clearance over roofs (--targets roofs|all)
     overlap_fill: OverlapFill | None = None  # what the overlap fill added (plan --overlap-fill)
     improve: PlanImprovement | None = None  # what the anytime improvement tried and kept (plan --improve)
+    tours: TourPlan | None = None  # a whole fleet's block tours: solver, grid, moves, CPU time
 
     # ---- what readers ask ------------------------------------------------------------
     @property
@@ -193,6 +196,8 @@ class PlanRecord:
             doc["overlap_fill"] = self.overlap_fill.to_json()
         if self.improve is not None:
             doc["improve"] = self.improve.to_json()
+        if self.tours is not None:
+            doc["tours"] = self.tours.to_json()
         if self.inputs is not None:
             doc["inputs"] = [i.to_json() for i in self.inputs]
         if self.files is not None:
@@ -232,6 +237,7 @@ class PlanRecord:
             roofs=RoofTargets.from_json(doc["roofs"]) if doc.get("roofs") is not None else None,
             overlap_fill=OverlapFill.from_json(doc["overlap_fill"]) if doc.get("overlap_fill") is not None else None,
             improve=PlanImprovement.from_json(doc["improve"]) if doc.get("improve") is not None else None,
+            tours=TourPlan.from_json(doc["tours"]) if doc.get("tours") is not None else None,
             inputs=tuple(InputFile.from_json(i) for i in doc["inputs"]) if doc.get("inputs") is not None else None,
             files=_optional_tuple(doc.get("files")),
             files_sha256=dict(doc["files_sha256"]) if doc.get("files_sha256") is not None else None)

@@ -9,6 +9,7 @@ from missionplan.geo.camera import CELLS_PER_FOOTPRINT
 from ..grid.planresult import PlanResult
 from .plan_blocks import Decisions, PlanMetrics, Timing, cells_of
 from .plan_record import PlanRecord
+from .plan_tours import TourPlan
 
 
 def build_report(result: PlanResult, seed: int) -> PlanRecord:
@@ -27,4 +28,5 @@ def build_report(result: PlanResult, seed: int) -> PlanRecord:
                             tuple(run.idle_decisions.tolist())),
         timing=Timing(round(result.zone_seconds, 4), round(result.zone_seconds + run.plan_seconds, 4)),
         launch=tuple((int(r), int(c)) for r, c in result.starts),
-        paths=tuple(cells_of(path) for path in run.paths.tolist()), grid=tuple(result.gmap.rows_text()))
+        paths=tuple(cells_of(path) for path in run.paths.tolist()), grid=tuple(result.gmap.rows_text()),
+        tours=TourPlan.of(result.zones.fleet) if result.zones.fleet is not None else None)

@@ -85,7 +85,7 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
             if longest_snake(redrawn, starts) < max(fleet.moves) and all(open_zones(gmap.obstacle, redrawn, starts)):
                 zones = replace(zones, zone=redrawn)
             elif all(open_zones(gmap.obstacle, fleet.zone, starts)):
-                zones = replace(zones, zone=fleet.zone, tours=fleet.tours)
+                zones = replace(zones, zone=fleet.zone, fleet=fleet)
         else:  # zones balanced on the longest snake, flown in snakes (lanes closer than a footprint always are)
             redrawn = fleet_zones(zones.zone, reachable, starts)
             if all(open_zones(gmap.obstacle, redrawn, starts)):
@@ -93,5 +93,5 @@ def plan_map(gmap: GridMap, uavs: int, policy: str | Policy = DEFAULT_POLICY,
     zone_seconds = time.perf_counter() - began
     world = CoverageWorld(gmap, starts, zones.zone)
     run = Planner(world, chosen, seed=seed, progress=progress, lanes=lanes, patience=patience,
-                  lane_spacing=lane_spacing, tours=zones.tours).run()
+                  lane_spacing=lane_spacing, tours=zones.tours, tour_origin=zones.tour_origin).run()
     return PlanResult(gmap, starts, policy, zones, world, run, zone_seconds)
