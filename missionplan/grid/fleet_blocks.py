@@ -46,10 +46,10 @@ from .zones import balanced_assignment
 COUNT_TOLERANCE = 0.005
 SPLIT_ROUNDS = 6  # splits tried, the count-balanced first, each later one's shares scaled by the tours before
 MAX_HANDOVERS = 400  # blocks handed over at most
-REBUILDS = 3
+REBUILDS = 3  # fresh tours tried for the longest drone once no hand-over helps
 POLISHED_TRIES = 12  # border blocks of the longest tour tried with a polish when no priced hand-over helps
 CHAIN_TRIES = 4  # priced chains of two hand-overs made and checked per step, at most
-CALMEST = 3  # drones with the shortest tours, offered every block of the longest beside its neighbours  # fresh tours tried for the longest drone once no hand-over helps
+CALMEST = 3  # drones with the shortest tours, offered every block of the longest beside its neighbours
 
 
 class _Tours:
