@@ -13,7 +13,11 @@ prints each candidate's mean makespan against the expert's:
   the drone's own copy of what it sees within VIEW_RADIUS + H + 1 cells, the other drones held where they
   stand; the move is worth the expert's own reward along the way (new cells / 9, less its turn and revisit
   penalties, discounted by the expert's GAMMA) plus the expert's look-ahead score where the rollout ends.
-  H = 0 scores a move by its own reward and the look-ahead after it.
+  H = 0 scores a move by its own reward and the look-ahead after it;
+- `nn-best-K`: a search with the network as its prior, the teacher of expert iteration: K plans in which every
+  drone's every decision is drawn from the network's softmax (the Gumbel-max trick on its log-probabilities,
+  each plan's draws seeded by the seed and its number), the shortest at full coverage kept. Its CPU time is
+  the K plans'.
 
 Cities: `--cities N` random cities of learn/random_cities.random_city from seeds no training run uses and N
 Voronoi cities of bench/unseen_cities.py, each `--size` cells square, launch cells drawn from the free cells.
@@ -23,7 +27,7 @@ interval from a paired bootstrap over the seeds (as bench/gap_bench.py) and its 
 hand:
 
     .venv/bin/python bench/teacher_bench.py [--size 128] [--cities 3] [--uavs 3,6] [--seeds 3]
-                                            [--horizons 0,2,8] [--workers 2] [--write-doc FILE]
+                                            [--horizons 0,2,8] [--samples 8] [--workers 2] [--write-doc FILE]
 """
 
 from __future__ import annotations
@@ -144,6 +148,21 @@ class SymmetricNetwork:
         return np.log(np.maximum(mean, 1e-12))
 
 
+class SampledNetwork:
+    """The shipped network, each decision drawn from its softmax: its log-probabilities plus Gumbel noise, so the
+    planner's best-first order is a draw (the first choice with the network's probabilities)."""
+
+    name = "nn"
+
+    def __init__(self, seed: int | tuple[int, ...]) -> None:
+        self.network = make_policy("nn")
+        self.rng = np.random.default_rng(seed)
+
+    def action_scores(self, world: CoverageWorld, drones: Sequence[int]) -> np.ndarray:
+        scores = self.network.action_scores(world, drones)
+        return scores + self.rng.gumbel(size=scores.shape)
+
+
 def candidate_policy(name: str) -> Policy:
     """A policy by its column name: the planner's own (expert, nn) or a candidate above."""
     if name in POLICIES:
@@ -163,11 +182,15 @@ def city(kind: str, index: int, size: int, uavs: int) -> GridMap:
 
 
 def plan_one(kind: str, index: int, size: int, uavs: int, seed: int, policy: str) -> tuple[int, float, float]:
-    """Makespan, coverage % and CPU seconds of one plan."""
+    """Makespan, coverage % and CPU seconds of one plan (of nn-best-K: its kept plan, and its K plans' time)."""
     gmap = city(kind, index, size, uavs)
-    chosen = candidate_policy(policy)
     cpu = time.process_time()
-    run = plan_map(gmap, uavs, policy=chosen, seed=seed).run
+    if policy.startswith("nn-best-"):
+        runs = [plan_map(gmap, uavs, policy=SampledNetwork((seed, k)), seed=seed).run
+                for k in range(int(policy.removeprefix("nn-best-")))]
+        run = min(runs, key=lambda r: (r.metrics["coverage"] < 100.0, r.metrics["makespan"]))
+    else:
+        run = plan_map(gmap, uavs, policy=candidate_policy(policy), seed=seed).run
     return int(run.metrics["makespan"]), float(run.metrics["coverage"]), time.process_time() - cpu
 
 
@@ -178,10 +201,12 @@ def main() -> int:
     parser.add_argument("--uavs", default="3,6", help="comma list of fleet sizes")
     parser.add_argument("--seeds", type=int, default=3, help="seeds 0 .. N-1 per city and fleet")
     parser.add_argument("--horizons", default="0,2,8", help="comma list of rollout depths H ('' for none)")
+    parser.add_argument("--samples", default="8", help="comma list of K for nn-best-K ('' for none)")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="planning processes")
     doctable.add_option(parser)
     args = parser.parse_args()
-    candidates = ["nn", "nn-sym"] + [f"rollout-{h}" for h in args.horizons.split(",") if h]
+    candidates = (["nn", "nn-sym"] + [f"rollout-{h}" for h in args.horizons.split(",") if h]
+                  + [f"nn-best-{k}" for k in args.samples.split(",") if k])
     with doctable.Recorder(args.write_doc, __file__):
         return table(args, candidates)
 

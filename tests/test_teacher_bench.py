@@ -1,5 +1,5 @@
 """bench/teacher_bench.py's candidates are what they claim: the rollout's imagined flight is the world's own, and
-the symmetric network answers a turned world with the turned answer."""
+the symmetric network answers a turned world with the turned answer, the sampled one draws from the network."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from missionplan.learn.features import NUM_SYMMETRIES, transform_actions, transf
 from missionplan.maps.gridmap import GridMap
 from missionplan.planning.pipeline import plan_map
 
-from teacher_bench import RolloutTeacher, SymmetricNetwork  # bench/teacher_bench.py
+from teacher_bench import RolloutTeacher, SampledNetwork, SymmetricNetwork, plan_one  # bench/teacher_bench.py
 
 
 def street_map() -> GridMap:
@@ -86,3 +86,35 @@ def test_the_symmetric_network_answers_a_turned_world_with_the_turned_answer() -
         for action in range(4):  # action a here is action perm[a] there
             there = int(transform_actions([action], sym)[0])
             assert np.allclose(seen[:, there], answer[:, action], atol=1e-5), (sym, action)
+
+
+def test_the_sampled_network_draws_its_first_choice_with_the_network_s_probabilities() -> None:
+    """Over many draws in one state, each action comes first about as often as the network's softmax says, and a
+    seed repeats its draws."""
+    from missionplan.planning.pipeline import make_policy
+
+    gmap = street_map()
+    world = plan_map(gmap, 2, policy="expert").world  # covered: a fresh world of its map and zones
+    world = CoverageWorld(gmap, list(gmap.launch), world.zone_of)
+    network, expert = make_policy("nn"), ExpertPolicy()
+    # The expert flies both drones until the network is unsure of a drone's next move: a state worth drawing in.
+    for _ in range(200):
+        probabilities = np.exp(network.action_scores(world, [0, 1]))
+        if probabilities.max(axis=1).min() < 0.7:
+            break
+        world.step(expert.action_scores(world, [0, 1]).argmax(axis=1))
+    assert probabilities.max(axis=1).min() < 0.7
+    sampled = SampledNetwork(5)
+    draws = 4000
+    firsts = np.array([sampled.action_scores(world, [0, 1]).argmax(axis=1) for _ in range(draws)])
+    for drone in range(2):
+        counts = np.bincount(firsts[:, drone], minlength=4) / draws
+        assert np.abs(counts - probabilities[drone]).max() < 0.03, (counts, probabilities[drone])
+    again = SampledNetwork(5)
+    assert np.array_equal(again.action_scores(world, [0, 1]), SampledNetwork(5).action_scores(world, [0, 1]))
+
+
+def test_the_best_of_k_sampled_plans_is_the_shortest_of_them() -> None:
+    best = plan_one("random", 0, 48, 2, 0, "nn-best-3")
+    alone = [plan_one("random", 0, 48, 2, 0, "nn-best-1")]
+    assert best[1] == 100.0 and best[0] <= alone[0][0]
