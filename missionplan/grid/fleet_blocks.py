@@ -39,8 +39,7 @@ import numpy as np
 
 from ..maps.gridmap import Cell
 from .block_tours import FleetBlocks, block_tour, blocks_beside, insertion_cost, path_moves, polish, removal_gain
-from .lanes import BLOCK
-from .world import FOOTPRINT_RADIUS
+from .lanes import BLOCK, centres_of_blocks
 from .zones import balanced_assignment
 
 COUNT_TOLERANCE = 0.005
@@ -247,7 +246,7 @@ def fleet_blocks(zone: np.ndarray, targets: np.ndarray, starts: list[Cell], cent
     blocks, inverse = np.unique((cells - origin) // BLOCK, axis=0, return_inverse=True)
     inverse = inverse.reshape(-1)
     # A block cut by the map's edge is photographed from the nearest cell on the map to its centre.
-    centres = np.clip(blocks * BLOCK + np.asarray(origin) + FOOTPRINT_RADIUS, 0, np.array(shape) - 1).astype(np.int64)
+    centres = centres_of_blocks(blocks, origin, shape).astype(np.int64)
     beside = blocks_beside(blocks)
     seeds = np.asarray(starts if centroids is None else centroids, dtype=float)
     if len(starts) > 1:

@@ -11,7 +11,7 @@ path a spanning-tree planner (DARP, STC) flies over the same blocks.
   `obstacle_shares` / `sweepable` / `sweepable_zones`: how much of each box is obstacle, and whether
   it is little enough (MAX_OBSTACLE_SHARE: a few tall buildings among low ones flown over) to sweep
   round it;
-- `block_centres` / `snake_order`: the blocks of a zone (aligned on its corner, or on the map's
+- `block_centres` (`centres_of_blocks`) / `snake_order`: the blocks of a zone (aligned on its corner, or on the map's
   when the whole fleet sweeps) and the shortest of the eight snakes through their centres (by block
   rows or columns, from any corner);
 - the lane spacing: lanes lie one footprint (BLOCK cells) apart unless a side overlap asks for closer
@@ -120,8 +120,14 @@ def block_centres(zone_cells: np.ndarray, shape: tuple[int, int], origin: Cell |
     corner = zone_cells.min(axis=0) if origin is None else np.asarray(origin)
     size, shift = _block_grid(spacing, across)
     blocks = np.unique((zone_cells - corner - shift) // size, axis=0)
-    centres = corner + shift + blocks * size + size // 2
-    return np.clip(centres, 0, np.array(shape) - 1), blocks
+    return centres_of_blocks(blocks, corner, shape, spacing, across), blocks
+
+
+def centres_of_blocks(blocks: np.ndarray, corner: Cell | np.ndarray, shape: tuple[int, int], spacing: int = BLOCK,
+                      across: int = 0) -> np.ndarray:
+    """(n, 2) photo centres of the (n, 2) block numbers of the block grid on `corner` (block_centres' rule)."""
+    size, shift = _block_grid(spacing, across)
+    return np.clip(np.asarray(corner) + shift + blocks * size + size // 2, 0, np.array(shape) - 1)
 
 
 def snake_order(start: Cell, centres: np.ndarray, blocks: np.ndarray,
